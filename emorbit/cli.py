@@ -1,0 +1,104 @@
+"""The ``emorbit`` command line. ``main(argv)`` returns the exit code, so tests can call it.
+
+    emorbit run SCENE -o OUT.h5 [--t-end T] [--dt DT] [--method M] [--order N] [--every K]
+    emorbit plot OUT.h5 [OUT2.h5 ...] -o FIG.png
+    emorbit scenes
+
+SCENE is a shipped scene's name (``emorbit scenes`` lists them) or a TOML file. Values given
+on the command line carry units like those in a scene: ``--t-end "100 s"``, ``--dt "0.1 s"``.
+Exit codes: 0 success, 1 a run failed while stepping, 2 bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+from ._version import __version__
+from .errors import InputError, IntegrationError
+
+__all__ = ["main"]
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="emorbit", description="Energy-momentum conserving orbits in a central field.")
+    p.add_argument("--version", action="version", version=f"emorbit {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    run = sub.add_parser("run", help="run a scene and write an HDF5 file")
+    run.add_argument("scene", help="a shipped scene name or a TOML file")
+    run.add_argument("-o", "--output", required=True, help="HDF5 file to write")
+    run.add_argument("--t-end", help='end time with a unit, e.g. "100 s"')
+    run.add_argument("--dt", help='step with a unit, e.g. "0.1 s"')
+    run.add_argument("--method", help="em | midpoint | leapfrog")
+    run.add_argument("--order", type=int, help="2 | 4 | 6 | 8")
+    run.add_argument("--every", type=int, help="steps between records (output_every)")
+    run.add_argument("--overwrite", action="store_true", help="replace an existing output file")
+    run.add_argument("-q", "--quiet", action="store_true", help="no progress bar and no summary")
+
+    plot = sub.add_parser("plot", help="plot energy error and orbit of run files")
+    plot.add_argument("files", nargs="+", help="HDF5 run files")
+    plot.add_argument("-o", "--output", required=True, help="figure file (png, pdf, svg)")
+    plot.add_argument("--title", help="figure title")
+
+    sub.add_parser("scenes", help="list the shipped scenes")
+    return p
+
+
+def _run(args) -> int:
+    from .scene import load_scene
+
+    scene = load_scene(args.scene).with_overrides(t_end=args.t_end, dt=args.dt, method=args.method,
+                                                  order=args.order, output_every=args.every)
+    sim = scene.build()
+    start = time.perf_counter()
+    progress = False if args.quiet else None
+    result = sim.run(t_end=scene.t_end, every=scene.output_every, output=args.output,
+                     overwrite=args.overwrite, progress=progress, keep=False)
+    if not args.quiet:
+        err = abs(result.relative_energy_error()[-1])
+        print(f"{args.output}: {sim.method} order {sim.order}, dt = {sim.dt!r} s, t = {sim.time:.6g} s, "
+              f"|dE/E0| at end = {err:.3e}, wall {time.perf_counter() - start:.2f} s")
+    return 0
+
+
+def _plot(args) -> int:
+    import os
+
+    from .plot import plot_runs
+
+    for f in args.files:
+        if not os.path.isfile(f):
+            raise InputError("files", f"{f!r} does not exist")
+    plot_runs(args.files, args.output, title=args.title)
+    return 0
+
+
+def _scenes(args) -> int:
+    from .scene import list_scenes
+
+    for name in list_scenes():
+        print(name)
+    return 0
+
+
+def main(argv=None) -> int:
+    """Run the command line with ``argv`` (default: sys.argv[1:]); returns the exit code."""
+    args = _parser().parse_args(argv)
+    handler = {"run": _run, "plot": _plot, "scenes": _scenes}[args.command]
+    try:
+        return handler(args)
+    except InputError as exc:
+        print(f"emorbit: error: {exc}", file=sys.stderr)
+        return 2
+    except IntegrationError as exc:
+        print(f"emorbit: run failed: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("emorbit: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,160 @@
+"""HDF5 output of a run, written in chunks while it runs.
+
+Layout (every dataset has a ``unit`` attribute; one row per record)::
+
+    /time                          (n,)    s
+    /invariants/energy             (n,)    J
+    /invariants/momentum           (n, 3)  kg m / s
+    /invariants/angular_momentum   (n, 3)  kg m2 / s     about the field's centre
+    /diagnostics/newton_iterations (n,)    1             mean per point and sub-step
+    /bodies/<name>/position        (n, 3)  m
+    /bodies/<name>/velocity        (n, 3)  m / s
+    /bodies/<name>  attributes: kind ("point"), mass (kg)
+
+Root attributes: ``creator`` ("emorbit <version>"), ``emorbit_version``, ``created`` (UTC,
+ISO 8601), ``method``, ``order``, ``dt`` (s), ``t_end`` (s, requested), ``gm`` (m3 / s2),
+``center`` (m), ``output_every``, ``scene`` (the scene as TOML text), ``versions`` (JSON of
+python, numpy, numba, h5py, astropy), ``status`` ("running", "completed", "failed") and
+``error`` (the message of a failed run). Datasets are chunked and growable
+(``maxshape=(None, ...)``); each appended block is flushed, so a run that stops early
+leaves a readable file with every record written before it stopped.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import platform
+
+import h5py
+import numpy as np
+
+from .._version import __version__
+from ..errors import InputError
+from ..result import Result
+
+__all__ = ["Writer", "read", "LAYOUT_UNITS"]
+
+#: unit attribute of each top-level dataset
+LAYOUT_UNITS = {
+    "time": "s",
+    "invariants/energy": "J",
+    "invariants/momentum": "kg m / s",
+    "invariants/angular_momentum": "kg m2 / s",
+    "diagnostics/newton_iterations": "1",
+}
+_BODY_UNITS = {"position": "m", "velocity": "m / s"}
+
+
+def _versions() -> str:
+    import astropy
+    import numba
+
+    return json.dumps({
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "numba": numba.__version__,
+        "h5py": h5py.__version__,
+        "astropy": astropy.__version__,
+    })
+
+
+def _growable(group, name, width, unit, chunk_rows):
+    shape = (0,) if width is None else (0, width)
+    maxshape = (None,) if width is None else (None, width)
+    chunks = (chunk_rows,) if width is None else (chunk_rows, width)
+    ds = group.create_dataset(name, shape=shape, maxshape=maxshape, chunks=chunks, dtype="f8")
+    ds.attrs["unit"] = unit
+    return ds
+
+
+def _append(ds, block):
+    n0 = ds.shape[0]
+    ds.resize(n0 + block.shape[0], axis=0)
+    ds[n0:] = block
+
+
+class Writer:
+    """Create ``path`` and append records to it.
+
+    ``bodies`` is a list of (name, kind, mass) tuples; ``attrs`` root attributes to store.
+    An existing file is an :class:`InputError` unless ``overwrite`` is true, so a finished
+    run is never lost by accident.
+    """
+
+    def __init__(self, path, bodies, attrs: dict, *, overwrite: bool = False, chunk_rows: int = 1024):
+        path = os.fspath(path)
+        if os.path.exists(path) and not overwrite:
+            raise InputError("output", f"{path!r} exists; choose another name or pass overwrite (--overwrite)")
+        folder = os.path.dirname(os.path.abspath(path))
+        if not os.path.isdir(folder):
+            raise InputError("output", f"folder {folder!r} does not exist")
+        try:
+            self.file = h5py.File(path, "w")
+        except OSError as exc:
+            raise InputError("output", f"cannot create {path!r}: {exc}") from None
+        self.path = path
+        f = self.file
+        f.attrs["creator"] = f"emorbit {__version__}"
+        f.attrs["emorbit_version"] = __version__
+        f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+        f.attrs["versions"] = _versions()
+        for key, value in attrs.items():
+            f.attrs[key] = value
+        f.attrs["status"] = "running"
+        self._ds = {name: _growable(f, name, None if name in ("time", "invariants/energy", "diagnostics/newton_iterations") else 3, unit, chunk_rows)
+                    for name, unit in LAYOUT_UNITS.items()}
+        self._body_ds = {}
+        group = f.create_group("bodies", track_order=True)
+        for name, kind, mass in bodies:
+            g = group.create_group(name)
+            g.attrs["kind"] = kind
+            g.attrs["mass"] = float(mass)
+            g.attrs["mass_unit"] = "kg"
+            self._body_ds[name] = {q: _growable(g, q, 3, unit, chunk_rows) for q, unit in _BODY_UNITS.items()}
+        f.flush()
+
+    def append(self, time, energy, momentum, angular_momentum, newton_iterations, positions, velocities):
+        """Append a block of records (arrays with one row per record) and flush."""
+        for name, block in (("time", time), ("invariants/energy", energy), ("invariants/momentum", momentum),
+                            ("invariants/angular_momentum", angular_momentum),
+                            ("diagnostics/newton_iterations", newton_iterations)):
+            _append(self._ds[name], np.asarray(block, float))
+        for name, ds in self._body_ds.items():
+            _append(ds["position"], positions[name])
+            _append(ds["velocity"], velocities[name])
+        self.file.flush()
+
+    def close(self, status: str = "completed", error: str | None = None) -> None:
+        """Mark the run ``status`` (and its ``error``), flush and close. Safe to call twice."""
+        if not self.file:
+            return
+        self.file.attrs["status"] = status
+        if error is not None:
+            self.file.attrs["error"] = error
+        self.file.close()
+
+
+def read(path) -> Result:
+    """Read a run file into a :class:`~emorbit.result.Result` (SI arrays)."""
+    with h5py.File(path, "r") as f:
+        positions = {name: g["position"][()] for name, g in f["bodies"].items()}
+        velocities = {name: g["velocity"][()] for name, g in f["bodies"].items()}
+        masses = {name: float(g.attrs["mass"]) for name, g in f["bodies"].items()}
+        return Result(
+            time=f["time"][()],
+            energy=f["invariants/energy"][()],
+            momentum=f["invariants/momentum"][()],
+            angular_momentum=f["invariants/angular_momentum"][()],
+            newton_iterations=f["diagnostics/newton_iterations"][()],
+            positions=positions,
+            velocities=velocities,
+            masses=masses,
+            method=str(f.attrs["method"]),
+            order=int(f.attrs["order"]),
+            dt=float(f.attrs["dt"]),
+            gm=float(f.attrs["gm"]),
+            center=np.asarray(f.attrs["center"], float),
+            attrs={k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()},
+        )

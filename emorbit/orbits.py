@@ -1,0 +1,251 @@
+"""Two-body relations: osculating elements from a state and back, Kepler's equation, and the
+analytic propagation used as the exact reference.
+
+All functions are vectorised numpy over leading axes and use SI units and radians.
+States are given as ``position`` and ``velocity`` arrays whose *last* axis has length 3,
+relative to the field's centre unless ``center`` is given.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+__all__ = [
+    "OrbitalElements",
+    "elements",
+    "state_from_elements",
+    "solve_kepler",
+    "solve_kepler_hyperbolic",
+    "mean_from_true",
+    "kepler_period",
+    "semi_major_axis",
+    "propagate",
+]
+
+_TWO_PI = 2.0 * math.pi
+_ROUND = 1e-11  # e below this is circular, sin(i) below this is equatorial
+
+
+class OrbitalElements(NamedTuple):
+    """Osculating elements. Angles in rad, ``a`` in m (negative for hyperbolic orbits).
+
+    For a circular orbit ``argp`` is 0 and ``nu``/``M`` are measured from the ascending node
+    (argument of latitude); for an equatorial orbit ``raan`` is 0 and ``argp`` is measured
+    from the x axis (longitude of periapsis); both: true longitude.
+    """
+
+    a: np.ndarray
+    e: np.ndarray
+    i: np.ndarray
+    raan: np.ndarray
+    argp: np.ndarray
+    nu: np.ndarray
+    M: np.ndarray
+
+
+def _dot(a, b):
+    return np.einsum("...k,...k->...", a, b)
+
+
+def _angle(y, x):
+    return np.mod(np.arctan2(y, x), _TWO_PI)
+
+
+def semi_major_axis(position, velocity, gm, center=(0.0, 0.0, 0.0)):
+    """a from the vis-viva law, 1/a = 2/r - v^2/GM (negative for hyperbolic states)."""
+    r = np.linalg.norm(np.asarray(position, float) - np.asarray(center, float), axis=-1)
+    v2 = _dot(np.asarray(velocity, float), np.asarray(velocity, float))
+    return 1.0 / (2.0 / r - v2 / gm)
+
+
+def kepler_period(a, gm):
+    """The Kepler period 2 pi sqrt(a^3 / GM) in s for a > 0."""
+    a = np.asarray(a, float)
+    if np.any(a <= 0):
+        raise ValueError("the Kepler period needs a > 0 (a bound orbit)")
+    return _TWO_PI * np.sqrt(a**3 / gm)
+
+
+def mean_from_true(nu, e):
+    """Mean anomaly from the true anomaly (elliptic and hyperbolic), in [0, 2 pi) for e < 1."""
+    nu = np.asarray(nu, float)
+    e = np.asarray(e, float)
+    with np.errstate(invalid="ignore"):
+        E = np.arctan2(np.sqrt(np.abs(1.0 - e * e)) * np.sin(nu), e + np.cos(nu))
+        M_ell = np.mod(E - e * np.sin(E), _TWO_PI)
+        F = 2.0 * np.arctanh(np.sqrt(np.abs((e - 1.0) / (e + 1.0))) * np.tan(0.5 * nu))
+        M_hyp = e * np.sinh(F) - F
+    return np.where(e < 1.0, M_ell, M_hyp)
+
+
+def elements(position, velocity, gm, center=(0.0, 0.0, 0.0)) -> OrbitalElements:
+    """Osculating elements of states (..., 3) about a centre with parameter ``gm``."""
+    r = np.asarray(position, float) - np.asarray(center, float)
+    v = np.asarray(velocity, float)
+    rn = np.linalg.norm(r, axis=-1)
+    v2 = _dot(v, v)
+    h = np.cross(r, v)
+    hn = np.linalg.norm(h, axis=-1)
+    hhat = h / hn[..., None]
+    node = np.stack([-h[..., 1], h[..., 0], np.zeros_like(hn)], axis=-1)
+    nn = np.linalg.norm(node, axis=-1)
+    evec = ((v2 - gm / rn)[..., None] * r - _dot(r, v)[..., None] * v) / gm
+    e = np.linalg.norm(evec, axis=-1)
+    a = 1.0 / (2.0 / rn - v2 / gm)
+    inc = np.arccos(np.clip(hhat[..., 2], -1.0, 1.0))
+
+    equatorial = nn <= _ROUND * hn
+    circular = e <= _ROUND
+    xhat = np.broadcast_to(np.array([1.0, 0.0, 0.0]), r.shape)
+    nhat = np.where(equatorial[..., None], xhat, node / np.where(nn > 0, nn, 1.0)[..., None])
+    raan = np.where(equatorial, 0.0, _angle(node[..., 1], node[..., 0]))
+    ehat = evec / np.where(e > 0, e, 1.0)[..., None]
+    argp = np.where(circular, 0.0, _angle(_dot(hhat, np.cross(nhat, ehat)), _dot(nhat, ehat)))
+    ref = np.where(circular[..., None], nhat, ehat)  # where anomalies are measured from
+    nu = _angle(_dot(hhat, np.cross(ref, r)), _dot(ref, r))
+    return OrbitalElements(a, e, inc, raan, argp, nu, mean_from_true(nu, e))
+
+
+def solve_kepler(M, e, *, max_iter: int = 50):
+    """Eccentric anomaly E with E - e sin E = M (0 <= e < 1), to round-off.
+
+    Halley's iteration from Danby's starter E0 = M + 0.85 e sign(sin M); the result is
+    reduced to the branch of M (E - M in (-pi, pi)).
+    """
+    M = np.asarray(M, float)
+    e = np.asarray(e, float)
+    if np.any((e < 0) | (e >= 1)):
+        raise ValueError("solve_kepler needs 0 <= e < 1")
+    Mr = np.mod(M + math.pi, _TWO_PI) - math.pi  # in [-pi, pi)
+    E = Mr + 0.85 * e * np.sign(np.sin(Mr))
+    for _ in range(max_iter):
+        s = e * np.sin(E)
+        c = e * np.cos(E)
+        f = E - s - Mr
+        f1 = 1.0 - c
+        dE = f / (f1 - 0.5 * f * s / f1)
+        E = E - dE
+        if np.all(np.abs(dE) <= 4e-16 * np.maximum(np.abs(E), 1.0)):
+            break
+    # one Newton polish at the converged point
+    E = E - (E - e * np.sin(E) - Mr) / (1.0 - e * np.cos(E))
+    return E + (M - Mr)
+
+
+def solve_kepler_hyperbolic(M, e, *, max_iter: int = 100):
+    """Hyperbolic anomaly F with e sinh F - F = M (e > 1), to round-off (Newton)."""
+    M = np.asarray(M, float)
+    e = np.asarray(e, float)
+    if np.any(e <= 1):
+        raise ValueError("solve_kepler_hyperbolic needs e > 1")
+    F = np.arcsinh(M / e)
+    for _ in range(max_iter):
+        dF = (e * np.sinh(F) - F - M) / (e * np.cosh(F) - 1.0)
+        F = F - dF
+        if np.all(np.abs(dF) <= 4e-16 * np.maximum(np.abs(F), 1.0)):
+            break
+    return F
+
+
+def state_from_elements(el: OrbitalElements | tuple, gm, center=(0.0, 0.0, 0.0)):
+    """Position and velocity (..., 3) from (a, e, i, raan, argp, nu[, M]); M is ignored."""
+    a, e, inc, raan, argp, nu = (np.asarray(q, float) for q in tuple(el)[:6])
+    p = a * (1.0 - e * e)
+    if np.any(p <= 0):
+        raise ValueError("state_from_elements needs a (1 - e^2) > 0")
+    r = p / (1.0 + e * np.cos(nu))
+    rp = np.stack([r * np.cos(nu), r * np.sin(nu), np.zeros_like(r)], axis=-1)
+    vp = np.stack([-np.sin(nu), e + np.cos(nu), np.zeros_like(r)], axis=-1) * np.sqrt(gm / p)[..., None]
+    cO, sO = np.cos(raan), np.sin(raan)
+    co, so = np.cos(argp), np.sin(argp)
+    ci, si = np.cos(inc), np.sin(inc)
+    rot = np.stack([
+        np.stack([cO * co - sO * so * ci, -cO * so - sO * co * ci, sO * si], axis=-1),
+        np.stack([sO * co + cO * so * ci, -sO * so + cO * co * ci, -cO * si], axis=-1),
+        np.stack([so * si, co * si, ci], axis=-1),
+    ], axis=-2)
+    pos = np.einsum("...ij,...j->...i", rot, rp) + np.asarray(center, float)
+    vel = np.einsum("...ij,...j->...i", rot, vp)
+    return pos, vel
+
+
+def _stumpff(z):
+    """Stumpff functions C(z), S(z) without cancellation for small |z|."""
+    z = np.asarray(z, float)
+    C = np.empty_like(z)
+    S = np.empty_like(z)
+    small = np.abs(z) < 0.5
+    zs = z[small]
+    # series: C = sum (-z)^k / (2k+2)!, S = sum (-z)^k / (2k+3)!
+    c_terms = np.zeros_like(zs)
+    s_terms = np.zeros_like(zs)
+    term_c = np.full_like(zs, 0.5)
+    term_s = np.full_like(zs, 1.0 / 6.0)
+    for k in range(16):
+        c_terms += term_c
+        s_terms += term_s
+        term_c = term_c * (-zs) / ((2 * k + 3) * (2 * k + 4))
+        term_s = term_s * (-zs) / ((2 * k + 4) * (2 * k + 5))
+    C[small] = c_terms
+    S[small] = s_terms
+    pos = (~small) & (z > 0)
+    y = np.sqrt(z[pos])
+    C[pos] = 2.0 * np.sin(0.5 * y) ** 2 / z[pos]
+    S[pos] = (y - np.sin(y)) / y**3
+    neg = (~small) & (z < 0)
+    y = np.sqrt(-z[neg])
+    C[neg] = 2.0 * np.sinh(0.5 * y) ** 2 / -z[neg]
+    S[neg] = (np.sinh(y) - y) / y**3
+    return C, S
+
+
+def propagate(position, velocity, gm, dt, center=(0.0, 0.0, 0.0), *, max_iter: int = 60):
+    """The exact Kepler motion: state after time ``dt`` (s) from each state (..., 3).
+
+    Universal-variable Kepler equation solved by Newton to round-off, with Lagrange's f and g.
+    For bound orbits ``dt`` is first reduced modulo the period, so long spans keep their
+    accuracy (the reduction costs about n_periods * 1e-16 in phase).
+    Returns (position, velocity) with the broadcast shape of the inputs and ``dt``.
+    """
+    c = np.asarray(center, float)
+    r0v = np.asarray(position, float) - c
+    v0v = np.asarray(velocity, float)
+    dt = np.asarray(dt, float)
+    shape = np.broadcast_shapes(r0v.shape[:-1], v0v.shape[:-1], dt.shape)
+    r0v = np.broadcast_to(r0v, shape + (3,))
+    v0v = np.broadcast_to(v0v, shape + (3,))
+    dt = np.broadcast_to(dt, shape).astype(float).copy()
+    r0 = np.linalg.norm(r0v, axis=-1)
+    vr = _dot(r0v, v0v)
+    alpha = 2.0 / r0 - _dot(v0v, v0v) / gm  # 1/a
+    bound = alpha > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        period = np.where(bound, _TWO_PI / np.sqrt(np.where(bound, alpha, 1.0) ** 3 * gm), np.inf)
+    dt = np.where(bound, dt - np.round(dt / np.where(bound, period, 1.0)) * np.where(bound, period, 0.0), dt)
+    sq = math.sqrt(gm)
+    # starter: elliptic chi ~ sqrt(GM) alpha dt; otherwise from the near-parabolic guess
+    chi = np.where(bound, sq * alpha * dt, sq * dt / r0)
+    for _ in range(max_iter):
+        z = alpha * chi * chi
+        C, S = _stumpff(z)
+        chi2 = chi * chi
+        F = vr / sq * chi2 * C + (1.0 - alpha * r0) * chi2 * chi * S + r0 * chi - sq * dt
+        dF = vr / sq * chi * (1.0 - z * S) + (1.0 - alpha * r0) * chi2 * C + r0
+        step = F / dF
+        chi = chi - step
+        if np.all(np.abs(step) <= 4e-16 * np.maximum(np.abs(chi), 1e-300)):
+            break
+    z = alpha * chi * chi
+    C, S = _stumpff(z)
+    chi2 = chi * chi
+    f = 1.0 - chi2 / r0 * C
+    g = dt - chi2 * chi * S / sq
+    rv = f[..., None] * r0v + g[..., None] * v0v
+    r = np.linalg.norm(rv, axis=-1)
+    fdot = sq / (r * r0) * chi * (z * S - 1.0)
+    gdot = 1.0 - chi2 / r * C
+    vv = fdot[..., None] * r0v + gdot[..., None] * v0v
+    return rv + c, vv

@@ -1,0 +1,228 @@
+"""Scenes: a TOML file that says which field, method and bodies a run has.
+
+::
+
+    [field]
+    gm = "3.9478 m3 / s2"          # or: g_ref = "0.039478 m / s2" and r_ref = "10 m"; or: body = "earth"
+    center = ["0 m", "0 m", "0 m"] # optional, default: the origin
+    [integrator]
+    method = "em"                  # em | midpoint | leapfrog        (default em)
+    order = 2                      # 2 | 4 | 6 | 8                   (default 2)
+    dt = "0.464758 s"
+    t_end = "4647.58 s"
+    output_every = 10              # steps between records           (default 1)
+    max_newton_iterations = 50     # per implicit sub-step           (default 50)
+    [[body]]
+    name = "satellite"
+    kind = "point"
+    mass = "1 kg"
+    position = ["10 m", "0 m", "0 m"]
+    velocity = ["0 m/s", "0.36276 m/s", "0 m/s"]
+
+Every dimensional value is a string with a unit (anything astropy reads: "1 km", "1 d",
+"3.9478 m3 / s2"). Unknown keys, missing keys, wrong units and bad values are errors
+naming the key, raised before anything runs. Shipped scenes are found by name
+(:func:`list_scenes`).
+"""
+
+from __future__ import annotations
+
+import copy
+import importlib.resources
+import json
+import numbers
+import os
+import sys
+from dataclasses import dataclass
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+from .errors import InputError
+from .field import CentralField
+from .integrators import check_order, get_method
+from .simulation import Simulation, check_body_name
+from .units import to_si
+
+__all__ = ["Scene", "load_scene", "list_scenes", "parse_scene", "simulation_to_toml", "SCHEMA"]
+
+#: allowed keys per table; values: required?
+SCHEMA = {
+    "": {"field": True, "integrator": True, "body": True},
+    "field": {"gm": False, "g_ref": False, "r_ref": False, "body": False, "center": False},
+    "integrator": {"method": False, "order": False, "dt": True, "t_end": True, "output_every": False,
+                   "max_newton_iterations": False},
+    "body.point": {"name": True, "kind": True, "mass": True, "position": True, "velocity": True},
+}
+BODY_KINDS = ("point",)
+
+
+def _check_keys(table, schema_name: str, where: str) -> None:
+    if not isinstance(table, dict):
+        raise InputError(where or "scene", f"expected a table, got {table!r}")
+    schema = SCHEMA[schema_name]
+    for key in table:
+        if key not in schema:
+            raise InputError(f"{where}.{key}" if where else key,
+                             f"unknown key {key!r}; allowed here: {', '.join(schema)}")
+    for key, required in schema.items():
+        if required and key not in table:
+            raise InputError(f"{where}.{key}" if where else key, "missing (required)")
+
+
+def _int(value, key: str, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise InputError(key, f"must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+@dataclass
+class Scene:
+    """A checked scene. Values are kept as given (strings with units) and converted to SI
+    by :meth:`build`; ``text`` is the TOML it came from (stored in output files)."""
+
+    data: dict
+    text: str
+    source: str = "<string>"
+
+    # -- the integrator settings, in SI ---------------------------------------------------
+    @property
+    def method(self) -> str:
+        return self.data["integrator"].get("method", "em")
+
+    @property
+    def order(self) -> int:
+        return int(self.data["integrator"].get("order", 2))
+
+    @property
+    def dt(self) -> float:
+        return to_si(self.data["integrator"]["dt"], "time", "integrator.dt", strict=True, positive=True)
+
+    @property
+    def t_end(self) -> float:
+        return to_si(self.data["integrator"]["t_end"], "time", "integrator.t_end", strict=True, positive=True)
+
+    @property
+    def output_every(self) -> int:
+        return int(self.data["integrator"].get("output_every", 1))
+
+    def with_overrides(self, *, t_end=None, dt=None, method=None, order=None, output_every=None) -> "Scene":
+        """A copy with integrator settings replaced (values as in the TOML: strings with units),
+        checked again; ``text`` gains a comment saying what was overridden."""
+        data = copy.deepcopy(self.data)
+        changed = {}
+        for key, value in (("t_end", t_end), ("dt", dt), ("method", method), ("order", order),
+                           ("output_every", output_every)):
+            if value is not None:
+                data["integrator"][key] = value
+                changed[key] = value
+        note = "".join(f"# override: integrator.{k} = {v!r}\n" for k, v in changed.items())
+        scene = Scene(data, note + self.text, self.source)
+        scene.check()
+        return scene
+
+    def check(self) -> None:
+        """Validate everything (raises :class:`InputError`); building a simulation does too."""
+        self.build()
+
+    def build(self) -> Simulation:
+        """A :class:`Simulation` with this scene's field, method and bodies."""
+        d = self.data
+        _check_keys(d, "", "")
+        f = d["field"]
+        _check_keys(f, "field", "field")
+        field = CentralField(gm=f.get("gm"), g_ref=f.get("g_ref"), r_ref=f.get("r_ref"), body=f.get("body"),
+                             center=f.get("center", ["0 m", "0 m", "0 m"]), strict=True)
+        integ = d["integrator"]
+        _check_keys(integ, "integrator", "integrator")
+        get_method(integ.get("method", "em"), "integrator.method")
+        check_order(integ.get("order", 2), "integrator.order")
+        _int(integ.get("output_every", 1), "integrator.output_every", 1)
+        max_iter = _int(integ.get("max_newton_iterations", 50), "integrator.max_newton_iterations", 1)
+        dt = self.dt
+        t_end = self.t_end
+        sim = Simulation(field, method=self.method, order=self.order, dt=dt, max_newton_iterations=max_iter)
+        bodies = d["body"]
+        if not isinstance(bodies, list) or not bodies:
+            raise InputError("body", "a scene needs at least one [[body]] table")
+        for i, b in enumerate(bodies):
+            where = f"body[{i}]"
+            if not isinstance(b, dict):
+                raise InputError(where, f"expected a table, got {b!r}")
+            kind = b.get("kind")
+            if kind not in BODY_KINDS:
+                raise InputError(f"{where}.kind", f"unknown body kind {kind!r}; known: {', '.join(BODY_KINDS)}")
+            _check_keys(b, f"body.{kind}", where)
+            check_body_name(b["name"], f"{where}.name")
+            sim.add_point(b["name"], mass=b["mass"], position=b["position"], velocity=b["velocity"],
+                          strict=True, key=where)
+        sim.steps_until(t_end)  # t_end must lie at least one step ahead
+        sim.scene_text = self.text
+        sim.t_end_requested = t_end
+        return sim
+
+
+def parse_scene(text: str, source: str = "<string>") -> Scene:
+    """Parse and check a scene from TOML text."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(source, f"not valid TOML: {exc}") from None
+    scene = Scene(data, text, source)
+    scene.check()
+    return scene
+
+
+def _shipped():
+    return importlib.resources.files("emorbit") / "scenes"
+
+
+def list_scenes() -> list[str]:
+    """Names of the scenes shipped with emorbit."""
+    return sorted(p.name[:-5] for p in _shipped().iterdir() if p.name.endswith(".toml"))
+
+
+def load_scene(name_or_path) -> Scene:
+    """A shipped scene by name (see :func:`list_scenes`) or a TOML file by path."""
+    path = os.fspath(name_or_path)
+    if os.path.isfile(path):
+        with open(path, "rb") as fh:
+            raw = fh.read()
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            raise InputError(path, "a scene file must be UTF-8 text") from None
+        return parse_scene(text, path)
+    shipped = _shipped() / f"{path}.toml"
+    if shipped.is_file():
+        return parse_scene(shipped.read_text(encoding="utf-8"), path)
+    raise InputError("scene", f"{path!r} is neither a file nor a shipped scene; shipped: {', '.join(list_scenes())}")
+
+
+def _q(value: float, unit: str) -> str:
+    return f'"{float(value)!r} {unit}"'
+
+
+def _v(vec, unit: str) -> str:
+    return "[" + ", ".join(_q(c, unit) for c in vec) + "]"
+
+
+def simulation_to_toml(sim: Simulation, t_end: float | None = None, output_every: int = 1) -> str:
+    """A scene reproducing ``sim``'s current set-up (SI units, exact float reprs)."""
+    lines = ["[field]"]
+    if sim.field.body:
+        lines.append(f'body = "{sim.field.body}"')
+    else:
+        lines.append(f"gm = {_q(sim.field.gm, 'm3 / s2')}")
+    lines += [f"center = {_v(sim.field.center, 'm')}", "", "[integrator]",
+              f'method = "{sim.method}"', f"order = {sim.order}", f"dt = {_q(sim.dt, 's')}",
+              f"t_end = {_q(t_end if t_end is not None else sim.time + sim.dt, 's')}",
+              f"output_every = {output_every}", f"max_newton_iterations = {sim.max_newton_iterations}"]
+    pts = sim.points
+    for i, name in enumerate(pts.names):
+        lines += ["", "[[body]]", f"name = {json.dumps(name)}",
+                  'kind = "point"', f"mass = {_q(pts.masses[i], 'kg')}",
+                  f"position = {_v(pts.x[:, i], 'm')}", f"velocity = {_v(pts.v[:, i], 'm / s')}"]
+    return "\n".join(lines) + "\n"

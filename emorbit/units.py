@@ -1,0 +1,96 @@
+"""Physical values at the edge: astropy Quantities, strings such as ``"3.9478 m3 / s2"`` and
+plain SI floats become SI floats, or a clear :class:`~emorbit.errors.InputError` naming the key.
+
+Scenes (TOML) must carry units on every dimensional value (``strict=True``); the Python API
+also accepts plain numbers, read as SI (m, s, kg, m/s, m^3/s^2).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import astropy.units as u
+import numpy as np
+
+from .errors import InputError
+
+__all__ = ["to_si", "vector_to_si", "SI"]
+
+#: the SI unit emorbit uses inside, per kind of value
+SI = {
+    "length": u.m,
+    "time": u.s,
+    "mass": u.kg,
+    "speed": u.m / u.s,
+    "acceleration": u.m / u.s**2,
+    "gm": u.m**3 / u.s**2,
+    "energy": u.J,
+    "momentum": u.kg * u.m / u.s,
+    "angular_momentum": u.kg * u.m**2 / u.s,
+    "angle": u.rad,
+    "angular_speed": u.rad / u.s,
+    "density": u.kg / u.m**3,
+    "pressure": u.Pa,
+}
+
+
+def _parse_string(key: str, text: str) -> u.Quantity:
+    try:
+        return u.Quantity(text)
+    except (TypeError, ValueError) as exc:
+        raise InputError(key, f"cannot read {text!r} as a number with a unit ({exc})") from None
+
+
+def to_si(value, kind: str, key: str, *, strict: bool = False, positive: bool = False,
+          nonnegative: bool = False) -> float:
+    """Convert one scalar ``value`` of physical ``kind`` (a key of :data:`SI`) to SI.
+
+    ``strict``: a plain number (no unit) is an error instead of being read as SI.
+    ``positive`` / ``nonnegative``: the value must be > 0 / >= 0. Non-finite values are errors.
+    """
+    unit = SI[kind]
+    shown = repr(value) if not isinstance(value, u.Quantity) else f"'{value}'"  # the value as given
+    if isinstance(value, str):
+        q = _parse_string(key, value)
+        if q.unit == u.dimensionless_unscaled and unit != u.dimensionless_unscaled:
+            raise InputError(key, f"{value!r} has no unit; write it with a unit of {kind}, e.g. '{q.value:g} {unit}'")
+        value = q
+    if isinstance(value, u.Quantity):
+        if not value.isscalar:
+            raise InputError(key, f"expected one value, got an array of shape {value.shape}")
+        try:
+            number = float(value.to_value(unit, equivalencies=u.dimensionless_angles() if kind.startswith("angul") else []))
+        except u.UnitConversionError:
+            raise InputError(key, f"{value} is not a {kind} (expected a unit convertible to {unit})") from None
+    elif isinstance(value, numbers.Real) and not isinstance(value, bool):
+        if strict:
+            raise InputError(key, f"{value!r} has no unit; write it with a unit of {kind}, e.g. '{value} {unit}'")
+        number = float(value)
+    else:
+        raise InputError(key, f"expected a {kind} (a Quantity, a string with a unit, or a number in {unit}), got {value!r}")
+    if not math.isfinite(number):
+        raise InputError(key, f"{shown} is not finite")
+    if positive and not number > 0.0:
+        raise InputError(key, f"must be > 0, got {shown}")
+    if nonnegative and not number >= 0.0:
+        raise InputError(key, f"must be >= 0, got {shown}")
+    return number
+
+
+def vector_to_si(value, kind: str, key: str, *, strict: bool = False) -> np.ndarray:
+    """Convert a 3-vector (a Quantity of shape (3,), or a sequence of 3 scalars as accepted by
+    :func:`to_si`) to a float64 array of shape (3,) in SI."""
+    if isinstance(value, u.Quantity) and not value.isscalar:
+        if value.shape != (3,):
+            raise InputError(key, f"expected 3 components, got shape {value.shape}")
+        return np.array([to_si(c, kind, f"{key}[{i}]", strict=strict) for i, c in enumerate(value)])
+    if isinstance(value, np.ndarray):
+        if value.shape != (3,):
+            raise InputError(key, f"expected 3 components, got shape {value.shape}")
+        value = list(value)
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+        raise InputError(key, f"expected a list of 3 components, got {value!r}")
+    if len(value) != 3:
+        raise InputError(key, f"expected 3 components, got {len(value)}: {value!r}")
+    return np.array([to_si(c, kind, f"{key}[{i}]", strict=strict) for i, c in enumerate(value)])
