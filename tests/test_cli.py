@@ -1,0 +1,78 @@
+"""The command line and the HDF5 file it writes, read with plain h5py."""
+
+import h5py
+import numpy as np
+import pytest
+
+import emorbit
+from emorbit.cli import main
+from emorbit.io.hdf5 import LAYOUT_UNITS
+
+
+@pytest.fixture(scope="module")
+def paper_file(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run") / "x.h5"
+    assert main(["run", "paper-ellipse", "-o", str(out), "-q"]) == 0
+    return out
+
+
+def test_run_writes_documented_layout(paper_file):
+    with h5py.File(paper_file, "r") as f:
+        n = f["time"].shape[0]
+        assert n == 1001  # 10000 steps recorded every 10, plus the start
+        for name, unit in LAYOUT_UNITS.items():
+            assert f[name].attrs["unit"] == unit
+            assert f[name].shape[0] == n
+        assert f["invariants/momentum"].shape == (n, 3)
+        assert f["invariants/angular_momentum"].shape == (n, 3)
+        sat = f["bodies/satellite"]
+        assert sat.attrs["kind"] == "point" and sat.attrs["mass"] == 1.0
+        assert sat["position"].shape == (n, 3) and sat["position"].attrs["unit"] == "m"
+        assert sat["velocity"].attrs["unit"] == "m / s"
+        assert f["time"].maxshape == (None,)  # growable: written in chunks
+        attrs = f.attrs
+        assert attrs["emorbit_version"] == emorbit.__version__
+        assert (attrs["method"], attrs["order"], attrs["dt"]) == ("em", 2, 0.464758)
+        assert attrs["status"] == "completed"
+        assert "[[body]]" in attrs["scene"]
+        np.testing.assert_array_equal(sat["position"][0], [10.0, 0.0, 0.0])
+        e = f["invariants/energy"][()]
+        assert np.abs(e / e[0] - 1).max() < 1e-12
+        np.testing.assert_allclose(f["time"][-1], 4647.58, rtol=1e-15)
+
+
+def test_file_reads_back_and_scene_reruns(paper_file, tmp_path):
+    res = emorbit.read(paper_file)
+    assert res.names == ["satellite"] and res.method == "em"
+    again = emorbit.parse_scene(res.attrs["scene"]).build()
+    r2 = again.run(steps=10, every=10)
+    np.testing.assert_array_equal(r2.positions["satellite"][-1], res.positions["satellite"][1])
+
+
+def test_overrides_and_no_overwrite(tmp_path, paper_file, capsys):
+    out = tmp_path / "m.h5"
+    assert main(["run", "paper-ellipse", "-o", str(out), "-q", "--method", "midpoint", "--order", "4",
+                 "--dt", "0.232379 s", "--t-end", "46.4758 s", "--every", "5"]) == 0
+    with h5py.File(out, "r") as f:
+        assert (f.attrs["method"], f.attrs["order"], f.attrs["dt"], f.attrs["output_every"]) == ("midpoint", 4, 0.232379, 5)
+        assert f["time"].shape == (41,)
+        assert "override" in f.attrs["scene"]
+    before = out.read_bytes()
+    assert main(["run", "paper-ellipse", "-o", str(out), "-q"]) == 2
+    assert "exists" in capsys.readouterr().err
+    assert out.read_bytes() == before  # the earlier run is untouched
+    assert main(["run", "paper-ellipse", "-o", str(out), "-q", "--overwrite", "--t-end", "4.64758 s"]) == 0
+
+
+def test_plot(tmp_path, paper_file):
+    mid = tmp_path / "mid.h5"
+    assert main(["run", "paper-ellipse-midpoint", "-o", str(mid), "-q", "--t-end", "464.758 s"]) == 0
+    fig = tmp_path / "fig.png"
+    assert main(["plot", str(paper_file), str(mid), "-o", str(fig)]) == 0
+    assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and fig.stat().st_size > 10_000
+    assert main(["plot", str(tmp_path / "missing.h5"), "-o", str(fig)]) == 2
+
+
+def test_scenes_command(capsys):
+    assert main(["scenes"]) == 0
+    assert "paper-ellipse" in capsys.readouterr().out
