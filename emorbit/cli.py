@@ -43,7 +43,22 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("--title", help="figure title")
 
     sub.add_parser("scenes", help="list the shipped scenes")
+    for name, (module, summary) in PLUGINS.items():
+        sp = sub.add_parser(name, help=summary)
+        sp.set_defaults(plugin=module)
+        _plugin(module).add_arguments(sp)
     return p
+
+
+#: subcommands implemented in their own modules: name -> (module, help). Each module has
+#: ``add_arguments(parser)`` and ``run(args) -> int`` and is imported only when needed.
+PLUGINS: dict[str, tuple[str, str]] = {}
+
+
+def _plugin(module: str):
+    import importlib
+
+    return importlib.import_module(module)
 
 
 def _run(args) -> int:
@@ -86,7 +101,10 @@ def _scenes(args) -> int:
 def main(argv=None) -> int:
     """Run the command line with ``argv`` (default: sys.argv[1:]); returns the exit code."""
     args = _parser().parse_args(argv)
-    handler = {"run": _run, "plot": _plot, "scenes": _scenes}[args.command]
+    if getattr(args, "plugin", None):
+        handler = _plugin(args.plugin).run
+    else:
+        handler = {"run": _run, "plot": _plot, "scenes": _scenes}[args.command]
     try:
         return handler(args)
     except InputError as exc:

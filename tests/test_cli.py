@@ -76,3 +76,11 @@ def test_plot(tmp_path, paper_file):
 def test_scenes_command(capsys):
     assert main(["scenes"]) == 0
     assert "paper-ellipse" in capsys.readouterr().out
+
+
+def test_quiet_when_stderr_is_not_a_terminal(tmp_path, capsys):
+    """No progress bar unless stderr is a terminal; the one-line summary goes to stdout."""
+    assert main(["run", "paper-ellipse", "-o", str(tmp_path / "q.h5"), "--t-end", "46.4758 s"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == ""
+    assert "|dE/E0| at end" in captured.out
