@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .kernels import invariants as inv
 from .kernels import pointmass as kern
 
 __all__ = ["PointMasses", "ChunkRecords"]
@@ -89,3 +90,44 @@ class PointMasses:
         else:  # the Simulation validates names; this guards internal misuse
             raise ValueError(f"no point-mass kernel for method {method!r}")
         return rec
+
+    # -- the interface every body kind offers the simulation driver -----------------------
+    #: per-body datasets (width, unit) written to the output file
+    DATASETS = {"position": (3, "m"), "velocity": (3, "m / s")}
+    #: methods with a point-mass kernel
+    METHODS = ("em", "midpoint", "leapfrog")
+
+    def work_per_step(self) -> int:
+        """A rough cost unit for sizing chunks (point updates per step)."""
+        return len(self)
+
+    def current(self) -> ChunkRecords:
+        """The current state as a one-record chunk."""
+        n = len(self)
+        return ChunkRecords(self.x[None].copy(), self.v[None].copy(), np.zeros((1, n), np.int64),
+                            np.full((n, 2), -1, np.int64))
+
+    def snapshot(self):
+        return tuple(a.copy() for a in (self.x, self.v, self.cx, self.cv))
+
+    def restore(self, snap) -> None:
+        for a, s in zip((self.x, self.v, self.cx, self.cv), snap):
+            a[...] = s
+
+    def invariants(self, rec: ChunkRecords, nrec: int, gm: float, center):
+        """Energy (nrec,), linear momentum (nrec, 3), angular momentum about the centre (nrec, 3)."""
+        x, v = rec.x[:nrec], rec.v[:nrec]
+        return (inv.energy(self.masses, x, v, gm, center), inv.momentum(self.masses, v),
+                inv.angular_momentum(self.masses, x, v, center))
+
+    def datasets(self, rec: ChunkRecords, nrec: int) -> dict:
+        """{name: {"position": (nrec, 3), "velocity": (nrec, 3)}}."""
+        x, v = rec.x[:nrec], rec.v[:nrec]
+        return {n: {"position": np.ascontiguousarray(x[:, :, i]), "velocity": np.ascontiguousarray(v[:, :, i])}
+                for i, n in enumerate(self.names)}
+
+    def body_attrs(self, i: int) -> dict:
+        return {"kind": "point", "mass": float(self.masses[i]), "mass_unit": "kg"}
+
+    def body_constants(self, i: int) -> dict:
+        return {}

@@ -15,6 +15,13 @@ Example::
     print(abs(result.relative_energy_error()).max())
 
 Physical values accept astropy Quantities, strings with units or plain SI floats.
+
+Bodies of each kind live in a *system* (:class:`~emorbit.pointmasses.PointMasses`,
+:class:`~emorbit.rigid.RigidBodies`) that owns their arrays and kernel. Bodies do not
+interact, so every system advances on its own; only the systems that have bodies run, so a
+point-mass scene never touches rigid-body code. A system offers: ``names``, ``DATASETS``,
+``METHODS``, ``work_per_step()``, ``advance(...)``, ``current()``, ``snapshot()``,
+``restore()``, ``invariants(...)``, ``datasets(...)``, ``body_attrs(i)``, ``body_constants(i)``.
 """
 
 from __future__ import annotations
@@ -30,7 +37,6 @@ from .errors import InputError, IntegrationError
 from .field import CentralField
 from .integrators import METHODS, check_order, coefficients, get_method
 from .io.hdf5 import Writer
-from .kernels import invariants as inv
 from .kernels import pointmass as kern
 from .orbits import OrbitalElements, elements
 from .pointmasses import PointMasses
@@ -39,7 +45,7 @@ from .units import to_si, vector_to_si
 
 __all__ = ["Simulation", "check_body_name"]
 
-#: point-substeps per compiled chunk (about 0.5 s of em work at ~150 ns per point-substep)
+#: body-substeps (weighted by system cost) per compiled chunk: about 0.5 s of em work
 CHUNK_WORK = 4_000_000
 #: bytes of recorded state per chunk at most
 CHUNK_BYTES = 128 * 2**20
@@ -63,11 +69,12 @@ def _steps_between(t_start: float, t_end: float, dt: float, key: str) -> int:
 
 
 class Simulation:
-    """Bodies in a central field, advanced by one method at a fixed step.
+    """Bodies in a central field (or in free space), advanced by one method at a fixed step.
 
     Parameters
     ----------
-    field : CentralField
+    field : CentralField or None
+        the field; ``None`` is free space (no gravity; rigid bodies only).
     method : str
         a name in :data:`emorbit.integrators.METHODS` (``"em"``, ``"midpoint"``, ``"leapfrog"``).
     order : int
@@ -78,10 +85,10 @@ class Simulation:
         Newton iterations allowed per implicit sub-step before the step fails.
     """
 
-    def __init__(self, field: CentralField, *, method: str = "em", order: int = 2, dt,
+    def __init__(self, field: CentralField | None, *, method: str = "em", order: int = 2, dt,
                  max_newton_iterations: int = 50):
-        if not isinstance(field, CentralField):
-            raise InputError("field", f"expected a CentralField, got {field!r}")
+        if field is not None and not isinstance(field, CentralField):
+            raise InputError("field", f"expected a CentralField or None (free space), got {field!r}")
         self.field = field
         self.method = get_method(method).name
         self.order = check_order(order)
@@ -91,6 +98,7 @@ class Simulation:
             raise InputError("max_newton_iterations", f"must be an integer >= 1, got {max_newton_iterations!r}")
         self.max_newton_iterations = int(max_newton_iterations)
         self.points = PointMasses()
+        self.rigid = None  # created on the first rigid body, so point-mass runs never import it
         self._t_base = 0.0
         self._steps = 0
         #: the scene text stored in output files (set by :meth:`emorbit.scene.Scene.build`)
@@ -109,9 +117,34 @@ class Simulation:
         return self._t_base + self._steps * self._dt
 
     @property
+    def gm(self) -> float:
+        """GM of the field in m^3/s^2 (0 in free space)."""
+        return self.field.gm if self.field is not None else 0.0
+
+    @property
+    def center(self) -> np.ndarray:
+        """The field's centre in m (the origin in free space)."""
+        return self.field.center if self.field is not None else np.zeros(3)
+
+    @property
+    def systems(self) -> list:
+        """The body systems that have bodies, in a fixed order (points, rigid)."""
+        return [s for s in (self.points, self.rigid) if s is not None and len(s)]
+
+    @property
     def names(self) -> list[str]:
-        """Body names, in the order they were added."""
-        return list(self.points.names)
+        """Body names, in the order of their systems and then of adding."""
+        return [n for s in self.systems for n in s.names]
+
+    def _new_name(self, name, key: str) -> None:
+        check_body_name(name, f"{key}.name")
+        if name in self.names:
+            raise InputError(f"{key}.name", f"a body named {name!r} already exists")
+
+    def _check_method_supports(self, system, key: str) -> None:
+        if self.method not in system.METHODS:
+            raise InputError("method", f"method {self.method!r} has no {system.kind}-body kernel "
+                                       f"(needed by {key}); use one of {', '.join(system.METHODS)}")
 
     def add_point(self, name: str, *, mass, position, velocity, strict: bool = False, key: str | None = None) -> None:
         """Add a point mass (a test particle: it feels the field and nothing else).
@@ -120,45 +153,88 @@ class Simulation:
         ``strict`` requires units on every value; ``key`` prefixes error messages.
         """
         key = key or f"body[{name!r}]"
-        check_body_name(name, f"{key}.name")
-        if name in self.points.names:
-            raise InputError(f"{key}.name", f"a body named {name!r} already exists")
+        self._new_name(name, key)
+        if self.field is None:
+            raise InputError("field", f"{key} is a point mass, which needs a central field; this simulation has none")
         m = to_si(mass, "mass", f"{key}.mass", strict=strict, positive=True)
         x = vector_to_si(position, "length", f"{key}.position", strict=strict)
         v = vector_to_si(velocity, "speed", f"{key}.velocity", strict=strict)
         r = float(np.linalg.norm(x - self.field.center))
         if not r > 0.0:
             raise InputError(f"{key}.position", f"{x.tolist()} m is at the field's centre, where gravity is singular")
+        self._check_method_supports(self.points, key)
         self.points.add(name, m, x, v)
 
+    def add_rigid(self, name: str, shape: str, *, position, velocity, attitude=None, rotation_vector=None,
+                  angular_velocity=(0.0, 0.0, 0.0), angular_velocity_frame: str = "body", gravity: str | None = None,
+                  strict: bool = False, key: str | None = None, **shape_params) -> None:
+        """Add a rigid body discretised into mass points (see :mod:`emorbit.shapes`).
+
+        shape            "box" (size), "cylinder" (radius, height), "sphere" (radius),
+                         "shell" (radius, mass), "dumbbell" (masses, length[, end_radius]) or
+                         "mesh" (nodes, tetrahedra, density[, mesh_unit]); plus density or mass
+                         and refinement (elements per edge, default 1) where they apply
+        position, velocity  of the centre of mass (m, m/s)
+        attitude         unit quaternion (w, x, y, z) rotating body axes into space, or
+        rotation_vector  angle * axis (rad); default: body axes = space axes
+        angular_velocity rad/s, in the body frame (default) or ``angular_velocity_frame="space"``
+        gravity          "volume" (the field summed over the mass points: gravity-gradient
+                         torque), "point" (all mass at the centre of mass, no torque) or
+                         "none" (free motion); default "volume" with a field, "none" without
+        """
+        from .rigid import RigidBodies, build_rigid
+
+        key = key or f"body[{name!r}]"
+        self._new_name(name, key)
+        spec = build_rigid(shape, shape_params, position=position, velocity=velocity, attitude=attitude,
+                           rotation_vector=rotation_vector, angular_velocity=angular_velocity,
+                           frame=angular_velocity_frame, gravity=gravity, has_field=self.field is not None,
+                           strict=strict, key=key)
+        if spec["gravity"] != "none":
+            x = spec["position"][:, None] + spec["R"] @ spec["points"].X
+            if not np.all(np.linalg.norm(x - self.center[:, None], axis=0) > 0):
+                raise InputError(f"{key}.position", "a mass point of the body is at the field's centre")
+        if self.rigid is None:
+            self.rigid = RigidBodies()
+        self._check_method_supports(self.rigid, key)
+        self.rigid.add(name, shape, spec["points"], spec["gravity"], spec["position"], spec["velocity"], spec["R"],
+                       spec["omega_space"], spec["params"])
+
     # -- diagnostics of the current state ----------------------------------------------
+    def _find(self, name: str):
+        for s in self.systems:
+            if name in s.names:
+                return s, s.names.index(name)
+        raise InputError("name", f"no body named {name!r}; bodies: {', '.join(self.names)}")
+
     def state(self, name: str) -> tuple[np.ndarray, np.ndarray]:
-        """Position (m) and velocity (m/s) of body ``name`` now, as (3,) arrays."""
-        i = self._index(name)
-        return self.points.x[:, i].copy(), self.points.v[:, i].copy()
+        """Position (m) and velocity (m/s) of body ``name`` now (its centre of mass), as (3,) arrays."""
+        s, i = self._find(name)
+        d = s.datasets(s.current(), 1)[name]
+        return d["position"][0].copy(), d["velocity"][0].copy()
+
+    def _invariants_now(self):
+        parts = [s.invariants(s.current(), 1, self.gm, self.center) for s in self.systems]
+        return [sum(p[j] for p in parts)[0] for j in range(3)]
 
     def energy(self) -> float:
         """Total energy now, in J."""
-        return float(inv.energy(self.points.masses, self.points.x, self.points.v, self.field.gm, self.field.center))
+        return float(self._invariants_now()[0])
 
     def momentum(self) -> np.ndarray:
         """Total linear momentum now, in kg m/s."""
-        return inv.momentum(self.points.masses, self.points.v)
+        return self._invariants_now()[1]
 
     def angular_momentum(self) -> np.ndarray:
         """Total angular momentum about the centre now, in kg m^2/s."""
-        return inv.angular_momentum(self.points.masses, self.points.x, self.points.v, self.field.center)
+        return self._invariants_now()[2]
 
     def elements(self, name: str) -> OrbitalElements:
-        """Osculating elements of body ``name`` now."""
+        """Osculating elements of body ``name`` (its centre of mass) now."""
+        if self.field is None:
+            raise InputError("field", "orbital elements need a central field")
         x, v = self.state(name)
         return elements(x, v, self.field.gm, self.field.center)
-
-    def _index(self, name: str) -> int:
-        try:
-            return self.points.names.index(name)
-        except ValueError:
-            raise InputError("name", f"no body named {name!r}; bodies: {', '.join(self.points.names)}") from None
 
     # -- running ----------------------------------------------------------------------
     def steps_until(self, t_end) -> int:
@@ -182,8 +258,8 @@ class Simulation:
         Raises :class:`~emorbit.errors.IntegrationError` when a step fails; the simulation
         and the file then hold the state at the start of the failing step.
         """
-        if len(self.points) == 0:
-            raise InputError("body", "the simulation has no bodies; add one with add_point()")
+        if not self.systems:
+            raise InputError("body", "the simulation has no bodies; add one with add_point() or add_rigid()")
         if (t_end is None) == (steps is None):
             raise InputError("t_end", "give exactly one of t_end and steps")
         if steps is not None:
@@ -200,11 +276,12 @@ class Simulation:
 
         writer = None
         if output is not None:
-            writer = Writer(output, [(n, "point", m) for n, m in zip(self.points.names, self.points.masses)],
-                            self._file_attrs(every, n_steps), overwrite=overwrite)
+            bodies = [{"name": n, "attrs": s.body_attrs(i), "datasets": s.DATASETS, "constants": s.body_constants(i)}
+                      for s in self.systems for i, n in enumerate(s.names)]
+            writer = Writer(output, bodies, self._file_attrs(every, n_steps), overwrite=overwrite)
         sink = _Sink(self, writer, keep)
         try:
-            sink.emit_state(iterations=np.zeros(1))
+            sink.emit([(s, s.current()) for s in self.systems], np.array([self._steps]), 1, 0)
             self._advance(n_steps, every, sink, progress)
         except BaseException as exc:
             if writer is not None:
@@ -223,17 +300,21 @@ class Simulation:
             "t_end": self.time + n_steps * self._dt,
             "steps": n_steps,
             "output_every": every,
-            "gm": self.field.gm,
-            "center": self.field.center,
-            "field_body": self.field.body or "",
+            "gm": self.gm,
+            "center": self.center,
+            "field_body": (self.field.body or "") if self.field is not None else "none (free space)",
             "scene": self.scene_text if self.scene_text is not None else self.to_toml(),
         }
 
+    def _advance_all(self, gammas, k: int, nrec: int):
+        return [(s, s.advance(self.method, self.gm, self.center, self._dt, gammas, k, nrec,
+                              self.max_newton_iterations)) for s in self.systems]
+
     def _advance(self, n_steps: int, every: int, sink: "_Sink", progress: bool) -> None:
         gammas = coefficients(self.order)
-        pts = self.points
-        per_record = max(1, every * gammas.size * len(pts))
-        chunk_records = max(1, min(CHUNK_WORK // per_record, CHUNK_BYTES // (48 * len(pts))))
+        per_record = max(1, every * gammas.size * sum(s.work_per_step() for s in self.systems))
+        nbodies = len(self.names)
+        chunk_records = max(1, min(CHUNK_WORK // per_record, CHUNK_BYTES // (128 * nbodies)))
         done = 0
         with tqdm(total=n_steps, disable=not progress, delay=2.0, unit="step", file=sys.stderr,
                   dynamic_ncols=True, leave=False) as bar:
@@ -241,49 +322,49 @@ class Simulation:
                 left = n_steps - done
                 k = every if left >= every else left
                 nrec = min(left // k, chunk_records)
-                snapshot = (pts.x.copy(), pts.v.copy(), pts.cx.copy(), pts.cv.copy())
-                rec = pts.advance(self.method, self.field.gm, self.field.center, self._dt, gammas, k, nrec,
-                                  self.max_newton_iterations)
-                failure = rec.first_failure()
-                if failure is None:
-                    sink.emit(rec, k, nrec)
+                snapshots = [s.snapshot() for s in self.systems]
+                recs = self._advance_all(gammas, k, nrec)
+                failures = [(f, j) for j, (s, r) in enumerate(recs) if (f := r.first_failure()) is not None]
+                if not failures:
+                    sink.emit(recs, self._steps + k * (np.arange(nrec) + 1), nrec, k)
                     self._steps += k * nrec
                     done += k * nrec
                     bar.update(k * nrec)
                     continue
-                self._stop_at_failure(rec, snapshot, failure, k, gammas, sink)
+                self._stop_at_failure(recs, snapshots, min(failures), k, gammas, sink)
 
-    def _stop_at_failure(self, rec, snapshot, failure, k, gammas, sink) -> None:
-        """Keep the records before the first failing step, bring every point to the start of
-        that step (re-running from the chunk's snapshot; the kernels are deterministic), record
-        that state and raise."""
-        step, index, status = failure
+    def _stop_at_failure(self, recs, snapshots, failure, k, gammas, sink) -> None:
+        """Keep the records before the first failing step, bring every body to the start of
+        that step (re-running from the chunk's snapshots; the kernels are deterministic),
+        record that state and raise."""
+        (step, index, status), j = failure
         good = step // k
         if good:
-            sink.emit(rec, k, good)
-        pts = self.points
-        pts.x[...], pts.v[...], pts.cx[...], pts.cv[...] = snapshot
+            sink.emit(recs, self._steps + k * (np.arange(good) + 1), good, k)
+        for s, snap in zip(self.systems, snapshots):
+            s.restore(snap)
         if step:
-            again = pts.advance(self.method, self.field.gm, self.field.center, self._dt, gammas, step, 1,
-                                self.max_newton_iterations)
-            if again.first_failure() is not None:  # cannot happen: the same steps succeeded before
+            again = self._advance_all(gammas, step, 1)
+            if any(r.first_failure() is not None for _, r in again):  # cannot happen: deterministic
                 raise RuntimeError("re-running the steps before a failure failed again")
             if step % k:
-                sink.emit(again, step % k, 1)
+                sink.emit(again, np.array([self._steps + step]), 1, step)
         self._steps += step
-        name = pts.names[index]
+        system = recs[j][0]
+        name = system.names[index]
         if status == kern.STATUS_NO_CONVERGENCE:
             reason = (f"Newton's iteration did not converge within {self.max_newton_iterations} iterations "
                       f"(method {self.method}, order {self.order}, dt = {self._dt!r} s); try a smaller dt")
         else:
-            x = pts.x[:, index]
-            reason = (f"the point reached the field's centre or its state stopped being finite "
+            x, _ = self.state(name)
+            reason = (f"a point reached the field's centre or the state stopped being finite "
                       f"(last good position {x.tolist()} m)")
         raise IntegrationError(self.time, name, reason)
 
     # -- scene text ---------------------------------------------------------------------
     def to_toml(self, t_end: float | None = None, output_every: int = 1) -> str:
-        """This simulation's set-up as a scene (TOML), in SI units, exact to the last bit."""
+        """This simulation's set-up as a scene (TOML), in SI units, exact to the last bit
+        (point masses; rigid bodies are written with their shape parameters)."""
         from .scene import simulation_to_toml
 
         return simulation_to_toml(self, t_end=t_end, output_every=output_every)
@@ -297,57 +378,59 @@ class _Sink:
         self.writer = writer
         self.keep = keep
         self.blocks: list[tuple] = []
-        self.steps_recorded = sim._steps
 
-    def emit_state(self, iterations) -> None:
-        pts = self.sim.points
-        self._add(np.array([self.sim._steps]), pts.x[None].copy(), pts.v[None].copy(), iterations)
-
-    def emit(self, rec, k: int, nrec: int) -> None:
-        """Record rows [:nrec] of a chunk whose records are ``k`` steps apart."""
+    def emit(self, recs, steps, nrec: int, k: int) -> None:
+        """Record rows [:nrec] of each system's chunk; ``steps`` (nrec,) are the step counts
+        of the rows, ``k`` the steps in each record interval (for the iteration mean; 0 for
+        the start record, which closes no interval)."""
         sim = self.sim
-        steps = self.steps_recorded + k * (np.arange(nrec) + 1)
-        subs = k * coefficients(sim.order).size * len(sim.points)
-        self._add(steps, rec.x[:nrec], rec.v[:nrec], rec.iterations[:nrec].sum(axis=1) / subs)
-
-    def _add(self, steps, x, v, its) -> None:
-        sim = self.sim
-        pts = sim.points
-        gm, center = sim.field.gm, sim.field.center
-        times = sim._t_base + steps * sim._dt
-        e = inv.energy(pts.masses, x, v, gm, center)
-        p = inv.momentum(pts.masses, v)
-        L = inv.angular_momentum(pts.masses, x, v, center)
-        pos = {n: np.ascontiguousarray(x[:, :, i]) for i, n in enumerate(pts.names)}
-        vel = {n: np.ascontiguousarray(v[:, :, i]) for i, n in enumerate(pts.names)}
-        block = (times, e, p, L, np.asarray(its, float), pos, vel)
+        gm, center = sim.gm, sim.center
+        times = sim._t_base + np.asarray(steps) * sim._dt
+        energy = np.zeros(nrec)
+        momentum = np.zeros((nrec, 3))
+        angular = np.zeros((nrec, 3))
+        data = {}
+        iters = np.zeros(nrec)
+        solves = 0
+        for system, rec in recs:
+            e, p, L = system.invariants(rec, nrec, gm, center)
+            energy += e
+            momentum += p
+            angular += L
+            data.update(system.datasets(rec, nrec))
+            iters += rec.iterations[:nrec].sum(axis=1)
+            solves += len(system)
+        its = iters / (k * coefficients(sim.order).size * solves) if k else np.zeros(nrec)
+        block = (times, energy, momentum, angular, its, data)
         if self.writer is not None:
             self.writer.append(*block)
         if self.keep or not self.blocks:
             self.blocks.append(block if self.keep else _row(block, 0))
         if not self.keep:
             self.blocks[1:] = [_row(block, -1)]
-        self.steps_recorded = int(steps[-1])
 
     def result(self) -> Result:
         blocks = self.blocks
-        names = self.sim.points.names
+        sim = self.sim
         cat = lambda j: np.concatenate([b[j] for b in blocks])  # noqa: E731
+        bodies = {n: {q: np.concatenate([b[5][n][q] for b in blocks]) for q in blocks[0][5][n]} for n in sim.names}
+        masses, kinds = {}, {}
+        for s in sim.systems:
+            for i, n in enumerate(s.names):
+                attrs = s.body_attrs(i)
+                masses[n] = attrs["mass"]
+                kinds[n] = attrs["kind"]
         return Result(
             time=cat(0), energy=cat(1), momentum=cat(2), angular_momentum=cat(3), newton_iterations=cat(4),
-            positions={n: np.concatenate([b[5][n] for b in blocks]) for n in names},
-            velocities={n: np.concatenate([b[6][n] for b in blocks]) for n in names},
-            masses=dict(zip(names, self.sim.points.masses.tolist())),
-            method=self.sim.method, order=self.sim.order, dt=self.sim.dt, gm=self.sim.field.gm,
-            center=self.sim.field.center.copy(),
+            bodies=bodies, masses=masses, kinds=kinds,
+            method=sim.method, order=sim.order, dt=sim.dt, gm=sim.gm, center=sim.center.copy(),
         )
 
 
 def _row(block, i):
     sl = slice(i, i + 1) if i >= 0 else slice(i, None)
-    times, e, p, L, its, pos, vel = block
-    return (times[sl], e[sl], p[sl], L[sl], its[sl], {k: a[sl] for k, a in pos.items()},
-            {k: a[sl] for k, a in vel.items()})
+    times, e, p, L, its, data = block
+    return (times[sl], e[sl], p[sl], L[sl], its[sl], {n: {q: a[sl] for q, a in d.items()} for n, d in data.items()})
 
 
 # METHODS is re-exported for discoverability: Simulation.METHODS lists what `method` accepts

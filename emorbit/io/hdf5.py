@@ -7,9 +7,14 @@ Layout (every dataset has a ``unit`` attribute; one row per record)::
     /invariants/momentum           (n, 3)  kg m / s
     /invariants/angular_momentum   (n, 3)  kg m2 / s     about the field's centre
     /diagnostics/newton_iterations (n,)    1             mean per point and sub-step
-    /bodies/<name>/position        (n, 3)  m
+    /bodies/<name>/position        (n, 3)  m        (the centre of mass for extended bodies)
     /bodies/<name>/velocity        (n, 3)  m / s
-    /bodies/<name>  attributes: kind ("point"), mass (kg)
+    /bodies/<name>/attitude        (n, 4)  1        rigid: unit quaternion (w, x, y, z), body to space
+    /bodies/<name>/angular_velocity (n, 3) rad / s  rigid: in the body frame
+    /bodies/<name>/mass_points/position (N, 3) m    rigid: the mass points, body frame
+    /bodies/<name>/mass_points/mass     (N,)   kg
+    /bodies/<name>  attributes: kind ("point" | "rigid"), mass (kg); rigid: shape, gravity,
+                    mass_points, inertia (3x3, kg m2, of the discretisation)
 
 Root attributes: ``creator`` ("emorbit <version>"), ``emorbit_version``, ``created`` (UTC,
 ISO 8601), ``method``, ``order``, ``dt`` (s), ``t_end`` (s, requested), ``gm`` (m3 / s2),
@@ -44,7 +49,7 @@ LAYOUT_UNITS = {
     "invariants/angular_momentum": "kg m2 / s",
     "diagnostics/newton_iterations": "1",
 }
-_BODY_UNITS = {"position": "m", "velocity": "m / s"}
+_SCALAR = ("time", "invariants/energy", "diagnostics/newton_iterations")
 
 
 def _versions() -> str:
@@ -78,9 +83,11 @@ def _append(ds, block):
 class Writer:
     """Create ``path`` and append records to it.
 
-    ``bodies`` is a list of (name, kind, mass) tuples; ``attrs`` root attributes to store.
-    An existing file is an :class:`InputError` unless ``overwrite`` is true, so a finished
-    run is never lost by accident.
+    ``bodies`` is a list of dicts with keys ``name``, ``attrs`` (group attributes),
+    ``datasets`` ({dataset: (width, unit)}, growable, one row per record) and ``constants``
+    ({path: (array, unit)}, written once); ``attrs`` root attributes to store. An existing
+    file is an :class:`InputError` unless ``overwrite`` is true, so a finished run is never
+    lost by accident.
     """
 
     def __init__(self, path, bodies, attrs: dict, *, overwrite: bool = False, chunk_rows: int = 1024):
@@ -103,27 +110,31 @@ class Writer:
         for key, value in attrs.items():
             f.attrs[key] = value
         f.attrs["status"] = "running"
-        self._ds = {name: _growable(f, name, None if name in ("time", "invariants/energy", "diagnostics/newton_iterations") else 3, unit, chunk_rows)
+        self._ds = {name: _growable(f, name, None if name in _SCALAR else 3, unit, chunk_rows)
                     for name, unit in LAYOUT_UNITS.items()}
         self._body_ds = {}
         group = f.create_group("bodies", track_order=True)
-        for name, kind, mass in bodies:
-            g = group.create_group(name)
-            g.attrs["kind"] = kind
-            g.attrs["mass"] = float(mass)
-            g.attrs["mass_unit"] = "kg"
-            self._body_ds[name] = {q: _growable(g, q, 3, unit, chunk_rows) for q, unit in _BODY_UNITS.items()}
+        for body in bodies:
+            g = group.create_group(body["name"])
+            for key, value in body["attrs"].items():
+                g.attrs[key] = value
+            for path_, (array, unit) in body.get("constants", {}).items():
+                ds = g.create_dataset(path_, data=array)
+                ds.attrs["unit"] = unit
+            self._body_ds[body["name"]] = {q: _growable(g, q, width, unit, chunk_rows)
+                                           for q, (width, unit) in body["datasets"].items()}
         f.flush()
 
-    def append(self, time, energy, momentum, angular_momentum, newton_iterations, positions, velocities):
-        """Append a block of records (arrays with one row per record) and flush."""
+    def append(self, time, energy, momentum, angular_momentum, newton_iterations, data):
+        """Append a block of records (arrays with one row per record) and flush; ``data`` is
+        {body: {dataset: block}}."""
         for name, block in (("time", time), ("invariants/energy", energy), ("invariants/momentum", momentum),
                             ("invariants/angular_momentum", angular_momentum),
                             ("diagnostics/newton_iterations", newton_iterations)):
             _append(self._ds[name], np.asarray(block, float))
-        for name, ds in self._body_ds.items():
-            _append(ds["position"], positions[name])
-            _append(ds["velocity"], velocities[name])
+        for name, sets in self._body_ds.items():
+            for q, ds in sets.items():
+                _append(ds, data[name][q])
         self.file.flush()
 
     def close(self, status: str = "completed", error: str | None = None) -> None:
@@ -139,18 +150,20 @@ class Writer:
 def read(path) -> Result:
     """Read a run file into a :class:`~emorbit.result.Result` (SI arrays)."""
     with h5py.File(path, "r") as f:
-        positions = {name: g["position"][()] for name, g in f["bodies"].items()}
-        velocities = {name: g["velocity"][()] for name, g in f["bodies"].items()}
-        masses = {name: float(g.attrs["mass"]) for name, g in f["bodies"].items()}
+        bodies, masses, kinds = {}, {}, {}
+        for name, g in f["bodies"].items():
+            bodies[name] = {q: ds[()] for q, ds in g.items() if isinstance(ds, h5py.Dataset)}
+            masses[name] = float(g.attrs["mass"])
+            kinds[name] = str(g.attrs["kind"])
         return Result(
             time=f["time"][()],
             energy=f["invariants/energy"][()],
             momentum=f["invariants/momentum"][()],
             angular_momentum=f["invariants/angular_momentum"][()],
             newton_iterations=f["diagnostics/newton_iterations"][()],
-            positions=positions,
-            velocities=velocities,
+            bodies=bodies,
             masses=masses,
+            kinds=kinds,
             method=str(f.attrs["method"]),
             order=int(f.attrs["order"]),
             dt=float(f.attrs["dt"]),

@@ -77,11 +77,11 @@ def kahan_add(s, c, d):
 
 @kernel
 def _newton_done(d2, prev2, scale2):
-    """Newton stopping rule on squared norms: returns (stop, converged)."""
-    if d2 <= _TOL2 * scale2:
+    """Newton stopping rule on squared norms: returns (stop, converged). Converged when the
+    update is at round-off, or no longer shrinks once below sqrt(eps) (its floor); a larger
+    update that grows (far from the solution) keeps iterating until max_iter."""
+    if d2 <= _TOL2 * scale2 or (d2 >= prev2 and d2 <= _FLOOR2 * scale2):
         return True, True
-    if d2 >= prev2:
-        return True, d2 <= _FLOOR2 * scale2
     return False, False
 
 
