@@ -8,24 +8,55 @@ import numpy as np
 
 from .io.hdf5 import read
 
-__all__ = ["plot_runs"]
+__all__ = ["plot_runs", "euler_angles"]
 
 
 def _label(path, res) -> str:
     return f"{os.path.basename(path)}: {res.method}, order {res.order}, dt = {res.dt:.6g} s"
 
 
+def euler_angles(q) -> np.ndarray:
+    """Yaw, pitch, roll (z-y'-x'' Euler angles, rad) of body-to-space quaternions (n, 4)."""
+    w, x, y, z = np.asarray(q, float).T
+    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1, 1))
+    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    return np.stack([yaw, pitch, roll], axis=1)
+
+
+def _plot_attitudes(runs, axes) -> None:
+    ax_ang, ax_om, ax_spare = axes
+    for path, res in runs:
+        for name, q in res.attitudes.items():
+            ang = np.degrees(euler_angles(q))
+            for k, label in enumerate(("yaw", "pitch", "roll")):
+                ax_ang.plot(res.time, ang[:, k], lw=0.7, label=f"{os.path.basename(path)}: {name} {label}")
+            om = res.angular_velocities[name]
+            for k, label in enumerate("xyz"):
+                ax_om.plot(res.time, om[:, k], lw=0.7, label=f"{os.path.basename(path)}: {name} {label}")
+    ax_ang.set(xlabel="time [s]", ylabel="angle [deg]", title="attitude: yaw, pitch, roll (z-y'-x'')")
+    ax_om.set(xlabel="time [s]", ylabel="rad/s", title="angular velocity (body frame)")
+    for ax in (ax_ang, ax_om):
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
+    ax_spare.axis("off")
+
+
 def plot_runs(paths, output, *, title: str | None = None) -> str:
     """Plot the relative energy error over time of every file in ``paths`` on shared axes
     (linear, as in the paper, and |error| on a log scale) and the orbits (x-y projection,
-    centre marked). Writes ``output`` (any format matplotlib knows by its extension)."""
+    centre marked); for rigid bodies also their attitude angles and body-frame angular
+    velocity. Writes ``output`` (any format matplotlib knows by its extension)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     runs = [(p, read(p)) for p in paths]
-    fig, (ax_lin, ax_log, ax_orb) = plt.subplots(1, 3, figsize=(16, 4.8), constrained_layout=True)
+    rigid = any(res.attitudes for _, res in runs)
+    fig, axes = plt.subplots(2 if rigid else 1, 3, figsize=(16, 9.6 if rigid else 4.8), constrained_layout=True,
+                             squeeze=False)
+    ax_lin, ax_log, ax_orb = axes[0]
     for path, res in runs:
         err = res.relative_energy_error()
         label = _label(path, res)
@@ -43,6 +74,8 @@ def plot_runs(paths, output, *, title: str | None = None) -> str:
     for ax in (ax_lin, ax_log, ax_orb):
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7)
+    if rigid:
+        _plot_attitudes(runs, axes[1])
     if title:
         fig.suptitle(title)
     fig.savefig(output, dpi=120)

@@ -50,13 +50,22 @@ __all__ = ["Scene", "load_scene", "list_scenes", "parse_scene", "simulation_to_t
 
 #: allowed keys per table; values: required?
 SCHEMA = {
-    "": {"field": True, "integrator": True, "body": True},
+    "": {"field": False, "integrator": True, "body": True},
     "field": {"gm": False, "g_ref": False, "r_ref": False, "body": False, "center": False},
     "integrator": {"method": False, "order": False, "dt": True, "t_end": True, "output_every": False,
                    "max_newton_iterations": False},
     "body.point": {"name": True, "kind": True, "mass": True, "position": True, "velocity": True},
+    "body.rigid": {"name": True, "kind": True, "shape": True, "position": True, "velocity": True,
+                   "attitude": False, "rotation_vector": False, "angular_velocity": False,
+                   "angular_velocity_frame": False, "gravity": False,
+                   # shape parameters (which apply depends on the shape; see emorbit.rigid.SHAPE_PARAMETERS)
+                   "size": False, "radius": False, "height": False, "masses": False, "length": False,
+                   "end_radius": False, "density": False, "mass": False, "refinement": False,
+                   "nodes": False, "tetrahedra": False, "mesh_unit": False},
 }
-BODY_KINDS = ("point",)
+BODY_KINDS = ("point", "rigid")
+_RIGID_COMMON = ("name", "kind", "shape", "position", "velocity", "attitude", "rotation_vector", "angular_velocity",
+                 "angular_velocity_frame", "gravity")
 
 
 def _check_keys(table, schema_name: str, where: str) -> None:
@@ -131,10 +140,12 @@ class Scene:
         """A :class:`Simulation` with this scene's field, method and bodies."""
         d = self.data
         _check_keys(d, "", "")
-        f = d["field"]
-        _check_keys(f, "field", "field")
-        field = CentralField(gm=f.get("gm"), g_ref=f.get("g_ref"), r_ref=f.get("r_ref"), body=f.get("body"),
-                             center=f.get("center", ["0 m", "0 m", "0 m"]), strict=True)
+        field = None  # no [field]: free space
+        if "field" in d:
+            f = d["field"]
+            _check_keys(f, "field", "field")
+            field = CentralField(gm=f.get("gm"), g_ref=f.get("g_ref"), r_ref=f.get("r_ref"), body=f.get("body"),
+                                 center=f.get("center", ["0 m", "0 m", "0 m"]), strict=True)
         integ = d["integrator"]
         _check_keys(integ, "integrator", "integrator")
         get_method(integ.get("method", "em"), "integrator.method")
@@ -156,8 +167,16 @@ class Scene:
                 raise InputError(f"{where}.kind", f"unknown body kind {kind!r}; known: {', '.join(BODY_KINDS)}")
             _check_keys(b, f"body.{kind}", where)
             check_body_name(b["name"], f"{where}.name")
-            sim.add_point(b["name"], mass=b["mass"], position=b["position"], velocity=b["velocity"],
-                          strict=True, key=where)
+            if kind == "point":
+                sim.add_point(b["name"], mass=b["mass"], position=b["position"], velocity=b["velocity"],
+                              strict=True, key=where)
+            else:
+                shape_params = {k: v for k, v in b.items() if k not in _RIGID_COMMON}
+                sim.add_rigid(b["name"], b["shape"], position=b["position"], velocity=b["velocity"],
+                              attitude=b.get("attitude"), rotation_vector=b.get("rotation_vector"),
+                              angular_velocity=b.get("angular_velocity", ["0 rad/s", "0 rad/s", "0 rad/s"]),
+                              angular_velocity_frame=b.get("angular_velocity_frame", "body"),
+                              gravity=b.get("gravity"), strict=True, key=where, **shape_params)
         sim.steps_until(t_end)  # t_end must lie at least one step ahead
         sim.scene_text = self.text
         sim.t_end_requested = t_end
@@ -210,13 +229,19 @@ def _v(vec, unit: str) -> str:
 
 
 def simulation_to_toml(sim: Simulation, t_end: float | None = None, output_every: int = 1) -> str:
-    """A scene reproducing ``sim``'s current set-up (SI units, exact float reprs)."""
-    lines = ["[field]"]
-    if sim.field.body:
-        lines.append(f'body = "{sim.field.body}"')
-    else:
-        lines.append(f"gm = {_q(sim.field.gm, 'm3 / s2')}")
-    lines += [f"center = {_v(sim.field.center, 'm')}", "", "[integrator]",
+    """A scene reproducing ``sim``'s current set-up in SI units. Point masses are exact to the
+    last bit; a rigid body is written by its attitude (a quaternion, ~1e-16) and its angular
+    velocity, which drops the O(dt^2) non-rigid part of the director velocities after steps
+    have been taken (exact restarts keep the raw state instead)."""
+    lines = []
+    if sim.field is not None:
+        lines.append("[field]")
+        if sim.field.body:
+            lines.append(f'body = "{sim.field.body}"')
+        else:
+            lines.append(f"gm = {_q(sim.field.gm, 'm3 / s2')}")
+        lines += [f"center = {_v(sim.field.center, 'm')}", ""]
+    lines += ["[integrator]",
               f'method = "{sim.method}"', f"order = {sim.order}", f"dt = {_q(sim.dt, 's')}",
               f"t_end = {_q(t_end if t_end is not None else sim.time + sim.dt, 's')}",
               f"output_every = {output_every}", f"max_newton_iterations = {sim.max_newton_iterations}"]
@@ -225,4 +250,36 @@ def simulation_to_toml(sim: Simulation, t_end: float | None = None, output_every
         lines += ["", "[[body]]", f"name = {json.dumps(name)}",
                   'kind = "point"', f"mass = {_q(pts.masses[i], 'kg')}",
                   f"position = {_v(pts.x[:, i], 'm')}", f"velocity = {_v(pts.v[:, i], 'm / s')}"]
+    if sim.rigid is not None:
+        rb = sim.rigid
+        now = rb.datasets(rb.current(), 1)
+        for b, name in enumerate(rb.names):
+            d = now[name]
+            lines += ["", "[[body]]", f"name = {json.dumps(name)}", 'kind = "rigid"', f'shape = "{rb.shapes[b]}"',
+                      f"position = {_v(d['position'][0], 'm')}", f"velocity = {_v(d['velocity'][0], 'm / s')}",
+                      "attitude = [" + ", ".join(repr(float(x)) for x in d["attitude"][0]) + "]",
+                      f"angular_velocity = {_v(d['angular_velocity'][0], 'rad / s')}",
+                      f'gravity = "{rb.body_attrs(b)["gravity"]}"']
+            lines += _shape_lines(rb.params[b])
     return "\n".join(lines) + "\n"
+
+
+_PARAM_UNITS = {"size": "m", "radius": "m", "height": "m", "length": "m", "end_radius": "m", "density": "kg / m3",
+                "mass": "kg", "masses": "kg"}
+
+
+def _shape_lines(params: dict) -> list[str]:
+    out = []
+    for key, value in params.items():
+        if key in ("size", "masses"):
+            out.append(f"{key} = {_v(value, _PARAM_UNITS[key])}")
+        elif key in _PARAM_UNITS:
+            out.append(f"{key} = {_q(value, _PARAM_UNITS[key])}")
+        elif key == "refinement":
+            out.append(f"refinement = {int(value)}")
+        elif key == "nodes":
+            out.append('mesh_unit = "m"')
+            out.append("nodes = [" + ", ".join("[" + ", ".join(repr(float(c)) for c in row) + "]" for row in value) + "]")
+        elif key == "tetrahedra":
+            out.append("tetrahedra = [" + ", ".join("[" + ", ".join(str(int(c)) for c in row) + "]" for row in value) + "]")
+    return out

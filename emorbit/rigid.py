@@ -1,0 +1,304 @@
+"""Rigid bodies: their mass points, director state, and the calls into
+:mod:`emorbit.kernels.rigid`.
+
+State per body (SI): ``q = (phi, d1, d2, d3)`` and ``v = dq/dt`` (12 each, rows of (nb, 12)
+arrays) with Kahan compensation terms, and a warm start for the constraint multipliers.
+The attitude is R = [d1 d2 d3] (body axes in space); recorded as a unit quaternion (scalar
+first) and the angular velocity in the body frame, Omega_j = d_j . omega with
+omega = 1/2 sum_k d_k x dd_k/dt.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .kernels import rigid as kern
+from .rotations import matrix_to_quaternion
+from .shapes import MassPoints
+
+__all__ = ["RigidBodies", "RigidRecords", "GRAVITY_MODELS"]
+
+#: gravity models a rigid body can ask for
+GRAVITY_MODELS = {"volume": kern.GRAVITY_VOLUME, "point": kern.GRAVITY_POINT, "none": kern.GRAVITY_NONE}
+_METHODS = {"em": kern.METHOD_EM, "midpoint": kern.METHOD_MIDPOINT}
+
+
+@dataclass
+class RigidRecords:
+    """States recorded by one kernel call: q, v (nrec, nb, 12), iterations (nrec, nb), fail (nb, 2)."""
+
+    q: np.ndarray
+    v: np.ndarray
+    iterations: np.ndarray
+    fail: np.ndarray
+
+    def first_failure(self):
+        bad = np.flatnonzero(self.fail[:, 0] >= 0)
+        if bad.size == 0:
+            return None
+        i = bad[np.argmin(self.fail[bad, 0])]
+        return int(self.fail[i, 0]), int(i), int(self.fail[i, 1])
+
+
+class RigidBodies:
+    """A set of rigid bodies, each with its own mass points and gravity model."""
+
+    kind = "rigid"
+    #: per-body datasets and their units (see emorbit.io.hdf5)
+    DATASETS = {"position": (3, "m"), "velocity": (3, "m / s"), "attitude": (4, "1"),
+                "angular_velocity": (3, "rad / s")}
+    METHODS = tuple(_METHODS)
+
+    def __init__(self):
+        self.names: list[str] = []
+        self.shapes: list[str] = []
+        self.params: list[dict] = []
+        self.points: list[MassPoints] = []
+        self.models = np.zeros(0, dtype=np.int64)
+        self.mass = np.zeros(0)
+        self.E = np.zeros((0, 3, 3))
+        self.Einv = np.zeros((0, 3, 3))
+        self.q = np.zeros((0, 12))
+        self.v = np.zeros((0, 12))
+        self.cq = np.zeros((0, 12))
+        self.cv = np.zeros((0, 12))
+        self.lam = np.zeros((0, 6))
+        self._pack()
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def _pack(self) -> None:
+        counts = [len(p) for p in self.points]
+        self.offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        self.X = np.ascontiguousarray(np.concatenate([p.X for p in self.points], axis=1)) if self.points \
+            else np.zeros((3, 0))
+        self.mp = np.ascontiguousarray(np.concatenate([p.m for p in self.points])) if self.points else np.zeros(0)
+
+    def add(self, name: str, shape: str, points: MassPoints, model: str, position, velocity, R, omega_space,
+            params: dict | None = None) -> None:
+        """Append a body (validated SI values): R the attitude matrix (body to space),
+        omega_space its angular velocity in the space frame; params the shape's parameters in
+        SI (kept to write the body back as a scene)."""
+        self.names.append(name)
+        self.shapes.append(shape)
+        self.params.append(dict(params or {}))
+        self.points.append(points)
+        E = points.second_moment
+        self.models = np.append(self.models, GRAVITY_MODELS[model])
+        self.mass = np.append(self.mass, points.mass)
+        self.E = np.concatenate([self.E, E[None]])
+        self.Einv = np.concatenate([self.Einv, np.linalg.inv(E)[None]])
+        R = np.asarray(R, float)
+        w = np.asarray(omega_space, float)
+        q = np.concatenate([position, R[:, 0], R[:, 1], R[:, 2]])
+        v = np.concatenate([velocity] + [np.cross(w, R[:, k]) for k in range(3)])
+        self.q = np.ascontiguousarray(np.vstack([self.q, q]))
+        self.v = np.ascontiguousarray(np.vstack([self.v, v]))
+        self.cq = np.zeros_like(self.q)
+        self.cv = np.zeros_like(self.v)
+        self.lam = np.zeros((len(self.names), 6))
+        self._pack()
+
+    # -- stepping ------------------------------------------------------------------------
+    def work_per_step(self) -> int:
+        """A rough cost unit (mass points touched) for sizing chunks."""
+        return int(sum(len(p) if m == kern.GRAVITY_VOLUME else 1 for p, m in zip(self.points, self.models))) \
+            + 50 * len(self)
+
+    def advance(self, method: str, gm: float, center, dt: float, gammas, every: int, nrec: int,
+                max_iter: int) -> RigidRecords:
+        nb = len(self)
+        rec = RigidRecords(np.empty((nrec, nb, 12)), np.empty((nrec, nb, 12)), np.zeros((nrec, nb), np.int64),
+                           np.full((nb, 2), -1, np.int64))
+        kern.rigid_chunk(_METHODS[method], self.models, self.q, self.v, self.cq, self.cv, self.lam, self.mass,
+                         self.E, self.Einv, self.offsets, self.X, self.mp, float(gm), center, float(dt), gammas,
+                         int(every), int(nrec), int(max_iter), rec.q, rec.v, rec.iterations, rec.fail)
+        return rec
+
+    def current(self) -> RigidRecords:
+        return RigidRecords(self.q[None].copy(), self.v[None].copy(), np.zeros((1, len(self)), np.int64),
+                            np.full((len(self), 2), -1, np.int64))
+
+    def snapshot(self):
+        return tuple(a.copy() for a in (self.q, self.v, self.cq, self.cv, self.lam))
+
+    def restore(self, snap) -> None:
+        for a, s in zip((self.q, self.v, self.cq, self.cv, self.lam), snap):
+            a[...] = s
+
+    # -- diagnostics -----------------------------------------------------------------------
+    def invariants(self, rec: RigidRecords, nrec: int, gm: float, center):
+        """Energy (nrec,), linear momentum (nrec, 3) and angular momentum about the centre
+        (nrec, 3) of all rigid bodies, with each body's own gravity model for the potential."""
+        q, v = rec.q[:nrec], rec.v[:nrec]
+        c = np.asarray(center, float)
+        m = self.mass
+        phi, dphi = q[..., 0:3], v[..., 0:3]
+        D = q[..., 3:].reshape(q.shape[:-1] + (3, 3))  # [..., k, :] = d_k
+        dD = v[..., 3:].reshape(v.shape[:-1] + (3, 3))
+        T = 0.5 * m * np.einsum("rbi,rbi->rb", dphi, dphi) + 0.5 * np.einsum("bkl,rbki,rbli->rb", self.E, dD, dD)
+        P = np.einsum("b,rbi->rbi", m, dphi)
+        L = np.cross(phi - c, P) + np.einsum("bkl,rbklj->rbj", self.E, np.cross(D[:, :, :, None, :], dD[:, :, None, :, :]))
+        V = np.zeros(T.shape)
+        for b in range(len(self)):
+            if self.models[b] == kern.GRAVITY_POINT:
+                V[:, b] = -gm * m[b] / np.linalg.norm(phi[:, b] - c, axis=-1)
+            elif self.models[b] == kern.GRAVITY_VOLUME:
+                Xb, mb = self.points[b].X, self.points[b].m
+                x = phi[:, b, :, None] + np.einsum("kn,rki->rin", Xb, D[:, b])
+                V[:, b] = -gm * np.einsum("n,rn->r", mb, 1.0 / np.linalg.norm(x - c[None, :, None], axis=1))
+        return (T + V).sum(axis=1), P.sum(axis=1), L.sum(axis=1)
+
+    def datasets(self, rec: RigidRecords, nrec: int) -> dict:
+        """{name: {dataset: (nrec, width)}} for position, velocity, attitude, angular_velocity."""
+        q, v = rec.q[:nrec], rec.v[:nrec]
+        D = q[..., 3:].reshape(q.shape[:-1] + (3, 3))
+        dD = v[..., 3:].reshape(v.shape[:-1] + (3, 3))
+        omega = 0.5 * np.cross(D, dD).sum(axis=-2)  # space frame
+        Omega = np.einsum("rbki,rbi->rbk", D, omega)  # body frame
+        quat = matrix_to_quaternion(np.swapaxes(D, -1, -2))  # R has the d_k as columns
+        out = {}
+        for b, name in enumerate(self.names):
+            out[name] = {
+                "position": np.ascontiguousarray(q[:, b, 0:3]),
+                "velocity": np.ascontiguousarray(v[:, b, 0:3]),
+                "attitude": np.ascontiguousarray(quat[:, b]),
+                "angular_velocity": np.ascontiguousarray(Omega[:, b]),
+            }
+        return out
+
+    def body_attrs(self, b: int) -> dict:
+        """Attributes of body ``b``'s HDF5 group."""
+        p = self.points[b]
+        inv = {v: k for k, v in GRAVITY_MODELS.items()}
+        return {"kind": "rigid", "mass": float(self.mass[b]), "mass_unit": "kg", "shape": self.shapes[b],
+                "mass_points": len(p), "gravity": inv[int(self.models[b])],
+                "inertia": p.inertia, "inertia_unit": "kg m2"}
+
+    def body_constants(self, b: int) -> dict:
+        """Fixed datasets of body ``b``: {name: (array, unit)} (its mass points, body frame)."""
+        p = self.points[b]
+        return {"mass_points/position": (np.ascontiguousarray(p.X.T), "m"), "mass_points/mass": (p.m, "kg")}
+
+
+# -- building a body from user input ---------------------------------------------------------
+#: shape -> {parameter: kind of value} ("length", "mass", "density", "masses", "lengths", "int",
+#: "mesh"); every shape also takes "refinement" except "mesh"
+SHAPE_PARAMETERS = {
+    "box": {"size": "lengths", "density": "density", "mass": "mass", "refinement": "int"},
+    "cylinder": {"radius": "length", "height": "length", "density": "density", "mass": "mass", "refinement": "int"},
+    "sphere": {"radius": "length", "density": "density", "mass": "mass", "refinement": "int"},
+    "shell": {"radius": "length", "mass": "mass", "refinement": "int"},
+    "dumbbell": {"masses": "masses", "length": "length", "end_radius": "length", "refinement": "int"},
+    "mesh": {"nodes": "mesh", "tetrahedra": "mesh", "mesh_unit": "unit", "density": "density"},
+}
+
+
+def _shape_points(shape: str, params: dict, strict: bool, key: str) -> MassPoints:
+    from . import shapes
+    from .errors import InputError
+    from .units import to_si, vector_to_si
+
+    if shape not in SHAPE_PARAMETERS:
+        raise InputError(f"{key}.shape", f"unknown shape {shape!r}; known: {', '.join(SHAPE_PARAMETERS)}")
+    allowed = SHAPE_PARAMETERS[shape]
+    for p in params:
+        if p not in allowed:
+            raise InputError(f"{key}.{p}", f"not a parameter of shape {shape!r}; allowed: {', '.join(allowed)}")
+    kw = {}
+    for p, value in params.items():
+        kind = allowed[p]
+        where = f"{key}.{p}"
+        if kind in ("length", "mass", "density"):
+            kw[p] = to_si(value, kind, where, strict=strict, positive=True)
+        elif kind == "lengths":
+            kw[p] = vector_to_si(value, "length", where, strict=strict)
+        elif kind == "masses":
+            if isinstance(value, str) or not hasattr(value, "__len__") or len(value) != 2:
+                raise InputError(where, f"expected two masses, got {value!r}")
+            kw[p] = [to_si(x, "mass", f"{where}[{i}]", strict=strict, positive=True) for i, x in enumerate(value)]
+        elif kind == "int":
+            kw[p] = value
+        elif kind == "unit":
+            pass
+        else:  # mesh arrays: numbers, nodes scaled by mesh_unit
+            kw[p] = value
+    if shape == "mesh":
+        for need in ("nodes", "tetrahedra", "density"):
+            if need not in params:
+                raise InputError(f"{key}.{need}", "missing (required for a mesh)")
+        unit = params.get("mesh_unit", None if strict else "m")
+        if unit is None:
+            raise InputError(f"{key}.mesh_unit", "missing: give the unit of the node coordinates, e.g. 'm'")
+        scale = to_si(f"1 {unit}", "length", f"{key}.mesh_unit")
+        try:
+            nodes = np.asarray(params["nodes"], dtype=float) * scale
+            tets = np.asarray(params["tetrahedra"])
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"{key}.nodes", f"not a table of numbers: {exc}") from None
+        kw.update(nodes=nodes, tetrahedra=tets)
+        return shapes.tetra_mesh(nodes, tets, density=kw["density"], key=key), kw
+    required = {"box": ("size",), "cylinder": ("radius", "height"), "sphere": ("radius",), "shell": ("radius", "mass"),
+                "dumbbell": ("masses", "length")}[shape]
+    for need in required:
+        if need not in kw:
+            raise InputError(f"{key}.{need}", f"missing (required for a {shape})")
+    fn = shapes.SHAPES[shape]
+    args = dict(kw)
+    if shape == "box":
+        return fn(args.pop("size"), key=key, **args), kw
+    if shape == "cylinder":
+        return fn(args.pop("radius"), args.pop("height"), key=key, **args), kw
+    if shape in ("sphere", "shell"):
+        return fn(args.pop("radius"), key=key, **args), kw
+    return fn(args.pop("masses"), args.pop("length"), key=key, **args), kw
+
+
+def build_rigid(shape, params, *, position, velocity, attitude, rotation_vector, angular_velocity, frame,
+                gravity, has_field: bool, strict: bool, key: str) -> dict:
+    """Check and convert a rigid body's input. Returns a dict with ``points`` (MassPoints),
+    ``gravity`` (model name), ``position``, ``velocity``, ``R`` (3x3) and ``omega_space``."""
+    from .errors import InputError
+    from .rotations import quaternion_to_matrix, rotation_vector_to_matrix
+    from .units import to_si, vector_to_si
+
+    if not isinstance(shape, str):
+        raise InputError(f"{key}.shape", f"expected a shape name, got {shape!r}")
+    points, si_params = _shape_points(shape, params, strict, key)
+    if gravity is None:
+        gravity = "volume" if has_field else "none"
+    if gravity not in GRAVITY_MODELS:
+        raise InputError(f"{key}.gravity", f"unknown gravity model {gravity!r}; known: {', '.join(GRAVITY_MODELS)}")
+    if gravity != "none" and not has_field:
+        raise InputError(f"{key}.gravity", f"{gravity!r} needs a central field; without one use 'none'")
+    x = vector_to_si(position, "length", f"{key}.position", strict=strict)
+    v = vector_to_si(velocity, "speed", f"{key}.velocity", strict=strict)
+    if attitude is not None and rotation_vector is not None:
+        raise InputError(f"{key}.attitude", "give the attitude or the rotation_vector, not both")
+    if attitude is not None:
+        try:
+            qa = np.asarray(attitude, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"{key}.attitude", f"expected 4 numbers (w, x, y, z), got {attitude!r}") from None
+        if qa.shape != (4,) or not np.all(np.isfinite(qa)):
+            raise InputError(f"{key}.attitude", f"expected 4 finite numbers (w, x, y, z), got {attitude!r}")
+        nq = float(np.linalg.norm(qa))
+        if abs(nq - 1.0) > 1e-6:
+            raise InputError(f"{key}.attitude", f"a unit quaternion is needed, |q| = {nq!r}")
+        R = quaternion_to_matrix(qa / nq)
+    elif rotation_vector is not None:
+        R = rotation_vector_to_matrix(vector_to_si(rotation_vector, "angle", f"{key}.rotation_vector", strict=strict))
+    else:
+        R = np.eye(3)
+    # re-orthonormalise to round-off so the constraints hold from the start
+    U, _, Vt = np.linalg.svd(R)
+    R = U @ Vt
+    w = vector_to_si(angular_velocity, "angular_speed", f"{key}.angular_velocity", strict=strict)
+    if frame not in ("body", "space"):
+        raise InputError(f"{key}.angular_velocity_frame", f"must be 'body' or 'space', got {frame!r}")
+    omega_space = R @ w if frame == "body" else w
+    return {"points": points, "gravity": gravity, "position": x, "velocity": v, "R": R, "omega_space": omega_space,
+            "params": si_params}

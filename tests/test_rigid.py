@@ -1,0 +1,368 @@
+"""Rigid bodies: discretisation, torque-free motion against an independent solve, the
+gravity-gradient torque against theory, exact invariants, and bad input."""
+
+import astropy.constants as const
+import h5py
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import emorbit
+from emorbit import shapes
+from emorbit.cli import main
+from emorbit.errors import InputError
+from emorbit.kernels import rigid as kr
+from emorbit.rotations import matrix_to_quaternion, quaternion_to_matrix, rotation_vector_to_matrix
+from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
+
+GM_EARTH = const.GM_earth.si.value
+
+
+# -- discretisation ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("points, npts", [
+    (lambda: shapes.box([3.0, 2.0, 1.0], density=7.0, refinement=1), 8),
+    (lambda: shapes.box([3.0, 2.0, 1.0], mass=5.0, refinement=3), 216),
+    (lambda: shapes.cylinder(0.5, 2.0, density=3.0, refinement=2), 2 * 2 * 2 * 2 * 8),
+    (lambda: shapes.sphere(1.5, density=2.0, refinement=2), 24 * 8),
+    (lambda: shapes.shell(2.0, mass=4.0, refinement=2), 32),
+    (lambda: shapes.dumbbell([1.0, 3.0], 10.0, refinement=1), 48),
+])
+def test_discrete_inertia_is_exact(points, npts):
+    """The quadratures integrate second moments exactly: the inertia of the mass points
+    equals the analytic inertia of the shape, and the centre of mass is the origin."""
+    p = points()
+    assert len(p) == npts
+    np.testing.assert_allclose(p.inertia, p.analytic_inertia, rtol=1e-12, atol=1e-12 * np.abs(p.analytic_inertia).max())
+    assert np.abs(p.X @ p.m).max() < 1e-12 * p.mass
+
+
+def test_mesh_inertia_and_volume():
+    """A unit cube cut into 6 tetrahedra: volume 1 and the cube's inertia, exactly."""
+    nodes = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    # Kuhn triangulation of the cube along the diagonal 0 -> 7
+    paths = [(4, 2, 1), (4, 1, 2), (2, 4, 1), (2, 1, 4), (1, 4, 2), (1, 2, 4)]
+    tets = []
+    for a, b, c in paths:
+        v1 = a
+        v2 = a + b
+        tet = [0, v1, v2, 7]
+        P = nodes[tet]
+        if np.linalg.det(P[1:] - P[0]) < 0:
+            tet = [0, v2, v1, 7]
+        tets.append(tet)
+    p = shapes.tetra_mesh(nodes, np.array(tets), density=2.0)
+    assert p.volume == pytest.approx(1.0, rel=1e-14)
+    np.testing.assert_allclose(p.inertia, 2.0 / 6.0 * np.eye(3), rtol=1e-13, atol=1e-15)
+
+
+@pytest.mark.parametrize("change, key, needle", [
+    ("invert", "tetrahedra[0]", "inverted"),
+    ("flat", "tetrahedra[0]", "zero-volume"),
+    ("dangling", "nodes[4]", "dangling"),
+    ("index", "tetrahedra[0]", "out of range"),
+])
+def test_bad_meshes(change, key, needle):
+    nodes = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    tets = np.array([[0, 1, 2, 3]])
+    if change == "invert":
+        tets = np.array([[0, 2, 1, 3]])
+    elif change == "flat":
+        nodes[3] = [0.3, 0.3, 0.0]
+    elif change == "dangling":
+        nodes = np.vstack([nodes, [5.0, 5.0, 5.0]])
+    elif change == "index":
+        tets = np.array([[0, 1, 2, 9]])
+    with pytest.raises(InputError) as info:
+        shapes.tetra_mesh(nodes, tets, density=1.0)
+    assert key in str(info.value) and needle in str(info.value)
+
+
+@pytest.mark.parametrize("kwargs, key", [
+    (dict(shape="cube", size=[1, 1, 1], density=1.0), "shape"),
+    (dict(shape="box", size=[1, 1, 1], density=1.0, radius=2.0), "radius"),
+    (dict(shape="box", size=[1, 1, 1], density=0.0), "density"),
+    (dict(shape="box", size=[1, 1, 1], density=-1.0), "density"),
+    (dict(shape="box", size=[1, 1, 1]), "exactly one of density and mass"),
+    (dict(shape="box", size=[1, 1, 0], density=1.0), "size"),
+    (dict(shape="sphere", radius=1.0, mass=-2.0), "mass"),
+    (dict(shape="box", size=[1, 1, 1], density=1.0, attitude=[1, 1, 0, 0]), "unit quaternion"),
+    (dict(shape="box", size=[1, 1, 1], density=1.0, attitude=[1, 0, 0, 0], rotation_vector=[0, 0, 1]), "not both"),
+    (dict(shape="box", size=[1, 1, 1], density=1.0, gravity="tidal"), "gravity"),
+    (dict(shape="box", size=[1, 1, 1], density=1.0, refinement=0), "refinement"),
+    (dict(shape="mesh", nodes=[[0, 0, 0]], tetrahedra=[[0, 1, 2, 3]], density=1.0), "nodes"),
+])
+def test_bad_rigid_input(kwargs, key):
+    sim = emorbit.Simulation(emorbit.CentralField(gm=1.0), dt=0.1)
+    shape = kwargs.pop("shape")
+    with pytest.raises(InputError, match=key):
+        sim.add_rigid("b", shape, position=[10, 0, 0], velocity=[0, 0.3, 0], **kwargs)
+    assert sim.names == []
+
+
+def test_field_and_method_requirements():
+    free = emorbit.Simulation(None, dt=0.1)
+    with pytest.raises(InputError, match="needs a central field"):
+        free.add_rigid("b", "box", size=[1, 1, 1], density=1.0, position=[0, 0, 0], velocity=[0, 0, 0], gravity="volume")
+    with pytest.raises(InputError, match="point mass"):
+        free.add_point("p", mass=1, position=[1, 0, 0], velocity=[0, 0, 0])
+    leap = emorbit.Simulation(emorbit.CentralField(gm=1.0), method="leapfrog", dt=0.1)
+    with pytest.raises(InputError, match="no rigid-body kernel"):
+        leap.add_rigid("b", "box", size=[1, 1, 1], density=1.0, position=[5, 0, 0], velocity=[0, 0, 0])
+
+
+def test_rotations_round_trip():
+    rng = np.random.default_rng(5)
+    q = rng.normal(size=(1000, 4))
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    q *= np.sign(q[:, :1])
+    R = quaternion_to_matrix(q)
+    np.testing.assert_allclose(np.einsum("nij,nkj->nik", R, R), np.broadcast_to(np.eye(3), R.shape), atol=1e-14)
+    np.testing.assert_allclose(matrix_to_quaternion(R), q, atol=1e-14)
+    v = np.array([0.3, -0.2, 0.5])
+    Rv = rotation_vector_to_matrix(v)
+    np.testing.assert_allclose(Rv @ v, v, atol=1e-15)  # the axis is fixed
+    assert np.arccos((np.trace(Rv) - 1) / 2) == pytest.approx(np.linalg.norm(v))
+
+
+# -- torque-free motion --------------------------------------------------------------------
+
+def _euler_reference(inertia, omega0, t):
+    """Euler's equations and quaternion kinematics by scipy's DOP853 at rtol 1e-12."""
+    Iinv = np.linalg.inv(inertia)
+
+    def rhs(_, y):
+        om, (w, x, yy, z) = y[:3], y[3:]
+        p, q, r = om
+        dq = 0.5 * np.array([-x * p - yy * q - z * r, w * p + yy * r - z * q, w * q + z * p - x * r, w * r + x * q - yy * p])
+        return np.concatenate([Iinv @ np.cross(inertia @ om, om), dq])
+
+    sol = solve_ivp(rhs, (0, t[-1]), np.concatenate([omega0, [1.0, 0, 0, 0]]), method="DOP853", rtol=1e-12,
+                    atol=1e-14, t_eval=t)
+    return sol.y[:3].T, sol.y[3:].T
+
+
+def _attitude_error(qa, qb):
+    M = np.einsum("nji,njk->nik", quaternion_to_matrix(qa), quaternion_to_matrix(qb))
+    return np.arccos(np.clip((np.trace(M, axis1=1, axis2=2) - 1) / 2, -1, 1))
+
+
+@pytest.mark.parametrize("case, size, omega0, tol", [
+    # measured at dt = 0.01 s over 20 s: omega 8.2e-4 / 3.8e-4 rad/s, attitude 1.35e-3 / 1.38e-3 rad
+    ("intermediate-axis flip", [3.0, 2.0, 1.0], [0.01, 2.0, 0.01], (1.2e-3, 2e-3)),
+    ("symmetric top", [1.0, 1.0, 3.0], [0.3, 0.0, 2.0], (6e-4, 2e-3)),
+])
+def test_torque_free_against_dop853(case, size, omega0, tol):
+    """Angular velocity and attitude agree with an independent high-accuracy solve within the
+    measured second-order error, which falls by 4 when dt halves; E and L exact."""
+    errs = []
+    for dt in (0.01, 0.005):
+        sim = emorbit.Simulation(None, method="em", dt=dt)
+        sim.add_rigid("b", "box", size=size, density=1.0, position=[0, 0, 0], velocity=[0, 0, 0], angular_velocity=omega0)
+        res = sim.run(steps=int(round(20.0 / dt)), every=int(round(0.5 / dt)))
+        om, q = _euler_reference(sim.rigid.points[0].inertia, np.array(omega0), res.time)
+        errs.append((np.abs(res.angular_velocities["b"] - om).max(), _attitude_error(res.attitudes["b"], q).max()))
+        assert np.abs(res.relative_energy_error()).max() < 1e-14
+        assert res.relative_angular_momentum_error().max() < 1e-14
+    assert errs[0][0] < tol[0] and errs[0][1] < tol[1]
+    orders = np.log2(np.array(errs[0]) / np.array(errs[1]))
+    np.testing.assert_allclose(orders, 2.0, atol=0.1)
+    if "flip" in case:  # the body really flips: omega_y changes sign
+        assert res.angular_velocities["b"][:, 1].min() < -1.9
+
+
+@pytest.mark.parametrize("degrees", [30.0])
+def test_large_rotations_per_step_conserve(degrees):
+    """1e5 steps turning 30 degrees each, intermediate-axis tumble: E and L stay at round-off
+    (the scheme turns by 2 atan(h w / 2) per step). At 90 degrees per step the run is stable
+    but the energy drifts to 1e-12 over 1e5 steps: a bias in the rounding of the residual,
+    left for the issue on hard cases (see emorbit/kernels/rigid.py)."""
+    w = 2.0
+    dt = 2 * np.tan(np.radians(degrees) / 2) / w
+    sim = emorbit.Simulation(None, method="em", dt=dt)
+    sim.add_rigid("b", "box", size=[3.0, 2.0, 1.0], density=1.0, position=[0, 0, 0], velocity=[0, 0, 0],
+                  angular_velocity=[0.01, w, 0.01])
+    res = sim.run(steps=100_000, every=1000)
+    assert np.abs(res.relative_energy_error()).max() <= 1e-12
+    assert res.relative_angular_momentum_error().max() <= 1e-12
+    q = res.attitudes["b"]
+    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-12)
+
+
+def test_newton_converges_quadratically():
+    """The iterates of one step in the field: each error is at most a constant times the
+    square of the previous one until round-off (measured 6.7e-6, 1.9e-11, 0)."""
+    sim = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="em", dt=PAPER_T / 100)
+    sim.add_rigid("b", "box", size=[0.3, 0.2, 0.1], density=1000.0, refinement=2, position=PAPER_X0,
+                  velocity=PAPER_V0, angular_velocity=[0, 0, 0.1])
+    sim.run(steps=57, every=57)
+    rb = sim.rigid
+    iterates = []
+    for k in range(1, 6):
+        w = kr.work_arrays(rb.X)
+        kr.rigid_step(kr.METHOD_EM, kr.GRAVITY_VOLUME, rb.q[0].copy(), rb.v[0].copy(), rb.lam[0].copy(), rb.mass[0],
+                      rb.E[0], rb.Einv[0], rb.X, rb.mp, PAPER_GM, np.zeros(3), sim.dt, k, w)
+        iterates.append(w[16].copy())
+    err = [np.abs(x - iterates[-1]).max() for x in iterates[:-1]]
+    assert err[0] > 1e-8  # a real first correction
+    assert err[1] <= 1.0 * err[0] ** 2
+    assert err[2] <= 1e-15
+
+
+# -- gravity gradient ----------------------------------------------------------------------
+
+R_ORBIT = 7.0e6
+N_ORBIT = np.sqrt(GM_EARTH / R_ORBIT**3)
+
+
+def _pitch(res):
+    d1 = quaternion_to_matrix(res.attitudes["b"])[:, :, 0]
+    p = res.positions["b"]
+    radial = p / np.linalg.norm(p, axis=1)[:, None]
+    along = np.cross([0.0, 0.0, 1.0], radial)
+    return np.arctan2(np.einsum("ij,ij->i", d1, along), np.einsum("ij,ij->i", d1, radial))
+
+
+def _orbiting_box(angle, orbits, div=2000):
+    sim = emorbit.Simulation(emorbit.CentralField(body="earth"), method="em", dt=2 * np.pi / N_ORBIT / div)
+    sim.add_rigid("b", "box", size=[2.0, 1.0, 0.5], density=500.0, position=[R_ORBIT, 0, 0],
+                  velocity=[0, np.sqrt(GM_EARTH / R_ORBIT), 0], rotation_vector=[0, 0, angle],
+                  angular_velocity=[0, 0, N_ORBIT], angular_velocity_frame="space")
+    return sim, sim.run(steps=orbits * div, every=1)
+
+
+def test_pitch_libration_frequency():
+    """A 2 m box (size/radius 3e-7) in a circular orbit, long axis radial, pitched 1 degree:
+    it librates at n sqrt(3 (I_along - I_radial) / I_normal) (1 - theta0^2 / 4); measured
+    agreement 4e-6, required 1e-4."""
+    theta0 = np.radians(1.0)
+    sim, res = _orbiting_box(theta0, orbits=8)
+    I = sim.rigid.points[0].inertia
+    theory = N_ORBIT * np.sqrt(3 * (I[1, 1] - I[0, 0]) / I[2, 2]) * (1 - theta0**2 / 4)
+    th, t = _pitch(res), res.time
+    i = np.flatnonzero((th[:-1] < 0) & (th[1:] >= 0))
+    crossings = t[i] - th[i] * (t[i + 1] - t[i]) / (th[i + 1] - th[i])
+    assert crossings.size >= 8
+    period = np.polyfit(np.arange(crossings.size), crossings, 1)[0]
+    assert abs(2 * np.pi / period / theory - 1) < 1e-4
+    assert np.abs(th).max() == pytest.approx(theta0, rel=1e-3)  # it librates, it does not tumble
+    assert np.abs(res.relative_energy_error()).max() < 1e-13
+
+
+def test_along_track_orientation_is_unstable():
+    """Long axis along track: a 0.01 degree offset grows like theta0 cosh(sigma t) with
+    sigma = n sqrt(3 (I_radial - I_along) / I_normal) (measured within 3e-4 while < 0.05 rad)."""
+    theta0 = np.radians(0.01)
+    sim, res = _orbiting_box(np.pi / 2 + theta0, orbits=1)
+    I = sim.rigid.points[0].inertia
+    sigma = N_ORBIT * np.sqrt(3 * (I[1, 1] - I[0, 0]) / I[2, 2])
+    th = _pitch(res) - np.pi / 2
+    small = np.abs(th) < 0.05
+    assert small.sum() > 100 and np.abs(th).max() > 0.3  # it does depart
+    np.testing.assert_allclose(th[small], theta0 * np.cosh(sigma * res.time[small]), rtol=2e-3)
+
+
+def test_shrinking_body_tends_to_point_mass():
+    """The centre-of-mass orbit of a spinning box on the paper's ellipse tends to the point-mass
+    orbit as the box shrinks, like size^2 (the quadrupole): after one orbit the difference
+    falls by 4.02, 4.005, 4.001 as the size halves from 0.1 m (measured)."""
+    point = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="em", dt=PAPER_T / 100)
+    point.add_point("p", mass=1.0, position=PAPER_X0, velocity=PAPER_V0)
+    point.run(steps=100, every=100)
+    xp = point.state("p")[0]
+    diffs = []
+    for s in (0.1, 0.05, 0.025, 0.0125):
+        sim = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="em", dt=PAPER_T / 100)
+        sim.add_rigid("b", "box", size=[s, 0.6 * s, 0.3 * s], density=1.0, position=PAPER_X0, velocity=PAPER_V0,
+                      angular_velocity=[0, 0, 0.2])
+        sim.run(steps=100, every=100)
+        diffs.append(np.linalg.norm(sim.state("b")[0] - xp))
+    np.testing.assert_allclose(np.log2(np.array(diffs[:-1]) / np.array(diffs[1:])), 2.0, atol=0.01)
+    assert diffs[-1] < 1e-3
+
+
+def test_em_exact_midpoint_not_over_1000_orbits():
+    """A discretised box (8 mass points, gravity over the volume) on the paper's ellipse for
+    1000 orbits at T/100: em keeps energy <= 1e-12 relative, midpoint's oscillates (1e-2)."""
+    out = {}
+    for method in ("em", "midpoint"):
+        sim = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method=method, dt=PAPER_T / 100)
+        sim.add_rigid("b", "box", size=[0.5, 0.3, 0.2], density=1000.0, position=PAPER_X0, velocity=PAPER_V0,
+                      angular_velocity=[0.02, 0.01, 0.1])
+        out[method] = sim.run(steps=100_000, every=100)
+    assert np.abs(out["em"].relative_energy_error()).max() <= 1e-12
+    assert out["em"].relative_angular_momentum_error().max() <= 1e-12
+    assert np.abs(out["midpoint"].relative_energy_error()).max() > 1e-3
+    assert out["midpoint"].relative_angular_momentum_error().max() <= 1e-12
+
+
+def test_gravity_models():
+    """'point' puts all mass at the centre of mass (no torque: the spin is untouched) and
+    costs no mass-point work; 'volume' exerts the gravity-gradient torque."""
+    spins = {}
+    for model in ("point", "volume"):
+        sim = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="em", dt=PAPER_T / 100)
+        sim.add_rigid("b", "box", size=[0.4, 0.1, 0.06], density=1.0, position=PAPER_X0, velocity=PAPER_V0,
+                      rotation_vector=[0, 0, 0.4], gravity=model)
+        res = sim.run(steps=500, every=500)
+        spins[model] = np.abs(res.angular_velocities["b"][-1]).max()
+        assert np.abs(res.relative_energy_error()).max() < 1e-13
+    assert spins["point"] < 1e-15
+    assert spins["volume"] > 1e-3
+
+
+def test_chunking_is_bit_identical_and_mixed_scenes():
+    def make():
+        sim = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="em", order=4, dt=PAPER_T / 100)
+        sim.add_point("p", mass=1.0, position=PAPER_X0, velocity=PAPER_V0)
+        sim.add_rigid("b", "cylinder", radius=0.2, height=0.5, density=100.0, refinement=1, position=-PAPER_X0,
+                      velocity=-PAPER_V0, angular_velocity=[0.1, 0.2, 0.3])
+        return sim
+    a, b = make(), make()
+    ra = a.run(steps=300, every=1)
+    b.run(steps=123, every=7)
+    b.run(steps=177, every=100)
+    assert np.array_equal(a.rigid.q, b.rigid.q) and np.array_equal(a.rigid.v, b.rigid.v)
+    assert np.array_equal(a.points.x, b.points.x)
+    assert np.abs(ra.relative_energy_error()).max() < 1e-13
+    assert ra.kinds == {"p": "point", "b": "rigid"}
+
+
+# -- scenes, files and plots ---------------------------------------------------------------
+
+@pytest.mark.parametrize("scene", ["rigid-tumbling-box", "rigid-dumbbell-libration", "rigid-box-paper-ellipse"])
+def test_shipped_rigid_scenes(tmp_path, scene):
+    out = tmp_path / "r.h5"
+    assert main(["run", scene, "-o", str(out), "-q"]) == 0
+    with h5py.File(out, "r") as f:
+        name = next(iter(f["bodies"]))
+        g = f["bodies"][name]
+        assert g.attrs["kind"] == "rigid"
+        assert g["attitude"].attrs["unit"] == "1" and g["attitude"].shape[1] == 4
+        assert g["angular_velocity"].attrs["unit"] == "rad / s"
+        assert g["mass_points/position"].shape[0] == g.attrs["mass_points"]
+        np.testing.assert_allclose(np.linalg.norm(g["attitude"][()], axis=1), 1.0, atol=1e-12)
+        e = f["invariants/energy"][()]
+        assert np.abs(e / e[0] - 1).max() < 1e-12
+    fig = tmp_path / "r.png"
+    assert main(["plot", str(out), "-o", str(fig)]) == 0 and fig.stat().st_size > 10_000
+
+
+def test_dumbbell_scene_librates_at_sqrt3_n(tmp_path):
+    """The shipped dumbbell: pitch libration at n sqrt(3) for a body with I_radial ~ 0
+    (end spheres give I_radial / I_normal = 8e-4, included in the theory below)."""
+    sim = emorbit.load_scene("rigid-dumbbell-libration").build()
+    res = sim.run(t_end=sim.t_end_requested, every=1)
+    d1 = quaternion_to_matrix(res.attitudes["dumbbell"])[:, :, 0]
+    p = res.positions["dumbbell"]
+    radial = p / np.linalg.norm(p, axis=1)[:, None]
+    th = np.arctan2(np.einsum("ij,ij->i", d1, np.cross([0, 0, 1.0], radial)), np.einsum("ij,ij->i", d1, radial))
+    I = sim.rigid.points[0].inertia
+    n = np.sqrt(GM_EARTH / 7.0e6**3)
+    theta0 = np.radians(5.0)
+    theory = n * np.sqrt(3 * (I[1, 1] - I[0, 0]) / I[2, 2]) * (1 - theta0**2 / 4)
+    i = np.flatnonzero((th[:-1] < 0) & (th[1:] >= 0))
+    t = res.time
+    crossings = t[i] - th[i] * (t[i + 1] - t[i]) / (th[i + 1] - th[i])
+    period = np.polyfit(np.arange(crossings.size), crossings, 1)[0]
+    assert abs(2 * np.pi / period / theory - 1) < 2e-4
