@@ -228,14 +228,25 @@ def propagate(position, velocity, gm, dt, center=(0.0, 0.0, 0.0), *, max_iter: i
     sq = math.sqrt(gm)
     # starter: elliptic chi ~ sqrt(GM) alpha dt; otherwise from the near-parabolic guess
     chi = np.where(bound, sq * alpha * dt, sq * dt / r0)
+    # F(chi) increases monotonically (dF/dchi = r > 0), so a bracket keeps Newton safe where
+    # the starter is poor (e -> 1): a bound orbit with |dt| <= T/2 has |chi| = |dE| / sqrt(alpha)
+    # <= 2 pi / sqrt(alpha); a Newton step that leaves the bracket is replaced by bisection
+    # (unbound orbits keep plain Newton).
+    with np.errstate(invalid="ignore", divide="ignore"):
+        span = np.where(bound, 1.01 * _TWO_PI / np.sqrt(np.where(bound, alpha, 1.0)), np.inf)
+    lo, hi = -span, span.copy()
     for _ in range(max_iter):
         z = alpha * chi * chi
         C, S = _stumpff(z)
         chi2 = chi * chi
         F = vr / sq * chi2 * C + (1.0 - alpha * r0) * chi2 * chi * S + r0 * chi - sq * dt
         dF = vr / sq * chi * (1.0 - z * S) + (1.0 - alpha * r0) * chi2 * C + r0
-        step = F / dF
-        chi = chi - step
+        lo = np.where(F < 0.0, chi, lo)
+        hi = np.where(F > 0.0, chi, hi)
+        new = chi - F / dF
+        new = np.where(~bound | ((new >= lo) & (new <= hi)), new, 0.5 * (lo + hi))
+        step = chi - new
+        chi = new
         if np.all(np.abs(step) <= 4e-16 * np.maximum(np.abs(chi), 1e-300)):
             break
     z = alpha * chi * chi
