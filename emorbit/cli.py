@@ -52,7 +52,9 @@ def _parser() -> argparse.ArgumentParser:
 
 #: subcommands implemented in their own modules: name -> (module, help). Each module has
 #: ``add_arguments(parser)`` and ``run(args) -> int`` and is imported only when needed.
-PLUGINS: dict[str, tuple[str, str]] = {}
+PLUGINS: dict[str, tuple[str, str]] = {
+    "validate": ("validation.cli", "compare against REBOUND, astropy and Kepler; write a report"),
+}
 
 
 def _plugin(module: str):

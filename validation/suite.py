@@ -1,0 +1,79 @@
+"""The whole suite: run the cases, write the JSON, the figures and the report."""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import platform
+import time
+
+from .cases import get_cases
+from .report import write_json, write_markdown
+from .runner import run_case
+
+__all__ = ["run_suite", "environment"]
+
+
+def _cpu() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def environment() -> dict:
+    """Machine and versions, for the report."""
+    import astropy
+    import matplotlib
+    import numba
+    import numpy
+    import rebound
+
+    import emorbit
+
+    return {
+        "machine": f"{_cpu()}, {os.cpu_count()} cores, {platform.system()} {platform.release()}",
+        "versions": {"python": platform.python_version(), "emorbit": emorbit.__version__, "numpy": numpy.__version__,
+                     "numba": numba.__version__, "rebound": rebound.__version__, "astropy": astropy.__version__,
+                     "matplotlib": matplotlib.__version__},
+    }
+
+
+def run_suite(outdir: str, *, quick: bool = False, names=None, scale: float = 1.0, log=None) -> dict:
+    """Run the cases (all, or ``names``) in quick or full mode, write ``outdir``/report.md,
+    results.json, <case>.json and the figures; return the suite's results. ``scale``
+    multiplies every tolerance (1 = as stated; < 1 tightens them, e.g. to see a check fail).
+    ``log`` receives one line per finished case."""
+    mode = "quick" if quick else "full"
+    os.makedirs(outdir, exist_ok=True)
+    start = time.perf_counter()
+    results = []
+    for case in get_cases(mode, names):
+        out = run_case(case, mode, outdir, scale=scale)
+        results.append(out)
+        if log:
+            n_ok = sum(ch["passed"] for ch in out["checks"])
+            log(f"{case.name}: {'PASS' if out['passed'] else 'FAIL'} {n_ok}/{len(out['checks'])} checks "
+                f"({out['wall_s']:.1f} s)")
+            for ch in out["checks"]:
+                if not ch["passed"]:
+                    log(f"  FAIL {ch['id']}: {ch['value']:.3g} > {ch['tolerance']:.3g} {ch['unit']} ({ch['what']})")
+    checks = [ch for r in results for ch in r["checks"]]
+    suite = {
+        "mode": mode,
+        "tolerance_scale": scale,
+        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "environment": environment(),
+        "wall_s": time.perf_counter() - start,
+        "checks_total": len(checks),
+        "checks_passed": sum(ch["passed"] for ch in checks),
+        "passed": all(r["passed"] for r in results),
+        "cases": results,
+    }
+    write_json(suite, outdir)
+    write_markdown(suite, outdir)
+    return suite
