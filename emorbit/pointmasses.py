@@ -69,6 +69,19 @@ class PointMasses:
         self.cx = np.zeros_like(self.x)
         self.cv = np.zeros_like(self.v)
 
+    def pop(self, name: str):
+        """Remove point ``name``; returns (mass, position, velocity)."""
+        i = self.names.index(name)
+        out = (float(self.masses[i]), self.x[:, i].copy(), self.v[:, i].copy())
+        keep = [j for j in range(len(self.names)) if j != i]
+        del self.names[i]
+        self.masses = self.masses[keep]
+        self.x = np.ascontiguousarray(self.x[:, keep])
+        self.v = np.ascontiguousarray(self.v[:, keep])
+        self.cx = np.zeros_like(self.x)
+        self.cv = np.zeros_like(self.v)
+        return out
+
     def advance(self, method: str, gm: float, center: np.ndarray, dt: float, gammas: np.ndarray,
                 every: int, nrec: int, max_iter: int) -> ChunkRecords:
         """Advance all points ``nrec * every`` composed steps, recording every ``every``."""
@@ -120,11 +133,15 @@ class PointMasses:
         return (inv.energy(self.masses, x, v, gm, center), inv.momentum(self.masses, v),
                 inv.angular_momentum(self.masses, x, v, center))
 
-    def datasets(self, rec: ChunkRecords, nrec: int) -> dict:
+    def datasets(self, rec: ChunkRecords, nrec: int, times=None, first_row: int = 0) -> dict:
         """{name: {"position": (nrec, 3), "velocity": (nrec, 3)}}."""
         x, v = rec.x[:nrec], rec.v[:nrec]
         return {n: {"position": np.ascontiguousarray(x[:, :, i]), "velocity": np.ascontiguousarray(v[:, :, i])}
                 for i, n in enumerate(self.names)}
+
+    def body_datasets(self, i: int) -> dict:
+        """{dataset: (width, unit)} of body i."""
+        return self.DATASETS
 
     def body_attrs(self, i: int) -> dict:
         return {"kind": "point", "mass": float(self.masses[i]), "mass_unit": "kg"}

@@ -102,6 +102,26 @@ class RigidBodies:
         self.lam = np.zeros((len(self.names), 6))
         self._pack()
 
+    def pop(self, name: str) -> dict:
+        """Remove body ``name``; returns what is needed to add it elsewhere (shape, points,
+        gravity, position, velocity, R, omega_space, params)."""
+        b = self.names.index(name)
+        q, v = self.q[b], self.v[b]
+        D = q[3:].reshape(3, 3)
+        dD = v[3:].reshape(3, 3)
+        inv = {val: k for k, val in GRAVITY_MODELS.items()}
+        out = {"shape": self.shapes[b], "points": self.points[b], "gravity": inv[int(self.models[b])],
+               "position": q[:3].copy(), "velocity": v[:3].copy(), "R": D.T.copy(),
+               "omega_space": 0.5 * np.cross(D, dD).sum(axis=0), "params": self.params[b]}
+        keep = [j for j in range(len(self.names)) if j != b]
+        for attr in ("names", "shapes", "points", "params"):
+            lst = getattr(self, attr)
+            del lst[b]
+        for attr in ("models", "mass", "E", "Einv", "q", "v", "cq", "cv", "lam"):
+            setattr(self, attr, np.ascontiguousarray(getattr(self, attr)[keep]))
+        self._pack()
+        return out
+
     # -- stepping ------------------------------------------------------------------------
     def work_per_step(self) -> int:
         """A rough cost unit (mass points touched) for sizing chunks."""
@@ -152,7 +172,7 @@ class RigidBodies:
                 V[:, b] = -gm * np.einsum("n,rn->r", mb, 1.0 / np.linalg.norm(x - c[None, :, None], axis=1))
         return (T + V).sum(axis=1), P.sum(axis=1), L.sum(axis=1)
 
-    def datasets(self, rec: RigidRecords, nrec: int) -> dict:
+    def datasets(self, rec: RigidRecords, nrec: int, times=None, first_row: int = 0) -> dict:
         """{name: {dataset: (nrec, width)}} for position, velocity, attitude, angular_velocity."""
         q, v = rec.q[:nrec], rec.v[:nrec]
         D = q[..., 3:].reshape(q.shape[:-1] + (3, 3))
@@ -169,6 +189,10 @@ class RigidBodies:
                 "angular_velocity": np.ascontiguousarray(Omega[:, b]),
             }
         return out
+
+    def body_datasets(self, i: int) -> dict:
+        """{dataset: (width, unit)} of body i."""
+        return self.DATASETS
 
     def body_attrs(self, b: int) -> dict:
         """Attributes of body ``b``'s HDF5 group."""
@@ -276,6 +300,18 @@ def build_rigid(shape, params, *, position, velocity, attitude, rotation_vector,
         raise InputError(f"{key}.gravity", f"{gravity!r} needs a central field; without one use 'none'")
     x = vector_to_si(position, "length", f"{key}.position", strict=strict)
     v = vector_to_si(velocity, "speed", f"{key}.velocity", strict=strict)
+    R, omega_space = _attitude_matrix(attitude, rotation_vector, angular_velocity, frame, strict, key)
+    return {"points": points, "gravity": gravity, "position": x, "velocity": v, "R": R, "omega_space": omega_space,
+            "params": si_params}
+
+
+def _attitude_matrix(attitude, rotation_vector, angular_velocity, frame, strict, key):
+    """(R body-to-space, angular velocity in space) from a quaternion or rotation vector and an
+    angular velocity in the body or space frame, with errors naming the key."""
+    from .errors import InputError
+    from .rotations import quaternion_to_matrix, rotation_vector_to_matrix
+    from .units import vector_to_si
+
     if attitude is not None and rotation_vector is not None:
         raise InputError(f"{key}.attitude", "give the attitude or the rotation_vector, not both")
     if attitude is not None:
@@ -299,6 +335,4 @@ def build_rigid(shape, params, *, position, velocity, attitude, rotation_vector,
     w = vector_to_si(angular_velocity, "angular_speed", f"{key}.angular_velocity", strict=strict)
     if frame not in ("body", "space"):
         raise InputError(f"{key}.angular_velocity_frame", f"must be 'body' or 'space', got {frame!r}")
-    omega_space = R @ w if frame == "body" else w
-    return {"points": points, "gravity": gravity, "position": x, "velocity": v, "R": R, "omega_space": omega_space,
-            "params": si_params}
+    return R, (R @ w if frame == "body" else w)

@@ -40,6 +40,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
+import numpy as np
+
 from .errors import InputError
 from .field import CentralField
 from .integrators import check_order, get_method
@@ -50,10 +52,10 @@ __all__ = ["Scene", "load_scene", "list_scenes", "parse_scene", "simulation_to_t
 
 #: allowed keys per table; values: required?
 SCHEMA = {
-    "": {"field": False, "integrator": True, "body": True},
+    "": {"field": False, "integrator": True, "body": True, "coupling": False},
     "field": {"gm": False, "g_ref": False, "r_ref": False, "body": False, "center": False},
     "integrator": {"method": False, "order": False, "dt": True, "t_end": True, "output_every": False,
-                   "max_newton_iterations": False},
+                   "max_newton_iterations": False, "newton": False},
     "body.point": {"name": True, "kind": True, "mass": True, "position": True, "velocity": True},
     "body.rigid": {"name": True, "kind": True, "shape": True, "position": True, "velocity": True,
                    "attitude": False, "rotation_vector": False, "angular_velocity": False,
@@ -62,8 +64,20 @@ SCHEMA = {
                    "size": False, "radius": False, "height": False, "masses": False, "length": False,
                    "end_radius": False, "density": False, "mass": False, "refinement": False,
                    "nodes": False, "tetrahedra": False, "mesh_unit": False},
+    "body.elastic": {"name": True, "kind": True, "mesh": True, "position": True, "velocity": True,
+                     "young": True, "density": True, "poisson": False, "area": False, "mass_matrix": False,
+                     "attitude": False, "rotation_vector": False, "angular_velocity": False,
+                     "angular_velocity_frame": False, "gravity": False, "node_output_every": False,
+                     # mesh parameters (which apply depends on the mesh)
+                     "size": False, "elements": False, "start": False, "end": False, "file": False,
+                     "mesh_unit": False},
+    "coupling": {"kind": True, "elastic": True, "nodes": True, "to": True},
 }
-BODY_KINDS = ("point", "rigid")
+BODY_KINDS = ("point", "rigid", "elastic")
+COUPLING_KINDS = ("attach",)
+_ELASTIC_COMMON = ("name", "kind", "mesh", "position", "velocity", "young", "density", "poisson", "area",
+                   "mass_matrix", "attitude", "rotation_vector", "angular_velocity", "angular_velocity_frame",
+                   "gravity", "node_output_every")
 _RIGID_COMMON = ("name", "kind", "shape", "position", "velocity", "attitude", "rotation_vector", "angular_velocity",
                  "angular_velocity_frame", "gravity")
 
@@ -154,7 +168,11 @@ class Scene:
         max_iter = _int(integ.get("max_newton_iterations", 50), "integrator.max_newton_iterations", 1)
         dt = self.dt
         t_end = self.t_end
-        sim = Simulation(field, method=self.method, order=self.order, dt=dt, max_newton_iterations=max_iter)
+        newton = integ.get("newton", "auto")
+        if newton not in ("auto", "reuse", "full"):
+            raise InputError("integrator.newton", f"must be 'auto', 'reuse' or 'full', got {newton!r}")
+        sim = Simulation(field, method=self.method, order=self.order, dt=dt, max_newton_iterations=max_iter,
+                         newton=newton)
         bodies = d["body"]
         if not isinstance(bodies, list) or not bodies:
             raise InputError("body", "a scene needs at least one [[body]] table")
@@ -170,6 +188,19 @@ class Scene:
             if kind == "point":
                 sim.add_point(b["name"], mass=b["mass"], position=b["position"], velocity=b["velocity"],
                               strict=True, key=where)
+            elif kind == "elastic":
+                mesh_params = {k: v for k, v in b.items() if k not in _ELASTIC_COMMON}
+                if "file" in mesh_params and self.source not in ("<string>",) and os.path.isfile(self.source):
+                    mesh_params["file"] = os.path.join(os.path.dirname(os.path.abspath(self.source)),
+                                                       mesh_params["file"])
+                sim.add_elastic(b["name"], b["mesh"], position=b["position"], velocity=b["velocity"],
+                                young=b["young"], density=b["density"], poisson=b.get("poisson"), area=b.get("area"),
+                                attitude=b.get("attitude"), rotation_vector=b.get("rotation_vector"),
+                                angular_velocity=b.get("angular_velocity", ["0 rad/s", "0 rad/s", "0 rad/s"]),
+                                angular_velocity_frame=b.get("angular_velocity_frame", "body"),
+                                gravity=b.get("gravity"), mass_matrix=b.get("mass_matrix", "consistent"),
+                                node_output_every=b.get("node_output_every", 1), strict=True, key=where,
+                                **mesh_params)
             else:
                 shape_params = {k: v for k, v in b.items() if k not in _RIGID_COMMON}
                 sim.add_rigid(b["name"], b["shape"], position=b["position"], velocity=b["velocity"],
@@ -177,10 +208,45 @@ class Scene:
                               angular_velocity=b.get("angular_velocity", ["0 rad/s", "0 rad/s", "0 rad/s"]),
                               angular_velocity_frame=b.get("angular_velocity_frame", "body"),
                               gravity=b.get("gravity"), strict=True, key=where, **shape_params)
+        couplings = d.get("coupling", [])
+        if not isinstance(couplings, list):
+            raise InputError("coupling", "expected [[coupling]] tables")
+        for i, cpl in enumerate(couplings):
+            where = f"coupling[{i}]"
+            _check_keys(cpl, "coupling", where)
+            if cpl["kind"] not in COUPLING_KINDS:
+                raise InputError(f"{where}.kind", f"unknown coupling kind {cpl['kind']!r}; known: "
+                                                  f"{', '.join(COUPLING_KINDS)}")
+            sim.attach(cpl["elastic"], _select_nodes(sim, cpl["elastic"], cpl["nodes"], f"{where}.nodes"), cpl["to"],
+                       key=where)
         sim.steps_until(t_end)  # t_end must lie at least one step ahead
         sim.scene_text = self.text
         sim.t_end_requested = t_end
         return sim
+
+
+def _select_nodes(sim: Simulation, elastic: str, nodes, key: str) -> list[int]:
+    """Node indices from a list, or a selector: "first", "last" (chains), "<axis>-min" or
+    "<axis>-max" (the nodes on that face of the reference mesh, axis x, y or z)."""
+    if not isinstance(nodes, str):
+        return nodes
+    st = sim.structure
+    if st is None or elastic not in st.names:
+        raise InputError(key, f"no elastic body named {elastic!r} to select nodes from")
+    ref = st._body(elastic)["spec"].ref
+    if nodes == "first":
+        return [0]
+    if nodes == "last":
+        return [ref.shape[0] - 1]
+    axes = {"x": 0, "y": 1, "z": 2}
+    parts = nodes.split("-")
+    if len(parts) == 2 and parts[0] in axes and parts[1] in ("min", "max"):
+        col = ref[:, axes[parts[0]]]
+        target = col.min() if parts[1] == "min" else col.max()
+        tol = 1e-9 * max(float(np.ptp(ref, axis=0).max()), 1e-300)
+        return np.flatnonzero(np.abs(col - target) <= tol).tolist()
+    raise InputError(key, f"unknown node selector {nodes!r}; use a list of indices, 'first', 'last', "
+                          "or '<axis>-min' / '<axis>-max' with axis x, y or z")
 
 
 def parse_scene(text: str, source: str = "<string>") -> Scene:
@@ -261,6 +327,9 @@ def simulation_to_toml(sim: Simulation, t_end: float | None = None, output_every
                       f"angular_velocity = {_v(d['angular_velocity'][0], 'rad / s')}",
                       f'gravity = "{rb.body_attrs(b)["gravity"]}"']
             lines += _shape_lines(rb.params[b])
+    if sim.structure is not None:
+        lines += ["", "# elastic bodies and couplings built through the Python API are not written here: "
+                      + ", ".join(sim.structure.names)]
     return "\n".join(lines) + "\n"
 
 

@@ -68,6 +68,42 @@ def _steps_between(t_start: float, t_end: float, dt: float, key: str) -> int:
     return int(n)
 
 
+def _mesh(mesh, params: dict, strict: bool, key: str):
+    """(nodes in m, tetrahedra, bars) of a generated mesh or a mesh file."""
+    from . import elastic as el
+
+    allowed = {"beam": ("size", "elements"), "chain": ("start", "end", "elements"), "net": ("size", "elements"),
+               "file": ("file", "mesh_unit")}
+    if mesh not in allowed:
+        raise InputError(f"{key}.mesh", f"unknown mesh {mesh!r}; known: {', '.join(allowed)}")
+    for p in params:
+        if p not in allowed[mesh]:
+            raise InputError(f"{key}.{p}", f"not a parameter of mesh {mesh!r}; allowed: {', '.join(allowed[mesh])}")
+    for p in allowed[mesh]:
+        if p not in params and p != "mesh_unit":
+            raise InputError(f"{key}.{p}", f"missing (required for mesh {mesh!r})")
+    empty = np.zeros((0, 4), np.int64), np.zeros((0, 2), np.int64)
+    if mesh == "beam":
+        X, T = el.beam_mesh(vector_to_si(params["size"], "length", f"{key}.size", strict=strict),
+                            params["elements"], key)
+        return X, T, empty[1]
+    if mesh == "chain":
+        X, B = el.chain_mesh(vector_to_si(params["start"], "length", f"{key}.start", strict=strict),
+                             vector_to_si(params["end"], "length", f"{key}.end", strict=strict), params["elements"], key)
+        return X, empty[0], B
+    if mesh == "net":
+        size = params["size"]
+        if isinstance(size, str) or not hasattr(size, "__len__") or len(size) != 2:
+            raise InputError(f"{key}.size", f"two lengths expected, got {size!r}")
+        L = [to_si(s_, "length", f"{key}.size[{i}]", strict=strict, positive=True) for i, s_ in enumerate(size)]
+        X, B = el.net_mesh(L, params["elements"], key)
+        return X, empty[0], B
+    X, T, B = el.read_mesh(params["file"], key)
+    if "mesh_unit" in params:
+        X = X * to_si(f"1 {params['mesh_unit']}", "length", f"{key}.mesh_unit")
+    return X, T, B
+
+
 class Simulation:
     """Bodies in a central field (or in free space), advanced by one method at a fixed step.
 
@@ -83,10 +119,14 @@ class Simulation:
         the step in s.
     max_newton_iterations : int
         Newton iterations allowed per implicit sub-step before the step fails.
+    newton : str
+        for elastic structures: "full" refactors the Jacobian at every iteration, "reuse" keeps
+        sparse LU factors while they converge fast, "auto" (default) picks by size (see
+        :class:`emorbit.structure.Structure`).
     """
 
     def __init__(self, field: CentralField | None, *, method: str = "em", order: int = 2, dt,
-                 max_newton_iterations: int = 50):
+                 max_newton_iterations: int = 50, newton: str = "auto"):
         if field is not None and not isinstance(field, CentralField):
             raise InputError("field", f"expected a CentralField or None (free space), got {field!r}")
         self.field = field
@@ -97,8 +137,12 @@ class Simulation:
                 or max_newton_iterations < 1:
             raise InputError("max_newton_iterations", f"must be an integer >= 1, got {max_newton_iterations!r}")
         self.max_newton_iterations = int(max_newton_iterations)
+        if newton not in ("auto", "reuse", "full"):
+            raise InputError("newton", f"must be 'auto', 'reuse' or 'full', got {newton!r}")
+        self.newton = newton  # structures (elastic bodies) only: see emorbit.structure.Structure
         self.points = PointMasses()
         self.rigid = None  # created on the first rigid body, so point-mass runs never import it
+        self.structure = None  # elastic bodies and what they are attached to
         self._t_base = 0.0
         self._steps = 0
         #: the scene text stored in output files (set by :meth:`emorbit.scene.Scene.build`)
@@ -128,8 +172,8 @@ class Simulation:
 
     @property
     def systems(self) -> list:
-        """The body systems that have bodies, in a fixed order (points, rigid)."""
-        return [s for s in (self.points, self.rigid) if s is not None and len(s)]
+        """The body systems that have bodies, in a fixed order (points, rigid, structure)."""
+        return [s for s in (self.points, self.rigid, self.structure) if s is not None and len(s)]
 
     @property
     def names(self) -> list[str]:
@@ -199,6 +243,99 @@ class Simulation:
         self._check_method_supports(self.rigid, key)
         self.rigid.add(name, shape, spec["points"], spec["gravity"], spec["position"], spec["velocity"], spec["R"],
                        spec["omega_space"], spec["params"])
+
+    def _structure(self):
+        if self.structure is None:
+            from .structure import Structure
+
+            self.structure = Structure(newton=self.newton)
+        if self.structure._built:
+            raise InputError("body", "bodies and couplings cannot be added after the structure has started running")
+        return self.structure
+
+    def add_elastic(self, name: str, mesh: str, *, position, velocity, young, density, poisson=None, area=None,
+                    attitude=None, rotation_vector=None, angular_velocity=(0.0, 0.0, 0.0),
+                    angular_velocity_frame: str = "body", gravity: str | None = None, mass_matrix: str = "consistent",
+                    node_output_every: int = 1, strict: bool = False, key: str | None = None, **mesh_params) -> None:
+        """Add an elastic body (St. Venant-Kirchhoff bars and/or tetrahedra; see :mod:`emorbit.elastic`).
+
+        mesh        "beam" (size, elements), "chain" (start, end, elements), "net" (size,
+                    elements) or "file" (file[, mesh_unit]); node coordinates in the body frame
+        young, poisson, density, area   E (Pa), nu (tetrahedra), rho (kg/m3), bar cross-section (m2)
+        position, velocity, attitude / rotation_vector, angular_velocity[_frame]: the placement
+                    and rigid initial motion of the body frame, as for rigid bodies
+        gravity     "volume" (at the elements' quadrature points; default with a field) or "none"
+        mass_matrix "consistent" or "lumped"
+        node_output_every  records between nodal-position outputs in the file
+        """
+        from . import elastic as el
+        from .rigid import _attitude_matrix
+
+        key = key or f"body[{name!r}]"
+        self._new_name(name, key)
+        if self.method not in ("em", "midpoint"):
+            raise InputError("method", f"method {self.method!r} has no elastic-body kernel (needed by {key}); "
+                                       "use em or midpoint")
+        gravity = gravity or ("volume" if self.field is not None else "none")
+        if gravity not in ("volume", "none"):
+            raise InputError(f"{key}.gravity", f"must be 'volume' or 'none', got {gravity!r}")
+        if gravity == "volume" and self.field is None:
+            raise InputError(f"{key}.gravity", "'volume' needs a central field; without one use 'none'")
+        E = to_si(young, "pressure", f"{key}.young", strict=strict, positive=True)
+        rho = to_si(density, "density", f"{key}.density", strict=strict, positive=True)
+        A = to_si(area, "area", f"{key}.area", strict=strict, positive=True) if area is not None else None
+        if poisson is not None and (isinstance(poisson, bool) or not isinstance(poisson, numbers.Real)):
+            raise InputError(f"{key}.poisson", f"a number expected, got {poisson!r}")
+        X, tets, bars = _mesh(mesh, mesh_params, strict, key)
+        x = vector_to_si(position, "length", f"{key}.position", strict=strict)
+        v = vector_to_si(velocity, "speed", f"{key}.velocity", strict=strict)
+        R, omega = _attitude_matrix(attitude, rotation_vector, angular_velocity, angular_velocity_frame, strict, key)
+        spec = el.elastic_spec(name, X, tets, bars, young=E, density=rho, poisson=poisson, area=A,
+                               mass_matrix=mass_matrix, position=x, velocity=v, R=R, omega_space=omega,
+                               gravity=gravity == "volume", node_output_every=node_output_every, key=key)
+        if gravity == "volume":
+            d = np.linalg.norm(spec.nodes - self.center, axis=1)
+            if not np.all(d > 0):
+                raise InputError(f"{key}.position", "a node of the body is at the field's centre")
+        self._structure().add_elastic(spec)
+
+    def attach(self, elastic: str, nodes, to: str, key: str = "coupling") -> None:
+        """Let nodes ``nodes`` (indices into the elastic body's mesh) of ``elastic`` ride on body
+        ``to``: on a rigid body at the material point where each node is now, or, for a point
+        mass, be that point mass (the node must start where the point mass is)."""
+        st = self._structure()
+        if elastic not in st.names or st._body(elastic)["kind"] != "elastic":
+            raise InputError(f"{key}.elastic", f"no elastic body named {elastic!r}")
+        spec = st._body(elastic)["spec"]
+        try:
+            idx = [int(n) for n in nodes]
+        except (TypeError, ValueError):
+            raise InputError(f"{key}.nodes", f"a list of node indices expected, got {nodes!r}") from None
+        if not idx:
+            raise InputError(f"{key}.nodes", "no nodes given")
+        for n in idx:
+            if not 0 <= n < spec.nodes.shape[0]:
+                raise InputError(f"{key}.nodes", f"node {n} is not in 0..{spec.nodes.shape[0] - 1}")
+        if to == elastic:
+            raise InputError(f"{key}.to", "a body cannot be attached to itself")
+        if to in self.points.names:
+            m, x, v = self.points.pop(to)
+            if len(idx) != 1:
+                raise InputError(f"{key}.nodes", "a point mass takes exactly one node")
+            if np.linalg.norm(spec.nodes[idx[0]] - x) > 1e-9 * max(1.0, np.linalg.norm(x)):
+                self.points.add(to, m, x, v)
+                raise InputError(f"{key}.nodes", f"node {idx[0]} starts at {spec.nodes[idx[0]].tolist()} m, "
+                                                 f"not at point mass {to!r} ({x.tolist()} m)")
+            st.add_point(to, m, x, v)
+        elif self.rigid is not None and to in self.rigid.names:
+            b = self.rigid.pop(to)
+            st.add_rigid(to, b["points"], b["gravity"], b["position"], b["velocity"], b["R"], b["omega_space"],
+                         b["shape"], b["params"])
+        elif to in st.names and st._body(to)["kind"] in ("point", "rigid"):
+            pass  # already in the structure
+        else:
+            raise InputError(f"{key}.to", f"no point mass or rigid body named {to!r}")
+        st.attach(elastic, idx, to)
 
     # -- diagnostics of the current state ----------------------------------------------
     def _find(self, name: str):
@@ -274,10 +411,12 @@ class Simulation:
         if progress is None:
             progress = sys.stderr.isatty()
 
+        if self.structure is not None:
+            self.structure.build()
         writer = None
         if output is not None:
-            bodies = [{"name": n, "attrs": s.body_attrs(i), "datasets": s.DATASETS, "constants": s.body_constants(i)}
-                      for s in self.systems for i, n in enumerate(s.names)]
+            bodies = [{"name": n, "attrs": s.body_attrs(i), "datasets": s.body_datasets(i),
+                       "constants": s.body_constants(i)} for s in self.systems for i, n in enumerate(s.names)]
             writer = Writer(output, bodies, self._file_attrs(every, n_steps), overwrite=overwrite)
         sink = _Sink(self, writer, keep)
         try:
@@ -378,6 +517,7 @@ class _Sink:
         self.writer = writer
         self.keep = keep
         self.blocks: list[tuple] = []
+        self.rows = 0  # records emitted so far
 
     def emit(self, recs, steps, nrec: int, k: int) -> None:
         """Record rows [:nrec] of each system's chunk; ``steps`` (nrec,) are the step counts
@@ -397,10 +537,11 @@ class _Sink:
             energy += e
             momentum += p
             angular += L
-            data.update(system.datasets(rec, nrec))
+            data.update(system.datasets(rec, nrec, times, self.rows))
             iters += rec.iterations[:nrec].sum(axis=1)
-            solves += len(system)
+            solves += rec.iterations.shape[1]  # solves per step: points, bodies, or 1 per structure
         its = iters / (k * coefficients(sim.order).size * solves) if k else np.zeros(nrec)
+        self.rows += nrec
         block = (times, energy, momentum, angular, its, data)
         if self.writer is not None:
             self.writer.append(*block)

@@ -31,6 +31,7 @@ SI = {
     "angle": u.rad,
     "angular_speed": u.rad / u.s,
     "density": u.kg / u.m**3,
+    "area": u.m**2,
     "pressure": u.Pa,
 }
 

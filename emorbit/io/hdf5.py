@@ -66,15 +66,20 @@ def _versions() -> str:
 
 
 def _growable(group, name, width, unit, chunk_rows):
-    shape = (0,) if width is None else (0, width)
-    maxshape = (None,) if width is None else (None, width)
-    chunks = (chunk_rows,) if width is None else (chunk_rows, width)
+    """A dataset growing along its first axis; ``width`` is None (1-D), an int, or a shape."""
+    tail = () if width is None else ((width,) if isinstance(width, int) else tuple(width))
+    shape = (0,) + tail
+    maxshape = (None,) + tail
+    rows = max(1, min(chunk_rows, (1 << 20) // (8 * max(1, int(np.prod(tail))))))
+    chunks = (rows,) + tail
     ds = group.create_dataset(name, shape=shape, maxshape=maxshape, chunks=chunks, dtype="f8")
     ds.attrs["unit"] = unit
     return ds
 
 
 def _append(ds, block):
+    if len(block) == 0:
+        return
     n0 = ds.shape[0]
     ds.resize(n0 + block.shape[0], axis=0)
     ds[n0:] = block
@@ -84,7 +89,7 @@ class Writer:
     """Create ``path`` and append records to it.
 
     ``bodies`` is a list of dicts with keys ``name``, ``attrs`` (group attributes),
-    ``datasets`` ({dataset: (width, unit)}, growable, one row per record) and ``constants``
+    ``datasets`` ({dataset: (width or shape, unit)}, growable, a row per record or fewer) and ``constants``
     ({path: (array, unit)}, written once); ``attrs`` root attributes to store. An existing
     file is an :class:`InputError` unless ``overwrite`` is true, so a finished run is never
     lost by accident.

@@ -1,0 +1,244 @@
+"""Elastic bodies: meshes (generated or read), St. Venant-Kirchhoff materials, and the arrays
+a :class:`~emorbit.structure.Structure` needs (an :class:`~emorbit.structure.ElasticSpec`).
+
+Meshes are in the body frame; ``x = position + R X`` places them. Generated meshes:
+
+* ``beam``: a box of ``size`` = (Lx, Ly, Lz) centred on the origin, ``elements`` = (nx, ny, nz)
+  hexahedral cells each cut into 6 tetrahedra (Kuhn's conforming split);
+* ``chain``: ``elements`` bars from ``start`` to ``end`` (a tether);
+* ``net``: a grid of bars in the x-y plane, ``size`` = (Lx, Ly), ``elements`` = (nx, ny),
+  centred on the origin.
+
+Mesh files (``file``): an HDF5 file with ``/nodes`` (n, 3) (attribute ``unit``, default m)
+and ``/tetrahedra`` (m, 4) and/or ``/bars`` (m, 2) of 0-based node indices; or any format
+meshio reads (points and "tetra"/"line" cells), when meshio is installed.
+
+Materials: Young's modulus E > 0, Poisson's ratio -1 < nu < 0.5 (tetrahedra), density > 0,
+cross-section area > 0 (bars). Mass matrices: consistent (default) or lumped. Gravity acts
+at the elements' quadrature points (tetrahedra: the 4-point degree-2 rule; bars: 2-point Gauss).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import scipy.sparse as sp
+
+from .errors import InputError
+from .structure import ElasticSpec
+
+__all__ = ["beam_mesh", "chain_mesh", "net_mesh", "read_mesh", "elastic_spec", "MESH_KINDS"]
+
+MESH_KINDS = ("beam", "chain", "net", "file")
+_TET_A = 0.5854101966249685
+_TET_B = 0.1381966011250105
+
+
+def beam_mesh(size, elements, key: str = "body"):
+    """Nodes (n, 3) and tetrahedra (m, 4) of a box cut into 6 tetrahedra per cell."""
+    L = np.asarray(size, float)
+    n = np.asarray(elements)
+    if L.shape != (3,) or not np.all(L > 0):
+        raise InputError(f"{key}.size", f"three lengths > 0 expected, got {size!r}")
+    if n.shape != (3,) or not np.issubdtype(n.dtype, np.integer) or not np.all(n >= 1):
+        raise InputError(f"{key}.elements", f"three integers >= 1 expected, got {elements!r}")
+    axes = [np.linspace(-L[k] / 2, L[k] / 2, n[k] + 1) for k in range(3)]
+    X = np.array(np.meshgrid(*axes, indexing="ij")).reshape(3, -1).T
+    idx = np.arange(X.shape[0]).reshape(n[0] + 1, n[1] + 1, n[2] + 1)
+    # Kuhn: the 6 tetrahedra along the diagonal (0,0,0)-(1,1,1) of each cell, one per axis order
+    orders = [(0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)]
+    tets = []
+    for i in range(n[0]):
+        for j in range(n[1]):
+            for k in range(n[2]):
+                for order in orders:
+                    p = np.array([i, j, k])
+                    verts = [idx[tuple(p)]]
+                    for ax in order:
+                        p = p.copy()
+                        p[ax] += 1
+                        verts.append(idx[tuple(p)])
+                    tets.append(verts)
+    T = np.array(tets, dtype=np.int64)
+    # orient every element positively
+    P = X[T]
+    vol = np.einsum("ij,ij->i", np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), P[:, 3] - P[:, 0])
+    T[vol < 0] = T[vol < 0][:, [0, 2, 1, 3]]
+    return X, T
+
+
+def chain_mesh(start, end, elements, key: str = "body"):
+    """Nodes (n + 1, 3) and bars (n, 2) on the segment from ``start`` to ``end``."""
+    a = np.asarray(start, float)
+    b = np.asarray(end, float)
+    if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) or elements < 1:
+        raise InputError(f"{key}.elements", f"an integer >= 1 expected, got {elements!r}")
+    t = np.linspace(0.0, 1.0, int(elements) + 1)
+    X = a[None] + t[:, None] * (b - a)[None]
+    bars = np.stack([np.arange(elements), np.arange(1, elements + 1)], 1)
+    return X, bars
+
+
+def net_mesh(size, elements, key: str = "body"):
+    """Nodes and bars of a rectangular grid of bars in the x-y plane, centred on the origin."""
+    L = np.asarray(size, float)
+    n = np.asarray(elements)
+    if L.shape != (2,) or not np.all(L > 0):
+        raise InputError(f"{key}.size", f"two lengths > 0 expected, got {size!r}")
+    if n.shape != (2,) or not np.issubdtype(n.dtype, np.integer) or not np.all(n >= 1):
+        raise InputError(f"{key}.elements", f"two integers >= 1 expected, got {elements!r}")
+    xs = np.linspace(-L[0] / 2, L[0] / 2, n[0] + 1)
+    ys = np.linspace(-L[1] / 2, L[1] / 2, n[1] + 1)
+    X = np.array([[x, y, 0.0] for x in xs for y in ys])
+    idx = np.arange(X.shape[0]).reshape(n[0] + 1, n[1] + 1)
+    bars = [(idx[i, j], idx[i + 1, j]) for i in range(n[0]) for j in range(n[1] + 1)]
+    bars += [(idx[i, j], idx[i, j + 1]) for i in range(n[0] + 1) for j in range(n[1])]
+    return X, np.array(bars, dtype=np.int64)
+
+
+def read_mesh(path, key: str = "body"):
+    """(nodes in m, tetrahedra, bars) from an HDF5 file in the documented layout, or from any
+    file meshio reads."""
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise InputError(f"{key}.file", f"mesh file {path!r} does not exist")
+    if path.endswith((".h5", ".hdf5")):
+        import astropy.units as u
+        import h5py
+
+        with h5py.File(path, "r") as f:
+            if "nodes" not in f:
+                raise InputError(f"{key}.file", f"{path!r} has no /nodes dataset")
+            unit = f["nodes"].attrs.get("unit", "m")
+            unit = unit.decode() if isinstance(unit, bytes) else unit
+            try:
+                scale = u.Unit(unit).to(u.m)
+            except (ValueError, u.UnitConversionError):
+                raise InputError(f"{key}.file", f"/nodes has unit {unit!r}, not a length") from None
+            X = f["nodes"][()] * scale
+            T = f["tetrahedra"][()].astype(np.int64) if "tetrahedra" in f else np.zeros((0, 4), np.int64)
+            B = f["bars"][()].astype(np.int64) if "bars" in f else np.zeros((0, 2), np.int64)
+        return X, T, B
+    try:
+        import meshio
+    except ImportError:
+        raise InputError(f"{key}.file", f"{path!r} is not HDF5 and meshio is not installed "
+                                        "(pip install meshio, or use the HDF5 layout)") from None
+    m = meshio.read(path)
+    T = np.concatenate([c.data for c in m.cells if c.type == "tetra"] or [np.zeros((0, 4), np.int64)]).astype(np.int64)
+    B = np.concatenate([c.data for c in m.cells if c.type == "line"] or [np.zeros((0, 2), np.int64)]).astype(np.int64)
+    return np.asarray(m.points, float), T, B
+
+
+def elastic_spec(name, X, tets, bars, *, young, density, poisson=None, area=None, mass_matrix="consistent",
+                 position, velocity, R, omega_space, gravity=True, node_output_every=1, key="body") -> ElasticSpec:
+    """Check a mesh and a material and build the arrays of an elastic body (SI)."""
+    X = np.asarray(X, float)
+    tets = np.asarray(tets, dtype=np.int64).reshape(-1, 4)
+    bars = np.asarray(bars, dtype=np.int64).reshape(-1, 2)
+    nn = X.shape[0]
+    if X.ndim != 2 or X.shape[1] != 3 or nn < 2 or not np.all(np.isfinite(X)):
+        raise InputError(f"{key}.nodes", f"expected finite (n >= 2, 3) coordinates, got shape {X.shape}")
+    if tets.size == 0 and bars.size == 0:
+        raise InputError(key, "the mesh has no elements")
+    for arr, what in ((tets, "tetrahedra"), (bars, "bars")):
+        if arr.size and (arr.min() < 0 or arr.max() >= nn):
+            bad = int(np.flatnonzero((arr < 0).any(1) | (arr >= nn).any(1))[0])
+            raise InputError(f"{key}.{what}[{bad}]", f"node index out of range 0..{nn - 1}: {arr[bad].tolist()}")
+    if not (young > 0):
+        raise InputError(f"{key}.young", f"Young's modulus must be > 0, got {young!r} Pa")
+    if not (density > 0):
+        raise InputError(f"{key}.density", f"must be > 0, got {density!r} kg/m3")
+    if tets.size:
+        if poisson is None:
+            raise InputError(f"{key}.poisson", "missing: tetrahedra need Poisson's ratio")
+        if not (-1.0 < poisson < 0.5):
+            raise InputError(f"{key}.poisson", f"Poisson's ratio must be in (-1, 0.5), got {poisson!r}")
+    if bars.size and not (area is not None and area > 0):
+        raise InputError(f"{key}.area", f"bars need a cross-section area > 0, got {area!r} m2")
+    if mass_matrix not in ("consistent", "lumped"):
+        raise InputError(f"{key}.mass_matrix", f"must be 'consistent' or 'lumped', got {mass_matrix!r}")
+    used = np.zeros(nn, bool)
+    used[tets.ravel()] = True
+    used[bars.ravel()] = True
+    if not used.all():
+        raise InputError(f"{key}.nodes[{int(np.flatnonzero(~used)[0])}]", "node belongs to no element (dangling node)")
+    size = float(np.ptp(X, axis=0).max())
+    rows, cols, vals = [], [], []
+    # tetrahedra
+    nt = tets.shape[0]
+    tet_g = np.zeros((nt, 3, 4))
+    tet_V = np.zeros(nt)
+    if nt:
+        P = X[tets]
+        Dm = np.stack([P[:, 1] - P[:, 0], P[:, 2] - P[:, 0], P[:, 3] - P[:, 0]], axis=2)  # columns
+        vol = np.linalg.det(Dm) / 6.0
+        tiny = 1e-12 * size**3
+        for what, mask in (("zero-volume", np.abs(vol) <= tiny), ("inverted (negative volume)", vol < -tiny)):
+            if mask.any():
+                e = int(np.flatnonzero(mask)[0])
+                raise InputError(f"{key}.tetrahedra[{e}]", f"{what} element {tets[e].tolist()}, volume {vol[e]!r} m3")
+        inv = np.linalg.inv(Dm)  # rows: gradients of N1..N3
+        tet_g[:, :, 1:] = np.transpose(inv, (0, 2, 1))
+        tet_g[:, :, 0] = -tet_g[:, :, 1:].sum(axis=2)
+        tet_V = vol
+        for a in range(4):
+            for b in range(4):
+                rows.append(tets[:, a])
+                cols.append(tets[:, b])
+                if mass_matrix == "consistent":
+                    vals.append(density * vol / 20.0 * (2.0 if a == b else 1.0))
+                else:
+                    vals.append(density * vol / 4.0 * (1.0 if a == b else 0.0))
+    lam_ = young * (poisson or 0.0) / ((1 + (poisson or 0.0)) * (1 - 2 * (poisson or 0.0)))
+    mu_ = young / (2 * (1 + (poisson or 0.0)))
+    # bars
+    nb = bars.shape[0]
+    bar_L = np.linalg.norm(X[bars[:, 1]] - X[bars[:, 0]], axis=1) if nb else np.zeros(0)
+    if nb and np.any(bar_L <= 1e-12 * max(size, 1e-300)):
+        e = int(np.flatnonzero(bar_L <= 1e-12 * max(size, 1e-300))[0])
+        raise InputError(f"{key}.bars[{e}]", f"zero-length bar {bars[e].tolist()}")
+    if nb:
+        mb = density * area * bar_L
+        for a in range(2):
+            for b in range(2):
+                rows.append(bars[:, a])
+                cols.append(bars[:, b])
+                vals.append(mb / 6.0 * (2.0 if a == b else 1.0) if mass_matrix == "consistent"
+                            else mb / 2.0 * (1.0 if a == b else 0.0))
+    M = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(nn, nn)).tocsr()
+    M.sum_duplicates()
+    # gravity points
+    gp_node, gp_w, gp_m = [], [], []
+    for e in range(nt):
+        for j in range(4):
+            w = np.full(4, _TET_B)
+            w[j] = _TET_A
+            gp_node.append(tets[e])
+            gp_w.append(w)
+            gp_m.append(density * tet_V[e] / 4.0)
+    g = 0.5 / np.sqrt(3.0)
+    for e in range(nb):
+        for xi in (0.5 - g, 0.5 + g):
+            gp_node.append([bars[e, 0], bars[e, 1], -1, -1])
+            gp_w.append([1.0 - xi, xi, 0.0, 0.0])
+            gp_m.append(density * area * bar_L[e] / 2.0)
+    R = np.asarray(R, float)
+    x = np.asarray(position, float)[None] + X @ R.T
+    v = np.asarray(velocity, float)[None] + np.cross(np.asarray(omega_space, float)[None], x - np.asarray(position)[None])
+    if isinstance(node_output_every, bool) or not isinstance(node_output_every, (int, np.integer)) or node_output_every < 1:
+        raise InputError(f"{key}.node_output_every", f"an integer >= 1 expected, got {node_output_every!r}")
+    material = {"young": float(young), "young_unit": "Pa", "density": float(density), "density_unit": "kg / m3",
+                "mass_matrix": mass_matrix}
+    if poisson is not None:
+        material["poisson"] = float(poisson)
+    if area is not None:
+        material["area"] = float(area)
+        material["area_unit"] = "m2"
+    return ElasticSpec(
+        name=name, nodes=x, velocities=v, ref=X, bars=bars, bar_EA=np.full(nb, young * (area or 0.0)), bar_L=bar_L,
+        tets=tets, tet_g=tet_g, tet_V=tet_V, tet_lam=np.full(nt, lam_), tet_mu=np.full(nt, mu_), node_mass=M,
+        gp_node=np.array(gp_node, dtype=np.int64).reshape(-1, 4), gp_w=np.array(gp_w, float).reshape(-1, 4),
+        gp_m=np.array(gp_m, float), gravity=bool(gravity), node_output_every=int(node_output_every),
+        material=material)

@@ -1,0 +1,298 @@
+"""Elastic elements and coupled structures: internal forces, gravity at quadrature points and
+their derivatives, assembled into the residual and a fixed sparse (CSC) Jacobian pattern.
+
+Unknowns are *slots*: 3-vectors that are FE node coordinates, point-mass positions, or a rigid
+body's centre of mass ``phi`` and axes ``d_k``. Every mass matrix in the structure is a scalar
+matrix times I3 over slots, and every material point is linear in the slots:
+
+* a *node* is ``x = sum_j c_j u[s_j]`` over at most 4 slots (a free node: one slot with c = 1;
+  a node riding on a rigid body: ``phi + X^k d_k``);
+* a *gravity point* (quadrature point of an element, a point mass, a rigid body's mass point)
+  is ``x = sum_a N_a x[node_a]`` over at most 4 nodes, with mass ``m``.
+
+Elements (St. Venant-Kirchhoff, Green strain E = (F^T F - I)/2, S = lambda tr(E) I + 2 mu E):
+
+* 2-node bar, E = (l^2 - L^2)/(2 L^2): force on node b ``-EA/L * E_bar * d05`` with
+  ``E_bar = (E00 + E10)/2`` (energy-momentum) or ``E(d05)`` (midpoint), d = x_b - x_a;
+* 4-node linear tetrahedron, F = sum_a x_a g_a^T (g_a the reference shape gradients): force on
+  node a ``-V F05 S g_a`` with ``S = C : (E00 + E10)/2`` (Simo & Tarnow) or ``S(E(F05))``.
+
+Because E is quadratic in the nodes, ``E10 - E00 = sym(F05^T (F10 - F00))`` exactly, so the
+algorithmic stress does work equal to minus the change in strain energy; with g_em at the
+gravity points (linear in the nodes) the discrete energy balance is exact. Jacobians are the
+exact derivatives with respect to the end-of-step configuration (unsymmetric).
+
+Everything here is plain arrays; :mod:`emorbit.structure` builds them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .gravity import accel, accel_jacobian_coeffs, em_accel, em_jacobian_coeffs
+from .jit import kernel
+from .pointmass import METHOD_EM, STATUS_OK, STATUS_SINGULAR
+
+__all__ = [
+    "node_positions",
+    "gravity_point_positions",
+    "bar_forces",
+    "tet_forces",
+    "gravity_forces",
+    "strain_energy",
+    "csc_find",
+]
+
+
+@kernel
+def node_positions(u, node_slot, node_coef, out):
+    """out (n_nodes, 3) = positions of the nodes for slot values u (n_slots, 3)."""
+    for i in range(node_slot.shape[0]):
+        x0 = x1 = x2 = 0.0
+        for j in range(4):
+            s = node_slot[i, j]
+            if s < 0:
+                break
+            c = node_coef[i, j]
+            x0 += c * u[s, 0]
+            x1 += c * u[s, 1]
+            x2 += c * u[s, 2]
+        out[i, 0] = x0
+        out[i, 1] = x1
+        out[i, 2] = x2
+
+
+@kernel
+def gravity_point_positions(xn, gp_node, gp_w, out):
+    """out (n_gp, 3) = positions of the gravity points from node positions xn."""
+    for q in range(gp_node.shape[0]):
+        x0 = x1 = x2 = 0.0
+        for a in range(4):
+            n = gp_node[q, a]
+            if n < 0:
+                break
+            w = gp_w[q, a]
+            x0 += w * xn[n, 0]
+            x1 += w * xn[n, 1]
+            x2 += w * xn[n, 2]
+        out[q, 0] = x0
+        out[q, 1] = x1
+        out[q, 2] = x2
+
+
+@kernel
+def bar_forces(method, x0, x1, bar_node, bar_EA, bar_L, fn, kb):
+    """Add bar forces to fn (n_nodes, 3); kb (n_bars, 3, 3) receives K_bb = d f_b / d x_b1
+    (the other blocks are K_aa = K_bb, K_ab = K_ba = -K_bb)."""
+    for e in range(bar_node.shape[0]):
+        a = bar_node[e, 0]
+        b = bar_node[e, 1]
+        L2 = bar_L[e] * bar_L[e]
+        k = bar_EA[e] / bar_L[e]
+        d0x = x0[b, 0] - x0[a, 0]
+        d0y = x0[b, 1] - x0[a, 1]
+        d0z = x0[b, 2] - x0[a, 2]
+        d1x = x1[b, 0] - x1[a, 0]
+        d1y = x1[b, 1] - x1[a, 1]
+        d1z = x1[b, 2] - x1[a, 2]
+        mx = 0.5 * (d0x + d1x)
+        my = 0.5 * (d0y + d1y)
+        mz = 0.5 * (d0z + d1z)
+        if method == METHOD_EM:
+            e0 = (d0x * d0x + d0y * d0y + d0z * d0z - L2) / (2.0 * L2)
+            e1 = (d1x * d1x + d1y * d1y + d1z * d1z - L2) / (2.0 * L2)
+            eb = 0.5 * (e0 + e1)
+            gx, gy, gz = d1x, d1y, d1z  # d E_bar / d x_b1 = d1 / (2 L^2)
+        else:
+            eb = (mx * mx + my * my + mz * mz - L2) / (2.0 * L2)
+            gx, gy, gz = mx, my, mz  # d E(d05) / d x_b1 = d05 / (2 L^2)
+        fx = -k * eb * mx
+        fy = -k * eb * my
+        fz = -k * eb * mz
+        fn[b, 0] += fx
+        fn[b, 1] += fy
+        fn[b, 2] += fz
+        fn[a, 0] -= fx
+        fn[a, 1] -= fy
+        fn[a, 2] -= fz
+        m3 = (mx, my, mz)
+        g3 = (gx, gy, gz)
+        for i in range(3):
+            for j in range(3):
+                kb[e, i, j] = -k * m3[i] * g3[j] / (2.0 * L2)
+            kb[e, i, i] -= 0.5 * k * eb
+
+
+@kernel
+def tet_forces(method, x0, x1, tet_node, tet_g, tet_V, tet_lam, tet_mu, fn, kt):
+    """Add tetrahedron forces to fn (n_nodes, 3); kt (n_tets, 4, 4, 3, 3) receives
+    K_ab = d f_a / d x_b1 for every node pair of each element."""
+    F0 = np.empty((3, 3))
+    F1 = np.empty((3, 3))
+    Fm = np.empty((3, 3))
+    Fs = np.empty((3, 3))  # F1 (energy-momentum) or F05 (midpoint): the strain's own gradient
+    S = np.empty((3, 3))
+    E = np.empty((3, 3))
+    for e in range(tet_node.shape[0]):
+        g = tet_g[e]  # (3, 4) reference gradients of the shape functions
+        for i in range(3):
+            for j in range(3):
+                s0 = 0.0
+                s1 = 0.0
+                for a in range(4):
+                    s0 += x0[tet_node[e, a], i] * g[j, a]
+                    s1 += x1[tet_node[e, a], i] * g[j, a]
+                F0[i, j] = s0
+                F1[i, j] = s1
+                Fm[i, j] = 0.5 * (s0 + s1)
+        for i in range(3):
+            for j in range(3):
+                if method == METHOD_EM:
+                    c0 = 0.0
+                    c1 = 0.0
+                    for k in range(3):
+                        c0 += F0[k, i] * F0[k, j]
+                        c1 += F1[k, i] * F1[k, j]
+                    E[i, j] = 0.25 * (c0 + c1) - (0.5 if i == j else 0.0)  # (E00 + E10) / 2
+                    Fs[i, j] = F1[i, j]
+                else:
+                    c = 0.0
+                    for k in range(3):
+                        c += Fm[k, i] * Fm[k, j]
+                    E[i, j] = 0.5 * c - (0.5 if i == j else 0.0)  # E(F05)
+                    Fs[i, j] = Fm[i, j]
+        lam = tet_lam[e]
+        mu = tet_mu[e]
+        tr = E[0, 0] + E[1, 1] + E[2, 2]
+        for i in range(3):
+            for j in range(3):
+                S[i, j] = 2.0 * mu * E[i, j] + (lam * tr if i == j else 0.0)
+        V = tet_V[e]
+        for a in range(4):
+            # f_a = -V F05 S g_a
+            sg0 = S[0, 0] * g[0, a] + S[0, 1] * g[1, a] + S[0, 2] * g[2, a]
+            sg1 = S[1, 0] * g[0, a] + S[1, 1] * g[1, a] + S[1, 2] * g[2, a]
+            sg2 = S[2, 0] * g[0, a] + S[2, 1] * g[1, a] + S[2, 2] * g[2, a]
+            n = tet_node[e, a]
+            for i in range(3):
+                fn[n, i] -= V * (Fm[i, 0] * sg0 + Fm[i, 1] * sg1 + Fm[i, 2] * sg2)
+            # Fs g_a
+            fa0 = Fs[0, 0] * g[0, a] + Fs[0, 1] * g[1, a] + Fs[0, 2] * g[2, a]
+            fa1 = Fs[1, 0] * g[0, a] + Fs[1, 1] * g[1, a] + Fs[1, 2] * g[2, a]
+            fa2 = Fs[2, 0] * g[0, a] + Fs[2, 1] * g[1, a] + Fs[2, 2] * g[2, a]
+            for b in range(4):
+                # K_ab = -V/2 [ (g_b . S g_a) I + F05 (lam g_a (Fs g_b)^T + mu (g_a.g_b) Fs^T + mu g_b (Fs g_a)^T) ]
+                gsg = g[0, b] * sg0 + g[1, b] * sg1 + g[2, b] * sg2
+                gg = g[0, a] * g[0, b] + g[1, a] * g[1, b] + g[2, a] * g[2, b]
+                fb0 = Fs[0, 0] * g[0, b] + Fs[0, 1] * g[1, b] + Fs[0, 2] * g[2, b]
+                fb1 = Fs[1, 0] * g[0, b] + Fs[1, 1] * g[1, b] + Fs[1, 2] * g[2, b]
+                fb2 = Fs[2, 0] * g[0, b] + Fs[2, 1] * g[1, b] + Fs[2, 2] * g[2, b]
+                fbv = (fb0, fb1, fb2)
+                fav = (fa0, fa1, fa2)
+                for p in range(3):  # inner matrix A = lam g_a (Fs g_b)^T + mu gg Fs^T + mu g_b (Fs g_a)^T
+                    for k in range(3):
+                        inner = lam * g[p, a] * fbv[k] + mu * gg * Fs[k, p] + mu * g[p, b] * fav[k]
+                        E[p, k] = inner  # reuse E as scratch for A (E is no longer needed)
+                for i in range(3):
+                    for k in range(3):
+                        s = Fm[i, 0] * E[0, k] + Fm[i, 1] * E[1, k] + Fm[i, 2] * E[2, k]
+                        kt[e, a, b, i, k] = -0.5 * V * (s + (gsg if i == k else 0.0))
+
+
+@kernel
+def gravity_forces(method, gm, c, xg0, xg1, gp_m, fg, kg):
+    """Gravity at the gravity points: fg (n_gp, 3) = m g_* and kg (n_gp, 3, 3) = d fg / d x1.
+    Returns STATUS_SINGULAR if a point reached the centre."""
+    check = 0.0
+    for q in range(gp_m.shape[0]):
+        ax = c[0] - xg0[q, 0]
+        ay = c[1] - xg0[q, 1]
+        az = c[2] - xg0[q, 2]
+        bx = c[0] - xg1[q, 0]
+        by = c[1] - xg1[q, 1]
+        bz = c[2] - xg1[q, 2]
+        m = gp_m[q]
+        if method == METHOD_EM:
+            r0 = math.sqrt(ax * ax + ay * ay + az * az)
+            gx, gy, gz, r1, k = em_accel(ax, ay, az, r0, bx, by, bz, gm)
+            cc, w = em_jacobian_coeffs(r0, r1, k)
+            ux, uy, uz = ax + bx, ay + by, az + bz
+            check += 1.0 / r0 + 1.0 / r1
+        else:
+            ux = 0.5 * (ax + bx)
+            uy = 0.5 * (ay + by)
+            uz = 0.5 * (az + bz)
+            gx, gy, gz, r1 = accel(ux, uy, uz, gm)
+            cc, w = accel_jacobian_coeffs(r1, gm)
+            cc *= 0.5
+            w *= 0.5
+            bx, by, bz = ux, uy, uz
+            check += 1.0 / r1
+        fg[q, 0] = m * gx
+        fg[q, 1] = m * gy
+        fg[q, 2] = m * gz
+        u3 = (ux, uy, uz)
+        b3 = (bx, by, bz)
+        for i in range(3):
+            for j in range(3):
+                kg[q, i, j] = m * w * u3[i] * b3[j]
+            kg[q, i, i] += m * cc
+    if not (abs(check) < math.inf):
+        return STATUS_SINGULAR
+    return STATUS_OK
+
+
+@kernel
+def strain_energy(x, bar_node, bar_EA, bar_L, tet_node, tet_g, tet_V, tet_lam, tet_mu):
+    """Total strain energy (J) of bars and tetrahedra at node positions x (n_nodes, 3)."""
+    W = 0.0
+    for e in range(bar_node.shape[0]):
+        a = bar_node[e, 0]
+        b = bar_node[e, 1]
+        L2 = bar_L[e] * bar_L[e]
+        d2 = 0.0
+        for i in range(3):
+            d2 += (x[b, i] - x[a, i]) ** 2
+        eps = (d2 - L2) / (2.0 * L2)
+        W += 0.5 * bar_EA[e] * bar_L[e] * eps * eps
+    F = np.empty((3, 3))
+    for e in range(tet_node.shape[0]):
+        g = tet_g[e]
+        for i in range(3):
+            for j in range(3):
+                s = 0.0
+                for a in range(4):
+                    s += x[tet_node[e, a], i] * g[j, a]
+                F[i, j] = s
+        tr = 0.0
+        ee = 0.0
+        for i in range(3):
+            for j in range(3):
+                c = 0.0
+                for k in range(3):
+                    c += F[k, i] * F[k, j]
+                Eij = 0.5 * c - (0.5 if i == j else 0.0)
+                ee += Eij * Eij
+                if i == j:
+                    tr += Eij
+        W += tet_V[e] * (0.5 * tet_lam[e] * tr * tr + tet_mu[e] * ee)
+    return W
+
+
+@kernel
+def csc_find(indptr, indices, row, col):
+    """Position of entry (row, col) in a CSC matrix with sorted row indices, or -1."""
+    lo = indptr[col]
+    hi = indptr[col + 1] - 1
+    while lo <= hi:
+        mid = (lo + hi) // 2
+        r = indices[mid]
+        if r == row:
+            return mid
+        if r < row:
+            lo = mid + 1
+        else:
+            hi = mid - 1
+    return -1
