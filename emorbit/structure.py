@@ -38,7 +38,8 @@ __all__ = ["Structure", "StructureRecords", "ElasticSpec"]
 METHOD_CODES = {"em": kpm.METHOD_EM, "midpoint": kpm.METHOD_MIDPOINT}
 _EPS = 2.220446049250313e-16
 _TOL2 = (4.0 * _EPS) ** 2
-_FLOOR2 = _EPS
+_FLOOR2 = (2.0**20 * _EPS) ** 2  # a stall (see Structure.step) is accepted only below 2.3e-10 |scale|
+_STALLS = 3  # iterations in a row without progress that make a stall
 
 
 @dataclass
@@ -237,6 +238,8 @@ class Structure:
         self.newton_option = newton
         self.newton = newton
         self._last_its: dict = {}
+        self.retries_step = 0
+        self.retries_total = 0  # failed steps that were redone in sub-steps
         self._lus: dict = {}
         self.factorizations = 0
         self.bodies: list[dict] = []  # name, kind, slot/node ranges, output info
@@ -593,6 +596,9 @@ class Structure:
         n = 3 * ns + 6 * nr
         lu = None if self.newton == "full" or self._last_its.get(h, 0) > 4 else self._lus.get(h)
         back = None  # (du, nu, residual) before an update made with reused factors
+        prev_r = np.inf
+        stalls = 0
+        self.residuals = []  # equilibrated residual norm at each iterate of this step (diagnostics)
         while it < max_iter:
             it += 1
             u1 = u0 + du
@@ -622,8 +628,12 @@ class Structure:
                 du, nu, _ = back
                 back = None
                 lu = None
+                prev_r = np.inf
                 continue
             back = (du, nu, rnorm) if not fresh else None
+            rflat = rnorm >= 0.5 * prev_r  # the residual no longer falls
+            prev_r = rnorm
+            self.residuals.append(rnorm)
             delta = lu.solve(R)
             dd = delta[: 3 * ns].reshape(ns, 3)
             du = du - dd
@@ -632,7 +642,12 @@ class Structure:
             if not np.isfinite(d2):
                 status = kpm.STATUS_SINGULAR
                 break
-            if d2 <= _TOL2 or (d2 >= prev2 and d2 <= _FLOOR2):
+            # a stall: neither the update nor the residual falls by 2x. Three in a row, with the
+            # update below 2.3e-10 of its scale, is the round-off floor of an ill-conditioned
+            # system (a stiff, clamped boom sits at ~4e-13 for dozens of iterations); a single
+            # one is not (Newton cycling on a stiff bar stalls once at 5 mm, then moves on).
+            stalls = stalls + 1 if (d2 >= 0.25 * prev2 and rflat) else 0
+            if d2 <= _TOL2 or (stalls >= _STALLS and d2 <= _FLOOR2):
                 status = kpm.STATUS_OK
                 break
             if self.newton == "full" or (not fresh and d2 > self.SLOW**2 * prev2):
@@ -672,27 +687,55 @@ class Structure:
                 lam, acc = self.lam.copy(), self.acc.copy()
                 ok = True
                 for g in gammas:
-                    h = dt * g
-                    urel, ref = self.relative(u, cu)
-                    du, dv, it, status = self.step(code, urel, v, lam, acc, gm, c - ref, h, max_iter)
-                    its += it
+                    status, its_g = self._substeps(code, dt * g, (u, v, cu, cv, lam, acc), gm, c, max_iter, 0)
+                    its += its_g
                     if status != kpm.STATUS_OK:
-                        ok = False
-                        break
-                    u, cu = _kahan(u, cu, du)
-                    v, cv = _kahan(v, cv, dv)
-                    if not (np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
-                        status = kpm.STATUS_SINGULAR
                         ok = False
                         break
                 if not ok:
                     rec.fail[0] = (r * every + s, status)
                     return rec
                 self.u, self.v, self.cu, self.cv, self.lam, self.acc = u, v, cu, cv, lam, acc
+                self.retries_total += self.retries_step
+                self.retries_step = 0
             rec.u[r] = self.u
             rec.v[r] = self.v
             rec.iterations[r, 0] = its
         return rec
+
+    #: how often a failed step may be halved (2**MAX_SPLIT sub-steps at most)
+    MAX_SPLIT = 4
+
+    def _substeps(self, code, h, state, gm, c, max_iter, depth):
+        """Advance ``state`` = (u, v, cu, cv, lam, acc) (arrays updated in place) by one step of
+        size h; a step whose Newton iteration fails is retried as two steps of h/2, down to
+        2**MAX_SPLIT sub-steps. Every sub-step is an energy-momentum step, so conservation
+        is untouched. Returns (status, iterations)."""
+        u, v, cu, cv, lam, acc = state
+        saved = tuple(a.copy() for a in state)
+        urel, ref = self.relative(u, cu)
+        du, dv, it, status = self.step(code, urel, v, lam, acc, gm, c - ref, h, max_iter)
+        if status == kpm.STATUS_OK:
+            u2, cu2 = _kahan(u, cu, du)
+            v2, cv2 = _kahan(v, cv, dv)
+            if np.all(np.isfinite(u2)) and np.all(np.isfinite(v2)):
+                u[...], cu[...], v[...], cv[...] = u2, cu2, v2, cv2
+                return status, it
+            status = kpm.STATUS_SINGULAR
+        for a, b in zip(state, saved):
+            a[...] = b
+        if depth >= self.MAX_SPLIT or status == kpm.STATUS_SINGULAR:
+            return status, it
+        self.retries_step += 1
+        total = it
+        for _ in range(2):
+            status, k = self._substeps(code, 0.5 * h, state, gm, c, max_iter, depth + 1)
+            total += k
+            if status != kpm.STATUS_OK:
+                for a, b in zip(state, saved):
+                    a[...] = b
+                return status, total
+        return status, total
 
     def _scratch(self) -> None:
         nb, nt, ng = self.bar_node.shape[0], self.tet_node.shape[0], self.gp_m.size

@@ -64,7 +64,7 @@ METHOD_MIDPOINT = 1
 
 _EPS = 2.220446049250313e-16
 _TOL2 = (4.0 * _EPS) ** 2  # converged: |update| <= 4 eps |scale|
-_FLOOR2 = _EPS  # stagnated update accepted as the round-off floor below sqrt(eps) |scale|
+_FLOOR2 = (1024.0 * _EPS) ** 2  # a stalled update is accepted as round-off below 1024 eps |scale|
 
 
 @kernel
@@ -78,7 +78,7 @@ def kahan_add(s, c, d):
 @kernel
 def _newton_done(d2, prev2, scale2):
     """Newton stopping rule on squared norms: returns (stop, converged). Converged when the
-    update is at round-off, or no longer shrinks once below sqrt(eps) (its floor); a larger
+    update is at round-off, or no longer shrinks once below 1024 eps (its floor); a larger
     update that grows (far from the solution) keeps iterating until max_iter."""
     if d2 <= _TOL2 * scale2 or (d2 >= prev2 and d2 <= _FLOOR2 * scale2):
         return True, True

@@ -70,7 +70,7 @@ GRAVITY_VOLUME = 2
 
 _EPS = 2.220446049250313e-16
 _TOL2 = (4.0 * _EPS) ** 2
-_FLOOR2 = _EPS
+_FLOOR2 = (1024.0 * _EPS) ** 2  # a stalled update is accepted as round-off below 1024 eps |scale|
 
 
 @kernel
@@ -303,7 +303,7 @@ def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter
 
     Stopping rule: the iteration stops when the update falls to the round-off of the
     unknowns (mass-weighted; directors are unit vectors, so their increments are only defined
-    to eps absolute) or stops shrinking once below sqrt(eps) (its floor); larger updates that
+    to eps absolute) or stops shrinking once below 1024 eps (its floor); larger updates that
     grow (far from the solution) keep iterating up to ``max_iter``. Stopping earlier on a predicted next update (quadratic
     convergence) was tried and measured worse: energy errors of 2e-13 instead of 7e-15 over
     1e4 steps, because the noise-level last update still matters to the multipliers.
