@@ -230,7 +230,7 @@ class Structure:
     kind = "structure"
     METHODS = ("em", "midpoint")
     NEWTON = ("auto", "reuse", "full")
-    AUTO_FULL = 2000
+    AUTO_FULL = 500
     #: contraction (|update_k| / |update_k-1|) above which the factors are renewed
     SLOW = 0.2
 
