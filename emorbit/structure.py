@@ -31,6 +31,7 @@ from .errors import InputError
 from .kernels import elastic as kel
 from .kernels import pointmass as kpm
 from .kernels.jit import kernel
+from .rigid import body_angular_velocity
 from .rotations import matrix_to_quaternion
 
 __all__ = ["Structure", "StructureRecords", "ElasticSpec"]
@@ -807,10 +808,10 @@ class Structure:
                 s = b["slots"]
                 D = u[:, s[1:]]  # (nrec, 3, 3): rows d_k
                 dD = v[:, s[1:]]
-                omega = 0.5 * np.cross(D, dD).sum(axis=1)
+                E = b["points"].second_moment
                 out[b["name"]] = {"position": u[:, s[0]].copy(), "velocity": v[:, s[0]].copy(),
                                   "attitude": matrix_to_quaternion(np.swapaxes(D, -1, -2)),
-                                  "angular_velocity": np.einsum("rki,ri->rk", D, omega)}
+                                  "angular_velocity": body_angular_velocity(E, D, dD)}
             else:
                 spec = b["spec"]
                 nodes = b["nodes"]

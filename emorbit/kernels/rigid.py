@@ -74,17 +74,17 @@ _FLOOR2 = (1024.0 * _EPS) ** 2  # a stalled update is accepted as round-off belo
 
 
 @kernel
-def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, want_K):
+def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, G, want_K):
     """Generalised gravity force F (12) and, if ``want_K``, its derivative K = dF/dq1 (12, 12).
 
     X (3, N) body coordinates and mp (N,) masses of the mass points; a0 (3, N) and r0 (N,)
-    hold ``c - x_i0`` and its length (computed once per step by the caller); P (10, N) and
-    W (10, N) are scratch. Returns a status: STATUS_SINGULAR if a point reached the centre.
+    hold ``c - x_i0`` and its length (computed once per step by the caller); P (10, N) holds
+    the block products (see :func:`work_arrays`), W (10, N) and G (3, N) are scratch. Returns a status: STATUS_SINGULAR if a point reached the centre.
 
     For the volume model, with c_i = (1, X_i) and K_i = d g / d x10 = cc_i I + w_i u_i b_i^T,
     K = sum_i m_i (c_i c_i^T) (x) K_i. The 10 distinct blocks (A <= B) are one matrix product,
     P W^T, of the products c_iA c_iB (rows of P, fixed per body) and the 9 entries of
-    m_i w_i u_i b_i^T plus m_i cc_i (rows of W).
+    m_i w_i u_i b_i^T plus m_i cc_i (rows of W), computed by :func:`_gram`.
     """
     F[:] = 0.0
     if want_K:
@@ -131,8 +131,9 @@ def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, wan
     d1x, d1y, d1z = q1[3], q1[4], q1[5]
     d2x, d2y, d2z = q1[6], q1[7], q1[8]
     d3x, d3y, d3z = q1[9], q1[10], q1[11]
-    f0x = f0y = f0z = f1x = f1y = f1z = f2x = f2y = f2z = f3x = f3y = f3z = 0.0
-    check = 0.0
+    nbad = 0
+    # one pass without floating-point reductions (so LLVM can vectorise the square roots and
+    # divisions): the force m_i g_i of every point, and the rows of W; the sums come after
     for i in range(n):
         X1 = X[0, i]
         X2 = X[1, i]
@@ -150,23 +151,11 @@ def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, wan
             uy = 0.5 * (ay + by)
             uz = 0.5 * (az + bz)
             gx, gy, gz, rb = accel(ux, uy, uz, gm)
-        check += 1.0 / rb  # inf or nan once a point reaches the centre: tested after the loop
+        nbad += 0 if rb > 0.0 else 1  # a point at the centre (or nan)
         mi = mp[i]
-        gx *= mi
-        gy *= mi
-        gz *= mi
-        f0x += gx
-        f0y += gy
-        f0z += gz
-        f1x += X1 * gx
-        f1y += X1 * gy
-        f1z += X1 * gz
-        f2x += X2 * gx
-        f2y += X2 * gy
-        f2z += X2 * gz
-        f3x += X3 * gx
-        f3y += X3 * gy
-        f3z += X3 * gz
+        G[0, i] = mi * gx
+        G[1, i] = mi * gy
+        G[2, i] = mi * gz
         if want_K:
             if method == METHOD_EM:
                 cc, w = em_jacobian_coeffs(r0[i], rb, k)
@@ -189,14 +178,15 @@ def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, wan
             W[7, i] = w * uz * by
             W[8, i] = w * uz * bz
             W[9, i] = mi * cc
-    if not (abs(check) < math.inf):
+    if nbad:
         return STATUS_SINGULAR
-    F[0], F[1], F[2] = f0x, f0y, f0z
-    F[3], F[4], F[5] = f1x, f1y, f1z
-    F[6], F[7], F[8] = f2x, f2y, f2z
-    F[9], F[10], F[11] = f3x, f3y, f3z
+    # F_(A, d) = sum_i c_iA m_i g_id: rows 0..3 of P are c_A = (1, X1, X2, X3)
+    Fm = _gram(P[:4], G)
+    for A in range(4):
+        for d in range(3):
+            F[3 * A + d] = Fm[A, d]
     if want_K:
-        T = np.dot(P, W.T)  # (10, 10): [pair, (d, e) entry or the identity part]
+        T = _gram(P, W)  # (10, 10): [pair, (d, e) entry or the identity part]
         j = 0
         for A in range(4):
             for B in range(A, 4):
@@ -209,6 +199,29 @@ def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, wan
                         K[3 * B + d, 3 * A + d] += T[j, 9]
                 j += 1
     return STATUS_OK
+
+
+@kernel
+def _gram(P, W):
+    """P W^T for (p, N) and (q, N) arrays, with four partial sums per entry (the loop stays
+    throughput-bound without fastmath). Deliberately not BLAS: a threaded BLAS oversubscribes
+    small machines (measured 4-7x slower at 10,000 mass points on 2 busy cores) and may sum
+    in an order that depends on the thread count, which would break bit-exact restarts."""
+    n = P.shape[1]
+    T = np.empty((P.shape[0], W.shape[0]))
+    m = n - n % 4
+    for j in range(P.shape[0]):
+        for k in range(W.shape[0]):
+            s0 = s1 = s2 = s3 = 0.0
+            for i in range(0, m, 4):
+                s0 += P[j, i] * W[k, i]
+                s1 += P[j, i + 1] * W[k, i + 1]
+                s2 += P[j, i + 2] * W[k, i + 2]
+                s3 += P[j, i + 3] * W[k, i + 3]
+            for i in range(m, n):
+                s0 += P[j, i] * W[k, i]
+            T[j, k] = (s0 + s1) + (s2 + s3)
+    return T
 
 
 @kernel
@@ -287,7 +300,7 @@ def work_arrays(X):
     return (np.empty((3, npoints)), np.empty(npoints), np.empty(12), np.empty((12, 12)), P,
             np.empty((10, npoints)), np.empty((18, 18)), np.empty(18), np.empty((6, 12)), np.empty((6, 12)),
             np.empty(12), np.empty(12), np.empty(12), np.empty(12), np.empty(6), np.empty(12), np.empty(12),
-            np.empty(12), np.empty((3, 3)), np.empty(12))
+            np.empty(12), np.empty((3, 3)), np.empty(12), np.empty((3, npoints)))
 
 
 _work_arrays = kernel(work_arrays)
@@ -309,7 +322,7 @@ def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter
     1e4 steps, because the noise-level last update still matters to the multipliers.
     The load stiffness K is exact at the first iterate and kept for the step (chord).
     """
-    a0, r0, F, K, P, W, J, rhs, G05, G1, q1, q05, delta, Mv0, nu, wdiag, dq, gen, S, dv = work
+    a0, r0, F, K, P, W, J, rhs, G05, G1, q1, q05, delta, Mv0, nu, wdiag, dq, gen, S, dv, G = work
     n = mp.shape[0]
     volume = model == GRAVITY_VOLUME
     if volume:
@@ -386,7 +399,7 @@ def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter
             q05[j] = q0[j] + 0.5 * dq[j]
         # the load stiffness is assembled at the first iterate and kept for the step: it changes
         # by O(error) between iterates, so convergence stays quadratic to round-off
-        st = rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, it == 1)
+        st = rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, G, it == 1)
         if st != STATUS_OK:
             status = st
             break
