@@ -12,7 +12,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .kernels import invariants as inv
-from .kernels import pointmass as kern
 
 __all__ = ["PointMasses", "ChunkRecords"]
 
@@ -84,7 +83,15 @@ class PointMasses:
 
     def advance(self, method: str, gm: float, center: np.ndarray, dt: float, gammas: np.ndarray,
                 every: int, nrec: int, max_iter: int) -> ChunkRecords:
-        """Advance all points ``nrec * every`` composed steps, recording every ``every``."""
+        """Advance all points ``nrec * every`` composed steps, recording every ``every``.
+
+        Runs the packed kernels of :mod:`emorbit.kernels.ensemble` (same results as the
+        reference kernels in :mod:`emorbit.kernels.pointmass` to round-off, leapfrog bit
+        for bit), on all of Numba's threads from ``ensemble.PARALLEL_MIN`` points on; a point's
+        result does not depend on the thread count or on the other points.
+        """
+        from .kernels import ensemble
+
         n = len(self)
         rec = ChunkRecords(
             x=np.empty((nrec, 3, n)),
@@ -92,16 +99,13 @@ class PointMasses:
             iterations=np.zeros((nrec, n), dtype=np.int64),
             fail=np.full((n, 2), -1, dtype=np.int64),
         )
-        args = (self.x, self.v, self.cx, self.cv, float(gm), center, float(dt), gammas,
-                int(every), int(nrec), int(max_iter), rec.x, rec.v, rec.iterations, rec.fail)
-        if method == "em":
-            kern.implicit_chunk(kern.METHOD_EM, *args)
-        elif method == "midpoint":
-            kern.implicit_chunk(kern.METHOD_MIDPOINT, *args)
-        elif method == "leapfrog":
-            kern.leapfrog_chunk(*args)
-        else:  # the Simulation validates names; this guards internal misuse
+        codes = {"em": ensemble.METHOD_EM, "midpoint": ensemble.METHOD_MIDPOINT, "leapfrog": ensemble.METHOD_LEAPFROG}
+        if method not in codes:  # the Simulation validates names; this guards internal misuse
             raise ValueError(f"no point-mass kernel for method {method!r}")
+        chunk = ensemble.ensemble_chunk_parallel if n >= ensemble.PARALLEL_MIN else ensemble.ensemble_chunk
+        chunk(codes[method], self.x, self.v, self.cx, self.cv, float(gm), np.ascontiguousarray(center, float),
+              float(dt), np.ascontiguousarray(gammas, float), int(every), int(nrec), int(max_iter),
+              rec.x, rec.v, rec.iterations, rec.fail)
         return rec
 
     # -- the interface every body kind offers the simulation driver -----------------------

@@ -1,0 +1,905 @@
+"""Fast point-mass chunk kernels: the energy-momentum, midpoint and leapfrog steps of
+:mod:`emorbit.kernels.pointmass`, reorganised so that LLVM turns them into packed (SIMD)
+arithmetic over many points at once, on one thread or on all of them.
+
+Same arguments, same records, same failure codes as :func:`~.pointmass.implicit_chunk`
+and :func:`~.pointmass.leapfrog_chunk`. The states agree with those reference kernels to
+round-off (leapfrog: bit for bit), and a point's result never depends on which other
+points share its block, on the block size, or on how a run is cut into chunks: every
+point goes through the same scalar operations (the helpers below) whether they run packed
+or alone, and no fused multiply-add is formed (``fastmath=False``), so packed and scalar
+code give the same bits.
+
+How the implicit step is solved
+-------------------------------
+A point-mass step is planar. With ``a = X_Z - x0`` (towards the centre) the energy-momentum
+acceleration is ``g_em = k (a + b)``, ``b = a - dx``, ``k = GM / (r0 r1 (r0 + r1))``, and
+the implicit equation ``dx = h v0 + h**2/2 g_em`` solves in closed form once ``r1`` is
+known. With ``Q = r0 r1 (r0 + r1)`` and ``tau = h**2/2 GM`` (so ``t = h**2/2 k = tau/Q``)::
+
+    dx = (h v0 + 2 t a) / (1 + t),   a + b = (2 a - h v0) / (1 + t),
+    g_em = w (2 a - h v0),   w = GM / (Q + tau)
+
+The only unknown is the scalar ``r1 = |a - dx|``; it solves ``F(r1) = 0``::
+
+    F = r1**2 (1 + t)**2 - ((1 - t)**2 A - 2 h (1 - t) P + h**2 V),   A = a.a, P = a.v0, V = v0.v0
+
+a function of three dot products. ``F Q**2`` and ``F' Q**3`` are polynomials in ``r1``, so a
+Newton update costs one division and no square root (the reference kernel iterates on
+3-vectors, with a square root and two divisions per iteration).
+
+* Predictor: the explicit Taylor step with the jerk, ``h v0 + h**2/2 (g0 + h/2 j0)``, whose
+  error in ``r1`` is O(h**4).
+* Then a Newton update and a chord update with the same derivative (Traub's method, third
+  order, one division). At T/1000 on an ensemble with e <= 0.9 this leaves round-off for
+  all but about 0.1 % of the point-steps (those near a close pericentre).
+* A cheap check per point decides: the error left is about ``4 |delta1 delta2| / r1``; it
+  must be below ``eps r1 / 4``. Points that fail it get more Newton updates in a scalar
+  pass (until ``|delta| <= 2**-26 r1``); a point whose scalar Newton iteration misbehaves
+  (leaves ``r1 > 0``, stops shrinking, runs out of iterations) is solved by the reference
+  kernel's 3-vector Newton (:func:`~.pointmass.em_step`), whose stopping and failure rules
+  then apply unchanged. Every point's energy stays at round-off; e up to 0.99 is tested.
+* Then ``g = w (2 a - h v0)`` and the step in the reference kernel's form,
+  ``dx = h (v0 + h/2 g)``, ``dv = h g``.
+
+The implicit midpoint step reduces the same way: ``m = a - dx/2`` (the centre seen from the
+midpoint) has ``|m| (1 + t/2) = |a - h/2 v0|`` with ``t = tau / |m|**3``, a cubic in
+``|m|`` solved by two Newton updates from ``|a - h/2 v0|`` (the first leaves O(h**4)), and
+``g = w (a - h/2 v0)`` with ``w = GM / (|m|**3 + tau/2)``.
+
+What the reference kernel's notes ask of a step, and how it holds here:
+
+* No rounded ``h**2/2`` multiplies gravity in the position but not in the velocity (an
+  energy error ``-eps h**2/2 |g|**2`` of one sign in every step: a drift). ``dx`` and ``dv``
+  come from the same ``g`` in the form ``dx = h (v0 + h/2 g)``, whose roundings depend on
+  the state, and ``tau`` is carried as an unevaluated sum ``hi + lo`` exact to eps**2 (it
+  sets the size of ``g``; measured: computing ``dx`` from ``t = tau/Q`` instead, with tau
+  rounded once, drifted by 1.5-3.4e-13 in 2e5 steps of the paper's orbit, all of one sign;
+  this form stays at 0.5-4e-14 of both signs, as the reference kernel does).
+* No further evaluation of gravity is needed for the velocity (the reference linearises
+  ``g_em`` at the final iterate for the same purpose).
+
+Layout and passes
+-----------------
+Points are processed in blocks of :data:`BLOCK`; a block's state lives in a small work
+array ``W`` for the whole chunk (in the L1/L2 cache while every step of the chunk is
+taken). ``W`` is one-dimensional, row ``r`` at ``r * LD``, and every row offset used in a
+packed loop is a compile-time constant, so LLVM knows the distance between any two rows and
+vectorises without run-time alias checks (loops that read or write the state are inlined at
+the Numba level with constant buffer offsets, see ``_inline``). Each sub-step is a few
+short loops ("passes"); short dependency chains per loop let the out-of-order core overlap
+many points, where one long loop with two square roots and three divisions in a chain is
+latency-bound. The state lives in two buffers; a sub-step reads one and writes the other,
+every point unconditionally (a "store if" would become a masked store, microcoded and slow
+on AMD processors); a scalar pass, run only when a point failed or is dead, puts the old
+state back. Blocks of fewer than :data:`_PACKED_MIN` points (a single orbit) take each
+point through the same helpers one by one.
+
+Counted per em point and sub-step on the packed path (the bench derives the bound from
+division and square-root throughput from these): :data:`EM_SQRTS` square roots (``|a|``,
+the predictor's ``r1``) and :data:`EM_DIVISIONS` divisions (``1/|a|``, the Newton update,
+``w``).
+
+Each method has its own compiled entry kernels (``_chunk_em`` ...), in which the method is
+a constant, so a run compiles only its method's code.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import prange
+
+from .gravity import accel
+from .jit import kernel
+from .pointmass import (
+    METHOD_EM,
+    METHOD_MIDPOINT,
+    STATUS_OK,
+    STATUS_SINGULAR,
+    em_step,
+    midpoint_step,
+)
+from .pointmass import kahan_add as _kahan
+
+__all__ = [
+    "BLOCK",
+    "EM_DIVISIONS",
+    "EM_SQRTS",
+    "LEAPFROG_DIVISIONS",
+    "LEAPFROG_SQRTS",
+    "METHOD_EM",
+    "METHOD_LEAPFROG",
+    "METHOD_MIDPOINT",
+    "PARALLEL_MIN",
+    "ensemble_chunk",
+    "ensemble_chunk_parallel",
+]
+
+METHOD_LEAPFROG = 2
+
+#: points per block
+BLOCK = 64
+#: row length of the work array: a multiple of 8 (rows start on 64-byte boundaries, so no
+#: packed load splits a cache line) and not of 512 (rows do not share their low twelve
+#: address bits: 4K aliasing would stall loads behind unrelated stores)
+LD = BLOCK + 8
+#: smaller blocks go point by point (same helpers, same bits)
+_PACKED_MIN = 4
+#: from this many points on, PointMasses.advance runs ensemble_chunk_parallel
+PARALLEL_MIN = 1024
+
+#: square roots and divisions per em point and sub-step on the packed path
+EM_SQRTS = 2
+EM_DIVISIONS = 3
+#: the same for leapfrog (|r| and GM / r**3 at the new position)
+LEAPFROG_SQRTS = 1
+LEAPFROG_DIVISIONS = 1
+
+#: midpoint: accept a Newton update |delta| <= 2**-26 |m| (the next is below eps |m| / 2)
+_ACCEPT2 = 2.0 ** -52
+#: em: accept a Newton-chord pair |delta1 delta2| <= 2**-56 r1**2 (error ~ 4 |d1 d2| / r1)
+_ACCEPT3 = 2.0 ** -56
+
+# rows of the work array
+_NS = 15  # rows of a state buffer:
+_OX0, _OX1, _OX2 = 0 * LD, 1 * LD, 2 * LD  # position
+_OV0, _OV1, _OV2 = 3 * LD, 4 * LD, 5 * LD  # velocity
+_OCX0, _OCX1, _OCX2 = 6 * LD, 7 * LD, 8 * LD  # compensation of the position
+_OCV0, _OCV1, _OCV2 = 9 * LD, 10 * LD, 11 * LD  # compensation of the velocity
+_OG0, _OG1, _OG2 = 12 * LD, 13 * LD, 14 * LD  # leapfrog: acceleration at the state
+_BUF0 = 0 * LD  # state buffer 0
+_BUF1 = 15 * LD  # state buffer 1
+_BK = 30 * LD  # the state at the start of a composed step (orders 4-8)
+_R0 = 45 * LD  # |a| (em)
+_RHO = 46 * LD  # the unknown: r1 (em) or |m| (midpoint)
+_AA = 47 * LD  # a.a (em); |a - h/2 v0| (midpoint)
+_PP = 48 * LD  # a.v0
+_VV = 49 * LD  # v0.v0
+_DEL = 50 * LD  # last Newton update
+_PEND = 51 * LD  # 1 where the packed solve was not accepted
+_ST = 52 * LD  # failure code of the current step (0: none)
+_EXTRA = 53 * LD  # Newton iterations beyond the packed ones, in the current record interval
+_ALIVE = 54 * LD  # 1 until the point fails
+_WG = 55 * LD  # w, the size of gravity over the step (g = w (ua a - uv v0))
+_QG = 56 * LD  # Q / (F' Q**3) of the Newton update, reused by the chord update
+_NROWS = 57
+
+#: Newton iterations every packed point does per sub-step (em: Newton + chord; midpoint: 2)
+_PACKED_ITERS = 2
+
+_inline = kernel(inline="always")
+
+
+# ----------------------------------------------------------------------------------------
+# scalar pieces: every point goes through these, packed or alone
+
+@kernel
+def _kahan3(s0, s1, s2, c0, c1, c2, d0, d1, d2):
+    """Compensated sums s + d of a 3-vector with compensations c: (t0, t1, t2, e0, e1, e2)."""
+    t0, e0 = _kahan(s0, c0, d0)
+    t1, e1 = _kahan(s1, c1, d1)
+    t2, e2 = _kahan(s2, c2, d2)
+    return t0, t1, t2, e0, e1, e2
+
+
+@kernel
+def _store_state(W, D, i, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2):
+    """Point i's position, velocity and their compensations into buffer D."""
+    W[D + _OX0 + i] = t0
+    W[D + _OX1 + i] = t1
+    W[D + _OX2 + i] = t2
+    W[D + _OV0 + i] = u0
+    W[D + _OV1 + i] = u1
+    W[D + _OV2 + i] = u2
+    W[D + _OCX0 + i] = e0
+    W[D + _OCX1 + i] = e1
+    W[D + _OCX2 + i] = e2
+    W[D + _OCV0 + i] = f0
+    W[D + _OCV1 + i] = f1
+    W[D + _OCV2 + i] = f2
+
+
+@kernel
+def _two_prod(a, b):
+    """a b = p + e exactly (Dekker's product, no fused multiply-add)."""
+    p = a * b
+    c = 134217729.0 * a
+    a1 = c - (c - a)
+    a2 = a - a1
+    c = 134217729.0 * b
+    b1 = c - (c - b)
+    b2 = b - b1
+    return p, ((a1 * b1 - p) + a1 * b2 + a2 * b1) + a2 * b2
+
+
+@kernel
+def _tau(h, gm):
+    """h**2/2 GM as a sum hi + lo, exact to about eps**2.
+
+    A rounded h**2/2 that multiplies gravity in the position but not in the velocity would
+    give the energy an error -eps h**2/2 |g|**2 of one sign in every step (see
+    pointmass.py); carrying the rounding error lo makes that eps**2."""
+    p, e = _two_prod(h, h)
+    q, f = _two_prod(p, gm)
+    lo = f + e * gm
+    hi = q + lo
+    return 0.5 * hi, 0.5 * (lo - (hi - q))
+
+
+@kernel
+def _finite6(a, b, c, d, e, f):
+    """All six finite (as pointmass._finite: a sum of finite values overflows only far
+    beyond any state)."""
+    return abs(a + b + c + d + e + f) < math.inf
+
+
+@kernel
+def _finite3(a, b, c):
+    return abs(a + b + c) < math.inf
+
+
+@kernel
+def _em_dots(ax, ay, az, vx, vy, vz):
+    """a.a, a.v0, v0.v0 and |a|."""
+    A = ax * ax + ay * ay + az * az
+    return A, ax * vx + ay * vy + az * vz, vx * vx + vy * vy + vz * vz, math.sqrt(A)
+
+
+@kernel
+def _em_predict(A, P, V, r0, h, gm):
+    """r1 of the explicit Taylor step with the jerk,
+    dx = h v0 + h/2 h (g0 + h/2 j0) = alpha a + beta v0  (g0 = f a, j0 = -f v0 + 3 f P / A a)."""
+    ir = 1.0 / r0
+    ir2 = ir * ir
+    f = gm * ir2 * ir
+    hf = 0.5 * h
+    alpha = h * (hf * (f * (1.0 + hf * (3.0 * P * ir2))))
+    beta = h * (1.0 - hf * (hf * f))
+    c = 1.0 - alpha
+    return math.sqrt((c * c) * A - 2.0 * (c * beta) * P + (beta * beta) * V)
+
+
+@kernel
+def _em_f2(A, P, V, r0, rho, h, tau0):
+    """F Q**2 at r1 = rho, and Q = r0 rho (r0 + rho)."""
+    Q = r0 * rho * (r0 + rho)
+    Qp = Q + tau0
+    Qm = Q - tau0
+    f2 = (rho * Qp) * (rho * Qp) - (Qm * Qm) * A + 2.0 * ((h * P) * Qm) * Q - (h * h * V) * (Q * Q)
+    return f2, Q
+
+
+@kernel
+def _em_newton(A, P, V, r0, rho, h, tau0):
+    """A Newton update of r1: (r1_new, delta, Q / (F' Q**3))."""
+    s = r0 + rho
+    Q = r0 * rho * s
+    Qp = Q + tau0
+    Qm = Q - tau0
+    hP = h * P
+    f2 = (rho * Qp) * (rho * Qp) - (Qm * Qm) * A + 2.0 * (hP * Qm) * Q - (h * h * V) * (Q * Q)
+    g3 = 2.0 * rho * (Qp * Qp) * Q - 2.0 * (tau0 * r0) * (s + rho) * ((rho * rho) * Qp + Qm * A - hP * Q)
+    qg = Q / g3
+    delta = f2 * qg
+    return rho - delta, delta, qg
+
+
+@kernel
+def _em_chord(A, P, V, r0, rho, h, tau0, qg):
+    """A chord update of r1 with the previous Newton update's derivative: (r1_new, delta).
+    (F Q1**2 times Q0 / (F'(r1_0) Q0**3): Q1 taken for Q0, a relative 3 |delta1| / r1 of delta.)"""
+    f2, Q = _em_f2(A, P, V, r0, rho, h, tau0)
+    delta = f2 * qg
+    return rho - delta, delta
+
+
+@kernel
+def _em_ok(d1, d2, rho):
+    return (abs(d1 * d2) <= _ACCEPT3 * (rho * rho)) & (rho > 0.0) & (rho < math.inf)
+
+
+@kernel
+def _em_w(r0, rho, gm, tau0, tlo):
+    """GM / (Q + tau) at r1 = rho (tau = tau0 + tlo = h**2/2 GM): g_em = w (2 a - h v0)."""
+    Q = r0 * rho * (r0 + rho)
+    return gm / ((Q + tau0) + tlo)
+
+
+@kernel
+def _increments(ax, ay, az, vx, vy, vz, w, ua, uv, h):
+    """g = w (ua a - uv v0), then dx = h (v0 + h/2 g) and dv = h g, the reference kernel's
+    form of the step (no rounded h**2/2; dx and dv agree to round-off whatever g is)."""
+    hf = 0.5 * h
+    gx = w * (ua * ax - uv * vx)
+    gy = w * (ua * ay - uv * vy)
+    gz = w * (ua * az - uv * vz)
+    return h * (vx + hf * gx), h * (vy + hf * gy), h * (vz + hf * gz), h * gx, h * gy, h * gz
+
+
+@kernel
+def _mid_start(ax, ay, az, vx, vy, vz, h):
+    """Midpoint: |a - h/2 v0|, the starting value of |m|."""
+    hf = 0.5 * h
+    mx = ax - hf * vx
+    my = ay - hf * vy
+    mz = az - hf * vz
+    return math.sqrt(mx * mx + my * my + mz * mz)
+
+
+@kernel
+def _mid_newton(m0, mu, tau0):
+    """A Newton update of mu = |m| on mu**3 - m0 mu**2 + tau0 / 2 = 0: (mu_new, delta)."""
+    g = mu * mu * (mu - m0) + 0.5 * tau0
+    d = mu * (3.0 * mu - 2.0 * m0)
+    delta = g / d
+    return mu - delta, delta
+
+
+@kernel
+def _mid_ok(delta, mu):
+    return (delta * delta <= _ACCEPT2 * (mu * mu)) & (mu > 0.0) & (mu < math.inf)
+
+
+@kernel
+def _mid_w(mu, gm, tau0, tlo):
+    """GM / (mu**3 + tau / 2) at |m| = mu: g = w (a - h/2 v0)."""
+    return gm / ((mu * mu * mu + 0.5 * tau0) + 0.5 * tlo)
+
+
+@_inline
+def _resolve_point(method, A, P, V, r0, rho, prev, h, gm, tau0, px, py, pz, vx, vy, vz,
+                   c0, c1, c2, max_iter):
+    """Finish a point whose packed solve was not accepted: more Newton updates of the
+    scalar unknown; if that misbehaves (leaves r > 0, stops shrinking, runs out of
+    iterations), the reference kernel's Newton on 3-vectors. ``A`` is |a - h/2 v0| for the
+    midpoint. Returns (r0, unknown, extra iterations, status)."""
+    it = _PACKED_ITERS
+    while it < max_iter and rho > 0.0 and rho < math.inf:
+        if method == METHOD_EM:
+            rho, delta, qg = _em_newton(A, P, V, r0, rho, h, tau0)
+        else:
+            rho, delta = _mid_newton(A, rho, tau0)
+        it += 1
+        if _mid_ok(delta, rho):
+            return r0, rho, it - _PACKED_ITERS, STATUS_OK
+        if not abs(delta) < prev:
+            break
+        prev = abs(delta)
+    extra = it - _PACKED_ITERS
+    # the reference kernel's Newton on 3-vectors, from its own predictor
+    if method == METHOD_EM:
+        d0, d1, d2, w0, w1, w2, its, status = em_step(px, py, pz, vx, vy, vz, h, gm, c0, c1, c2, max_iter)
+    else:
+        d0, d1, d2, w0, w1, w2, its, status = midpoint_step(px, py, pz, vx, vy, vz, h, gm, c0, c1, c2, max_iter)
+    extra += its
+    ax = c0 - px
+    ay = c1 - py
+    az = c2 - pz
+    if method == METHOD_EM:
+        bx = ax - d0
+        by = ay - d1
+        bz = az - d2
+        r0 = math.sqrt(ax * ax + ay * ay + az * az)
+        rho = math.sqrt(bx * bx + by * by + bz * bz)
+    else:
+        mx = ax - 0.5 * d0
+        my = ay - 0.5 * d1
+        mz = az - 0.5 * d2
+        rho = math.sqrt(mx * mx + my * my + mz * mz)
+    if status == STATUS_OK and not (rho > 0.0 and rho < math.inf):
+        status = STATUS_SINGULAR
+    return r0, rho, extra, status
+
+
+@_inline
+def _implicit_point_impl(method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo,
+                    c0, c1, c2, max_iter):
+    """One em or midpoint sub-step of one point, through the same helpers as the packed
+    passes. Returns the 12 new state values, extra iterations and status."""
+    ax = c0 - x0
+    ay = c1 - x1
+    az = c2 - x2
+    if method == METHOD_EM:
+        A, P, V, r0 = _em_dots(ax, ay, az, y0, y1, y2)
+        rho = _em_predict(A, P, V, r0, h, gm)
+        rho, d1, qg = _em_newton(A, P, V, r0, rho, h, tau0)
+        rho, delta = _em_chord(A, P, V, r0, rho, h, tau0, qg)
+        ok = _em_ok(d1, delta, rho)
+    else:
+        A = _mid_start(ax, ay, az, y0, y1, y2, h)
+        P = 0.0
+        V = 0.0
+        r0 = 0.0
+        rho, delta = _mid_newton(A, A, tau0)
+        rho, delta = _mid_newton(A, rho, tau0)
+        ok = _mid_ok(delta, rho)
+    extra = 0
+    status = STATUS_OK
+    if not ok:
+        r0, rho, extra, status = _resolve_point(method, A, P, V, r0, rho, abs(delta), h, gm, tau0,
+                                                x0, x1, x2, y0, y1, y2, c0, c1, c2, max_iter)
+    if method == METHOD_EM:
+        w = _em_w(r0, rho, gm, tau0, tlo)
+        ua = 2.0
+        uv = h
+    else:
+        w = _mid_w(rho, gm, tau0, tlo)
+        ua = 1.0
+        uv = 0.5 * h
+    d0, d1, d2, w0, w1, w2 = _increments(ax, ay, az, y0, y1, y2, w, ua, uv, h)
+    t0, t1, t2, e0, e1, e2 = _kahan3(x0, x1, x2, p0, p1, p2, d0, d1, d2)
+    u0, u1, u2, f0, f1, f2 = _kahan3(y0, y1, y2, q0, q1, q2, w0, w1, w2)
+    if status == STATUS_OK and not _finite6(t0, t1, t2, u0, u1, u2):
+        status = STATUS_SINGULAR
+    return t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, extra, status
+
+
+@kernel
+def _implicit_point_em(x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo, c0, c1, c2, max_iter):
+    return _implicit_point_impl(METHOD_EM, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo,
+                                c0, c1, c2, max_iter)
+
+
+@kernel
+def _implicit_point_mid(x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo, c0, c1, c2, max_iter):
+    return _implicit_point_impl(METHOD_MIDPOINT, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo,
+                                c0, c1, c2, max_iter)
+
+
+@kernel
+def _leapfrog_point(x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, b0, b1, b2, h, gm, c0, c1, c2):
+    """One kick-drift-kick sub-step of one point, with the same operations as
+    pointmass.leapfrog_chunk (so the same bits). Returns 15 values and whether finite."""
+    hf = 0.5 * h
+    t0, t1, t2, e0, e1, e2 = _kahan3(x0, x1, x2, p0, p1, p2, h * (y0 + hf * b0), h * (y1 + hf * b1),
+                                     h * (y2 + hf * b2))
+    n0, n1, n2, rr = accel(c0 - t0, c1 - t1, c2 - t2, gm)
+    u0, u1, u2, f0, f1, f2 = _kahan3(y0, y1, y2, q0, q1, q2, 0.5 * h * (b0 + n0), 0.5 * h * (b1 + n1),
+                                     0.5 * h * (b2 + n2))
+    # a centre hit makes the acceleration nan, so "finite" covers the reference's test of r
+    good = _finite6(t0, t1, t2, u0, u1, u2) & _finite3(n0, n1, n2)
+    return t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, good
+
+
+# ----------------------------------------------------------------------------------------
+# packed loops over one block of m points; S, D: offsets of the state buffers read and written
+
+@_inline
+def _loop_em_dots(W, m, c0, c1, c2, S):
+    for i in range(m):
+        A, P, V, r0 = _em_dots(c0 - W[S + _OX0 + i], c1 - W[S + _OX1 + i], c2 - W[S + _OX2 + i],
+                               W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i])
+        W[_AA + i] = A
+        W[_PP + i] = P
+        W[_VV + i] = V
+        W[_R0 + i] = r0
+
+
+@kernel
+def _pass_em_solve(W, m, h, gm, tau0, c0, c1, c2, cur):
+    """Dot products, predictor, Newton and chord updates of r1 for every point, as short
+    loops. Returns the count of points not accepted (flagged in _PEND)."""
+    if cur == 0:
+        _loop_em_dots(W, m, c0, c1, c2, _BUF0)
+    else:
+        _loop_em_dots(W, m, c0, c1, c2, _BUF1)
+    for i in range(m):
+        W[_RHO + i] = _em_predict(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], h, gm)
+    for i in range(m):
+        rho, d1, qg = _em_newton(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], W[_RHO + i], h, tau0)
+        W[_RHO + i] = rho
+        W[_DEL + i] = d1
+        W[_QG + i] = qg
+    npend = 0
+    for i in range(m):
+        d1 = W[_DEL + i]
+        rho, delta = _em_chord(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], W[_RHO + i], h, tau0, W[_QG + i])
+        ok = _em_ok(d1, delta, rho)
+        W[_PEND + i] = 0.0 if ok else 1.0
+        W[_RHO + i] = rho
+        W[_DEL + i] = delta
+        npend += 0 if ok else 1
+    return npend
+
+
+@_inline
+def _loop_mid_start(W, m, h, c0, c1, c2, S):
+    for i in range(m):
+        W[_AA + i] = _mid_start(c0 - W[S + _OX0 + i], c1 - W[S + _OX1 + i], c2 - W[S + _OX2 + i],
+                                W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i], h)
+
+
+@kernel
+def _pass_mid_solve(W, m, h, tau0, c0, c1, c2, cur):
+    """|a - h/2 v0| and two Newton updates of |m| for every point. Returns the count of
+    points not accepted (flagged in _PEND)."""
+    if cur == 0:
+        _loop_mid_start(W, m, h, c0, c1, c2, _BUF0)
+    else:
+        _loop_mid_start(W, m, h, c0, c1, c2, _BUF1)
+    npend = 0
+    for i in range(m):
+        m0 = W[_AA + i]
+        mu, delta = _mid_newton(m0, m0, tau0)
+        mu, delta = _mid_newton(m0, mu, tau0)
+        ok = _mid_ok(delta, mu)
+        W[_PEND + i] = 0.0 if ok else 1.0
+        W[_RHO + i] = mu
+        W[_DEL + i] = delta
+        npend += 0 if ok else 1
+    return npend
+
+
+@kernel
+def _pass_em_w(W, m, gm, tau0, tlo):
+    """w from r1, for every point."""
+    for i in range(m):
+        W[_WG + i] = _em_w(W[_R0 + i], W[_RHO + i], gm, tau0, tlo)
+
+
+@kernel
+def _pass_mid_w(W, m, gm, tau0, tlo):
+    """w from |m|, for every point."""
+    for i in range(m):
+        W[_WG + i] = _mid_w(W[_RHO + i], gm, tau0, tlo)
+
+
+@_inline
+def _loop_update(W, m, ua, uv, h, c0, c1, c2, S, D):
+    """Increments from w and the compensated update of the state in S, into D; returns the
+    count of points whose new state is not finite."""
+    nbad = 0
+    for i in range(m):
+        x0 = W[S + _OX0 + i]
+        x1 = W[S + _OX1 + i]
+        x2 = W[S + _OX2 + i]
+        y0 = W[S + _OV0 + i]
+        y1 = W[S + _OV1 + i]
+        y2 = W[S + _OV2 + i]
+        d0, d1, d2, w0, w1, w2 = _increments(c0 - x0, c1 - x1, c2 - x2, y0, y1, y2, W[_WG + i], ua, uv, h)
+        t0, t1, t2, e0, e1, e2 = _kahan3(x0, x1, x2, W[S + _OCX0 + i], W[S + _OCX1 + i], W[S + _OCX2 + i],
+                                         d0, d1, d2)
+        u0, u1, u2, f0, f1, f2 = _kahan3(y0, y1, y2, W[S + _OCV0 + i], W[S + _OCV1 + i], W[S + _OCV2 + i],
+                                         w0, w1, w2)
+        _store_state(W, D, i, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2)
+        nbad += 0 if _finite6(t0, t1, t2, u0, u1, u2) else 1
+    return nbad
+
+
+@kernel
+def _pass_update(W, m, ua, uv, h, c0, c1, c2, cur):
+    """Increments from w (g = w (ua a - uv v0)) and the compensated update into the other
+    buffer. Returns the count of points whose new state is not finite."""
+    if cur == 0:
+        return _loop_update(W, m, ua, uv, h, c0, c1, c2, _BUF0, _BUF1)
+    return _loop_update(W, m, ua, uv, h, c0, c1, c2, _BUF1, _BUF0)
+
+
+@_inline
+def _loop_leapfrog(W, m, h, gm, c0, c1, c2, S, D):
+    nbad = 0
+    for i in range(m):
+        (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, good) = _leapfrog_point(
+            W[S + _OX0 + i], W[S + _OX1 + i], W[S + _OX2 + i],
+            W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i],
+            W[S + _OCX0 + i], W[S + _OCX1 + i], W[S + _OCX2 + i],
+            W[S + _OCV0 + i], W[S + _OCV1 + i], W[S + _OCV2 + i],
+            W[S + _OG0 + i], W[S + _OG1 + i], W[S + _OG2 + i], h, gm, c0, c1, c2)
+        _store_state(W, D, i, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2)
+        W[D + _OG0 + i] = n0
+        W[D + _OG1 + i] = n1
+        W[D + _OG2 + i] = n2
+        nbad += 0 if good else 1
+    return nbad
+
+
+@kernel
+def _pass_leapfrog(W, m, h, gm, c0, c1, c2, cur):
+    """One kick-drift-kick sub-step into the other buffer; returns the count of points
+    whose new state or acceleration is not finite."""
+    if cur == 0:
+        return _loop_leapfrog(W, m, h, gm, c0, c1, c2, _BUF0, _BUF1)
+    return _loop_leapfrog(W, m, h, gm, c0, c1, c2, _BUF1, _BUF0)
+
+
+# ----------------------------------------------------------------------------------------
+# scalar passes over a block: the points whose packed solve was not accepted, and failures
+
+@_inline
+def _resolve_impl(W, method, m, h, gm, tau0, c0, c1, c2, max_iter, S):
+    """Finish the points flagged pending (see _resolve_point); returns the count that failed."""
+    nfail = 0
+    for i in range(m):
+        if W[_PEND + i] == 0.0 or W[_ST + i] != 0.0 or W[_ALIVE + i] != 1.0:
+            continue
+        r0, rho, extra, status = _resolve_point(
+            method, W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], W[_RHO + i], abs(W[_DEL + i]),
+            h, gm, tau0, W[S + _OX0 + i], W[S + _OX1 + i], W[S + _OX2 + i],
+            W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i], c0, c1, c2, max_iter)
+        W[_EXTRA + i] += extra
+        if status == STATUS_OK:
+            W[_R0 + i] = r0
+            W[_RHO + i] = rho
+        else:
+            W[_ST + i] = float(status)
+            nfail += 1
+    return nfail
+
+
+@kernel
+def _resolve_em(W, m, h, gm, tau0, c0, c1, c2, max_iter, S):
+    return _resolve_impl(W, METHOD_EM, m, h, gm, tau0, c0, c1, c2, max_iter, S)
+
+
+@kernel
+def _resolve_mid(W, m, h, gm, tau0, c0, c1, c2, max_iter, S):
+    return _resolve_impl(W, METHOD_MIDPOINT, m, h, gm, tau0, c0, c1, c2, max_iter, S)
+
+
+@kernel
+def _fixup(W, m, S, D):
+    """After a sub-step in which a point failed (or with dead points): give such points
+    their old state back (buffer S into D) and record a non-finite state in _ST."""
+    for i in range(m):
+        fin = _finite6(W[D + _OX0 + i], W[D + _OX1 + i], W[D + _OX2 + i],
+                       W[D + _OV0 + i], W[D + _OV1 + i], W[D + _OV2 + i])
+        fin = fin & _finite3(W[D + _OG0 + i], W[D + _OG1 + i], W[D + _OG2 + i])
+        if not fin and W[_ST + i] == 0.0:
+            W[_ST + i] = float(STATUS_SINGULAR)
+        if W[_ST + i] != 0.0 or W[_ALIVE + i] != 1.0:
+            for j in range(_NS):
+                W[D + j * LD + i] = W[S + j * LD + i]
+
+
+# ----------------------------------------------------------------------------------------
+# one block: every step of the chunk
+
+@_inline
+def _run_packed(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
+                rec_x, rec_v, rec_iters, fail, lo, hi):
+    m = hi - lo
+    # rows on 64-byte boundaries (LD * 8 is a multiple of 64)
+    buf = np.zeros(_NROWS * LD + 8)
+    off = (8 - (buf.ctypes.data // 8) % 8) % 8
+    W = buf[off:off + _NROWS * LD]
+    c0 = center[0]
+    c1 = center[1]
+    c2 = center[2]
+    for d in range(3):
+        for i in range(m):
+            W[d * LD + i] = x[d, lo + i]
+            W[(3 + d) * LD + i] = v[d, lo + i]
+            W[(6 + d) * LD + i] = cx[d, lo + i]
+            W[(9 + d) * LD + i] = cv[d, lo + i]
+    for i in range(m):
+        W[_ALIVE + i] = 1.0
+    ndead = 0
+    packed = 0 if method == METHOD_LEAPFROG else _PACKED_ITERS
+    if method == METHOD_LEAPFROG:
+        for i in range(m):
+            a0, a1, a2, rr = accel(c0 - W[_OX0 + i], c1 - W[_OX1 + i], c2 - W[_OX2 + i], gm)
+            W[_OG0 + i] = a0
+            W[_OG1 + i] = a1
+            W[_OG2 + i] = a2
+            if not (rr > 0.0 and rr < math.inf):
+                W[_ALIVE + i] = 0.0
+                ndead += 1
+                fail[lo + i, 0] = 0
+                fail[lo + i, 1] = STATUS_SINGULAR
+    ns = gammas.shape[0]
+    cur = 0  # the buffer that holds the state
+    for r in range(nrec):
+        for i in range(m):
+            W[_EXTRA + i] = 0.0
+        for s in range(every):
+            if ns > 1:  # a failing sub-step discards the whole composed step
+                base = _BUF0 if cur == 0 else _BUF1
+                for j in range(_NS):
+                    for i in range(m):
+                        W[_BK + j * LD + i] = W[base + j * LD + i]
+            failed = False
+            for k in range(ns):
+                h = dt * gammas[k]
+                tau0, tlo = _tau(h, gm)
+                S = _BUF0 if cur == 0 else _BUF1
+                nbad = 0
+                if method == METHOD_LEAPFROG:
+                    nbad = _pass_leapfrog(W, m, h, gm, c0, c1, c2, cur)
+                elif method == METHOD_EM:
+                    if _pass_em_solve(W, m, h, gm, tau0, c0, c1, c2, cur):
+                        nbad += _resolve_em(W, m, h, gm, tau0, c0, c1, c2, max_iter, S)
+                    _pass_em_w(W, m, gm, tau0, tlo)
+                    nbad += _pass_update(W, m, 2.0, h, h, c0, c1, c2, cur)
+                else:
+                    if _pass_mid_solve(W, m, h, tau0, c0, c1, c2, cur):
+                        nbad += _resolve_mid(W, m, h, gm, tau0, c0, c1, c2, max_iter, S)
+                    _pass_mid_w(W, m, gm, tau0, tlo)
+                    nbad += _pass_update(W, m, 1.0, 0.5 * h, h, c0, c1, c2, cur)
+                cur = 1 - cur
+                if nbad or failed or ndead:
+                    failed = failed or nbad > 0
+                    _fixup(W, m, S, _BUF0 if cur == 0 else _BUF1)
+            if failed:
+                step = r * every + s
+                base = _BUF0 if cur == 0 else _BUF1
+                for i in range(m):
+                    if W[_ALIVE + i] == 1.0 and W[_ST + i] != 0.0:
+                        W[_ALIVE + i] = 0.0
+                        ndead += 1
+                        fail[lo + i, 0] = step
+                        fail[lo + i, 1] = int(W[_ST + i])
+                        if ns > 1:
+                            for j in range(_NS):
+                                W[base + j * LD + i] = W[_BK + j * LD + i]
+                    W[_ST + i] = 0.0
+        base = _BUF0 if cur == 0 else _BUF1
+        for d in range(3):
+            for i in range(m):
+                rec_x[r, d, lo + i] = W[base + d * LD + i]
+                rec_v[r, d, lo + i] = W[base + (3 + d) * LD + i]
+        for i in range(m):
+            rec_iters[r, lo + i] = every * ns * packed + int(W[_EXTRA + i])
+    base = _BUF0 if cur == 0 else _BUF1
+    for d in range(3):
+        for i in range(m):
+            x[d, lo + i] = W[base + d * LD + i]
+            v[d, lo + i] = W[base + (3 + d) * LD + i]
+            cx[d, lo + i] = W[base + (6 + d) * LD + i]
+            cv[d, lo + i] = W[base + (9 + d) * LD + i]
+
+
+@_inline
+def _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
+               rec_x, rec_v, rec_iters, fail, i):
+    """Every step of the chunk for point ``i`` alone (blocks too small to pack)."""
+    c0 = center[0]
+    c1 = center[1]
+    c2 = center[2]
+    x0, x1, x2 = x[0, i], x[1, i], x[2, i]
+    y0, y1, y2 = v[0, i], v[1, i], v[2, i]
+    p0, p1, p2 = cx[0, i], cx[1, i], cx[2, i]
+    q0, q1, q2 = cv[0, i], cv[1, i], cv[2, i]
+    ns = gammas.shape[0]
+    packed = 0 if method == METHOD_LEAPFROG else _PACKED_ITERS
+    b0 = b1 = b2 = 0.0
+    if method == METHOD_LEAPFROG:
+        b0, b1, b2, rr = accel(c0 - x0, c1 - x1, c2 - x2, gm)
+        if not (rr > 0.0 and rr < math.inf):
+            fail[i, 0] = 0
+            fail[i, 1] = STATUS_SINGULAR
+            return
+    for r in range(nrec):
+        its = 0
+        for s in range(every):
+            # sub-steps go into trial copies: a failing step leaves the state untouched
+            t0, t1, t2, u0, u1, u2 = x0, x1, x2, y0, y1, y2
+            e0, e1, e2, f0, f1, f2 = p0, p1, p2, q0, q1, q2
+            n0, n1, n2 = b0, b1, b2
+            status = STATUS_OK
+            for k in range(ns):
+                h = dt * gammas[k]
+                if method == METHOD_LEAPFROG:
+                    (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, good) = _leapfrog_point(
+                        t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2)
+                    if not good:
+                        status = STATUS_SINGULAR
+                elif method == METHOD_EM:
+                    tau0, tlo = _tau(h, gm)
+                    (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, extra, status) = _implicit_point_em(
+                        t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, h, gm, tau0, tlo, c0, c1, c2, max_iter)
+                else:
+                    tau0, tlo = _tau(h, gm)
+                    (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, extra, status) = _implicit_point_mid(
+                        t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, h, gm, tau0, tlo, c0, c1, c2, max_iter)
+                if method != METHOD_LEAPFROG:
+                    its += packed + extra
+                if status != STATUS_OK:
+                    fail[i, 0] = r * every + s
+                    fail[i, 1] = status
+                    break
+            if status != STATUS_OK:
+                break
+            x0, x1, x2, y0, y1, y2 = t0, t1, t2, u0, u1, u2
+            p0, p1, p2, q0, q1, q2 = e0, e1, e2, f0, f1, f2
+            b0, b1, b2 = n0, n1, n2
+        if fail[i, 0] >= 0:
+            break
+        rec_x[r, 0, i] = x0
+        rec_x[r, 1, i] = x1
+        rec_x[r, 2, i] = x2
+        rec_v[r, 0, i] = y0
+        rec_v[r, 1, i] = y1
+        rec_v[r, 2, i] = y2
+        rec_iters[r, i] = its
+    x[0, i], x[1, i], x[2, i] = x0, x1, x2
+    v[0, i], v[1, i], v[2, i] = y0, y1, y2
+    cx[0, i], cx[1, i], cx[2, i] = p0, p1, p2
+    cv[0, i], cv[1, i], cv[2, i] = q0, q1, q2
+
+
+# ----------------------------------------------------------------------------------------
+# entry points: kernels per method. The method is a constant in each, so Numba prunes the
+# other methods' code before compiling: a run compiles only what it uses. (The bodies above
+# are inlined at the Numba level once per method; deeper nesting of such inlining made
+# compiling several times slower.)
+
+@_inline
+def _run_range(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
+               rec_x, rec_v, rec_iters, fail, lo, hi):
+    """Every step of the chunk for points lo..hi, block by block (packed, or point by point
+    where a block is too small)."""
+    for b in range(lo, hi, BLOCK):
+        e = min(b + BLOCK, hi)
+        if e - b >= _PACKED_MIN:
+            _run_packed(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
+                        rec_x, rec_v, rec_iters, fail, b, e)
+        else:
+            for i in range(b, e):
+                _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
+                           rec_x, rec_v, rec_iters, fail, i)
+
+
+@kernel
+def _range_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi):
+    _run_range(METHOD_EM, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
+               fail, lo, hi)
+
+
+@kernel
+def _range_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+                    lo, hi):
+    _run_range(METHOD_MIDPOINT, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+               rec_iters, fail, lo, hi)
+
+
+@kernel
+def _range_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+                    lo, hi):
+    _run_range(METHOD_LEAPFROG, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+               rec_iters, fail, lo, hi)
+
+
+@kernel(parallel=True)
+def _parallel_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+    for b in prange((x.shape[1] + BLOCK - 1) // BLOCK):
+        _range_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+                  b * BLOCK, min(b * BLOCK + BLOCK, x.shape[1]))
+
+
+@kernel(parallel=True)
+def _parallel_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+    for b in prange((x.shape[1] + BLOCK - 1) // BLOCK):
+        _range_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
+                        fail, b * BLOCK, min(b * BLOCK + BLOCK, x.shape[1]))
+
+
+@kernel(parallel=True)
+def _parallel_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+    for b in prange((x.shape[1] + BLOCK - 1) // BLOCK):
+        _range_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
+                        fail, b * BLOCK, min(b * BLOCK + BLOCK, x.shape[1]))
+
+
+_RANGE = {METHOD_EM: _range_em, METHOD_MIDPOINT: _range_midpoint, METHOD_LEAPFROG: _range_leapfrog}
+_PARALLEL = {METHOD_EM: _parallel_em, METHOD_MIDPOINT: _parallel_midpoint, METHOD_LEAPFROG: _parallel_leapfrog}
+
+
+def ensemble_chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
+                   rec_x, rec_v, rec_iters, fail):
+    """Advance every point ``nrec * every`` composed steps on one thread.
+
+    method     METHOD_EM, METHOD_MIDPOINT or METHOD_LEAPFROG; the other arguments as in
+               :func:`~.pointmass.implicit_chunk` (``fail`` pre-filled with -1; leapfrog
+               ignores ``max_iter`` and counts no iterations).
+    """
+    _RANGE[method](x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+                   0, x.shape[1])
+
+
+def ensemble_chunk_parallel(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
+                            rec_x, rec_v, rec_iters, fail):
+    """:func:`ensemble_chunk` on all of Numba's threads (blocks are independent, and each
+    point's result is the same as on one thread)."""
+    _PARALLEL[method](x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail)
