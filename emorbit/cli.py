@@ -1,12 +1,14 @@
 """The ``emorbit`` command line. ``main(argv)`` returns the exit code, so tests can call it.
 
     emorbit run SCENE -o OUT.h5 [--t-end T] [--dt DT] [--method M] [--order N] [--every K]
+    emorbit resume OUT.h5 --t-end T2
     emorbit plot OUT.h5 [OUT2.h5 ...] -o FIG.png
     emorbit scenes
 
 SCENE is a shipped scene's name (``emorbit scenes`` lists them) or a TOML file. Values given
 on the command line carry units like those in a scene: ``--t-end "100 s"``, ``--dt "0.1 s"``.
-Exit codes: 0 success, 1 a run failed while stepping, 2 bad input.
+Exit codes: 0 success, 1 a run failed while stepping, 2 bad input, 130 interrupted (Ctrl-C;
+the file keeps everything up to the interruption and can be resumed).
 """
 
 from __future__ import annotations
@@ -34,8 +36,14 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--method", help="em | midpoint | leapfrog")
     run.add_argument("--order", type=int, help="2 | 4 | 6 | 8")
     run.add_argument("--every", type=int, help="steps between records (output_every)")
+    run.add_argument("--checkpoint-every", type=int, help="steps between checkpoints (state and records flushed)")
     run.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar and no summary")
+
+    res = sub.add_parser("resume", help="continue a finished, failed, interrupted or killed run file")
+    res.add_argument("file", help="the HDF5 run file (continued in place)")
+    res.add_argument("--t-end", required=True, help='new end time with a unit, e.g. "200 s"')
+    res.add_argument("-q", "--quiet", action="store_true", help="no progress bar and no summary")
 
     plot = sub.add_parser("plot", help="plot energy error and orbit of run files")
     plot.add_argument("files", nargs="+", help="HDF5 run files")
@@ -54,6 +62,8 @@ def _parser() -> argparse.ArgumentParser:
 #: ``add_arguments(parser)`` and ``run(args) -> int`` and is imported only when needed.
 PLUGINS: dict[str, tuple[str, str]] = {
     "validate": ("validation.cli", "compare against REBOUND, astropy and Kepler; write a report"),
+    "sweep": ("emorbit.sweep.cli", "run a parameter sweep of a scene on local processes, Dask or MPI"),
+    "bench": ("emorbit.bench", "time emorbit beside REBOUND; work-precision diagrams"),
 }
 
 
@@ -67,16 +77,30 @@ def _run(args) -> int:
     from .scene import load_scene
 
     scene = load_scene(args.scene).with_overrides(t_end=args.t_end, dt=args.dt, method=args.method,
-                                                  order=args.order, output_every=args.every)
+                                                  order=args.order, output_every=args.every,
+                                                  checkpoint_every=args.checkpoint_every)
     sim = scene.build()
     start = time.perf_counter()
     progress = False if args.quiet else None
     result = sim.run(t_end=scene.t_end, every=scene.output_every, output=args.output,
-                     overwrite=args.overwrite, progress=progress, keep=False)
+                     overwrite=args.overwrite, progress=progress, keep=False,
+                     checkpoint_every=scene.checkpoint_every)
     if not args.quiet:
         err = abs(result.relative_energy_error()[-1])
         print(f"{args.output}: {sim.method} order {sim.order}, dt = {sim.dt!r} s, t = {sim.time:.6g} s, "
               f"|dE/E0| at end = {err:.3e}, wall {time.perf_counter() - start:.2f} s")
+    return 0
+
+
+def _resume(args) -> int:
+    from .resume import resume
+
+    start = time.perf_counter()
+    result = resume(args.file, args.t_end, progress=False if args.quiet else None)
+    if not args.quiet:
+        err = abs(result.energy[-1] / result.energy[0] - 1) if len(result) else 0.0
+        print(f"{args.file}: continued to t = {result.time[-1]:.6g} s, |dE/E| over the continuation = {err:.3e}, "
+              f"wall {time.perf_counter() - start:.2f} s")
     return 0
 
 
@@ -106,7 +130,7 @@ def main(argv=None) -> int:
     if getattr(args, "plugin", None):
         handler = _plugin(args.plugin).run
     else:
-        handler = {"run": _run, "plot": _plot, "scenes": _scenes}[args.command]
+        handler = {"run": _run, "resume": _resume, "plot": _plot, "scenes": _scenes}[args.command]
     try:
         return handler(args)
     except InputError as exc:

@@ -11,6 +11,7 @@
     dt = "0.464758 s"
     t_end = "4647.58 s"
     output_every = 10              # steps between records           (default 1)
+    checkpoint_every = 1000        # steps between checkpoints       (default ~0.5 s of work)
     max_newton_iterations = 50     # per implicit sub-step           (default 50)
     [[body]]
     name = "satellite"
@@ -55,7 +56,7 @@ SCHEMA = {
     "": {"field": False, "integrator": True, "body": True, "coupling": False},
     "field": {"gm": False, "g_ref": False, "r_ref": False, "body": False, "center": False},
     "integrator": {"method": False, "order": False, "dt": True, "t_end": True, "output_every": False,
-                   "max_newton_iterations": False, "newton": False},
+                   "max_newton_iterations": False, "newton": False, "checkpoint_every": False},
     "body.point": {"name": True, "kind": True, "mass": True, "position": True, "velocity": True},
     "body.rigid": {"name": True, "kind": True, "shape": True, "position": True, "velocity": True,
                    "attitude": False, "rotation_vector": False, "angular_velocity": False,
@@ -131,13 +132,20 @@ class Scene:
     def output_every(self) -> int:
         return int(self.data["integrator"].get("output_every", 1))
 
-    def with_overrides(self, *, t_end=None, dt=None, method=None, order=None, output_every=None) -> "Scene":
+    @property
+    def checkpoint_every(self) -> int | None:
+        """Steps between checkpoints, or None for the default (see Simulation.run)."""
+        value = self.data["integrator"].get("checkpoint_every")
+        return None if value is None else int(value)
+
+    def with_overrides(self, *, t_end=None, dt=None, method=None, order=None, output_every=None,
+                       checkpoint_every=None) -> "Scene":
         """A copy with integrator settings replaced (values as in the TOML: strings with units),
         checked again; ``text`` gains a comment saying what was overridden."""
         data = copy.deepcopy(self.data)
         changed = {}
         for key, value in (("t_end", t_end), ("dt", dt), ("method", method), ("order", order),
-                           ("output_every", output_every)):
+                           ("output_every", output_every), ("checkpoint_every", checkpoint_every)):
             if value is not None:
                 data["integrator"][key] = value
                 changed[key] = value
@@ -165,6 +173,8 @@ class Scene:
         get_method(integ.get("method", "em"), "integrator.method")
         check_order(integ.get("order", 2), "integrator.order")
         _int(integ.get("output_every", 1), "integrator.output_every", 1)
+        if "checkpoint_every" in integ:
+            _int(integ["checkpoint_every"], "integrator.checkpoint_every", 1)
         max_iter = _int(integ.get("max_newton_iterations", 50), "integrator.max_newton_iterations", 1)
         dt = self.dt
         t_end = self.t_end

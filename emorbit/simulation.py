@@ -28,7 +28,9 @@ from __future__ import annotations
 
 import math
 import numbers
+import signal
 import sys
+import threading
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -49,6 +51,14 @@ __all__ = ["Simulation", "check_body_name"]
 CHUNK_WORK = 4_000_000
 #: bytes of recorded state per chunk at most
 CHUNK_BYTES = 128 * 2**20
+
+#: the arrays that are a system's whole state (compensation terms and warm starts included):
+#: what a checkpoint stores and a restart restores, bit for bit
+STATE_FIELDS = {
+    "point": ("x", "v", "cx", "cv"),
+    "rigid": ("q", "v", "cq", "cv", "lam"),
+    "structure": ("u", "v", "cu", "cv", "lam", "acc"),
+}
 
 
 def check_body_name(name, key: str = "name") -> str:
@@ -379,7 +389,8 @@ class Simulation:
         return _steps_between(self.time, to_si(t_end, "time", "t_end"), self._dt, "t_end")
 
     def run(self, t_end=None, *, steps: int | None = None, every: int = 1, output=None,
-            overwrite: bool = False, progress: bool | None = None, keep: bool = True) -> Result:
+            overwrite: bool = False, progress: bool | None = None, keep: bool = True,
+            checkpoint_every: int | None = None) -> Result:
         """Advance to time ``t_end`` (or by ``steps`` steps), recording every ``every`` steps.
 
         The start state is the first record and the end state always the last. The run ends
@@ -391,9 +402,16 @@ class Simulation:
         progress   a progress bar on stderr (shown after 2 s); default: when stderr is a terminal.
         keep       keep all records in memory; if false the returned Result holds the first
                    and last record only (the file, if any, has them all).
+        checkpoint_every  steps between checkpoints (rounded up to a multiple of ``every``;
+                   default: about half a second of work, at least ``every``). At each
+                   checkpoint the records so far and the complete state are flushed to the
+                   file, so a run killed at any moment leaves a readable file that
+                   ``emorbit resume`` continues bit for bit (see :mod:`emorbit.resume`).
 
         Raises :class:`~emorbit.errors.IntegrationError` when a step fails; the simulation
-        and the file then hold the state at the start of the failing step.
+        and the file then hold the state at the start of the failing step. Ctrl-C (SIGINT)
+        stops the run at the end of the chunk in progress: the records so far and the final
+        state are written, the file is marked "interrupted", and KeyboardInterrupt is raised.
         """
         if not self.systems:
             raise InputError("body", "the simulation has no bodies; add one with add_point() or add_rigid()")
@@ -413,22 +431,78 @@ class Simulation:
 
         if self.structure is not None:
             self.structure.build()
+        cp = self._checkpoint_steps(checkpoint_every, every)
         writer = None
         if output is not None:
             bodies = [{"name": n, "attrs": s.body_attrs(i), "datasets": s.body_datasets(i),
                        "constants": s.body_constants(i)} for s in self.systems for i, n in enumerate(s.names)]
-            writer = Writer(output, bodies, self._file_attrs(every, n_steps), overwrite=overwrite)
+            attrs = self._file_attrs(every, n_steps)
+            attrs["checkpoint_every"] = cp
+            writer = Writer(output, bodies, attrs, overwrite=overwrite)
+        self._run_origin = self._steps
         sink = _Sink(self, writer, keep)
+        sink.emit([(s, s.current()) for s in self.systems], np.array([self._steps]), 1, 0)
+        if writer is not None:
+            writer.write_checkpoint(self._steps - self._run_origin, self.time, self.state_arrays(), sink.rows)
+        return self._run_and_close(n_steps, every, cp, sink, writer, progress)
+
+    def _run_and_close(self, n_steps, every, cp, sink, writer, progress) -> Result:
+        """Step, write, and close the file with the right status whatever happens."""
+        stop = threading.Event()
+        previous = None
+        if threading.current_thread() is threading.main_thread():
+            previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
         try:
-            sink.emit([(s, s.current()) for s in self.systems], np.array([self._steps]), 1, 0)
-            self._advance(n_steps, every, sink, progress)
+            self._advance(n_steps, every, sink, progress, cp, stop)
+            if stop.is_set():
+                raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            if writer is not None:
+                writer.write_final_state(self._steps - self._run_origin, self.time, self.state_arrays())
+                writer.close("interrupted", f"interrupted by the user at t = {self.time!r} s")
+            raise
         except BaseException as exc:
             if writer is not None:
                 writer.close("failed", f"{type(exc).__name__}: {exc}")
             raise
+        finally:
+            if previous is not None:
+                signal.signal(signal.SIGINT, previous)
         if writer is not None:
+            writer.write_final_state(self._steps - self._run_origin, self.time, self.state_arrays())
             writer.close("completed")
         return sink.result()
+
+    def _checkpoint_steps(self, checkpoint_every, every: int) -> int:
+        """Steps between checkpoints: a multiple of ``every`` (given or ~half a second of work)."""
+        if checkpoint_every is None:
+            gammas = coefficients(self.order).size
+            per_step = max(1, gammas * sum(s.work_per_step() for s in self.systems))
+            checkpoint_every = max(every, CHUNK_WORK // per_step)
+        if isinstance(checkpoint_every, bool) or not isinstance(checkpoint_every, numbers.Integral) \
+                or checkpoint_every < 1:
+            raise InputError("checkpoint_every", f"must be an integer >= 1, got {checkpoint_every!r}")
+        return int(-(-int(checkpoint_every) // every) * every)
+
+    # -- state, for checkpoints and restarts -------------------------------------------
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """Copies of every system's state arrays, keyed "<kind>/<field>"."""
+        return {f"{s.kind}/{f}": np.array(getattr(s, f), copy=True)
+                for s in self.systems for f in STATE_FIELDS[s.kind]}
+
+    def set_state_arrays(self, arrays: dict, steps: int) -> None:
+        """Restore :meth:`state_arrays` output (shapes must match this simulation's bodies)
+        and set the step counter to ``steps`` steps after ``time`` = 0 of the run."""
+        for s in self.systems:
+            for f in STATE_FIELDS[s.kind]:
+                key = f"{s.kind}/{f}"
+                current = getattr(s, f)
+                if key not in arrays or np.shape(arrays[key]) != np.shape(current):
+                    raise InputError("checkpoint", f"the file's state {key!r} does not match the scene's bodies")
+                setattr(s, f, np.ascontiguousarray(np.array(arrays[key], dtype=float)))
+            if hasattr(s, "on_checkpoint"):
+                s.on_checkpoint()
+        self._steps = int(steps)
 
     def _file_attrs(self, every: int, n_steps: int) -> dict:
         return {
@@ -449,18 +523,29 @@ class Simulation:
         return [(s, s.advance(self.method, self.gm, self.center, self._dt, gammas, k, nrec,
                               self.max_newton_iterations)) for s in self.systems]
 
-    def _advance(self, n_steps: int, every: int, sink: "_Sink", progress: bool) -> None:
+    def _advance(self, n_steps: int, every: int, sink: "_Sink", progress: bool, cp: int | None = None,
+                 stop: threading.Event | None = None) -> None:
+        """Take ``n_steps`` steps in chunks that end on records and never straddle a checkpoint
+        (steps since the run's origin that are multiples of ``cp``); at each checkpoint the
+        state is written with the records and systems drop path-dependent caches, so that a
+        restart from it continues bit for bit."""
         gammas = coefficients(self.order)
         per_record = max(1, every * gammas.size * sum(s.work_per_step() for s in self.systems))
         nbodies = len(self.names)
         chunk_records = max(1, min(CHUNK_WORK // per_record, CHUNK_BYTES // (128 * nbodies)))
+        origin = getattr(self, "_run_origin", 0)
         done = 0
         with tqdm(total=n_steps, disable=not progress, delay=2.0, unit="step", file=sys.stderr,
                   dynamic_ncols=True, leave=False) as bar:
             while done < n_steps:
+                if stop is not None and stop.is_set():
+                    return
                 left = n_steps - done
                 k = every if left >= every else left
                 nrec = min(left // k, chunk_records)
+                if cp:
+                    to_cp = cp - (self._steps - origin) % cp
+                    nrec = max(1, min(nrec, to_cp // k))
                 snapshots = [s.snapshot() for s in self.systems]
                 recs = self._advance_all(gammas, k, nrec)
                 failures = [(f, j) for j, (s, r) in enumerate(recs) if (f := r.first_failure()) is not None]
@@ -469,6 +554,12 @@ class Simulation:
                     self._steps += k * nrec
                     done += k * nrec
                     bar.update(k * nrec)
+                    if cp and (self._steps - origin) % cp == 0:
+                        for s in self.systems:
+                            if hasattr(s, "on_checkpoint"):
+                                s.on_checkpoint()
+                        if sink.writer is not None:
+                            sink.writer.write_checkpoint(self._steps - origin, self.time, self.state_arrays(), sink.rows)
                     continue
                 self._stop_at_failure(recs, snapshots, min(failures), k, gammas, sink)
 

@@ -756,7 +756,13 @@ class Structure:
 
     def restore(self, snap) -> None:
         self.u, self.v, self.cu, self.cv, self.lam, self.acc = (a.copy() for a in snap)
-        self._lus.clear()  # the factors depend on the path; start afresh
+        self.on_checkpoint()
+
+    def on_checkpoint(self) -> None:
+        """Drop the reused LU factors and iteration counts: they depend on the path, so a run
+        restarted from a checkpoint and one that went through it must both start afresh there."""
+        self._lus.clear()
+        self._last_its.clear()
 
     # -- diagnostics ------------------------------------------------------------------------------
     def invariants(self, rec, nrec, gm, center):

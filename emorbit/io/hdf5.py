@@ -23,6 +23,12 @@ python, numpy, numba, h5py, astropy), ``status`` ("running", "completed", "faile
 ``error`` (the message of a failed run). Datasets are chunked and growable
 (``maxshape=(None, ...)``); each appended block is flushed, so a run that stops early
 leaves a readable file with every record written before it stopped.
+
+Checkpoints: ``/checkpoint`` holds the complete state (every system's arrays, compensation
+terms and warm starts included; attributes ``steps`` since the run's start, ``time`` and
+``records``, the number of records that belong to it), rewritten every ``checkpoint_every``
+steps together with the records; ``/final_state`` holds the state at the end of the run, also
+of an interrupted one (status "interrupted"). ``emorbit resume`` continues from the checkpoint.
 """
 
 from __future__ import annotations
@@ -142,6 +148,64 @@ class Writer:
                 _append(ds, data[name][q])
         self.file.flush()
 
+    def write_checkpoint(self, steps: int, time: float, arrays: dict, rows: int) -> None:
+        """Store the complete state after ``steps`` steps of the run (t = ``time`` s) and the
+        number of records that belong to it, then flush (see :mod:`emorbit.resume`)."""
+        self._state_group("checkpoint", steps, time, arrays).attrs["records"] = int(rows)
+        self.file.flush()
+
+    def write_final_state(self, steps: int, time: float, arrays: dict) -> None:
+        """Store the state at the end of the run (for inspection; resuming uses the checkpoint)."""
+        self._state_group("final_state", steps, time, arrays)
+        self.file.flush()
+
+    def _state_group(self, name: str, steps: int, time: float, arrays: dict):
+        g = self.file.require_group(name)
+        for key, value in arrays.items():
+            value = np.asarray(value, float)
+            if key in g and g[key].shape == value.shape:
+                g[key][...] = value
+            else:
+                if key in g:
+                    del g[key]
+                g.create_dataset(key, data=value)
+        g.attrs["steps"] = int(steps)
+        g.attrs["time"] = float(time)
+        g.attrs["time_unit"] = "s"
+        return g
+
+    @classmethod
+    def reopen(cls, path, records: int, attrs: dict) -> "Writer":
+        """Open an existing run file to continue it: every record after the first ``records``
+        is dropped, root attributes are updated with ``attrs`` and the status set to running."""
+        self = cls.__new__(cls)
+        self.path = os.fspath(path)
+        self.file = h5py.File(self.path, "r+")
+        f = self.file
+        self._ds = {name: f[name] for name in LAYOUT_UNITS}
+        self._body_ds = {}
+        for name, g in f["bodies"].items():
+            self._body_ds[name] = {q: ds for q, ds in g.items() if isinstance(ds, h5py.Dataset)}
+            for q, ds in list(g["nodes"].items()) if "nodes" in g else []:
+                self._body_ds[name][f"nodes/{q}"] = ds
+        times = f["time"][:records]
+        for ds in self._ds.values():
+            ds.resize(records, axis=0)
+        for name, sets in self._body_ds.items():
+            for q, ds in sets.items():
+                if q.startswith("nodes/"):
+                    keep = int(np.searchsorted(f["bodies"][name]["nodes/time"][()], times[-1], side="right"))
+                    ds.resize(keep, axis=0)
+                elif ds.maxshape and ds.maxshape[0] is None:
+                    ds.resize(records, axis=0)
+        for key, value in attrs.items():
+            f.attrs[key] = value
+        f.attrs["status"] = "running"
+        if "error" in f.attrs:
+            del f.attrs["error"]
+        f.flush()
+        return self
+
     def close(self, status: str = "completed", error: str | None = None) -> None:
         """Mark the run ``status`` (and its ``error``), flush and close. Safe to call twice."""
         if not self.file:
@@ -158,6 +222,8 @@ def read(path) -> Result:
         bodies, masses, kinds = {}, {}, {}
         for name, g in f["bodies"].items():
             bodies[name] = {q: ds[()] for q, ds in g.items() if isinstance(ds, h5py.Dataset)}
+            if "nodes" in g:
+                bodies[name].update({f"nodes/{q}": ds[()] for q, ds in g["nodes"].items()})
             masses[name] = float(g.attrs["mass"])
             kinds[name] = str(g.attrs["kind"])
         return Result(

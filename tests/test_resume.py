@@ -1,0 +1,131 @@
+"""Checkpoints and restarts: a resumed run is bit for bit the run that never stopped, for
+point masses, rigid and elastic bodies, after a finished run, SIGINT or SIGKILL."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+import emorbit
+from emorbit.cli import main
+from emorbit.resume import resume
+
+
+def _same_files(a, b):
+    """Every record dataset equal bit for bit (the checkpoint groups may differ in where
+    they were last written)."""
+    diffs = []
+    with h5py.File(a, "r") as fa, h5py.File(b, "r") as fb:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset) and not name.startswith(("checkpoint", "final_state")):
+                if name not in fb or not np.array_equal(obj[()], fb[name][()]):
+                    diffs.append(name)
+        fa.visititems(visit)
+        fb.visititems(lambda name, obj: diffs.append(name) if isinstance(obj, h5py.Dataset)
+                      and not name.startswith(("checkpoint", "final_state")) and name not in fa else None)
+    return diffs
+
+
+REUSE_STRUCTURE = """
+[integrator]
+method = "em"
+order = 4
+dt = "0.01 s"
+t_end = "4 s"
+output_every = 3
+newton = "reuse"
+
+[[body]]
+name = "bar"
+kind = "elastic"
+mesh = "beam"
+size = ["2 m", "0.1 m", "0.1 m"]
+elements = [4, 1, 1]
+young = "10 MPa"
+poisson = 0.3
+density = "1000 kg / m3"
+position = ["0 m", "0 m", "0 m"]
+velocity = ["0 m/s", "0 m/s", "0 m/s"]
+angular_velocity = ["0.3 rad/s", "0.2 rad/s", "3 rad/s"]
+node_output_every = 2
+"""
+
+
+@pytest.mark.parametrize("scene, t1, t2", [
+    ("paper-ellipse", "2000 s", "4647.58 s"),
+    ("rigid-box-paper-ellipse", "1500 s", "3000 s"),
+    ("rigid-dumbbell-libration", "5000 s", "12000 s"),
+    ("elastic-bar-tumbling", "7 s", "14 s"),
+    ("tethered-satellites", "300 s", "700 s"),
+    ("reuse-structure", "1.7 s", "4 s"),
+])
+def test_resume_is_bit_identical(tmp_path, scene, t1, t2):
+    """Run to t1 (off the checkpoint grid), resume to t2: every record equals a single run to t2."""
+    if scene == "reuse-structure":
+        path = tmp_path / "reuse.toml"
+        path.write_text(REUSE_STRUCTURE)
+        scene = str(path)
+    full, part = tmp_path / "full.h5", tmp_path / "part.h5"
+    assert main(["run", scene, "-o", str(full), "-q", "--t-end", t2, "--checkpoint-every", "60"]) == 0
+    assert main(["run", scene, "-o", str(part), "-q", "--t-end", t1, "--checkpoint-every", "60"]) == 0
+    assert main(["resume", str(part), "--t-end", t2, "-q"]) == 0
+    assert _same_files(full, part) == []
+    with h5py.File(part, "r") as f:
+        assert f.attrs["status"] == "completed"
+
+
+@pytest.mark.parametrize("sig, code, status", [(signal.SIGKILL, -9, "running"), (signal.SIGINT, 130, "interrupted")])
+def test_killed_or_interrupted_run_resumes(tmp_path, sig, code, status):
+    """A run killed with SIGKILL leaves a readable file with every record up to its last flush
+    (a checkpoint); Ctrl-C stops cleanly after writing the state. Either resumes to the very
+    file an uninterrupted run writes."""
+    full, out = tmp_path / "full.h5", tmp_path / "killed.h5"
+    args = ["paper-ellipse", "-q", "--t-end", "2323790 s", "--checkpoint-every", "2000"]
+    assert main(["run", args[0], "-o", str(full)] + args[1:]) == 0
+    proc = subprocess.Popen([sys.executable, "-m", "emorbit.cli", "run", args[0], "-o", str(out)] + args[1:])
+    deadline = time.time() + 60
+    while time.time() < deadline:  # wait until at least two checkpoints are on disk
+        time.sleep(0.05)
+        try:  # HDF5 locks a file open for writing: peek without taking the lock
+            with h5py.File(out, "r", locking=False) as f:
+                if f["checkpoint"].attrs["records"] > 400:
+                    break
+        except (OSError, KeyError):
+            pass
+    proc.send_signal(sig)
+    assert proc.wait(timeout=60) == code
+    with h5py.File(out, "r") as f:
+        assert f.attrs["status"] == status
+        n = f["time"].shape[0]
+        assert n >= f["checkpoint"].attrs["records"] > 0
+        assert np.all(np.isfinite(f["bodies/satellite/position"][()]))
+        assert f["bodies/satellite/position"].shape[0] == n
+    assert main(["resume", str(out), "--t-end", "2323790 s", "-q"]) == 0
+    assert _same_files(full, out) == []
+
+
+def test_resume_errors(tmp_path):
+    assert main(["resume", str(tmp_path / "none.h5"), "--t-end", "1 s", "-q"]) == 2
+    bare = tmp_path / "bare.h5"
+    with h5py.File(bare, "w") as f:
+        f.attrs["scene"] = "x"
+    with pytest.raises(emorbit.InputError, match="no checkpoint"):
+        resume(bare, "1 s")
+    out = tmp_path / "r.h5"
+    assert main(["run", "paper-ellipse", "-o", str(out), "-q", "--t-end", "46.4758 s", "--checkpoint-every", "10"]) == 0
+    assert main(["resume", str(out), "--t-end", "1 s", "-q"]) == 2  # before the last checkpoint
+    with h5py.File(out, "r") as f:
+        assert f.attrs["status"] == "completed" and f["time"].shape[0] == 11  # untouched
+
+
+def test_checkpoint_every_is_checked():
+    sim = emorbit.Simulation(emorbit.CentralField(gm=1.0), dt=0.1)
+    sim.add_point("p", mass=1.0, position=[1, 0, 0], velocity=[0, 1, 0])
+    with pytest.raises(emorbit.InputError, match="checkpoint_every"):
+        sim.run(steps=10, checkpoint_every=0)
+    assert sim._checkpoint_steps(7, 3) == 9  # rounded up to whole record intervals
