@@ -52,9 +52,16 @@ def _parser() -> argparse.ArgumentParser:
 
     sub.add_parser("scenes", help="list the shipped scenes")
     for name, (module, summary) in PLUGINS.items():
+        try:
+            mod = _plugin(module)
+        except ImportError as exc:  # an optional dependency is missing: say so when it is used
+            sp = sub.add_parser(name, help=f"{summary} (unavailable: {exc})")
+            sp.add_argument("args", nargs="*")
+            sp.set_defaults(plugin=None, unavailable=f"'emorbit {name}' is unavailable: {exc}")
+            continue
         sp = sub.add_parser(name, help=summary)
         sp.set_defaults(plugin=module)
-        _plugin(module).add_arguments(sp)
+        mod.add_arguments(sp)
     return p
 
 
@@ -127,6 +134,9 @@ def _scenes(args) -> int:
 def main(argv=None) -> int:
     """Run the command line with ``argv`` (default: sys.argv[1:]); returns the exit code."""
     args = _parser().parse_args(argv)
+    if getattr(args, "unavailable", None):
+        print(f"emorbit: error: {args.unavailable}", file=sys.stderr)
+        return 2
     if getattr(args, "plugin", None):
         handler = _plugin(args.plugin).run
     else:
