@@ -155,8 +155,8 @@ _BK = 30 * LD  # the state at the start of a composed step (orders 4-8)
 _R0 = 45 * LD  # |a| (em)
 _RHO = 46 * LD  # the unknown: r1 (em) or |m| (midpoint)
 _AA = 47 * LD  # a.a (em); |a - h/2 v0| (midpoint)
-_PP = 48 * LD  # a.v0
-_VV = 49 * LD  # v0.v0
+_PP = 48 * LD  # h a.v0
+_VV = 49 * LD  # h**2 v0.v0
 _DEL = 50 * LD  # last Newton update
 _PEND = 51 * LD  # 1 where the packed solve was not accepted
 _ST = 52 * LD  # failure code of the current step (0: none)
@@ -241,56 +241,56 @@ def _finite3(a, b, c):
 
 
 @kernel
-def _em_dots(ax, ay, az, vx, vy, vz):
-    """a.a, a.v0, v0.v0 and |a|."""
+def _em_dots(ax, ay, az, vx, vy, vz, h):
+    """a.a, h a.v0, h**2 v0.v0 and |a| (the step enters the equations only in these forms)."""
     A = ax * ax + ay * ay + az * az
-    return A, ax * vx + ay * vy + az * vz, vx * vx + vy * vy + vz * vz, math.sqrt(A)
+    return A, h * (ax * vx + ay * vy + az * vz), (h * h) * (vx * vx + vy * vy + vz * vz), math.sqrt(A)
 
 
 @kernel
 def _em_predict(A, P, V, r0, h, gm):
-    """r1 of the explicit Taylor step with the jerk,
-    dx = h v0 + h/2 h (g0 + h/2 j0) = alpha a + beta v0  (g0 = f a, j0 = -f v0 + 3 f P / A a)."""
+    """r1 of the explicit Taylor step with the jerk, P = h a.v0, V = h**2 v0.v0:
+    dx = h v0 + h/2 h (g0 + h/2 j0) = alpha a + beta v0  (g0 = f a, j0 = -f v0 + 3 f a.v0 / A a),
+    alpha = h h/2 f (1 + 3/2 P / A), beta = h b with b = 1 - (h/2)**2 f."""
     ir = 1.0 / r0
     ir2 = ir * ir
     f = gm * ir2 * ir
     hf = 0.5 * h
-    alpha = h * (hf * (f * (1.0 + hf * (3.0 * P * ir2))))
-    beta = h * (1.0 - hf * (hf * f))
+    alpha = ((h * hf) * f) * (1.0 + 1.5 * P * ir2)
+    b = 1.0 - hf * (hf * f)
     c = 1.0 - alpha
-    return math.sqrt((c * c) * A - 2.0 * (c * beta) * P + (beta * beta) * V)
+    return math.sqrt((c * c) * A - 2.0 * (c * b) * P + (b * b) * V)
 
 
 @kernel
-def _em_f2(A, P, V, r0, rho, h, tau0):
-    """F Q**2 at r1 = rho, and Q = r0 rho (r0 + rho)."""
+def _em_f2(A, P, V, r0, rho, tau0):
+    """F Q**2 at r1 = rho, and Q = r0 rho (r0 + rho) (P = h a.v0, V = h**2 v0.v0)."""
     Q = r0 * rho * (r0 + rho)
     Qp = Q + tau0
     Qm = Q - tau0
-    f2 = (rho * Qp) * (rho * Qp) - (Qm * Qm) * A + 2.0 * ((h * P) * Qm) * Q - (h * h * V) * (Q * Q)
+    f2 = (rho * Qp) * (rho * Qp) - (Qm * Qm) * A + 2.0 * (P * Qm) * Q - V * (Q * Q)
     return f2, Q
 
 
 @kernel
-def _em_newton(A, P, V, r0, rho, h, tau0):
+def _em_newton(A, P, V, r0, rho, tau0):
     """A Newton update of r1: (r1_new, delta, Q / (F' Q**3))."""
     s = r0 + rho
     Q = r0 * rho * s
     Qp = Q + tau0
     Qm = Q - tau0
-    hP = h * P
-    f2 = (rho * Qp) * (rho * Qp) - (Qm * Qm) * A + 2.0 * (hP * Qm) * Q - (h * h * V) * (Q * Q)
-    g3 = 2.0 * rho * (Qp * Qp) * Q - 2.0 * (tau0 * r0) * (s + rho) * ((rho * rho) * Qp + Qm * A - hP * Q)
+    f2 = (rho * Qp) * (rho * Qp) - (Qm * Qm) * A + 2.0 * (P * Qm) * Q - V * (Q * Q)
+    g3 = 2.0 * rho * (Qp * Qp) * Q - 2.0 * (tau0 * r0) * (s + rho) * ((rho * rho) * Qp + Qm * A - P * Q)
     qg = Q / g3
     delta = f2 * qg
     return rho - delta, delta, qg
 
 
 @kernel
-def _em_chord(A, P, V, r0, rho, h, tau0, qg):
+def _em_chord(A, P, V, r0, rho, tau0, qg):
     """A chord update of r1 with the previous Newton update's derivative: (r1_new, delta).
     (F Q1**2 times Q0 / (F'(r1_0) Q0**3): Q1 taken for Q0, a relative 3 |delta1| / r1 of delta.)"""
-    f2, Q = _em_f2(A, P, V, r0, rho, h, tau0)
+    f2, Q = _em_f2(A, P, V, r0, rho, tau0)
     delta = f2 * qg
     return rho - delta, delta
 
@@ -358,7 +358,7 @@ def _resolve_point(method, A, P, V, r0, rho, prev, h, gm, tau0, px, py, pz, vx, 
     it = _PACKED_ITERS
     while it < max_iter and rho > 0.0 and rho < math.inf:
         if method == METHOD_EM:
-            rho, delta, qg = _em_newton(A, P, V, r0, rho, h, tau0)
+            rho, delta, qg = _em_newton(A, P, V, r0, rho, tau0)
         else:
             rho, delta = _mid_newton(A, rho, tau0)
         it += 1
@@ -402,10 +402,10 @@ def _implicit_point_impl(method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2,
     ay = c1 - x1
     az = c2 - x2
     if method == METHOD_EM:
-        A, P, V, r0 = _em_dots(ax, ay, az, y0, y1, y2)
+        A, P, V, r0 = _em_dots(ax, ay, az, y0, y1, y2, h)
         rho = _em_predict(A, P, V, r0, h, gm)
-        rho, d1, qg = _em_newton(A, P, V, r0, rho, h, tau0)
-        rho, delta = _em_chord(A, P, V, r0, rho, h, tau0, qg)
+        rho, d1, qg = _em_newton(A, P, V, r0, rho, tau0)
+        rho, delta = _em_chord(A, P, V, r0, rho, tau0, qg)
         ok = _em_ok(d1, delta, rho)
     else:
         A = _mid_start(ax, ay, az, y0, y1, y2, h)
@@ -467,10 +467,10 @@ def _leapfrog_point(x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, b0, b1, b2, 
 # packed loops over one block of m points; S, D: offsets of the state buffers read and written
 
 @_inline
-def _loop_em_dots(W, m, c0, c1, c2, S):
+def _loop_em_dots(W, m, h, c0, c1, c2, S):
     for i in range(m):
         A, P, V, r0 = _em_dots(c0 - W[S + _OX0 + i], c1 - W[S + _OX1 + i], c2 - W[S + _OX2 + i],
-                               W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i])
+                               W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i], h)
         W[_AA + i] = A
         W[_PP + i] = P
         W[_VV + i] = V
@@ -478,28 +478,30 @@ def _loop_em_dots(W, m, c0, c1, c2, S):
 
 
 @kernel
-def _pass_em_solve(W, m, h, gm, tau0, c0, c1, c2, cur):
-    """Dot products, predictor, Newton and chord updates of r1 for every point, as short
-    loops. Returns the count of points not accepted (flagged in _PEND)."""
+def _pass_em_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
+    """Dot products, predictor, Newton and chord updates of r1, and w, for every point, as
+    short loops. Returns the count of points not accepted (flagged in _PEND)."""
     if cur == 0:
-        _loop_em_dots(W, m, c0, c1, c2, _BUF0)
+        _loop_em_dots(W, m, h, c0, c1, c2, _BUF0)
     else:
-        _loop_em_dots(W, m, c0, c1, c2, _BUF1)
+        _loop_em_dots(W, m, h, c0, c1, c2, _BUF1)
     for i in range(m):
         W[_RHO + i] = _em_predict(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], h, gm)
     for i in range(m):
-        rho, d1, qg = _em_newton(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], W[_RHO + i], h, tau0)
+        rho, d1, qg = _em_newton(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], W[_RHO + i], tau0)
         W[_RHO + i] = rho
         W[_DEL + i] = d1
         W[_QG + i] = qg
     npend = 0
     for i in range(m):
         d1 = W[_DEL + i]
-        rho, delta = _em_chord(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], W[_RHO + i], h, tau0, W[_QG + i])
+        r0 = W[_R0 + i]
+        rho, delta = _em_chord(W[_AA + i], W[_PP + i], W[_VV + i], r0, W[_RHO + i], tau0, W[_QG + i])
         ok = _em_ok(d1, delta, rho)
         W[_PEND + i] = 0.0 if ok else 1.0
         W[_RHO + i] = rho
         W[_DEL + i] = delta
+        W[_WG + i] = _em_w(r0, rho, gm, tau0, tlo)
         npend += 0 if ok else 1
     return npend
 
@@ -512,8 +514,8 @@ def _loop_mid_start(W, m, h, c0, c1, c2, S):
 
 
 @kernel
-def _pass_mid_solve(W, m, h, tau0, c0, c1, c2, cur):
-    """|a - h/2 v0| and two Newton updates of |m| for every point. Returns the count of
+def _pass_mid_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
+    """|a - h/2 v0|, two Newton updates of |m| and w for every point. Returns the count of
     points not accepted (flagged in _PEND)."""
     if cur == 0:
         _loop_mid_start(W, m, h, c0, c1, c2, _BUF0)
@@ -528,22 +530,9 @@ def _pass_mid_solve(W, m, h, tau0, c0, c1, c2, cur):
         W[_PEND + i] = 0.0 if ok else 1.0
         W[_RHO + i] = mu
         W[_DEL + i] = delta
+        W[_WG + i] = _mid_w(mu, gm, tau0, tlo)
         npend += 0 if ok else 1
     return npend
-
-
-@kernel
-def _pass_em_w(W, m, gm, tau0, tlo):
-    """w from r1, for every point."""
-    for i in range(m):
-        W[_WG + i] = _em_w(W[_R0 + i], W[_RHO + i], gm, tau0, tlo)
-
-
-@kernel
-def _pass_mid_w(W, m, gm, tau0, tlo):
-    """w from |m|, for every point."""
-    for i in range(m):
-        W[_WG + i] = _mid_w(W[_RHO + i], gm, tau0, tlo)
 
 
 @_inline
@@ -608,8 +597,9 @@ def _pass_leapfrog(W, m, h, gm, c0, c1, c2, cur):
 # scalar passes over a block: the points whose packed solve was not accepted, and failures
 
 @_inline
-def _resolve_impl(W, method, m, h, gm, tau0, c0, c1, c2, max_iter, S):
-    """Finish the points flagged pending (see _resolve_point); returns the count that failed."""
+def _resolve_impl(W, method, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S):
+    """Finish the points flagged pending (see _resolve_point) and set their w; returns the
+    count that failed."""
     nfail = 0
     for i in range(m):
         if W[_PEND + i] == 0.0 or W[_ST + i] != 0.0 or W[_ALIVE + i] != 1.0:
@@ -622,6 +612,7 @@ def _resolve_impl(W, method, m, h, gm, tau0, c0, c1, c2, max_iter, S):
         if status == STATUS_OK:
             W[_R0 + i] = r0
             W[_RHO + i] = rho
+            W[_WG + i] = _em_w(r0, rho, gm, tau0, tlo) if method == METHOD_EM else _mid_w(rho, gm, tau0, tlo)
         else:
             W[_ST + i] = float(status)
             nfail += 1
@@ -629,13 +620,13 @@ def _resolve_impl(W, method, m, h, gm, tau0, c0, c1, c2, max_iter, S):
 
 
 @kernel
-def _resolve_em(W, m, h, gm, tau0, c0, c1, c2, max_iter, S):
-    return _resolve_impl(W, METHOD_EM, m, h, gm, tau0, c0, c1, c2, max_iter, S)
+def _resolve_em(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S):
+    return _resolve_impl(W, METHOD_EM, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S)
 
 
 @kernel
-def _resolve_mid(W, m, h, gm, tau0, c0, c1, c2, max_iter, S):
-    return _resolve_impl(W, METHOD_MIDPOINT, m, h, gm, tau0, c0, c1, c2, max_iter, S)
+def _resolve_mid(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S):
+    return _resolve_impl(W, METHOD_MIDPOINT, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S)
 
 
 @kernel
@@ -708,14 +699,12 @@ def _run_packed(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_i
                 if method == METHOD_LEAPFROG:
                     nbad = _pass_leapfrog(W, m, h, gm, c0, c1, c2, cur)
                 elif method == METHOD_EM:
-                    if _pass_em_solve(W, m, h, gm, tau0, c0, c1, c2, cur):
-                        nbad += _resolve_em(W, m, h, gm, tau0, c0, c1, c2, max_iter, S)
-                    _pass_em_w(W, m, gm, tau0, tlo)
+                    if _pass_em_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
+                        nbad += _resolve_em(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S)
                     nbad += _pass_update(W, m, 2.0, h, h, c0, c1, c2, cur)
                 else:
-                    if _pass_mid_solve(W, m, h, tau0, c0, c1, c2, cur):
-                        nbad += _resolve_mid(W, m, h, gm, tau0, c0, c1, c2, max_iter, S)
-                    _pass_mid_w(W, m, gm, tau0, tlo)
+                    if _pass_mid_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
+                        nbad += _resolve_mid(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S)
                     nbad += _pass_update(W, m, 1.0, 0.5 * h, h, c0, c1, c2, cur)
                 cur = 1 - cur
                 if nbad or failed or ndead:

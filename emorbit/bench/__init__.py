@@ -1,0 +1,50 @@
+"""``emorbit bench``: what accuracy costs in time, measured beside REBOUND (and heyoka, when
+installed) in one process, on the machine it runs on.
+
+Sections (``--only`` / ``--skip`` pick them):
+
+single          the paper's orbit at dt = T/100: ns per step of em, midpoint and leapfrog at
+                orders 2-8, and of REBOUND's leapfrog, WHFast and IAS15
+ensemble        1e5 test particles (a in [5, 10] m, e in [0, 0.9], random planes and
+                time-uniform phases, GM = 3.9478, dt = T/1000 of a 6 m orbit): particle-steps
+                per second of em on one thread and on all threads, against REBOUND's leapfrog
+                and WHFast (N_active = 1), with each one's max energy error; the bound from
+                division and square-root throughput measured in the same run; and a
+                point-mass scene's throughput against the bare kernel's
+work-precision   final position error (against the analytic Kepler solution) and max energy
+                error against CPU time over 100 orbits, for the paper's orbit and an e = 0.9
+                orbit: every method and order at several dt, REBOUND IAS15 at several epsilons,
+                WHFast and leapfrog, heyoka's Taylor integrator at tolerances 1e-6 ... eps
+startup         wall time of ``emorbit run paper-ellipse`` with an empty Numba cache (cold)
+                and with it filled (warm)
+rigid           the rigid-body rows of :mod:`emorbit.bench_rigid`
+
+Ratios are always taken within the run. The JSON (``--json``) records the CPU model, the
+core count, the load average and package versions beside every figure; ``--plots DIR``
+writes the work-precision figures. Only this module is imported to build the command
+line; the sections import what they need when they run.
+"""
+
+from __future__ import annotations
+
+SECTIONS = ("single", "ensemble", "work-precision", "startup", "rigid")
+
+__all__ = ["SECTIONS", "add_arguments", "run"]
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--quick", action="store_true",
+                        help="fewer steps, repeats and step sizes (a few minutes on two cores)")
+    parser.add_argument("--json", metavar="FILE", help="write every figure, with the machine, as JSON")
+    parser.add_argument("--plots", metavar="DIR", help="write the work-precision figures (PNG) into DIR")
+    parser.add_argument("--only", nargs="+", choices=SECTIONS, metavar="SECTION",
+                        help=f"run only these sections ({', '.join(SECTIONS)})")
+    parser.add_argument("--skip", nargs="+", choices=SECTIONS, default=(), metavar="SECTION",
+                        help="leave these sections out")
+
+
+def run(args) -> int:
+    from .runner import run_bench
+
+    sections = [s for s in (args.only or SECTIONS) if s not in args.skip]
+    return run_bench(sections, quick=args.quick, json_path=args.json, plots_dir=args.plots)

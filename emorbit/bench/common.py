@@ -1,0 +1,227 @@
+"""What the bench sections share: configurations, the cases, and runners for emorbit and
+REBOUND that take ``n`` steps and return (wall, CPU) seconds.
+
+Timing is :mod:`emorbit.bench_rigid`'s: a warm-up call, calls calibrated to a fixed length,
+engines of one comparison interleaved repeat by repeat, medians; ratios are medians of the
+per-repeat ratios, so that load from other processes hits both sides.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..bench_rigid import _clock, _loadavg, _machine, _paired_ratio, _since, _timed, _version  # noqa: F401
+from ..integrators import coefficients
+from ..orbits import kepler_period, semi_major_axis, solve_kepler, state_from_elements
+from ..pointmasses import PointMasses
+
+#: the paper's orbit (Goettlicher & Schweizerhof): GM, start at aphelion
+GM = 3.9478
+PAPER_X0 = np.array([10.0, 0.0, 0.0])
+PAPER_V0 = np.array([0.0, 0.36276, 0.0])
+#: the paper's step: its period 46.4758 s / 100
+PAPER_DT = 0.464758
+#: the ensemble's step: T/1000 of a 6 m orbit
+ENSEMBLE_DT = 2 * math.pi * math.sqrt(6.0**3 / GM) / 1000
+
+
+@dataclass(frozen=True)
+class Config:
+    repeat_s: float  # wall time aimed at per timed call
+    repeats: int
+    ensemble_n: int  # test particles
+    orbits: int  # length of the work-precision runs
+    divisions: tuple  # steps per orbit of the work-precision runs (paper's orbit)
+    divisions_e09: tuple  # the same for the e = 0.9 orbit
+    ias15_eps: tuple
+    heyoka_tol: tuple
+    warm_runs: int  # repeats of the warm start-up
+
+
+CONFIGS = {
+    "full": Config(repeat_s=0.2, repeats=9, ensemble_n=100_000, orbits=100,
+                   divisions=(25, 35, 50, 71, 100, 141, 200, 283, 400, 566, 800, 1131, 1600, 2263, 3200),
+                   divisions_e09=(100, 141, 200, 283, 400, 566, 800, 1131, 1600, 2263, 3200, 4525, 6400, 9051, 12800),
+                   ias15_eps=(1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10),
+                   heyoka_tol=(1e-6, 1e-8, 1e-10, 1e-12, 1e-14, 2.220446049250313e-16), warm_runs=5),
+    "quick": Config(repeat_s=0.06, repeats=5, ensemble_n=100_000, orbits=100,
+                    divisions=(25, 50, 100, 200, 400, 800, 1600),
+                    divisions_e09=(100, 200, 400, 800, 1600, 3200, 6400, 12800),
+                    ias15_eps=(1e-3, 1e-5, 1e-7, 1e-9), heyoka_tol=(1e-6, 1e-9, 1e-12, 2.220446049250313e-16),
+                    warm_runs=3),
+    # a seconds-long smoke run for the tests: its timings mean nothing
+    "tiny": Config(repeat_s=0.005, repeats=2, ensemble_n=2_000, orbits=2,
+                   divisions=(50, 100), divisions_e09=(200, 400), ias15_eps=(1e-6,), heyoka_tol=(1e-9,), warm_runs=1),
+}
+
+
+def ensemble_states(n: int, seed: int = 1):
+    """(3, n) positions and velocities: a uniform in [5, 10] m, e uniform in [0, 0.9], planes
+    isotropic (cos i uniform, node and argument of pericentre uniform), time-uniform phase
+    (mean anomaly uniform)."""
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(5.0, 10.0, n)
+    e = rng.uniform(0.0, 0.9, n)
+    inc = np.arccos(rng.uniform(-1.0, 1.0, n))
+    raan, argp, M = (rng.uniform(0.0, 2 * np.pi, n) for _ in range(3))
+    E = solve_kepler(M, e)
+    nu = 2 * np.arctan2(np.sqrt(1 + e) * np.sin(E / 2), np.sqrt(1 - e) * np.cos(E / 2))
+    x, v = state_from_elements((a, e, inc, raan, argp, nu), GM)
+    return np.ascontiguousarray(x.T), np.ascontiguousarray(v.T)
+
+
+def aphelion_state(a: float, e: float):
+    """Start at aphelion on the x axis, moving along +y: (x0, v0)."""
+    ra = a * (1 + e)
+    return np.array([ra, 0.0, 0.0]), np.array([0.0, math.sqrt(GM * (1 - e) / ra), 0.0])
+
+
+def period(x0, v0) -> float:
+    return float(kepler_period(semi_major_axis(x0, v0, GM), GM))
+
+
+def energies(x, v):
+    """Specific energy of each point, x and v (3, n) or (..., 3) with axis=-2 sum."""
+    return 0.5 * np.einsum("...kn,...kn->...n", v, v) - GM / np.sqrt(np.einsum("...kn,...kn->...n", x, x))
+
+
+def point_masses(x, v) -> PointMasses:
+    """A PointMasses holding the (3, n) states (filled directly: adding 1e5 points one by one
+    copies the arrays each time)."""
+    pm = PointMasses()
+    n = x.shape[1]
+    pm.names = [f"p{i}" for i in range(n)]
+    pm.masses = np.ones(n)
+    pm.x, pm.v = np.array(x, float, order="C"), np.array(v, float, order="C")
+    pm.cx, pm.cv = np.zeros_like(pm.x), np.zeros_like(pm.v)
+    return pm
+
+
+class EmorbitRunner:
+    """``n`` steps of one method and order through :meth:`PointMasses.advance` (the scene's
+    path), one record at the end; keeps the state between calls."""
+
+    def __init__(self, x, v, method: str, order: int, dt: float, max_iter: int = 50):
+        self.pm = point_masses(x, v)
+        self.method, self.gammas, self.dt, self.max_iter = method, coefficients(order), dt, max_iter
+        self.iterations = []
+        self.steps = 0
+
+    def __call__(self, n: int) -> tuple:
+        start = _clock()
+        rec = self.pm.advance(self.method, GM, np.zeros(3), self.dt, self.gammas, n, 1, self.max_iter)
+        elapsed = _since(start)
+        if rec.first_failure() is not None:
+            raise RuntimeError(f"emorbit {self.method}: a step failed {rec.first_failure()}")
+        self.steps += n
+        self.iterations.append(float(rec.iterations.mean()) / (n * self.gammas.size))
+        return elapsed
+
+
+class KernelRunner:
+    """``n`` steps of the bare packed kernel (:mod:`emorbit.kernels.ensemble`) on one thread
+    or on all of them; keeps the state between calls."""
+
+    def __init__(self, x, v, method: int, order: int, dt: float, parallel: bool):
+        from ..kernels import ensemble
+
+        self.x, self.v = np.array(x, float, order="C"), np.array(v, float, order="C")
+        self.cx, self.cv = np.zeros_like(self.x), np.zeros_like(self.v)
+        self.method, self.gammas, self.dt = method, coefficients(order), dt
+        self.kernel = ensemble.ensemble_chunk_parallel if parallel else ensemble.ensemble_chunk
+        self.steps = 0
+
+    def __call__(self, n: int) -> tuple:
+        m = self.x.shape[1]
+        rx, rv = np.empty((1, 3, m)), np.empty((1, 3, m))
+        its, fail = np.zeros((1, m), np.int64), np.full((m, 2), -1, np.int64)
+        start = _clock()
+        self.kernel(self.method, self.x, self.v, self.cx, self.cv, GM, np.zeros(3), self.dt, self.gammas, n, 1, 50,
+                    rx, rv, its, fail)
+        elapsed = _since(start)
+        if np.any(fail[:, 0] >= 0):
+            raise RuntimeError("emorbit kernel: a step failed")
+        self.steps += n
+        return elapsed
+
+
+def rebound_sim(x, v, integrator: str, dt: float | None = None, epsilon: float | None = None):
+    """A REBOUND simulation of test particles (m = 0, N_active = 1) around a central mass GM
+    at the origin (G = 1); x, v (3, n). WHFast without safe mode (no synchronisation between
+    steps), as for a production run."""
+    import rebound
+
+    n = x.shape[1]
+    sim = rebound.Simulation()
+    sim.G = 1.0
+    sim.add(m=GM)
+    p = rebound.Particle(m=0.0, x=1.0)
+    for _ in range(n):
+        sim.add(p)
+    xyz = np.zeros((n + 1, 3))
+    vel = np.zeros((n + 1, 3))
+    xyz[1:] = x.T
+    vel[1:] = v.T
+    sim.set_serialized_particle_data(xyz=xyz, vxvyvz=vel)
+    sim.N_active = 1
+    sim.integrator = integrator
+    if dt is not None:
+        sim.dt = dt
+    if integrator == "whfast":
+        sim.integrator.safe_mode = 0
+    if epsilon is not None:
+        sim.integrator.epsilon = epsilon
+    return sim
+
+
+def rebound_state(sim):
+    """(x, v) of the test particles as (3, n), synchronised (WHFast without safe mode keeps
+    them in its own coordinates between steps)."""
+    sim.synchronize()
+    n = sim.N - 1
+    xyz, vel = np.empty((n + 1, 3)), np.empty((n + 1, 3))
+    sim.serialize_particle_data(xyz=xyz, vxvyvz=vel)
+    return np.ascontiguousarray((xyz[1:] - xyz[0]).T), np.ascontiguousarray((vel[1:] - vel[0]).T)
+
+
+class ReboundRunner:
+    """``n`` steps of a REBOUND simulation (fixed-step integrators, or IAS15's own steps)."""
+
+    def __init__(self, sim):
+        self.sim = sim
+        self.steps = 0
+
+    def __call__(self, n: int) -> tuple:
+        start = _clock()
+        self.sim.steps(n)
+        elapsed = _since(start)
+        self.steps += n
+        return elapsed
+
+
+def versions() -> dict:
+    import numba
+
+    from .._version import __version__
+
+    return {"emorbit": __version__, "numba": numba.__version__, "numpy": np.__version__,
+            "rebound": _version("rebound"), "heyoka": _version("heyoka"), "llvmlite": _version("llvmlite"),
+            "scipy": _version("scipy"), "matplotlib": _version("matplotlib")}
+
+
+def numba_threads() -> dict:
+    import numba
+
+    return {"threads": numba.get_num_threads(), "threading_layer": _threading_layer()}
+
+
+def _threading_layer():
+    import numba
+
+    try:
+        return numba.threading_layer()
+    except ValueError:  # not initialised: no parallel kernel has run yet
+        return None

@@ -1,0 +1,112 @@
+"""Runs the sections, prints their tables and the targets, writes the JSON and figures."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+
+from .common import CONFIGS, _loadavg, _machine, versions
+
+#: the issue's targets, as ratios within one run
+TARGETS = {
+    "ensemble_vs_rebound": 3.0,  # em on all threads >= 3x REBOUND leapfrog's particle-steps/s
+    "fraction_of_bound": 0.8,  # em >= 80 % of the division / square-root bound
+    "single_vs_rebound": 1.0,  # em on one orbit <= 1.0x REBOUND leapfrog's time per step
+    "warm_startup_s": 2.0,  # warm-cache emorbit run paper-ellipse <= 2 s wall
+    "scene_vs_bare": 0.9,  # a point-mass scene >= 0.9x the bare ensemble kernel's throughput
+}
+
+
+def targets(result: dict) -> list[dict]:
+    out = []
+    ens = result.get("ensemble")
+    if ens:
+        r = ens["em_over_rebound_leapfrog"]
+        out.append({"target": "em ensemble on all threads >= 3x REBOUND leapfrog particle-steps/s",
+                    "measured": r, "limit": TARGETS["ensemble_vs_rebound"], "met": r >= TARGETS["ensemble_vs_rebound"]})
+        for where, key in (("one thread", "em_fraction_of_bound_1thread"), ("all threads", "em_fraction_of_bound_all_threads")):
+            f = ens[key]
+            out.append({"target": f"em ensemble >= 80 % of the division / square-root bound ({where})",
+                        "measured": f, "limit": TARGETS["fraction_of_bound"], "met": f >= TARGETS["fraction_of_bound"]})
+        s = ens["scene_over_bare"]
+        out.append({"target": "point-mass scene (PointMasses.advance) >= 0.9x the bare kernel's throughput",
+                    "measured": s, "limit": TARGETS["scene_vs_bare"], "met": s >= TARGETS["scene_vs_bare"]})
+    single = result.get("single")
+    if single:
+        r = single["ratio_to_rebound_leapfrog"]["em 2"]
+        out.append({"target": "em single orbit <= 1.0x REBOUND leapfrog's time per step", "measured": r,
+                    "limit": TARGETS["single_vs_rebound"], "met": r <= TARGETS["single_vs_rebound"]})
+    start = result.get("startup")
+    if start:
+        w = start["warm_s"]
+        out.append({"target": "warm-cache emorbit run paper-ellipse <= 2 s wall", "measured": w,
+                    "limit": TARGETS["warm_startup_s"], "met": w <= TARGETS["warm_startup_s"]})
+    return out
+
+
+def _sections():
+    from . import ensemble, single, startup, workprecision
+
+    return {"single": single, "ensemble": ensemble, "work-precision": workprecision, "startup": startup}
+
+
+def run_bench(sections, quick: bool = False, json_path=None, plots_dir=None, config: str | None = None) -> int:
+    """Run ``sections`` (names from :data:`emorbit.bench.SECTIONS`); ``config`` "full",
+    "quick" or "tiny" (a smoke run for the tests) overrides ``quick``. Returns 0."""
+    name = config or ("quick" if quick else "full")
+    cfg = CONFIGS[name]
+    modules = _sections()
+    start = time.perf_counter()
+    result = {"config": name, "machine": _machine(), "versions": versions(),
+              "load_average": {"before": _loadavg()}, "seconds": {}}
+    print(f"emorbit bench ({name}): {result['machine']['cpu']}, {result['machine']['cores']} cores, "
+          f"{result['machine']['simd']}; load average {result['load_average']['before']}", flush=True)
+    for section in sections:
+        t0 = time.perf_counter()
+        if section == "rigid":
+            from .. import bench_rigid
+
+            data = bench_rigid.run(config="tiny" if name == "tiny" else None, quick=name != "full")
+            lines = bench_rigid.table(data).splitlines()
+        else:
+            mod = modules[section]
+            data = mod.run(cfg)
+            lines = mod.table(data)
+        result[section.replace("-", "_")] = data
+        result["seconds"][section] = round(time.perf_counter() - t0, 1)
+        print("\n" + "\n".join(lines), flush=True)
+    if plots_dir and "work_precision" in result:
+        from .workprecision import plot
+
+        os.makedirs(plots_dir, exist_ok=True)
+        result["work_precision"]["figures"] = []
+        for orbit in result["work_precision"]["orbits"]:
+            path = os.path.join(plots_dir, f"work-precision-{orbit['name']}.png")
+            plot(orbit, path)
+            result["work_precision"]["figures"].append(path)
+        print(f"\nfigures: {', '.join(result['work_precision']['figures'])}")
+    result["targets"] = targets(result)
+    result["load_average"]["after"] = _loadavg()
+    result["seconds"]["total"] = round(time.perf_counter() - start, 1)
+    print("\ntargets (ratios within this run):")
+    for t in result["targets"]:
+        verdict = "met" if t["met"] else "NOT met"
+        print(f"  {verdict:>8}  {t['target']}: {t['measured']:.3g} (limit {t['limit']:g})")
+    print(f"load average {result['load_average']['before']} -> {result['load_average']['after']}; "
+          f"{result['seconds']['total']} s")
+    if json_path:
+        with open(json_path, "w") as f:
+            json.dump(result, f, indent=1, default=_jsonable)
+            f.write("\n")
+    return 0
+
+
+def _jsonable(x):
+    import numpy as np
+
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    raise TypeError(f"not JSON serialisable: {type(x).__name__}")

@@ -1,0 +1,79 @@
+"""``emorbit bench`` in a seconds-long configuration: the JSON has the keys the issue names,
+the sections hang together, the figures are written. Timings are never asserted here."""
+
+import json
+
+import pytest
+
+from emorbit.bench import SECTIONS
+from emorbit.bench.runner import run_bench
+from emorbit.bench.workprecision import _pareto
+from emorbit.cli import main
+
+KEYS = {
+    "ensemble": ("em_particle_steps_per_s", "em_1thread_particle_steps_per_s", "rebound_leapfrog_particle_steps_per_s",
+                 "rebound_whfast_particle_steps_per_s"),
+    "single": ("em_ns_per_step", "rebound_leapfrog_ns_per_step", "rebound_ias15_ns_per_step"),
+    "startup": ("cold_s", "warm_s"),
+}
+
+
+@pytest.fixture(scope="module")
+def result(tmp_path_factory):
+    d = tmp_path_factory.mktemp("bench")
+    path = d / "out.json"
+    assert run_bench(["single", "ensemble", "work-precision", "startup"], json_path=str(path),
+                     plots_dir=str(d / "plots"), config="tiny") == 0
+    return json.loads(path.read_text()), d
+
+
+def test_json_has_the_issue_keys(result):
+    data, _ = result
+    for section, keys in KEYS.items():
+        for key in keys:
+            assert data[section][key] > 0, (section, key)
+    assert {"cpu", "cores", "simd"} <= set(data["machine"])
+    assert data["versions"]["emorbit"] and data["versions"]["rebound"]
+    assert all(t["met"] in (True, False) and t["limit"] > 0 for t in data["targets"])
+    assert len(data["targets"]) == 6
+
+
+def test_sections_hang_together(result):
+    data, _ = result
+    single = data["single"]["rows"]
+    assert {(r["method"], r["order"]) for r in single if r["engine"] == "emorbit"} == {
+        (m, o) for m in ("em", "midpoint", "leapfrog") for o in (2, 4, 6, 8)}
+    assert {r["method"] for r in single if r["engine"] == "rebound"} == {"leapfrog", "whfast", "ias15"}
+    ens = data["ensemble"]
+    assert ens["rows"]["em 1 thread"]["max_energy_error"] < 1e-12  # em keeps every particle's energy
+    assert ens["limits"]["kernels"]["em"]["sqrts"] == 2 and ens["limits"]["kernels"]["em"]["divisions"] == 3
+    for orbit in data["work_precision"]["orbits"]:
+        engines = {(p["engine"], p["method"]) for p in orbit["points"]}
+        assert {("emorbit", m) for m in ("em", "midpoint", "leapfrog")} <= engines
+        assert {("rebound", m) for m in ("ias15", "whfast", "leapfrog")} <= engines
+        em = [p for p in orbit["points"] if p["method"] == "em" and p.get("status") == "ok"]
+        assert em and all(p["energy_error"] < 1e-12 for p in em)
+        assert any(p["pareto_position"] for p in orbit["points"])
+        assert orbit["heyoka"] == "ok" or orbit["heyoka"].startswith(("skipped", "failed"))
+
+
+def test_figures_written(result):
+    data, d = result
+    figs = data["work_precision"]["figures"]
+    assert len(figs) == 2
+    for f in figs:
+        with open(f, "rb") as fh:
+            assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
+
+
+def test_pareto_front():
+    points = [{"cpu_s": 1.0, "e": 1e-3}, {"cpu_s": 2.0, "e": 1e-2}, {"cpu_s": 3.0, "e": 1e-6}, {"cpu_s": 0.5, "e": 1.0}]
+    assert _pareto(points, "e") == [3, 0, 2]
+
+
+def test_command_line(capsys):
+    """The subcommand is registered and rejects an unknown section."""
+    with pytest.raises(SystemExit):
+        main(["bench", "--only", "nonsense"])
+    assert "invalid choice" in capsys.readouterr().err
+    assert set(SECTIONS) == {"single", "ensemble", "work-precision", "startup", "rigid"}
