@@ -1,0 +1,532 @@
+"""Sweep files: a base scene, values set for every run, and the parameters to vary.
+
+::
+
+    [sweep]
+    scene = "paper-ellipse"      # a shipped scene's name or a TOML file (relative to this file)
+    seed = 2024                  # root seed (default 0): run i draws from SeedSequence(seed).spawn(n)[i]
+    combine = "product"          # product: every combination of the listed values (default)
+                                 # zip: the lists side by side (equal lengths)
+    samples = 1                  # runs per combination; random parameters draw anew in each (default 1)
+    bodies = ["satellite"]       # bodies whose final elements the summary lists (default: all)
+
+    [set]                        # the same value in every run (keys as below)
+    "integrator.t_end" = "46.4758 s"
+
+    [[parameter]]                # a list of values, written as in a scene
+    key = "integrator.dt"
+    values = ["0.2 s", "0.1 s"]
+
+    [[parameter]]                # evenly spaced numbers (both ends included); or step = 0.01
+    key = "body[0].velocity[1]"
+    range = { start = 0.30, stop = 0.40, num = 11 }    # spacing = "log" for geometric
+    unit = "m / s"
+
+    [[parameter]]                # a seeded random draw in every run
+    key = "body[satellite].position[0]"
+    random = { distribution = "uniform", low = 9.5, high = 10.5 }
+    unit = "m"                   # normal: mean, std; loguniform: low, high
+
+A key is a dotted path into the scene: ``integrator.dt``, ``field.gm``,
+``body[0].velocity[1]`` (body 0, component 1), ``body[satellite].mass`` (the body named
+"satellite"), ``coupling[0].nodes``. Every table on the path must exist in the base scene;
+the last name must be a key that table allows (it may be absent from the base scene). A
+parameter with ``unit`` takes numbers and writes ``"<number> <unit>"`` into the scene; one
+without writes its values unchanged, so a number goes where the scene wants a bare number
+and a string with a unit where it wants a quantity. Unknown keys in the sweep file, keys
+that do not exist in the scene, and a unit where the scene has none (or the other way
+round) are errors that name the key, raised before anything runs. A bad *value* (a
+negative step, say) is not: that run fails on its own and the sweep goes on.
+
+Runs are numbered in the order of the combinations (``product``: the last parameter
+changes fastest), ``samples`` consecutive runs per combination. Run i draws its random
+values, in the order of the ``[[parameter]]`` tables, from
+``numpy.random.default_rng(numpy.random.SeedSequence(seed).spawn(n)[i])``; since spawned
+children depend only on (seed, i), a sweep with more samples keeps the draws of the runs it
+shares with a smaller one.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import itertools
+import json
+import math
+import numbers
+import os
+import re
+import sys
+from dataclasses import dataclass, field
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+import numpy as np
+
+from ..errors import InputError
+from ..scene import SCHEMA, Scene, load_scene
+
+__all__ = ["Sweep", "Parameter", "Task", "load_sweep", "parse_sweep", "parse_key", "set_value", "run_scene"]
+
+_TOP = {"sweep": True, "set": False, "parameter": False}
+_SWEEP = {"scene": True, "seed": False, "combine": False, "samples": False, "bodies": False}
+_PARAMETER = {"key": True, "values": False, "range": False, "random": False, "unit": False}
+_RANGE = {"start": True, "stop": True, "num": False, "step": False, "spacing": False}
+#: random distributions and their parameters
+DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"), "loguniform": ("low", "high")}
+
+
+def _check_table(table, allowed: dict, where: str) -> dict:
+    if not isinstance(table, dict):
+        raise InputError(where, f"expected a table, got {table!r}")
+    for key in table:
+        if key not in allowed:
+            raise InputError(f"{where}.{key}" if where else key,
+                             f"unknown key {key!r}; allowed here: {', '.join(allowed)}")
+    for key, required in allowed.items():
+        if required and key not in table:
+            raise InputError(f"{where}.{key}" if where else key, "missing (required)")
+    return table
+
+
+def _check_unit(unit: str, key: str) -> None:
+    import astropy.units as u
+
+    try:
+        u.Unit(unit)
+    except (TypeError, ValueError) as exc:
+        raise InputError(key, f"cannot read {unit!r} as a unit ({exc})") from None
+
+
+def _number(value, key: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+        raise InputError(key, f"a finite number expected, got {value!r}")
+    return value
+
+
+def _int(value, key: str, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise InputError(key, f"must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+# -- keys into a scene -------------------------------------------------------------------
+_SEGMENT = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[[^\[\]]+\])*)\Z")
+_INDEX = re.compile(r"\[([^\[\]]+)\]")
+
+
+def parse_key(key, where: str = "key") -> tuple:
+    """``"body[0].velocity[1]"`` -> ``("body", 0, "velocity", 1)``; a bracket that is not an
+    integer selects the list element whose ``name`` it is: ``body[sat]`` -> ``("body", ("name", "sat"))``."""
+    if not isinstance(key, str) or not key:
+        raise InputError(where, f"a dotted key such as 'integrator.dt' expected, got {key!r}")
+    segments, depth, start = [], 0, 0
+    for j, ch in enumerate(key):  # split at dots outside brackets (a body name may hold a dot)
+        depth += ch == "["
+        depth -= ch == "]"
+        if ch == "." and depth == 0:
+            segments.append(key[start:j])
+            start = j + 1
+    segments.append(key[start:])
+    path = []
+    for seg in segments:
+        m = _SEGMENT.match(seg)
+        if m is None:
+            raise InputError(where, f"{key!r} is not a key: use names joined by dots with [index] or [name] "
+                                    "after a name, e.g. 'body[0].velocity[1]'")
+        path.append(m.group(1))
+        for inner in _INDEX.findall(m.group(2)):
+            inner = inner.strip().strip("'\"")
+            path.append(int(inner) if re.fullmatch(r"-?\d+", inner) else ("name", inner))
+    return tuple(path)
+
+
+def _schema_of(path: tuple, node) -> str | None:
+    """Which scene SCHEMA table ``node`` (reached by ``path``) is checked against, if any."""
+    if not path:
+        return ""
+    if len(path) == 1 and path[0] in ("field", "integrator"):
+        return path[0]
+    if len(path) == 2 and path[0] == "body" and isinstance(node, dict):
+        kind = node.get("kind")
+        return f"body.{kind}" if f"body.{kind}" in SCHEMA else None
+    if len(path) == 2 and path[0] == "coupling":
+        return "coupling"
+    return None
+
+
+def _show(path) -> str:
+    out = ""
+    for p in path:
+        if isinstance(p, int):
+            out += f"[{p}]"
+        elif isinstance(p, tuple):
+            out += f"[{p[1]}]"
+        else:
+            out += ("." if out else "") + p
+    return out
+
+
+def _locate(data: dict, path: tuple, where: str):
+    """(container, last part, schema name of the container) for ``path`` in ``data``."""
+    node = data
+    for j, part in enumerate(path[:-1]):
+        here = _show(path[:j + 1])
+        if isinstance(part, str):
+            if not isinstance(node, dict):
+                raise InputError(where, f"{_show(path[:j])} is not a table, so it has no key {part!r}")
+            if part not in node:
+                raise InputError(where, f"the base scene has no {here!r}")
+            node = node[part]
+        else:
+            if not isinstance(node, list):
+                raise InputError(where, f"{_show(path[:j])} is not a list, so {here!r} does not exist")
+            node = node[_list_index(node, part, here, where)]
+    return node, path[-1], _schema_of(path[:-1], node)
+
+
+def _list_index(node: list, part, here: str, where: str) -> int:
+    if isinstance(part, tuple):
+        names = [e.get("name") for e in node if isinstance(e, dict)]
+        if part[1] not in names:
+            raise InputError(where, f"no element named {part[1]!r} for {here!r}; names: "
+                                    f"{', '.join(map(str, names)) or 'none'}")
+        return names.index(part[1])
+    if not -len(node) <= part < len(node):
+        raise InputError(where, f"{here!r} does not exist: the list has {len(node)} elements")
+    return part
+
+
+def check_key(data: dict, path: tuple, where: str):
+    """Check that ``path`` can be set in ``data`` (see the module notes); returns the current
+    value there (None if the key is allowed but absent)."""
+    node, last, schema = _locate(data, path, where)
+    if isinstance(last, str):
+        if not isinstance(node, dict):
+            raise InputError(where, f"{_show(path[:-1])} is not a table, so it has no key {last!r}")
+        if last not in node:
+            allowed = SCHEMA.get(schema) if schema is not None else None
+            if allowed is None or last not in allowed:
+                hint = f"; allowed here: {', '.join(allowed)}" if allowed else ""
+                raise InputError(where, f"unknown key {_show(path)!r}: {_show(path[:-1]) or 'the scene'} has no "
+                                        f"{last!r}{hint}")
+            return None
+        return node[last]
+    if not isinstance(node, list):
+        raise InputError(where, f"{_show(path[:-1])} is not a list, so {_show(path)!r} does not exist")
+    return node[_list_index(node, last, _show(path), where)]
+
+
+def set_value(data: dict, path: tuple, value) -> None:
+    """Set ``value`` at ``path`` in ``data`` (a scene dict), in place."""
+    node, last, _ = _locate(data, path, _show(path))
+    if isinstance(last, str):
+        node[last] = value
+    else:
+        node[_list_index(node, last, _show(path), _show(path))] = value
+
+
+# -- parameters --------------------------------------------------------------------------
+def _with_unit(value, unit: str | None, where: str):
+    """A value as written into the scene: numbers with ``unit`` become "<number> <unit>"."""
+    if unit is None:
+        return value
+    if isinstance(value, list):
+        return [_with_unit(v, unit, f"{where}[{j}]") for j, v in enumerate(value)]
+    _number(value, where)
+    text = str(int(value)) if isinstance(value, numbers.Integral) else repr(float(value))
+    return f"{text} {unit}"
+
+
+@dataclass
+class Parameter:
+    """One ``[[parameter]]``: a key, and values (a list) or a random distribution."""
+
+    key: str
+    path: tuple
+    unit: str | None = None
+    values: list | None = None  # numbers (with unit) or scene values; None for random
+    distribution: str | None = None
+    args: tuple = ()
+
+    @property
+    def random(self) -> bool:
+        return self.values is None
+
+    def draw(self, rng: np.random.Generator) -> float:
+        a, b = self.args
+        if self.distribution == "uniform":
+            return float(rng.uniform(a, b))
+        if self.distribution == "normal":
+            return float(rng.normal(a, b))
+        return float(math.exp(rng.uniform(math.log(a), math.log(b))))
+
+    def scene_value(self, value, where: str):
+        return _with_unit(value, self.unit, where)
+
+
+def _range_values(r, where: str) -> list:
+    _check_table(r, _RANGE, where)
+    start = _number(r["start"], f"{where}.start")
+    stop = _number(r["stop"], f"{where}.stop")
+    spacing = r.get("spacing", "linear")
+    if spacing not in ("linear", "log"):
+        raise InputError(f"{where}.spacing", f"must be 'linear' or 'log', got {spacing!r}")
+    if ("num" in r) == ("step" in r):
+        raise InputError(where, "give exactly one of num and step")
+    if spacing == "log":
+        if "num" not in r:
+            raise InputError(f"{where}.step", "a log range takes num, not step")
+        if not (start > 0 and stop > 0):
+            raise InputError(where, f"a log range needs start, stop > 0, got {start!r}, {stop!r}")
+    if "num" in r:
+        num = _int(r["num"], f"{where}.num", 1)
+        if num == 1:
+            return [start]
+        grid = np.geomspace(start, stop, num) if spacing == "log" else np.linspace(start, stop, num)
+        return [float(x) for x in grid]
+    step = _number(r["step"], f"{where}.step")
+    if step == 0 or (stop - start) * step < 0:
+        raise InputError(f"{where}.step", f"{step!r} does not lead from {start!r} to {stop!r}")
+    count = (stop - start) / step
+    n = int(math.floor(count + 1e-9)) + 1
+    if all(isinstance(r[k], numbers.Integral) for k in ("start", "stop", "step")):
+        return [int(start + j * step) for j in range(n)]
+    return [float(start + j * step) for j in range(n)]
+
+
+def _parameter(p, j: int, scene_data: dict) -> Parameter:
+    where = f"parameter[{j}]"
+    _check_table(p, _PARAMETER, where)
+    sources = [k for k in ("values", "range", "random") if k in p]
+    if len(sources) != 1:
+        raise InputError(where, "give exactly one of values, range and random")
+    path = parse_key(p["key"], f"{where}.key")
+    current = check_key(scene_data, path, f"{where}.key ({p['key']})")
+    unit = p.get("unit")
+    if unit is not None:
+        if not isinstance(unit, str) or not unit.strip():
+            raise InputError(f"{where}.unit", f"a unit such as 'm / s' expected, got {unit!r}")
+        _check_unit(unit, f"{where}.unit")
+    param = Parameter(key=p["key"], path=path, unit=unit)
+    if "values" in p:
+        vals = p["values"]
+        if not isinstance(vals, list) or not vals:
+            raise InputError(f"{where}.values", f"a non-empty list expected, got {vals!r}")
+        for k, v in enumerate(vals):
+            param.scene_value(v, f"{where}.values[{k}]")  # numbers where a unit is given
+        param.values = list(vals)
+    elif "range" in p:
+        param.values = _range_values(p["range"], f"{where}.range")
+    else:
+        r = p["random"]
+        rw = f"{where}.random"
+        if not isinstance(r, dict) or r.get("distribution") not in DISTRIBUTIONS:
+            got = r.get("distribution") if isinstance(r, dict) else r
+            raise InputError(f"{rw}.distribution", f"one of {', '.join(DISTRIBUTIONS)} expected, got {got!r}")
+        names = DISTRIBUTIONS[r["distribution"]]
+        _check_table(r, {"distribution": True, **{n: True for n in names}}, rw)
+        args = tuple(float(_number(r[n], f"{rw}.{n}")) for n in names)
+        if r["distribution"] == "normal" and not args[1] >= 0:
+            raise InputError(f"{rw}.std", f"must be >= 0, got {args[1]!r}")
+        if r["distribution"] != "normal" and not args[0] < args[1]:
+            raise InputError(rw, f"needs low < high, got {args[0]!r}, {args[1]!r}")
+        if r["distribution"] == "loguniform" and not args[0] > 0:
+            raise InputError(f"{rw}.low", f"must be > 0, got {args[0]!r}")
+        param.distribution = r["distribution"]
+        param.args = args
+    if unit is None and not param.random and "range" not in p:
+        return param
+    # generated numbers: the scene must want a quantity exactly when a unit is given
+    has_unit = isinstance(current, str) or (isinstance(current, list) and any(isinstance(c, str) for c in current))
+    if unit is None and has_unit:
+        raise InputError(f"{where}.unit", f"{p['key']} takes a value with a unit (the scene has {current!r}); "
+                                          "give the unit of the numbers, e.g. unit = \"m\"")
+    if unit is not None and current is not None and not has_unit:
+        raise InputError(f"{where}.unit", f"{p['key']} takes a bare number (the scene has {current!r}); "
+                                          "drop the unit")
+    return param
+
+
+# -- the sweep ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Task:
+    """One run of a sweep: its index, seed and the values of every parameter (as written
+    into the scene); ``digest`` identifies the run (base scene, values, seed) in its file."""
+
+    index: int
+    seed: int
+    values: dict
+    digest: str
+
+
+@dataclass
+class Sweep:
+    """A checked sweep: the base scene, fixed values, parameters and how they combine."""
+
+    scene: Scene
+    parameters: list[Parameter]
+    fixed: dict = field(default_factory=dict)  # key -> value written into every run
+    seed: int = 0
+    combine: str = "product"
+    samples: int = 1
+    bodies: list[str] | None = None
+    text: str = ""
+    source: str = "<string>"
+
+    def __len__(self) -> int:
+        return self._combinations() * self.samples
+
+    def _axes(self) -> list[Parameter]:
+        return [p for p in self.parameters if not p.random]
+
+    def _combinations(self) -> int:
+        axes = self._axes()
+        if not axes:
+            return 1
+        if self.combine == "zip":
+            return len(axes[0].values)
+        return math.prod(len(p.values) for p in axes)
+
+    def tasks(self) -> list[Task]:
+        """Every run, in order (see the module notes)."""
+        axes = self._axes()
+        if self.combine == "zip":
+            combos = list(zip(*[p.values for p in axes]))
+        else:
+            combos = list(itertools.product(*[p.values for p in axes]))
+        n = len(combos) * self.samples
+        children = np.random.SeedSequence(self.seed).spawn(n)
+        tasks = []
+        base = json.dumps({"scene": self.scene.text, "fixed": self.fixed, "bodies": self.bodies},
+                          sort_keys=True, default=str)
+        for c, combo in enumerate(combos):
+            chosen = dict(zip([p.key for p in axes], combo))
+            for s in range(self.samples):
+                i = c * self.samples + s
+                rng = np.random.default_rng(children[i])
+                values = {}
+                for p in self.parameters:
+                    values[p.key] = p.draw(rng) if p.random else chosen[p.key]
+                seed = int(children[i].generate_state(1, np.uint64)[0])
+                digest = hashlib.sha256(json.dumps([base, values, seed], sort_keys=True, default=str)
+                                        .encode()).hexdigest()[:32]
+                tasks.append(Task(i, seed, values, digest))
+        return tasks
+
+    def scene_for(self, task: Task) -> Scene:
+        """The run's scene, unchecked (building it checks it)."""
+        return run_scene(self.scene.data, self.scene.text, self.scene.source, self.fixed,
+                         [(p.key, p.path, p.unit) for p in self.parameters], task.index, task.values)
+
+    def body_names(self) -> list[str]:
+        """Bodies whose final elements the summary lists."""
+        if self.bodies is not None:
+            return list(self.bodies)
+        return [b["name"] for b in self.scene.data.get("body", []) if isinstance(b, dict) and "name" in b]
+
+
+def run_scene(data: dict, text: str, source: str, fixed: dict, params, index: int, values: dict) -> Scene:
+    """Run ``index``'s scene: the base scene ``data`` with the ``fixed`` values and the run's
+    ``values`` of ``params`` ((key, path, unit) each) set; its text is the base text after
+    comments naming them. Unchecked: building it checks it."""
+    data = copy.deepcopy(data)
+    notes = []
+    for key, value in fixed.items():
+        set_value(data, parse_key(key), value)
+        notes.append(f"# sweep: {key} = {json.dumps(value)}\n")
+    for key, path, unit in params:
+        value = _with_unit(values[key], unit, key)
+        set_value(data, path, value)
+        notes.append(f"# sweep run {index}: {key} = {json.dumps(value)}\n")
+    return Scene(data, "".join(notes) + text, source)
+
+
+def _flatten(table: dict, prefix: str = "") -> dict:
+    """``{"integrator": {"t_end": x}}`` (TOML's reading of a bare dotted key) -> ``{"integrator.t_end": x}``."""
+    out = {}
+    for key, value in table.items():
+        full = f"{prefix}.{key}" if prefix else key
+        if isinstance(value, dict):
+            out.update(_flatten(value, full))
+        else:
+            out[full] = value
+    return out
+
+
+def parse_sweep(text: str, source: str = "<string>") -> Sweep:
+    """Parse and check a sweep from TOML text; a relative scene path is taken from the
+    folder of ``source``."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(source, f"not valid TOML: {exc}") from None
+    _check_table(data, _TOP, "")
+    sw = _check_table(data["sweep"], _SWEEP, "sweep")
+    scene_ref = sw["scene"]
+    if not isinstance(scene_ref, str) or not scene_ref:
+        raise InputError("sweep.scene", f"a shipped scene's name or a TOML path expected, got {scene_ref!r}")
+    if source != "<string>" and not os.path.isabs(scene_ref):
+        candidate = os.path.join(os.path.dirname(os.path.abspath(source)), scene_ref)
+        if os.path.isfile(candidate):
+            scene_ref = candidate
+    try:
+        scene = load_scene(scene_ref)
+    except InputError as exc:
+        raise InputError("sweep.scene", str(exc)) from None
+    seed = _int(sw.get("seed", 0), "sweep.seed", 0)
+    combine = sw.get("combine", "product")
+    if combine not in ("product", "zip"):
+        raise InputError("sweep.combine", f"must be 'product' or 'zip', got {combine!r}")
+    samples = _int(sw.get("samples", 1), "sweep.samples", 1)
+    params_raw = data.get("parameter", [])
+    if not isinstance(params_raw, list):
+        raise InputError("parameter", "expected [[parameter]] tables")
+    params = [_parameter(p, j, scene.data) for j, p in enumerate(params_raw)]
+    for p in params:
+        same = [k for k, q in enumerate(params) if q.path == p.path]
+        if len(same) > 1:
+            raise InputError(f"parameter[{same[1]}].key", f"{p.key!r} is varied twice (parameter {same})")
+    fixed_raw = data.get("set", {})
+    if not isinstance(fixed_raw, dict):
+        raise InputError("set", f"expected a table, got {fixed_raw!r}")
+    fixed = _flatten(fixed_raw)
+    for key in fixed:
+        path = parse_key(key, f"set.{key}")
+        check_key(scene.data, path, f"set.{key}")
+        if any(p.path == path for p in params):
+            raise InputError(f"set.{key}", f"{key!r} is also a parameter: set it in one place")
+    axes = [p for p in params if not p.random]
+    if combine == "zip" and len({len(p.values) for p in axes}) > 1:
+        raise InputError("sweep.combine", "zip needs lists of equal length; got "
+                         + ", ".join(f"{p.key}: {len(p.values)}" for p in axes))
+    if samples > 1 and not any(p.random for p in params):
+        raise InputError("sweep.samples", f"{samples} samples of a sweep without random parameters would repeat "
+                                          "identical runs; add a [[parameter]] with random = {...}")
+    bodies = sw.get("bodies")
+    names = [b.get("name") for b in scene.data.get("body", []) if isinstance(b, dict)]
+    if bodies is not None:
+        if not isinstance(bodies, list) or not all(isinstance(b, str) for b in bodies):
+            raise InputError("sweep.bodies", f"a list of body names expected, got {bodies!r}")
+        for b in bodies:
+            if b not in names:
+                raise InputError("sweep.bodies", f"no body named {b!r} in the scene; bodies: {', '.join(names)}")
+    return Sweep(scene=scene, parameters=params, fixed=fixed, seed=seed, combine=combine, samples=samples,
+                 bodies=bodies, text=text, source=source)
+
+
+def load_sweep(path) -> Sweep:
+    """A sweep from a TOML file."""
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise InputError("sweep", f"{path!r} is not a file")
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(path, "a sweep file must be UTF-8 text") from None
+    return parse_sweep(text, path)
