@@ -1,0 +1,123 @@
+"""Point-mass ensemble throughput on the GPU against the CPU kernels.
+
+    python scripts/bench_gpu.py [--points 100000 1000000] [--steps 100] [--json FILE]
+
+Test particles on random orbits (e up to 0.9) around the paper's field, em and leapfrog at
+order 2, dt = T/1000 of the widest orbit. Rows, in point-steps per second (warm: compiled
+and run once before timing, median of 5):
+
+* cpu reference   emorbit.kernels.pointmass (one thread; the algorithm the GPU runs)
+* cpu ensemble    emorbit.kernels.ensemble, all Numba threads (what Simulation uses)
+* gpu chunk       emorbit.kernels.cuda.chunk: copies the state in and the records out
+* gpu kernel      the kernel alone on device-resident arrays
+
+Without a CUDA device it says so and exits with status 1: nothing is measured.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+
+def ensemble(n: int, seed: int = 3):
+    gm = 3.9478
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(4.0, 10.0, n)
+    e = rng.uniform(0.0, 0.9, n)
+    r = a * (1 + e)  # start at apoapsis
+    vt = np.sqrt(gm / a * (1 - e) / (1 + e))
+    phi = rng.uniform(0, 2 * np.pi, n)
+    inc = rng.uniform(0, np.pi, n)
+    x = np.vstack([r * np.cos(phi), r * np.sin(phi), np.zeros(n)])
+    v = np.vstack([-vt * np.sin(phi) * np.cos(inc), vt * np.cos(phi) * np.cos(inc), vt * np.sin(inc)])
+    period = 2 * np.pi * np.sqrt(10.0**3 / gm)
+    return gm, np.ascontiguousarray(x), np.ascontiguousarray(v), period / 1000
+
+
+def timed(fn, repeats: int = 5) -> float:
+    fn()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return float(np.median(times))
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--points", type=int, nargs="+", default=[100_000, 1_000_000])
+    ap.add_argument("--steps", type=int, default=100)
+    ap.add_argument("--json")
+    args = ap.parse_args()
+
+    from emorbit.integrators import coefficients
+    from emorbit.kernels import cuda as kcuda
+    from emorbit.kernels import ensemble as kens
+    from emorbit.kernels import pointmass as kref
+
+    if not kcuda.available():
+        print("no CUDA device here: GPU throughput not measured")
+        return 1
+    cuda, implicit_kernel, leapfrog_kernel = kcuda._compile()
+    gammas = coefficients(2)
+    rows = []
+    for n in args.points:
+        gm, x0, v0, dt = ensemble(n)
+        center = np.zeros(3)
+        for method in ("em", "leapfrog"):
+            code = kcuda.METHODS[method]
+
+            def arrays():
+                return ([x0.copy(), v0.copy(), np.zeros_like(x0), np.zeros_like(v0)],
+                        [np.empty((1, 3, n)), np.empty((1, 3, n)), np.zeros((1, n), np.int64),
+                         np.full((n, 2), -1, np.int64)])
+
+            def cpu_ref():
+                a, rec = arrays()
+                if method == "leapfrog":
+                    kref.leapfrog_chunk(*a, gm, center, dt, gammas, args.steps, 1, 50, *rec)
+                else:
+                    kref.implicit_chunk(code, *a, gm, center, dt, gammas, args.steps, 1, 50, *rec)
+
+            def cpu_ens():
+                a, rec = arrays()
+                kens.ensemble_chunk_parallel(kens.METHOD_LEAPFROG if method == "leapfrog" else code, *a, gm,
+                                             center, dt, gammas, args.steps, 1, 50, *rec)
+
+            def gpu_chunk():
+                a, rec = arrays()
+                kcuda.chunk(code, *a, gm, center, dt, gammas, args.steps, 1, 50, *rec)
+
+            a, rec = arrays()
+            dev = [cuda.to_device(q) for q in a + rec]
+            d_center, d_gammas = cuda.to_device(center), cuda.to_device(gammas)
+            blocks = (n + kcuda.THREADS_PER_BLOCK - 1) // kcuda.THREADS_PER_BLOCK
+
+            def gpu_kernel():
+                common = (np.float64(gm), d_center, np.float64(dt), d_gammas, args.steps, 1, 50)
+                if method == "leapfrog":
+                    leapfrog_kernel[blocks, kcuda.THREADS_PER_BLOCK](*dev[:4], *common, *dev[4:])
+                else:
+                    implicit_kernel[blocks, kcuda.THREADS_PER_BLOCK](code, *dev[:4], *common, *dev[4:])
+                cuda.synchronize()
+
+            row = {"points": n, "method": method, "steps": args.steps}
+            for name, fn, reps in (("cpu reference", cpu_ref, 1), ("cpu ensemble", cpu_ens, 5),
+                                   ("gpu chunk", gpu_chunk, 5), ("gpu kernel", gpu_kernel, 5)):
+                t = timed(fn, reps)
+                row[name] = n * args.steps / t
+                print(f"{n:9d} points {method:8s} {name:14s} {n * args.steps / t:12.3e} point-steps/s ({t:.3f} s)")
+            rows.append(row)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({"device": str(cuda.get_current_device().name), "rows": rows}, fh, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
