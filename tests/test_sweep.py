@@ -259,16 +259,24 @@ def test_command_line(tmp_path, capsys):
     assert not (tmp_path / "o3").exists()  # nothing created
 
 
-def test_mpi_backend_says_what_is_missing(tmp_path, capsys):
+def _mpi_missing():
+    """Why the MPI backend cannot run here (None if it can)."""
     try:
+        from mpi4py import MPI  # noqa: F401 - loads the MPI library
         from mpi4py.futures import MPIPoolExecutor  # noqa: F401
-    except Exception:
-        f = tmp_path / "s.toml"
-        f.write_text(FAILING)
-        assert main(["sweep", str(f), "-o", str(tmp_path / "o"), "--mpi"]) == 2
-        assert "mpi4py" in capsys.readouterr().err
-    else:
-        pytest.skip("mpi4py is installed: the missing-mpi4py message cannot be shown")
+    except Exception as exc:  # not installed, or installed without an MPI library
+        return f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+    return None
+
+
+def test_mpi_backend_says_what_is_missing(tmp_path, capsys):
+    if _mpi_missing() is None:
+        pytest.skip("mpi4py and an MPI library are installed: nothing is missing")
+    f = tmp_path / "s.toml"
+    f.write_text(FAILING)
+    assert main(["sweep", str(f), "-o", str(tmp_path / "o"), "--mpi"]) == 2
+    assert "mpi4py" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
 
 
 # -- backends against running the scenes one by one -----------------------------------------
@@ -316,6 +324,16 @@ def test_dask_local_cluster_equals_one_by_one_and_the_process_backend(grid_refer
     assert (tmp_path / "out/summary.csv").read_text().count("\n") == 201
 
 
+def test_mpi_backend_equals_the_process_backend(process_summary, tmp_path):
+    why = _mpi_missing()
+    if why is not None:
+        pytest.skip(f"the MPI backend needs mpi4py with an MPI library ({why})")
+    sweep = parse_sweep(GRID)
+    res = run_sweep(sweep, tmp_path / "out", backend="mpi", workers=2)
+    assert res.counts["completed"] == 200
+    assert _same(_strip(read_summary(tmp_path / "out")), _strip(process_summary[1]))
+
+
 # -- a worker killed in the middle of a sweep -----------------------------------------------
 #: 24 runs of about 0.2 s each (1e6 steps), so that a worker is busy when it is killed
 SLOW = f"""
@@ -333,9 +351,10 @@ unit = "m / s"
 """
 
 
-def _kill_third(killed):
+def _kill_third(killed, threads):
     def on_result(row, worker):
-        if len(killed) == 0 and worker is not None and row["run"] >= 2:
+        threads.add(worker["threads"])
+        if len(killed) == 0 and row["run"] >= 2:
             killed.append(worker["pid"])
             os.kill(worker["pid"], signal.SIGKILL)  # it has already taken its next run
     return on_result
@@ -354,23 +373,30 @@ def _no_loss_no_duplicate(res, out):
 @pytest.fixture(scope="module")
 def killed_process_sweep(tmp_path_factory):
     out = tmp_path_factory.mktemp("kill") / "out"
-    killed = []
-    res = run_sweep(parse_sweep(SLOW), out, backend="process", workers=2, on_result=_kill_third(killed))
-    return res, out, killed
+    killed, threads = [], set()
+    res = run_sweep(parse_sweep(SLOW), out, backend="process", workers=2, on_result=_kill_third(killed, threads))
+    return res, out, killed, threads
 
 
 def test_killing_a_process_worker_loses_nothing_and_duplicates_nothing(killed_process_sweep):
-    res, out, killed = killed_process_sweep
+    res, out, killed, threads = killed_process_sweep
     assert len(killed) == 1
+    assert threads == {1}  # Numba ran one thread per worker
     assert res.counts["retried"] >= 1  # the broken pool's runs went to a new pool
     _no_loss_no_duplicate(res, out)
 
 
 def test_killing_a_dask_worker_loses_nothing_and_duplicates_nothing(killed_process_sweep, tmp_path):
-    pytest.importorskip("distributed", reason="dask.distributed is not installed (pip install 'emorbit[cluster]')")
-    killed = []
-    res = run_sweep(parse_sweep(SLOW), tmp_path / "out", backend="dask", workers=2, on_result=_kill_third(killed))
-    assert len(killed) == 1
+    """On an existing cluster (``scheduler=``, as ``--scheduler tcp://...`` does): Dask's nanny
+    restarts the killed worker and the scheduler gives its run to a worker again."""
+    distributed = pytest.importorskip("distributed",
+                                      reason="dask.distributed is not installed (pip install 'emorbit[cluster]')")
+    killed, threads = [], set()
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
+                                  env={"NUMBA_NUM_THREADS": "1"}) as cluster:
+        res = run_sweep(parse_sweep(SLOW), tmp_path / "out", scheduler=cluster.scheduler_address,
+                        on_result=_kill_third(killed, threads))
+    assert len(killed) == 1 and threads == {1}
     _no_loss_no_duplicate(res, tmp_path / "out")
     assert _same(_strip(res.rows), _strip(killed_process_sweep[0].rows))
 

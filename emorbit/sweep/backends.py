@@ -188,6 +188,7 @@ class MPIBackend(Backend):
     def __init__(self, workers: int | None, threads):
         super().__init__()
         try:
+            from mpi4py import MPI  # noqa: F401 - loads the MPI library
             from mpi4py.futures import MPIPoolExecutor  # noqa: F401
         except Exception as exc:  # ImportError, or mpi4py present without an MPI library
             raise InputError("backend", f"the MPI backend needs mpi4py with an MPI library ({exc}); install them "

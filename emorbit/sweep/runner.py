@@ -111,7 +111,7 @@ def run_sweep(sweep, output, *, backend: str = "process", workers: int | None = 
     overwrite     replace run files of a different sweep found in ``output`` (otherwise an
                   error: one folder holds one sweep)
     on_result     called in this process as ``on_result(row, worker)`` for every run that
-                  finishes now (``worker``: {"host", "pid"} that ran it)
+                  finishes now (``worker``: {"host", "pid", "threads"} that ran it)
 
     A run that fails is recorded in its row (status "failed", the error) and the sweep goes
     on. Re-running skips finished runs. Raises :class:`~emorbit.errors.InputError` for a bad

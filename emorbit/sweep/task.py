@@ -175,18 +175,21 @@ def row_values(task: dict) -> dict:
 
 def run_task(task: dict) -> dict:
     """Run one sweep task (a dict made by :func:`emorbit.sweep.runner.task_dict`) and
-    return ``{"row": summary row, "worker": {"host", "pid"}, "ran": bool}``.
+    return ``{"row": summary row, "worker": {"host", "pid", "threads"}, "ran": bool}`` (threads:
+    Numba's thread count in the worker while it ran).
 
     Never raises for a failing run: its error goes into the row. Only a failure of the
     worker itself (killed, out of memory) reaches the client, which retries the task.
     """
-    worker = {"host": socket.gethostname(), "pid": os.getpid()}
+    import numba
+
+    limit_threads(task.get("threads"))
+    worker = {"host": socket.gethostname(), "pid": os.getpid(), "threads": numba.get_num_threads()}
     final = task["file"]
     if not task.get("rerun"):
         row = read_row(final, task["digest"])
         if isinstance(row, dict):
             return {"row": row, "worker": worker, "ran": False}
-    limit_threads(task.get("threads"))
     folder, base = os.path.split(final)
     tmp = os.path.join(folder, f".{base}.{uuid.uuid4().hex[:12]}.tmp")
     start = time.perf_counter()
