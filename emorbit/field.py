@@ -16,13 +16,19 @@ import numpy as np
 from .errors import InputError
 from .units import to_si, vector_to_si
 
-__all__ = ["CentralField", "BODIES"]
+__all__ = ["CentralField", "BODIES", "RADII"]
 
 #: named central bodies and the astropy constant that gives their GM (IAU 2015 nominal values)
 BODIES = {
     "earth": const.GM_earth,
     "sun": const.GM_sun,
     "jupiter": const.GM_jup,
+}
+#: their nominal equatorial radii (IAU 2015), the default collision radius
+RADII = {
+    "earth": const.R_earth,
+    "sun": const.R_sun,
+    "jupiter": const.R_jup,
 }
 
 
@@ -39,6 +45,9 @@ class CentralField:
         ``"earth"``, ``"sun"`` or ``"jupiter"``: GM from astropy.constants.
     center : 3-vector, optional
         position X_Z of the centre in m (default: the origin).
+    radius : optional
+        the central body's radius in m: a body whose recorded position comes closer is
+        stopped with an error (default: the nominal radius of a named body, else 0).
     strict : bool
         require units on every value (used for scenes).
 
@@ -52,7 +61,7 @@ class CentralField:
         the named body, if the field was given by name.
     """
 
-    def __init__(self, gm=None, *, g_ref=None, r_ref=None, body=None, center=(0.0, 0.0, 0.0),
+    def __init__(self, gm=None, *, g_ref=None, r_ref=None, body=None, center=(0.0, 0.0, 0.0), radius=None,
                  strict: bool = False, key: str = "field"):
         given = [name for name, value in (("gm", gm), ("g_ref", g_ref), ("body", body)) if value is not None]
         if r_ref is not None and g_ref is None:
@@ -75,6 +84,10 @@ class CentralField:
             self.body = body.lower()
             self.gm = float(BODIES[self.body].si.value)
         self.center = vector_to_si(center, "length", f"{key}.center", strict=strict)
+        if radius is not None:
+            self.radius = to_si(radius, "length", f"{key}.radius", strict=strict, nonnegative=True)
+        else:
+            self.radius = float(RADII[self.body].si.value) if self.body else 0.0
 
     def __repr__(self) -> str:
         src = f"body={self.body!r}" if self.body else f"gm={self.gm!r}"

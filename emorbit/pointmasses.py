@@ -29,6 +29,7 @@ class ChunkRecords:
     v: np.ndarray
     iterations: np.ndarray
     fail: np.ndarray
+    solves: np.ndarray | None = None  # (nrec, n) implicit solves per interval, when steps vary (adaptive)
 
     def first_failure(self):
         """(step index in the chunk, point index, status) of the earliest failure, or None."""
@@ -93,6 +94,8 @@ class PointMasses:
         from .kernels import ensemble
 
         n = len(self)
+        if self.adaptive is not None:
+            return self._advance_adaptive(method, gm, center, dt, gammas, every, nrec, max_iter)
         rec = ChunkRecords(
             x=np.empty((nrec, 3, n)),
             v=np.empty((nrec, 3, n)),
@@ -106,6 +109,28 @@ class PointMasses:
         chunk(codes[method], self.x, self.v, self.cx, self.cv, float(gm), np.ascontiguousarray(center, float),
               float(dt), np.ascontiguousarray(gammas, float), int(every), int(nrec), int(max_iter),
               rec.x, rec.v, rec.iterations, rec.fail)
+        return rec
+
+    #: steps per local Kepler time scale for adaptive steps (None: fixed steps); set by the Simulation
+    adaptive: float | None = None
+    #: adaptive steps taken so far, summed over the points
+    adaptive_steps: int = 0
+
+    def _advance_adaptive(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> ChunkRecords:
+        """Adaptive steps (see :mod:`emorbit.kernels.adaptive`); dt is the largest step."""
+        from .kernels import adaptive as ad
+        from .kernels import pointmass as kern
+
+        n = len(self)
+        steps = np.zeros((nrec, n), dtype=np.int64)
+        rec = ChunkRecords(np.empty((nrec, 3, n)), np.empty((nrec, 3, n)), np.zeros((nrec, n), dtype=np.int64),
+                           np.full((n, 2), -1, dtype=np.int64))
+        code = {"em": kern.METHOD_EM, "midpoint": kern.METHOD_MIDPOINT, "leapfrog": ad.METHOD_LEAPFROG}[method]
+        ad.adaptive_chunk(code, self.x, self.v, self.cx, self.cv, float(gm), np.ascontiguousarray(center, float),
+                          float(dt), float(self.adaptive), np.ascontiguousarray(gammas, float), int(every), int(nrec),
+                          int(max_iter), rec.x, rec.v, rec.iterations, steps, rec.fail)
+        rec.solves = steps * len(gammas)
+        self.adaptive_steps += int(steps.sum())
         return rec
 
     # -- the interface every body kind offers the simulation driver -----------------------

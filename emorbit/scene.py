@@ -5,6 +5,7 @@
     [field]
     gm = "3.9478 m3 / s2"          # or: g_ref = "0.039478 m / s2" and r_ref = "10 m"; or: body = "earth"
     center = ["0 m", "0 m", "0 m"] # optional, default: the origin
+    radius = "6378.1 km"           # optional collision radius (default: a named body's radius, else 0)
     [integrator]
     method = "em"                  # em | midpoint | leapfrog        (default em)
     order = 2                      # 2 | 4 | 6 | 8                   (default 2)
@@ -12,6 +13,7 @@
     t_end = "4647.58 s"
     output_every = 10              # steps between records           (default 1)
     checkpoint_every = 1000        # steps between checkpoints       (default ~0.5 s of work)
+    adaptive = 0.01                # point masses: step = 0.01 of the local Kepler time, <= dt (default: off)
     max_newton_iterations = 50     # per implicit sub-step           (default 50)
     [[body]]
     name = "satellite"
@@ -54,9 +56,10 @@ __all__ = ["Scene", "load_scene", "list_scenes", "parse_scene", "simulation_to_t
 #: allowed keys per table; values: required?
 SCHEMA = {
     "": {"field": False, "integrator": True, "body": True, "coupling": False},
-    "field": {"gm": False, "g_ref": False, "r_ref": False, "body": False, "center": False},
+    "field": {"gm": False, "g_ref": False, "r_ref": False, "body": False, "center": False, "radius": False},
     "integrator": {"method": False, "order": False, "dt": True, "t_end": True, "output_every": False,
-                   "max_newton_iterations": False, "newton": False, "checkpoint_every": False},
+                   "max_newton_iterations": False, "newton": False, "checkpoint_every": False,
+                   "adaptive": False},
     "body.point": {"name": True, "kind": True, "mass": True, "position": True, "velocity": True},
     "body.rigid": {"name": True, "kind": True, "shape": True, "position": True, "velocity": True,
                    "attitude": False, "rotation_vector": False, "angular_velocity": False,
@@ -167,7 +170,7 @@ class Scene:
             f = d["field"]
             _check_keys(f, "field", "field")
             field = CentralField(gm=f.get("gm"), g_ref=f.get("g_ref"), r_ref=f.get("r_ref"), body=f.get("body"),
-                                 center=f.get("center", ["0 m", "0 m", "0 m"]), strict=True)
+                                 center=f.get("center", ["0 m", "0 m", "0 m"]), radius=f.get("radius"), strict=True)
         integ = d["integrator"]
         _check_keys(integ, "integrator", "integrator")
         get_method(integ.get("method", "em"), "integrator.method")
@@ -181,8 +184,11 @@ class Scene:
         newton = integ.get("newton", "auto")
         if newton not in ("auto", "reuse", "full"):
             raise InputError("integrator.newton", f"must be 'auto', 'reuse' or 'full', got {newton!r}")
+        adaptive = integ.get("adaptive")
+        if adaptive is not None and (isinstance(adaptive, bool) or not isinstance(adaptive, (int, float))):
+            raise InputError("integrator.adaptive", f"a number in (0, 1] expected, got {adaptive!r}")
         sim = Simulation(field, method=self.method, order=self.order, dt=dt, max_newton_iterations=max_iter,
-                         newton=newton)
+                         newton=newton, adaptive=adaptive)
         bodies = d["body"]
         if not isinstance(bodies, list) or not bodies:
             raise InputError("body", "a scene needs at least one [[body]] table")

@@ -129,6 +129,10 @@ class Simulation:
         the step in s.
     max_newton_iterations : int
         Newton iterations allowed per implicit sub-step before the step fails.
+    adaptive : float, optional
+        point masses only: step by ``adaptive`` times the local Kepler time scale,
+        h = adaptive * 2 pi sqrt(r^3 / GM), at most ``dt``; records stay on the grid of
+        ``dt`` (see :mod:`emorbit.kernels.adaptive`). Default: fixed steps of ``dt``.
     newton : str
         for elastic structures: "full" refactors the Jacobian at every iteration, "reuse" keeps
         sparse LU factors while they converge fast, "auto" (default) picks by size (see
@@ -136,7 +140,7 @@ class Simulation:
     """
 
     def __init__(self, field: CentralField | None, *, method: str = "em", order: int = 2, dt,
-                 max_newton_iterations: int = 50, newton: str = "auto"):
+                 max_newton_iterations: int = 50, newton: str = "auto", adaptive: float | None = None):
         if field is not None and not isinstance(field, CentralField):
             raise InputError("field", f"expected a CentralField or None (free space), got {field!r}")
         self.field = field
@@ -150,7 +154,15 @@ class Simulation:
         if newton not in ("auto", "reuse", "full"):
             raise InputError("newton", f"must be 'auto', 'reuse' or 'full', got {newton!r}")
         self.newton = newton  # structures (elastic bodies) only: see emorbit.structure.Structure
+        if adaptive is not None:
+            if isinstance(adaptive, bool) or not isinstance(adaptive, numbers.Real) or not 0 < adaptive <= 1:
+                raise InputError("adaptive", f"must be a number in (0, 1] (steps per local Kepler time scale), "
+                                             f"got {adaptive!r}")
+            if field is None:
+                raise InputError("adaptive", "adaptive steps follow the Kepler time scale: they need a central field")
+        self.adaptive = None if adaptive is None else float(adaptive)
         self.points = PointMasses()
+        self.points.adaptive = self.adaptive
         self.rigid = None  # created on the first rigid body, so point-mass runs never import it
         self.structure = None  # elastic bodies and what they are attached to
         self._t_base = 0.0
@@ -244,6 +256,8 @@ class Simulation:
                            rotation_vector=rotation_vector, angular_velocity=angular_velocity,
                            frame=angular_velocity_frame, gravity=gravity, has_field=self.field is not None,
                            strict=strict, key=key)
+        if self.adaptive is not None:
+            raise InputError("adaptive", f"adaptive steps are for point masses only ({key} is a rigid body)")
         if spec["gravity"] != "none":
             x = spec["position"][:, None] + spec["R"] @ spec["points"].X
             if not np.all(np.linalg.norm(x - self.center[:, None], axis=0) > 0):
@@ -283,6 +297,8 @@ class Simulation:
 
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
+        if self.adaptive is not None:
+            raise InputError("adaptive", f"adaptive steps are for point masses only ({key} is an elastic body)")
         if self.method not in ("em", "midpoint"):
             raise InputError("method", f"method {self.method!r} has no elastic-body kernel (needed by {key}); "
                                        "use em or midpoint")
@@ -516,6 +532,8 @@ class Simulation:
             "gm": self.gm,
             "center": self.center,
             "field_body": (self.field.body or "") if self.field is not None else "none (free space)",
+            "field_radius": self.field.radius if self.field is not None else 0.0,
+            "adaptive": self.adaptive if self.adaptive is not None else 0.0,
             "scene": self.scene_text if self.scene_text is not None else self.to_toml(),
         }
 
@@ -541,8 +559,12 @@ class Simulation:
                 if stop is not None and stop.is_set():
                     return
                 left = n_steps - done
-                k = every if left >= every else left
-                nrec = min(left // k, chunk_records)
+                off = (self._steps - origin) % every
+                if off:  # after a step redone in sub-steps: back onto the record grid
+                    k, nrec = min(every - off, left), 1
+                else:
+                    k = every if left >= every else left
+                    nrec = min(left // k, chunk_records)
                 if cp:
                     to_cp = cp - (self._steps - origin) % cp
                     nrec = max(1, min(nrec, to_cp // k))
@@ -554,19 +576,25 @@ class Simulation:
                     self._steps += k * nrec
                     done += k * nrec
                     bar.update(k * nrec)
-                    if cp and (self._steps - origin) % cp == 0:
-                        for s in self.systems:
-                            if hasattr(s, "on_checkpoint"):
-                                s.on_checkpoint()
-                        if sink.writer is not None:
-                            sink.writer.write_checkpoint(self._steps - origin, self.time, self.state_arrays(), sink.rows)
-                    continue
-                self._stop_at_failure(recs, snapshots, min(failures), k, gammas, sink)
+                else:
+                    taken = self._recover(recs, snapshots, min(failures), k, every, gammas, sink, origin)
+                    done += taken
+                    bar.update(taken)
+                if cp and (self._steps - origin) % cp == 0:
+                    for s in self.systems:
+                        if hasattr(s, "on_checkpoint"):
+                            s.on_checkpoint()
+                    if sink.writer is not None:
+                        sink.writer.write_checkpoint(self._steps - origin, self.time, self.state_arrays(), sink.rows)
 
-    def _stop_at_failure(self, recs, snapshots, failure, k, gammas, sink) -> None:
-        """Keep the records before the first failing step, bring every body to the start of
-        that step (re-running from the chunk's snapshots; the kernels are deterministic),
-        record that state and raise."""
+    #: a failing step is retried as 2, 4, ... 2**MAX_SPLIT sub-steps before the run stops
+    MAX_SPLIT = 4
+
+    def _recover(self, recs, snapshots, failure, k, every, gammas, sink, origin) -> int:
+        """A step failed: keep the records before it, bring every body to its start (re-running
+        from the chunk's snapshots; the kernels are deterministic), then redo that one step in
+        2, 4, ... 2**MAX_SPLIT sub-steps (each an ordinary step: exact conservation is kept).
+        Returns the steps taken; raises IntegrationError if every split fails."""
         (step, index, status), j = failure
         good = step // k
         if good:
@@ -577,19 +605,48 @@ class Simulation:
             again = self._advance_all(gammas, step, 1)
             if any(r.first_failure() is not None for _, r in again):  # cannot happen: deterministic
                 raise RuntimeError("re-running the steps before a failure failed again")
-            if step % k:
-                sink.emit(again, np.array([self._steps + step]), 1, step)
         self._steps += step
+        start = [s.snapshot() for s in self.systems]
+        for level in range(1, self.MAX_SPLIT + 1):
+            parts = 2 ** level
+            sub = [(s, s.advance(self.method, self.gm, self.center, self._dt / parts, gammas, parts, 1,
+                                 self.max_newton_iterations)) for s in self.systems]
+            if all(r.first_failure() is None for _, r in sub):
+                self.retried_steps = getattr(self, "retried_steps", 0) + 1
+                self._steps += 1
+                if (self._steps - origin) % every == 0:
+                    sink.emit(sub, np.array([self._steps]), 1, 1)
+                return step + 1
+            for s, snap in zip(self.systems, start):
+                s.restore(snap)
+        if sink.last_step != self._steps:  # record the last good state if it is not yet, then stop
+            sink.emit([(s, s.current()) for s in self.systems], np.array([self._steps]), 1, 0)
         system = recs[j][0]
         name = system.names[index]
         if status == kern.STATUS_NO_CONVERGENCE:
-            reason = (f"Newton's iteration did not converge within {self.max_newton_iterations} iterations "
-                      f"(method {self.method}, order {self.order}, dt = {self._dt!r} s); try a smaller dt")
+            reason = (f"Newton's iteration did not converge within {self.max_newton_iterations} iterations, "
+                      f"even in {2 ** self.MAX_SPLIT} sub-steps (method {self.method}, order {self.order}, "
+                      f"dt = {self._dt!r} s){self._residual_note(system, index, gammas)}; try a smaller dt")
         else:
             x, _ = self.state(name)
             reason = (f"a point reached the field's centre or the state stopped being finite "
                       f"(last good position {x.tolist()} m)")
         raise IntegrationError(self.time, name, reason)
+
+    def _residual_note(self, system, index, gammas) -> str:
+        """', residual ...' for a point mass's failed step (the implicit equation's misfit after
+        max_newton_iterations iterations), or '' for other bodies."""
+        if system.kind != "point" or self.method == "leapfrog":
+            return ""
+        step = kern.em_step if self.method == "em" else kern.midpoint_step
+        h = self._dt * gammas[0]
+        x, v = system.x[:, index], system.v[:, index]
+        c = self.center
+        dx, dy, dz, a, b, cc, _, _ = step(x[0], x[1], x[2], v[0], v[1], v[2], h, self.gm, c[0], c[1], c[2],
+                                         self.max_newton_iterations)
+        d = np.array([dx, dy, dz])
+        R = d - h * (v + 0.5 * np.array([a, b, cc]))
+        return f", residual |R| = {np.linalg.norm(R):.3g} m ({np.linalg.norm(R) / max(np.linalg.norm(d), 1e-300):.3g} of the step)"
 
     # -- scene text ---------------------------------------------------------------------
     def to_toml(self, t_end: float | None = None, output_every: int = 1) -> str:
@@ -609,6 +666,11 @@ class _Sink:
         self.keep = keep
         self.blocks: list[tuple] = []
         self.rows = 0  # records emitted so far
+        self.last_step = None  # the step count of the last record
+
+    def emit_rows(self, recs, steps, nrec: int, k: int) -> None:
+        """Emit only the first ``nrec`` rows (the ones before a collision)."""
+        self.emit(recs, steps[:nrec], nrec, k)
 
     def emit(self, recs, steps, nrec: int, k: int) -> None:
         """Record rows [:nrec] of each system's chunk; ``steps`` (nrec,) are the step counts
@@ -630,9 +692,27 @@ class _Sink:
             angular += L
             data.update(system.datasets(rec, nrec, times, self.rows))
             iters += rec.iterations[:nrec].sum(axis=1)
-            solves += rec.iterations.shape[1]  # solves per step: points, bodies, or 1 per structure
-        its = iters / (k * coefficients(sim.order).size * solves) if k else np.zeros(nrec)
+            if getattr(rec, "solves", None) is not None:  # adaptive: solves counted by the kernel
+                solves = solves + rec.solves[:nrec].sum(axis=1) / max(k, 1)
+            else:  # solves per step: points, bodies, or 1 per structure
+                solves = solves + rec.iterations.shape[1] * coefficients(sim.order).size
+        its = iters / np.maximum(k * solves, 1) if k else np.zeros(nrec)
+        radius = sim.field.radius if sim.field is not None else 0.0
+        if radius > 0.0:  # a body inside the central body: keep the records before, then stop
+            inside = np.zeros(nrec, dtype=bool)
+            for name, d in data.items():
+                inside |= np.linalg.norm(d["position"] - sim.center, axis=-1) < radius
+            if inside.any():
+                first = int(np.argmax(inside))
+                who = next(n for n, d in data.items()
+                           if np.linalg.norm(d["position"][first] - sim.center) < radius)
+                if first:
+                    self.emit_rows(recs, steps, first, k)
+                raise IntegrationError(float(times[first]), who,
+                                       f"it is inside the central body (r < radius = {radius!r} m); "
+                                       "records up to the one before are written")
         self.rows += nrec
+        self.last_step = int(steps[nrec - 1])
         block = (times, energy, momentum, angular, its, data)
         if self.writer is not None:
             self.writer.append(*block)

@@ -1,0 +1,124 @@
+"""Hard cases: extreme eccentricity with adaptive steps, huge steps, failed steps retried in
+sub-steps or reported cleanly, collisions with the central body, stiff structures."""
+
+import h5py
+import numpy as np
+import pytest
+
+import emorbit
+from emorbit import orbits
+from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
+
+
+def _orbit(e, a=1.0, gm=1.0):
+    x, v = orbits.state_from_elements((a, e, 0.3, 0.2, 0.1, np.pi), gm)  # start at apoapsis
+    return x, v, 2 * np.pi * np.sqrt(a**3 / gm)
+
+
+def test_e0999_adaptive_em_against_fixed_leapfrog():
+    """e = 0.999 for 100 orbits: em with adaptive steps keeps energy <= 1e-12 and a, e, the
+    plane to round-off; leapfrog with the same number of fixed steps loses the orbit."""
+    x0, v0, T = _orbit(0.999)
+    sim = emorbit.Simulation(emorbit.CentralField(gm=1.0), method="em", dt=T / 20, adaptive=0.002)
+    sim.add_point("p", mass=1.0, position=x0, velocity=v0)
+    res = sim.run(t_end=100 * T, every=20)
+    el = res.elements("p")
+    assert np.abs(res.relative_energy_error()).max() <= 1e-12
+    assert res.relative_angular_momentum_error().max() <= 1e-12
+    assert np.ptp(el.a) <= 1e-12 and np.ptp(el.e) <= 1e-12
+    assert np.ptp(el.i) <= 1e-12 and np.ptp(el.raan) <= 1e-11
+    n_fixed = sim.points.adaptive_steps
+    assert 10_000 < n_fixed < 1_000_000
+    leap = emorbit.Simulation(emorbit.CentralField(gm=1.0), method="leapfrog", dt=100 * T / n_fixed)
+    leap.add_point("p", mass=1.0, position=x0, velocity=v0)
+    lres = leap.run(steps=n_fixed, every=max(1, n_fixed // 100))
+    lel = lres.elements("p")
+    assert np.abs(lres.relative_energy_error()).max() > 1e-3  # measured: the orbit is lost
+    assert np.ptp(lel.e) > 1e-4
+
+
+def test_failed_steps_are_redone_in_substeps():
+    """A tumbling box at 150 degrees per step: Newton fails on some whole steps, which are
+    redone in halves; energy and angular momentum stay exact."""
+    w = 2.0
+    sim = emorbit.Simulation(None, method="em", dt=2 * np.tan(np.radians(75)) / w, max_newton_iterations=12)
+    sim.add_rigid("b", "box", size=[3.0, 2.0, 1.0], density=1.0, position=[0, 0, 0], velocity=[0, 0, 0],
+                  angular_velocity=[0.01, w, 0.01])
+    res = sim.run(steps=2000, every=10)
+    assert sim.retried_steps > 10
+    assert np.abs(res.relative_energy_error()).max() <= 1e-12
+    assert res.relative_angular_momentum_error().max() <= 1e-12
+    assert np.allclose(res.time, np.arange(len(res)) * 10 * sim.dt)  # records stay on their grid
+
+
+def test_unrecoverable_failure_keeps_the_file(tmp_path):
+    """At 175 degrees per step even 16 sub-steps fail: a clear error naming time and body; the
+    file holds every record before it, no NaN, status 'failed'."""
+    w = 2.0
+    sim = emorbit.Simulation(None, method="em", dt=2 * np.tan(np.radians(87.5)) / w, max_newton_iterations=12)
+    sim.add_rigid("b", "box", size=[3.0, 2.0, 1.0], density=1.0, position=[0, 0, 0], velocity=[0, 0, 0],
+                  angular_velocity=[0.01, w, 0.01])
+    out = tmp_path / "f.h5"
+    with pytest.raises(emorbit.IntegrationError) as info:
+        sim.run(steps=100_000, every=10, output=out)
+    err = info.value
+    assert err.body == "b" and err.time > 0 and "16 sub-steps" in str(err)
+    with h5py.File(out, "r") as f:
+        assert f.attrs["status"] == "failed" and "16 sub-steps" in f.attrs["error"]
+        t = f["time"][()]
+        assert t[-1] == pytest.approx(err.time) and np.all(np.isfinite(f["bodies/b/attitude"][()]))
+        assert np.all(np.isfinite(f["invariants/energy"][()]))
+        e = f["invariants/energy"][()]
+        assert np.abs(e / e[0] - 1).max() < 1e-12
+
+
+def test_point_mass_failure_names_the_residual():
+    """A point whose Newton iteration cannot converge (max 1 iteration) stops with an error
+    that names the residual."""
+    sim = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="midpoint", dt=PAPER_T / 10,
+                             max_newton_iterations=1)
+    sim.add_point("s", mass=1.0, position=PAPER_X0, velocity=PAPER_V0)
+    with pytest.raises(emorbit.IntegrationError, match="residual"):
+        sim.run(steps=100, every=1)
+
+
+def test_collision_with_the_central_body(tmp_path):
+    """A LEO satellite given too little speed falls into the Earth: stopped at the first record
+    inside (radius from astropy's R_earth), everything before is written."""
+    import astropy.constants as const
+
+    R = const.R_earth.si.value
+    r0 = R + 400e3
+    sim = emorbit.Simulation(emorbit.CentralField(body="earth"), method="em", dt=10.0)
+    sim.add_point("sat", mass=1.0, position=[r0, 0, 0], velocity=[0, 5000.0, 0])
+    out = tmp_path / "c.h5"
+    with pytest.raises(emorbit.IntegrationError, match="inside the central body") as info:
+        sim.run(steps=10_000, every=1, output=out)
+    with h5py.File(out, "r") as f:
+        r = np.linalg.norm(f["bodies/sat/position"][()], axis=1)
+        assert r.min() >= R and f["time"][-1] < info.value.time
+        assert f.attrs["field_radius"] == R
+    with pytest.raises(emorbit.InputError, match="radius"):
+        emorbit.CentralField(gm=1.0, radius=-1.0)
+
+
+def test_stiff_structure_stiffness_ratio_1e8():
+    """Two point masses on a bar whose stiffness is 1e8 times the orbital one (axial frequency
+    1e4 times the orbital rate) at dt = T/100: stable, energy <= 1e-11, L <= 1e-12."""
+    import astropy.constants as const
+
+    gm = const.GM_earth.si.value
+    r, m, L = 7e6, 100.0, 100.0
+    n = np.sqrt(gm / r**3)
+    k = 1e8 * m * n**2
+    sim = emorbit.Simulation(emorbit.CentralField(body="earth"), method="em", dt=2 * np.pi / n / 100)
+    for name, x in (("a", r - L / 2), ("b", r + L / 2)):
+        sim.add_point(name, mass=m, position=[x, 0, 0], velocity=[0, n * x, 0])
+    sim.add_elastic("bar", "chain", start=[-L / 2, 0, 0], end=[L / 2, 0, 0], elements=1, young=k * L / 1e-4,
+                    area=1e-4, density=1e-3, position=[r, 0, 0], velocity=[0, n * r, 0], angular_velocity=[0, 0, n],
+                    angular_velocity_frame="space")
+    sim.attach("bar", [0], "a")
+    sim.attach("bar", [1], "b")
+    res = sim.run(steps=2000, every=20)
+    assert np.abs(res.relative_energy_error()).max() <= 1e-11
+    assert res.relative_angular_momentum_error().max() <= 1e-12
