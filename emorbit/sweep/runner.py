@@ -135,8 +135,6 @@ def run_sweep(sweep, output, *, backend: str = "process", workers: int | None = 
 
         require_device()
     runs_dir = os.path.join(output, "runs")
-    os.makedirs(runs_dir, exist_ok=True)
-    _remove_orphans(runs_dir)
     tasks = _task_dicts(sweep, runs_dir, None if be.name == "serial" else threads, device)
     columns = row_columns([p.key for p in sweep.parameters], sweep.body_names())
     rows: dict[int, dict] = {}
@@ -156,16 +154,21 @@ def run_sweep(sweep, output, *, backend: str = "process", workers: int | None = 
                                    f"{first}); use another output folder, or overwrite to replace them")
     counts = {"total": len(tasks), "skipped": len(rows), "ran": 0, "completed": 0, "failed": 0, "not_run": 0,
               "retried": 0}
-    _write_meta(output, sweep)
+    ex = be.start() if pending else None  # a scheduler out of reach is an InputError: nothing written yet
     try:
+        os.makedirs(runs_dir, exist_ok=True)
+        _remove_orphans(runs_dir)
+        _write_meta(output, sweep)
         if pending:
-            _run_all(be, pending, rows, counts, retries, on_result, progress)
+            _run_all(be, ex, pending, rows, counts, retries, on_result, progress)
     finally:
+        if ex is not None:
+            be.close()
         result = _finish(output, sweep, tasks, rows, columns, counts, be)
     return result
 
 
-def _run_all(be, pending, rows, counts, retries, on_result, progress) -> None:
+def _run_all(be, ex, pending, rows, counts, retries, on_result, progress) -> None:
     from tqdm.auto import tqdm
 
     if progress is None:
@@ -173,38 +176,34 @@ def _run_all(be, pending, rows, counts, retries, on_result, progress) -> None:
     queue = collections.deque(pending)
     attempts = collections.Counter()
     inflight: dict = {}
-    ex = be.start()
-    try:
-        with tqdm(total=len(pending), disable=not progress, unit="run", file=sys.stderr, dynamic_ncols=True,
-                  leave=False, delay=1.0) as bar:
-            while queue or inflight:
-                while queue and (be.window is None or len(inflight) < be.window):
-                    t = queue.popleft()
-                    try:
-                        inflight[ex.submit(run_task, t)] = t
-                    except cf.BrokenExecutor:
-                        queue.appendleft(t)
-                        ex = _recover(be, inflight, queue, attempts, rows, counts, retries)
-                done, _ = cf.wait(list(inflight), return_when=cf.FIRST_COMPLETED)
-                broken = False
-                for fut in done:
-                    t = inflight.pop(fut)
-                    try:
-                        out = fut.result()
-                    except Exception as exc:  # the worker was lost (run_task itself never raises)
-                        broken |= isinstance(exc, cf.BrokenExecutor)
-                        _lost(t, exc, queue, attempts, rows, counts, retries)
-                        continue
-                    row = out["row"]
-                    rows[t["index"]] = row
-                    counts["ran"] += bool(out.get("ran", True))
-                    bar.update(1)
-                    if on_result is not None:
-                        on_result(row, out.get("worker"))
-                if broken:
+    with tqdm(total=len(pending), disable=not progress, unit="run", file=sys.stderr, dynamic_ncols=True,
+              leave=False, delay=1.0) as bar:
+        while queue or inflight:
+            while queue and (be.window is None or len(inflight) < be.window):
+                t = queue.popleft()
+                try:
+                    inflight[ex.submit(run_task, t)] = t
+                except cf.BrokenExecutor:
+                    queue.appendleft(t)
                     ex = _recover(be, inflight, queue, attempts, rows, counts, retries)
-    finally:
-        be.close()
+            done, _ = cf.wait(list(inflight), return_when=cf.FIRST_COMPLETED)
+            broken = False
+            for fut in done:
+                t = inflight.pop(fut)
+                try:
+                    out = fut.result()
+                except Exception as exc:  # the worker was lost (run_task itself never raises)
+                    broken |= isinstance(exc, cf.BrokenExecutor)
+                    _lost(t, exc, queue, attempts, rows, counts, retries)
+                    continue
+                row = out["row"]
+                rows[t["index"]] = row
+                counts["ran"] += bool(out.get("ran", True))
+                bar.update(1)
+                if on_result is not None:
+                    on_result(row, out.get("worker"))
+            if broken:
+                ex = _recover(be, inflight, queue, attempts, rows, counts, retries)
 
 
 def _lost(t, exc, queue, attempts, rows, counts, retries) -> None:
