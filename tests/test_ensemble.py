@@ -212,5 +212,6 @@ def test_point_mass_run_compiles_no_rigid_or_elastic_code(tmp_path):
     assert all(name.startswith(("emorbit.kernels.ensemble.", "emorbit.kernels.pointmass.",
                                 "emorbit.kernels.gravity.")) for name in ours), ours
     kernels = [name for name in ours if name.startswith(("emorbit.kernels.ensemble._range",
+                                                         "emorbit.kernels.ensemble._points",
                                                          "emorbit.kernels.ensemble._parallel"))]
-    assert kernels == ["emorbit.kernels.ensemble._range_em"], kernels  # only em, one thread
+    assert kernels == ["emorbit.kernels.ensemble._points_em"], kernels  # em only, one point: one thread

@@ -263,24 +263,37 @@ def _em_predict(A, P, V, r0, h, gm):
 
 
 @kernel
+def _em_fg(A, P, V, r0, rho, tau0):
+    """F Q**2 and F' Q**3 at r1 = rho, and Q = r0 rho (r0 + rho) (P = h a.v0, V = h**2 v0.v0):
+    with Qm = Q - tau0, Qp = Q + tau0, F Q**2 = (rho Qp)**2 - (Qm (A Qm - 2 P Q) + V Q**2) and
+    F' Q**3 = 2 rho Qp**2 Q - 2 tau0 r0 (r0 + 2 rho) (rho**2 Qp + A Qm - P Q)."""
+    s = r0 + rho
+    Q = r0 * rho * s
+    Qp = Q + tau0
+    Qm = Q - tau0
+    rq = rho * Qp
+    aq = A * Qm
+    pq = P * Q
+    f2 = rq * rq - (Qm * (aq - (pq + pq)) + V * (Q * Q))
+    g = rq * Qp * Q - (tau0 * r0) * (s + rho) * (rho * rq + aq - pq)
+    return f2, g + g, Q
+
+
+@kernel
 def _em_f2(A, P, V, r0, rho, tau0):
-    """F Q**2 at r1 = rho, and Q = r0 rho (r0 + rho) (P = h a.v0, V = h**2 v0.v0)."""
+    """F Q**2 at r1 = rho (as in _em_fg), and Q."""
     Q = r0 * rho * (r0 + rho)
     Qp = Q + tau0
     Qm = Q - tau0
-    f2 = (rho * Qp) * (rho * Qp) - (Qm * Qm) * A + 2.0 * (P * Qm) * Q - V * (Q * Q)
-    return f2, Q
+    rq = rho * Qp
+    pq = P * Q
+    return rq * rq - (Qm * (A * Qm - (pq + pq)) + V * (Q * Q)), Q
 
 
 @kernel
 def _em_newton(A, P, V, r0, rho, tau0):
     """A Newton update of r1: (r1_new, delta, Q / (F' Q**3))."""
-    s = r0 + rho
-    Q = r0 * rho * s
-    Qp = Q + tau0
-    Qm = Q - tau0
-    f2 = (rho * Qp) * (rho * Qp) - (Qm * Qm) * A + 2.0 * (P * Qm) * Q - V * (Q * Q)
-    g3 = 2.0 * rho * (Qp * Qp) * Q - 2.0 * (tau0 * r0) * (s + rho) * ((rho * rho) * Qp + Qm * A - P * Q)
+    f2, g3, Q = _em_fg(A, P, V, r0, rho, tau0)
     qg = Q / g3
     delta = f2 * qg
     return rho - delta, delta, qg
@@ -309,13 +322,15 @@ def _em_w(r0, rho, gm, tau0, tlo):
 
 @kernel
 def _increments(ax, ay, az, vx, vy, vz, w, ua, uv, h):
-    """g = w (ua a - uv v0), then dx = h (v0 + h/2 g) and dv = h g, the reference kernel's
-    form of the step (no rounded h**2/2; dx and dv agree to round-off whatever g is)."""
-    hf = 0.5 * h
-    gx = w * (ua * ax - uv * vx)
-    gy = w * (ua * ay - uv * vy)
-    gz = w * (ua * az - uv * vz)
-    return h * (vx + hf * gx), h * (vy + hf * gy), h * (vz + hf * gz), h * gx, h * gy, h * gz
+    """g = w (ua a - uv v0), then dx = h v0 + h (h/2 w) u and dv = (h w) u with u = ua a - uv v0:
+    the reference kernel's form dx = h (v0 + h/2 g), dv = h g (no rounded h**2/2: the two
+    coefficients are rounded afresh from each step's w)."""
+    cx = h * ((0.5 * h) * w)
+    cv = h * w
+    ux = ua * ax - uv * vx
+    uy = ua * ay - uv * vy
+    uz = ua * az - uv * vz
+    return h * vx + cx * ux, h * vy + cx * uy, h * vz + cx * uz, cv * ux, cv * uy, cv * uz
 
 
 @kernel
@@ -850,6 +865,31 @@ def _range_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
                rec_iters, fail, lo, hi)
 
 
+@_inline
+def _run_points(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+    for i in range(x.shape[1]):
+        _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
+                   fail, i)
+
+
+@kernel
+def _points_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+    _run_points(METHOD_EM, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
+                fail)
+
+
+@kernel
+def _points_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+    _run_points(METHOD_MIDPOINT, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+                rec_iters, fail)
+
+
+@kernel
+def _points_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+    _run_points(METHOD_LEAPFROG, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+                rec_iters, fail)
+
+
 @kernel(parallel=True)
 def _parallel_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
     for b in prange((x.shape[1] + BLOCK - 1) // BLOCK):
@@ -872,6 +912,7 @@ def _parallel_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_it
 
 
 _RANGE = {METHOD_EM: _range_em, METHOD_MIDPOINT: _range_midpoint, METHOD_LEAPFROG: _range_leapfrog}
+_POINTS = {METHOD_EM: _points_em, METHOD_MIDPOINT: _points_midpoint, METHOD_LEAPFROG: _points_leapfrog}
 _PARALLEL = {METHOD_EM: _parallel_em, METHOD_MIDPOINT: _parallel_midpoint, METHOD_LEAPFROG: _parallel_leapfrog}
 
 
@@ -883,8 +924,11 @@ def ensemble_chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, ma
                :func:`~.pointmass.implicit_chunk` (``fail`` pre-filled with -1; leapfrog
                ignores ``max_iter`` and counts no iterations).
     """
-    _RANGE[method](x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                   0, x.shape[1])
+    if x.shape[1] < _PACKED_MIN:  # a kernel of the point-by-point path alone: less to compile
+        _POINTS[method](x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail)
+    else:
+        _RANGE[method](x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+                       0, x.shape[1])
 
 
 def ensemble_chunk_parallel(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
