@@ -100,8 +100,9 @@ def _case_section(case: dict) -> list[str]:
         case["description"],
         "",
         "Parameters: " + "; ".join(f"{k} = {v}" for k, v in case["params"].items()) + ".",
-        f"Order 2 runs {case['orbits']} periods of {case['period_s']:.10g} s at {case['steps_per_period']} "
-        f"steps per period; orders 4-8 run {case['orbits_high']} periods at 4x the steps.",
+        (f"Order 2 runs {case['orbits']} periods of {case['period_s']:.10g} s at {case['steps_per_period']} "
+         f"steps per period; orders 4-8 run {case['orbits_high']} periods at 4x the steps."
+         if case.get("orbits") is not None else "A study over many steps (see the parameters)."),
         "",
     ]
     if case.get("error"):

@@ -7,7 +7,7 @@ import os
 import platform
 import time
 
-from .cases import get_cases
+from .cases import case_names, get_cases
 from .report import write_json, write_markdown
 from .runner import run_case
 
@@ -52,12 +52,18 @@ def run_suite(outdir: str, *, quick: bool = False, names=None, scale: float = 1.
     os.makedirs(outdir, exist_ok=True)
     start = time.perf_counter()
     results = []
-    for case in get_cases(mode, names):
-        out = run_case(case, mode, outdir, scale=scale)
+    jobs = [(case.name, lambda c=case: run_case(c, mode, outdir, scale=scale))
+            for case in get_cases(mode, [n for n in names if n in case_names()] if names else None)]
+    if mode == "full" and (names is None or "brouwer" in names):  # a study, not an orbit case
+        from .brouwer import run_brouwer
+
+        jobs.append(("brouwer", lambda: run_brouwer(mode, outdir, scale=scale)))
+    for name, job in jobs:
+        out = job()
         results.append(out)
         if log:
             n_ok = sum(ch["passed"] for ch in out["checks"])
-            log(f"{case.name}: {'PASS' if out['passed'] else 'FAIL'} {n_ok}/{len(out['checks'])} checks "
+            log(f"{name}: {'PASS' if out['passed'] else 'FAIL'} {n_ok}/{len(out['checks'])} checks "
                 f"({out['wall_s']:.1f} s)")
             for ch in out["checks"]:
                 if not ch["passed"]:
