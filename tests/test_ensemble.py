@@ -199,7 +199,8 @@ def test_point_mass_run_compiles_no_rigid_or_elastic_code(tmp_path):
         compiled = sorted({{d.py_func.__module__ + "." + d.py_func.__name__
                             for d in gc.get_objects()
                             if isinstance(d, numba.core.registry.CPUDispatcher) and d.signatures}})
-        print(json.dumps({{"compiled": compiled, "modules": sorted(m for m in sys.modules if m.startswith("emorbit"))}}))
+        modules = sorted(m for m in sys.modules if m.startswith("emorbit"))
+        print(json.dumps({{"compiled": compiled, "modules": modules}}))
     """)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     import json

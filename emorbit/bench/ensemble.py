@@ -116,7 +116,8 @@ def table(section: dict) -> list[str]:
                      f"{r['max_energy_error']:>11.1e} {r['steps']:>7}")
     lim = section["limits"]
     em = lim["kernels"]["em"]
-    lines += [f"  packed division {lim['divide_ns']:.3f} ns, square root {lim['sqrt_ns']:.3f} ns per element (one thread)",
+    lines += [f"  packed division {lim['divide_ns']:.3f} ns, square root {lim['sqrt_ns']:.3f} ns per element "
+              "(one thread)",
               f"  em kernel: {em['sqrts']} square roots + {em['divisions']} divisions per particle-step: "
               f"bound {em['bound_per_s_1_thread']:.3g}/s on one thread, {em['bound_per_s_all_threads']:.3g}/s on all; "
               f"em reaches {100 * section['em_fraction_of_bound_1thread']:.0f} % and "

@@ -25,7 +25,8 @@ def targets(result: dict) -> list[dict]:
         r = ens["em_over_rebound_leapfrog"]
         out.append({"target": "em ensemble on all threads >= 3x REBOUND leapfrog particle-steps/s",
                     "measured": r, "limit": TARGETS["ensemble_vs_rebound"], "met": r >= TARGETS["ensemble_vs_rebound"]})
-        for where, key in (("one thread", "em_fraction_of_bound_1thread"), ("all threads", "em_fraction_of_bound_all_threads")):
+        for where, key in (("one thread", "em_fraction_of_bound_1thread"),
+                           ("all threads", "em_fraction_of_bound_all_threads")):
             f = ens[key]
             out.append({"target": f"em ensemble >= 80 % of the division / square-root bound ({where})",
                         "measured": f, "limit": TARGETS["fraction_of_bound"], "met": f >= TARGETS["fraction_of_bound"]})

@@ -69,11 +69,11 @@ vectorises without run-time alias checks (loops that read or write the state are
 the Numba level with constant buffer offsets, see ``_inline``). Each sub-step is a few
 short loops ("passes"): short dependency chains and few live values per loop let the
 out-of-order core overlap many points (measured on the development machine: the solve as
-two loops instead of four made the step 20 % slower). The state lives in two buffers; a sub-step reads one and writes the other,
-every point unconditionally (a "store if" would become a masked store, microcoded and slow
-on AMD processors); a scalar pass, run only when a point failed or is dead, puts the old
-state back. Blocks of fewer than :data:`_PACKED_MIN` points (a single orbit) take each
-point through the same helpers one by one.
+two loops instead of four made the step 20 % slower). The state lives in two buffers; a
+sub-step reads one and writes the other, every point unconditionally (a "store if" would
+become a masked store, microcoded and slow on AMD processors); a scalar pass, run only when
+a point failed or is dead, puts the old state back. Blocks of fewer than :data:`_PACKED_MIN`
+points (a single orbit) take each point through the same helpers one by one.
 
 Counted per em point and sub-step on the packed path (the bench derives the bound from
 division and square-root throughput from these): :data:`EM_SQRTS` square roots (``|a|``,
