@@ -20,8 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .common import (ENSEMBLE_DT, GM, EmorbitRunner, KernelRunner, ReboundRunner, _clock, _paired_ratio, _since,
-                     _timed, energies, ensemble_states, numba_threads, point_masses, rebound_sim, rebound_state)
+from .common import (ENSEMBLE_DT, GM, EmorbitRunner, KernelRunner, ReboundRunner, _clock, _loadavg, _paired_ratio,
+                     _since, _timed, energies, ensemble_states, numba_threads, point_masses, rebound_sim,
+                     rebound_state)
 from .limits import measure
 
 WALL = "samples_us"
@@ -47,6 +48,7 @@ def run(cfg) -> dict:
     from ..kernels import ensemble as kern
 
     n = cfg.ensemble_n
+    load = _loadavg()
     x, v = ensemble_states(n)
     e0 = energies(x, v)
     runners = {
@@ -89,6 +91,7 @@ def run(cfg) -> dict:
         "clock": "wall time per step (median of interleaved repeats); CPU time beside it",
         "n": n,
         "threads": threads,
+        "load_average_at_start": load,
         "rows": rows,
         "em_particle_steps_per_s": emN["particle_steps_per_s"],
         "em_1thread_particle_steps_per_s": em1["particle_steps_per_s"],
@@ -127,4 +130,8 @@ def table(section: dict) -> list[str]:
               f"  scene (PointMasses.advance) / bare kernel: {section['scene_over_bare']:.3f}; whole driver "
               f"(Simulation.run, {section['driver']['steps']} steps, one record): "
               f"{section['driver']['ratio_to_bare_all_threads']:.3f}"]
+    load = section.get("load_average_at_start")
+    if load and load[0] >= 0.5:
+        lines.append(f"  (the machine was busy: 1-minute load average {load[0]} at the start; the all-threads rows "
+                     "shared cores with other processes)")
     return lines
