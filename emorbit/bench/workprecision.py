@@ -82,7 +82,6 @@ def _emorbit(x0, v0, method, order, N, T, orbits) -> dict:
     xs = np.concatenate([r.x[:, :, 0] for r in recs])
     vs = np.concatenate([r.v[:, :, 0] for r in recs])
     e = 0.5 * np.einsum("rk,rk->r", vs, vs) - GM / np.linalg.norm(xs, axis=1)
-    rec = recs[0]
     its = sum(float(r.iterations.sum()) for r in recs)
     return {"cpu_s": cpu, "x_end": pm.x[:, 0].copy(), "energies": e, "steps": steps,
             "newton": its / (steps * len(coefficients(order))) if method != "leapfrog" else 0.0}
