@@ -76,4 +76,4 @@ def test_command_line(capsys):
     with pytest.raises(SystemExit):
         main(["bench", "--only", "nonsense"])
     assert "invalid choice" in capsys.readouterr().err
-    assert set(SECTIONS) == {"single", "ensemble", "work-precision", "startup", "rigid"}
+    assert set(SECTIONS) == {"single", "ensemble", "work-precision", "startup", "rigid", "elastic"}

@@ -18,6 +18,8 @@ work-precision   final position error (against the analytic Kepler solution) and
 startup         wall time of ``emorbit run paper-ellipse`` with an empty Numba cache (cold)
                 and with it filled (warm)
 rigid           the rigid-body rows of :mod:`emorbit.bench_rigid`
+elastic         the elastic-body rows of :mod:`emorbit.bench_elastic` (cost per step against
+                degrees of freedom, up to a 10,000-DOF beam)
 
 Ratios are always taken within the run. The JSON (``--json``) records the CPU model, the
 core count, the load average and package versions beside every figure; ``--plots DIR``
@@ -27,7 +29,7 @@ line; the sections import what they need when they run.
 
 from __future__ import annotations
 
-SECTIONS = ("single", "ensemble", "work-precision", "startup", "rigid")
+SECTIONS = ("single", "ensemble", "work-precision", "startup", "rigid", "elastic")
 
 __all__ = ["SECTIONS", "add_arguments", "run"]
 

@@ -70,6 +70,11 @@ def run_bench(sections, quick: bool = False, json_path=None, plots_dir=None, con
 
             data = bench_rigid.run(config="tiny" if name == "tiny" else None, quick=name != "full")
             lines = bench_rigid.table(data).splitlines()
+        elif section == "elastic":
+            from .. import bench_elastic
+
+            data = bench_elastic.run(config=name)
+            lines = bench_elastic.table(data).splitlines()
         else:
             mod = modules[section]
             data = mod.run(cfg)
