@@ -53,6 +53,8 @@ def test_sections_hang_together(result):
         assert {("rebound", m) for m in ("ias15", "whfast", "leapfrog")} <= engines
         em = [p for p in orbit["points"] if p["method"] == "em" and p.get("status") == "ok"]
         assert em and all(p["energy_error"] < 1e-12 for p in em)
+        adaptive = [p for p in orbit["points"] if p["method"] == "em adaptive" and p.get("status") == "ok"]
+        assert adaptive and all(p["energy_error"] < 1e-12 and p["steps"] > 0 for p in adaptive)
         assert any(p["pareto_position"] for p in orbit["points"])
         assert orbit["heyoka"] == "ok" or orbit["heyoka"].startswith(("skipped", "failed"))
 

@@ -39,6 +39,8 @@ class Config:
     ias15_eps: tuple
     heyoka_tol: tuple
     warm_runs: int  # repeats of the warm start-up
+    adaptive_orders: tuple = (4, 8)  # em with adaptive steps in the work-precision runs
+    adaptive_eta: tuple = (0.02, 0.01, 0.005, 0.0025, 0.00125)  # steps per Kepler time scale
 
 
 CONFIGS = {
@@ -51,10 +53,11 @@ CONFIGS = {
                     divisions=(25, 50, 100, 200, 400, 800, 1600),
                     divisions_e09=(100, 200, 400, 800, 1600, 3200, 6400, 12800),
                     ias15_eps=(1e-3, 1e-5, 1e-7, 1e-9), heyoka_tol=(1e-6, 1e-9, 1e-12, 2.220446049250313e-16),
-                    warm_runs=3),
+                    warm_runs=3, adaptive_eta=(0.02, 0.005, 0.0025)),
     # a seconds-long smoke run for the tests: its timings mean nothing
     "tiny": Config(repeat_s=0.005, repeats=2, ensemble_n=2_000, orbits=2,
-                   divisions=(50, 100), divisions_e09=(200, 400), ias15_eps=(1e-6,), heyoka_tol=(1e-9,), warm_runs=1),
+                   divisions=(50, 100), divisions_e09=(200, 400), ias15_eps=(1e-6,), heyoka_tol=(1e-9,), warm_runs=1,
+                   adaptive_orders=(8,), adaptive_eta=(0.02,)),
 }
 
 

@@ -9,6 +9,8 @@ ten checkpoints per orbit. Engines:
 
 * emorbit em, midpoint and leapfrog at orders 2, 4, 6 and 8, dt = T/N for several N
   (through :meth:`PointMasses.advance`, checkpoints recorded by the kernel);
+* emorbit em with adaptive steps (``h = eta 2 pi sqrt(r^3/GM)``, :mod:`emorbit.kernels.adaptive`)
+  at orders 4 and 8 for several eta;
 * REBOUND IAS15 at several epsilons (its adaptive step, exact finish time), WHFast (without
   safe mode) and leapfrog at the same dt as emorbit;
 * heyoka's Taylor integrator at tolerances from 1e-6 to machine precision, when it is
@@ -85,6 +87,26 @@ def _emorbit(x0, v0, method, order, N, T, orbits) -> dict:
     its = sum(float(r.iterations.sum()) for r in recs)
     return {"cpu_s": cpu, "x_end": pm.x[:, 0].copy(), "energies": e, "steps": steps,
             "newton": its / (steps * len(coefficients(order))) if method != "leapfrog" else 0.0}
+
+
+def _emorbit_adaptive(x0, v0, order, eta, T, orbits) -> dict:
+    """em with adaptive steps (h = eta 2 pi sqrt(r^3/GM), at most T / CHECKPOINTS_PER_ORBIT;
+    records on that grid)."""
+    nrec = CHECKPOINTS_PER_ORBIT * orbits
+
+    def go():
+        pm = point_masses(x0[:, None], v0[:, None])
+        pm.adaptive = eta
+        rec = pm.advance("em", GM, np.zeros(3), T / CHECKPOINTS_PER_ORBIT, coefficients(order), 1, nrec, 50)
+        return pm, rec
+
+    (pm, rec), cpu = _cpu(go)
+    if rec.first_failure() is not None:
+        return {"status": f"failed: record {rec.first_failure()[0]}", "cpu_s": cpu}
+    xs, vs = rec.x[:, :, 0], rec.v[:, :, 0]
+    e = 0.5 * np.einsum("rk,rk->r", vs, vs) - GM / np.linalg.norm(xs, axis=1)
+    return {"cpu_s": cpu, "x_end": pm.x[:, 0].copy(), "energies": e, "steps": pm.adaptive_steps,
+            "newton": float(rec.iterations.sum()) / (pm.adaptive_steps * len(coefficients(order)))}
 
 
 def _rebound_fixed(x0, v0, integrator, N, T, orbits) -> dict:
@@ -212,6 +234,17 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
                 res = _emorbit(x0, v0, method, order, N, T, orbits)
                 per_step = res["cpu_s"] / (N * orbits)
                 add("emorbit", method, order, T / N, "dt", res)
+    for order in cfg.adaptive_orders:
+        _emorbit_adaptive(x0, v0, order, cfg.adaptive_eta[0], T, 1)  # warm-up: load the kernel
+        per_step = None
+        for eta in cfg.adaptive_eta:
+            steps = orbits * 2.0 * math.pi / eta  # a rough count (steps per Kepler time scale)
+            if per_step is not None and per_step * steps > MAX_RUN_S:
+                add("emorbit", "em adaptive", order, eta, "eta", {"status": f"skipped: estimated over {MAX_RUN_S} s"})
+                continue
+            res = _emorbit_adaptive(x0, v0, order, eta, T, orbits)
+            per_step = res["cpu_s"] / steps
+            add("emorbit", "em adaptive", order, eta, "eta", res)
     for integrator in ("leapfrog", "whfast"):
         for N in divisions:
             add("rebound", integrator, 2, T / N, "dt", _rebound_fixed(x0, v0, integrator, N, T, orbits))
@@ -254,7 +287,7 @@ def run(cfg) -> dict:
 
 
 # -- figures ---------------------------------------------------------------------------------
-_MAPS = {"em": "Blues", "midpoint": "Greens", "leapfrog": "Oranges"}
+_MAPS = {"em": "Blues", "midpoint": "Greens", "leapfrog": "Oranges", "em adaptive": "Purples"}
 _PEERS = {("rebound", "ias15"): ("REBOUND IAS15 (epsilon)", "tab:red", "*", "-"),
           ("rebound", "whfast"): ("REBOUND WHFast (exact Kepler drift)", "tab:purple", "x", "--"),
           ("rebound", "leapfrog"): ("REBOUND leapfrog", "tab:brown", "+", "--"),
@@ -268,7 +301,8 @@ def _style(engine, method, order):
         import matplotlib
 
         color = matplotlib.colormaps[_MAPS[method]](0.35 + 0.65 * (order - 2) / 6)
-        return f"emorbit {method} {order}", color, _MARKERS[order], "-" if method == "em" else ":"
+        ls = {"em": "-", "em adaptive": "-."}.get(method, ":")
+        return f"emorbit {method} {order}", color, _MARKERS[order], ls
     return _PEERS[(engine, method)]
 
 
@@ -292,9 +326,9 @@ def plot(orbit: dict, path: str) -> None:
             xs, ys = [p["cpu_s"] for p in pts], [max(p[key], 1e-17) for p in pts]
             ax.loglog(xs, ys, ls=ls, marker=marker, color=color, ms=5, lw=1.2 if engine == "emorbit" else 1.5,
                       label=name if ax is axes[0] else None)
-            if engine != "emorbit":
+            if engine != "emorbit" or method == "em adaptive":
                 for p, x_, y_ in zip(pts, xs, ys):
-                    param = p.get("epsilon", p.get("tolerance"))
+                    param = p.get("epsilon", p.get("tolerance", p.get("eta")))
                     if param is not None:
                         ax.annotate(f"{param:.0e}", (x_, y_), fontsize=6, color=color, xytext=(3, 3),
                                     textcoords="offset points")
@@ -321,7 +355,7 @@ def table(section: dict) -> list[str]:
         front = sorted((p for p in orbit["points"] if p.get("pareto_position")), key=lambda p: p["cpu_s"])
         for p in front:
             what = f"{p['engine']} {p['method']}" + (f" {p['order']}" if p["engine"] == "emorbit" else "")
-            param = next(f"{k} {p[k]:.3g}" for k in ("dt", "epsilon", "tolerance") if k in p)
+            param = next(f"{k} {p[k]:.3g}" for k in ("dt", "epsilon", "tolerance", "eta") if k in p)
             lines.append(f"    {what:<24} {param:<18} {1e3 * p['cpu_s']:>10.3f} ms  position {p['position_error']:.1e}"
                          f"  energy {p['energy_error']:.1e}")
         best = {}
@@ -333,4 +367,9 @@ def table(section: dict) -> list[str]:
         for order, p in sorted(best.items()):
             lines.append(f"    best em order {order}: position {p['position_error']:.1e} in {1e3 * p['cpu_s']:.1f} ms "
                          f"(dt = T/{orbit['period_s'] / p['dt']:.0f}), energy {p['energy_error']:.1e}")
+        for p in orbit["points"]:
+            if p.get("status") == "ok" and p["method"] == "em adaptive":
+                lines.append(f"    em adaptive order {p['order']}, eta {p['eta']:g}: position {p['position_error']:.1e} "
+                             f"in {1e3 * p['cpu_s']:.1f} ms ({p['steps'] / orbit['orbits']:.0f} steps per orbit), "
+                             f"energy {p['energy_error']:.1e}")
     return lines
