@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from .eft import fma, two_prod, two_sum
 from .jit import kernel
 
 __all__ = [
@@ -28,6 +29,10 @@ __all__ = [
     "accel_jacobian_coeffs",
     "em_accel",
     "em_jacobian_coeffs",
+    "norm_sq_lo",
+    "em_accel_root",
+    "em_accel_dd",
+    "em_accel_accurate",
     "accel_points",
     "potential_points",
     "em_accel_points",
@@ -63,6 +68,81 @@ def em_accel(ax, ay, az, r0, bx, by, bz, gm):
     r1 = math.sqrt(bx * bx + by * by + bz * bz)
     k = gm / (r0 * r1 * (r0 + r1))
     return k * (ax + bx), k * (ay + by), k * (az + bz), r1, k
+
+
+@kernel(inline="always")
+def norm_sq_lo(x, y, z, r):
+    """``x*x + y*y + z*z - r*r`` to about eps**2 of ``r*r``, for ``r = sqrt(x*x + y*y + z*z)``
+    evaluated plainly in that order (as :func:`accel`, :func:`em_accel` and the packed
+    kernels do); ``|(x, y, z)| = r + lo`` with ``lo`` = this / (2 r) to about 1e-30 relative."""
+    p0, e0 = two_prod(x, x)
+    p1, e1 = two_prod(y, y)
+    p2, e2 = two_prod(z, z)
+    s, f1 = two_sum(p0, p1)
+    s, f2 = two_sum(s, p2)
+    # s - r**2 is exact for a correctly rounded root
+    return fma(-r, r, s) + (((e0 + e1) + e2) + (f1 + f2))
+
+
+@kernel(inline="always")
+def em_accel_root(bx, by, bz, r0):
+    """The square root and the division of :func:`em_accel_dd`: (r10, iP) with
+    ``r10 = sqrt(bx*bx + by*by + bz*bz)`` and ``iP = 1 / (r0 r10 (r0 + r10))``, rounded (a
+    separate function so that the packed kernels can run it in a pass of its own)."""
+    r1 = math.sqrt((bx * bx + by * by) + bz * bz)
+    return r1, 1.0 / ((r0 * r1) * (r0 + r1))
+
+
+@kernel(inline="always")
+def em_accel_dd(ax, ay, az, r0, t0, bx, by, bz, gm, r1, iP):
+    """g_em as :func:`em_accel`, to about eps**2: returns (gx, gy, gz, lx, ly, lz, k) with
+    ``g = (gx + lx, ...)`` (``gx`` the plainly rounded product, ``lx`` its correction) and
+    ``k`` rounded. ``|a| = r0 + t0 / (2 r0)`` (``r0`` plain, ``t0`` from
+    :func:`norm_sq_lo`); ``r1, iP`` from :func:`em_accel_root`. No square root and no
+    division: ``1 / r0`` and ``1 / r10`` come from ``iP`` (``1 / r0 = r10 s iP``,
+    ``s = r0 + r10``).
+
+    Why: the plain evaluation has an error of a few roundings (up to 4 ulp, measured) that a
+    Newton iteration in plain floating point converges on, so its work ``dg . dx`` does not
+    average out over many steps (see :func:`emorbit.kernels.pointmass.em_finish`).
+    """
+    p0, e0 = two_prod(bx, bx)
+    p1, e1 = two_prod(by, by)
+    p2, e2 = two_prod(bz, bz)
+    bb, f1 = two_sum(p0, p1)
+    bb, f2 = two_sum(bb, p2)
+    t1 = fma(-r1, r1, bb) + (((e0 + e1) + e2) + (f1 + f2))  # 2 r1 (|b| - r1), to first order
+    # P = r0 r1 (r0 + r1) = q s in double-double, k = GM / P
+    s, es = two_sum(r0, r1)
+    q, eq = two_prod(r0, r1)
+    P, eP = two_prod(q, s)
+    hs = 0.5 * iP * s
+    r0l = t0 * (hs * r1)  # t0 / (2 r0)
+    r1l = t1 * (hs * r0)  # t1 / (2 r1)
+    sl = (es + r0l) + r1l
+    ql = (eq + r0 * r1l) + r0l * r1
+    Pl = (eP + q * sl) + ql * s
+    k = gm * iP
+    kl = (fma(-k, P, gm) - k * Pl) * iP
+    # g = k (a + b) = k (u + l)
+    ux, lx = two_sum(ax, bx)
+    uy, ly = two_sum(ay, by)
+    uz, lz = two_sum(az, bz)
+    gx = k * ux
+    gy = k * uy
+    gz = k * uz
+    return (gx, gy, gz, (fma(k, ux, -gx) + k * lx) + kl * ux, (fma(k, uy, -gy) + k * ly) + kl * uy,
+            (fma(k, uz, -gz) + k * lz) + kl * uz, k + kl)
+
+
+@kernel(inline="always")
+def em_accel_accurate(ax, ay, az, r0, t0, bx, by, bz, gm):
+    """g_em of the given doubles with each component within about one rounding (correctly
+    rounded unless within about 1e-9 ulp of a tie): :func:`em_accel_dd` rounded. Returns
+    (gx, gy, gz, r10, k) as :func:`em_accel` does."""
+    r1, iP = em_accel_root(bx, by, bz, r0)
+    gx, gy, gz, lx, ly, lz, k = em_accel_dd(ax, ay, az, r0, t0, bx, by, bz, gm, r1, iP)
+    return gx + lx, gy + ly, gz + lz, r1, k
 
 
 @kernel
