@@ -105,8 +105,9 @@ class PointMasses:
         codes = {"em": ensemble.METHOD_EM, "midpoint": ensemble.METHOD_MIDPOINT, "leapfrog": ensemble.METHOD_LEAPFROG}
         if method not in codes:  # the Simulation validates names; this guards internal misuse
             raise ValueError(f"no point-mass kernel for method {method!r}")
+        code = ensemble.METHOD_EM_PLAIN if method == "em" and self.roundoff == "fast" else codes[method]
         chunk = ensemble.ensemble_chunk_parallel if n >= ensemble.PARALLEL_MIN else ensemble.ensemble_chunk
-        chunk(codes[method], self.x, self.v, self.cx, self.cv, float(gm), np.ascontiguousarray(center, float),
+        chunk(code, self.x, self.v, self.cx, self.cv, float(gm), np.ascontiguousarray(center, float),
               float(dt), np.ascontiguousarray(gammas, float), int(every), int(nrec), int(max_iter),
               rec.x, rec.v, rec.iterations, rec.fail)
         return rec
@@ -115,6 +116,9 @@ class PointMasses:
     adaptive: float | None = None
     #: adaptive steps taken so far, summed over the points
     adaptive_steps: int = 0
+    #: "brouwer" (em steps finished on an accurate g_em: the energy error stays a random walk)
+    #: or "fast" (plain floating point); set by the Simulation
+    roundoff: str = "brouwer"
 
     def _advance_adaptive(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> ChunkRecords:
         """Adaptive steps (see :mod:`emorbit.kernels.adaptive`); dt is the largest step."""
@@ -126,6 +130,8 @@ class PointMasses:
         rec = ChunkRecords(np.empty((nrec, 3, n)), np.empty((nrec, 3, n)), np.zeros((nrec, n), dtype=np.int64),
                            np.full((n, 2), -1, dtype=np.int64))
         code = {"em": kern.METHOD_EM, "midpoint": kern.METHOD_MIDPOINT, "leapfrog": ad.METHOD_LEAPFROG}[method]
+        if method == "em" and self.roundoff == "fast":
+            code = kern.METHOD_EM_PLAIN
         ad.adaptive_chunk(code, self.x, self.v, self.cx, self.cv, float(gm), np.ascontiguousarray(center, float),
                           float(dt), float(self.adaptive), np.ascontiguousarray(gammas, float), int(every), int(nrec),
                           int(max_iter), rec.x, rec.v, rec.iterations, steps, rec.fail)

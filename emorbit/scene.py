@@ -14,6 +14,7 @@
     output_every = 10              # steps between records           (default 1)
     checkpoint_every = 1000        # steps between checkpoints       (default ~0.5 s of work)
     adaptive = 0.01                # point masses: step = 0.01 of the local Kepler time, <= dt (default: off)
+    roundoff = "brouwer"           # em, point masses: "brouwer" (energy error a random walk) | "fast"
     max_newton_iterations = 50     # per implicit sub-step           (default 50)
     [[body]]
     name = "satellite"
@@ -59,7 +60,7 @@ SCHEMA = {
     "field": {"gm": False, "g_ref": False, "r_ref": False, "body": False, "center": False, "radius": False},
     "integrator": {"method": False, "order": False, "dt": True, "t_end": True, "output_every": False,
                    "max_newton_iterations": False, "newton": False, "checkpoint_every": False,
-                   "adaptive": False},
+                   "adaptive": False, "roundoff": False},
     "body.point": {"name": True, "kind": True, "mass": True, "position": True, "velocity": True},
     "body.rigid": {"name": True, "kind": True, "shape": True, "position": True, "velocity": True,
                    "attitude": False, "rotation_vector": False, "angular_velocity": False,
@@ -187,8 +188,11 @@ class Scene:
         adaptive = integ.get("adaptive")
         if adaptive is not None and (isinstance(adaptive, bool) or not isinstance(adaptive, (int, float))):
             raise InputError("integrator.adaptive", f"a number in (0, 1] expected, got {adaptive!r}")
+        roundoff = integ.get("roundoff", "brouwer")
+        if roundoff not in ("brouwer", "fast"):
+            raise InputError("integrator.roundoff", f"must be 'brouwer' or 'fast', got {roundoff!r}")
         sim = Simulation(field, method=self.method, order=self.order, dt=dt, max_newton_iterations=max_iter,
-                         newton=newton, adaptive=adaptive)
+                         newton=newton, adaptive=adaptive, roundoff=roundoff)
         bodies = d["body"]
         if not isinstance(bodies, list) or not bodies:
             raise InputError("body", "a scene needs at least one [[body]] table")
@@ -327,6 +331,12 @@ def simulation_to_toml(sim: Simulation, t_end: float | None = None, output_every
               f'method = "{sim.method}"', f"order = {sim.order}", f"dt = {_q(sim.dt, 's')}",
               f"t_end = {_q(t_end if t_end is not None else sim.time + sim.dt, 's')}",
               f"output_every = {output_every}", f"max_newton_iterations = {sim.max_newton_iterations}"]
+    if sim.adaptive is not None:
+        lines.append(f"adaptive = {sim.adaptive!r}")
+    if sim.roundoff != "brouwer":
+        lines.append(f'roundoff = "{sim.roundoff}"')
+    if sim.newton != "auto":
+        lines.append(f'newton = "{sim.newton}"')
     pts = sim.points
     for i, name in enumerate(pts.names):
         lines += ["", "[[body]]", f"name = {json.dumps(name)}",

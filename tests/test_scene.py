@@ -41,6 +41,15 @@ def test_to_toml_round_trip_is_exact():
     assert (again.method, again.order, again.dt) == ("leapfrog", 6, 0.1)
     assert np.array_equal(again.points.x, sim.points.x) and np.array_equal(again.points.v, sim.points.v)
     assert again.names == sim.names
+    assert again.roundoff == "brouwer" and "roundoff" not in sim.to_toml(t_end=1.0)  # the default is not written
+
+
+def test_roundoff_key_round_trips():
+    """roundoff = "fast" parses, builds, and survives to_toml (a resumed run keeps it)."""
+    scene = parse_scene(PAPER.replace("order = 2", 'order = 2\nroundoff = "fast"', 1))
+    sim = scene.build()
+    assert sim.roundoff == "fast" and sim.points.roundoff == "fast"
+    assert parse_scene(sim.to_toml(t_end=1.0)).build().roundoff == "fast"
 
 
 BAD = [
@@ -64,6 +73,7 @@ BAD = [
     ("missing dt", 'dt = "0.464758 s"\n', "", "integrator.dt", "missing"),
     ("missing position", 'position = ["10 m", "0 m", "0 m"]\n', "", "body[0].position", "missing"),
     ("bad order", "order = 2", "order = 3", "integrator.order", "3"),
+    ("unknown roundoff", "order = 2", 'order = 2\nroundoff = "exact"', "integrator.roundoff", "exact"),
     ("order not an integer", "order = 2", 'order = "2"', "integrator.order", "'2'"),
     ("zero output_every", "output_every = 10", "output_every = 0", "integrator.output_every", "0"),
     ("two field strengths", 'gm = "3.9478 m3 / s2"', 'gm = "3.9478 m3 / s2"\nbody = "earth"', "field", "gm and body"),
@@ -122,6 +132,8 @@ def test_api_errors():
         emorbit.Simulation(field, method="verlet", dt=0.1)
     with pytest.raises(InputError, match="dt"):
         emorbit.Simulation(field, dt=0.0)
+    with pytest.raises(InputError, match="roundoff.*'exact'"):
+        emorbit.Simulation(field, dt=0.1, roundoff="exact")
     sim = emorbit.Simulation(field, dt=0.1)
     with pytest.raises(InputError, match="no bodies"):
         sim.run(steps=1)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 
 from .jit import kernel
-from .pointmass import METHOD_EM, STATUS_OK, STATUS_SINGULAR, em_step, kahan_add, midpoint_step
+from .pointmass import METHOD_EM, METHOD_EM_PLAIN, STATUS_OK, STATUS_SINGULAR, em_step, kahan_add, midpoint_step
 
 __all__ = ["adaptive_chunk", "MAX_HALVINGS", "METHOD_LEAPFROG"]
 
@@ -54,8 +54,9 @@ def _composed(method, px, py, pz, vx, vy, vz, ex, ey, ez, fx, fy, fz, h, gammas,
     its = 0
     for k in range(gammas.shape[0]):
         hk = h * gammas[k]
-        if method == METHOD_EM:
-            d0, d1, d2, w0, w1, w2, it, status = em_step(px, py, pz, vx, vy, vz, hk, gm, c0, c1, c2, max_iter)
+        if method == METHOD_EM or method == METHOD_EM_PLAIN:
+            d0, d1, d2, w0, w1, w2, it, status = em_step(px, py, pz, vx, vy, vz, hk, gm, c0, c1, c2, max_iter,
+                                                         method == METHOD_EM)
         elif method == METHOD_LEAPFROG:
             d0, d1, d2, w0, w1, w2, it, status = _leapfrog_sub(px, py, pz, vx, vy, vz, hk, gm, c0, c1, c2)
         else:
@@ -79,7 +80,7 @@ def adaptive_chunk(method, x, v, cx, cv, gm, center, dt_max, eta, gammas, every,
                    rec_x, rec_v, rec_iters, rec_steps, fail):
     """Advance every point by ``nrec`` record intervals of ``every * dt_max`` with adaptive steps.
 
-    method       METHOD_EM, METHOD_MIDPOINT (1) or METHOD_LEAPFROG
+    method       METHOD_EM, METHOD_EM_PLAIN (3), METHOD_MIDPOINT (1) or METHOD_LEAPFROG
     eta          steps per local Kepler time scale: h = eta 2 pi sqrt(r^3 / GM) <= dt_max
     rec_steps    (nrec, n) steps each point took in each interval
     Other arguments as in :func:`emorbit.kernels.pointmass.implicit_chunk`; ``fail[i]`` holds

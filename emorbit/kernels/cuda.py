@@ -20,7 +20,10 @@ multiply-add where it can (its default; numba offers no switch for it short of
 and is not used). A fused operation rounds once instead of twice, so results differ from
 the CPU's at round-off (about 1e-16 relative per step), without a bias of one sign: the
 compensated sums have no products to fuse, and no rounded constant multiplies gravity in
-one update but not the other.
+one update but not the other. The accurate ``g_em`` of :func:`~.pointmass.em_finish` forms
+its exact products with explicit fused multiply-adds (``cuda.fma`` here, ``llvm.fma`` on the
+CPU), which contraction cannot change; contracting its small correction terms changes them
+by a rounding of themselves only.
 
 Use: :func:`chunk` has the arguments of the CPU chunk kernels plus a method code and runs
 on the device, copying the arrays there and back; :func:`require_device` raises a clear
@@ -30,16 +33,18 @@ on the device, copying the arrays there and back; :func:`require_device` raises 
 from __future__ import annotations
 
 import types
+from fractions import Fraction
 
 import numpy as np
 
 from ..errors import InputError
-from . import gravity, pointmass
+from . import eft, gravity, pointmass
 
-__all__ = ["METHOD_EM", "METHOD_MIDPOINT", "METHOD_LEAPFROG", "METHODS", "THREADS_PER_BLOCK", "available",
+__all__ = ["METHOD_EM", "METHOD_EM_PLAIN", "METHOD_MIDPOINT", "METHOD_LEAPFROG", "METHODS", "THREADS_PER_BLOCK", "available",
            "require_device", "chunk"]
 
 METHOD_EM = pointmass.METHOD_EM
+METHOD_EM_PLAIN = pointmass.METHOD_EM_PLAIN
 METHOD_MIDPOINT = pointmass.METHOD_MIDPOINT
 METHOD_LEAPFROG = 2
 #: method name -> code
@@ -48,7 +53,9 @@ METHODS = {"em": METHOD_EM, "midpoint": METHOD_MIDPOINT, "leapfrog": METHOD_LEAP
 THREADS_PER_BLOCK = 128
 
 #: CPU kernels compiled again for the device, callees first
-_SOURCES = (gravity.accel, gravity.accel_jacobian_coeffs, gravity.em_accel, gravity.em_jacobian_coeffs,
+_SOURCES = (eft.two_sum, eft.two_prod, gravity.accel, gravity.accel_jacobian_coeffs, gravity.em_accel,
+            gravity.em_jacobian_coeffs, gravity.norm_sq_lo, gravity.em_accel_root, gravity.em_accel_dd, pointmass._residual,
+            pointmass.em_finish,
             pointmass.kahan_add, pointmass._newton_done, pointmass._finite, pointmass.em_step,
             pointmass.midpoint_step, pointmass.implicit_chunk, pointmass.leapfrog_chunk)
 _compiled = None
@@ -99,6 +106,17 @@ def _leapfrog_kernel(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter
                        nrec, max_iter, rec_x[:, :, i:j], rec_v[:, :, i:j], rec_iters[:, i:j], fail[i:j])
 
 
+def _fma(a, b, c):
+    """The device's fused multiply-add (the CPU kernels' :func:`~.eft.fma`)."""
+    return cuda.fma(a, b, c)  # noqa: F821 - compiled by _compile with cuda in its globals
+
+
+def _fma_exact(a, b, c):
+    """``a b + c`` rounded once, in exact rational arithmetic: the fused multiply-add of
+    Numba's CUDA simulator (which runs device functions as Python and has no ``cuda.fma``)."""
+    return float(Fraction(a) * Fraction(b) + Fraction(c))
+
+
 def _rebind(f, table: dict):
     """``f`` with the names in ``table`` (device functions, the cuda module) in its globals."""
     scope = dict(f.__globals__)
@@ -117,6 +135,7 @@ def _compile():
         return _compiled
     cuda = require_device()
     table = {"cuda": cuda}
+    table["fma"] = cuda.jit(device=True)(_rebind(_fma if hasattr(cuda, "fma") else _fma_exact, table))
     for dispatcher in _SOURCES:
         f = dispatcher.py_func
         table[f.__name__] = cuda.jit(device=True)(_rebind(f, table))
@@ -145,7 +164,7 @@ def chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, r
     if method == METHOD_LEAPFROG:
         leapfrog_kernel[blocks, threads_per_block](dx, dv, dcx, dcv, np.float64(gm), d_center, np.float64(dt), d_gammas,
                                                    int(every), int(nrec), int(max_iter), drx, drv, dri, dfail)
-    elif method in (METHOD_EM, METHOD_MIDPOINT):
+    elif method in (METHOD_EM, METHOD_EM_PLAIN, METHOD_MIDPOINT):
         implicit_kernel[blocks, threads_per_block](int(method), dx, dv, dcx, dcv, np.float64(gm), d_center, np.float64(dt),
                                                    d_gammas, int(every), int(nrec), int(max_iter), drx, drv, dri,
                                                    dfail)

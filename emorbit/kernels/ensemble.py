@@ -7,8 +7,8 @@ and :func:`~.pointmass.leapfrog_chunk`. The states agree with those reference ke
 round-off (leapfrog: bit for bit), and a point's result never depends on which other
 points share its block, on the block size, or on how a run is cut into chunks: every
 point goes through the same scalar operations (the helpers below) whether they run packed
-or alone, and no fused multiply-add is formed (``fastmath=False``), so packed and scalar
-code give the same bits.
+or alone, and no fused multiply-add is formed (``fastmath=False``) but the explicit ones of
+the error-free transformations (:mod:`.eft`), so packed and scalar code give the same bits.
 
 How the implicit step is solved
 -------------------------------
@@ -40,7 +40,12 @@ Newton update costs one division and no square root (the reference kernel iterat
   kernel's 3-vector Newton (:func:`~.pointmass.em_step`), whose stopping and failure rules
   then apply unchanged. Every point's energy stays at round-off; e up to 0.99 is tested.
 * Then ``g = w (2 a - h v0)`` and the step in the reference kernel's form,
-  ``dx = h (v0 + h/2 g)``, ``dv = h g``.
+  ``dx = h (v0 + h/2 g)``; with roundoff="fast" (``METHOD_EM_PLAIN``) ``dv = h g``.
+* By default (``METHOD_EM``) the step ends as the reference kernel's does, with
+  :func:`~.pointmass.em_finish`: one Newton update on ``g_em`` evaluated to within a
+  rounding, and ``dv`` from ``g_em`` evaluated the same way at the final ``dx``. Without
+  it the energy drifts down by 5-7e-20 |E| per step on the paper's orbit at T/100 (see the
+  notes of :mod:`.pointmass`).
 
 The implicit midpoint step reduces the same way: ``m = a - dx/2`` (the centre seen from the
 midpoint) has ``|m| (1 + t/2) = |a - h/2 v0|`` with ``t = tau / |m|**3``, a cubic in
@@ -56,8 +61,9 @@ What the reference kernel's notes ask of a step, and how it holds here:
   sets the size of ``g``; measured: computing ``dx`` from ``t = tau/Q`` instead, with tau
   rounded once, drifted by 1.5-3.4e-13 in 2e5 steps of the paper's orbit, all of one sign;
   this form stays at 0.5-4e-14 of both signs, as the reference kernel does).
-* No further evaluation of gravity is needed for the velocity (the reference linearises
-  ``g_em`` at the final iterate for the same purpose).
+* The velocity uses ``g_em`` at the final ``dx`` (with roundoff="fast": no further
+  evaluation of gravity is needed, the reference linearises ``g_em`` at the final iterate
+  for the same purpose).
 
 Layout and passes
 -----------------
@@ -76,9 +82,10 @@ a point failed or is dead, puts the old state back. Blocks of fewer than :data:`
 points (a single orbit) take each point through the same helpers one by one.
 
 Counted per em point and sub-step on the packed path (the bench derives the bound from
-division and square-root throughput from these): :data:`EM_SQRTS` square roots (``|a|``,
-the predictor's ``r1``) and :data:`EM_DIVISIONS` divisions (``1/|a|``, the Newton update,
-``w``).
+division and square-root throughput from these): :data:`EM_PLAIN_SQRTS` square roots
+(``|a|``, the predictor's ``r1``) and :data:`EM_PLAIN_DIVISIONS` divisions (``1/|a|``, the
+Newton update, ``w``) for the solve, and with the finish :data:`EM_SQRTS` and
+:data:`EM_DIVISIONS` (one more square root and two more divisions).
 
 Each method has its own compiled entry kernels (``_range_em``, ``_points_em`` for fewer
 than :data:`_PACKED_MIN` points, ``_parallel_em``, and the same for midpoint and leapfrog),
@@ -96,9 +103,11 @@ from .gravity import accel
 from .jit import kernel
 from .pointmass import (
     METHOD_EM,
+    METHOD_EM_PLAIN,
     METHOD_MIDPOINT,
     STATUS_OK,
     STATUS_SINGULAR,
+    em_finish,
     em_step,
     midpoint_step,
 )
@@ -107,10 +116,13 @@ from .pointmass import kahan_add as _kahan
 __all__ = [
     "BLOCK",
     "EM_DIVISIONS",
+    "EM_PLAIN_DIVISIONS",
+    "EM_PLAIN_SQRTS",
     "EM_SQRTS",
     "LEAPFROG_DIVISIONS",
     "LEAPFROG_SQRTS",
     "METHOD_EM",
+    "METHOD_EM_PLAIN",
     "METHOD_LEAPFROG",
     "METHOD_MIDPOINT",
     "PARALLEL_MIN",
@@ -131,9 +143,13 @@ _PACKED_MIN = 4
 #: from this many points on, PointMasses.advance runs ensemble_chunk_parallel
 PARALLEL_MIN = 1024
 
-#: square roots and divisions per em point and sub-step on the packed path
-EM_SQRTS = 2
-EM_DIVISIONS = 3
+#: square roots and divisions per em point and sub-step on the packed path: the solve (2, 3)
+#: and pointmass.em_finish (|b|; 1 / (r0 r1 (r0 + r1)) and the Newton update)
+EM_SQRTS = 3
+EM_DIVISIONS = 5
+#: the same for em with roundoff="fast" (the solve only)
+EM_PLAIN_SQRTS = 2
+EM_PLAIN_DIVISIONS = 3
 #: the same for leapfrog (|r| and GM / r**3 at the new position)
 LEAPFROG_SQRTS = 1
 LEAPFROG_DIVISIONS = 1
@@ -334,6 +350,16 @@ def _increments(ax, ay, az, vx, vy, vz, w, ua, uv, h):
     return h * vx + cx * ux, h * vy + cx * uy, h * vz + cx * uz, cv * ux, cv * uy, cv * uz
 
 
+@_inline
+def _em_increments(ax, ay, az, vx, vy, vz, w, r0, h, gm):
+    """The em step's dx and dv from the solved w, finished as the reference kernel finishes
+    (:func:`~.pointmass.em_finish`: one Newton update on the accurate ``g_em``, and the
+    velocity from the accurate ``g_em`` at the final dx). ``r0 = |a|``."""
+    d0, d1, d2, w0, w1, w2 = _increments(ax, ay, az, vx, vy, vz, w, 2.0, h, h)
+    d0, d1, d2, g0, g1, g2 = em_finish(ax, ay, az, r0, vx, vy, vz, d0, d1, d2, h, gm)
+    return d0, d1, d2, h * g0, h * g1, h * g2
+
+
 @kernel
 def _mid_start(ax, ay, az, vx, vy, vz, h):
     """Midpoint: |a - h/2 v0|, the starting value of |m|."""
@@ -373,7 +399,7 @@ def _resolve_point(method, A, P, V, r0, rho, prev, h, gm, tau0, px, py, pz, vx, 
     midpoint. Returns (r0, unknown, extra iterations, status)."""
     it = _PACKED_ITERS
     while it < max_iter and rho > 0.0 and rho < math.inf:
-        if method == METHOD_EM:
+        if method != METHOD_MIDPOINT:
             rho, delta, qg = _em_newton(A, P, V, r0, rho, tau0)
         else:
             rho, delta = _mid_newton(A, rho, tau0)
@@ -385,15 +411,15 @@ def _resolve_point(method, A, P, V, r0, rho, prev, h, gm, tau0, px, py, pz, vx, 
         prev = abs(delta)
     extra = it - _PACKED_ITERS
     # the reference kernel's Newton on 3-vectors, from its own predictor
-    if method == METHOD_EM:
-        d0, d1, d2, w0, w1, w2, its, status = em_step(px, py, pz, vx, vy, vz, h, gm, c0, c1, c2, max_iter)
+    if method != METHOD_MIDPOINT:  # only its r1 is used: the caller finishes the step
+        d0, d1, d2, w0, w1, w2, its, status = em_step(px, py, pz, vx, vy, vz, h, gm, c0, c1, c2, max_iter, False)
     else:
         d0, d1, d2, w0, w1, w2, its, status = midpoint_step(px, py, pz, vx, vy, vz, h, gm, c0, c1, c2, max_iter)
     extra += its
     ax = c0 - px
     ay = c1 - py
     az = c2 - pz
-    if method == METHOD_EM:
+    if method != METHOD_MIDPOINT:
         bx = ax - d0
         by = ay - d1
         bz = az - d2
@@ -417,7 +443,7 @@ def _implicit_point_impl(method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2,
     ax = c0 - x0
     ay = c1 - x1
     az = c2 - x2
-    if method == METHOD_EM:
+    if method != METHOD_MIDPOINT:
         A, P, V, r0 = _em_dots(ax, ay, az, y0, y1, y2, h)
         rho = _em_predict(A, P, V, r0, h, gm)
         rho, d1, qg = _em_newton(A, P, V, r0, rho, tau0)
@@ -438,13 +464,13 @@ def _implicit_point_impl(method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2,
                                                 x0, x1, x2, y0, y1, y2, c0, c1, c2, max_iter)
     if method == METHOD_EM:
         w = _em_w(r0, rho, gm, tau0, tlo)
-        ua = 2.0
-        uv = h
+        d0, d1, d2, w0, w1, w2 = _em_increments(ax, ay, az, y0, y1, y2, w, r0, h, gm)
+    elif method == METHOD_EM_PLAIN:
+        w = _em_w(r0, rho, gm, tau0, tlo)
+        d0, d1, d2, w0, w1, w2 = _increments(ax, ay, az, y0, y1, y2, w, 2.0, h, h)
     else:
         w = _mid_w(rho, gm, tau0, tlo)
-        ua = 1.0
-        uv = 0.5 * h
-    d0, d1, d2, w0, w1, w2 = _increments(ax, ay, az, y0, y1, y2, w, ua, uv, h)
+        d0, d1, d2, w0, w1, w2 = _increments(ax, ay, az, y0, y1, y2, w, 1.0, 0.5 * h, h)
     t0, t1, t2, e0, e1, e2 = _kahan3(x0, x1, x2, p0, p1, p2, d0, d1, d2)
     u0, u1, u2, f0, f1, f2 = _kahan3(y0, y1, y2, q0, q1, q2, w0, w1, w2)
     if status == STATUS_OK and not _finite6(t0, t1, t2, u0, u1, u2):
@@ -455,6 +481,13 @@ def _implicit_point_impl(method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2,
 @kernel
 def _implicit_point_em(x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo, c0, c1, c2, max_iter):
     return _implicit_point_impl(METHOD_EM, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo,
+                                c0, c1, c2, max_iter)
+
+
+@kernel
+def _implicit_point_em_plain(x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo, c0, c1, c2,
+                             max_iter):
+    return _implicit_point_impl(METHOD_EM_PLAIN, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo,
                                 c0, c1, c2, max_iter)
 
 
@@ -573,6 +606,39 @@ def _loop_update(W, m, ua, uv, h, c0, c1, c2, S, D):
     return nbad
 
 
+@_inline
+def _loop_update_em(W, m, h, gm, c0, c1, c2, S, D):
+    """As _loop_update for em, the increments finished by _em_increments. (The shared tail is
+    written out in both loops: moved into a helper it stopped LLVM from vectorising them,
+    measured 26 -> 72 ns per particle-step.)"""
+    nbad = 0
+    for i in range(m):
+        x0 = W[S + _OX0 + i]
+        x1 = W[S + _OX1 + i]
+        x2 = W[S + _OX2 + i]
+        y0 = W[S + _OV0 + i]
+        y1 = W[S + _OV1 + i]
+        y2 = W[S + _OV2 + i]
+        d0, d1, d2, w0, w1, w2 = _em_increments(c0 - x0, c1 - x1, c2 - x2, y0, y1, y2, W[_WG + i], W[_R0 + i],
+                                                h, gm)
+        t0, t1, t2, e0, e1, e2 = _kahan3(x0, x1, x2, W[S + _OCX0 + i], W[S + _OCX1 + i], W[S + _OCX2 + i],
+                                         d0, d1, d2)
+        u0, u1, u2, f0, f1, f2 = _kahan3(y0, y1, y2, W[S + _OCV0 + i], W[S + _OCV1 + i], W[S + _OCV2 + i],
+                                         w0, w1, w2)
+        _store_state(W, D, i, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2)
+        nbad += 0 if _finite6(t0, t1, t2, u0, u1, u2) else 1
+    return nbad
+
+
+@kernel
+def _pass_update_em(W, m, h, gm, c0, c1, c2, cur):
+    """em: increments from w, finished on the accurate g_em, and the compensated update into
+    the other buffer. Returns the count of points whose new state is not finite."""
+    if cur == 0:
+        return _loop_update_em(W, m, h, gm, c0, c1, c2, _BUF0, _BUF1)
+    return _loop_update_em(W, m, h, gm, c0, c1, c2, _BUF1, _BUF0)
+
+
 @kernel
 def _pass_update(W, m, ua, uv, h, c0, c1, c2, cur):
     """Increments from w (g = w (ua a - uv v0)) and the compensated update into the other
@@ -628,7 +694,7 @@ def _resolve_impl(W, method, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S):
         if status == STATUS_OK:
             W[_R0 + i] = r0
             W[_RHO + i] = rho
-            W[_WG + i] = _em_w(r0, rho, gm, tau0, tlo) if method == METHOD_EM else _mid_w(rho, gm, tau0, tlo)
+            W[_WG + i] = _mid_w(rho, gm, tau0, tlo) if method == METHOD_MIDPOINT else _em_w(r0, rho, gm, tau0, tlo)
         else:
             W[_ST + i] = float(status)
             nfail += 1
@@ -714,10 +780,13 @@ def _run_packed(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_i
                 nbad = 0
                 if method == METHOD_LEAPFROG:
                     nbad = _pass_leapfrog(W, m, h, gm, c0, c1, c2, cur)
-                elif method == METHOD_EM:
+                elif method == METHOD_EM or method == METHOD_EM_PLAIN:
                     if _pass_em_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
                         nbad += _resolve_em(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S)
-                    nbad += _pass_update(W, m, 2.0, h, h, c0, c1, c2, cur)
+                    if method == METHOD_EM:
+                        nbad += _pass_update_em(W, m, h, gm, c0, c1, c2, cur)
+                    else:
+                        nbad += _pass_update(W, m, 2.0, h, h, c0, c1, c2, cur)
                 else:
                     if _pass_mid_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
                         nbad += _resolve_mid(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S)
@@ -794,6 +863,10 @@ def _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_it
                     tau0, tlo = _tau(h, gm)
                     (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, extra, status) = _implicit_point_em(
                         t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, h, gm, tau0, tlo, c0, c1, c2, max_iter)
+                elif method == METHOD_EM_PLAIN:
+                    tau0, tlo = _tau(h, gm)
+                    (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, extra, status) = _implicit_point_em_plain(
+                        t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, h, gm, tau0, tlo, c0, c1, c2, max_iter)
                 else:
                     tau0, tlo = _tau(h, gm)
                     (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, extra, status) = _implicit_point_mid(
@@ -853,6 +926,13 @@ def _range_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x
 
 
 @kernel
+def _range_em_plain(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+                    lo, hi):
+    _run_range(METHOD_EM_PLAIN, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+               rec_iters, fail, lo, hi)
+
+
+@kernel
 def _range_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
                     lo, hi):
     _run_range(METHOD_MIDPOINT, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
@@ -880,6 +960,12 @@ def _points_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_
 
 
 @kernel
+def _points_em_plain(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+    _run_points(METHOD_EM_PLAIN, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+                rec_iters, fail)
+
+
+@kernel
 def _points_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
     _run_points(METHOD_MIDPOINT, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
                 rec_iters, fail)
@@ -899,6 +985,13 @@ def _parallel_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, re
 
 
 @kernel(parallel=True)
+def _parallel_em_plain(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+    for b in prange((x.shape[1] + BLOCK - 1) // BLOCK):
+        _range_em_plain(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
+                        fail, b * BLOCK, min(b * BLOCK + BLOCK, x.shape[1]))
+
+
+@kernel(parallel=True)
 def _parallel_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
     for b in prange((x.shape[1] + BLOCK - 1) // BLOCK):
         _range_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
@@ -912,16 +1005,20 @@ def _parallel_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_it
                         fail, b * BLOCK, min(b * BLOCK + BLOCK, x.shape[1]))
 
 
-_RANGE = {METHOD_EM: _range_em, METHOD_MIDPOINT: _range_midpoint, METHOD_LEAPFROG: _range_leapfrog}
-_POINTS = {METHOD_EM: _points_em, METHOD_MIDPOINT: _points_midpoint, METHOD_LEAPFROG: _points_leapfrog}
-_PARALLEL = {METHOD_EM: _parallel_em, METHOD_MIDPOINT: _parallel_midpoint, METHOD_LEAPFROG: _parallel_leapfrog}
+_RANGE = {METHOD_EM: _range_em, METHOD_EM_PLAIN: _range_em_plain, METHOD_MIDPOINT: _range_midpoint,
+          METHOD_LEAPFROG: _range_leapfrog}
+_POINTS = {METHOD_EM: _points_em, METHOD_EM_PLAIN: _points_em_plain, METHOD_MIDPOINT: _points_midpoint,
+           METHOD_LEAPFROG: _points_leapfrog}
+_PARALLEL = {METHOD_EM: _parallel_em, METHOD_EM_PLAIN: _parallel_em_plain, METHOD_MIDPOINT: _parallel_midpoint,
+             METHOD_LEAPFROG: _parallel_leapfrog}
 
 
 def ensemble_chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
                    rec_x, rec_v, rec_iters, fail):
     """Advance every point ``nrec * every`` composed steps on one thread.
 
-    method     METHOD_EM, METHOD_MIDPOINT or METHOD_LEAPFROG; the other arguments as in
+    method     METHOD_EM, METHOD_EM_PLAIN (roundoff="fast"), METHOD_MIDPOINT or METHOD_LEAPFROG;
+               the other arguments as in
                :func:`~.pointmass.implicit_chunk` (``fail`` pre-filled with -1; leapfrog
                ignores ``max_iter`` and counts no iterations).
     """

@@ -42,7 +42,8 @@ def use_device(sim, device: str = "gpu") -> None:
         n = len(points)
         rec = ChunkRecords(x=np.empty((nrec, 3, n)), v=np.empty((nrec, 3, n)),
                            iterations=np.zeros((nrec, n), dtype=np.int64), fail=np.full((n, 2), -1, dtype=np.int64))
-        kcuda.chunk(kcuda.METHODS[method], points.x, points.v, points.cx, points.cv, gm, center, dt, gammas, every,
+        code = kcuda.METHOD_EM_PLAIN if method == "em" and points.roundoff == "fast" else kcuda.METHODS[method]
+        kcuda.chunk(code, points.x, points.v, points.cx, points.cv, gm, center, dt, gammas, every,
                     nrec, max_iter, rec.x, rec.v, rec.iterations, rec.fail)
         return rec
 
