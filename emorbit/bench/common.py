@@ -107,8 +107,9 @@ class EmorbitRunner:
     """``n`` steps of one method and order through :meth:`PointMasses.advance` (the scene's
     path), one record at the end; keeps the state between calls."""
 
-    def __init__(self, x, v, method: str, order: int, dt: float, max_iter: int = 50):
+    def __init__(self, x, v, method: str, order: int, dt: float, max_iter: int = 50, roundoff: str = "brouwer"):
         self.pm = point_masses(x, v)
+        self.pm.roundoff = roundoff
         self.method, self.gammas, self.dt, self.max_iter = method, coefficients(order), dt, max_iter
         self.iterations = []
         self.steps = 0

@@ -2,14 +2,15 @@
 
 1e5 test particles (a uniform in [5, 10] m, e uniform in [0, 0.9], isotropic planes,
 time-uniform phases), GM = 3.9478 m^3/s^2, dt = T/1000 of a 6 m orbit. emorbit's em on one
-thread and on all threads (the bare packed kernel, :mod:`emorbit.kernels.ensemble`), its
-leapfrog on one thread, and REBOUND's leapfrog and WHFast (N_active = 1, WHFast without
+thread and on all threads (the bare packed kernel, :mod:`emorbit.kernels.ensemble`), the
+same with roundoff="fast" (without the accurate finish of each step), its leapfrog on one thread, and REBOUND's leapfrog and WHFast (N_active = 1, WHFast without
 safe mode), all interleaved; wall-clock time per step (the CPU time of the single-threaded
 engines beside it). Each engine's max relative energy error over the particles after the
 steps it took. Then:
 
 * the bound from division and square-root throughput (:mod:`.limits`), measured in the same
-  run, for the em kernel's counts per particle-step (and leapfrog's);
+  run, for the em kernel's counts per particle-step (with and without the finish, and
+  leapfrog's);
 * a point-mass scene's throughput against the bare kernel's: the scene's body system
   (:meth:`PointMasses.advance`, which records and dispatches) interleaved with the bare
   kernel, and once the whole driver (:meth:`Simulation.run`, one record per call: it also
@@ -54,6 +55,8 @@ def run(cfg) -> dict:
     runners = {
         "em all threads": KernelRunner(x, v, kern.METHOD_EM, 2, ENSEMBLE_DT, parallel=True),
         "em 1 thread": KernelRunner(x, v, kern.METHOD_EM, 2, ENSEMBLE_DT, parallel=False),
+        'em roundoff="fast" all threads': KernelRunner(x, v, kern.METHOD_EM_PLAIN, 2, ENSEMBLE_DT, parallel=True),
+        'em roundoff="fast" 1 thread': KernelRunner(x, v, kern.METHOD_EM_PLAIN, 2, ENSEMBLE_DT, parallel=False),
         "em scene (PointMasses.advance)": EmorbitRunner(x, v, "em", 2, ENSEMBLE_DT),
         "leapfrog 1 thread": KernelRunner(x, v, kern.METHOD_LEAPFROG, 2, ENSEMBLE_DT, parallel=False),
         "rebound leapfrog": ReboundRunner(rebound_sim(x, v, "leapfrog", ENSEMBLE_DT)),
@@ -76,6 +79,7 @@ def run(cfg) -> dict:
                       "samples_us_per_step": stats[WALL], "steps_per_call": stats["steps"]}
     threads = numba_threads()
     limits = measure({"em": (kern.EM_SQRTS, kern.EM_DIVISIONS),
+                      "em_fast": (kern.EM_PLAIN_SQRTS, kern.EM_PLAIN_DIVISIONS),
                       "leapfrog": (kern.LEAPFROG_SQRTS, kern.LEAPFROG_DIVISIONS)}, threads["threads"])
     em_bound = limits["kernels"]["em"]
     em1, emN = rows["em 1 thread"], rows["em all threads"]
@@ -100,6 +104,10 @@ def run(cfg) -> dict:
         "em_over_rebound_leapfrog": 1.0 / _paired_ratio(times["em all threads"], times["rebound leapfrog"], WALL),
         "em_1thread_over_rebound_leapfrog": 1.0 / _paired_ratio(times["em 1 thread"], times["rebound leapfrog"],
                                                                  WALL),
+        "em_fast_over_rebound_leapfrog": 1.0 / _paired_ratio(times['em roundoff="fast" all threads'],
+                                                              times["rebound leapfrog"], WALL),
+        "em_fast_fraction_of_bound_all_threads": (rows['em roundoff="fast" all threads']["particle_steps_per_s"]
+                                                  / limits["kernels"]["em_fast"]["bound_per_s_all_threads"]),
         "limits": limits,
         "em_fraction_of_bound_1thread": em1["particle_steps_per_s"] / em_bound["bound_per_s_1_thread"],
         "em_fraction_of_bound_all_threads": emN["particle_steps_per_s"] / em_bound["bound_per_s_all_threads"],
@@ -113,9 +121,9 @@ def table(section: dict) -> list[str]:
     th = section["threads"]
     lines = [f"ensemble: {section['case']}", f"  {section['clock']}; Numba threads: {th['threads']} "
              f"({th['threading_layer']})",
-             f"  {'':<32} {'particle-steps/s':>17} {'ns/particle-step':>17} {'max |dE/E|':>11} {'steps':>7}"]
+             f"  {'':<34} {'particle-steps/s':>17} {'ns/particle-step':>17} {'max |dE/E|':>11} {'steps':>7}"]
     for name, r in section["rows"].items():
-        lines.append(f"  {name:<32} {r['particle_steps_per_s']:>17.3g} {r['ns_per_particle_step']:>17.2f} "
+        lines.append(f"  {name:<34} {r['particle_steps_per_s']:>17.3g} {r['ns_per_particle_step']:>17.2f} "
                      f"{r['max_energy_error']:>11.1e} {r['steps']:>7}")
     lim = section["limits"]
     em = lim["kernels"]["em"]
@@ -127,6 +135,10 @@ def table(section: dict) -> list[str]:
               f"{100 * section['em_fraction_of_bound_all_threads']:.0f} %",
               f"  em all threads / REBOUND leapfrog: {section['em_over_rebound_leapfrog']:.2f}x; one thread: "
               f"{section['em_1thread_over_rebound_leapfrog']:.2f}x",
+              f"  em roundoff=\"fast\" ({lim['kernels']['em_fast']['sqrts']} square roots + "
+              f"{lim['kernels']['em_fast']['divisions']} divisions, no accurate finish: energy drifts down by about "
+              f"6e-20 |E| per step at T/100): {section['em_fast_over_rebound_leapfrog']:.2f}x REBOUND leapfrog, "
+              f"{100 * section['em_fast_fraction_of_bound_all_threads']:.0f} % of its bound on all threads",
               f"  scene (PointMasses.advance) / bare kernel: {section['scene_over_bare']:.3f}; whole driver "
               f"(Simulation.run, {section['driver']['steps']} steps, one record): "
               f"{section['driver']['ratio_to_bare_all_threads']:.3f}"]
