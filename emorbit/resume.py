@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 
 from .errors import InputError
-from .io.hdf5 import Writer
+from .io.hdf5 import NEXT_CHECKPOINT, Writer
 from .result import Result
 from .units import to_si
 
@@ -40,9 +40,12 @@ def load_checkpoint(path):
         raise InputError("file", f"{path!r} is not a readable HDF5 file ({exc})") from None
     with f:
         attrs = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()}
-        if "checkpoint" not in f:
+        if "checkpoint" in f:
+            cp = f["checkpoint"]
+        elif NEXT_CHECKPOINT in f and f[NEXT_CHECKPOINT].attrs.get("complete", False):
+            cp = f[NEXT_CHECKPOINT]  # killed between replacing the old checkpoint and renaming the new one
+        else:
             raise InputError("file", f"{path!r} has no checkpoint (written by emorbit older than resume support?)")
-        cp = f["checkpoint"]
         arrays = {}
         cp.visititems(lambda name, obj: arrays.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
         steps = int(cp.attrs["steps"])

@@ -129,3 +129,31 @@ def test_checkpoint_every_is_checked():
     with pytest.raises(emorbit.InputError, match="checkpoint_every"):
         sim.run(steps=10, checkpoint_every=0)
     assert sim._checkpoint_steps(7, 3) == 9  # rounded up to whole record intervals
+
+
+def test_checkpoint_survives_a_kill_at_any_point_of_its_replacement(tmp_path):
+    """A new checkpoint is written aside, flushed, then renamed: a kill while it is written
+    leaves the previous checkpoint (a half-written /checkpoint_next is ignored), and a kill
+    between removing the old one and renaming the new one leaves the complete new one. Both
+    resume to the file an uninterrupted run writes."""
+    args = ["paper-ellipse", "-q", "--t-end", "464.758 s", "--checkpoint-every", "100"]
+    full = tmp_path / "full.h5"
+    assert main(["run", args[0], "-o", str(full)] + args[1:]) == 0
+    # a run stopped at 200 s, then the two kinds of kill simulated on its file
+    for kind in ("while writing", "between the links"):
+        out = tmp_path / f"{kind.replace(' ', '_')}.h5"
+        assert main(["run", args[0], "-o", str(out), "-q", "--t-end", "232.379 s", "--checkpoint-every", "100"]) == 0
+        with h5py.File(out, "r+") as f:
+            f.attrs["status"] = "running"
+            if kind == "while writing":
+                g = f.create_group("checkpoint_next")
+                for name, obj in f["checkpoint"].items():
+                    if isinstance(obj, h5py.Dataset):
+                        g.create_dataset(name, data=np.full(obj.shape, np.nan))
+                        break  # half written: one array, no attributes
+            else:
+                f.move("checkpoint", "checkpoint_next")
+        assert main(["resume", str(out), "--t-end", "464.758 s", "-q"]) == 0
+        assert _same_files(full, out) == [], kind
+        with h5py.File(out, "r") as f:
+            assert "checkpoint" in f and "checkpoint_next" not in f

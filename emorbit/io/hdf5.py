@@ -26,8 +26,9 @@ leaves a readable file with every record written before it stopped.
 
 Checkpoints: ``/checkpoint`` holds the complete state (every system's arrays, compensation
 terms and warm starts included; attributes ``steps`` since the run's start, ``time`` and
-``records``, the number of records that belong to it), rewritten every ``checkpoint_every``
-steps together with the records; ``/final_state`` holds the state at the end of the run, also
+``records``, the number of records that belong to it), replaced every ``checkpoint_every``
+steps together with the records (written as ``/checkpoint_next``, flushed, then renamed, so
+that a kill never leaves half a checkpoint); ``/final_state`` holds the state at the end of the run, also
 of an interrupted one (status "interrupted"). ``emorbit resume`` continues from the checkpoint.
 """
 
@@ -91,6 +92,10 @@ def _append(ds, block):
     ds[n0:] = block
 
 
+#: where a new checkpoint is written before it replaces /checkpoint
+NEXT_CHECKPOINT = "checkpoint_next"
+
+
 class Writer:
     """Create ``path`` and append records to it.
 
@@ -150,9 +155,25 @@ class Writer:
 
     def write_checkpoint(self, steps: int, time: float, arrays: dict, rows: int) -> None:
         """Store the complete state after ``steps`` steps of the run (t = ``time`` s) and the
-        number of records that belong to it, then flush (see :mod:`emorbit.resume`)."""
-        self._state_group("checkpoint", steps, time, arrays).attrs["records"] = int(rows)
-        self.file.flush()
+        number of records that belong to it, then flush (see :mod:`emorbit.resume`).
+
+        The new state goes into ``/checkpoint_next`` first, is flushed, and only then
+        replaces ``/checkpoint`` (a link operation): a run killed while the arrays are being
+        written keeps the previous, consistent checkpoint (an in-place update could leave
+        some arrays of the new state beside the old step count). If a kill falls between the
+        two link operations, :func:`emorbit.resume.load_checkpoint` takes the complete
+        ``/checkpoint_next``."""
+        f = self.file
+        if NEXT_CHECKPOINT in f:
+            del f[NEXT_CHECKPOINT]
+        g = self._state_group(NEXT_CHECKPOINT, steps, time, arrays)
+        g.attrs["records"] = int(rows)
+        g.attrs["complete"] = True
+        f.flush()
+        if "checkpoint" in f:
+            del f["checkpoint"]
+        f.move(NEXT_CHECKPOINT, "checkpoint")
+        f.flush()
 
     def write_final_state(self, steps: int, time: float, arrays: dict) -> None:
         """Store the state at the end of the run (for inspection; resuming uses the checkpoint)."""
