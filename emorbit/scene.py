@@ -49,7 +49,7 @@ import numpy as np
 from .errors import InputError
 from .field import CentralField
 from .integrators import check_order, get_method
-from .simulation import Simulation, check_body_name
+from .simulation import ROUNDOFF, Simulation, check_body_name
 from .units import to_si
 
 __all__ = ["Scene", "load_scene", "list_scenes", "parse_scene", "simulation_to_toml", "SCHEMA"]
@@ -189,8 +189,8 @@ class Scene:
         if adaptive is not None and (isinstance(adaptive, bool) or not isinstance(adaptive, (int, float))):
             raise InputError("integrator.adaptive", f"a number in (0, 1] expected, got {adaptive!r}")
         roundoff = integ.get("roundoff", "brouwer")
-        if roundoff not in ("brouwer", "fast"):
-            raise InputError("integrator.roundoff", f"must be 'brouwer' or 'fast', got {roundoff!r}")
+        if roundoff not in ROUNDOFF:
+            raise InputError("integrator.roundoff", f"must be one of {', '.join(map(repr, ROUNDOFF))}, got {roundoff!r}")
         sim = Simulation(field, method=self.method, order=self.order, dt=dt, max_newton_iterations=max_iter,
                          newton=newton, adaptive=adaptive, roundoff=roundoff)
         bodies = d["body"]
