@@ -41,6 +41,14 @@ in double-double (Dot2) made it worse at every angle with dv from the forces (90
 became a clean random walk (1e-14) but 90 degrees drifted faster (3.6e-12 after 4e4 steps),
 the bias still in the dq/dv consistency. This form is kept as the best at 90 degrees.
 
+Known limit in a field: the point-mass kernel's accurate finish (:func:`.pointmass.em_finish`)
+is not here. On the paper's ellipse at T/100 (a box, 32-48 copies with the speed perturbed by
+1e-9, 2e5 steps) the energy falls by 6e-19 |E| per step with volume gravity and 2.5e-19 with
+point gravity, 5-10 standard errors from zero. One more Newton update with g_em accurate at
+every mass point did not change the volume case; with the translation rows' residual also in
+double-double the point case fell to 9e-20 (tried, measured, not kept: the rest of the bias
+is in the sums over mass points, the director rows and the velocity solve).
+
 Gravity models (per body): ``GRAVITY_VOLUME`` sums over the mass points (gravity-gradient
 torque included), ``GRAVITY_POINT`` puts all mass at the centre of mass (no torque),
 ``GRAVITY_NONE`` is free motion. Methods: ``METHOD_EM`` (g_em) and ``METHOD_MIDPOINT``
