@@ -102,24 +102,10 @@ def _fill(method, hh, hf, x0n, x1n, node_slot, node_coef, bar_node, bar_EA, bar_
     status = kpm.STATUS_OK
     if want_gravity and gp_m.shape[0] > 0:
         status = kel.gravity_forces(method, gm, c, xg0, xg1, gp_m, fg, kg)
-        for q in range(gp_m.shape[0]):
-            for a in range(4):
-                na = gp_node[q, a]
-                if na < 0:
-                    break
-                wa = gp_w[q, a]
-                for i in range(3):
-                    fn[na, i] += wa * fg[q, i]
+        kel.spread_rows(fg, gp_node, gp_w, fn)
     # node forces -> slot forces
     Fslot[:, :] = 0.0
-    for n in range(node_slot.shape[0]):
-        for j in range(4):
-            s = node_slot[n, j]
-            if s < 0:
-                break
-            cj = node_coef[n, j]
-            for i in range(3):
-                Fslot[s, i] += cj * fn[n, i]
+    kel.spread_rows(fn, node_slot, node_coef, Fslot)
     if not want_K:
         return status
     # stiffness blocks -> J
@@ -546,12 +532,12 @@ class Structure:
     def _forces(self, code, u0, u1, gm, c, h, with_jacobian: bool, with_stiffness: bool | None = None):
         x0n = np.empty((self.node_slot.shape[0], 3))
         x1n = np.empty_like(x0n)
-        kel.node_positions(u0, self.node_slot, self.node_coef, x0n)
-        kel.node_positions(u1, self.node_slot, self.node_coef, x1n)
+        kel.combine_rows(u0, self.node_slot, self.node_coef, x0n)
+        kel.combine_rows(u1, self.node_slot, self.node_coef, x1n)
         xg0 = np.empty((self.gp_m.size, 3))
         xg1 = np.empty_like(xg0)
-        kel.gravity_point_positions(x0n, self.gp_node, self.gp_w, xg0)
-        kel.gravity_point_positions(x1n, self.gp_node, self.gp_w, xg1)
+        kel.combine_rows(x0n, self.gp_node, self.gp_w, xg0)
+        kel.combine_rows(x1n, self.gp_node, self.gp_w, xg1)
         data = self.J_mass.data.copy() if with_jacobian else self._nodata
         F = np.empty_like(u0)
         hf = 0.5 * h
@@ -777,13 +763,13 @@ class Structure:
             T = 0.5 * float(np.sum(v * Mv))
             urel, ref = self.relative(u, np.zeros_like(u))
             xn = np.empty((self.node_slot.shape[0], 3))
-            kel.node_positions(urel, self.node_slot, self.node_coef, xn)
+            kel.combine_rows(urel, self.node_slot, self.node_coef, xn)
             W = kel.strain_energy(xn, self.bar_node, self.bar_EA, self.bar_L, self.tet_node, self.tet_g, self.tet_V,
                                   self.tet_lam, self.tet_mu)
             V = 0.0
             if gm != 0.0 and self.gp_m.size:
                 xg = np.empty((self.gp_m.size, 3))
-                kel.gravity_point_positions(xn, self.gp_node, self.gp_w, xg)
+                kel.combine_rows(xn, self.gp_node, self.gp_w, xg)
                 V = -gm * float(np.sum(self.gp_m / np.linalg.norm(xg - (c - ref), axis=1)))
             E[r] = T + W + V
             P[r] = np.sum(pos[:, None] * Mv, axis=0)
@@ -826,8 +812,8 @@ class Structure:
                 for r in range(nrec):
                     allx = np.empty((self.node_slot.shape[0], 3))
                     allv = np.empty_like(allx)
-                    kel.node_positions(u[r], self.node_slot, self.node_coef, allx)
-                    kel.node_positions(v[r], self.node_slot, self.node_coef, allv)
+                    kel.combine_rows(u[r], self.node_slot, self.node_coef, allx)
+                    kel.combine_rows(v[r], self.node_slot, self.node_coef, allv)
                     xn[r] = allx[nodes]
                     vn[r] = allv[nodes]
                 mrow = np.asarray(spec.node_mass.sum(axis=1)).ravel()

@@ -36,8 +36,8 @@ from .jit import kernel
 from .pointmass import METHOD_EM, STATUS_OK, STATUS_SINGULAR
 
 __all__ = [
-    "node_positions",
-    "gravity_point_positions",
+    "combine_rows",
+    "spread_rows",
     "bar_forces",
     "tet_forces",
     "gravity_forces",
@@ -47,39 +47,38 @@ __all__ = [
 
 
 @kernel
-def node_positions(u, node_slot, node_coef, out):
-    """out (n_nodes, 3) = positions of the nodes for slot values u (n_slots, 3)."""
-    for i in range(node_slot.shape[0]):
+def combine_rows(src, idx, coef, out):
+    """out[i] = sum_j coef[i, j] src[idx[i, j]] over the 3 columns, up to the first idx < 0
+    (at most 4 terms): node positions from slot values (node_slot, node_coef) and gravity-point
+    positions from node positions (gp_node, gp_w)."""
+    for i in range(idx.shape[0]):
         x0 = x1 = x2 = 0.0
         for j in range(4):
-            s = node_slot[i, j]
+            s = idx[i, j]
             if s < 0:
                 break
-            c = node_coef[i, j]
-            x0 += c * u[s, 0]
-            x1 += c * u[s, 1]
-            x2 += c * u[s, 2]
+            c = coef[i, j]
+            x0 += c * src[s, 0]
+            x1 += c * src[s, 1]
+            x2 += c * src[s, 2]
         out[i, 0] = x0
         out[i, 1] = x1
         out[i, 2] = x2
 
 
 @kernel
-def gravity_point_positions(xn, gp_node, gp_w, out):
-    """out (n_gp, 3) = positions of the gravity points from node positions xn."""
-    for q in range(gp_node.shape[0]):
-        x0 = x1 = x2 = 0.0
-        for a in range(4):
-            n = gp_node[q, a]
-            if n < 0:
+def spread_rows(vals, idx, coef, out):
+    """The transpose of :func:`combine_rows`: out[idx[i, j]] += coef[i, j] vals[i] over the 3
+    columns, up to the first idx < 0 (gravity-point forces to nodes, node forces to slots)."""
+    for i in range(idx.shape[0]):
+        for j in range(4):
+            s = idx[i, j]
+            if s < 0:
                 break
-            w = gp_w[q, a]
-            x0 += w * xn[n, 0]
-            x1 += w * xn[n, 1]
-            x2 += w * xn[n, 2]
-        out[q, 0] = x0
-        out[q, 1] = x1
-        out[q, 2] = x2
+            c = coef[i, j]
+            out[s, 0] += c * vals[i, 0]
+            out[s, 1] += c * vals[i, 1]
+            out[s, 2] += c * vals[i, 2]
 
 
 @kernel
