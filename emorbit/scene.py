@@ -87,17 +87,24 @@ _RIGID_COMMON = ("name", "kind", "shape", "position", "velocity", "attitude", "r
                  "angular_velocity_frame", "gravity")
 
 
-def _check_keys(table, schema_name: str, where: str) -> None:
+def check_table(table, allowed: dict, where: str, root: str = "scene") -> dict:
+    """``table`` itself, after checking that it is a table with only the keys of ``allowed``
+    ({key: required?}) and every required one; errors name ``where.key`` (``root`` for a
+    top-level table that is not one). Shared by scenes and sweep files."""
     if not isinstance(table, dict):
-        raise InputError(where or "scene", f"expected a table, got {table!r}")
-    schema = SCHEMA[schema_name]
+        raise InputError(where or root, f"expected a table, got {table!r}")
     for key in table:
-        if key not in schema:
+        if key not in allowed:
             raise InputError(f"{where}.{key}" if where else key,
-                             f"unknown key {key!r}; allowed here: {', '.join(schema)}")
-    for key, required in schema.items():
+                             f"unknown key {key!r}; allowed here: {', '.join(allowed)}")
+    for key, required in allowed.items():
         if required and key not in table:
             raise InputError(f"{where}.{key}" if where else key, "missing (required)")
+    return table
+
+
+def _check_keys(table, schema_name: str, where: str) -> None:
+    check_table(table, SCHEMA[schema_name], where)
 
 
 def _int(value, key: str, minimum: int) -> int:

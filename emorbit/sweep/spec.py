@@ -67,7 +67,7 @@ else:  # pragma: no cover - Python 3.10
 import numpy as np
 
 from ..errors import InputError
-from ..scene import SCHEMA, Scene, load_scene
+from ..scene import SCHEMA, Scene, check_table, load_scene
 
 __all__ = ["Sweep", "Parameter", "Task", "load_sweep", "parse_sweep", "parse_key", "set_value", "run_scene"]
 
@@ -80,16 +80,7 @@ DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"), "logunif
 
 
 def _check_table(table, allowed: dict, where: str) -> dict:
-    if not isinstance(table, dict):
-        raise InputError(where, f"expected a table, got {table!r}")
-    for key in table:
-        if key not in allowed:
-            raise InputError(f"{where}.{key}" if where else key,
-                             f"unknown key {key!r}; allowed here: {', '.join(allowed)}")
-    for key, required in allowed.items():
-        if required and key not in table:
-            raise InputError(f"{where}.{key}" if where else key, "missing (required)")
-    return table
+    return check_table(table, allowed, where, root="sweep")
 
 
 def _check_unit(unit: str, key: str) -> None:
