@@ -35,14 +35,22 @@ _TET_A = 0.5854101966249685
 _TET_B = 0.1381966011250105
 
 
-def beam_mesh(size, elements, key: str = "body"):
-    """Nodes (n, 3) and tetrahedra (m, 4) of a box cut into 6 tetrahedra per cell."""
+def _grid(size, elements, dim: int, key: str):
+    """``size`` as ``dim`` lengths > 0 and ``elements`` as ``dim`` integers >= 1 (arrays), or an
+    error naming ``key.size`` / ``key.elements``."""
+    word = {2: "two", 3: "three"}[dim]
     L = np.asarray(size, float)
     n = np.asarray(elements)
-    if L.shape != (3,) or not np.all(L > 0):
-        raise InputError(f"{key}.size", f"three lengths > 0 expected, got {size!r}")
-    if n.shape != (3,) or not np.issubdtype(n.dtype, np.integer) or not np.all(n >= 1):
-        raise InputError(f"{key}.elements", f"three integers >= 1 expected, got {elements!r}")
+    if L.shape != (dim,) or not np.all(L > 0):
+        raise InputError(f"{key}.size", f"{word} lengths > 0 expected, got {size!r}")
+    if n.shape != (dim,) or not np.issubdtype(n.dtype, np.integer) or not np.all(n >= 1):
+        raise InputError(f"{key}.elements", f"{word} integers >= 1 expected, got {elements!r}")
+    return L, n
+
+
+def beam_mesh(size, elements, key: str = "body"):
+    """Nodes (n, 3) and tetrahedra (m, 4) of a box cut into 6 tetrahedra per cell."""
+    L, n = _grid(size, elements, 3, key)
     axes = [np.linspace(-L[k] / 2, L[k] / 2, n[k] + 1) for k in range(3)]
     X = np.array(np.meshgrid(*axes, indexing="ij")).reshape(3, -1).T
     idx = np.arange(X.shape[0]).reshape(n[0] + 1, n[1] + 1, n[2] + 1)
@@ -82,12 +90,7 @@ def chain_mesh(start, end, elements, key: str = "body"):
 
 def net_mesh(size, elements, key: str = "body"):
     """Nodes and bars of a rectangular grid of bars in the x-y plane, centred on the origin."""
-    L = np.asarray(size, float)
-    n = np.asarray(elements)
-    if L.shape != (2,) or not np.all(L > 0):
-        raise InputError(f"{key}.size", f"two lengths > 0 expected, got {size!r}")
-    if n.shape != (2,) or not np.issubdtype(n.dtype, np.integer) or not np.all(n >= 1):
-        raise InputError(f"{key}.elements", f"two integers >= 1 expected, got {elements!r}")
+    L, n = _grid(size, elements, 2, key)
     xs = np.linspace(-L[0] / 2, L[0] / 2, n[0] + 1)
     ys = np.linspace(-L[1] / 2, L[1] / 2, n[1] + 1)
     X = np.array([[x, y, 0.0] for x in xs for y in ys])

@@ -13,7 +13,17 @@ import numpy as np
 
 from .kernels import invariants as inv
 
-__all__ = ["PointMasses", "ChunkRecords"]
+__all__ = ["PointMasses", "ChunkRecords", "earliest_failure"]
+
+
+def earliest_failure(fail: np.ndarray):
+    """(step index in the chunk, body index, status) of the earliest failure in a kernel's
+    ``fail`` array (n, 2; step -1 where none), or None."""
+    bad = np.flatnonzero(fail[:, 0] >= 0)
+    if bad.size == 0:
+        return None
+    i = bad[np.argmin(fail[bad, 0])]
+    return int(fail[i, 0]), int(i), int(fail[i, 1])
 
 
 @dataclass
@@ -33,11 +43,7 @@ class ChunkRecords:
 
     def first_failure(self):
         """(step index in the chunk, point index, status) of the earliest failure, or None."""
-        bad = np.flatnonzero(self.fail[:, 0] >= 0)
-        if bad.size == 0:
-            return None
-        i = bad[np.argmin(self.fail[bad, 0])]
-        return int(self.fail[i, 0]), int(i), int(self.fail[i, 1])
+        return earliest_failure(self.fail)
 
 
 class PointMasses:

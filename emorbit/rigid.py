@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .kernels import rigid as kern
+from .pointmasses import earliest_failure
 from .rotations import matrix_to_quaternion
 from .shapes import MassPoints
 
@@ -35,11 +36,7 @@ class RigidRecords:
     fail: np.ndarray
 
     def first_failure(self):
-        bad = np.flatnonzero(self.fail[:, 0] >= 0)
-        if bad.size == 0:
-            return None
-        i = bad[np.argmin(self.fail[bad, 0])]
-        return int(self.fail[i, 0]), int(i), int(self.fail[i, 1])
+        return earliest_failure(self.fail)
 
 
 def body_angular_velocity(E, D, dD):
