@@ -296,17 +296,22 @@ def list_scenes() -> list[str]:
     return sorted(p.name[:-5] for p in _shipped().iterdir() if p.name.endswith(".toml"))
 
 
+def read_text(path: str, what: str) -> str:
+    """The UTF-8 text of the file ``path``, or an error naming it (``what``: "scene",
+    "sweep")."""
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(path, f"a {what} file must be UTF-8 text") from None
+
+
 def load_scene(name_or_path) -> Scene:
     """A shipped scene by name (see :func:`list_scenes`) or a TOML file by path."""
     path = os.fspath(name_or_path)
     if os.path.isfile(path):
-        with open(path, "rb") as fh:
-            raw = fh.read()
-        try:
-            text = raw.decode("utf-8")
-        except UnicodeDecodeError:
-            raise InputError(path, "a scene file must be UTF-8 text") from None
-        return parse_scene(text, path)
+        return parse_scene(read_text(path, "scene"), path)
     shipped = _shipped() / f"{path}.toml"
     if shipped.is_file():
         return parse_scene(shipped.read_text(encoding="utf-8"), path)

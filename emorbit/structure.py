@@ -407,17 +407,10 @@ class Structure:
             vals.append(c.data)
         for na, nb, mv in getattr(self, "_node_mass_terms", []):
             for a, b, m_ in zip(na, nb, mv):  # node masses through the node maps: M += m c_a c_b^T
-                for i in range(4):
-                    si = self.node_slot[a, i]
-                    if si < 0:
-                        break
-                    for j in range(4):
-                        sj = self.node_slot[b, j]
-                        if sj < 0:
-                            break
-                        rows.append(np.array([si]))
-                        cols.append(np.array([sj]))
-                        vals.append(np.array([m_ * self.node_coef[a, i] * self.node_coef[b, j]]))
+                for si, sj, ca, cb in self._slot_pairs(a, b):
+                    rows.append(np.array([si]))
+                    cols.append(np.array([sj]))
+                    vals.append(np.array([m_ * ca * cb]))
         self.Ms = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                                 shape=(ns, ns)).tocsc()
         self.Ms.sum_duplicates()
@@ -449,6 +442,21 @@ class Structure:
             self.newton = "full" if self.J.shape[0] < self.AUTO_FULL else "reuse"
         self._built = True
 
+    def _slot_pairs(self, a: int, b: int) -> list:
+        """(slot of node a, slot of node b, their coefficients) for every pair of the slots that
+        nodes a and b are made of (see node_slot, node_coef)."""
+        out = []
+        for i in range(4):
+            si = self.node_slot[a, i]
+            if si < 0:
+                break
+            for j in range(4):
+                sj = self.node_slot[b, j]
+                if sj < 0:
+                    break
+                out.append((si, sj, self.node_coef[a, i], self.node_coef[b, j]))
+        return out
+
     def _pattern(self) -> None:
         ns = self.u.shape[0]
         nr = self.rb_slots.shape[0]
@@ -458,17 +466,7 @@ class Structure:
         pairs.append(np.stack([M.row, M.col], 1))
 
         def node_pairs(na, nb):
-            out = []
-            for a, b in zip(na, nb):
-                for i in range(4):
-                    si = self.node_slot[a, i]
-                    if si < 0:
-                        break
-                    for j in range(4):
-                        sj = self.node_slot[b, j]
-                        if sj < 0:
-                            break
-                        out.append((si, sj))
+            out = [(si, sj) for a, b in zip(na, nb) for si, sj, _, _ in self._slot_pairs(a, b)]
             return np.array(out, dtype=np.int64).reshape(-1, 2)
 
         if len(self.bar_node):

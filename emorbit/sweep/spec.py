@@ -67,7 +67,7 @@ else:  # pragma: no cover - Python 3.10
 import numpy as np
 
 from ..errors import InputError
-from ..scene import SCHEMA, Scene, check_table, load_scene
+from ..scene import SCHEMA, Scene, check_table, load_scene, read_text
 
 __all__ = ["Sweep", "Parameter", "Task", "load_sweep", "parse_sweep", "parse_key", "set_value", "run_scene"]
 
@@ -514,10 +514,4 @@ def load_sweep(path) -> Sweep:
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise InputError("sweep", f"{path!r} is not a file")
-    with open(path, "rb") as fh:
-        raw = fh.read()
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise InputError(path, "a sweep file must be UTF-8 text") from None
-    return parse_sweep(text, path)
+    return parse_sweep(read_text(path, "sweep"), path)
