@@ -464,30 +464,22 @@ class Structure:
         pairs = []
         M = self.Ms.tocoo()
         pairs.append(np.stack([M.row, M.col], 1))
-
-        def node_pairs(na, nb):
-            out = [(si, sj) for a, b in zip(na, nb) for si, sj, _, _ in self._slot_pairs(a, b)]
-            return np.array(out, dtype=np.int64).reshape(-1, 2)
-
         if len(self.bar_node):
             a, b = self.bar_node[:, 0], self.bar_node[:, 1]
-            pairs.append(node_pairs(np.concatenate([a, a, b, b]), np.concatenate([a, b, a, b])))
+            pairs.append(self._slot_pairs_fast(np.concatenate([a, a, b, b]), np.concatenate([a, b, a, b])))
         if len(self.tet_node):
             na = np.repeat(self.tet_node, 4, axis=1).ravel()
             nb = np.tile(self.tet_node, (1, 4)).ravel()
             pairs.append(self._slot_pairs_fast(na, nb))
         for q in range(self.gp_m.size):
             nodes = self.gp_node[q][self.gp_node[q] >= 0]
-            pairs.append(node_pairs(np.repeat(nodes, nodes.size), np.tile(nodes, nodes.size)))
+            pairs.append(self._slot_pairs_fast(np.repeat(nodes, nodes.size), np.tile(nodes, nodes.size)))
         for r in range(nr):
             d = self.rb_slots[r, 1:]
             pairs.append(np.stack([np.repeat(d, 3), np.tile(d, 3)], 1))
         P = np.unique(np.concatenate(pairs), axis=0)
-        r3 = (3 * P[:, :1] + np.arange(3)[None, :]).ravel()
-        c3 = (3 * P[:, 1:] + np.arange(3)[None, :]).ravel()
         rr = np.repeat(3 * P[:, 0], 9) + np.tile(np.repeat(np.arange(3), 3), len(P))
         cc = np.repeat(3 * P[:, 1], 9) + np.tile(np.tile(np.arange(3), 3), len(P))
-        del r3, c3
         rows = [rr]
         cols = [cc]
         for r in range(nr):
@@ -514,6 +506,8 @@ class Structure:
         self.J_mass = _align(Mfull, pattern)
 
     def _slot_pairs_fast(self, na, nb):
+        """(P, 2) slot pairs of the node pairs (na[p], nb[p]), every slot of one node with every
+        slot of the other (unused entries of node_slot are -1 and dropped)."""
         ns = self.node_slot
         nc = ns.shape[1]
         si = ns[na]  # (P, 4)
