@@ -122,7 +122,7 @@ class PointMasses:
     adaptive: float | None = None
     #: adaptive steps taken so far, summed over the points
     adaptive_steps: int = 0
-    #: "brouwer" (em steps finished on an accurate g_em: the energy error stays a random walk)
+    #: "brouwer" (em steps solved accurately enough that the energy error stays a random walk)
     #: or "fast" (plain floating point); set by the Simulation
     roundoff: str = "brouwer"
 

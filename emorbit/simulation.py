@@ -137,13 +137,15 @@ class Simulation:
         h = adaptive * 2 pi sqrt(r^3 / GM), at most ``dt``; records stay on the grid of
         ``dt`` (see :mod:`emorbit.kernels.adaptive`). Default: fixed steps of ``dt``.
     roundoff : str
-        point masses, method "em": "brouwer" (default) finishes every step on ``g_em``
-        evaluated to within a rounding, so the energy error stays a random walk over any
-        number of steps (Brouwer's law); "fast" skips that (measured on a 2-core AMD EPYC:
-        96 instead of 152 ns per step on one orbit, 7.6 instead of 21.9 ns per
-        particle-step of a packed ensemble on one thread), leaving the energy to drift down
-        by 5e-20 to 1.7e-19 |E| per step on the paper's orbit at T/100 (see
-        :func:`emorbit.kernels.pointmass.em_finish`). Rigid and elastic bodies ignore it.
+        point masses, method "em": "brouwer" (default) keeps the energy error a random walk
+        over many steps (Brouwer's law): fixed steps iterate the root of their scalar
+        equation to convergence on an accurate evaluation (steps with a large
+        h**2/2 GM / (r0 r1 (r0 + r1)) and adaptive steps finish on ``g_em`` evaluated to
+        within a rounding instead, :func:`emorbit.kernels.pointmass.em_finish`; see
+        :mod:`emorbit.kernels.ensemble`). "fast" skips that (measured on a 2-core AMD EPYC:
+        about 100 instead of 125 ns per step on one orbit, 8.8 instead of 14.5 ns per
+        particle-step of the benchmark ensemble on one thread), leaving a drift of 4e-20 to
+        1.7e-19 |E| per step on the paper's orbit at T/100. Rigid and elastic bodies ignore it.
     newton : str
         for elastic structures: "full" refactors the Jacobian at every iteration, "reuse" keeps
         sparse LU factors while they converge fast, "auto" (default) picks by size (see
@@ -659,7 +661,8 @@ class Simulation:
         x, v = system.x[:, index], system.v[:, index]
         c = self.center
         args = (x[0], x[1], x[2], v[0], v[1], v[2], h, self.gm, c[0], c[1], c[2], self.max_newton_iterations)
-        # em: the Newton iteration alone (the accurate finish runs only after it converged)
+        # em: the reference kernel's Newton iteration alone (the accurate finish runs only
+        # after it converged)
         step = kern.em_step(*args, False) if self.method == "em" else kern.midpoint_step(*args)
         dx, dy, dz, a, b, cc, _, _ = step
         d = np.array([dx, dy, dz])

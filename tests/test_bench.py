@@ -46,7 +46,7 @@ def test_sections_hang_together(result):
     assert {r["method"] for r in single if r["engine"] == "rebound"} == {"leapfrog", "whfast", "ias15"}
     ens = data["ensemble"]
     assert ens["rows"]["em 1 thread"]["max_energy_error"] < 1e-12  # em keeps every particle's energy
-    assert ens["limits"]["kernels"]["em"]["sqrts"] == 3 and ens["limits"]["kernels"]["em"]["divisions"] == 5
+    assert ens["limits"]["kernels"]["em"]["sqrts"] == 2 and ens["limits"]["kernels"]["em"]["divisions"] == 3
     assert ens["rows"]['em roundoff="fast" 1 thread']["max_energy_error"] < 1e-12
     assert ens["limits"]["kernels"]["em_fast"]["sqrts"] == 2 and ens["limits"]["kernels"]["em_fast"]["divisions"] == 3
     for orbit in data["work_precision"]["orbits"]:

@@ -40,20 +40,16 @@ def _sqrt(a, out, reps):
 
 
 #: the operation counts _mix knows: (square roots, divisions) per element
-MIXES = ((3, 5), (2, 3), (1, 1))
+MIXES = ((2, 3), (1, 1))
 
 
 @kernel
 def _mix(a, b, c, d, e, out, nsqrt, ndiv, reps):
-    """Per element: 3 square roots and 5 divisions (the em kernel's counts), 2 and 3 (em
-    with roundoff="fast") or 1 and 1 (leapfrog's), on independent operands."""
+    """Per element: 2 square roots and 3 divisions (the em kernel's counts, either
+    roundoff) or 1 and 1 (leapfrog's), on independent operands."""
     n = a.shape[0]
     for r in range(reps):
-        if nsqrt == 3:
-            for i in range(n):
-                out[i] = ((math.sqrt(a[i]) + math.sqrt(b[i])) + math.sqrt(c[i])
-                          + (((c[i] / a[i] + d[i] / b[i]) + (e[i] / c[i] + a[i] / d[i])) + b[i] / e[i]))
-        elif nsqrt == 2:
+        if nsqrt == 2:
             for i in range(n):
                 out[i] = (math.sqrt(a[i]) + math.sqrt(b[i])) + ((c[i] / a[i] + d[i] / b[i]) + e[i] / c[i])
         else:

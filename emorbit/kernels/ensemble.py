@@ -26,7 +26,9 @@ The only unknown is the scalar ``r1 = |a - dx|``; it solves ``F(r1) = 0``::
 
 a function of three dot products. ``F Q**2`` and ``F' Q**3`` are polynomials in ``r1``, so a
 Newton update costs one division and no square root (the reference kernel iterates on
-3-vectors, with a square root and two divisions per iteration).
+3-vectors, with a square root and two divisions per iteration). ``F Q**2`` is evaluated as
+``Q**2 D + 2 tau Q (r1**2 + A - P) + tau**2 (r1**2 - A)`` with ``D = r1**2 - |a - h v0|**2``
+(:func:`_em_f2`), which keeps the cancellation of the large terms inside ``D``.
 
 * Predictor: the explicit Taylor step with the jerk, ``h v0 + h**2/2 (g0 + h/2 j0)``, whose
   error in ``r1`` is O(h**4).
@@ -40,22 +42,46 @@ Newton update costs one division and no square root (the reference kernel iterat
   kernel's 3-vector Newton (:func:`~.pointmass.em_step`), whose stopping and failure rules
   then apply unchanged. Every point's energy stays at round-off; e up to 0.99 is tested.
 * Then ``g = w (2 a - h v0)`` and the step in the reference kernel's form,
-  ``dx = h (v0 + h/2 g)``; with roundoff="fast" (``METHOD_EM_PLAIN``) ``dv = h g``.
-* By default (``METHOD_EM``) the step ends as the reference kernel's does, with
-  :func:`~.pointmass.em_finish`: one Newton update on ``g_em`` evaluated to within a
-  rounding, and ``dv`` from ``g_em`` evaluated the same way at the final ``dx``. Without
-  it the energy drifts down by 5-7e-20 |E| per step on the paper's orbit at T/100 (see the
-  notes of :mod:`.pointmass`).
-  Where that drift sits (measured with the packed kernel, 3 seeds x 128 paper orbits x 1e6
-  steps at T/100, energy change per step in units of |E|): in the root ``r1`` of the plainly
-  evaluated ``F``, not in the increments built from it. Without the finish: -6.2e-20; one
-  more chord update (``r1`` converged on the plain ``F``): -1.4e-19; the finish's ``dx``,
-  then ``r1 = |a - dx|``, ``w`` and the increments all plain: -7e-21 (combined z 2.6); a plain
-  re-evaluation ``r1 = |a - dx|`` from the plain ``dx``: -2.8e-20. Evaluating ``F`` with the
-  rounding errors of ``A``, ``P``, ``V`` carried, with ``tau``'s low part, with ``h (h V)``
-  instead of ``(h h) V`` or with ``|a|`` to eps**2 in ``Q`` changed nothing (-5.5 to -6.2e-20).
-  A cheaper finish therefore needs an accurate root, not an accurate ``g_em``; one that
-  costs far less than the double-double update has not been found.
+  ``dx = h (v0 + h/2 g)``, ``dv = h g``, in plain floating point.
+
+Round-off (Brouwer's law). Newton converges on the rounding errors of whatever ``F`` it
+evaluates, so the root it picks is correlated with them, and the energy error of the step
+is proportional to the error of the root: a drift, not a random walk. By default
+(``METHOD_EM``, roundoff="brouwer"):
+
+* the iteration goes on to a second chord update (the check above tightened to
+  ``12 |delta1**2 delta2| / r1**2 <= 2**-62 r1``, :func:`_em_ok_converged`; the scalar pass
+  ends with one more chord update), so no one-sided remainder of it is left;
+* that last update evaluates ``F`` with every rounding of a quantity that depends on ``r1``
+  carried to well below a rounding of ``r1`` (:func:`_em_f2_accurate`: ``Q``, ``r1**2``,
+  ``D``, the products), and the rounding errors of ``A`` and ``P`` (:func:`_em_dots_lo`);
+* a step with ``t > 1/32`` (huge steps, close pericentres) is finished instead as the
+  reference kernel finishes (:func:`~.pointmass.em_finish`, a scalar pass over those
+  points): the terms of ``F`` that are O(t) and the increments are rounded plainly, and
+  their share of the error grows with ``t``.
+
+Measured with this kernel, perturbed copies of the paper's orbit (256 per seed, 4 seeds,
+1e6 steps; 64 at T/8 over 1e5 steps), the mean of ``E/E0 - 1`` per step and its distance
+from zero in standard errors (``E < 0``: positive means the energy falls):
+
+* the first form of ``F`` below, Newton + chord (the step before this design): +6.2e-20 at
+  T/100; the same iterated to convergence: +1.4e-19 (the one-sided remainder of Newton +
+  chord had hidden part of it);
+* roundoff="fast" (the ``D`` form without ``AL``, ``PL``, Newton + chord): -4.3e-20 at T/100,
+  the remainder of the iteration, of the other sign;
+* ``F`` in the ``D`` form with ``AL``, ``PL``, converged, plain last update, no finish of
+  large-t steps: +6e-21 at T/100, -1.7e-20 at T/60, and at T/8 a drift 23 standard errors
+  from zero;
+* the default: +1.9e-21 (1.2 standard errors) at T/100, +6e-22 (0.3) at T/60, and within 1.7
+  standard errors at T/50, T/30 and T/8, as the reference kernel with its finish.
+
+``F Q**2`` in its first form, ``(r1 Qp)**2 - (Qm (A Qm - 2 P Q) + V Q**2)``, loses a rounding
+of ``(r1 Qp)**2`` to the cancellation; carrying only the rounding errors of ``A``, ``P``,
+``V``, ``tau`` or ``|a|`` into it changed nothing (+5.5 to +6.2e-20). Cost, measured on the
+development machine for the benchmark ensemble (T/1000) on one thread: 14.5 ns per
+particle-step against 8.8 ns with roundoff="fast" and about 22 ns with the reference
+kernel's finish in every step, as this kernel did before. With roundoff="fast"
+(``METHOD_EM_PLAIN``) ``AL = PL = 0`` and the iteration stops after Newton + chord.
 
 The implicit midpoint step reduces the same way: ``m = a - dx/2`` (the centre seen from the
 midpoint) has ``|m| (1 + t/2) = |a - h/2 v0|`` with ``t = tau / |m|**3``, a cubic in
@@ -71,9 +97,9 @@ What the reference kernel's notes ask of a step, and how it holds here:
   sets the size of ``g``; measured: computing ``dx`` from ``t = tau/Q`` instead, with tau
   rounded once, drifted by 1.5-3.4e-13 in 2e5 steps of the paper's orbit, all of one sign;
   this form stays at 0.5-4e-14 of both signs, as the reference kernel does).
-* The velocity uses ``g_em`` at the final ``dx`` (with roundoff="fast": no further
-  evaluation of gravity is needed, the reference linearises ``g_em`` at the final iterate
-  for the same purpose).
+* The velocity uses ``g_em`` at the final ``dx``: no further evaluation of gravity is needed
+  (``g`` is exact for the solved ``r1``; the reference kernel linearises ``g_em`` at its
+  final iterate, or with its finish evaluates it accurately, for the same purpose).
 
 Layout and passes
 -----------------
@@ -94,8 +120,9 @@ points (a single orbit) take each point through the same helpers one by one.
 Counted per em point and sub-step on the packed path (the bench derives the bound from
 division and square-root throughput from these): :data:`EM_PLAIN_SQRTS` square roots
 (``|a|``, the predictor's ``r1``) and :data:`EM_PLAIN_DIVISIONS` divisions (``1/|a|``, the
-Newton update, ``w``) for the solve, and with the finish :data:`EM_SQRTS` and
-:data:`EM_DIVISIONS` (one more square root and two more divisions).
+Newton update, ``w``); the default em counts the same (:data:`EM_SQRTS`,
+:data:`EM_DIVISIONS`): its accurate ``F`` and second chord update need neither (the steps
+finished by the reference kernel's finish, t > 1/32, are not counted).
 
 Each method has its own compiled entry kernels (``_range_em``, ``_points_em`` for fewer
 than :data:`_PACKED_MIN` points, ``_parallel_em``, and the same for midpoint and leapfrog),
@@ -109,6 +136,7 @@ import math
 import numpy as np
 from numba import prange
 
+from .eft import fma, two_prod, two_sum
 from .gravity import accel
 from .jit import kernel
 from .pointmass import (
@@ -153,11 +181,12 @@ _PACKED_MIN = 4
 #: from this many points on, PointMasses.advance runs ensemble_chunk_parallel
 PARALLEL_MIN = 1024
 
-#: square roots and divisions per em point and sub-step on the packed path: the solve (2, 3)
-#: and pointmass.em_finish (|b|; 1 / (r0 r1 (r0 + r1)) and the Newton update)
-EM_SQRTS = 3
-EM_DIVISIONS = 5
-#: the same for em with roundoff="fast" (the solve only)
+#: square roots and divisions per em point and sub-step on the packed path: |a| and the
+#: predictor's root; the predictor's 1 / |a|, the Newton update's and w's (the chord updates
+#: and, by default, the accurate F need none)
+EM_SQRTS = 2
+EM_DIVISIONS = 3
+#: the same for em with roundoff="fast"
 EM_PLAIN_SQRTS = 2
 EM_PLAIN_DIVISIONS = 3
 #: the same for leapfrog (|r| and GM / r**3 at the new position)
@@ -168,6 +197,11 @@ LEAPFROG_DIVISIONS = 1
 _ACCEPT2 = 2.0 ** -52
 #: em: accept a Newton-chord pair |delta1 delta2| <= 2**-56 r1**2 (error ~ 4 |d1 d2| / r1)
 _ACCEPT3 = 2.0 ** -56
+#: em (roundoff="brouwer"): 12 |d1**2 d2| / r1**2 <= 2**-62 r1 after the second chord update
+_ACCEPT4 = 2.0 ** -66
+#: em (roundoff="brouwer"): steps with t = tau / Q above 1/32 (t / (1 + t) = tau w / GM above
+#: 1/33) are finished by pointmass.em_finish (see the module notes)
+_BIG_T = 1.0 / 33.0
 
 # rows of the work array
 _NS = 15  # rows of a state buffer:
@@ -191,9 +225,13 @@ _EXTRA = 53 * LD  # Newton iterations beyond the packed ones, in the current rec
 _ALIVE = 54 * LD  # 1 until the point fails
 _WG = 55 * LD  # w, the size of gravity over the step (g = w (ua a - uv v0))
 _QG = 56 * LD  # Q / (F' Q**3) of the Newton update, reused by the chord update
-_NROWS = 57
+_AL = 57 * LD  # em (roundoff="brouwer"): the rounding error of a.a
+_PL = 58 * LD  # em (roundoff="brouwer"): the rounding error of h a.v0
+_NROWS = 59
 
-#: Newton iterations every packed point does per sub-step (em: Newton + chord; midpoint: 2)
+#: Newton iterations every packed point does per sub-step (em: Newton + chord, and with
+#: roundoff="brouwer" a second chord; midpoint: 2; leapfrog: none)
+_PACKED_ITERS_EM = 3
 _PACKED_ITERS = 2
 
 _inline = kernel(inline="always")
@@ -201,6 +239,13 @@ _inline = kernel(inline="always")
 
 # ----------------------------------------------------------------------------------------
 # scalar pieces: every point goes through these, packed or alone
+
+@kernel
+def _packed_iters(method):
+    if method == METHOD_LEAPFROG:
+        return 0
+    return _PACKED_ITERS_EM if method == METHOD_EM else _PACKED_ITERS
+
 
 @kernel
 def _kahan3(s0, s1, s2, c0, c1, c2, d0, d1, d2):
@@ -269,9 +314,28 @@ def _finite3(a, b, c):
 
 @kernel
 def _em_dots(ax, ay, az, vx, vy, vz, h):
-    """a.a, h a.v0, h**2 v0.v0 and |a| (the step enters the equations only in these forms)."""
+    """a.a, h a.v0, h**2 v0.v0 and |a| (the step enters the equations only in these forms).
+    (``h (h v0.v0)``: a rounded ``h*h`` would carry the same relative error in every step.)"""
     A = ax * ax + ay * ay + az * az
-    return A, h * (ax * vx + ay * vy + az * vz), (h * h) * (vx * vx + vy * vy + vz * vz), math.sqrt(A)
+    return A, h * (ax * vx + ay * vy + az * vz), h * (h * (vx * vx + vy * vy + vz * vz)), math.sqrt(A)
+
+
+@kernel
+def _em_dots_lo(ax, ay, az, vx, vy, vz, h, A, P):
+    """The rounding errors of :func:`_em_dots`' ``A = a.a`` and ``P = h a.v0``: (AL, PL), with
+    ``a.a = A + AL`` and ``h a.v0 = P + PL`` to about eps**2 (error-free transformations)."""
+    p0, e0 = two_prod(ax, ax)
+    p1, e1 = two_prod(ay, ay)
+    p2, e2 = two_prod(az, az)
+    s, f1 = two_sum(p0, p1)
+    s, f2 = two_sum(s, p2)
+    AL = (s - A) + (((e0 + e1) + e2) + (f1 + f2))
+    p0, e0 = two_prod(ax, vx)
+    p1, e1 = two_prod(ay, vy)
+    p2, e2 = two_prod(az, vz)
+    s, f1 = two_sum(p0, p1)
+    s, f2 = two_sum(s, p2)
+    return AL, fma(h, s, -P) + h * (((e0 + e1) + e2) + (f1 + f2))
 
 
 @kernel
@@ -290,54 +354,102 @@ def _em_predict(A, P, V, r0, h, gm):
 
 
 @kernel
-def _em_fg(A, P, V, r0, rho, tau0):
-    """F Q**2 and F' Q**3 at r1 = rho, and Q = r0 rho (r0 + rho) (P = h a.v0, V = h**2 v0.v0):
-    with Qm = Q - tau0, Qp = Q + tau0, F Q**2 = (rho Qp)**2 - (Qm (A Qm - 2 P Q) + V Q**2) and
+def _em_f2(A, AL, P, PL, V, rho, Q, tau0, tlo):
+    """F Q**2 at r1 = rho, for Q = r0 rho (r0 + rho) (P = h a.v0, V = h**2 v0.v0, with the
+    rounding errors AL, PL of A and P, zero for roundoff="fast"; tau = tau0 + tlo)::
+
+        F Q**2 = (rho Qp)**2 - (Qm (A Qm - 2 P Q) + V Q**2)        (Qp, Qm = Q +- tau)
+               = Q**2 D + 2 tau Q (rho**2 + A - P) + tau**2 (rho**2 - A),
+        D = rho**2 - A + 2 P - V = rho**2 - |a - h v0|**2
+
+    The second form keeps the cancellation in D, which is evaluated to within a rounding of
+    D (rho**2 - A is exact once rho**2 is split); the first lost a rounding of (rho Qp)**2 to
+    it, and Newton converged on that error: the root it picked was correlated with it and the
+    energy drifted (see the module notes)."""
+    p, e = two_prod(rho, rho)
+    D = (((p - A) + (P + P)) - V) + ((e - AL) + (PL + PL))
+    X = Q * ((p + A) - P)
+    return (Q * Q) * D + (((tau0 + tau0) * X + (tlo + tlo) * X) + (tau0 * tau0) * (p - A))
+
+
+@_inline
+def _em_f2_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo):
+    """F Q**2 at r1 = rho as :func:`_em_f2`, with every rounding of a quantity that depends
+    on rho carried (error-free transformations) to well below eps r1**2 Q**2: Q, rho**2, D,
+    Q**2 D, Q (rho**2 + A - P) and the products with tau. (What does not depend on rho, A, P
+    and V, may carry its rounding: that is an error of the data, not one the iteration can
+    converge on; tau**2 (rho**2 - A) is O(t**2) of the rest.)"""
+    q, eq = two_prod(r0, rho)
+    s, es = two_sum(r0, rho)
+    Q, eQ = two_prod(q, s)
+    Ql = eQ + (q * es + eq * s)
+    Q2, eQ2 = two_prod(Q, Q)
+    Q2l = eQ2 + 2.0 * (Q * Ql)
+    p, e = two_prod(rho, rho)
+    D1 = p - A  # exact near the root
+    D2, eD2 = two_sum(D1, P + P)
+    D3, eD3 = two_sum(D2, -V)
+    Dl = (eD2 + eD3) + ((e - AL) + (PL + PL))
+    T1, eT1 = two_prod(Q2, D3)
+    T1l = eT1 + (Q2 * Dl + Q2l * D3)
+    Y1, eY1 = two_sum(p, A)
+    Y2, eY2 = two_sum(Y1, -P)
+    Yl = (eY1 + eY2) + ((e + AL) - PL)
+    X, eX = two_prod(Q, Y2)
+    Xl = eX + (Q * Yl + Ql * Y2)
+    T2, eT2 = two_prod(tau0 + tau0, X)
+    T2l = eT2 + ((tau0 + tau0) * Xl + (tlo + tlo) * X)
+    F, eF = two_sum(T1, T2)
+    return F + ((eF + (T1l + T2l)) + (tau0 * tau0) * D1)
+
+
+@kernel
+def _em_fg(A, AL, P, PL, V, r0, rho, tau0, tlo):
+    """F Q**2 (:func:`_em_f2`) and F' Q**3 at r1 = rho, and Q = r0 rho (r0 + rho):
     F' Q**3 = 2 rho Qp**2 Q - 2 tau0 r0 (r0 + 2 rho) (rho**2 Qp + A Qm - P Q)."""
     s = r0 + rho
     Q = r0 * rho * s
     Qp = Q + tau0
-    Qm = Q - tau0
     rq = rho * Qp
-    aq = A * Qm
-    pq = P * Q
-    f2 = rq * rq - (Qm * (aq - (pq + pq)) + V * (Q * Q))
-    g = rq * Qp * Q - (tau0 * r0) * (s + rho) * (rho * rq + aq - pq)
-    return f2, g + g, Q
+    g = rq * Qp * Q - (tau0 * r0) * (s + rho) * (rho * rq + A * (Q - tau0) - P * Q)
+    return _em_f2(A, AL, P, PL, V, rho, Q, tau0, tlo), g + g, Q
 
 
 @kernel
-def _em_f2(A, P, V, r0, rho, tau0):
-    """F Q**2 at r1 = rho (as in _em_fg), and Q."""
-    Q = r0 * rho * (r0 + rho)
-    Qp = Q + tau0
-    Qm = Q - tau0
-    rq = rho * Qp
-    pq = P * Q
-    return rq * rq - (Qm * (A * Qm - (pq + pq)) + V * (Q * Q)), Q
-
-
-@kernel
-def _em_newton(A, P, V, r0, rho, tau0):
+def _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo):
     """A Newton update of r1: (r1_new, delta, Q / (F' Q**3))."""
-    f2, g3, Q = _em_fg(A, P, V, r0, rho, tau0)
+    f2, g3, Q = _em_fg(A, AL, P, PL, V, r0, rho, tau0, tlo)
     qg = Q / g3
     delta = f2 * qg
     return rho - delta, delta, qg
 
 
+@_inline
+def _em_chord_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo, qg):
+    """:func:`_em_chord` on :func:`_em_f2_accurate`."""
+    delta = _em_f2_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo) * qg
+    return rho - delta, delta
+
+
 @kernel
-def _em_chord(A, P, V, r0, rho, tau0, qg):
+def _em_chord(A, AL, P, PL, V, r0, rho, tau0, tlo, qg):
     """A chord update of r1 with the previous Newton update's derivative: (r1_new, delta).
     (F Q1**2 times Q0 / (F'(r1_0) Q0**3): Q1 taken for Q0, a relative 3 |delta1| / r1 of delta.)"""
-    f2, Q = _em_f2(A, P, V, r0, rho, tau0)
-    delta = f2 * qg
+    delta = _em_f2(A, AL, P, PL, V, rho, r0 * rho * (r0 + rho), tau0, tlo) * qg
     return rho - delta, delta
 
 
 @kernel
 def _em_ok(d1, d2, rho):
     return (abs(d1 * d2) <= _ACCEPT3 * (rho * rho)) & (rho > 0.0) & (rho < math.inf)
+
+
+@kernel
+def _em_ok_converged(d1, d2, rho):
+    """_em_ok, and a second chord update (relative error 3 |d1| / r1 of the error ~4 |d1 d2| /
+    r1 it removes) leaves below 2**-62 r1, a thousandth of a rounding: the root is then that
+    of the accurate F, with no one-sided remainder of the iteration left in it."""
+    return _em_ok(d1, d2, rho) & (abs(d1 * d1 * d2) <= _ACCEPT4 * (rho * rho * rho))
 
 
 @kernel
@@ -360,11 +472,16 @@ def _increments(ax, ay, az, vx, vy, vz, w, ua, uv, h):
     return h * vx + cx * ux, h * vy + cx * uy, h * vz + cx * uz, cv * ux, cv * uy, cv * uz
 
 
-@_inline
-def _em_increments(ax, ay, az, vx, vy, vz, w, r0, h, gm):
-    """The em step's dx and dv from the solved w, finished as the reference kernel finishes
-    (:func:`~.pointmass.em_finish`: one Newton update on the accurate ``g_em``, and the
-    velocity from the accurate ``g_em`` at the final dx). ``r0 = |a|``."""
+@kernel
+def _em_big_t(w, gm, tau0):
+    """Whether a step's t = tau / Q exceeds 1/32 (w = GM / (Q + tau))."""
+    return tau0 * w > _BIG_T * gm
+
+
+@kernel
+def _em_finished(ax, ay, az, vx, vy, vz, w, r0, h, gm):
+    """An em step with a large t: the increments from w, finished as the reference kernel
+    finishes (:func:`~.pointmass.em_finish`)."""
     d0, d1, d2, w0, w1, w2 = _increments(ax, ay, az, vx, vy, vz, w, 2.0, h, h)
     d0, d1, d2, g0, g1, g2 = em_finish(ax, ay, az, r0, vx, vy, vz, d0, d1, d2, h, gm)
     return d0, d1, d2, h * g0, h * g1, h * g2
@@ -401,25 +518,31 @@ def _mid_w(mu, gm, tau0, tlo):
 
 
 @_inline
-def _resolve_point(method, A, P, V, r0, rho, prev, h, gm, tau0, px, py, pz, vx, vy, vz,
+def _resolve_point(method, A, AL, P, PL, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz,
                    c0, c1, c2, max_iter):
     """Finish a point whose packed solve was not accepted: more Newton updates of the
     scalar unknown; if that misbehaves (leaves r > 0, stops shrinking, runs out of
     iterations), the reference kernel's Newton on 3-vectors. ``A`` is |a - h/2 v0| for the
-    midpoint. Returns (r0, unknown, extra iterations, status)."""
-    it = _PACKED_ITERS
+    midpoint. em (roundoff="brouwer") ends with one more Newton update on the accurate F
+    either way, so that no remainder of the iteration is left (see _em_ok_converged).
+    Returns (r0, unknown, extra iterations, status)."""
+    packed = _packed_iters(method)
+    it = packed
     while it < max_iter and rho > 0.0 and rho < math.inf:
         if method != METHOD_MIDPOINT:
-            rho, delta, qg = _em_newton(A, P, V, r0, rho, tau0)
+            rho, delta, qg = _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo)
         else:
             rho, delta = _mid_newton(A, rho, tau0)
         it += 1
         if _mid_ok(delta, rho):
-            return r0, rho, it - _PACKED_ITERS, STATUS_OK
+            if method == METHOD_EM:  # the remainder (below ~2**-53 r1) to below ~2**-77 r1
+                rho, delta = _em_chord_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
+                it += 1
+            return r0, rho, it - packed, STATUS_OK
         if not abs(delta) < prev:
             break
         prev = abs(delta)
-    extra = it - _PACKED_ITERS
+    extra = it - packed
     # the reference kernel's Newton on 3-vectors, from its own predictor
     if method != METHOD_MIDPOINT:  # only its r1 is used: the caller finishes the step
         d0, d1, d2, w0, w1, w2, its, status = em_step(px, py, pz, vx, vy, vz, h, gm, c0, c1, c2, max_iter, False)
@@ -435,6 +558,10 @@ def _resolve_point(method, A, P, V, r0, rho, prev, h, gm, tau0, px, py, pz, vx, 
         bz = az - d2
         r0 = math.sqrt(ax * ax + ay * ay + az * az)
         rho = math.sqrt(bx * bx + by * by + bz * bz)
+        if method == METHOD_EM and status == STATUS_OK and rho > 0.0 and rho < math.inf:
+            rho, delta, qg = _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo)
+            rho, delta = _em_chord_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
+            extra += 2
     else:
         mx = ax - 0.5 * d0
         my = ay - 0.5 * d1
@@ -453,12 +580,20 @@ def _implicit_point_impl(method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2,
     ax = c0 - x0
     ay = c1 - x1
     az = c2 - x2
+    AL = 0.0
+    PL = 0.0
     if method != METHOD_MIDPOINT:
         A, P, V, r0 = _em_dots(ax, ay, az, y0, y1, y2, h)
+        if method == METHOD_EM:
+            AL, PL = _em_dots_lo(ax, ay, az, y0, y1, y2, h, A, P)
         rho = _em_predict(A, P, V, r0, h, gm)
-        rho, d1, qg = _em_newton(A, P, V, r0, rho, tau0)
-        rho, delta = _em_chord(A, P, V, r0, rho, tau0, qg)
-        ok = _em_ok(d1, delta, rho)
+        rho, d1, qg = _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo)
+        rho, delta = _em_chord(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
+        if method == METHOD_EM:
+            ok = _em_ok_converged(d1, delta, rho)
+            rho, delta = _em_chord_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
+        else:
+            ok = _em_ok(d1, delta, rho)
     else:
         A = _mid_start(ax, ay, az, y0, y1, y2, h)
         P = 0.0
@@ -470,14 +605,14 @@ def _implicit_point_impl(method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2,
     extra = 0
     status = STATUS_OK
     if not ok:
-        r0, rho, extra, status = _resolve_point(method, A, P, V, r0, rho, abs(delta), h, gm, tau0,
+        r0, rho, extra, status = _resolve_point(method, A, AL, P, PL, V, r0, rho, abs(delta), h, gm, tau0, tlo,
                                                 x0, x1, x2, y0, y1, y2, c0, c1, c2, max_iter)
-    if method == METHOD_EM:
+    if method != METHOD_MIDPOINT:
         w = _em_w(r0, rho, gm, tau0, tlo)
-        d0, d1, d2, w0, w1, w2 = _em_increments(ax, ay, az, y0, y1, y2, w, r0, h, gm)
-    elif method == METHOD_EM_PLAIN:
-        w = _em_w(r0, rho, gm, tau0, tlo)
-        d0, d1, d2, w0, w1, w2 = _increments(ax, ay, az, y0, y1, y2, w, 2.0, h, h)
+        if method == METHOD_EM and _em_big_t(w, gm, tau0):
+            d0, d1, d2, w0, w1, w2 = _em_finished(ax, ay, az, y0, y1, y2, w, r0, h, gm)
+        else:
+            d0, d1, d2, w0, w1, w2 = _increments(ax, ay, az, y0, y1, y2, w, 2.0, h, h)
     else:
         w = _mid_w(rho, gm, tau0, tlo)
         d0, d1, d2, w0, w1, w2 = _increments(ax, ay, az, y0, y1, y2, w, 1.0, 0.5 * h, h)
@@ -526,28 +661,39 @@ def _leapfrog_point(x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, b0, b1, b2, 
 # packed loops over one block of m points; S, D: offsets of the state buffers read and written
 
 @_inline
-def _loop_em_dots(W, m, h, c0, c1, c2, S):
+def _loop_em_dots(W, m, h, c0, c1, c2, S, method):
     for i in range(m):
-        A, P, V, r0 = _em_dots(c0 - W[S + _OX0 + i], c1 - W[S + _OX1 + i], c2 - W[S + _OX2 + i],
-                               W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i], h)
+        ax = c0 - W[S + _OX0 + i]
+        ay = c1 - W[S + _OX1 + i]
+        az = c2 - W[S + _OX2 + i]
+        vx = W[S + _OV0 + i]
+        vy = W[S + _OV1 + i]
+        vz = W[S + _OV2 + i]
+        A, P, V, r0 = _em_dots(ax, ay, az, vx, vy, vz, h)
         W[_AA + i] = A
         W[_PP + i] = P
         W[_VV + i] = V
         W[_R0 + i] = r0
+        if method == METHOD_EM:
+            AL, PL = _em_dots_lo(ax, ay, az, vx, vy, vz, h, A, P)
+            W[_AL + i] = AL
+            W[_PL + i] = PL
 
 
-@kernel
-def _pass_em_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
-    """Dot products, predictor, Newton and chord updates of r1, and w, for every point, as
-    short loops. Returns the count of points not accepted (flagged in _PEND)."""
+@_inline
+def _pass_em_solve_impl(W, m, h, gm, tau0, tlo, c0, c1, c2, cur, method):
+    """Dot products, predictor, Newton and chord updates of r1 (em: a second chord update on
+    the accurate F), and w, for every point, as short loops. Returns the count of points not
+    accepted (flagged in _PEND). With roundoff="fast" the rows _AL and _PL stay zero."""
     if cur == 0:
-        _loop_em_dots(W, m, h, c0, c1, c2, _BUF0)
+        _loop_em_dots(W, m, h, c0, c1, c2, _BUF0, method)
     else:
-        _loop_em_dots(W, m, h, c0, c1, c2, _BUF1)
+        _loop_em_dots(W, m, h, c0, c1, c2, _BUF1, method)
     for i in range(m):
         W[_RHO + i] = _em_predict(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], h, gm)
     for i in range(m):
-        rho, d1, qg = _em_newton(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], W[_RHO + i], tau0)
+        rho, d1, qg = _em_newton(W[_AA + i], W[_AL + i], W[_PP + i], W[_PL + i], W[_VV + i], W[_R0 + i],
+                                 W[_RHO + i], tau0, tlo)
         W[_RHO + i] = rho
         W[_DEL + i] = d1
         W[_QG + i] = qg
@@ -555,14 +701,41 @@ def _pass_em_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
     for i in range(m):
         d1 = W[_DEL + i]
         r0 = W[_R0 + i]
-        rho, delta = _em_chord(W[_AA + i], W[_PP + i], W[_VV + i], r0, W[_RHO + i], tau0, W[_QG + i])
-        ok = _em_ok(d1, delta, rho)
+        A = W[_AA + i]
+        AL = W[_AL + i]
+        P = W[_PP + i]
+        PL = W[_PL + i]
+        V = W[_VV + i]
+        qg = W[_QG + i]
+        rho, delta = _em_chord(A, AL, P, PL, V, r0, W[_RHO + i], tau0, tlo, qg)
+        if method == METHOD_EM:
+            ok = _em_ok_converged(d1, delta, rho)
+        else:
+            ok = _em_ok(d1, delta, rho)
+            W[_WG + i] = _em_w(r0, rho, gm, tau0, tlo)
         W[_PEND + i] = 0.0 if ok else 1.0
         W[_RHO + i] = rho
         W[_DEL + i] = delta
-        W[_WG + i] = _em_w(r0, rho, gm, tau0, tlo)
         npend += 0 if ok else 1
+    if method == METHOD_EM:  # the last update on the accurate F, in a loop of its own
+        for i in range(m):
+            r0 = W[_R0 + i]
+            rho, delta = _em_chord_accurate(W[_AA + i], W[_AL + i], W[_PP + i], W[_PL + i], W[_VV + i], r0,
+                                            W[_RHO + i], tau0, tlo, W[_QG + i])
+            W[_RHO + i] = rho
+            W[_DEL + i] = delta
+            W[_WG + i] = _em_w(r0, rho, gm, tau0, tlo)
     return npend
+
+
+@kernel
+def _pass_em_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
+    return _pass_em_solve_impl(W, m, h, gm, tau0, tlo, c0, c1, c2, cur, METHOD_EM)
+
+
+@kernel
+def _pass_em_plain_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
+    return _pass_em_solve_impl(W, m, h, gm, tau0, tlo, c0, c1, c2, cur, METHOD_EM_PLAIN)
 
 
 @_inline
@@ -617,20 +790,20 @@ def _loop_update(W, m, ua, uv, h, c0, c1, c2, S, D):
 
 
 @_inline
-def _loop_update_em(W, m, h, gm, c0, c1, c2, S, D):
-    """As _loop_update for em, the increments finished by _em_increments. (The shared tail is
-    written out in both loops: moved into a helper it stopped LLVM from vectorising them,
-    measured 26 -> 72 ns per particle-step.)"""
+def _loop_finish_big_t(W, m, h, gm, tau0, c0, c1, c2, S, D):
+    """em: redo the steps with a large t (see _em_big_t) with the reference kernel's finish,
+    from the state in S into D. Returns the count of points whose new state is not finite."""
     nbad = 0
     for i in range(m):
+        if not _em_big_t(W[_WG + i], gm, tau0):
+            continue
         x0 = W[S + _OX0 + i]
         x1 = W[S + _OX1 + i]
         x2 = W[S + _OX2 + i]
         y0 = W[S + _OV0 + i]
         y1 = W[S + _OV1 + i]
         y2 = W[S + _OV2 + i]
-        d0, d1, d2, w0, w1, w2 = _em_increments(c0 - x0, c1 - x1, c2 - x2, y0, y1, y2, W[_WG + i], W[_R0 + i],
-                                                h, gm)
+        d0, d1, d2, w0, w1, w2 = _em_finished(c0 - x0, c1 - x1, c2 - x2, y0, y1, y2, W[_WG + i], W[_R0 + i], h, gm)
         t0, t1, t2, e0, e1, e2 = _kahan3(x0, x1, x2, W[S + _OCX0 + i], W[S + _OCX1 + i], W[S + _OCX2 + i],
                                          d0, d1, d2)
         u0, u1, u2, f0, f1, f2 = _kahan3(y0, y1, y2, W[S + _OCV0 + i], W[S + _OCV1 + i], W[S + _OCV2 + i],
@@ -641,12 +814,18 @@ def _loop_update_em(W, m, h, gm, c0, c1, c2, S, D):
 
 
 @kernel
-def _pass_update_em(W, m, h, gm, c0, c1, c2, cur):
-    """em: increments from w, finished on the accurate g_em, and the compensated update into
-    the other buffer. Returns the count of points whose new state is not finite."""
+def _pass_finish_big_t(W, m, h, gm, tau0, c0, c1, c2, cur):
+    """em: after the update pass, the steps with a large t finished on the accurate g_em
+    (a scalar pass, run only when the block has such a step). Returns the count of points
+    whose new state is not finite."""
+    nbig = 0
+    for i in range(m):
+        nbig += 1 if _em_big_t(W[_WG + i], gm, tau0) else 0
+    if nbig == 0:
+        return 0
     if cur == 0:
-        return _loop_update_em(W, m, h, gm, c0, c1, c2, _BUF0, _BUF1)
-    return _loop_update_em(W, m, h, gm, c0, c1, c2, _BUF1, _BUF0)
+        return _loop_finish_big_t(W, m, h, gm, tau0, c0, c1, c2, _BUF0, _BUF1)
+    return _loop_finish_big_t(W, m, h, gm, tau0, c0, c1, c2, _BUF1, _BUF0)
 
 
 @kernel
@@ -697,8 +876,8 @@ def _resolve_impl(W, method, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S):
         if W[_PEND + i] == 0.0 or W[_ST + i] != 0.0 or W[_ALIVE + i] != 1.0:
             continue
         r0, rho, extra, status = _resolve_point(
-            method, W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], W[_RHO + i], abs(W[_DEL + i]),
-            h, gm, tau0, W[S + _OX0 + i], W[S + _OX1 + i], W[S + _OX2 + i],
+            method, W[_AA + i], W[_AL + i], W[_PP + i], W[_PL + i], W[_VV + i], W[_R0 + i], W[_RHO + i],
+            abs(W[_DEL + i]), h, gm, tau0, tlo, W[S + _OX0 + i], W[S + _OX1 + i], W[S + _OX2 + i],
             W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i], c0, c1, c2, max_iter)
         W[_EXTRA + i] += extra
         if status == STATUS_OK:
@@ -714,6 +893,11 @@ def _resolve_impl(W, method, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S):
 @kernel
 def _resolve_em(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S):
     return _resolve_impl(W, METHOD_EM, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S)
+
+
+@kernel
+def _resolve_em_plain(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S):
+    return _resolve_impl(W, METHOD_EM_PLAIN, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S)
 
 
 @kernel
@@ -759,7 +943,7 @@ def _run_packed(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_i
     for i in range(m):
         W[_ALIVE + i] = 1.0
     ndead = 0
-    packed = 0 if method == METHOD_LEAPFROG else _PACKED_ITERS
+    packed = _packed_iters(method)
     if method == METHOD_LEAPFROG:
         for i in range(m):
             a0, a1, a2, rr = accel(c0 - W[_OX0 + i], c1 - W[_OX1 + i], c2 - W[_OX2 + i], gm)
@@ -790,13 +974,15 @@ def _run_packed(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_i
                 nbad = 0
                 if method == METHOD_LEAPFROG:
                     nbad = _pass_leapfrog(W, m, h, gm, c0, c1, c2, cur)
-                elif method == METHOD_EM or method == METHOD_EM_PLAIN:
+                elif method == METHOD_EM:
                     if _pass_em_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
                         nbad += _resolve_em(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S)
-                    if method == METHOD_EM:
-                        nbad += _pass_update_em(W, m, h, gm, c0, c1, c2, cur)
-                    else:
-                        nbad += _pass_update(W, m, 2.0, h, h, c0, c1, c2, cur)
+                    nbad += _pass_update(W, m, 2.0, h, h, c0, c1, c2, cur)
+                    nbad += _pass_finish_big_t(W, m, h, gm, tau0, c0, c1, c2, cur)
+                elif method == METHOD_EM_PLAIN:
+                    if _pass_em_plain_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
+                        nbad += _resolve_em_plain(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S)
+                    nbad += _pass_update(W, m, 2.0, h, h, c0, c1, c2, cur)
                 else:
                     if _pass_mid_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
                         nbad += _resolve_mid(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S)
@@ -846,7 +1032,7 @@ def _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_it
     p0, p1, p2 = cx[0, i], cx[1, i], cx[2, i]
     q0, q1, q2 = cv[0, i], cv[1, i], cv[2, i]
     ns = gammas.shape[0]
-    packed = 0 if method == METHOD_LEAPFROG else _PACKED_ITERS
+    packed = _packed_iters(method)
     b0 = b1 = b2 = 0.0
     if method == METHOD_LEAPFROG:
         b0, b1, b2, rr = accel(c0 - x0, c1 - x1, c2 - x2, gm)

@@ -32,15 +32,15 @@ Two details keep the energy error a random walk (Brouwer's law) instead of a dri
   ulp, measured) is then correlated with the solution it picks; the work ``g . dx`` of that
   error does not average out. Measured on 64 perturbed paper orbits at T/100 over 1e6 steps:
   the energy falls by 1.7e-19 |E| per step in this kernel (the ensemble mean 23 standard
-  errors from zero), by 5-7e-20 |E| in the packed kernels; over 1e7 steps that drift
-  overtakes the random walk.
+  errors from zero); over 1e7 steps that drift overtakes the random walk.
   One more Newton update whose residual uses ``g_em`` evaluated to within a rounding
   (:func:`~.gravity.em_accel_accurate`) and is itself carried to eps**2 (:func:`_residual`),
   and the velocity from ``g_em`` evaluated the same way at the updated ``dx``, leave nothing
   to correlate with: the same measurement gives 6e-21 |E| per step (1.2 standard errors)
-  here and at most 7e-21 |E|, of both signs, in the packed kernels (six seeds; all within
-  1.5 standard errors of zero), and the validation suite's 1e7-step
-  Brouwer study passes (see the README, "Round-off"). ``roundoff="fast"`` skips the finish.
+  here. ``roundoff="fast"`` skips the finish. The packed kernels
+  (:mod:`~emorbit.kernels.ensemble`, which run point-mass scenes) reach the same end more
+  cheaply, with the accurate root of their scalar equation instead of this finish (see
+  their notes for what each part contributes).
 
 Failures (Newton not converging, a point at the centre, a non-finite state) stop
 that point before the failing step and are reported in ``fail`` (step index, code); the
