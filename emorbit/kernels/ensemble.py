@@ -425,10 +425,17 @@ def _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo):
 
 
 @_inline
-def _em_chord_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo, qg):
-    """:func:`_em_chord` on :func:`_em_f2_accurate`."""
+def _em_chord_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo, qg):
+    """:func:`_em_chord` on :func:`_em_f2_accurate`, inlined (the packed loop: LLVM vectorises
+    it only so)."""
     delta = _em_f2_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo) * qg
     return rho - delta, delta
+
+
+@kernel
+def _em_chord_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo, qg):
+    """:func:`_em_chord` on :func:`_em_f2_accurate` (one compiled copy for the scalar paths)."""
+    return _em_chord_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
 
 
 @kernel
@@ -591,7 +598,7 @@ def _implicit_point_impl(method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2,
         rho, delta = _em_chord(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
         if method == METHOD_EM:
             ok = _em_ok_converged(d1, delta, rho)
-            rho, delta = _em_chord_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
+            rho, delta = _em_chord_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
         else:
             ok = _em_ok(d1, delta, rho)
     else:
@@ -720,8 +727,8 @@ def _pass_em_solve_impl(W, m, h, gm, tau0, tlo, c0, c1, c2, cur, method):
     if method == METHOD_EM:  # the last update on the accurate F, in a loop of its own
         for i in range(m):
             r0 = W[_R0 + i]
-            rho, delta = _em_chord_accurate(W[_AA + i], W[_AL + i], W[_PP + i], W[_PL + i], W[_VV + i], r0,
-                                            W[_RHO + i], tau0, tlo, W[_QG + i])
+            rho, delta = _em_chord_accurate_inline(W[_AA + i], W[_AL + i], W[_PP + i], W[_PL + i], W[_VV + i], r0,
+                                                   W[_RHO + i], tau0, tlo, W[_QG + i])
             W[_RHO + i] = rho
             W[_DEL + i] = delta
             W[_WG + i] = _em_w(r0, rho, gm, tau0, tlo)
