@@ -60,9 +60,10 @@ is proportional to the error of the root: a drift, not a random walk. By default
   points): the terms of ``F`` that are O(t) and the increments are rounded plainly, and
   their share of the error grows with ``t``.
 
-Measured with this kernel, perturbed copies of the paper's orbit (256 per seed, 4 seeds,
-1e6 steps; 64 at T/8 over 1e5 steps), the mean of ``E/E0 - 1`` per step and its distance
-from zero in standard errors (``E < 0``: positive means the energy falls):
+Measured with this kernel (``scripts/energy_drift.py``), perturbed copies of the paper's
+orbit (256 per seed, 4 seeds, 1e6 steps; 64 at T/8 over 1e5 steps), the mean of ``E/E0 - 1``
+per step and its distance from zero in standard errors (``E < 0``: positive means the energy
+falls):
 
 * the first form of ``F`` below, Newton + chord (the step before this design): +6.2e-20 at
   T/100; the same iterated to convergence: +1.4e-19 (the one-sided remainder of Newton +
