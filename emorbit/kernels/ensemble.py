@@ -73,7 +73,7 @@ falls):
 * ``F`` in the ``D`` form with ``AL``, ``PL``, converged, plain last update, no finish of
   large-t steps: +6e-21 at T/100, -1.7e-20 at T/60, and at T/8 a drift 23 standard errors
   from zero;
-* the default: +1.9e-21 (1.2 standard errors) at T/100, +6e-22 (0.3) at T/60, and within 1.7
+* the default: +1.9e-21 (1.2 standard errors) at T/100, +6e-22 (0.3) at T/60, and within 1.4
   standard errors at T/50, T/30 and T/8, as the reference kernel with its finish.
 
 ``F Q**2`` in its first form, ``(r1 Qp)**2 - (Qm (A Qm - 2 P Q) + V Q**2)``, loses a rounding
