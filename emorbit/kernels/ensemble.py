@@ -800,7 +800,10 @@ def _loop_update(W, m, ua, uv, h, c0, c1, c2, S, D):
 @_inline
 def _loop_finish_big_t(W, m, h, gm, tau0, c0, c1, c2, S, D):
     """em: redo the steps with a large t (see _em_big_t) with the reference kernel's finish,
-    from the state in S into D. Returns the count of points whose new state is not finite."""
+    from the state in S into D. Returns the count of points whose new state is not finite.
+    (Its loads and compensated update are written out as in _loop_update: a helper shared by
+    both stopped LLVM from vectorising _loop_update, measured 8.8 -> 15.5 ns per
+    particle-step.)"""
     nbad = 0
     for i in range(m):
         if not _em_big_t(W[_WG + i], gm, tau0):
