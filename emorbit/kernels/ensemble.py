@@ -138,7 +138,7 @@ import numpy as np
 from numba import prange
 
 from .eft import fma, two_prod, two_sum
-from .gravity import accel
+from .gravity import accel, norm_sq_lo
 from .jit import kernel
 from .pointmass import (
     METHOD_EM,
@@ -322,15 +322,11 @@ def _em_dots(ax, ay, az, vx, vy, vz, h):
 
 
 @kernel
-def _em_dots_lo(ax, ay, az, vx, vy, vz, h, A, P):
+def _em_dots_lo(ax, ay, az, vx, vy, vz, h, A, P, r0):
     """The rounding errors of :func:`_em_dots`' ``A = a.a`` and ``P = h a.v0``: (AL, PL), with
-    ``a.a = A + AL`` and ``h a.v0 = P + PL`` to about eps**2 (error-free transformations)."""
-    p0, e0 = two_prod(ax, ax)
-    p1, e1 = two_prod(ay, ay)
-    p2, e2 = two_prod(az, az)
-    s, f1 = two_sum(p0, p1)
-    s, f2 = two_sum(s, p2)
-    AL = (s - A) + (((e0 + e1) + e2) + (f1 + f2))
+    ``a.a = A + AL`` and ``h a.v0 = P + PL`` to about eps**2 (error-free transformations;
+    ``r0 = sqrt(A)`` as :func:`_em_dots` rounds it, ``r0**2 - A`` is exact in one fma)."""
+    AL = norm_sq_lo(ax, ay, az, r0) + fma(r0, r0, -A)
     p0, e0 = two_prod(ax, vx)
     p1, e1 = two_prod(ay, vy)
     p2, e2 = two_prod(az, vz)
@@ -593,7 +589,7 @@ def _implicit_point_impl(method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2,
     if method != METHOD_MIDPOINT:
         A, P, V, r0 = _em_dots(ax, ay, az, y0, y1, y2, h)
         if method == METHOD_EM:
-            AL, PL = _em_dots_lo(ax, ay, az, y0, y1, y2, h, A, P)
+            AL, PL = _em_dots_lo(ax, ay, az, y0, y1, y2, h, A, P, r0)
         rho = _em_predict(A, P, V, r0, h, gm)
         rho, d1, qg = _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo)
         rho, delta = _em_chord(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
@@ -683,7 +679,7 @@ def _loop_em_dots(W, m, h, c0, c1, c2, S, method):
         W[_VV + i] = V
         W[_R0 + i] = r0
         if method == METHOD_EM:
-            AL, PL = _em_dots_lo(ax, ay, az, vx, vy, vz, h, A, P)
+            AL, PL = _em_dots_lo(ax, ay, az, vx, vy, vz, h, A, P, r0)
             W[_AL + i] = AL
             W[_PL + i] = PL
 
