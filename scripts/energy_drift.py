@@ -58,6 +58,10 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", type=int, default=4)
     p.add_argument("--first-seed", type=int, default=0)
     args = p.parse_args(argv)
+    for name, value, low in (("--div", args.div, 0.0), ("--steps", args.steps, 0), ("--members", args.members, 1),
+                             ("--seeds", args.seeds, 0)):
+        if not value > low:
+            p.error(f"{name} must be > {low}, got {value}")
     method = pointmass.METHOD_EM if args.roundoff == "brouwer" else pointmass.METHOD_EM_PLAIN
     per_step, zs = [], []
     for seed in range(args.first_seed, args.first_seed + args.seeds):
