@@ -137,7 +137,7 @@ import math
 import numpy as np
 from numba import prange
 
-from .eft import fma, two_prod, two_sum
+from .eft import fma, two_prod, two_prod_dekker, two_sum
 from .gravity import accel, norm_sq_lo
 from .jit import kernel
 from .pointmass import (
@@ -275,27 +275,14 @@ def _store_state(W, D, i, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2):
 
 
 @kernel
-def _two_prod(a, b):
-    """a b = p + e exactly (Dekker's product, no fused multiply-add)."""
-    p = a * b
-    c = 134217729.0 * a
-    a1 = c - (c - a)
-    a2 = a - a1
-    c = 134217729.0 * b
-    b1 = c - (c - b)
-    b2 = b - b1
-    return p, ((a1 * b1 - p) + a1 * b2 + a2 * b1) + a2 * b2
-
-
-@kernel
 def _tau(h, gm):
     """h**2/2 GM as a sum hi + lo, exact to about eps**2.
 
     A rounded h**2/2 that multiplies gravity in the position but not in the velocity would
     give the energy an error -eps h**2/2 |g|**2 of one sign in every step (see
     pointmass.py); carrying the rounding error lo makes that eps**2."""
-    p, e = _two_prod(h, h)
-    q, f = _two_prod(p, gm)
+    p, e = two_prod_dekker(h, h)
+    q, f = two_prod_dekker(p, gm)
     lo = f + e * gm
     hi = q + lo
     return 0.5 * hi, 0.5 * (lo - (hi - q))
