@@ -6,10 +6,12 @@ Test particles on random orbits (e up to 0.9) around the paper's field, em and l
 order 2, dt = T/1000 of the widest orbit. Rows, in point-steps per second (warm: compiled
 and run once before timing, median of 5):
 
-* cpu reference   emorbit.kernels.pointmass (one thread; the algorithm the GPU runs)
+* cpu reference   emorbit.kernels.pointmass (one thread; the 3-vector Newton reference),
+                  timed on the first 10,000 points (one thread's rate does not depend on n)
 * cpu ensemble    emorbit.kernels.ensemble, all Numba threads (what Simulation uses)
 * gpu chunk       emorbit.kernels.cuda.chunk: copies the state in and the records out
-* gpu kernel      the kernel alone on device-resident arrays
+* gpu kernel      the kernel alone on device-resident arrays (NVVM -fma=0, as chunk)
+* gpu kernel fma  the same with NVVM's default contraction into fused multiply-adds
 
 Without a CUDA device it says so and exits with status 1: nothing is measured.
 """
@@ -63,7 +65,8 @@ def main() -> int:
     if not kcuda.available():
         print("no CUDA device here: GPU throughput not measured")
         return 1
-    cuda, implicit_kernel, leapfrog_kernel = kcuda._compile()
+    cuda, kernels = kcuda._compile()
+    kernels_fma = kcuda._compile(contract=True)[1]
     gammas = coefficients(2)
     rows = []
     for n in args.points:
@@ -72,13 +75,13 @@ def main() -> int:
         for method in ("em", "leapfrog"):
             code = kcuda.METHODS[method]
 
-            def arrays():
-                return ([x0.copy(), v0.copy(), np.zeros_like(x0), np.zeros_like(v0)],
-                        [np.empty((1, 3, n)), np.empty((1, 3, n)), np.zeros((1, n), np.int64),
-                         np.full((n, 2), -1, np.int64)])
+            def arrays(m=n):
+                return ([x0[:, :m].copy(), v0[:, :m].copy(), np.zeros((3, m)), np.zeros((3, m))],
+                        [np.empty((1, 3, m)), np.empty((1, 3, m)), np.zeros((1, m), np.int64),
+                         np.full((m, 2), -1, np.int64)])
 
             def cpu_ref():
-                a, rec = arrays()
+                a, rec = arrays(min(n, 10_000))
                 if method == "leapfrog":
                     kref.leapfrog_chunk(*a, gm, center, dt, gammas, args.steps, 1, 50, *rec)
                 else:
@@ -98,20 +101,18 @@ def main() -> int:
             d_center, d_gammas = cuda.to_device(center), cuda.to_device(gammas)
             blocks = (n + kcuda.THREADS_PER_BLOCK - 1) // kcuda.THREADS_PER_BLOCK
 
-            def gpu_kernel():
+            def gpu_kernel(table=kernels):
                 common = (np.float64(gm), d_center, np.float64(dt), d_gammas, args.steps, 1, 50)
-                if method == "leapfrog":
-                    leapfrog_kernel[blocks, kcuda.THREADS_PER_BLOCK](*dev[:4], *common, *dev[4:])
-                else:
-                    implicit_kernel[blocks, kcuda.THREADS_PER_BLOCK](code, *dev[:4], *common, *dev[4:])
+                table[code][blocks, kcuda.THREADS_PER_BLOCK](*dev[:4], *common, *dev[4:])
                 cuda.synchronize()
 
             row = {"points": n, "method": method, "steps": args.steps}
-            for name, fn, reps in (("cpu reference", cpu_ref, 1), ("cpu ensemble", cpu_ens, 5),
-                                   ("gpu chunk", gpu_chunk, 5), ("gpu kernel", gpu_kernel, 5)):
+            for name, fn, reps, m in (("cpu reference", cpu_ref, 1, min(n, 10_000)), ("cpu ensemble", cpu_ens, 5, n),
+                                      ("gpu chunk", gpu_chunk, 5, n), ("gpu kernel", gpu_kernel, 5, n),
+                                      ("gpu kernel fma", lambda: gpu_kernel(kernels_fma), 5, n)):
                 t = timed(fn, reps)
-                row[name] = n * args.steps / t
-                print(f"{n:9d} points {method:8s} {name:14s} {n * args.steps / t:12.3e} point-steps/s ({t:.3f} s)")
+                row[name] = m * args.steps / t
+                print(f"{n:9d} points {method:8s} {name:14s} {row[name]:12.3e} point-steps/s ({t:.3f} s)")
             rows.append(row)
     if args.json:
         with open(args.json, "w") as fh:

@@ -6,9 +6,13 @@ sqrt(steps)). E < 0, so a positive mean means the energy falls.
 
     python scripts/energy_drift.py [--roundoff brouwer|fast] [--div 100] [--steps 1000000]
                                    [--members 256] [--seeds 4] [--first-seed 0]
+                                   [--kernel packed|reference|gpu] [--contract]
 
 The figures in the notes of emorbit/kernels/ensemble.py come from this measurement (256
-copies, 4 seeds, 1e6 steps: about 20 s per seed on the development machine).
+copies, 4 seeds, 1e6 steps: about 20 s per seed on the development machine). ``--kernel``
+picks the kernel: the packed ensemble kernel Simulation uses on the CPU (default), the
+one-point reference kernel of emorbit.kernels.pointmass, or that reference kernel compiled
+for an NVIDIA GPU (emorbit.kernels.cuda; without a CUDA device it stops with the reason).
 """
 
 from __future__ import annotations
@@ -30,7 +34,8 @@ def energy(x, v):
     return 0.5 * np.sum(v * v, axis=0) - GM / np.linalg.norm(x, axis=0)
 
 
-def drift(method: int, dt: float, steps: int, members: int, seed: int) -> tuple[float, float, float]:
+def drift(method: int, dt: float, steps: int, members: int, seed: int,
+          kernel: str = "packed", contract: bool = False) -> tuple[float, float, float]:
     """(mean of E/E0 - 1 per step, z, ns per particle-step) for one seed."""
     rng = np.random.default_rng(seed)
     x = np.repeat(X0[:, None], members, axis=1)
@@ -40,8 +45,15 @@ def drift(method: int, dt: float, steps: int, members: int, seed: int) -> tuple[
     rec_x, rec_v = np.empty((1, 3, members)), np.empty((1, 3, members))
     iters, fail = np.zeros((1, members), np.int64), np.full((members, 2), -1, np.int64)
     t = time.perf_counter()
-    ensemble.ensemble_chunk(method, x, v, cx, cv, GM, np.zeros(3), dt, np.array([1.0]), steps, 1, 50,
-                            rec_x, rec_v, iters, fail)
+    args = (x, v, cx, cv, GM, np.zeros(3), dt, np.array([1.0]), steps, 1, 50, rec_x, rec_v, iters, fail)
+    if kernel == "gpu":
+        from emorbit.kernels import cuda
+
+        cuda.chunk(method, *args, contract=contract)
+    elif kernel == "reference":
+        pointmass.implicit_chunk(method, *args)
+    else:
+        ensemble.ensemble_chunk(method, *args)
     ns = 1e9 * (time.perf_counter() - t) / (members * steps)
     if (fail[:, 0] >= 0).any():
         raise RuntimeError(f"{int((fail[:, 0] >= 0).sum())} copies failed")
@@ -57,15 +69,28 @@ def main(argv=None) -> int:
     p.add_argument("--members", type=int, default=256)
     p.add_argument("--seeds", type=int, default=4)
     p.add_argument("--first-seed", type=int, default=0)
+    p.add_argument("--kernel", choices=("packed", "reference", "gpu"), default="packed",
+                   help="packed ensemble kernel (default), the one-point reference kernel, or the GPU kernel")
+    p.add_argument("--contract", action="store_true",
+                   help="with --kernel gpu: let NVVM fuse multiply-adds (its default; emorbit compiles with -fma=0)")
     args = p.parse_args(argv)
     for name, value, low in (("--div", args.div, 0.0), ("--steps", args.steps, 0), ("--members", args.members, 1),
                              ("--seeds", args.seeds, 0)):
         if not value > low:
             p.error(f"{name} must be > {low}, got {value}")
+    if args.kernel == "gpu":
+        from emorbit.errors import InputError
+        from emorbit.kernels import cuda
+
+        try:
+            cuda.require_device()
+        except InputError as exc:
+            print(exc)
+            return 1
     method = pointmass.METHOD_EM if args.roundoff == "brouwer" else pointmass.METHOD_EM_PLAIN
     per_step, zs = [], []
     for seed in range(args.first_seed, args.first_seed + args.seeds):
-        m, z, ns = drift(method, T / args.div, args.steps, args.members, seed)
+        m, z, ns = drift(method, T / args.div, args.steps, args.members, seed, args.kernel, args.contract)
         per_step.append(m)
         zs.append(z)
         print(f"seed {seed}: {m:+.2e} per step, z {z:+.2f} ({ns:.1f} ns per particle-step)", flush=True)

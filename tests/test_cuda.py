@@ -1,4 +1,5 @@
-"""The CUDA point-mass kernels against the CPU reference kernels, on numba's CUDA simulator.
+"""The CUDA point-mass kernels against the CPU ensemble kernels, on numba's CUDA simulator
+(in CI) and on a real GPU where there is one.
 
 The simulator is switched on by ``NUMBA_ENABLE_CUDASIM=1`` when numba is imported, and then
 replaces numba.cuda for the whole process; so the comparisons run in a child process and
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import inspect
 import subprocess
 import sys
 import textwrap
@@ -21,18 +23,20 @@ import pytest
 import emorbit
 from emorbit.errors import InputError
 
-CHILD = textwrap.dedent(r'''
-    import json, sys, warnings
-    import numpy as np
-    warnings.simplefilter("ignore")  # the point put at the centre divides by zero, as on the CPU
-    from numba import config
-    assert config.ENABLE_CUDASIM
-    import emorbit
-    from emorbit.integrators import coefficients
-    from emorbit.kernels import cuda as K, pointmass as P
-    from emorbit.sweep import parse_sweep, run_sweep, use_device
+CASES = (("em", 2, 0.46), ("em", 4, 0.46), ("em", 2, 60.0), ("midpoint", 2, 0.46), ("leapfrog", 2, 0.46),
+         ("leapfrog", 6, 0.46))
 
-    out = {"available": K.available()}
+
+def run_case(method, order, dt, **gpu_options):
+    """33 points around a centre off the origin (one of them at the centre), ``nrec = 3``
+    records of ``every = 4`` composed steps, on the CPU's ensemble kernel and on the GPU:
+    ((arrays, records) on the CPU, the same on the GPU)."""
+    import warnings
+
+    from emorbit.integrators import coefficients
+    from emorbit.kernels import cuda as kcuda
+    from emorbit.kernels import ensemble as kens
+
     rng = np.random.default_rng(5)
     n, gm, center = 33, 3.9478, np.array([0.5, -0.25, 0.1])
     r = rng.uniform(4.0, 10.0, n)
@@ -40,33 +44,59 @@ CHILD = textwrap.dedent(r'''
     v = np.vstack([rng.uniform(-0.02, 0.02, n), np.sqrt(gm / r) * rng.uniform(0.5, 1.15, n),
                    rng.uniform(-0.05, 0.05, n)])
     x[:, 7] = center  # a point at the centre fails at once (status 2), on both
-    cases = {}
-    for method, order, dt in (("em", 2, 0.46), ("em", 4, 0.46), ("em", 2, 60.0), ("midpoint", 2, 0.46),
-                              ("leapfrog", 2, 0.46), ("leapfrog", 6, 0.46)):
-        every, nrec = 4, 3
-        runs = []
-        for device in ("cpu", "gpu"):
-            a = [x.copy(), v.copy(), np.zeros_like(x), np.zeros_like(v)]
-            rec = [np.zeros((nrec, 3, n)), np.zeros((nrec, 3, n)), np.zeros((nrec, n), np.int64),
-                   np.full((n, 2), -1, np.int64)]
-            g = coefficients(order)
+    every, nrec, g = 4, 3, coefficients(order)
+    runs = []
+    for device in ("cpu", "gpu"):
+        a = [x.copy(), v.copy(), np.zeros_like(x), np.zeros_like(v)]
+        rec = [np.zeros((nrec, 3, n)), np.zeros((nrec, 3, n)), np.zeros((nrec, n), np.int64),
+               np.full((n, 2), -1, np.int64)]
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")  # the point at the centre divides by zero, as on the CPU
             if device == "gpu":
-                K.chunk(K.METHODS[method], *a, gm, center, dt, g, every, nrec, 50, *rec)
-            elif method == "leapfrog":
-                P.leapfrog_chunk(*a, gm, center, dt, g, every, nrec, 50, *rec)
+                kcuda.chunk(kcuda.METHODS[method], *a, gm, center, dt, g, every, nrec, 50, *rec, **gpu_options)
             else:
-                P.implicit_chunk(K.METHODS[method], *a, gm, center, dt, g, every, nrec, 50, *rec)
-            runs.append((a, rec))
-        (a1, r1), (a2, r2) = runs
-        rel = 0.0
-        for p, q in zip(a1[:2] + r1[:2], a2[:2] + r2[:2]):
-            d = np.abs(p - q) / np.maximum(np.abs(p), 1e-300)
-            rel = max(rel, float(np.nanmax(np.where(np.isnan(p) & np.isnan(q), 0.0, d))))
-        cases[f"{method}{order} dt={dt}"] = {
-            "rel": rel, "iterations_equal": bool(np.array_equal(r1[2], r2[2])),
-            "fail_equal": bool(np.array_equal(r1[3], r2[3])), "fail_centre": r2[3][7].tolist(),
-            "failed": int((r2[3][:, 0] >= 0).sum()), "iterations": int(r2[2].sum())}
-    out["chunks"] = cases
+                kens.ensemble_chunk(kcuda.METHODS[method], *a, gm, center, dt, g, every, nrec, 50, *rec)
+        runs.append((a, rec))
+    return runs
+
+
+def compare(runs, every=4):
+    """How the GPU's run differs from the CPU's: the largest difference of positions and
+    velocities (state and records) relative to the largest value, over the points that did
+    not fail and over the records of failed points before their failure; whether iteration
+    counts and failures are equal; what failed."""
+    (a1, r1), (a2, r2) = runs
+    ok = r1[3][:, 0] < 0
+    rel, its_equal = 0.0, True
+    for p, q in zip(a1[:2], a2[:2]):
+        rel = max(rel, float(np.abs(p[:, ok] - q[:, ok]).max() / np.abs(p[:, ok]).max()))
+    for i in range(ok.size):
+        rows = r1[0].shape[0] if ok[i] else r1[3][i, 0] // every  # records written before a failure
+        for p, q in zip(r1[:2], r2[:2]):
+            if rows:
+                rel = max(rel, float(np.abs(p[:rows, :, i] - q[:rows, :, i]).max() / np.abs(p[:, :, ok]).max()))
+        its_equal &= bool(np.array_equal(r1[2][:rows, i], r2[2][:rows, i]))
+    return {"rel": rel, "iterations_equal": its_equal, "fail_equal": bool(np.array_equal(r1[3], r2[3])),
+            "fail_centre": r2[3][7].tolist(), "failed": int((r2[3][:, 0] >= 0).sum()),
+            "failed_cpu": int((r1[3][:, 0] >= 0).sum()),
+            "iterations": int(r2[2][:, ok].sum())}
+
+
+CHILD = textwrap.dedent(r'''
+    import json, sys, warnings
+    import numpy as np
+    warnings.simplefilter("ignore")  # the point put at the centre divides by zero, as on the CPU
+    from numba import config
+    assert config.ENABLE_CUDASIM
+    import emorbit
+    from emorbit.kernels import cuda as K
+    from emorbit.sweep import parse_sweep, run_sweep, use_device
+    ''') + f"CASES = {CASES!r}\n" + "\n".join(textwrap.dedent(inspect.getsource(f)) for f in (run_case, compare)) + \
+    textwrap.dedent(r'''
+    out = {"available": K.available()}
+    out["chunks"] = {f"{m}{o} dt={dt}": compare(run_case(m, o, dt)) for m, o, dt in CASES}
+    gm, n = 3.9478, 33
+    r = np.random.default_rng(5).uniform(4.0, 10.0, n)
 
     # a whole run through the Simulation: 40 points, em order 4, 200 steps
     def cloud():
@@ -117,7 +147,7 @@ def simulated(tmp_path_factory):
 def test_simulator_kernels_equal_the_cpu_kernels(simulated):
     assert simulated["available"]
     for case, got in simulated["chunks"].items():
-        assert got["rel"] <= 1e-12, (case, got)
+        assert got["rel"] == 0.0, (case, got)  # the simulator's IEEE doubles give the CPU's bits
         assert got["iterations_equal"] and got["fail_equal"], (case, got)
         assert got["fail_centre"] == [0, 2], (case, got)  # the point at the centre, on the GPU too
     assert simulated["chunks"]["em2 dt=0.46"]["iterations"] > 0
@@ -126,10 +156,10 @@ def test_simulator_kernels_equal_the_cpu_kernels(simulated):
 
 def test_simulation_on_the_simulated_gpu(simulated):
     sim = simulated["simulation"]
-    assert sim["rel"] <= 1e-12
+    assert sim["rel"] == 0.0
     assert sim["energy_error"] < 1e-13 and sim["angular_momentum_error"] < 1e-13
     assert simulated["sweep"]["status"] == ["completed", "completed"]
-    assert simulated["sweep"]["rel"] <= 1e-12
+    assert simulated["sweep"]["rel"] == 0.0
 
 
 def test_asking_for_a_gpu_without_one_is_a_clear_error(tmp_path, capsys):
@@ -151,3 +181,46 @@ def test_asking_for_a_gpu_without_one_is_a_clear_error(tmp_path, capsys):
 
     assert main(["sweep", str(f), "-o", str(tmp_path / "o"), "--device", "gpu"]) == 2
     assert "no CUDA device" in capsys.readouterr().err
+
+
+def _real_gpu() -> bool:
+    """A real NVIDIA GPU (not the simulator) with numba's CUDA target: none in CI."""
+    from numba import config
+
+    from emorbit.kernels import cuda as kcuda
+
+    return not config.ENABLE_CUDASIM and kcuda.available()
+
+
+real_gpu = pytest.mark.skipif("not _real_gpu()", reason="no NVIDIA GPU here (CI has none); the simulator tests "
+                                                         "above check the device code")
+
+
+@real_gpu
+@pytest.mark.parametrize("contract", [False, True], ids=["fma0", "contracted"])
+@pytest.mark.parametrize("method, order, dt", CASES)
+def test_real_gpu_agrees_with_the_cpu_kernels(method, order, dt, contract):
+    """On a real GPU, compiled with NVVM's -fma=0 and without link-time optimisation (what
+    chunk does), the GPU gives the CPU ensemble kernel's bits: states, records, iteration
+    counts and failures. With NVVM's default contraction into fused multiply-adds the states
+    differ at round-off (1e-13 relative after 12 steps); at dt = 60 s, where Newton fails
+    for most points and which ones is decided at round-off, the count of failures may
+    differ by a few."""
+    got = compare(run_case(method, order, dt, contract=contract))
+    assert got["fail_centre"] == [0, 2], got
+    if contract:
+        assert got["rel"] <= 1e-13, got
+        assert got["fail_equal"] or (dt == 60.0 and abs(got["failed"] - got["failed_cpu"]) <= 3), got
+    else:
+        assert got["rel"] == 0.0 and got["iterations_equal"] and got["fail_equal"], got
+
+
+@real_gpu
+def test_real_gpu_energy_error_is_a_random_walk():
+    """16384 perturbed copies of the paper's orbit, 1e5 em steps of T/100 on the GPU: the mean
+    relative energy error stays within 3 standard errors of zero (no drift of one sign from
+    the fused multiply-adds NVVM forms)."""
+    from conftest import energy_drift_z
+
+    z, per_step = energy_drift_z("brouwer", steps=100_000, members=16384, seed=0, device="gpu")
+    assert abs(z) < 3.0, (z, per_step)

@@ -1,29 +1,30 @@
-"""CUDA kernels for point-mass ensembles: the reference steps of :mod:`.pointmass` on the GPU.
+"""CUDA kernels for point-mass ensembles: the CPU's own per-point steps on the GPU.
 
 One GPU thread advances one point through a whole chunk (``nrec * every`` composed steps),
-exactly as one iteration of the point loop in :func:`~.pointmass.implicit_chunk` (em,
-midpoint) or :func:`~.pointmass.leapfrog_chunk` does on the CPU. The device code is not a
-second copy of the algorithm: :func:`_compile` takes the Python functions behind those
-CPU kernels (the chunk loops, :func:`~.pointmass.em_step`, :func:`~.pointmass.midpoint_step`,
-the compensated sum and the gravity helpers of :mod:`.gravity`) and compiles them again
-with ``numba.cuda.jit(device=True)``, their calls re-pointed at the device versions. So the
-GPU runs the same operations in the same order: the same Newton predictor and stopping
-rule, ``h**2/2`` never formed, the velocity from ``g_em`` linearised at the last iterate,
-Kahan sums of the state, the same failure codes. Each thread calls the chunk function on
-its own column of the (3, n) arrays, so a point's result does not depend on the others.
+exactly as :func:`~.ensemble._run_point` does on the CPU for a point taken alone (the packed
+kernels of :mod:`.ensemble` give the same bits; tests/test_ensemble.py). The device code is
+not a second copy of the algorithm: :func:`_compile` takes the Python functions behind those
+CPU kernels (``_run_point`` and every kernel it calls, found by following the names each
+function uses: the em root solve with its accurate last chord update, the large-t finish
+:func:`~.pointmass.em_finish`, the midpoint and leapfrog steps, the compensated sums, the
+gravity helpers) and compiles them again with ``numba.cuda.jit(device=True)``, their calls
+re-pointed at the device versions, and ``eft.fma`` at ``cuda.fma``. Each thread calls
+``_run_point`` on its own column of the (3, n) arrays, so a point's result does not depend
+on the others.
 
-Rounding. On numba's CUDA simulator (``NUMBA_ENABLE_CUDASIM=1``, which runs the device code
-as Python with IEEE doubles) the results equal the CPU kernels bit for bit; the tests
-require 1e-12 relative. On a real GPU, NVVM contracts a multiply and an add into one fused
-multiply-add where it can (its default; numba offers no switch for it short of
-``fastmath``, which would also flush denormals and approximate division and square root,
-and is not used). A fused operation rounds once instead of twice, so results differ from
-the CPU's at round-off (about 1e-16 relative per step), without a bias of one sign: the
-compensated sums have no products to fuse, and no rounded constant multiplies gravity in
-one update but not the other. The accurate ``g_em`` of :func:`~.pointmass.em_finish` forms
-its exact products with explicit fused multiply-adds (``cuda.fma`` here, ``llvm.fma`` on the
-CPU), which contraction cannot change; contracting its small correction terms changes them
-by a rounding of themselves only.
+Rounding. NVVM contracts a multiply and an add into one fused multiply-add by default; the
+kernels here are compiled with its ``-fma=0`` (:func:`_nvvm_fma`), so every product and sum
+is rounded as on the CPU (division and square root are IEEE-rounded on both) and the GPU
+gives the CPU's results. ``chunk(..., contract=True)`` compiles with NVVM's default, which
+differs from the CPU at round-off. Measured on an NVIDIA H100 (numba-cuda 0.30.4, NVVM 2.0,
+tests/test_cuda.py): with ``-fma=0`` the GPU gives the CPU's bits in every case (em orders 2
+and 4, em at a step where Newton fails, midpoint, leapfrog orders 2 and 6; states, records,
+iteration counts, failures); contracted, the states differ by up to 4e-15 relative after
+12 steps, and at huge steps a different set of points can fail. The kernel alone runs at
+2.5e10 em point-steps/s with ``-fma=0`` and 2.65e10 contracted (1e6 points;
+``python scripts/bench_gpu.py --steps 1000``). On numba's CUDA simulator
+(``NUMBA_ENABLE_CUDASIM=1``, which runs the device code as Python with IEEE doubles) the
+results equal the CPU kernels bit for bit as well (the tests require it).
 
 Use: :func:`chunk` has the arguments of the CPU chunk kernels plus a method code and runs
 on the device, copying the arrays there and back; :func:`require_device` raises a clear
@@ -32,13 +33,17 @@ on the device, copying the arrays there and back; :func:`require_device` raises 
 
 from __future__ import annotations
 
+import contextlib
+import inspect
+import math
 import types
 from fractions import Fraction
 
 import numpy as np
 
 from ..errors import InputError
-from . import eft, gravity, pointmass
+from . import eft, ensemble, pointmass
+from .ensemble import _run_point
 
 __all__ = ["METHOD_EM", "METHOD_EM_PLAIN", "METHOD_MIDPOINT", "METHOD_LEAPFROG", "METHODS", "THREADS_PER_BLOCK", "available",
            "require_device", "chunk"]
@@ -46,19 +51,15 @@ __all__ = ["METHOD_EM", "METHOD_EM_PLAIN", "METHOD_MIDPOINT", "METHOD_LEAPFROG",
 METHOD_EM = pointmass.METHOD_EM
 METHOD_EM_PLAIN = pointmass.METHOD_EM_PLAIN
 METHOD_MIDPOINT = pointmass.METHOD_MIDPOINT
-METHOD_LEAPFROG = 2
+METHOD_LEAPFROG = ensemble.METHOD_LEAPFROG
 #: method name -> code
 METHODS = {"em": METHOD_EM, "midpoint": METHOD_MIDPOINT, "leapfrog": METHOD_LEAPFROG}
 #: threads per block (one point each); a multiple of the warp size
 THREADS_PER_BLOCK = 128
 
-#: CPU kernels compiled again for the device, callees first
-_SOURCES = (eft.two_sum, eft.two_prod, gravity.accel, gravity.accel_jacobian_coeffs, gravity.em_accel,
-            gravity.em_jacobian_coeffs, gravity.norm_sq_lo, gravity.em_accel_root, gravity.em_accel_dd, pointmass._residual,
-            pointmass.em_finish,
-            pointmass.kahan_add, pointmass._newton_done, pointmass._finite, pointmass.em_step,
-            pointmass.midpoint_step, pointmass.implicit_chunk, pointmass.leapfrog_chunk)
-_compiled = None
+#: (cuda, kernels) per ``contract`` value; the device functions, by Python function
+_compiled: dict = {}
+_devices: dict = {}
 
 
 def _cuda():
@@ -87,23 +88,24 @@ def require_device():
     return cuda
 
 
-def _implicit_kernel(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
-                     rec_x, rec_v, rec_iters, fail):
-    """One thread per point: :func:`~.pointmass.implicit_chunk` on column i."""
-    i = cuda.grid(1)  # noqa: F821 - compiled by _compile with cuda and the device functions in its globals
-    if i < x.shape[1]:
-        j = i + 1
-        implicit_chunk(method, x[:, i:j], v[:, i:j], cx[:, i:j], cv[:, i:j], gm, center, dt, gammas,  # noqa: F821
-                       every, nrec, max_iter, rec_x[:, :, i:j], rec_v[:, :, i:j], rec_iters[:, i:j], fail[i:j])
+def _point_kernel(method: int, name: str):
+    """The kernel of one method: one thread per point, :func:`~.ensemble._run_point` on
+    column i. ``method`` is a constant of the closure, so NVVM drops the other methods."""
+
+    def kernel(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+        i = cuda.grid(1)  # noqa: F821 - compiled by _compile with cuda and the device functions in its globals
+        if i < x.shape[1]:
+            _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
+                       rec_x, rec_v, rec_iters, fail, i)
+
+    kernel.__name__ = kernel.__qualname__ = f"kernel_{name}"
+    return kernel
 
 
-def _leapfrog_kernel(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
-    """One thread per point: :func:`~.pointmass.leapfrog_chunk` on column i."""
-    i = cuda.grid(1)  # noqa: F821
-    if i < x.shape[1]:
-        j = i + 1
-        leapfrog_chunk(x[:, i:j], v[:, i:j], cx[:, i:j], cv[:, i:j], gm, center, dt, gammas, every,  # noqa: F821
-                       nrec, max_iter, rec_x[:, :, i:j], rec_v[:, :, i:j], rec_iters[:, i:j], fail[i:j])
+#: method code -> the kernel's Python function
+_KERNELS = {code: _point_kernel(code, name) for code, name in ((METHOD_EM, "em"), (METHOD_EM_PLAIN, "em_plain"),
+                                                                (METHOD_MIDPOINT, "midpoint"),
+                                                                (METHOD_LEAPFROG, "leapfrog"))}
 
 
 def _fma(a, b, c):
@@ -114,44 +116,142 @@ def _fma(a, b, c):
 def _fma_exact(a, b, c):
     """``a b + c`` rounded once, in exact rational arithmetic: the fused multiply-add of
     Numba's CUDA simulator (which runs device functions as Python and has no ``cuda.fma``)."""
-    return float(Fraction(a) * Fraction(b) + Fraction(c))
+    if not (abs(a) < math.inf and abs(b) < math.inf and abs(c) < math.inf):
+        return np.float64(a) * np.float64(b) + np.float64(c)  # inf or nan, as the hardware gives
+    return np.float64(Fraction(float(a)) * Fraction(float(b)) + Fraction(float(c)))
 
 
-def _rebind(f, table: dict):
-    """``f`` with the names in ``table`` (device functions, the cuda module) in its globals."""
+class _SimulatorMath:
+    """``math`` for device code on the simulator: square roots as NumPy float64, so that a
+    division by zero or the root of a negative number gives inf or nan, as on the GPU and in
+    the CPU kernels (``error_model="numpy"``), instead of a Python exception."""
+
+    sqrt = staticmethod(np.sqrt)
+
+    def __getattr__(self, name):
+        return getattr(math, name)
+
+
+def _simulator() -> bool:
+    """Whether numba.cuda is numba's CUDA simulator (``NUMBA_ENABLE_CUDASIM=1``)."""
+    from numba import config
+
+    return bool(config.ENABLE_CUDASIM)
+
+
+def _is_kernel(value) -> bool:
+    """Whether ``value`` is one of emorbit's CPU kernels (a Numba dispatcher of a Python function)."""
+    return callable(value) and hasattr(value, "py_func") and hasattr(value, "targetoptions")
+
+
+def _rebind(f, cuda, devices: dict):
+    """``f`` (a Python function) with every CPU kernel it names (and ``eft.fma``) replaced
+    by its device version, compiled on first use into ``devices`` (keyed by the Python
+    function); ``cuda`` joins its globals."""
     scope = dict(f.__globals__)
-    scope.update(table)
+    scope["cuda"] = cuda
+    if _simulator() and "math" in scope:  # the simulator runs the device code as Python
+        scope["math"] = _SimulatorMath()
+    for name in f.__code__.co_names:
+        value = f.__globals__.get(name)
+        if value is eft.fma:
+            scope[name] = devices["fma"]
+        elif _is_kernel(value):
+            scope[name] = _device(value.py_func, cuda, devices)
     clone = types.FunctionType(f.__code__, scope, f.__name__, f.__defaults__, f.__closure__)
     clone.__qualname__ = f"cuda.{f.__qualname__}"
     clone.__doc__ = f.__doc__
     return clone
 
 
-def _compile():
-    """Compile the device functions (from the CPU kernels' Python functions) and the two
-    kernels once per process; returns (cuda, implicit kernel, leapfrog kernel)."""
-    global _compiled
-    if _compiled is not None:
-        return _compiled
+def _device(f, cuda, devices: dict):
+    """The device function compiled from the Python function ``f`` of a CPU kernel."""
+    if f not in devices:
+        devices[f] = cuda.jit(device=True)(_rebind(f, cuda, devices))
+    return devices[f]
+
+
+@contextlib.contextmanager
+def _nvvm_fma(contract: bool):
+    """Compilations inside pass NVVM's ``-fma`` option: ``-fma=0`` (no contraction) unless
+    ``contract``. numba-cuda's ``cuda.jit`` has no argument for it (``fastmath`` would also
+    approximate division and square root), so this wraps its ``nvvm.compile_ir`` while a
+    kernel is launched: its first launch compiles it, later launches find it compiled. The
+    kernels compiled so are also compiled without link-time optimisation (``lto=False``):
+    with it, nvJitLink compiles NVVM's intermediate code again and contracts by default
+    (measured on an H100 with numba-cuda 0.30.4: the same bits with and without ``-fma=0``).
+    On the simulator (no NVVM) it does nothing."""
+    try:
+        from numba.cuda.cudadrv import nvvm
+        original = nvvm.compile_ir
+    except (ImportError, AttributeError):
+        yield
+        return
+    if contract:
+        yield
+        return
+
+    def compile_ir(llvmir, **options):
+        options["fma"] = False
+        return original(llvmir, **options)
+
+    nvvm.compile_ir = compile_ir
+    try:
+        yield
+    finally:
+        nvvm.compile_ir = original
+
+
+class _Kernel:
+    """A compiled CUDA kernel launched as ``kernel[blocks, threads](*args)``, its
+    multiply-adds contracted into fused ones or not (see :func:`_nvvm_fma`)."""
+
+    def __init__(self, dispatcher, contract: bool):
+        self.dispatcher, self.contract = dispatcher, contract
+
+    def __getitem__(self, config):
+        launch = self.dispatcher[config]
+
+        def run(*args):
+            with _nvvm_fma(self.contract):
+                launch(*args)
+
+        return run
+
+
+def _compile(contract: bool = False):
+    """Compile the device functions (from the CPU kernels' Python functions) once per
+    process and the kernels once per ``contract`` value; returns (cuda, {method code:
+    kernel}). ``contract=False`` (what :func:`chunk` uses) compiles with NVVM's ``-fma=0``,
+    so that every product and sum is rounded as on the CPU."""
+    contract = bool(contract)
+    if contract in _compiled:
+        return _compiled[contract]
     cuda = require_device()
-    table = {"cuda": cuda}
-    table["fma"] = cuda.jit(device=True)(_rebind(_fma if hasattr(cuda, "fma") else _fma_exact, table))
-    for dispatcher in _SOURCES:
-        f = dispatcher.py_func
-        table[f.__name__] = cuda.jit(device=True)(_rebind(f, table))
-    _compiled = (cuda, cuda.jit(_rebind(_implicit_kernel, table)), cuda.jit(_rebind(_leapfrog_kernel, table)))
-    return _compiled
+    if not _devices:
+        fma = _fma_exact if _simulator() else _fma
+        _devices["fma"] = cuda.jit(device=True)(_rebind(fma, cuda, _devices))
+    options = {}
+    if not contract and "lto" in inspect.signature(cuda.jit).parameters:
+        # link-time optimisation hands NVVM's output to nvJitLink, which contracts again
+        options["lto"] = False
+    kernels = {code: _Kernel(cuda.jit(_rebind(f, cuda, _devices), **options), contract) for code, f in _KERNELS.items()}
+    _compiled[contract] = (cuda, kernels)
+    return _compiled[contract]
 
 
 def chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-          threads_per_block: int = THREADS_PER_BLOCK) -> None:
+          threads_per_block: int = THREADS_PER_BLOCK, contract: bool = False) -> None:
     """Advance every point ``nrec * every`` composed steps on the GPU.
 
     ``method`` is a code of :data:`METHODS`; the other arguments are those of
     :func:`~.pointmass.implicit_chunk` (host arrays, updated in place: ``x, v, cx, cv``
     and the records ``rec_x, rec_v, rec_iters, fail``, which the caller pre-fills with -1).
+    ``contract=True`` lets NVVM fuse multiply-adds (its default; see the module notes).
     """
-    cuda, implicit_kernel, leapfrog_kernel = _compile()
+    if method not in _KERNELS:
+        raise ValueError(f"no CUDA kernel for method code {method!r}")
+    cuda, kernels = _compile(contract)
     n = x.shape[1]
     if n == 0 or nrec == 0:
         return
@@ -161,14 +261,7 @@ def chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, r
     d_gammas = cuda.to_device(np.ascontiguousarray(gammas, dtype=np.float64))
     blocks = (n + threads_per_block - 1) // threads_per_block
     dx, dv, dcx, dcv, drx, drv, dri, dfail = dev
-    if method == METHOD_LEAPFROG:
-        leapfrog_kernel[blocks, threads_per_block](dx, dv, dcx, dcv, np.float64(gm), d_center, np.float64(dt), d_gammas,
-                                                   int(every), int(nrec), int(max_iter), drx, drv, dri, dfail)
-    elif method in (METHOD_EM, METHOD_EM_PLAIN, METHOD_MIDPOINT):
-        implicit_kernel[blocks, threads_per_block](int(method), dx, dv, dcx, dcv, np.float64(gm), d_center, np.float64(dt),
-                                                   d_gammas, int(every), int(nrec), int(max_iter), drx, drv, dri,
-                                                   dfail)
-    else:
-        raise ValueError(f"no CUDA kernel for method code {method!r}")
+    kernels[method][blocks, threads_per_block](dx, dv, dcx, dcv, np.float64(gm), d_center, np.float64(dt), d_gammas,
+                                               int(every), int(nrec), int(max_iter), drx, drv, dri, dfail)
     for h, d in zip(host, dev):
         h[...] = d.copy_to_host()
