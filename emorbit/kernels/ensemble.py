@@ -76,6 +76,14 @@ falls):
 * the default: +1.9e-21 (1.2 standard errors) at T/100, +6e-22 (0.3) at T/60, and within 1.4
   standard errors at T/50, T/30 and T/8, as the reference kernel with its finish.
 
+With 65536 copies per seed on a GPU, whose kernels (:mod:`.cuda`) give this kernel's bits,
+the default still drifts: +8.1e-22 per step at T/100 (4 seeds, 1e6 steps; 1.8 to 5.7
+standard errors per seed) and -5.3e-20 at T/8 (2 seeds, 1e5 steps; -11 and -13); compiled
+with fused multiply-adds (differing bits) it did not (within 1.3 standard errors at both).
+The one-point reference kernel of :mod:`.pointmass` with its finish drifts by +6.6e-21 at
+T/100 (4096 copies on the CPU, 2e5 steps, 4.8 standard errors). These drifts overtake the
+random walk after about 4e9 (T/100) and 5e7 (T/8) steps; where they come from is not known.
+
 ``F Q**2`` in its first form, ``(r1 Qp)**2 - (Qm (A Qm - 2 P Q) + V Q**2)``, loses a rounding
 of ``(r1 Qp)**2`` to the cancellation; carrying only the rounding errors of ``A``, ``P``,
 ``V``, ``tau`` or ``|a|`` into it changed nothing (+5.5 to +6.2e-20). Cost, measured on the
