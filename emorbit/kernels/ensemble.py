@@ -82,7 +82,10 @@ standard errors per seed) and -5.3e-20 at T/8 (2 seeds, 1e5 steps; -11 and -13);
 with fused multiply-adds (differing bits) it did not (within 1.3 standard errors at both).
 The one-point reference kernel of :mod:`.pointmass` with its finish drifts by +6.6e-21 at
 T/100 (4096 copies on the CPU, 2e5 steps, 4.8 standard errors). These drifts overtake the
-random walk after about 4e9 (T/100) and 5e7 (T/8) steps; where they come from is not known.
+random walk after about 4e9 (T/100) and 5e7 (T/8) steps. Where they come from is not
+known; not from the rounding of the increments: with ``u`` and ``dx`` rounded once (fused)
+or ``dx`` compensated, the drift stayed (T/8 -3.7e-20 to -5.4e-20, T/100 +5.7e-22 to
++6.5e-22; ``scripts/gpu_drift_increments.py``).
 
 ``F Q**2`` in its first form, ``(r1 Qp)**2 - (Qm (A Qm - 2 P Q) + V Q**2)``, loses a rounding
 of ``(r1 Qp)**2`` to the cancellation; carrying only the rounding errors of ``A``, ``P``,
