@@ -78,8 +78,11 @@ falls):
 
 With 65536 copies per seed on a GPU, whose kernels (:mod:`.cuda`) give this kernel's bits,
 the default still drifts: +8.1e-22 per step at T/100 (4 seeds, 1e6 steps; 1.8 to 5.7
-standard errors per seed) and -5.3e-20 at T/8 (2 seeds, 1e5 steps; -11 and -13); compiled
-with fused multiply-adds (differing bits) it did not (within 1.3 standard errors at both).
+standard errors per seed) and -5.3e-20 at T/8 (2 seeds, 1e5 steps; -11 and -13); over dt
+from T/20 to T/1000 (1e6 steps, seed 0) with a sign that changes with dt, largest at T/30
+(-7.1e-20, -155 standard errors), +1.7e-20 at T/20, +1.1e-20 at T/40, -8e-23 at T/1000
+(README, "Round-off"). Compiled with fused multiply-adds (differing bits) it looked
+drift-free at T/100 and T/8 (within 1.3 standard errors) but drifts at T/30 (-3.1e-20).
 The one-point reference kernel of :mod:`.pointmass` with its finish drifts by +6.6e-21 at
 T/100 (4096 copies on the CPU, 2e5 steps, 4.8 standard errors). These drifts overtake the
 random walk after about 4e9 (T/100) and 5e7 (T/8) steps. Where they come from is not
