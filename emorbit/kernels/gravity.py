@@ -32,6 +32,7 @@ __all__ = [
     "norm_sq_lo",
     "em_accel_root",
     "em_accel_dd",
+    "em_accel_dd_lo",
     "em_accel_accurate",
     "accel_points",
     "potential_points",
@@ -106,12 +107,20 @@ def em_accel_dd(ax, ay, az, r0, t0, bx, by, bz, gm, r1, iP):
     Newton iteration in plain floating point converges on, so its work ``dg . dx`` does not
     average out over many steps (see :func:`emorbit.kernels.pointmass.em_finish`).
     """
+    return em_accel_dd_lo(ax, ay, az, r0, t0, bx, by, bz, 0.0, 0.0, 0.0, gm, r1, iP)
+
+
+@kernel(inline="always")
+def em_accel_dd_lo(ax, ay, az, r0, t0, bx, by, bz, cx, cy, cz, gm, r1, iP):
+    """:func:`em_accel_dd` at ``b + c``, ``c`` the rounding error of ``b`` (``b + c = a - dx``
+    exactly when ``b, c`` come from a two-sum); ``r1, iP`` of the rounded ``b``."""
     p0, e0 = two_prod(bx, bx)
     p1, e1 = two_prod(by, by)
     p2, e2 = two_prod(bz, bz)
     bb, f1 = two_sum(p0, p1)
     bb, f2 = two_sum(bb, p2)
-    t1 = fma(-r1, r1, bb) + (((e0 + e1) + e2) + (f1 + f2))  # 2 r1 (|b| - r1), to first order
+    # 2 r1 (|b + c| - r1), to first order
+    t1 = fma(-r1, r1, bb) + ((((e0 + e1) + e2) + (f1 + f2)) + 2.0 * ((bx * cx + by * cy) + bz * cz))
     # P = r0 r1 (r0 + r1) = q s in double-double, k = GM / P
     s, es = two_sum(r0, r1)
     q, eq = two_prod(r0, r1)
@@ -128,6 +137,9 @@ def em_accel_dd(ax, ay, az, r0, t0, bx, by, bz, gm, r1, iP):
     ux, lx = two_sum(ax, bx)
     uy, ly = two_sum(ay, by)
     uz, lz = two_sum(az, bz)
+    lx += cx
+    ly += cy
+    lz += cz
     gx = k * ux
     gy = k * uy
     gz = k * uz

@@ -54,7 +54,7 @@ import math
 import numpy as np
 
 from .eft import fma, two_sum
-from .gravity import accel, accel_jacobian_coeffs, em_accel, em_accel_dd, em_accel_root, em_jacobian_coeffs, norm_sq_lo
+from .gravity import accel, accel_jacobian_coeffs, em_accel, em_accel_dd, em_accel_dd_lo, em_accel_root, em_jacobian_coeffs, norm_sq_lo
 from .jit import kernel
 
 __all__ = [
@@ -134,16 +134,22 @@ def em_finish(ax, ay, az, r0, vx, vy, vz, dx, dy, dz, h, gm):
     ``g_em`` and residual the update lands within a rounding of the exact solution whatever
     ``dx`` it starts from, with nothing to correlate with. A Newton update (not a
     fixed-point one) keeps this sound at any step size, where ``h**2/2 |dg/dx|`` exceeds 1.
+    ``b = a - dx`` is formed with its rounding error (a two-sum), and ``g_em`` evaluated at
+    the exact difference (:func:`~.gravity.em_accel_dd_lo`): the state moves by exactly
+    ``dx``, and with ``b`` rounded the update converged on that rounding. Measured
+    (``python scripts/energy_drift.py --div 30 --steps 100000 --members 1024 --seeds 2``,
+    the packed kernel with every step finished): -8.5e-20 |E| per step (11 standard errors
+    from zero) with ``b`` rounded, +7.6e-22 (0.1) with it carried.
     Cost: one square root and two divisions (the Jacobian's coefficients come from the
-    reciprocal of :func:`~.gravity.em_accel_root`), and about 100 other operations."""
+    reciprocal of :func:`~.gravity.em_accel_root`), and about 120 other operations."""
     hf = 0.5 * h
     hh = hf * h
     t0 = norm_sq_lo(ax, ay, az, r0)
-    bx = ax - dx
-    by = ay - dy
-    bz = az - dz
+    bx, cbx = two_sum(ax, -dx)
+    by, cby = two_sum(ay, -dy)
+    bz, cbz = two_sum(az, -dz)
     r1, iP = em_accel_root(bx, by, bz, r0)
-    gx, gy, gz, lx, ly, lz, k = em_accel_dd(ax, ay, az, r0, t0, bx, by, bz, gm, r1, iP)
+    gx, gy, gz, lx, ly, lz, k = em_accel_dd_lo(ax, ay, az, r0, t0, bx, by, bz, cbx, cby, cbz, gm, r1, iP)
     rx = _residual(dx, vx, gx + lx, h, hf)
     ry = _residual(dy, vy, gy + ly, h, hf)
     rz = _residual(dz, vz, gz + lz, h, hf)
