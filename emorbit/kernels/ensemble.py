@@ -86,11 +86,11 @@ drift-free at T/100 and T/8 (within 1.3 standard errors) but drifts at T/30 (-3.
 The T/30 drift came from the finish of large-t steps, which rounded b = a - dx; carrying
 that rounding (:func:`~.pointmass.em_finish`) took it from -7.7e-20 (9.5 standard errors,
 1024 copies, 2 seeds, 1e5 steps, CPU) to +9.3e-21 (1.2); T/8 still drifts (-4.9e-20).
-The one-point reference kernel of :mod:`.pointmass` with its finish drifts by +6.6e-21 at
-T/100 (4096 copies on the CPU, 2e5 steps, 4.8 standard errors). These drifts overtake the
-random walk after about 4e9 (T/100) and 5e7 (T/8) steps. Where the T/100 and T/8 drifts
-come from is not known; not from the rounding of the increments: with ``u`` and ``dx`` rounded once (fused)
-or ``dx`` compensated, the drift stayed (T/8 -3.7e-20 to -5.4e-20, T/100 +5.7e-22 to
+The one-point reference kernel of :mod:`.pointmass`, which finishes every step, drifted
+by +6.6e-21 at T/100 (4096 copies on the CPU, 2e5 steps, 4.8 standard errors); with the
+fix, -1.8e-21 (1.4). The drifts left overtake the random walk after about 4e9 (T/100) and
+5e7 (T/8) steps. Where they come from is not known; not from the rounding of the
+increments: with ``u`` and ``dx`` rounded once (fused) or ``dx`` compensated, the drift stayed (T/8 -3.7e-20 to -5.4e-20, T/100 +5.7e-22 to
 +6.5e-22; ``scripts/gpu_drift_increments.py``).
 
 ``F Q**2`` in its first form, ``(r1 Qp)**2 - (Qm (A Qm - 2 P Q) + V Q**2)``, loses a rounding
