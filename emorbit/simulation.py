@@ -138,8 +138,8 @@ class Simulation:
         ``dt`` (see :mod:`emorbit.kernels.adaptive`). Default: fixed steps of ``dt``.
     roundoff : str
         point masses, method "em": "brouwer" (default) keeps the energy error a random walk
-        over many steps (Brouwer's law; a drift of 1e-22 to 5e-20 |E| per step is left, of
-        a sign that depends on dt, measured in README "Round-off"): fixed steps iterate the
+        over many steps (Brouwer's law; a drift of about 1e-21 |E| per step is left at
+        T/100, measured in README "Round-off"): fixed steps iterate the
         root of their scalar equation to convergence on an accurate evaluation (steps with a large
         h**2/2 GM / (r0 r1 (r0 + r1)) and adaptive steps finish on ``g_em`` evaluated to
         within a rounding instead, :func:`emorbit.kernels.pointmass.em_finish`; see
