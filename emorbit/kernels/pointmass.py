@@ -54,7 +54,7 @@ import math
 import numpy as np
 
 from .eft import fma, two_sum
-from .gravity import accel, accel_jacobian_coeffs, em_accel, em_accel_dd, em_accel_dd_lo, em_accel_root, em_jacobian_coeffs, norm_sq_lo
+from .gravity import accel, accel_jacobian_coeffs, em_accel, em_accel_dd_lo, em_accel_root, em_jacobian_coeffs, norm_sq_lo
 from .jit import kernel
 
 __all__ = [
