@@ -78,6 +78,8 @@ def main(argv=None) -> int:
                              ("--seeds", args.seeds, 0)):
         if not value > low:
             p.error(f"{name} must be > {low}, got {value}")
+    if args.contract and args.kernel != "gpu":
+        p.error(f"--contract applies to --kernel gpu only, got --kernel {args.kernel}")
     if args.kernel == "gpu":
         from emorbit.errors import InputError
         from emorbit.kernels import cuda
