@@ -39,7 +39,7 @@ def test_e0999_adaptive_em_against_fixed_leapfrog():
 
 def test_huge_steps_stay_bounded_with_exact_energy():
     """dt = T/8 on the paper's orbit for 1e5 steps: em stays bounded with energy exact
-    (measured: 1.4e-13, r in [2.01, 10] m); at the same dt midpoint and leapfrog lose the
+    (measured: 6.0e-14, r in [2.01, 10] m); at the same dt midpoint and leapfrog lose the
     orbit (measured: max |dE/E| 1.30 and 1.83, escape to r = 2.6e5 m and 4.3e5 m), or
     midpoint's Newton iteration fails."""
     res = {}
@@ -62,7 +62,8 @@ def test_huge_steps_stay_bounded_with_exact_energy():
 def test_huge_steps_keep_the_energy_error_a_random_walk():
     """Brouwer's law at dt = T/8 (t = h**2/2 GM / (r0 r1 (r0 + r1)) from 0.03 to 4): 64 orbits,
     1e5 steps, the ensemble mean of the energy error within 3 standard errors of zero
-    (measured +1.4; before large-t steps were finished on the accurate g_em, -23), while
+    (measured -0.18; +1.4 before the finish carried the roundings of b = a - dx and of g_em
+    into its residual; -23 before large-t steps were finished on the accurate g_em), while
     roundoff="fast" drifts (measured z = 7.8)."""
     assert abs(energy_drift_z("brouwer", dt=PAPER_T / 8, steps=100_000)[0]) < 3.0
     assert abs(energy_drift_z("fast", dt=PAPER_T / 8, steps=100_000)[0]) > 4.0
@@ -71,7 +72,7 @@ def test_huge_steps_keep_the_energy_error_a_random_walk():
 def test_finished_steps_carry_the_rounding_of_the_new_position():
     """dt = T/30: the steps near pericentre (about a third) have t > 1/32 and are finished on
     the accurate g_em. 1024 orbits, 1e5 steps: the ensemble mean within 3 standard errors of
-    zero (measured -0.13; seeds 0 and 2: +1.85, -0.30). Before the finish carried the
+    zero (measured +1.93; seeds 0 and 2: -0.68, -0.38). Before the finish carried the
     rounding error of b = a - dx: -7.5 (seed 0: -5.9), a drift of -7e-20 |E| per step
     (on a GPU with 65536 orbits, 1e6 steps: -155 standard errors)."""
     assert abs(energy_drift_z("brouwer", dt=PAPER_T / 30, steps=100_000, members=1024, seed=1)[0]) < 3.0

@@ -85,15 +85,15 @@ from T/20 to T/1000 (1e6 steps, seed 0) with a sign that changes with dt, larges
 drift-free at T/100 and T/8 (within 1.3 standard errors) but drifts at T/30 (-3.1e-20).
 The T/30 drift came from the finish of large-t steps, which rounded b = a - dx; carrying
 that rounding (:func:`~.pointmass.em_finish`) took it from -7.7e-20 (9.5 standard errors,
-1024 copies, 2 seeds, 1e5 steps, CPU) to +9.3e-21 (1.2); the T/8 drift from the
-finish's residual, which dropped the low part of g_em (:func:`~.pointmass._residual`:
--4.9e-20 before, -1.6e-20 after, 4096 copies, 2 seeds, 1e5 steps).
-The one-point reference kernel of :mod:`.pointmass`, which finishes every step, drifted
-by +6.6e-21 at T/100 (4096 copies on the CPU, 2e5 steps, 4.8 standard errors); with the
-fix, -1.8e-21 (1.4). The drift left at T/100 overtakes the random walk after about 4e9
-steps. Where it comes from is not known; not from the rounding of the
-increments: with ``u`` and ``dx`` rounded once (fused) or ``dx`` compensated, the drift stayed (T/8 -3.7e-20 to -5.4e-20, T/100 +5.7e-22 to
-+6.5e-22; ``scripts/gpu_drift_increments.py``).
+1024 copies, 2 seeds, 1e5 steps, CPU) to +9.3e-21 (1.2). The T/8 drift came from the
+finish's residual, which dropped the low part of g_em (:func:`~.pointmass._residual`):
+-4.9e-20 before, -1.6e-20 after (4096 copies, 2 seeds, 1e5 steps; 1.3 standard errors).
+The one-point reference kernel of :mod:`.pointmass`, which finishes every step, drifted by
++6.6e-21 at T/100 (4096 copies on the CPU, 2e5 steps, 4.8 standard errors); after the
+first fix, -1.8e-21 (1.4). The drift left at T/100 (no step finished there) overtakes the
+random walk after about 4e9 steps; where it comes from is not known. Not from the rounding
+of the increments: with ``u`` and ``dx`` rounded once (fused) or ``dx`` compensated, it
+stayed (T/100 +5.7e-22 to +6.5e-22; ``scripts/gpu_drift_increments.py``).
 
 ``F Q**2`` in its first form, ``(r1 Qp)**2 - (Qm (A Qm - 2 P Q) + V Q**2)``, loses a rounding
 of ``(r1 Qp)**2`` to the cancellation; carrying only the rounding errors of ``A``, ``P``,
