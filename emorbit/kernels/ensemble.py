@@ -55,10 +55,9 @@ is proportional to the error of the root: a drift, not a random walk. By default
 * that last update evaluates ``F`` with every rounding of a quantity that depends on ``r1``
   carried to well below a rounding of ``r1`` (:func:`_em_f2_accurate`: ``Q``, ``r1**2``,
   ``D``, the products), and the rounding errors of ``A`` and ``P`` (:func:`_em_dots_lo`);
-* a step with ``t > 1/32`` (huge steps, close pericentres) is finished instead as the
+* a step with ``t > 1/128`` (large steps, pericentres) is finished instead as the
   reference kernel finishes (:func:`~.pointmass.em_finish`, a scalar pass over those
-  points): the terms of ``F`` that are O(t) and the increments are rounded plainly, and
-  their share of the error grows with ``t``.
+  points): without it the step drifts by an amount that grows about as ``t**2`` (below).
 
 Measured with this kernel (``scripts/energy_drift.py``), perturbed copies of the paper's
 orbit (256 per seed, 4 seeds, 1e6 steps; 64 at T/8 over 1e5 steps), the mean of ``E/E0 - 1``
@@ -73,27 +72,43 @@ falls):
 * ``F`` in the ``D`` form with ``AL``, ``PL``, converged, plain last update, no finish of
   large-t steps: +6e-21 at T/100, -1.7e-20 at T/60, and at T/8 a drift 23 standard errors
   from zero;
-* the default: +1.9e-21 (1.2 standard errors) at T/100, +6e-22 (0.3) at T/60, and within 1.4
-  standard errors at T/50, T/30 and T/8, as the reference kernel with its finish.
+* this design with steps of t > 1/32 finished: +1.9e-21 (1.2 standard errors) at T/100,
+  +6e-22 (0.3) at T/60, and within 1.4 standard errors at T/50, T/30 and T/8, as the
+  reference kernel with its finish (these statistics were too small: see below).
 
 With 65536 copies per seed on a GPU, whose kernels (:mod:`.cuda`) give this kernel's bits,
-the default still drifts: +8.1e-22 per step at T/100 (4 seeds, 1e6 steps; 1.8 to 5.7
-standard errors per seed) and -5.3e-20 at T/8 (2 seeds, 1e5 steps; -11 and -13); over dt
-from T/20 to T/1000 (1e6 steps, seed 0) with a sign that changes with dt, largest at T/30
-(-7.1e-20, -155 standard errors), +1.7e-20 at T/20, +1.1e-20 at T/40, -8e-23 at T/1000
-(README, "Round-off"). Compiled with fused multiply-adds (differing bits) it looked
-drift-free at T/100 and T/8 (within 1.3 standard errors) but drifts at T/30 (-3.1e-20).
-The T/30 drift came from the finish of large-t steps, which rounded b = a - dx; carrying
-that rounding (:func:`~.pointmass.em_finish`) took it from -7.7e-20 (9.5 standard errors,
-1024 copies, 2 seeds, 1e5 steps, CPU) to +9.3e-21 (1.2). The T/8 drift came from the
-finish's residual, which dropped the low part of g_em (:func:`~.pointmass._residual`):
--4.9e-20 before, -1.6e-20 after (4096 copies, 2 seeds, 1e5 steps; 1.3 standard errors).
+1e6 steps (``python scripts/energy_drift.py --kernel gpu --members 65536 --seeds 1 --div N``,
+H100), the drift left, and what removed the rest:
+
+* The finish of large-t steps rounded ``b = a - dx`` and dropped the low part of ``g_em``
+  from its residual (:func:`~.pointmass.em_finish`, :func:`~.pointmass._residual`); with
+  those carried, T/8 went from -4.9e-20 per step (-11 standard errors) to -4.6e-21 (-1.1),
+  T/30 from -7.1e-20 (-155) to +6.1e-21 (+14).
+* Steps below the threshold of the finish still drift, about as ``t**2``: with no step
+  finished, T/30 +1.05e-19 (+187) and T/60 +7.4e-21 (+23); with t > 1/32 finished (the
+  threshold until then), T/20 -1.2e-20 (-22), T/30 +6.1e-21 (+14), T/40 -8.9e-21 (-25),
+  T/60 +4.9e-21 (+18), T/100 +1.0e-21 (+5.4); with every step finished, T/30, T/60 and
+  T/100 within 2.6 standard errors. With t > 1/128 finished (the default): T/20, T/22.36,
+  T/30, T/31.42, T/40, T/60 and T/100 within 2.1 standard errors (README, "Round-off").
+  Cost on the development machine: about 5 % on one orbit at T/100 (10 % of its steps are
+  finished) and 1 to 3 % on the benchmark ensemble at T/1000.
+* Not the cause, measured at T/30 with no step finished: carrying ``tau**2`` exactly into
+  ``F`` (its rounding is the same in every step, so it is a systematic error: the drift
+  went from +1.05e-19 to -8.7e-20), and with it the rounding of ``V``, ``w`` from an exact
+  ``Q`` and increments rounded once (-7.5e-20, -4.2e-20, -2.2e-20, each with the ones
+  before): smaller, never zero, and at T/100 with the finish none of them changed anything
+  (+1.09e-21 against +1.02e-21). So they are not in the kernel.
+* What is left: T/100 +4e-22 per step (seeds 0-3: +1.5e-22, +6.1e-22, +4.0e-22, +3.4e-22;
+  z of the mean +4.9), overtaking the random walk after about 1e10 steps; T/1000 -8e-23
+  (-4.3). Where it comes from is not known. Compiled with fused multiply-adds (differing
+  bits) it looked drift-free at T/100 and T/8 (within 1.3 standard errors) but drifted at
+  T/30 (-3.1e-20, measured with the old threshold).
+
 The one-point reference kernel of :mod:`.pointmass`, which finishes every step, drifted by
 +6.6e-21 at T/100 (4096 copies on the CPU, 2e5 steps, 4.8 standard errors); after the
-first fix, -1.8e-21 (1.4). The drift left at T/100 (no step finished there) overtakes the
-random walk after about 4e9 steps; where it comes from is not known. Not from the rounding
-of the increments: with ``u`` and ``dx`` rounded once (fused) or ``dx`` compensated, it
-stayed (T/100 +5.7e-22 to +6.5e-22; ``scripts/gpu_drift_increments.py``).
+first fix above, -1.8e-21 (1.4). Not from the rounding of the increments: with ``u`` and
+``dx`` rounded once (fused) or ``dx`` compensated the T/100 drift of the old threshold stayed
+(+5.7e-22 to +6.5e-22; ``scripts/gpu_drift_increments.py``).
 
 ``F Q**2`` in its first form, ``(r1 Qp)**2 - (Qm (A Qm - 2 P Q) + V Q**2)``, loses a rounding
 of ``(r1 Qp)**2`` to the cancellation; carrying only the rounding errors of ``A``, ``P``,
@@ -142,7 +157,7 @@ division and square-root throughput from these): :data:`EM_PLAIN_SQRTS` square r
 (``|a|``, the predictor's ``r1``) and :data:`EM_PLAIN_DIVISIONS` divisions (``1/|a|``, the
 Newton update, ``w``); the default em counts the same (:data:`EM_SQRTS`,
 :data:`EM_DIVISIONS`): its accurate ``F`` and second chord update need neither (the steps
-finished by the reference kernel's finish, t > 1/32, are not counted).
+finished by the reference kernel's finish, t > 1/128, are not counted).
 
 Each method has its own compiled entry kernels (``_range_em``, ``_points_em`` for fewer
 than :data:`_PACKED_MIN` points, ``_parallel_em``, and the same for midpoint and leapfrog),
@@ -219,9 +234,10 @@ _ACCEPT2 = 2.0 ** -52
 _ACCEPT3 = 2.0 ** -56
 #: em (roundoff="brouwer"): 12 |d1**2 d2| / r1**2 <= 2**-62 r1 after the second chord update
 _ACCEPT4 = 2.0 ** -66
-#: em (roundoff="brouwer"): steps with t = tau / Q above 1/32 (t / (1 + t) = tau w / GM above
-#: 1/33) are finished by pointmass.em_finish (see the module notes)
-_BIG_T = 1.0 / 33.0
+#: em (roundoff="brouwer"): steps with t = tau / Q above 1/128 (t / (1 + t) = tau w / GM above
+#: 1/129) are finished by pointmass.em_finish (see the module notes; 1/32 left a drift of
+#: up to 1e-20 |E| per step from T/20 to T/100)
+_BIG_T = 1.0 / 129.0
 
 # rows of the work array
 _NS = 15  # rows of a state buffer:
@@ -484,7 +500,7 @@ def _increments(ax, ay, az, vx, vy, vz, w, ua, uv, h):
 
 @kernel
 def _em_big_t(w, gm, tau0):
-    """Whether a step's t = tau / Q exceeds 1/32 (w = GM / (Q + tau))."""
+    """Whether a step's t = tau / Q exceeds 1/128 (w = GM / (Q + tau))."""
     return tau0 * w > _BIG_T * gm
 
 
