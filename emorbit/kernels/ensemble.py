@@ -104,6 +104,12 @@ H100), the drift left, and what removed the rest:
   bits) it looked drift-free at T/100 and T/8 (within 1.3 standard errors) but drifted at
   T/30 (-3.1e-20, measured with the old threshold).
 
+Tried for speed and dropped: the last update's ``F`` with only ``D`` carried (``Q``, ``Y``
+and the products plain, an error of a few hundredths of a rounding of ``r1`` at t = 1/128):
+12.6 instead of 15.4 ns per particle-step on the benchmark ensemble, within 1.7 standard
+errors at T/8, T/20, T/100 (two seeds), but +2.1e-21 per step at T/60 (+8.5) and +6.7e-22
+at T/200 (+7.0). Every O(t) term of ``F`` has to be carried.
+
 The one-point reference kernel of :mod:`.pointmass`, which finishes every step, drifted by
 +6.6e-21 at T/100 (4096 copies on the CPU, 2e5 steps, 4.8 standard errors); after the
 first fix above, -1.8e-21 (1.4). Not from the rounding of the increments: with ``u`` and
