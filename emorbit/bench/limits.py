@@ -95,11 +95,14 @@ def measure(counts: dict, threads: int, seconds: float = 0.05) -> dict:
               "sqrt_ns": _best_ns(_sqrt, (a, out), _N, seconds), "kernels": {}}
     big = [np.ascontiguousarray(np.tile(q, (threads, 1))) for q in (a, b, c, d, e)]
     big_out = np.zeros((threads, _N))
+    mixes = {}  # kernels with the same counts share one measurement (their bounds must agree)
     for name, (nsqrt, ndiv) in counts.items():
         if (nsqrt, ndiv) not in MIXES:
             raise ValueError(f"no division / square-root loop with counts {(nsqrt, ndiv)}; known: {MIXES}")
-        one = _best_ns(_mix, (a, b, c, d, e, out, nsqrt, ndiv), _N, seconds)
-        all_ = _best_ns(_mix_parallel, (*big, big_out, nsqrt, ndiv), _N * threads, seconds)
+        if (nsqrt, ndiv) not in mixes:
+            mixes[nsqrt, ndiv] = (_best_ns(_mix, (a, b, c, d, e, out, nsqrt, ndiv), _N, seconds),
+                                  _best_ns(_mix_parallel, (*big, big_out, nsqrt, ndiv), _N * threads, seconds))
+        one, all_ = mixes[nsqrt, ndiv]
         result["kernels"][name] = {
             "sqrts": nsqrt, "divisions": ndiv,
             "sum_ns": nsqrt * result["sqrt_ns"] + ndiv * result["divide_ns"],
