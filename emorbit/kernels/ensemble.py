@@ -99,7 +99,7 @@ H100), the drift left, and what removed the rest:
   before): smaller, never zero, and at T/100 with the finish none of them changed anything
   (+1.09e-21 against +1.02e-21). So they are not in the kernel.
 * What is left: T/100 +4e-22 per step (seeds 0-3: +1.5e-22, +6.1e-22, +4.0e-22, +3.4e-22;
-  z of the mean +4.9), overtaking the random walk after about 1e10 steps; T/1000 -8e-23
+  z +1.0, +3.8, +2.5, +2.1), overtaking the random walk after about 1e10 steps; T/1000 -8e-23
   (-4.3). Where it comes from is not known. Compiled with fused multiply-adds (differing
   bits) it looked drift-free at T/100 and T/8 (within 1.3 standard errors) but drifted at
   T/30 (-3.1e-20, measured with the old threshold).
