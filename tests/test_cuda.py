@@ -94,7 +94,13 @@ CHILD = textwrap.dedent(r'''
     ''') + f"CASES = {CASES!r}\n" + "\n".join(textwrap.dedent(inspect.getsource(f)) for f in (run_case, compare)) + \
     textwrap.dedent(r'''
     out = {"available": K.available()}
+    _, kernels = K._compile()
+    scopes = [d.fn.__globals__ for d in K._devices.values()] + [k.dispatcher.fn.__globals__ for k in kernels.values()]
+    before = [sorted(g) for g in scopes]
     out["chunks"] = {f"{m}{o} dt={dt}": compare(run_case(m, o, dt)) for m, o, dt in CASES}
+    # the simulator iterates a device function's globals on every call, in every simulated
+    # thread: a name added while the threads run (a warning's registry) races with that
+    out["scopes_changed"] = [i for i, (g, b) in enumerate(zip(scopes, before)) if sorted(g) != b]
     gm, n = 3.9478, 33
     r = np.random.default_rng(5).uniform(4.0, 10.0, n)
 
@@ -152,6 +158,7 @@ def test_simulator_kernels_equal_the_cpu_kernels(simulated):
         assert got["fail_centre"] == [0, 2], (case, got)  # the point at the centre, on the GPU too
     assert simulated["chunks"]["em2 dt=0.46"]["iterations"] > 0
     assert simulated["chunks"]["em2 dt=60.0"]["failed"] > 1  # Newton's failures are reported alike
+    assert simulated["scopes_changed"] == []  # no launch adds a name to a device function's globals
 
 
 def test_simulation_on_the_simulated_gpu(simulated):

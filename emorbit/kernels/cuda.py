@@ -150,6 +150,12 @@ def _rebind(f, cuda, devices: dict):
     function); ``cuda`` joins its globals."""
     scope = dict(f.__globals__)
     scope["cuda"] = cuda
+    # A warning raised in a function inserts __warningregistry__ into its globals. On the
+    # simulator every device call iterates its function's globals (numba swaps its cuda
+    # module in), and a point dividing by zero in one simulated thread while another
+    # iterates made that "dictionary changed size during iteration" (seen once in CI); so
+    # the key is there from the start and no launch changes the size of a scope.
+    scope.setdefault("__warningregistry__", {})
     if _simulator() and "math" in scope:  # the simulator runs the device code as Python
         scope["math"] = _SimulatorMath()
     for name in f.__code__.co_names:
