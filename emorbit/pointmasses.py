@@ -56,36 +56,89 @@ class PointMasses:
     kind = "point"
 
     def __init__(self):
-        self.names: list[str] = []
-        self.masses = np.zeros(0)
-        self.x = np.zeros((3, 0))
-        self.v = np.zeros((3, 0))
-        self.cx = np.zeros((3, 0))
-        self.cv = np.zeros((3, 0))
+        self._names: list[str] = []
+        self._index: dict[str, int] | None = {}
+        self._pending: list[tuple[float, np.ndarray, np.ndarray]] = []  # added, not yet in the arrays
+        self._masses = np.zeros(0)
+        self._x = np.zeros((3, 0))
+        self._v = np.zeros((3, 0))
+        self._cx = np.zeros((3, 0))
+        self._cv = np.zeros((3, 0))
 
     def __len__(self) -> int:
-        return len(self.names)
+        return len(self._names)
+
+    def __contains__(self, name) -> bool:
+        if self._index is None or len(self._index) != len(self._names):
+            self._index = {n: i for i, n in enumerate(self._names)}
+        return name in self._index
+
+    def _flush(self) -> None:
+        """Append the points added since the arrays were last read, all at once (adding
+        points one by one then costs O(1) each, not a copy of every array)."""
+        if not self._pending:
+            return
+        m = np.array([p[0] for p in self._pending])
+        x = np.array([p[1] for p in self._pending]).T
+        v = np.array([p[2] for p in self._pending]).T
+        self._pending = []
+        self._masses = np.concatenate([self._masses, m])
+        self._x = np.ascontiguousarray(np.concatenate([self._x, x], axis=1))
+        self._v = np.ascontiguousarray(np.concatenate([self._v, v], axis=1))
+        self._cx = np.ascontiguousarray(np.concatenate([self._cx, np.zeros_like(x)], axis=1))
+        self._cv = np.ascontiguousarray(np.concatenate([self._cv, np.zeros_like(v)], axis=1))
+
+    def _array(name: str, doc: str):
+        def get(self):
+            self._flush()
+            return getattr(self, name)
+
+        def set(self, value):
+            self._flush()
+            setattr(self, name, value)
+
+        return property(get, set, doc=doc)
+
+    masses = _array("_masses", "(n,) masses (kg)")
+    x = _array("_x", "(3, n) positions (m)")
+    v = _array("_v", "(3, n) velocities (m/s)")
+    cx = _array("_cx", "(3, n) compensation terms of x (m)")
+    cv = _array("_cv", "(3, n) compensation terms of v (m/s)")
+    del _array
+
+    @property
+    def names(self) -> list[str]:
+        """Point names, in the order of adding."""
+        return self._names
+
+    @names.setter
+    def names(self, value) -> None:
+        self._names = list(value)
+        self._index = None
 
     def add(self, name: str, mass: float, position: np.ndarray, velocity: np.ndarray) -> None:
-        """Append one point (already validated, SI floats)."""
-        self.names.append(name)
-        self.masses = np.append(self.masses, float(mass))
-        self.x = np.ascontiguousarray(np.column_stack([self.x, np.asarray(position, float)]))
-        self.v = np.ascontiguousarray(np.column_stack([self.v, np.asarray(velocity, float)]))
-        self.cx = np.zeros_like(self.x)
-        self.cv = np.zeros_like(self.v)
+        """Append one point (already validated, SI floats); the others keep their state and
+        compensation terms."""
+        if self._index is not None:
+            self._index[name] = len(self._names)
+        self._names.append(name)
+        self._pending.append((float(mass), np.asarray(position, float).reshape(3).copy(),
+                              np.asarray(velocity, float).reshape(3).copy()))
 
     def pop(self, name: str):
-        """Remove point ``name``; returns (mass, position, velocity)."""
-        i = self.names.index(name)
-        out = (float(self.masses[i]), self.x[:, i].copy(), self.v[:, i].copy())
-        keep = [j for j in range(len(self.names)) if j != i]
-        del self.names[i]
-        self.masses = self.masses[keep]
-        self.x = np.ascontiguousarray(self.x[:, keep])
-        self.v = np.ascontiguousarray(self.v[:, keep])
-        self.cx = np.zeros_like(self.x)
-        self.cv = np.zeros_like(self.v)
+        """Remove point ``name``; returns (mass, position, velocity). The others keep their
+        state and compensation terms."""
+        self._flush()
+        i = self._names.index(name)
+        out = (float(self._masses[i]), self._x[:, i].copy(), self._v[:, i].copy())
+        keep = [j for j in range(len(self._names)) if j != i]
+        del self._names[i]
+        self._index = None
+        self._masses = self._masses[keep]
+        self._x = np.ascontiguousarray(self._x[:, keep])
+        self._v = np.ascontiguousarray(self._v[:, keep])
+        self._cx = np.ascontiguousarray(self._cx[:, keep])
+        self._cv = np.ascontiguousarray(self._cv[:, keep])
         return out
 
     def advance(self, method: str, gm: float, center: np.ndarray, dt: float, gammas: np.ndarray,

@@ -84,6 +84,9 @@ class RigidBodies:
     def __len__(self) -> int:
         return len(self.names)
 
+    def __contains__(self, name) -> bool:
+        return name in self.names
+
     def _pack(self) -> None:
         counts = [len(p) for p in self.points]
         self.offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
@@ -111,9 +114,10 @@ class RigidBodies:
         v = np.concatenate([velocity] + [np.cross(w, R[:, k]) for k in range(3)])
         self.q = np.ascontiguousarray(np.vstack([self.q, q]))
         self.v = np.ascontiguousarray(np.vstack([self.v, v]))
-        self.cq = np.zeros_like(self.q)
-        self.cv = np.zeros_like(self.v)
-        self.lam = np.zeros((len(self.names), 6))
+        # the bodies already there keep their compensation terms and warm starts
+        self.cq = np.ascontiguousarray(np.vstack([self.cq, np.zeros_like(q)]))
+        self.cv = np.ascontiguousarray(np.vstack([self.cv, np.zeros_like(v)]))
+        self.lam = np.ascontiguousarray(np.vstack([self.lam, np.zeros(6)]))
         self._pack()
 
     def pop(self, name: str) -> dict:

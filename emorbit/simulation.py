@@ -223,7 +223,7 @@ class Simulation:
 
     def _new_name(self, name, key: str) -> None:
         check_body_name(name, f"{key}.name")
-        if name in self.names:
+        if any(name in s for s in (self.points, self.rigid, self.structure) if s is not None):
             raise InputError(f"{key}.name", f"a body named {name!r} already exists")
 
     def _check_method_supports(self, system, key: str) -> None:

@@ -252,6 +252,9 @@ class Structure:
     def __len__(self) -> int:
         return len(self.bodies)
 
+    def __contains__(self, name) -> bool:
+        return any(b["name"] == name for b in self.bodies)
+
     def _new_slots(self, u, v, kind, mass):
         s0 = len(self._u)
         for i in range(len(u)):

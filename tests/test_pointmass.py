@@ -173,6 +173,32 @@ def test_points_are_independent():
         assert np.array_equal(alone.state("p")[0], together.state(f"p{i}")[0])
 
 
+def test_adding_a_point_later_keeps_the_others_bit_for_bit():
+    """A point added between runs joins without touching the state of the others: their
+    compensation terms (the part of the exact sum the rounded state misses) are kept, so
+    they go on exactly as if nothing had been added (resetting them changed the last bits)."""
+    def sim_with(names):
+        s = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="em", order=2, dt=PAPER_T / 100)
+        for k, name in enumerate(names):
+            s.add_point(name, mass=1.0, position=PAPER_X0 * (1 + 0.1 * k), velocity=PAPER_V0)
+        return s
+
+    plain, grown = sim_with(["a", "b"]), sim_with(["a", "b"])
+    for s in (plain, grown):
+        s.run(steps=250, every=250, progress=False)
+    assert np.any(grown.points.cx != 0.0)  # there is something to keep
+    grown.add_point("c", mass=2.0, position=PAPER_X0 * 1.3, velocity=PAPER_V0)
+    with pytest.raises(emorbit.InputError, match="already exists"):
+        grown.add_point("b", mass=1.0, position=PAPER_X0, velocity=PAPER_V0)
+    r_plain = plain.run(steps=250, every=250, progress=False)
+    r_grown = grown.run(steps=250, every=250, progress=False)
+    for name in ("a", "b"):
+        assert np.array_equal(plain.state(name)[0], grown.state(name)[0])
+        assert np.array_equal(plain.state(name)[1], grown.state(name)[1])
+    assert np.abs(r_grown.relative_energy_error()).max() < 1e-13
+    assert r_grown.names == ["a", "b", "c"] and len(r_plain.names) == 2
+
+
 def test_center_anywhere():
     """Moving the centre and the orbit together moves the trajectory and nothing else."""
     center = np.array([123.0, -45.0, 6.5])
