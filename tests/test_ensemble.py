@@ -144,6 +144,60 @@ def test_large_t_steps_same_bits_alone_and_packed():
     assert t.max() > 0.2 and t.min() < 1.0 / 128  # measured 0.004 to 0.23
 
 
+@pytest.mark.parametrize("method", [ens.METHOD_EM, ens.METHOD_EM_PLAIN])
+def test_huge_steps_accept_only_true_roots(method):
+    """One step from 4000 states (a = 6 m, e up to 0.99, half of them near pericentre) at T/4
+    to T/50: far from the predictor's reach near pericentre, where Newton can run off to a
+    far or negative r1 and a chord update there looks tiny. Every step the packed kernel accepts
+    conserves the energy as the reference kernel's does (the em step does so exactly), and
+    agrees with the reference's where that one succeeds and the step is not far beyond the
+    local time scale. (Without the size guard of _em_small the check accepted r1 = 1.8e23
+    at T/20 on the paper's orbit, and here steps with the energy off by a factor 2.5.)"""
+    n = 4000
+    rng = np.random.default_rng(11)
+    e = np.concatenate([rng.uniform(0.0, 0.99, n // 2), rng.uniform(0.5, 0.99, n // 2)])
+    M = np.concatenate([rng.uniform(0, 2 * np.pi, n // 2), rng.uniform(-0.3, 0.3, n // 2)])  # half near pericentre
+    x, v = states(np.full(n, 6.0), e, M, seed=11)
+    e0 = energy(x, v)
+    accepted = 0
+    for div in (4, 8, 20, 50):
+        packed = run("ensemble_chunk", method, x, v, T6 / div, 2, 1, 1)
+        reference = run("reference", method, x, v, T6 / div, 2, 1, 1)
+        ok = packed[7][:, 0] < 0
+        ok_ref = reference[7][:, 0] < 0
+        accepted += int(ok.sum())
+        assert np.abs(energy(packed[0], packed[1])[ok] / e0[ok] - 1).max() < 1e-12, div
+        # where s = h**2 GM / (2 r0**3) is large (measured: from 0.40 on) the step's equations
+        # can have more than one root, and the two predictors may lead to different ones
+        s = 0.5 * (T6 / div) ** 2 * GM / (x * x).sum(axis=0) ** 1.5
+        both = ok & ok_ref & (s < 0.25)
+        assert both.sum() > 0.95 * (s < 0.25).sum() > 100, div
+        scale = np.abs(x).max(axis=0)[both]
+        assert (np.abs(packed[0][:, both] - reference[0][:, both]).max(axis=0) / scale).max() < 1e-9, div
+    assert accepted > 0.9 * 4 * n
+
+
+@pytest.mark.parametrize("method", [ens.METHOD_EM, ens.METHOD_EM_PLAIN])
+def test_a_step_whose_newton_runs_off_is_solved(method):
+    """A step of the paper's orbit at T/20 just before pericentre (t about 0.5), met after
+    6e5 steps of one of 1024 perturbed copies: the first Newton update runs off to
+    r1 = -7.7e6, the chord update from there to 4.4e45, where F Q**2 overflows and a Newton
+    update of 0 looked converged (energy off by a factor 4). Now the packed check and the
+    scalar pass accept only r1 with 0 < r1**2 <= 18 a.a + 2 h**2 v0.v0 and the reference
+    kernel's 3-vector Newton solves it: its r1 to round-off, the energy kept."""
+    x = np.array([[-1.910909047550879], [0.9713755097769239], [0.0]])
+    v = np.array([[-1.12513331797952], [-1.3264226541257438], [0.0]])
+    dt = PAPER_T / 20
+    packed = run("ensemble_chunk", method, np.repeat(x, 3, 1), np.repeat(v, 3, 1), dt, 2, 1, 1)
+    alone = run("ensemble_chunk", method, x, v, dt, 2, 1, 1)
+    reference = run("reference", method, x, v, dt, 2, 1, 1)
+    for r in (packed, alone, reference):
+        assert (r[7][:, 0] < 0).all()
+        assert abs(energy(r[0], r[1])[0] / energy(x, v)[0] - 1) < 1e-13
+        np.testing.assert_allclose(r[0][:, :1], reference[0], rtol=0, atol=1e-12)
+    assert packed[6][0, 0] > 2  # it took the scalar pass
+
+
 def run_from(method, x, v, cx, cv, dt, order, every, nrec):
     n = x.shape[1]
     out = (np.empty((nrec, 3, n)), np.empty((nrec, 3, n)), np.zeros((nrec, n), np.int64),
