@@ -407,6 +407,24 @@ def _em_predict(A, P, V, r0, h, gm):
 
 
 @kernel
+def _em_predict_taylor(A, P, V, r0, h, gm):
+    """r1 of the explicit Taylor step with the jerk (roundoff="fast"): :func:`_em_predict`
+    with W to first order, W = h**2/2 GM / r0**3 (1 + 3/2 P / A) for the ``a`` term and
+    h**2/2 GM / r0**3 for the ``v0`` term, an error in r1 of O(h**4). At T/1000 it is
+    accurate enough for the fast step's looser check (error below 5e-7 r1 on the paper's
+    orbit), and its 22 fewer operations per point keep the fast ensemble step at 8.7 instead
+    of 9.9 ns per particle-step (development machine, one thread)."""
+    ir = 1.0 / r0
+    ir2 = ir * ir
+    f = gm * ir2 * ir
+    hf = 0.5 * h
+    alpha = ((h * hf) * f) * (1.0 + 1.5 * P * ir2)
+    b = 1.0 - hf * (hf * f)
+    c = 1.0 - alpha
+    return math.sqrt((c * c) * A - 2.0 * (c * b) * P + (b * b) * V)
+
+
+@kernel
 def _em_f2(A, AL, P, PL, V, rho, Q, tau0, tlo):
     """F Q**2 at r1 = rho, for Q = r0 rho (r0 + rho) (P = h a.v0, V = h**2 v0.v0, with the
     rounding errors AL, PL of A and P, zero for roundoff="fast"; tau = tau0 + tlo)::
@@ -694,7 +712,7 @@ def _implicit_point_impl(method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2,
         A, P, V, r0 = _em_dots(ax, ay, az, y0, y1, y2, h)
         if method == METHOD_EM:
             AL, PL = _em_dots_lo(ax, ay, az, y0, y1, y2, h, A, P, r0)
-        rho = _em_predict(A, P, V, r0, h, gm)
+        rho = _em_predict(A, P, V, r0, h, gm) if method == METHOD_EM else _em_predict_taylor(A, P, V, r0, h, gm)
         rho, d1, qg = _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo)
         if method == METHOD_EM:
             rho, delta = _em_chord_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
@@ -809,8 +827,12 @@ def _pass_em_solve_impl(W, m, h, gm, tau0, tlo, c0, c1, c2, cur, method):
         _loop_em_dots(W, m, h, c0, c1, c2, _BUF0, method)
     else:
         _loop_em_dots(W, m, h, c0, c1, c2, _BUF1, method)
-    for i in range(m):
-        W[_RHO + i] = _em_predict(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], h, gm)
+    if method == METHOD_EM:
+        for i in range(m):
+            W[_RHO + i] = _em_predict(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], h, gm)
+    else:
+        for i in range(m):
+            W[_RHO + i] = _em_predict_taylor(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], h, gm)
     for i in range(m):
         rho, d1, qg = _em_newton(W[_AA + i], W[_AL + i], W[_PP + i], W[_PL + i], W[_VV + i], W[_R0 + i],
                                  W[_RHO + i], tau0, tlo)
