@@ -109,9 +109,14 @@ H100), the drift left, and what removed the rest:
   ``Q`` and increments rounded once (-7.5e-20, -4.2e-20, -2.2e-20, each with the ones
   before): smaller, never zero, and at T/100 with the finish none of them changed anything
   (+1.09e-21 against +1.02e-21). So they are not in the kernel.
-* What is left: T/100 +4e-22 per step (seeds 0-3: +1.5e-22, +6.1e-22, +4.0e-22, +3.4e-22;
+* What was left: T/100 +4e-22 per step (seeds 0-3: +1.5e-22, +6.1e-22, +4.0e-22, +3.4e-22;
   z +1.0, +3.8, +2.5, +2.1), overtaking the random walk after about 1e10 steps; T/1000 -8e-23
-  (-4.3). Where it comes from is not known. Compiled with fused multiply-adds (differing
+  (-4.3). With the two-update step and the series predictor (2026-11-23): T/100 +7.9e-23 and
+  +1.3e-22 (seeds 0, 1; z +0.5, +0.85), T/60 +2.8e-22 (+1.1), T/30 +1.7e-22 (+0.4), T/1000
+  -7.4e-23 (-3.9: still there, cause unknown); that code lacked the acceptance guards, which
+  change no step from T/60 down, and at T/20 it accepted run-off steps (-3e-6 per step); with
+  the guards, CPU only (1024 copies, 1e6 steps, 2 to 4 seeds): T/20, T/30, T/100, T/1000 and
+  T/8 (1e5 steps) all within 1.4 standard errors (README, "Round-off"). Compiled with fused multiply-adds (differing
   bits) it looked drift-free at T/100 and T/8 (within 1.3 standard errors) but drifted at
   T/30 (-3.1e-20, measured with the old threshold).
 
