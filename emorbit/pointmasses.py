@@ -229,9 +229,11 @@ class PointMasses:
 
     def datasets(self, rec: ChunkRecords, nrec: int, times=None, first_row: int = 0) -> dict:
         """{name: {"position": (nrec, 3), "velocity": (nrec, 3)}}."""
-        x, v = rec.x[:nrec], rec.v[:nrec]
-        return {n: {"position": np.ascontiguousarray(x[:, :, i]), "velocity": np.ascontiguousarray(v[:, :, i])}
-                for i, n in enumerate(self.names)}
+        # one transposing copy each, then a contiguous (nrec, 3) view per point (a copy per
+        # point cost about 2 us each, most of the driver's time per record with 1e5 points)
+        x = np.ascontiguousarray(rec.x[:nrec].transpose(2, 0, 1))
+        v = np.ascontiguousarray(rec.v[:nrec].transpose(2, 0, 1))
+        return {n: {"position": x[i], "velocity": v[i]} for i, n in enumerate(self.names)}
 
     def body_datasets(self, i: int) -> dict:
         """{dataset: (width, unit)} of body i."""
