@@ -721,13 +721,13 @@ class _Sink:
         its = iters / np.maximum(k * solves, 1) if k else np.zeros(nrec)
         radius = sim.field.radius if sim.field is not None else 0.0
         if radius > 0.0:  # a body inside the central body: keep the records before, then stop
-            inside = np.zeros(nrec, dtype=bool)
-            for name, d in data.items():
-                inside |= np.linalg.norm(d["position"] - sim.center, axis=-1) < radius
+            names = list(data)
+            pos = np.stack([data[n]["position"] for n in names])  # (bodies, nrec, 3), one pass
+            below = np.einsum("brk,brk->br", pos - sim.center, pos - sim.center) < radius * radius
+            inside = below.any(axis=0)
             if inside.any():
                 first = int(np.argmax(inside))
-                who = next(n for n, d in data.items()
-                           if np.linalg.norm(d["position"][first] - sim.center) < radius)
+                who = names[int(np.argmax(below[:, first]))]
                 if first:
                     self.emit_rows(recs, steps, first, k)
                 raise IntegrationError(float(times[first]), who,

@@ -144,6 +144,27 @@ def test_collision_with_the_central_body(tmp_path):
         emorbit.CentralField(gm=1.0, radius=-1.0)
 
 
+def test_collision_names_the_body_among_many(tmp_path):
+    """Among 50 satellites in safe orbits, the one given too little speed is the one named,
+    at the time of the first record inside; the others' records before it are written."""
+    import astropy.constants as const
+
+    R = const.R_earth.si.value
+    sim = emorbit.Simulation(emorbit.CentralField(body="earth"), method="em", dt=10.0)
+    for i in range(50):
+        r0 = R + 400e3 + 10e3 * i
+        speed = 5000.0 if i == 37 else np.sqrt(const.GM_earth.si.value / r0)
+        sim.add_point(f"s{i}", mass=1.0, position=[0, r0, 0], velocity=[-speed, 0, 0])
+    out = tmp_path / "c.h5"
+    with pytest.raises(emorbit.IntegrationError, match="inside the central body") as info:
+        sim.run(steps=10_000, every=1, output=out)
+    assert info.value.body == "s37"
+    with h5py.File(out, "r") as f:
+        for i in range(50):
+            assert np.linalg.norm(f[f"bodies/s{i}/position"][()], axis=1).min() >= R
+        assert f["time"][-1] < info.value.time
+
+
 def test_stiff_structure_stiffness_ratio_1e8():
     """Two point masses on a bar whose stiffness is 1e8 times the orbital one (axial frequency
     1e4 times the orbital rate) at dt = T/100: stable, energy <= 1e-11, L <= 1e-12."""
