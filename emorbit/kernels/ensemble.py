@@ -32,7 +32,7 @@ Newton update costs one division and no square root (the reference kernel iterat
 
 * Predictor: the step's own equations solved as a series (:func:`_em_predict`): ``h**2 w``
   to fourth order in ``h a.v0 / A``, ``h**2 v0.v0 / A`` and ``tau / r0**3``, an error in
-  ``r1`` of O(h**6) (until 2026-11 the explicit Taylor step with the jerk, O(h**4): on the
+  ``r1`` of O(h**7) (until 2026-11 the explicit Taylor step with the jerk, O(h**4): on the
   paper's orbit at T/100 32 % of the steps needed more than the packed updates, now 6 %).
 * Then a Newton update and a chord update with the same derivative (Traub's method, third
   order, one division); by default the chord update evaluates ``F`` accurately (below).
@@ -394,8 +394,9 @@ def _em_predict(A, P, V, r0, h, gm):
                   + s (1 + 7/2 p + 79/8 p**2 + 2 s - 17/8 v) - v (3/4 + 5/2 p + 105/16 p**2 - 5/8 v)
 
     (the p-only terms are the expansion of 2 / (y (1 + y)), y = sqrt(1 - 2 p)). r1 is then
-    wrong by O(h**6) of r0 instead of O(h**4) with W to first order: on the paper's orbit
-    at T/100 the largest relative error 4.5e-5 instead of 3.8e-3, and the steps that need
+    wrong by O(h**7) of r0 (the first term left out is s times a fifth-order one) instead of
+    O(h**4) with W to first order (tests/test_ensemble.py measures both orders); on the
+    paper's orbit at T/100 the largest relative error 4.5e-5 instead of 3.8e-3, and the steps that need
     more than the packed Newton and chord updates (error above about 3e-6) 6 % instead of
     32 % (at T/1000 the error is below 5e-12; a few more multiply-adds per step)."""
     ir = 1.0 / r0
