@@ -240,7 +240,10 @@ def test_real_gpu_no_drift_at_large_steps(div):
     kernel's bits, 256 times the statistics CI can afford): the ensemble mean of the relative
     energy error within 3.5 standard errors of zero. Measured on an H100: z +1.51, +0.93,
     -0.76, +0.95 for T/20, T/30, T/60, T/100 with steps of t > 1/128 finished on the
-    accurate g_em; with only t > 1/32 finished -21.7, +13.8, +17.8, +5.4."""
+    accurate g_em; with only t > 1/32 finished -21.7, +13.8, +17.8, +5.4. The two-update step
+    (2026-11-23), before its acceptance guards: T/30 +0.40, T/60 +1.12, T/100 +0.50, and T/20
+    -953 (steps whose Newton update ran off, accepted: the guards' reason; with them, T/20
+    was measured on the CPU only, 1024 copies, z -1.4 to +0.6 over four seeds)."""
     from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 
     from emorbit.kernels import cuda as kcuda

@@ -116,9 +116,9 @@ H100), the drift left, and what removed the rest:
   -7.4e-23 (-3.9: still there, cause unknown); that code lacked the acceptance guards, which
   change no step from T/60 down, and at T/20 it accepted run-off steps (-3e-6 per step); with
   the guards, CPU only (1024 copies, 1e6 steps, 2 to 4 seeds): T/20, T/30, T/100, T/1000 and
-  T/8 (1e5 steps) all within 1.4 standard errors (README, "Round-off"). Compiled with fused multiply-adds (differing
-  bits) it looked drift-free at T/100 and T/8 (within 1.3 standard errors) but drifted at
-  T/30 (-3.1e-20, measured with the old threshold).
+  T/8 (1e5 steps) all within 1.4 standard errors (README, "Round-off"). Compiled with fused
+  multiply-adds (differing bits) it looked drift-free at T/100 and T/8 (within 1.3 standard
+  errors) but drifted at T/30 (-3.1e-20, measured with the old threshold).
 
 Tried for speed and dropped: the last update's ``F`` with only ``D`` carried (``Q``, ``Y``
 and the products plain, an error of a few hundredths of a rounding of ``r1`` at t = 1/128):
@@ -396,9 +396,10 @@ def _em_predict(A, P, V, r0, h, gm):
     (the p-only terms are the expansion of 2 / (y (1 + y)), y = sqrt(1 - 2 p)). r1 is then
     wrong by O(h**7) of r0 (the first term left out is s times a fifth-order one) instead of
     O(h**4) with W to first order (tests/test_ensemble.py measures both orders); on the
-    paper's orbit at T/100 the largest relative error 4.5e-5 instead of 3.8e-3, and the steps that need
-    more than the packed Newton and chord updates (error above about 3e-6) 6 % instead of
-    32 % (at T/1000 the error is below 5e-12; a few more multiply-adds per step)."""
+    paper's orbit at T/100 the largest relative error 4.5e-5 instead of 3.8e-3, and the
+    steps that need more than the packed Newton and chord updates (error above about 3e-6)
+    6 % instead of 32 % (at T/1000 the error is below 5e-12; a few more multiply-adds per
+    step)."""
     ir = 1.0 / r0
     ir2 = ir * ir
     s = (0.5 * h) * (h * (gm * (ir2 * ir)))
@@ -418,8 +419,9 @@ def _em_predict_taylor(A, P, V, r0, h, gm):
     with W to first order, W = h**2/2 GM / r0**3 (1 + 3/2 P / A) for the ``a`` term and
     h**2/2 GM / r0**3 for the ``v0`` term, an error in r1 of O(h**4). At T/1000 it is
     accurate enough for the fast step's looser check (error below 5e-7 r1 on the paper's
-    orbit), and its 22 fewer operations per point keep the fast ensemble step at 8.7 instead
-    of 9.9 ns per particle-step (development machine, one thread)."""
+    orbit), and its 22 fewer operations per point keep the fast ensemble step at 8.6 instead
+    of 9.9 ns per particle-step (development machine, one thread, 20,000 particles of the
+    benchmark ensemble, fastest of five runs)."""
     ir = 1.0 / r0
     ir2 = ir * ir
     f = gm * ir2 * ir
@@ -629,8 +631,8 @@ def _resolve_plausible(method, rho, A, V):
 def _resolve_point(method, A, AL, P, PL, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz,
                    c0, c1, c2, max_iter):
     """Finish a point whose packed solve was not accepted: more Newton updates of the
-    scalar unknown; if that misbehaves (leaves the range of :func:`_resolve_plausible`, stops shrinking, runs out of
-    iterations), the reference kernel's Newton on 3-vectors. ``A`` is |a - h/2 v0| for the
+    scalar unknown; if that misbehaves (leaves the range of :func:`_resolve_plausible`,
+    stops shrinking, runs out of iterations), the reference kernel's Newton on 3-vectors. ``A`` is |a - h/2 v0| for the
     midpoint. em (roundoff="brouwer") ends with one more Newton update on the accurate F
     either way, so that no remainder of the iteration is left (see _em_ok_accurate).
     Returns (r0, unknown, extra iterations, status)."""
