@@ -32,15 +32,23 @@ Newton update costs one division and no square root (the reference kernel iterat
 
 * Predictor: the step's own equations solved as a series (:func:`_em_predict`): ``h**2 w``
   to fourth order in ``h a.v0 / A``, ``h**2 v0.v0 / A`` and ``tau / r0**3``, an error in
-  ``r1`` of O(h**7) (until 2026-11 the explicit Taylor step with the jerk, O(h**4): on the
-  paper's orbit at T/100 32 % of the steps needed more than the packed updates, now 6 %).
-* Then a Newton update and a chord update with the same derivative (Traub's method, third
-  order, one division); by default the chord update evaluates ``F`` accurately (below).
-  At T/1000 on an ensemble with e <= 0.9 this leaves round-off for all but a few in a
-  thousand point-steps (those near a close pericentre).
-* A cheap check per point decides: the error left is about ``3 |delta1 delta2| / r1``; it
-  must be below ``eps r1 / 4`` (roundoff="fast") or below ``2**-63 r1`` (default), both
-  updates below ``r1 / 64`` (:func:`_em_small`), and ``r1`` where a root can be,
+  ``r1`` of O(h**7) (until 2026-11 the explicit Taylor step with the jerk, O(h**4), which
+  roundoff="fast" keeps: :func:`_em_predict_taylor`).
+* Default: one Newton update on the accurately evaluated ``F`` (below;
+  :func:`_em_newton_accurate_inline`). From the series predictor at T/1000 of the benchmark
+  ensemble (e <= 0.9) it finishes all but 0.23 % of the point-steps (those near a close
+  pericentre); on the paper's orbit all at T/1000, 83 % at T/200, 56 % at T/100, 25 % at
+  T/60 (measured 2026-11-23 on 200,000 states of the ensemble and 20,000 of the orbit,
+  time-uniform phases); the others go to the scalar pass. Until 2026-11-23 the default
+  took a plain Newton update and then a chord update on the accurate ``F`` (the same root,
+  2 updates): 15.5-16.4 ns per particle-step of the benchmark ensemble on one thread
+  against 13.3-14.9 ns now (development machine, runs alternated).
+  roundoff="fast": a Newton update and a chord update with the same derivative (Traub's
+  method, third order, one division), both on the plain ``F``.
+* A cheap check per point decides: default, Newton leaves about ``d1**2 / (2 r1)`` (the
+  update ``d1``; :func:`_em_ok_newton`), which must be below ``2**-66 r1``; fast, the
+  Newton-chord pair leaves about ``3 |delta1 delta2| / r1``, which must be below
+  ``eps r1 / 4``; the updates below ``r1 / 64`` (:func:`_em_small`), and ``r1`` where a root can be,
   ``0 < r1**2 <= 18 A + 2 V`` (:func:`_em_plausible`): a Newton update that runs off to a
   far or negative ``r1`` can leave a chord update that looks converged there, or one where
   ``F Q**2`` overflows and the update is 0 (until 2026-11 steps at T/4 near pericentre were
@@ -59,10 +67,11 @@ evaluates, so the root it picks is correlated with them, and the energy error of
 is proportional to the error of the root: a drift, not a random walk. By default
 (``METHOD_EM``, roundoff="brouwer"):
 
-* the iteration is accepted only with less than ``2**-63 r1`` left (a thousandth of a
-  rounding; :func:`_em_ok_accurate`; the scalar pass ends with one more chord update), so
-  no one-sided remainder of it is left (until 2026-11: Newton, a plain chord update and a
-  second chord update, 3 updates; now 2, the same remainder);
+* the iteration is accepted only with less than a thousandth of a rounding of ``r1`` left
+  (:func:`_em_ok_newton`; the scalar pass ends with a chord update on the accurate ``F``,
+  accepted below ``2**-63 r1``: :func:`_em_ok_accurate`), so no one-sided remainder of it is
+  left (until 2026-11: Newton, a plain chord update and a second chord update, 3 updates;
+  then Newton and the accurate chord, 2; since 2026-11-23 one accurate Newton update);
 * that last update evaluates ``F`` with every rounding of a quantity that depends on ``r1``
   carried to well below a rounding of ``r1`` (:func:`_em_f2_accurate`: ``Q``, ``r1**2``,
   ``D``, the products), and the rounding errors of ``A`` and ``P`` (:func:`_em_dots_lo`);
@@ -135,10 +144,11 @@ first fix above, -1.8e-21 (1.4). Not from the rounding of the increments: with `
 ``F Q**2`` in its first form, ``(r1 Qp)**2 - (Qm (A Qm - 2 P Q) + V Q**2)``, loses a rounding
 of ``(r1 Qp)**2`` to the cancellation; carrying only the rounding errors of ``A``, ``P``,
 ``V``, ``tau`` or ``|a|`` into it changed nothing (+5.5 to +6.2e-20). Cost, measured on the
-development machine for the benchmark ensemble (T/1000) on one thread: 14.5 ns per
-particle-step against 8.8 ns with roundoff="fast" and about 22 ns with the reference
-kernel's finish in every step, as this kernel did before. With roundoff="fast"
-(``METHOD_EM_PLAIN``) ``AL = PL = 0`` and the iteration stops after Newton + chord.
+development machine for the benchmark ensemble (T/1000) on one thread: 13.3-14.9 ns per
+particle-step (14.5-16.4 ns with the two updates before 2026-11-23) against 8.6-9.1 ns with
+roundoff="fast" and about 22 ns with the reference kernel's finish in every step, as this
+kernel did before. With roundoff="fast" (``METHOD_EM_PLAIN``) ``AL = PL = 0`` and the
+iteration stops after Newton + chord.
 
 The implicit midpoint step reduces the same way: ``m = a - dx/2`` (the centre seen from the
 midpoint) has ``|m| (1 + t/2) = |a - h/2 v0|`` with ``t = tau / |m|**3``, a cubic in
@@ -178,7 +188,7 @@ Counted per em point and sub-step on the packed path (the bench derives the boun
 division and square-root throughput from these): :data:`EM_PLAIN_SQRTS` square roots
 (``|a|``, the predictor's ``r1``) and :data:`EM_PLAIN_DIVISIONS` divisions (``1/|a|``, the
 Newton update, ``w``); the default em counts the same (:data:`EM_SQRTS`,
-:data:`EM_DIVISIONS`): its accurate ``F`` and second chord update need neither (the steps
+:data:`EM_DIVISIONS`): its Newton update on the accurate ``F`` has the one division (the steps
 finished by the reference kernel's finish, t > 1/128, are not counted).
 
 Each method has its own compiled entry kernels (``_range_em``, ``_points_em`` for fewer
@@ -239,8 +249,8 @@ _PACKED_MIN = 4
 PARALLEL_MIN = 1024
 
 #: square roots and divisions per em point and sub-step on the packed path: |a| and the
-#: predictor's root; the predictor's 1 / |a|, the Newton update's and w's (the chord updates
-#: and, by default, the accurate F need none)
+#: predictor's root; the predictor's 1 / |a|, the Newton update's and w's (the fast step's
+#: chord update and the default's accurate F need none)
 EM_SQRTS = 2
 EM_DIVISIONS = 3
 #: the same for em with roundoff="fast"
@@ -257,6 +267,9 @@ _ACCEPT3 = 2.0 ** -56
 #: em (roundoff="brouwer"): a Newton update d1 and then a chord update d2 on the accurate F
 #: leave about 3 |d1 d2| / r1: |d1 d2| <= 2**-65 r1**2 leaves below 2**-63 r1
 _ACCEPT_ACC = 2.0 ** -65
+#: em (roundoff="brouwer", the packed pass): one Newton update d1 on the accurate F from the
+#: series predictor leaves about d1**2 / (2 r1): |d1| <= 2**-32.5 r1 leaves below 2**-66 r1
+_ACCEPT_NEWTON = 2.0 ** -65
 #: ... and only where both updates are below r1 / 64 (a Newton update that ran off to a far
 #: or negative r1 can leave a chord update tiny against that r1: at T/20 near pericentre
 #: one went to -4907 from 1.7 and the chord to 1.8e23, "converged")
@@ -287,13 +300,13 @@ _ST = 52 * LD  # failure code of the current step (0: none)
 _EXTRA = 53 * LD  # Newton iterations beyond the packed ones, in the current record interval
 _ALIVE = 54 * LD  # 1 until the point fails
 _WG = 55 * LD  # w, the size of gravity over the step (g = w (ua a - uv v0))
-_QG = 56 * LD  # Q / (F' Q**3) of the Newton update, reused by the chord update
+_QG = 56 * LD  # Q / (F' Q**3) of the Newton update, reused by the chord update (fast em)
 _AL = 57 * LD  # em (roundoff="brouwer"): the rounding error of a.a
 _PL = 58 * LD  # em (roundoff="brouwer"): the rounding error of h a.v0
 _NROWS = 59
 
-#: Newton iterations every packed point does per sub-step (em: Newton + chord, the chord
-#: on the accurate F with roundoff="brouwer"; midpoint: 2 Newton; leapfrog: none)
+#: Newton iterations every packed point does per sub-step (fast em: Newton + chord;
+#: midpoint: 2 Newton; leapfrog: none; the default em does one, see _packed_iters)
 _PACKED_ITERS = 2
 
 _inline = kernel(inline="always")
@@ -304,7 +317,9 @@ _inline = kernel(inline="always")
 
 @kernel
 def _packed_iters(method):
-    return 0 if method == METHOD_LEAPFROG else _PACKED_ITERS
+    if method == METHOD_LEAPFROG:
+        return 0
+    return 1 if method == METHOD_EM else _PACKED_ITERS
 
 
 @kernel
@@ -396,10 +411,9 @@ def _em_predict(A, P, V, r0, h, gm):
     (the p-only terms are the expansion of 2 / (y (1 + y)), y = sqrt(1 - 2 p)). r1 is then
     wrong by O(h**7) of r0 (the first term left out is s times a fifth-order one) instead of
     O(h**4) with W to first order (tests/test_ensemble.py measures both orders); on the
-    paper's orbit at T/100 the largest relative error 4.5e-5 instead of 3.8e-3, and the
-    steps that need more than the packed Newton and chord updates (error above about 3e-6)
-    6 % instead of 32 % (at T/1000 the error is below 5e-12; a few more multiply-adds per
-    step)."""
+    paper's orbit at T/100 the largest relative error 4.5e-5 instead of 3.8e-3 (at T/1000
+    below 5e-12; a few more multiply-adds per step), so that one Newton update finishes most
+    steps (see the module notes)."""
     ir = 1.0 / r0
     ir2 = ir * ir
     s = (0.5 * h) * (h * (gm * (ir2 * ir)))
@@ -503,18 +517,28 @@ def _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo):
     return rho - delta, delta, qg
 
 
-@_inline
-def _em_chord_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo, qg):
-    """:func:`_em_chord` on :func:`_em_f2_accurate`, inlined (the packed loop: LLVM vectorises
-    it only so)."""
+@kernel
+def _em_chord_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo, qg):
+    """:func:`_em_chord` on :func:`_em_f2_accurate`: the last update of a step that the
+    scalar pass finished (see :func:`_resolve_point`)."""
     delta = _em_f2_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo) * qg
     return rho - delta, delta
 
 
-@kernel
-def _em_chord_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo, qg):
-    """:func:`_em_chord` on :func:`_em_f2_accurate` (one compiled copy for the scalar paths)."""
-    return _em_chord_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
+@_inline
+def _em_newton_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo):
+    """A Newton update of r1 on the accurate F (:func:`_em_f2_accurate`; the derivative
+    F' Q**3 in plain floating point, as in :func:`_em_fg`: its rounding changes the update by
+    a few eps of itself): (r1_new, delta). Inlined (the packed loop: LLVM vectorises it only
+    so); the shared products (``r0 rho``, ``r0 + rho``, ``Q``) are formed once."""
+    f2 = _em_f2_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo)
+    s = r0 + rho
+    Q = r0 * rho * s
+    Qp = Q + tau0
+    rq = rho * Qp
+    g = rq * Qp * Q - (tau0 * r0) * (s + rho) * (rho * rq + A * (Q - tau0) - P * Q)
+    delta = f2 * (Q / (g + g))
+    return rho - delta, delta
 
 
 @kernel
@@ -552,6 +576,15 @@ def _em_ok_accurate(d1, d2, rho, A, V):
     thousandth of a rounding. The root is then that of the accurate F, with no one-sided
     remainder of the iteration left in it."""
     return (abs(d1 * d2) <= _ACCEPT_ACC * (rho * rho)) & _em_small(d1, d2, rho) & _em_plausible(rho, A, V)
+
+
+@kernel
+def _em_ok_newton(d1, rho, A, V):
+    """After one Newton update d1 on the accurate F from the series predictor (default em):
+    Newton leaves about |F''/(2 F')| d1**2 ~ d1**2 / (2 r1), so |d1| <= 2**-32.5 r1 leaves
+    below 2**-66 r1, a ten-thousandth of a rounding. The root is then that of the accurate F,
+    with no one-sided remainder of the iteration left in it."""
+    return (d1 * d1 <= _ACCEPT_NEWTON * (rho * rho)) & _em_small(d1, d1, rho) & _em_plausible(rho, A, V)
 
 
 @kernel
@@ -632,10 +665,10 @@ def _resolve_point(method, A, AL, P, PL, V, r0, rho, prev, h, gm, tau0, tlo, px,
                    c0, c1, c2, max_iter):
     """Finish a point whose packed solve was not accepted: more Newton updates of the
     scalar unknown; if that misbehaves (leaves the range of :func:`_resolve_plausible`,
-    stops shrinking, runs out of iterations), the reference kernel's Newton on 3-vectors. ``A`` is |a - h/2 v0| for the
-    midpoint. em (roundoff="brouwer") ends with one more Newton update on the accurate F
-    either way, so that no remainder of the iteration is left (see _em_ok_accurate).
-    Returns (r0, unknown, extra iterations, status)."""
+    stops shrinking, runs out of iterations), the reference kernel's Newton on 3-vectors.
+    ``A`` is |a - h/2 v0| for the midpoint. em (roundoff="brouwer") ends with a chord update
+    on the accurate F either way, so that no remainder of the iteration is left (see
+    _em_ok_accurate). Returns (r0, unknown, extra iterations, status)."""
     packed = _packed_iters(method)
     it = packed
     while it < max_iter and _resolve_plausible(method, rho, A, V):
@@ -720,12 +753,13 @@ def _implicit_point_impl(method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2,
         A, P, V, r0 = _em_dots(ax, ay, az, y0, y1, y2, h)
         if method == METHOD_EM:
             AL, PL = _em_dots_lo(ax, ay, az, y0, y1, y2, h, A, P, r0)
-        rho = _em_predict(A, P, V, r0, h, gm) if method == METHOD_EM else _em_predict_taylor(A, P, V, r0, h, gm)
-        rho, d1, qg = _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo)
         if method == METHOD_EM:
-            rho, delta = _em_chord_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
-            ok = _em_ok_accurate(d1, delta, rho, A, V)
+            rho = _em_predict(A, P, V, r0, h, gm)
+            rho, delta = _em_newton_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo)
+            ok = _em_ok_newton(delta, rho, A, V)
         else:
+            rho = _em_predict_taylor(A, P, V, r0, h, gm)
+            rho, d1, qg = _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo)
             rho, delta = _em_chord(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
             ok = _em_ok(d1, delta, rho, A, V)
     else:
@@ -828,9 +862,10 @@ def _loop_em_dots(W, m, h, c0, c1, c2, S, method):
 
 @_inline
 def _pass_em_solve_impl(W, m, h, gm, tau0, tlo, c0, c1, c2, cur, method):
-    """Dot products, predictor, Newton and chord updates of r1 (em: a second chord update on
-    the accurate F), and w, for every point, as short loops. Returns the count of points not
-    accepted (flagged in _PEND). With roundoff="fast" the rows _AL and _PL stay zero."""
+    """Dot products, predictor, the updates of r1 (em: one Newton update on the accurate F;
+    fast: Newton and chord on the plain F), and w, for every point, as short loops. Returns
+    the count of points not accepted (flagged in _PEND). With roundoff="fast" the rows _AL
+    and _PL stay zero."""
     if cur == 0:
         _loop_em_dots(W, m, h, c0, c1, c2, _BUF0, method)
     else:
@@ -841,28 +876,26 @@ def _pass_em_solve_impl(W, m, h, gm, tau0, tlo, c0, c1, c2, cur, method):
     else:
         for i in range(m):
             W[_RHO + i] = _em_predict_taylor(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], h, gm)
-    for i in range(m):
-        rho, d1, qg = _em_newton(W[_AA + i], W[_AL + i], W[_PP + i], W[_PL + i], W[_VV + i], W[_R0 + i],
-                                 W[_RHO + i], tau0, tlo)
-        W[_RHO + i] = rho
-        W[_DEL + i] = d1
-        W[_QG + i] = qg
+        for i in range(m):
+            rho, d1, qg = _em_newton(W[_AA + i], W[_AL + i], W[_PP + i], W[_PL + i], W[_VV + i], W[_R0 + i],
+                                     W[_RHO + i], tau0, tlo)
+            W[_RHO + i] = rho
+            W[_DEL + i] = d1
+            W[_QG + i] = qg
     npend = 0
     for i in range(m):
-        d1 = W[_DEL + i]
         r0 = W[_R0 + i]
         A = W[_AA + i]
         AL = W[_AL + i]
         P = W[_PP + i]
         PL = W[_PL + i]
         V = W[_VV + i]
-        qg = W[_QG + i]
         if method == METHOD_EM:
-            rho, delta = _em_chord_accurate_inline(A, AL, P, PL, V, r0, W[_RHO + i], tau0, tlo, qg)
-            ok = _em_ok_accurate(d1, delta, rho, A, V)
+            rho, delta = _em_newton_accurate_inline(A, AL, P, PL, V, r0, W[_RHO + i], tau0, tlo)
+            ok = _em_ok_newton(delta, rho, A, V)
         else:
-            rho, delta = _em_chord(A, AL, P, PL, V, r0, W[_RHO + i], tau0, tlo, qg)
-            ok = _em_ok(d1, delta, rho, A, V)
+            rho, delta = _em_chord(A, AL, P, PL, V, r0, W[_RHO + i], tau0, tlo, W[_QG + i])
+            ok = _em_ok(W[_DEL + i], delta, rho, A, V)
         W[_WG + i] = _em_w(r0, rho, gm, tau0, tlo)
         W[_PEND + i] = 0.0 if ok else 1.0
         W[_RHO + i] = rho
