@@ -363,14 +363,15 @@ class Simulation:
                 raise InputError(f"{key}.nodes", f"node {n} is not in 0..{spec.nodes.shape[0] - 1}")
         if to == elastic:
             raise InputError(f"{key}.to", "a body cannot be attached to itself")
-        if to in self.points.names:
-            m, x, v = self.points.pop(to)
+        if to in self.points:
+            # checked before the point leaves self.points: a refused attachment changes nothing
             if len(idx) != 1:
-                raise InputError(f"{key}.nodes", "a point mass takes exactly one node")
+                raise InputError(f"{key}.nodes", f"a point mass takes exactly one node, got {len(idx)}")
+            x = self.points.x[:, self.points.names.index(to)]
             if np.linalg.norm(spec.nodes[idx[0]] - x) > 1e-9 * max(1.0, np.linalg.norm(x)):
-                self.points.add(to, m, x, v)
                 raise InputError(f"{key}.nodes", f"node {idx[0]} starts at {spec.nodes[idx[0]].tolist()} m, "
                                                  f"not at point mass {to!r} ({x.tolist()} m)")
+            m, x, v = self.points.pop(to)
             st.add_point(to, m, x, v)
         elif self.rigid is not None and to in self.rigid.names:
             b = self.rigid.pop(to)

@@ -211,10 +211,18 @@ def test_bad_meshes_and_couplings(tmp_path):
         sim.attach("c", [7], "p")
     with pytest.raises(InputError, match="no point mass or rigid body"):
         sim.attach("c", [0], "q")
+    sim.add_point("p2", mass=2.0, position=[R_ORBIT, 100.0, 0], velocity=[0, 7000.0, 0])
+    before = (list(sim.points.names), sim.points.x.copy(), sim.points.v.copy(), sim.points.masses.copy())
     with pytest.raises(InputError, match="starts at"):
         sim.attach("c", [2], "p")
-    assert "p" in sim.points.names  # a refused attachment leaves the point mass where it was
+    with pytest.raises(InputError, match="exactly one node, got 2"):
+        sim.attach("c", [0, 1], "p")
+    # a refused attachment leaves the point masses as they were: same order, same state
+    assert list(sim.points.names) == before[0] == ["p", "p2"]
+    for now, then in zip((sim.points.x, sim.points.v, sim.points.masses), before[1:]):
+        np.testing.assert_array_equal(now, then)
     sim.attach("c", [0], "p")
+    assert list(sim.points.names) == ["p2"]
     sim2 = emorbit.Simulation(emorbit.CentralField(body="earth"), dt=1.0)
     sim2.add_point("p", mass=1.0, position=[R_ORBIT, 0, 0], velocity=[0, 7000.0, 0])
     sim2.add_elastic("c", "chain", start=[0, 0, 0], end=[10.0, 0, 0], elements=2, young=1e9, area=1e-4,
