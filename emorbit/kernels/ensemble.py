@@ -54,8 +54,9 @@ Newton update costs one division and no square root (the reference kernel iterat
   ``F Q**2`` overflows and the update is 0 (until 2026-11 steps at T/4 near pericentre were
   accepted so, the energy off by a factor 2.5, and with the new predictor, before these
   guards, steps at T/20 of the paper's orbit; tests/test_ensemble.py).
-  Points that fail it get more Newton updates in a scalar pass (until
-  ``|delta| <= 2**-26 r1`` within that range); a point whose scalar Newton iteration misbehaves
+  Points that fail it get more Newton updates in a scalar pass (default: on the accurate
+  ``F``, until the same check passes; fast: until ``|delta| <= 2**-26 r1`` within that
+  range); a point whose scalar Newton iteration misbehaves
   (leaves that range, stops shrinking, runs out of iterations) is solved by the reference
   kernel's 3-vector Newton (:func:`~.pointmass.em_step`), whose stopping and failure rules
   then apply unchanged. Every point's energy stays at round-off; e up to 0.99 is tested.
@@ -67,11 +68,11 @@ evaluates, so the root it picks is correlated with them, and the energy error of
 is proportional to the error of the root: a drift, not a random walk. By default
 (``METHOD_EM``, roundoff="brouwer"):
 
-* the iteration is accepted only with less than a thousandth of a rounding of ``r1`` left
-  (:func:`_em_ok_newton`; the scalar pass ends with a chord update on the accurate ``F``,
-  accepted below ``2**-63 r1``: :func:`_em_ok_accurate`), so no one-sided remainder of it is
-  left (until 2026-11: Newton, a plain chord update and a second chord update, 3 updates;
-  then Newton and the accurate chord, 2; since 2026-11-23 one accurate Newton update);
+* the iteration is accepted only with less than a ten-thousandth of a rounding of ``r1``
+  left (:func:`_em_ok_newton`, in the packed and in the scalar pass), so no one-sided
+  remainder of it is left (until 2026-11: Newton, a plain chord update and a second chord
+  update, 3 updates; then Newton and the accurate chord, 2; since 2026-11-23 one Newton
+  update on the accurate ``F``, and in the scalar pass more of them);
 * that last update evaluates ``F`` with every rounding of a quantity that depends on ``r1``
   carried to well below a rounding of ``r1`` (:func:`_em_f2_accurate`: ``Q``, ``r1**2``,
   ``D``, the products), and the rounding errors of ``A`` and ``P`` (:func:`_em_dots_lo`);
@@ -264,11 +265,8 @@ LEAPFROG_DIVISIONS = 1
 _ACCEPT2 = 2.0 ** -52
 #: em: accept a Newton-chord pair |delta1 delta2| <= 2**-56 r1**2 (error ~ 4 |d1 d2| / r1)
 _ACCEPT3 = 2.0 ** -56
-#: em (roundoff="brouwer"): a Newton update d1 and then a chord update d2 on the accurate F
-#: leave about 3 |d1 d2| / r1: |d1 d2| <= 2**-65 r1**2 leaves below 2**-63 r1
-_ACCEPT_ACC = 2.0 ** -65
-#: em (roundoff="brouwer", the packed pass): one Newton update d1 on the accurate F from the
-#: series predictor leaves about d1**2 / (2 r1): |d1| <= 2**-32.5 r1 leaves below 2**-66 r1
+#: em (roundoff="brouwer"): a Newton update d1 on the accurate F leaves about d1**2 / (2 r1):
+#: |d1| <= 2**-32.5 r1 leaves below 2**-66 r1
 _ACCEPT_NEWTON = 2.0 ** -65
 #: ... and only where both updates are below r1 / 64 (a Newton update that ran off to a far
 #: or negative r1 can leave a chord update tiny against that r1: at T/20 near pericentre
@@ -517,14 +515,6 @@ def _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo):
     return rho - delta, delta, qg
 
 
-@kernel
-def _em_chord_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo, qg):
-    """:func:`_em_chord` on :func:`_em_f2_accurate`: the last update of a step that the
-    scalar pass finished (see :func:`_resolve_point`)."""
-    delta = _em_f2_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo) * qg
-    return rho - delta, delta
-
-
 @_inline
 def _em_newton_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo):
     """A Newton update of r1 on the accurate F (:func:`_em_f2_accurate`; the derivative
@@ -570,17 +560,8 @@ def _em_ok(d1, d2, rho, A, V):
 
 
 @kernel
-def _em_ok_accurate(d1, d2, rho, A, V):
-    """After a Newton update d1 and a chord update d2 on the accurate F (error of the chord's
-    derivative a relative ~3 |d1| / r1, so about 3 |d1 d2| / r1 left): below 2**-63 r1, a
-    thousandth of a rounding. The root is then that of the accurate F, with no one-sided
-    remainder of the iteration left in it."""
-    return (abs(d1 * d2) <= _ACCEPT_ACC * (rho * rho)) & _em_small(d1, d2, rho) & _em_plausible(rho, A, V)
-
-
-@kernel
 def _em_ok_newton(d1, rho, A, V):
-    """After one Newton update d1 on the accurate F from the series predictor (default em):
+    """After a Newton update d1 on the accurate F (default em, packed and scalar pass):
     Newton leaves about |F''/(2 F')| d1**2 ~ d1**2 / (2 r1), so |d1| <= 2**-32.5 r1 leaves
     below 2**-66 r1, a ten-thousandth of a rounding. The root is then that of the accurate F,
     with no one-sided remainder of the iteration left in it."""
@@ -666,22 +647,26 @@ def _resolve_point(method, A, AL, P, PL, V, r0, rho, prev, h, gm, tau0, tlo, px,
     """Finish a point whose packed solve was not accepted: more Newton updates of the
     scalar unknown; if that misbehaves (leaves the range of :func:`_resolve_plausible`,
     stops shrinking, runs out of iterations), the reference kernel's Newton on 3-vectors.
-    ``A`` is |a - h/2 v0| for the midpoint. em (roundoff="brouwer") ends with a chord update
-    on the accurate F either way, so that no remainder of the iteration is left (see
-    _em_ok_accurate). Returns (r0, unknown, extra iterations, status)."""
+    ``A`` is |a - h/2 v0| for the midpoint. em (roundoff="brouwer") iterates on the
+    accurate F and accepts as the packed pass does (:func:`_em_ok_newton`), and after the
+    reference kernel's Newton takes one more update on it, so that no remainder of the
+    iteration is left. Returns (r0, unknown, extra iterations, status)."""
     packed = _packed_iters(method)
     it = packed
     while it < max_iter and _resolve_plausible(method, rho, A, V):
-        if method != METHOD_MIDPOINT:
-            rho, delta, qg = _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo)
+        if method == METHOD_EM:
+            rho, delta = _em_newton_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo)
+            it += 1
+            if _em_ok_newton(delta, rho, A, V):
+                return r0, rho, it - packed, STATUS_OK
         else:
-            rho, delta = _mid_newton(A, rho, tau0)
-        it += 1
-        if _mid_ok(delta, rho) and _resolve_plausible(method, rho, A, V):
-            if method == METHOD_EM:  # the remainder (below ~2**-53 r1) to below ~2**-77 r1
-                rho, delta = _em_chord_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
-                it += 1
-            return r0, rho, it - packed, STATUS_OK
+            if method == METHOD_EM_PLAIN:
+                rho, delta, qg = _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo)
+            else:
+                rho, delta = _mid_newton(A, rho, tau0)
+            it += 1
+            if _mid_ok(delta, rho) and _resolve_plausible(method, rho, A, V):
+                return r0, rho, it - packed, STATUS_OK
         if not abs(delta) < prev:
             break
         prev = abs(delta)
@@ -702,9 +687,8 @@ def _resolve_point(method, A, AL, P, PL, V, r0, rho, prev, h, gm, tau0, tlo, px,
         r0 = math.sqrt(ax * ax + ay * ay + az * az)
         rho = math.sqrt(bx * bx + by * by + bz * bz)
         if method == METHOD_EM and status == STATUS_OK and _em_plausible(rho, A, V):
-            rho, delta, qg = _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo)
-            rho, delta = _em_chord_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo, qg)
-            extra += 2
+            rho, delta = _em_newton_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo)
+            extra += 1
     else:
         mx = ax - 0.5 * d0
         my = ay - 0.5 * d1
