@@ -126,7 +126,12 @@ H100), the drift left, and what removed the rest:
   -7.4e-23 (-3.9: still there, cause unknown); that code lacked the acceptance guards, which
   change no step from T/60 down, and at T/20 it accepted run-off steps (-3e-6 per step); with
   the guards, CPU only (1024 copies, 1e6 steps, 2 to 4 seeds): T/20, T/30, T/100, T/1000 and
-  T/8 (1e5 steps) all within 1.4 standard errors (README, "Round-off"). Compiled with fused
+  T/8 (1e5 steps) all within 1.4 standard errors (README, "Round-off"). With one accurate
+  Newton update (the same correctly rounded root: tests/test_ensemble.py), CPU, 1024 copies,
+  1e6 steps, seeds 0 and 1: T/20, T/30, T/60, T/100, T/200 and T/8 within 1.6 standard
+  errors; T/1000 (4096 copies) -6.8e-23 and -2.7e-22 (z -0.9, -3.6), the same as the
+  two-update step on the same copies (-7.2e-23, -2.7e-22): that drift is not in the root.
+  Compiled with fused
   multiply-adds (differing bits) it looked drift-free at T/100 and T/8 (within 1.3 standard
   errors) but drifted at T/30 (-3.1e-20, measured with the old threshold).
 
@@ -532,6 +537,15 @@ def _em_newton_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo):
 
 
 @kernel
+def _em_newton_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo):
+    """:func:`_em_newton_accurate_inline` as one compiled function, for the scalar pass. (With
+    its two uses there inlined the first compile of an em run took 16.1-16.5 s, so 13.7-16.1 s
+    (``emorbit run paper-ellipse`` with an empty cache, 3 and 5 runs); the inlined copies
+    saved 3 ns of 104 per step of the paper's orbit at T/100.)"""
+    return _em_newton_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo)
+
+
+@kernel
 def _em_chord(A, AL, P, PL, V, r0, rho, tau0, tlo, qg):
     """A chord update of r1 with the previous Newton update's derivative: (r1_new, delta).
     (F Q1**2 times Q0 / (F'(r1_0) Q0**3): Q1 taken for Q0, a relative 3 |delta1| / r1 of delta.)"""
@@ -655,7 +669,7 @@ def _resolve_point(method, A, AL, P, PL, V, r0, rho, prev, h, gm, tau0, tlo, px,
     it = packed
     while it < max_iter and _resolve_plausible(method, rho, A, V):
         if method == METHOD_EM:
-            rho, delta = _em_newton_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo)
+            rho, delta = _em_newton_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo)
             it += 1
             if _em_ok_newton(delta, rho, A, V):
                 return r0, rho, it - packed, STATUS_OK
@@ -687,7 +701,7 @@ def _resolve_point(method, A, AL, P, PL, V, r0, rho, prev, h, gm, tau0, tlo, px,
         r0 = math.sqrt(ax * ax + ay * ay + az * az)
         rho = math.sqrt(bx * bx + by * by + bz * bz)
         if method == METHOD_EM and status == STATUS_OK and _em_plausible(rho, A, V):
-            rho, delta = _em_newton_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo)
+            rho, delta = _em_newton_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo)
             extra += 1
     else:
         mx = ax - 0.5 * d0
