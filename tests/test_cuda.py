@@ -243,7 +243,10 @@ def test_real_gpu_no_drift_at_large_steps(div):
     accurate g_em; with only t > 1/32 finished -21.7, +13.8, +17.8, +5.4. The two-update step
     (2026-11-23), before its acceptance guards: T/30 +0.40, T/60 +1.12, T/100 +0.50, and T/20
     -953 (steps whose Newton update ran off, accepted: the guards' reason; with them, T/20
-    was measured on the CPU only, 1024 copies, z -1.4 to +0.6 over four seeds)."""
+    was measured on the CPU only, 1024 copies, z -1.4 to +0.6 over four seeds). The one-update
+    step (2026-11-23, second session) is not yet measured here (no GPU in that session); on the
+    CPU, 1024 copies, two seeds: T/20 +0.78, -0.31; T/30 +0.57, -0.60; T/60 -0.09, -0.04; T/100
+    -1.10, +1.52."""
     from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 
     from emorbit.kernels import cuda as kcuda
