@@ -132,7 +132,7 @@ H100), the drift left, and what removed the rest:
   errors; T/1000 (4096 copies) -6.8e-23 and -2.7e-22 (z -0.9, -3.6), the same as the
   two-update step on the same copies (-7.2e-23, -2.7e-22): that drift is not in the root.
   With every step finished (``_BIG_T = 0``) the same copies give -2.75e-23 and -4.3e-24 (z
-  -0.50, -0.08), as the reference kernel does: it comes from the plainly evaluated
+  -0.50, -0.08), as the reference kernel does: it points to the plainly evaluated
   increments of the unfinished steps (finishing all costs 93 instead of 14 ns per
   particle-step in the scalar pass).
   Compiled with fused
