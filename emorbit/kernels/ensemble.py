@@ -508,16 +508,23 @@ def _em_f2_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo):
     return F + ((eF + (T1l + T2l)) + (tau0 * tau0) * D1)
 
 
-@kernel
-def _em_fg(A, AL, P, PL, V, r0, rho, tau0, tlo):
-    """F Q**2 (:func:`_em_f2`) and F' Q**3 at r1 = rho, and Q = r0 rho (r0 + rho):
+@_inline
+def _em_g3(A, P, r0, rho, tau0):
+    """F' Q**3 at r1 = rho, and Q = r0 rho (r0 + rho), in plain floating point:
     F' Q**3 = 2 rho Qp**2 Q - 2 tau0 r0 (r0 + 2 rho) (rho**2 Qp + A Qm - P Q)."""
     s = r0 + rho
     Q = r0 * rho * s
     Qp = Q + tau0
     rq = rho * Qp
     g = rq * Qp * Q - (tau0 * r0) * (s + rho) * (rho * rq + A * (Q - tau0) - P * Q)
-    return _em_f2(A, AL, P, PL, V, rho, Q, tau0, tlo), g + g, Q
+    return g + g, Q
+
+
+@kernel
+def _em_fg(A, AL, P, PL, V, r0, rho, tau0, tlo):
+    """F Q**2 (:func:`_em_f2`) and F' Q**3 (:func:`_em_g3`) at r1 = rho, and Q."""
+    g3, Q = _em_g3(A, P, r0, rho, tau0)
+    return _em_f2(A, AL, P, PL, V, rho, Q, tau0, tlo), g3, Q
 
 
 @kernel
@@ -532,16 +539,10 @@ def _em_newton(A, AL, P, PL, V, r0, rho, tau0, tlo):
 @_inline
 def _em_newton_accurate_inline(A, AL, P, PL, V, r0, rho, tau0, tlo):
     """A Newton update of r1 on the accurate F (:func:`_em_f2_accurate`; the derivative
-    F' Q**3 in plain floating point, as in :func:`_em_fg`: its rounding changes the update by
-    a few eps of itself): (r1_new, delta). Inlined (the packed loop: LLVM vectorises it only
-    so); the shared products (``r0 rho``, ``r0 + rho``, ``Q``) are formed once."""
-    f2 = _em_f2_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo)
-    s = r0 + rho
-    Q = r0 * rho * s
-    Qp = Q + tau0
-    rq = rho * Qp
-    g = rq * Qp * Q - (tau0 * r0) * (s + rho) * (rho * rq + A * (Q - tau0) - P * Q)
-    delta = f2 * (Q / (g + g))
+    in plain floating point, :func:`_em_g3`: its rounding changes the update by a few eps of
+    itself): (r1_new, delta). Inlined (the packed loop: LLVM vectorises it only so)."""
+    g3, Q = _em_g3(A, P, r0, rho, tau0)
+    delta = _em_f2_accurate(A, AL, P, PL, V, r0, rho, tau0, tlo) * (Q / g3)
     return rho - delta, delta
 
 
