@@ -2,7 +2,11 @@
 (speeds scaled by 1 + 1e-9 N(0, 1)) in one packed ensemble, STEPS steps of T/DIV, several
 seeds. For each seed: the mean of E/E0 - 1 over the copies at the end, per step, and its
 distance from zero in standard errors (z; a random walk gives |z| ~ 1, a drift grows like
-sqrt(steps)). E < 0, so a positive mean means the energy falls.
+sqrt(steps)). E < 0, so a positive mean means the energy falls. Energies are evaluated
+exactly from the float64 states (emorbit.analysis.relative_energy_change_exact): until
+2026-11-23 they were evaluated in float64, and the rounding of GM / |x0|, the same in every
+copy, offset every mean by -6.7e-17 of E, which over 1e6 steps read as a drift of -6.7e-23
+per step (the "T/1000 drift" of the notes in emorbit/kernels/ensemble.py).
 
     python scripts/energy_drift.py [--roundoff brouwer|fast] [--div 100] [--steps 1000000]
                                    [--members 256] [--seeds 4] [--first-seed 0]
@@ -22,6 +26,7 @@ import time
 
 import numpy as np
 
+from emorbit.analysis import relative_energy_change_exact
 from emorbit.kernels import ensemble, pointmass
 
 GM = 3.9478
@@ -30,17 +35,13 @@ V0 = np.array([0.0, 0.36276, 0.0])
 T = 46.4758  # the paper's period, s
 
 
-def energy(x, v):
-    return 0.5 * np.sum(v * v, axis=0) - GM / np.linalg.norm(x, axis=0)
-
-
 def drift(method: int, dt: float, steps: int, members: int, seed: int,
           kernel: str = "packed", contract: bool = False) -> tuple[float, float, float]:
     """(mean of E/E0 - 1 per step, z, ns per particle-step) for one seed."""
     rng = np.random.default_rng(seed)
     x = np.repeat(X0[:, None], members, axis=1)
     v = V0[:, None] * (1.0 + 1e-9 * rng.normal(size=members))[None, :]
-    e0 = energy(x, v)
+    x0, v0 = x.copy(), v.copy()
     cx, cv = np.zeros_like(x), np.zeros_like(v)
     rec_x, rec_v = np.empty((1, 3, members)), np.empty((1, 3, members))
     iters, fail = np.zeros((1, members), np.int64), np.full((members, 2), -1, np.int64)
@@ -57,7 +58,7 @@ def drift(method: int, dt: float, steps: int, members: int, seed: int,
     ns = 1e9 * (time.perf_counter() - t) / (members * steps)
     if (fail[:, 0] >= 0).any():
         raise RuntimeError(f"{int((fail[:, 0] >= 0).sum())} copies failed")
-    rel = energy(x, v) / e0 - 1.0
+    rel = relative_energy_change_exact(x0, v0, x, v, GM, cx, cv)
     return rel.mean() / steps, rel.mean() / (rel.std() / np.sqrt(members)), ns
 
 

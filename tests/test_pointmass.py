@@ -229,3 +229,32 @@ def test_keep_false_holds_first_and_last():
     assert len(light) == 2
     np.testing.assert_array_equal(light.positions["satellite"][-1], full.positions["satellite"][-1])
     np.testing.assert_array_equal(light.energy, full.energy[[0, -1]])
+
+
+def test_relative_energy_change_exact():
+    """The exact E1/E0 - 1 of float64 states (compensation terms included) against rational
+    arithmetic, where float64 evaluation of the paper's E0 is off by 6.0e-17 of it (6.7e-17
+    from the rounding of GM / 10, shared by copies that start there: the offset that once
+    read as a drift at T/1000); bad input named."""
+    from fractions import Fraction as Fr
+
+    from emorbit.analysis import relative_energy_change_exact as change
+
+    x0 = PAPER_X0[:, None].copy()
+    v0 = PAPER_V0[:, None].copy()
+    assert change(x0, v0, x0, v0, PAPER_GM)[0] == 0.0
+    e_float = 0.5 * float(v0[1, 0] ** 2) - PAPER_GM / 10.0
+    e_exact = Fr(v0[1, 0]) ** 2 / 2 - Fr(PAPER_GM) / 10
+    assert 3e-17 < float(Fr(e_float) / e_exact - 1) < 1e-16  # float64: 6.0e-17 off (GM / 10: 6.7e-17)
+    v1 = v0 * (1 + 2.0**-40)  # exact: a power-of-two scaling of the mantissa's last bits
+    cv = np.zeros_like(v1)
+    cv[1, 0] = 2.0**-60  # the state is v1 - cv
+    want = (Fr(v1[1, 0]) - Fr(cv[1, 0])) ** 2 / 2 - Fr(PAPER_GM) / 10
+    got = change(x0, v0, x0, v1, PAPER_GM, cv1=cv)[0]
+    assert got == float(want / e_exact - 1)
+    with pytest.raises(ValueError, match="shapes"):
+        change(x0.T, v0, x0, v0, PAPER_GM)
+    with pytest.raises(ValueError, match="not finite"):
+        change(x0, v0 * np.nan, x0, v0, PAPER_GM)
+    with pytest.raises(ValueError, match="centre"):
+        change(x0 * 0, v0, x0, v0, PAPER_GM)
