@@ -139,12 +139,13 @@ class Simulation:
     roundoff : str
         point masses, method "em": "brouwer" (default) keeps the energy error a random walk
         over many steps (Brouwer's law; the drift left is below 2e-22 |E| per step at T/100
-        and about -7e-23 at T/1000, measured in README "Round-off"): fixed steps iterate the
-        root of their scalar equation to convergence on an accurate evaluation (steps with a large
+        and at T/1000, measured in README "Round-off"): fixed steps take the exact root of
+        their scalar equation correctly rounded (a Newton update with a certificate that it
+        is, else one on an accurate evaluation; steps with a large
         h**2/2 GM / (r0 r1 (r0 + r1)) and adaptive steps finish on ``g_em`` evaluated to
         within a rounding instead, :func:`emorbit.kernels.pointmass.em_finish`; see
         :mod:`emorbit.kernels.ensemble`). "fast" skips that (measured on a 2-core AMD EPYC:
-        about 105 instead of 110 ns per step on one orbit, 8.7-9.1 instead of 13.3-14.9 ns per
+        about 105 instead of 110 ns per step on one orbit, 9.3 instead of 11.5 ns per
         particle-step of the benchmark ensemble on one thread; README "What accuracy costs"), leaving a drift of 4e-20 to
         1.7e-19 |E| per step on the paper's orbit at T/100. Rigid and elastic bodies ignore it.
     newton : str
