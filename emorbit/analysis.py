@@ -110,8 +110,10 @@ def relative_energy_change_exact(x0, v0, x1, v1, gm, cx1=None, cv1=None) -> np.n
     if any(a.ndim != 2 or a.shape[0] != 3 or a.shape != arrays[0].shape for a in arrays):
         raise ValueError(f"x0, v0, x1, v1 must all be (3, n) arrays, got shapes {[a.shape for a in arrays]}")
     x0, v0, x1, v1 = arrays
-    cx1 = np.zeros_like(x1) if cx1 is None else np.asarray(cx1, float).reshape(x1.shape)
-    cv1 = np.zeros_like(v1) if cv1 is None else np.asarray(cv1, float).reshape(v1.shape)
+    cx1 = np.zeros_like(x1) if cx1 is None else np.asarray(cx1, float)
+    cv1 = np.zeros_like(v1) if cv1 is None else np.asarray(cv1, float)
+    if cx1.shape != x1.shape or cv1.shape != v1.shape:
+        raise ValueError(f"cx1, cv1 must have the shape of x1, {x1.shape}, got {cx1.shape} and {cv1.shape}")
     if not (np.isfinite(arrays).all() and np.isfinite(cx1).all() and np.isfinite(cv1).all()):
         raise ValueError("relative_energy_change_exact: a state is not finite")
     D = decimal.Decimal

@@ -254,6 +254,8 @@ def test_relative_energy_change_exact():
     assert got == float(want / e_exact - 1)
     with pytest.raises(ValueError, match="shapes"):
         change(x0.T, v0, x0, v0, PAPER_GM)
+    with pytest.raises(ValueError, match="cx1, cv1"):
+        change(x0, v0, x0, v1, PAPER_GM, cv1=cv[:, :0])
     with pytest.raises(ValueError, match="not finite"):
         change(x0, v0 * np.nan, x0, v0, PAPER_GM)
     with pytest.raises(ValueError, match="centre"):

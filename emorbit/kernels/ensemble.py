@@ -40,7 +40,7 @@ Newton update costs one division and no square root (the reference kernel iterat
   prove that double the exact root correctly rounded. At T/1000 of the benchmark ensemble
   99.6 % of the point-steps are certified (100,000 time-uniform states); the rest go to
   the scalar pass, which takes one update on the accurately evaluated ``F``
-  (:func:`_em_newton_accurate_inline`), the same double where both apply
+  (:func:`_em_newton_accurate`), the same double where both apply
   (tests/test_ensemble.py). From 2026-11-23 (second session) to the third the default took
   that accurate update in every step (13.3-14.9 ns per particle-step on one thread), and
   the rounding errors of ``A`` and ``P`` in it; before that a plain Newton and an accurate
@@ -478,7 +478,7 @@ def _em_newton_certified(A, P, V, r0, rho, tau0, tlo):
     rounding error ``e2`` of that difference, from a two-sum). Where both ends of
     ``e2 +- E`` added to ``r1_new`` round back to it, every point between does, the root
     included: ``r1_new`` is then the exact root correctly rounded, the double the accurate
-    update (:func:`_em_newton_accurate_inline`) lands on, at about a third of its extra
+    update (:func:`_em_newton_accurate`) lands on, at about a third of its extra
     operations. ``E`` adds up, each taken at least twice:
 
     * F's rounding, ``B |Q / (F' Q**3)|`` with ``B`` twice a first-order bound (unit
@@ -586,23 +586,17 @@ def _em_newton(A, P, V, r0, rho, tau0, tlo):
     return rho - delta, delta, qg
 
 
-@_inline
-def _em_newton_accurate_inline(A, P, V, r0, rho, tau0, tlo):
+@kernel
+def _em_newton_accurate(A, P, V, r0, rho, tau0, tlo):
     """A Newton update of r1 on the accurate F (:func:`_em_f2_accurate`; the derivative
     in plain floating point, :func:`_em_g3`: its rounding changes the update by a few eps of
-    itself): (r1_new, delta). Inlined (the packed loop: LLVM vectorises it only so)."""
+    itself): (r1_new, delta). Only the scalar pass takes it (the steps whose certified update
+    is not certified), so it is one compiled function, not inlined: inlined in its two uses
+    there the first compile of an em run took 16.1-16.5 s instead of 13.7-16.1 s (measured
+    when every step took it)."""
     g3, Q = _em_g3(A, P, r0, rho, tau0)
     delta = _em_f2_accurate(A, P, V, r0, rho, tau0, tlo) * (Q / g3)
     return rho - delta, delta
-
-
-@kernel
-def _em_newton_accurate(A, P, V, r0, rho, tau0, tlo):
-    """:func:`_em_newton_accurate_inline` as one compiled function, for the scalar pass. (With
-    its two uses there inlined the first compile of an em run took 16.1-16.5 s, so 13.7-16.1 s
-    (``emorbit run paper-ellipse`` with an empty cache, 3 and 5 runs); the inlined copies
-    saved 3 ns of 104 per step of the paper's orbit at T/100.)"""
-    return _em_newton_accurate_inline(A, P, V, r0, rho, tau0, tlo)
 
 
 @kernel
