@@ -7,8 +7,11 @@ and :func:`~.pointmass.leapfrog_chunk`. The states agree with those reference ke
 round-off (leapfrog: bit for bit), and a point's result never depends on which other
 points share its block, on the block size, or on how a run is cut into chunks: every
 point goes through the same scalar operations (the helpers below) whether they run packed
-or alone, and no fused multiply-add is formed (``fastmath=False``) but the explicit ones of
-the error-free transformations (:mod:`.eft`), so packed and scalar code give the same bits.
+or alone, and no fused multiply-add is formed (``fastmath=False``) but the explicit ones
+(:func:`.eft.fma`: in the error-free transformations, and in the helpers' dot products,
+predictor, derivative, certificate bound and increments, where a multiply and an add
+became one rounding), so packed and scalar code give the same bits (and the GPU's
+``cuda.fma`` the same again).
 
 How the implicit step is solved
 -------------------------------
@@ -46,7 +49,8 @@ Newton update costs one division and no square root (the reference kernel iterat
   the rounding errors of ``A`` and ``P`` in it; before that a plain Newton and an accurate
   chord update (15.5-16.4 ns). Now, in one process, alternated: 11.5 against 14.5 ns for
   the accurate update with the low parts, 9.3 ns for roundoff="fast" (development machine,
-  20,000 particles, fastest of 15 runs of 100 steps).
+  20,000 particles, fastest of 15 runs of 100 steps); with the helpers' fused multiply-adds
+  (fourth session) 10.6 and 8.7 ns.
   roundoff="fast": a Newton update and a chord update with the same derivative (Traub's
   method, third order, one division), both on the plain ``F``.
 * A cheap check per point decides: default, the certificate (and in the scalar pass, after
@@ -66,7 +70,8 @@ Newton update costs one division and no square root (the reference kernel iterat
   kernel's 3-vector Newton (:func:`~.pointmass.em_step`), whose stopping and failure rules
   then apply unchanged. Every point's energy stays at round-off; e up to 0.99 is tested.
 * Then ``g = w (2 a - h v0)`` and the step in the reference kernel's form,
-  ``dx = h (v0 + h/2 g)``, ``dv = h g``, in plain floating point.
+  ``dx = h v0 + h (h/2 w) u``, ``dv = (h w) u`` with ``u = 2 a - h v0`` (:func:`_increments`;
+  ``u`` and ``dx`` each with one fused multiply-add since 2026-11-23, fourth session).
 
 Round-off (Brouwer's law). Newton converges on the rounding errors of whatever ``F`` it
 evaluates, so the root it picks is correlated with them, and the energy error of the step
@@ -177,7 +182,8 @@ development machine for the benchmark ensemble (T/1000) on one thread: 11.5 ns p
 particle-step with the certified update (14.5 with the accurate update and the low parts of
 A and P, 14.5-16.4 ns with the two updates before 2026-11-23) against 9.3 ns with
 roundoff="fast" and about 22 ns with the reference kernel's finish in every step, as this
-kernel did before. With roundoff="fast" (``METHOD_EM_PLAIN``) the iteration stops after
+kernel did before; with the helpers' fused multiply-adds (2026-11-23, fourth session) 10.6
+against 8.7 ns. With roundoff="fast" (``METHOD_EM_PLAIN``) the iteration stops after
 Newton + chord on the plain ``F``, uncertified.
 
 The implicit midpoint step reduces the same way: ``m = a - dx/2`` (the centre seen from the
@@ -233,7 +239,7 @@ import math
 import numpy as np
 from numba import prange
 
-from .eft import two_prod, two_prod_dekker, two_sum
+from .eft import fma, two_prod, two_prod_dekker, two_sum
 from .gravity import accel
 from .jit import kernel
 from .pointmass import (
@@ -405,8 +411,8 @@ def _finite3(a, b, c):
 def _em_dots(ax, ay, az, vx, vy, vz, h):
     """a.a, h a.v0, h**2 v0.v0 and |a| (the step enters the equations only in these forms).
     (``h (h v0.v0)``: a rounded ``h*h`` would carry the same relative error in every step.)"""
-    A = ax * ax + ay * ay + az * az
-    return A, h * (ax * vx + ay * vy + az * vz), h * (h * (vx * vx + vy * vy + vz * vz)), math.sqrt(A)
+    A = fma(ax, ax, fma(ay, ay, az * az))
+    return A, h * fma(ax, vx, fma(ay, vy, az * vz)), h * (h * fma(vx, vx, fma(vy, vy, vz * vz))), math.sqrt(A)
 
 
 @kernel
@@ -426,18 +432,26 @@ def _em_predict(A, P, V, r0, h, gm):
     O(h**4) with W to first order (tests/test_ensemble.py measures both orders); on the
     paper's orbit at T/100 the largest relative error 4.5e-5 instead of 3.8e-3 (at T/1000
     below 5e-12; a few more multiply-adds per step), so that one Newton update finishes most
-    steps (see the module notes)."""
+    steps (see the module notes). The polynomials are evaluated by Horner's rule with fused
+    multiply-adds (:func:`.eft.fma`), as are the dot products (:func:`_em_dots`), the
+    derivative (:func:`_em_g3`), the certificate's bound and the increments: on the
+    benchmark ensemble (20,000 particles, T/1000, one thread, fastest of 15 runs of 100 steps,
+    the builds alternated in one process) 10.6 instead of 11.9 ns per particle-step, and
+    8.7 instead of 9.1 ns with roundoff="fast" (development machine, 2026-11-23). ``F Q**2``
+    itself stays unfused (:func:`_em_f2`): fused it saved nothing measurable (10.9 ns), and
+    the certificate's error analysis is written for its plain operations."""
     ir = 1.0 / r0
     ir2 = ir * ir
     s = (0.5 * h) * (h * (gm * (ir2 * ir)))
     p = P * ir2
     v = V * ir2
-    W = s * ((1.0 + p * (1.5 + p * (2.5 + p * (4.375 + 7.875 * p))))
-             + (s * ((1.0 + 2.0 * s - 2.125 * v) + p * (3.5 + 9.875 * p))
-                - v * ((0.75 - 0.625 * v) + p * (2.5 + 6.5625 * p))))
+    t1 = fma(p, fma(p, fma(p, fma(p, 7.875, 4.375), 2.5), 1.5), 1.0)
+    t2 = fma(p, fma(p, 9.875, 3.5), fma(-2.125, v, fma(2.0, s, 1.0)))
+    t3 = fma(p, fma(p, 6.5625, 2.5), fma(-0.625, v, 0.75))
+    W = s * (t1 + fma(s, t2, -v * t3))
     c = 1.0 - W
-    b = 1.0 - 0.5 * W
-    return math.sqrt((c * c) * A - 2.0 * (c * b) * P + (b * b) * V)
+    b = fma(-0.5, W, 1.0)
+    return math.sqrt(fma(c * c, A, fma(-2.0 * (c * b), P, (b * b) * V)))
 
 
 @kernel
@@ -504,8 +518,8 @@ def _em_newton_certified(A, P, V, r0, rho, tau0, tlo):
     qg = Q / g3
     delta = f2 * qg
     r, e2 = two_sum(rho, -delta)
-    B = (Q2 * (12.0 * abs(D) + V) + tau0 * (24.0 * Q + 5.0 * tau0) * ((p + A) + abs(P))) + abs(f2)
-    E = 2.0 * (abs(qg) * ((2.0 * _U) * B + 4.0 * ((delta * delta) * Q2))) + (128.0 * _U) * abs(delta)
+    B = fma(Q2, fma(12.0, abs(D), V), tau0 * fma(24.0, Q, 5.0 * tau0) * ((p + A) + abs(P))) + abs(f2)
+    E = fma(2.0 * abs(qg), fma(2.0 * _U, B, 4.0 * ((delta * delta) * Q2)), (128.0 * _U) * abs(delta))
     return r, delta, ((r + (e2 + E)) == r) & ((r + (e2 - E)) == r) & (p <= A + A) & (A <= p + p)
 
 
@@ -566,7 +580,7 @@ def _em_g3(A, P, r0, rho, tau0):
     Q = r0 * rho * s
     Qp = Q + tau0
     rq = rho * Qp
-    g = rq * Qp * Q - (tau0 * r0) * (s + rho) * (rho * rq + A * (Q - tau0) - P * Q)
+    g = fma(-(tau0 * r0) * (s + rho), fma(rho, rq, fma(A, Q - tau0, -P * Q)), rq * Qp * Q)
     return g + g, Q
 
 
@@ -647,13 +661,15 @@ def _em_w(r0, rho, gm, tau0, tlo):
 def _increments(ax, ay, az, vx, vy, vz, w, ua, uv, h):
     """g = w (ua a - uv v0), then dx = h v0 + h (h/2 w) u and dv = (h w) u with u = ua a - uv v0:
     the reference kernel's form dx = h (v0 + h/2 g), dv = h g (no rounded h**2/2: the two
-    coefficients are rounded afresh from each step's w)."""
+    coefficients are rounded afresh from each step's w). ``u`` and ``dx`` take one fused
+    multiply-add each (one rounding instead of two; part of the 1.3 ns per particle-step the
+    fused multiply-adds of the em helpers saved, see :func:`_em_predict`)."""
     cx = h * ((0.5 * h) * w)
     cv = h * w
-    ux = ua * ax - uv * vx
-    uy = ua * ay - uv * vy
-    uz = ua * az - uv * vz
-    return h * vx + cx * ux, h * vy + cx * uy, h * vz + cx * uz, cv * ux, cv * uy, cv * uz
+    ux = fma(ua, ax, -uv * vx)
+    uy = fma(ua, ay, -uv * vy)
+    uz = fma(ua, az, -uv * vz)
+    return fma(cx, ux, h * vx), fma(cx, uy, h * vy), fma(cx, uz, h * vz), cv * ux, cv * uy, cv * uz
 
 
 @kernel
