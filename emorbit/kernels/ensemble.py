@@ -50,7 +50,8 @@ Newton update costs one division and no square root (the reference kernel iterat
   chord update (15.5-16.4 ns). Now, in one process, alternated: 11.5 against 14.5 ns for
   the accurate update with the low parts, 9.3 ns for roundoff="fast" (development machine,
   20,000 particles, fastest of 15 runs of 100 steps); with the helpers' fused multiply-adds
-  (fourth session) 10.6 and 8.7 ns.
+  (fourth session) 10.6 and 8.7 ns; with the big-t count in the update loop and the
+  certificate's direct test of its interval's ends (same bits) 10.2 against 10.6 ns.
   roundoff="fast": a Newton update and a chord update with the same derivative (Traub's
   method, third order, one division), both on the plain ``F``.
 * A cheap check per point decides: default, the certificate (and in the scalar pass, after
@@ -183,7 +184,7 @@ particle-step with the certified update (14.5 with the accurate update and the l
 A and P, 14.5-16.4 ns with the two updates before 2026-11-23) against 9.3 ns with
 roundoff="fast" and about 22 ns with the reference kernel's finish in every step, as this
 kernel did before; with the helpers' fused multiply-adds (2026-11-23, fourth session) 10.6
-against 8.7 ns. With roundoff="fast" (``METHOD_EM_PLAIN``) the iteration stops after
+against 8.7 ns, and 10.2 after the two changes of that session that kept the bits. With roundoff="fast" (``METHOD_EM_PLAIN``) the iteration stops after
 Newton + chord on the plain ``F``, uncertified.
 
 The implicit midpoint step reduces the same way: ``m = a - dx/2`` (the centre seen from the
@@ -488,12 +489,16 @@ def _em_newton_certified(A, P, V, r0, rho, tau0, tlo):
     """A Newton update of r1 on the plainly evaluated F, and whether its result is certified
     to be the exact root correctly rounded: (r1_new, delta, certified).
 
-    The exact root lies within ``E`` of ``rho - delta`` (a real number: ``r1_new`` plus the
-    rounding error ``e2`` of that difference, from a two-sum). Where both ends of
-    ``e2 +- E`` added to ``r1_new`` round back to it, every point between does, the root
-    included: ``r1_new`` is then the exact root correctly rounded, the double the accurate
-    update (:func:`_em_newton_accurate`) lands on, at about a third of its extra
-    operations. ``E`` adds up, each taken at least twice:
+    The exact root lies within ``E / 2`` of the real number ``rho - delta``, so between
+    ``rho - b`` and ``rho - a`` with the doubles ``a = fl(delta - E)``, ``b = fl(delta + E)``
+    (their roundings, below ``u (|delta| + E)``, fit in the other half of ``E``, which is at
+    least ``128 u |delta|``). Rounding is monotonic: where ``fl(rho - a) == fl(rho - b)``,
+    every real number between rounds to that double, the root and ``rho - delta``
+    included, so ``r1_new = fl(rho - delta)`` is then the exact root correctly rounded,
+    the double the accurate update (:func:`_em_newton_accurate`) lands on, at about a third
+    of its extra operations. (Until 2026-11-23, fourth session, the same test took the
+    rounding error of ``rho - delta`` from a two-sum and added ``+-E`` to it: 7 operations
+    more, the same verdict up to the slack.) ``E`` adds up, each taken at least twice:
 
     * F's rounding, ``B |Q / (F' Q**3)|`` with ``B`` twice a first-order bound (unit
       roundoff u = 2**-53) on the error of ``F Q**2`` as :func:`_em_f2` evaluates it:
@@ -517,10 +522,9 @@ def _em_newton_certified(A, P, V, r0, rho, tau0, tlo):
     f2, p, D, Q2 = _em_f2_terms(A, P, V, rho, Q, tau0, tlo)
     qg = Q / g3
     delta = f2 * qg
-    r, e2 = two_sum(rho, -delta)
     B = fma(Q2, fma(12.0, abs(D), V), tau0 * fma(24.0, Q, 5.0 * tau0) * ((p + A) + abs(P))) + abs(f2)
     E = fma(2.0 * abs(qg), fma(2.0 * _U, B, 4.0 * ((delta * delta) * Q2)), (128.0 * _U) * abs(delta))
-    return r, delta, ((r + (e2 + E)) == r) & ((r + (e2 - E)) == r) & (p <= A + A) & (A <= p + p)
+    return rho - delta, delta, ((rho - (delta - E)) == (rho - (delta + E))) & (p <= A + A) & (A <= p + p)
 
 
 @kernel
@@ -1011,10 +1015,14 @@ def _pass_mid_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
 
 
 @_inline
-def _loop_update(W, m, ua, uv, h, c0, c1, c2, S, D):
+def _loop_update(W, m, ua, uv, h, c0, c1, c2, S, D, gm, tau0, count_big):
     """Increments from w and the compensated update of the state in S, into D; returns the
-    count of points whose new state is not finite."""
+    count of points whose new state is not finite and (``count_big``, a constant: em) the
+    count of steps with a large t (:func:`_em_big_t`), for :func:`_pass_finish_big_t`.
+    (Counted here, where w is loaded anyway, instead of in a loop of its own: 0.66 ns per
+    particle-step less on the benchmark ensemble, one thread.)"""
     nbad = 0
+    nbig = 0
     for i in range(m):
         x0 = W[S + _OX0 + i]
         x1 = W[S + _OX1 + i]
@@ -1022,14 +1030,17 @@ def _loop_update(W, m, ua, uv, h, c0, c1, c2, S, D):
         y0 = W[S + _OV0 + i]
         y1 = W[S + _OV1 + i]
         y2 = W[S + _OV2 + i]
-        d0, d1, d2, w0, w1, w2 = _increments(c0 - x0, c1 - x1, c2 - x2, y0, y1, y2, W[_WG + i], ua, uv, h)
+        wg = W[_WG + i]
+        d0, d1, d2, w0, w1, w2 = _increments(c0 - x0, c1 - x1, c2 - x2, y0, y1, y2, wg, ua, uv, h)
         t0, t1, t2, e0, e1, e2 = _kahan3(x0, x1, x2, W[S + _OCX0 + i], W[S + _OCX1 + i], W[S + _OCX2 + i],
                                          d0, d1, d2)
         u0, u1, u2, f0, f1, f2 = _kahan3(y0, y1, y2, W[S + _OCV0 + i], W[S + _OCV1 + i], W[S + _OCV2 + i],
                                          w0, w1, w2)
         _store_state(W, D, i, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2)
         nbad += 0 if _finite6(t0, t1, t2, u0, u1, u2) else 1
-    return nbad
+        if count_big:
+            nbig += 1 if _em_big_t(wg, gm, tau0) else 0
+    return nbad, nbig
 
 
 @_inline
@@ -1062,13 +1073,8 @@ def _loop_finish_big_t(W, m, h, gm, tau0, c0, c1, c2, S, D):
 @kernel
 def _pass_finish_big_t(W, m, h, gm, tau0, c0, c1, c2, cur):
     """em: after the update pass, the steps with a large t finished on the accurate g_em
-    (a scalar pass, run only when the block has such a step). Returns the count of points
-    whose new state is not finite."""
-    nbig = 0
-    for i in range(m):
-        nbig += 1 if _em_big_t(W[_WG + i], gm, tau0) else 0
-    if nbig == 0:
-        return 0
+    (a scalar pass, run only when :func:`_pass_update_em` counted such a step). Returns the
+    count of points whose new state is not finite."""
     if cur == 0:
         return _loop_finish_big_t(W, m, h, gm, tau0, c0, c1, c2, _BUF0, _BUF1)
     return _loop_finish_big_t(W, m, h, gm, tau0, c0, c1, c2, _BUF1, _BUF0)
@@ -1079,8 +1085,17 @@ def _pass_update(W, m, ua, uv, h, c0, c1, c2, cur):
     """Increments from w (g = w (ua a - uv v0)) and the compensated update into the other
     buffer. Returns the count of points whose new state is not finite."""
     if cur == 0:
-        return _loop_update(W, m, ua, uv, h, c0, c1, c2, _BUF0, _BUF1)
-    return _loop_update(W, m, ua, uv, h, c0, c1, c2, _BUF1, _BUF0)
+        return _loop_update(W, m, ua, uv, h, c0, c1, c2, _BUF0, _BUF1, 0.0, 0.0, False)[0]
+    return _loop_update(W, m, ua, uv, h, c0, c1, c2, _BUF1, _BUF0, 0.0, 0.0, False)[0]
+
+
+@kernel
+def _pass_update_em(W, m, h, gm, tau0, c0, c1, c2, cur):
+    """em: :func:`_pass_update` (g = w (2 a - h v0)); returns the count of points whose new
+    state is not finite and the count of steps with a large t."""
+    if cur == 0:
+        return _loop_update(W, m, 2.0, h, h, c0, c1, c2, _BUF0, _BUF1, gm, tau0, True)
+    return _loop_update(W, m, 2.0, h, h, c0, c1, c2, _BUF1, _BUF0, gm, tau0, True)
 
 
 @_inline
@@ -1223,8 +1238,10 @@ def _run_packed(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_i
                 elif method == METHOD_EM:
                     if _pass_em_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
                         nbad += _resolve_em(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S)
-                    nbad += _pass_update(W, m, 2.0, h, h, c0, c1, c2, cur)
-                    nbad += _pass_finish_big_t(W, m, h, gm, tau0, c0, c1, c2, cur)
+                    nb, nbig = _pass_update_em(W, m, h, gm, tau0, c0, c1, c2, cur)
+                    nbad += nb
+                    if nbig:
+                        nbad += _pass_finish_big_t(W, m, h, gm, tau0, c0, c1, c2, cur)
                 elif method == METHOD_EM_PLAIN:
                     if _pass_em_plain_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
                         nbad += _resolve_em_plain(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S)
