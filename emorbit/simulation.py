@@ -145,7 +145,7 @@ class Simulation:
         h**2/2 GM / (r0 r1 (r0 + r1)) and adaptive steps finish on ``g_em`` evaluated to
         within a rounding instead, :func:`emorbit.kernels.pointmass.em_finish`; see
         :mod:`emorbit.kernels.ensemble`). "fast" skips that (measured on a 2-core AMD EPYC:
-        about 103 instead of 109 ns per step on one orbit, 8.7 instead of 10.2 ns per
+        about 100 instead of 109 ns per step on one orbit, 8.7 instead of 10.2 ns per
         particle-step of the benchmark ensemble on one thread; README "What accuracy
         costs"), leaving a drift of 4e-20 to
         1.7e-19 |E| per step on the paper's orbit at T/100. Rigid and elastic bodies ignore it.
