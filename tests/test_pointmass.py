@@ -246,7 +246,7 @@ def test_relative_energy_change_exact():
     e_float = 0.5 * float(v0[1, 0] ** 2) - PAPER_GM / 10.0
     e_exact = Fr(v0[1, 0]) ** 2 / 2 - Fr(PAPER_GM) / 10
     assert 3e-17 < float(Fr(e_float) / e_exact - 1) < 1e-16  # float64: 6.0e-17 off (GM / 10: 6.7e-17)
-    v1 = v0 * (1 + 2.0**-40)  # exact: a power-of-two scaling of the mantissa's last bits
+    v1 = v0 * (1 + 2.0**-40)  # a change of about 2**-40 (rounded: the reference takes v1 as it is)
     cv = np.zeros_like(v1)
     cv[1, 0] = 2.0**-60  # the state is v1 - cv
     want = (Fr(v1[1, 0]) - Fr(cv[1, 0])) ** 2 / 2 - Fr(PAPER_GM) / 10

@@ -41,7 +41,7 @@ Newton update costs one division and no square root (the reference kernel iterat
   (:func:`_em_newton_certified`): a rigorous bound on the error of ``rho - delta`` (F's
   rounding, the derivative's, Newton's remainder) whose ends both round to the same double
   prove that double the exact root correctly rounded. At T/1000 of the benchmark ensemble
-  99.6 % of the point-steps are certified (100,000 time-uniform states); the rest go to
+  99.5 % of the point-steps are certified (100,000 time-uniform states); the rest go to
   the scalar pass, which takes one update on the accurately evaluated ``F``
   (:func:`_em_newton_accurate`), the same double where both apply
   (tests/test_ensemble.py). From 2026-11-23 (second session) to the third the default took
@@ -515,7 +515,7 @@ def _em_newton_certified(A, P, V, r0, rho, tau0, tlo):
       ``4 delta**2 Q**2 |Q / (F' Q**3)|`` (no division).
 
     ``E`` is about 25 t of a unit in the last place plus the remainder, so at T/1000 of the
-    benchmark ensemble 99.6 % of the steps are certified (measured on 100,000 states); the
+    benchmark ensemble 99.5 % of the steps are certified (measured on 100,000 states); the
     others take the accurate update in the scalar pass. Steps with t > 1/128 are finished by
     :func:`~.pointmass.em_finish` whatever this returns."""
     g3, Q = _em_g3(A, P, r0, rho, tau0)
