@@ -122,6 +122,56 @@ def test_point_independent_of_block_threads_and_chunking():
                 np.testing.assert_array_equal(a[..., 0], b[..., i])
 
 
+def test_parallel_claims_of_several_blocks_same_bits():
+    """Many blocks: the threads claim several blocks at a time from the shared counter, the
+    last claim runs past the end, a point fails (:func:`failing_point`), and the run on all
+    threads, on one thread of the parallel kernel and in the one-thread kernel agree bit for
+    bit, failures included."""
+    import numba
+
+    rng = np.random.default_rng(5)
+    n = 70 * ens.BLOCK + 13
+    nb, grain = ens._claim_blocks.py_func(n, 2)
+    assert grain > 1 and nb % grain != 0  # several blocks per claim, the last one partial
+    x, v = states(rng.uniform(5, 10, n), rng.uniform(0, 0.9, n), rng.uniform(0, 2 * np.pi, n))
+    for method in (ens.METHOD_EM, ens.METHOD_LEAPFROG):
+        x[:, 1234], v[:, 1234], dt, max_iter = failing_point(method)
+        one = run("ensemble_chunk", method, x, v, dt, 2, 10, 12, max_iter=max_iter)
+        assert one[7][1234, 0] >= 0 and np.mean(one[7][:, 0] >= 0) < 0.1  # (em: others near pericentre too)
+        threads = numba.get_num_threads()
+        try:
+            for t in sorted({1, threads}):
+                numba.set_num_threads(t)
+                par = run("ensemble_chunk_parallel", method, x, v, dt, 2, 10, 12, max_iter=max_iter)
+                for a, b in zip(one, par):
+                    np.testing.assert_array_equal(a, b)
+        finally:
+            numba.set_num_threads(threads)
+
+
+def test_atomic_fetch_add_hands_out_every_value_once():
+    """The shared counter of the parallel runs: increments from all threads at once hand
+    out every value exactly once (a plain read-modify-write hands out 100,000 values twice
+    here: each thread keeps its own count); a counter that is not int64 is refused."""
+    import numba
+    from numba.core.errors import TypingError
+
+    from emorbit.kernels.atomic import fetch_add
+
+    @numba.njit(parallel=True)
+    def claim(n):
+        counter = np.zeros(1, np.int64)
+        out = np.empty(n, np.int64)
+        for i in numba.prange(n):
+            out[i] = fetch_add(counter, 0, 1)
+        return out
+
+    got = claim(200_000)
+    np.testing.assert_array_equal(np.sort(got), np.arange(got.size))
+    with pytest.raises(TypingError):
+        numba.njit(lambda a: fetch_add(a, 0, 1))(np.zeros(1))
+
+
 def test_large_t_steps_same_bits_alone_and_packed():
     """Steps with t = h**2/2 GM / (r0 r1 (r0 + r1)) > 1/128 end with the reference kernel's
     accurate finish, in a scalar pass of the packed kernel and inline on the scalar path: e =
