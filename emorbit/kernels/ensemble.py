@@ -235,7 +235,9 @@ slowed by other work on its core does not hold up the others. Both changed no bi
 benchmark ensemble (1e5 points, T/1000, development machine, the builds alternated in one
 process, 2026-11-23) one thread went from 10.65 to 10.30 ns per particle-step in calls of
 40 steps (15.65 to 14.23 in calls of 5), both threads from 4.87 to 4.73 ns in a quiet
-hour (medians of 40 calls of 64 steps) and from 6.30 to 5.70 in a busy one.
+hour (two medians of 20 calls of 64 steps each, averaged) and from 6.30 to 5.70 in a busy
+one. Blocks of 96 or 128 points were no faster with it (one thread: 11.0-11.5 and
+11.3-11.5 against 10.7-11.2 ns).
 
 Each method has its own compiled entry kernels (``_range_em``, ``_points_em`` for fewer
 than :data:`_PACKED_MIN` points, ``_parallel_em``, and the same for midpoint and leapfrog),
