@@ -130,15 +130,16 @@ def test_parallel_claims_of_several_blocks_same_bits():
     import numba
 
     rng = np.random.default_rng(5)
-    n = 70 * ens.BLOCK + 13
-    nb, grain = ens._claim_blocks.py_func(n, 2)
-    assert grain > 1 and nb % grain != 0  # several blocks per claim, the last one partial
+    threads = numba.get_num_threads()
+    n = (24 * threads + 4) * ens.BLOCK + 13  # 24 t + 5 blocks, the last one partial
+    for t in sorted({1, threads}):
+        nb, grain = ens._claim_blocks.py_func(n, t)
+        assert grain > 1 and nb % grain != 0  # several blocks per claim, the last claim partial
     x, v = states(rng.uniform(5, 10, n), rng.uniform(0, 0.9, n), rng.uniform(0, 2 * np.pi, n))
     for method in (ens.METHOD_EM, ens.METHOD_LEAPFROG):
         x[:, 1234], v[:, 1234], dt, max_iter = failing_point(method)
         one = run("ensemble_chunk", method, x, v, dt, 2, 10, 12, max_iter=max_iter)
         assert one[7][1234, 0] >= 0 and np.mean(one[7][:, 0] >= 0) < 0.1  # (em: others near pericentre too)
-        threads = numba.get_num_threads()
         try:
             for t in sorted({1, threads}):
                 numba.set_num_threads(t)
