@@ -14,13 +14,14 @@ the file keeps everything up to the interruption and can be resumed).
 from __future__ import annotations
 
 import argparse
+import gc
 import sys
 import time
 
 from ._version import __version__
 from .errors import InputError, IntegrationError
 
-__all__ = ["main"]
+__all__ = ["main", "console_main"]
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -154,5 +155,23 @@ def main(argv=None) -> int:
         return 130
 
 
+def console_main(argv=None) -> None:
+    """Entry point of the ``emorbit`` script and of ``python -m emorbit.cli``: run
+    :func:`main` and exit the process with its code.
+
+    Before the interpreter shuts down, every object still alive is frozen out of the cyclic
+    garbage collector (:func:`gc.freeze`). The collections Python runs while it tears its
+    modules down then skip the roughly 10^5 objects that astropy and Numba leave behind; they
+    took about 0.3 s of each command's wall time (measured on the 2-core development machine:
+    a process that imported Numba and called one cached kernel exited in 0.30-0.38 s after its
+    last statement, 0.03-0.04 s with the freeze). Only cyclic garbage goes unfreed, which
+    the process's exit returns anyway: the HDF5 files a command writes are closed by then,
+    and atexit handlers still run. Tests call :func:`main`, which leaves the collector alone.
+    """
+    code = main(argv)
+    gc.freeze()
+    sys.exit(code)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    console_main()

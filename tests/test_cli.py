@@ -1,5 +1,8 @@
 """The command line and the HDF5 file it writes, read with plain h5py."""
 
+import subprocess
+import sys
+
 import h5py
 import numpy as np
 import pytest
@@ -84,3 +87,20 @@ def test_quiet_when_stderr_is_not_a_terminal(tmp_path, capsys):
     captured = capsys.readouterr()
     assert captured.err == ""
     assert "|dE/E0| at end" in captured.out
+
+
+def test_console_entry_point_in_a_fresh_process(tmp_path, paper_file):
+    """``python -m emorbit.cli`` (the ``emorbit`` script's :func:`console_main`, which freezes
+    the garbage collector before the interpreter shuts down) writes the same complete file as
+    :func:`main` in this process, prints its summary, and exits with main's codes."""
+    out = tmp_path / "fresh.h5"
+    cmd = [sys.executable, "-m", "emorbit.cli", "run", "paper-ellipse", "-o", str(out)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "|dE/E0| at end" in proc.stdout
+    with h5py.File(out, "r") as f, h5py.File(paper_file, "r") as g:
+        assert f.attrs["status"] == "completed"
+        for name in ("time", "invariants/energy", "bodies/satellite/position", "bodies/satellite/velocity"):
+            np.testing.assert_array_equal(f[name][()], g[name][()])
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert again.returncode == 2 and "exists" in again.stderr
