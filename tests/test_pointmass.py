@@ -260,3 +260,14 @@ def test_relative_energy_change_exact():
         change(x0, v0 * np.nan, x0, v0, PAPER_GM)
     with pytest.raises(ValueError, match="centre"):
         change(x0 * 0, v0, x0, v0, PAPER_GM)
+
+
+def test_progress_bar_leaves_the_trajectory_alone(capsys):
+    """A run with the progress bar (tqdm, imported only then) takes the very steps of a quiet
+    run; the bar goes to stderr, never stdout."""
+    shown, quiet = paper_sim(), paper_sim()
+    r_shown = shown.run(steps=300, every=30, progress=True)
+    r_quiet = quiet.run(steps=300, every=30, progress=False)
+    assert np.array_equal(r_shown.positions["satellite"], r_quiet.positions["satellite"])
+    assert np.abs(r_shown.relative_energy_error()).max() < 1e-14
+    assert capsys.readouterr().out == ""
