@@ -348,6 +348,57 @@ def test_failure_reported_like_the_reference(method):
         np.testing.assert_array_equal(a[..., 1:], b)
 
 
+
+@pytest.mark.parametrize("order, every, nrec", [(2, 1, 1), (2, 1, 3), (2, 3, 2), (4, 1, 2), (4, 3, 2)])
+def test_state_that_overflows_fails_at_its_step(order, every, nrec):
+    """em's packed update does not test its new state (the next step's solve does, or the end
+    of the record): a state that overflows is still reported at the step that made it, as
+    STATUS_SINGULAR with the state from before that step, as the reference kernel reports it,
+    and the other points go on as without it. (The centre sits at the largest double, the
+    orbits in the plane through it normal to x; two points carry a position compensation of
+    -2**970, half a unit in the last place there, so their first update rounds x to inf.)"""
+    big = np.finfo(float).max
+    rng = np.random.default_rng(5)
+    n = 40
+    a, e, nu = rng.uniform(5, 10, n), rng.uniform(0, 0.5, n), rng.uniform(0, 2 * np.pi, n)
+    xo, vo = orbits.state_from_elements((a, e, np.full(n, np.pi / 2), np.full(n, np.pi / 2),
+                                         rng.uniform(0, 2 * np.pi, n), nu), GM)  # planes normal to x
+    x = np.stack([np.full(n, big), xo[:, 1], xo[:, 2]])
+    v = np.stack([np.zeros(n), vo[:, 1], vo[:, 2]])
+    cx = np.zeros_like(x)
+    cx[0, [3, 17]] = -(2.0 ** 970)
+    center = np.array([big, 0.0, 0.0])
+
+    def chunk(kernel, keep):
+        out = (np.empty((nrec, 3, keep.size)), np.empty((nrec, 3, keep.size)), np.zeros((nrec, keep.size), np.int64),
+               np.full((keep.size, 2), -1, np.int64))
+        st = [x[:, keep].copy(), v[:, keep].copy(), cx[:, keep].copy(), np.zeros((3, keep.size))]
+        args = (*st, GM, center, PAPER_T / 100, coefficients(order), every, nrec, 50, *out)
+        if kernel == "reference":
+            ref.implicit_chunk(ens.METHOD_EM, *args)
+        else:
+            getattr(ens, kernel)(ens.METHOD_EM, *args)
+        return (*st, *out)
+
+    every_point = np.arange(n)
+    fast = chunk("ensemble_chunk", every_point)
+    slow = chunk("reference", every_point)
+    np.testing.assert_array_equal(fast[7], slow[7])
+    np.testing.assert_array_equal(fast[7][[3, 17]], [[0, ref.STATUS_SINGULAR]] * 2)
+    assert np.all(fast[7][np.r_[0:3, 4:17, 18:n]] == -1)
+    for k in range(4):  # position, velocity and their compensations from before the step
+        np.testing.assert_array_equal(fast[k][:, [3, 17]], slow[k][:, [3, 17]])
+    np.testing.assert_array_equal(fast[0][:, [3, 17]], x[:, [3, 17]])
+    others = np.r_[0:3, 4:17, 18:n]
+    alone = chunk("ensemble_chunk", others)
+    for a, b in zip(fast[:6], alone[:6]):
+        np.testing.assert_array_equal(a[..., others], b)
+    assert np.isfinite(fast[4][:, :, others]).all()
+    parallel = chunk("ensemble_chunk_parallel", every_point)
+    for a, b in zip(fast[:4] + fast[6:], parallel[:4] + parallel[6:]):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_no_energy_drift():
     """The paper's orbit and two perturbed starts, 2e5 steps at T/100 (2000 orbits): the energy
     error is a random walk (measured 0.5-4e-14, both signs), not a drift (a rounded h**2/2
