@@ -259,7 +259,12 @@ one. Blocks of 96 or 128 points were no faster with it (one thread: 11.0-11.5 an
 
 Each method has its own compiled entry kernels (``_range_em``, ``_points_em`` for fewer
 than :data:`_PACKED_MIN` points, ``_parallel_em``, and the same for midpoint and leapfrog),
-in which the method is a constant, so a run compiles only its method's code.
+in which the method is a constant, so a run compiles only its method's code. A range's last
+block, when too small to pack, goes to the method's ``_points_*`` kernel as a call (until
+2026-11-23, seventh session, the point-by-point step was inlined into the range kernel a
+second time): the one-orbit path and the packed path share that compiled kernel, and an
+empty Numba cache compiled the ensemble kernels of em, em roundoff="fast" and leapfrog (one
+thread and all threads) in 81 s instead of 97 s (development machine, one process).
 """
 
 from __future__ import annotations
@@ -1466,6 +1471,43 @@ def _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_it
 # compiling several times slower.)
 
 @_inline
+def _run_points(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+                lo, hi):
+    """Every step of the chunk for points lo..hi one by one (blocks too small to pack)."""
+    for i in range(lo, hi):
+        _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
+                   fail, i)
+
+
+@kernel
+def _points_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+               lo, hi):
+    _run_points(METHOD_EM, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
+                fail, lo, hi)
+
+
+@kernel
+def _points_em_plain(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+                     lo, hi):
+    _run_points(METHOD_EM_PLAIN, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+                rec_iters, fail, lo, hi)
+
+
+@kernel
+def _points_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+                     lo, hi):
+    _run_points(METHOD_MIDPOINT, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+                rec_iters, fail, lo, hi)
+
+
+@kernel
+def _points_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+                     lo, hi):
+    _run_points(METHOD_LEAPFROG, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+                rec_iters, fail, lo, hi)
+
+
+@_inline
 def _run_range(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
                rec_x, rec_v, rec_iters, fail, lo, hi):
     """Every step of the chunk for points lo..hi, block by block (packed, or point by point
@@ -1476,10 +1518,18 @@ def _run_range(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_it
         if e - b >= _PACKED_MIN:
             _run_packed(method, W, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
                         rec_x, rec_v, rec_iters, fail, b, e)
+        elif method == METHOD_EM:  # a call, not inlined: the one-orbit path's own kernel
+            _points_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
+                       fail, b, e)
+        elif method == METHOD_EM_PLAIN:
+            _points_em_plain(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+                             rec_iters, fail, b, e)
+        elif method == METHOD_MIDPOINT:
+            _points_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+                             rec_iters, fail, b, e)
         else:
-            for i in range(b, e):
-                _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
-                           rec_x, rec_v, rec_iters, fail, i)
+            _points_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+                             rec_iters, fail, b, e)
 
 
 @kernel
@@ -1507,37 +1557,6 @@ def _range_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
                     lo, hi):
     _run_range(METHOD_LEAPFROG, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
                rec_iters, fail, lo, hi)
-
-
-@_inline
-def _run_points(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
-    for i in range(x.shape[1]):
-        _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
-                   fail, i)
-
-
-@kernel
-def _points_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
-    _run_points(METHOD_EM, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
-                fail)
-
-
-@kernel
-def _points_em_plain(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
-    _run_points(METHOD_EM_PLAIN, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-                rec_iters, fail)
-
-
-@kernel
-def _points_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
-    _run_points(METHOD_MIDPOINT, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-                rec_iters, fail)
-
-
-@kernel
-def _points_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
-    _run_points(METHOD_LEAPFROG, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-                rec_iters, fail)
 
 
 @_inline
@@ -1628,7 +1647,8 @@ def ensemble_chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, ma
                ignores ``max_iter`` and counts no iterations).
     """
     if x.shape[1] < _PACKED_MIN:  # a kernel of the point-by-point path alone: less to compile
-        _POINTS[method](x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail)
+        _POINTS[method](x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+                        0, x.shape[1])
     else:
         _RANGE[method](x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
                        0, x.shape[1])
