@@ -84,3 +84,25 @@ def test_command_line(capsys):
         main(["bench", "--only", "nonsense"])
     assert "invalid choice" in capsys.readouterr().err
     assert set(SECTIONS) == {"single", "ensemble", "work-precision", "startup", "rigid", "elastic"}
+
+
+def test_precompile_parts_share_no_kernel():
+    """The two compiling processes (emorbit.bench.precompile) each hold a method's one-orbit
+    kernel with its packed kernel (``_range_*`` calls ``_points_*``), so neither waits on nor
+    repeats the other's big compilations; sections without point-mass kernels start no
+    helper, and the helper's command line runs."""
+    import subprocess
+    import sys
+
+    from emorbit.bench import precompile as pc
+
+    part_of = {}
+    for part, _, (kind, method, roundoff) in pc._JOBS:
+        key = {"METHOD_EM": "em brouwer", "METHOD_EM_PLAIN": "em fast", "METHOD_LEAPFROG": "leapfrog brouwer"}.get(
+            method, f"{method} {roundoff}")
+        part_of.setdefault(key, set()).add(part)
+    assert all(len(parts) == 1 for parts in part_of.values()), part_of
+    assert {p for p, _, _ in pc._JOBS} == {0, 1}
+    assert pc.precompile(["rigid", "elastic", "startup"]) is None
+    done = subprocess.run([sys.executable, "-m", "emorbit.bench.precompile", "1", "rigid"], timeout=300)
+    assert done.returncode == 0

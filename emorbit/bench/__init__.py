@@ -36,7 +36,8 @@ __all__ = ["SECTIONS", "add_arguments", "run"]
 
 def add_arguments(parser) -> None:
     parser.add_argument("--quick", action="store_true",
-                        help="fewer repeats and step sizes (about 2.5 min on two cores, the full run about 3 min)")
+                        help="fewer repeats and step sizes (1.5 min on two cores with Numba's cache filled, 2.5 min "
+                             "when every kernel compiles first)")
     parser.add_argument("--json", metavar="FILE", help="write every figure, with the machine, as JSON")
     parser.add_argument("--plots", metavar="DIR", help="write the work-precision figures (PNG) into DIR")
     parser.add_argument("--only", nargs="+", choices=SECTIONS, metavar="SECTION",

@@ -1,0 +1,86 @@
+"""Compile the point-mass kernels the bench times, on two cores at once, before anything is
+timed.
+
+Numba compiles one function at a time on one core, and with an empty cache (a first run
+after installing, or after a kernel's source changed) the kernels of the ``single`` and
+``ensemble`` sections took about 90 s to compile one after the other on the development
+machine (2 cores; the ``_range_*`` kernels about 20 s each; 94 s of CPU time for the jobs
+below, 49 s of wall time split in two). :func:`precompile` splits them
+into two parts: a helper process (``python -m emorbit.bench.precompile PART SECTION ...``)
+compiles one, this process the other, and the run waits for the helper before its first
+timing, so no timing shares a core with a compilation. Each job calls the bench's own
+runners (:class:`~.common.EmorbitRunner`, :class:`~.common.KernelRunner`) on a few points
+for one step, so it compiles exactly the signatures the sections call; the compiled code
+goes into Numba's cache, where the sections find it. With the cache filled both parts only
+load their kernels (a few seconds, side by side).
+
+The parts share no kernel: ``_range_em`` calls ``_points_em``, so both are in part 0, and
+so on; the small helpers both parts call may be compiled twice (at worst the later write
+of a cache index wins and a kernel is compiled again when it is used: time, not results).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+
+#: (part, section, job): a job compiles what the section will call
+_JOBS = (
+    (0, "single", ("points", "em", "brouwer")),
+    (0, "ensemble", ("range", "METHOD_EM", None)),
+    (0, "single", ("points", "midpoint", "brouwer")),
+    (1, "single", ("points", "em", "fast")),
+    (1, "ensemble", ("range", "METHOD_EM_PLAIN", None)),
+    (1, "single", ("points", "leapfrog", "brouwer")),
+    (1, "ensemble", ("range", "METHOD_LEAPFROG", None)),
+)
+
+
+def _run_job(job) -> None:
+    from ..kernels import ensemble as kern
+    from .common import ENSEMBLE_DT, PAPER_DT, PAPER_V0, PAPER_X0, EmorbitRunner, KernelRunner, ensemble_states
+
+    kind, method, roundoff = job
+    if kind == "points":  # one orbit through PointMasses.advance: the _points_* kernel
+        EmorbitRunner(PAPER_X0[:, None], PAPER_V0[:, None], method, 2, PAPER_DT, roundoff=roundoff)(1)
+    else:  # the packed kernel on one thread and on all (a last block too small to pack)
+        x, v = ensemble_states(3 * 64 + 2)
+        for parallel in (False, True) if method != "METHOD_LEAPFROG" else (False,):
+            KernelRunner(x, v, getattr(kern, method), 2, ENSEMBLE_DT, parallel)(1)
+
+
+def run_part(part: int, sections) -> None:
+    """Compile this part's jobs for ``sections``."""
+    for p, section, job in _JOBS:
+        if p == part and section in sections:
+            _run_job(job)
+
+
+def precompile(sections) -> float | None:
+    """Compile the jobs of ``sections`` in this process and a helper process at once; returns
+    the wall time it took, or None where no section needs it. A helper that fails is
+    ignored: the sections compile what is missing themselves."""
+    if not any(section in sections for _, section, _ in _JOBS):
+        return None
+    start = time.perf_counter()
+    helper = subprocess.Popen([sys.executable, "-m", "emorbit.bench.precompile", "1", *sections],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=os.environ.copy())
+    try:
+        run_part(0, sections)
+    except BaseException:  # Ctrl-C or a failing job: do not leave the helper compiling
+        helper.kill()
+        helper.wait()
+        raise
+    helper.wait()
+    return time.perf_counter() - start
+
+
+def _main(argv) -> int:
+    run_part(int(argv[0]), argv[1:])
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover - the helper process
+    sys.exit(_main(sys.argv[1:]))
