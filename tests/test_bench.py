@@ -86,15 +86,25 @@ def test_command_line(capsys):
     assert set(SECTIONS) == {"single", "ensemble", "work-precision", "startup", "rigid", "elastic"}
 
 
-def test_precompile_parts_share_no_kernel():
+def test_precompile_parts_share_no_kernel(result):
     """The two compiling processes (emorbit.bench.precompile) each hold a method's one-orbit
     kernel with its packed kernel (``_range_*`` calls ``_points_*``), so neither waits on nor
-    repeats the other's big compilations; sections without point-mass kernels start no
-    helper, and the helper's command line runs."""
+    repeats the other's big compilations; their jobs compile exactly what the sections call
+    (after the sections ran, in ``result``, the jobs add no compiled signature); sections
+    without point-mass kernels start no helper, and the helper's command line runs."""
     import subprocess
     import sys
 
     from emorbit.bench import precompile as pc
+    from emorbit.kernels import ensemble as kern
+
+    dispatchers = [getattr(kern, f"_{kind}_{m}") for kind in ("range", "points", "parallel")
+                   for m in ("em", "em_plain", "midpoint", "leapfrog")]
+    before = [len(d.signatures) for d in dispatchers]
+    assert sum(before) > 0
+    pc.run_part(0, ["single", "ensemble"])
+    pc.run_part(1, ["single", "ensemble"])
+    assert [len(d.signatures) for d in dispatchers] == before
 
     part_of = {}
     for part, _, (kind, method, roundoff) in pc._JOBS:
