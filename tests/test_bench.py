@@ -107,12 +107,10 @@ def test_precompile_parts_share_no_kernel(result):
     assert [len(d.signatures) for d in dispatchers] == before
 
     part_of = {}
-    for part, _, (kind, method, roundoff) in pc._JOBS:
-        key = {"METHOD_EM": "em brouwer", "METHOD_EM_PLAIN": "em fast", "METHOD_LEAPFROG": "leapfrog brouwer"}.get(
-            method, f"{method} {roundoff}")
-        part_of.setdefault(key, set()).add(part)
+    for part, _, _, method in pc._JOBS:
+        part_of.setdefault(method, set()).add(part)
     assert all(len(parts) == 1 for parts in part_of.values()), part_of
-    assert {p for p, _, _ in pc._JOBS} == {0, 1}
+    assert {p for p, _, _, _ in pc._JOBS} == {0, 1}
     assert pc.precompile(["rigid", "elastic", "startup"]) is None
     done = subprocess.run([sys.executable, "-m", "emorbit.bench.precompile", "1", "rigid"], timeout=300)
     assert done.returncode == 0

@@ -21,30 +21,34 @@ of a cache index wins and a kernel is compiled again when it is used: time, not 
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import time
 
-#: (part, section, job): a job compiles what the section will call
+#: (part, section, kind, kernel method): a job compiles what the section will call, the
+#: one-orbit kernel ("points", through PointMasses.advance) or the packed one ("range")
 _JOBS = (
-    (0, "single", ("points", "em", "brouwer")),
-    (0, "ensemble", ("range", "METHOD_EM", None)),
-    (0, "single", ("points", "midpoint", "brouwer")),
-    (1, "single", ("points", "em", "fast")),
-    (1, "ensemble", ("range", "METHOD_EM_PLAIN", None)),
-    (1, "single", ("points", "leapfrog", "brouwer")),
-    (1, "ensemble", ("range", "METHOD_LEAPFROG", None)),
+    (0, "single", "points", "METHOD_EM"),
+    (0, "ensemble", "range", "METHOD_EM"),
+    (0, "single", "points", "METHOD_MIDPOINT"),
+    (1, "single", "points", "METHOD_EM_PLAIN"),
+    (1, "ensemble", "range", "METHOD_EM_PLAIN"),
+    (1, "single", "points", "METHOD_LEAPFROG"),
+    (1, "ensemble", "range", "METHOD_LEAPFROG"),
 )
 
+#: the scene's method and roundoff that select each kernel method (PointMasses.advance)
+_SCENE = {"METHOD_EM": ("em", "brouwer"), "METHOD_EM_PLAIN": ("em", "fast"),
+          "METHOD_MIDPOINT": ("midpoint", "brouwer"), "METHOD_LEAPFROG": ("leapfrog", "brouwer")}
 
-def _run_job(job) -> None:
+
+def _run_job(kind: str, method: str) -> None:
     from ..kernels import ensemble as kern
     from .common import ENSEMBLE_DT, PAPER_DT, PAPER_V0, PAPER_X0, EmorbitRunner, KernelRunner, ensemble_states
 
-    kind, method, roundoff = job
     if kind == "points":  # one orbit through PointMasses.advance: the _points_* kernel
-        EmorbitRunner(PAPER_X0[:, None], PAPER_V0[:, None], method, 2, PAPER_DT, roundoff=roundoff)(1)
+        name, roundoff = _SCENE[method]
+        EmorbitRunner(PAPER_X0[:, None], PAPER_V0[:, None], name, 2, PAPER_DT, roundoff=roundoff)(1)
     else:  # the packed kernel on one thread and on all (a last block too small to pack)
         x, v = ensemble_states(3 * 64 + 2)
         for parallel in (False, True) if method != "METHOD_LEAPFROG" else (False,):
@@ -53,20 +57,20 @@ def _run_job(job) -> None:
 
 def run_part(part: int, sections) -> None:
     """Compile this part's jobs for ``sections``."""
-    for p, section, job in _JOBS:
+    for p, section, kind, method in _JOBS:
         if p == part and section in sections:
-            _run_job(job)
+            _run_job(kind, method)
 
 
 def precompile(sections) -> float | None:
     """Compile the jobs of ``sections`` in this process and a helper process at once; returns
     the wall time it took, or None where no section needs it. A helper that fails is
     ignored: the sections compile what is missing themselves."""
-    if not any(section in sections for _, section, _ in _JOBS):
+    if not any(section in sections for _, section, _, _ in _JOBS):
         return None
     start = time.perf_counter()
     helper = subprocess.Popen([sys.executable, "-m", "emorbit.bench.precompile", "1", *sections],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=os.environ.copy())
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         run_part(0, sections)
     except BaseException:  # Ctrl-C or a failing job: do not leave the helper compiling
