@@ -33,11 +33,12 @@ def states(a, e, mean_anomaly, seed=0):
     return np.ascontiguousarray(x.T), np.ascontiguousarray(v.T)
 
 
-def run(kernel, method, x, v, dt, order, every, nrec, max_iter=50, center=(0.0, 0.0, 0.0)):
-    """Call a chunk kernel on copies; returns (x, v, cx, cv, rec_x, rec_v, rec_iters, fail)."""
+def run(kernel, method, x, v, dt, order, every, nrec, max_iter=50, center=(0.0, 0.0, 0.0), cx=None):
+    """Call a chunk kernel on copies (the position compensation ``cx``, default zero);
+    returns (x, v, cx, cv, rec_x, rec_v, rec_iters, fail)."""
     n = x.shape[1]
     x, v = x.copy(), v.copy()
-    cx, cv = np.zeros_like(x), np.zeros_like(v)
+    cx, cv = (np.zeros_like(x) if cx is None else np.array(cx, float)), np.zeros_like(v)
     out = (np.empty((nrec, 3, n)), np.empty((nrec, 3, n)), np.zeros((nrec, n), np.int64),
            np.full((n, 2), -1, np.int64))
     args = (x, v, cx, cv, GM, np.array(center, float), dt, coefficients(order), every, nrec, max_iter, *out)
@@ -367,18 +368,11 @@ def test_state_that_overflows_fails_at_its_step(order, every, nrec):
     v = np.stack([np.zeros(n), vo[:, 1], vo[:, 2]])
     cx = np.zeros_like(x)
     cx[0, [3, 17]] = -(2.0 ** 970)
-    center = np.array([big, 0.0, 0.0])
+    center = (big, 0.0, 0.0)
 
     def chunk(kernel, keep):
-        out = (np.empty((nrec, 3, keep.size)), np.empty((nrec, 3, keep.size)), np.zeros((nrec, keep.size), np.int64),
-               np.full((keep.size, 2), -1, np.int64))
-        st = [x[:, keep].copy(), v[:, keep].copy(), cx[:, keep].copy(), np.zeros((3, keep.size))]
-        args = (*st, GM, center, PAPER_T / 100, coefficients(order), every, nrec, 50, *out)
-        if kernel == "reference":
-            ref.implicit_chunk(ens.METHOD_EM, *args)
-        else:
-            getattr(ens, kernel)(ens.METHOD_EM, *args)
-        return (*st, *out)
+        return run(kernel, ens.METHOD_EM, x[:, keep], v[:, keep], PAPER_T / 100, order, every, nrec,
+                   center=center, cx=cx[:, keep])
 
     every_point = np.arange(n)
     fast = chunk("ensemble_chunk", every_point)
