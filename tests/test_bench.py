@@ -114,3 +114,6 @@ def test_precompile_parts_share_no_kernel(result):
     assert pc.precompile(["rigid", "elastic", "startup"]) is None
     done = subprocess.run([sys.executable, "-m", "emorbit.bench.precompile", "1", "rigid"], timeout=300)
     assert done.returncode == 0
+    bad = subprocess.run([sys.executable, "-m", "emorbit.bench.precompile", "2"], timeout=300, capture_output=True,
+                         text=True)
+    assert bad.returncode == 2 and "PART 0 or 1" in bad.stderr

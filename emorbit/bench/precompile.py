@@ -82,6 +82,10 @@ def precompile(sections) -> float | None:
 
 
 def _main(argv) -> int:
+    if not argv or argv[0] not in ("0", "1"):
+        print(f"usage: python -m emorbit.bench.precompile PART SECTION ... (PART 0 or 1, got {argv[:1]})",
+              file=sys.stderr)
+        return 2
     run_part(int(argv[0]), argv[1:])
     return 0
 
