@@ -3,12 +3,14 @@ the sections hang together, the figures are written. Timings are never asserted 
 
 import json
 
+import numpy as np
 import pytest
 
-from emorbit.bench import SECTIONS
+from emorbit.bench import SECTIONS, limits
 from emorbit.bench.runner import run_bench
 from emorbit.bench.workprecision import _pareto
 from emorbit.cli import main
+from emorbit.kernels.ensemble import BLOCK, LD
 
 KEYS = {
     "ensemble": ("em_particle_steps_per_s", "em_1thread_particle_steps_per_s", "rebound_leapfrog_particle_steps_per_s",
@@ -52,6 +54,10 @@ def test_sections_hang_together(result):
     # the same counts, one measurement: a busy machine once gave em_fast half em's all-threads bound
     assert ens["limits"]["kernels"]["em_fast"]["bound_per_s_all_threads"] == \
         ens["limits"]["kernels"]["em"]["bound_per_s_all_threads"]
+    # the floor has em's counts, and the fraction targets say how much of the bound it reaches
+    assert (ens["floor"]["sqrts"], ens["floor"]["divisions"]) == (2, 3)
+    fraction = [t for t in data["targets"] if "division / square-root bound" in t["target"]]
+    assert len(fraction) == 2 and all(t["ceiling"] > 0 and "floor" in t["note"] for t in fraction)
     for orbit in data["work_precision"]["orbits"]:
         engines = {(p["engine"], p["method"]) for p in orbit["points"]}
         assert {("emorbit", m) for m in ("em", "midpoint", "leapfrog")} <= engines
@@ -117,3 +123,32 @@ def test_precompile_parts_share_no_kernel(result):
     bad = subprocess.run([sys.executable, "-m", "emorbit.bench.precompile", "2"], timeout=300, capture_output=True,
                          text=True)
     assert bad.returncode == 2 and "PART 0 or 1" in bad.stderr
+
+
+def _floor_energy(W):
+    x = np.array([W[k * LD:k * LD + BLOCK] for k in range(3)])
+    v = np.array([W[(3 + k) * LD:(3 + k) * LD + BLOCK] for k in range(3)])
+    return 0.5 * (v * v).sum(axis=0) - 1.0 / np.sqrt((x * x).sum(axis=0)), np.sqrt((x * x).sum(axis=0))
+
+
+def test_floor_takes_orbit_steps():
+    """The bench's floor loop is a real (first-order) orbit step, compensated or not: over 1000
+    steps of h = 0.05 (a quarter to two thirds of an orbit) the energy of every point changes by
+    less than 5 % (measured 2.7 %), the orbits stay near-circular, the compensated and plain
+    runs agree to round-off, and the compensations stay at round-off of the state. On all
+    threads each block takes exactly the one-thread steps."""
+    e0, r0 = _floor_energy(limits.floor_block())
+    runs = {}
+    for compensated in (True, False):
+        W = limits.floor_block()
+        limits._floor(W, limits._FLOOR_H, 1.0, compensated, 1000)
+        e, r = _floor_energy(W)
+        assert np.all(np.abs(e / e0 - 1.0) < 0.05)
+        assert r.min() > 3.0 and r.max() < 15.0  # radii 5-10, e up to about 0.2
+        runs[compensated] = W
+    comp, plain = runs[True], runs[False]
+    assert np.abs(comp[:6 * LD] - plain[:6 * LD]).max() < 1e-11 * np.abs(plain[:6 * LD]).max()
+    assert 0 < np.abs(comp[6 * LD:]).max() < 1e-14 * np.abs(comp[:6 * LD]).max()
+    many = np.tile(limits.floor_block(), (3, 1))
+    limits._floor_parallel(many, limits._FLOOR_H, 1.0, True, 1000)
+    assert all(np.array_equal(row, comp) for row in many)

@@ -12,6 +12,10 @@ steps it took. Then:
 * the bound from division and square-root throughput (:mod:`.limits`), measured in the same
   run, for the em kernel's counts per particle-step (the same for both roundoff settings)
   and leapfrog's;
+* the floor (:func:`.limits.floor`): the least work an em particle-step can do on the
+  kernel's state (its divisions and square roots, the compensated update of 12 rows of a
+  block in the L1 cache), and with it the most of the bound any kernel keeping that state
+  can reach on this machine (``em_ceiling_fraction_of_bound_*``);
 * a point-mass scene's throughput against the bare kernel's: the scene's body system
   (:meth:`PointMasses.advance`, which records and dispatches) interleaved with the bare
   kernel, and once the whole driver (:meth:`Simulation.run`, one record per call: it also
@@ -25,7 +29,7 @@ import numpy as np
 from .common import (ENSEMBLE_DT, GM, EmorbitRunner, KernelRunner, ReboundRunner, _clock, _loadavg, _paired_ratio,
                      _since, _timed, energies, ensemble_states, numba_threads, point_masses, rebound_sim,
                      rebound_state)
-from .limits import measure
+from .limits import floor, measure
 
 WALL = "samples_us"
 
@@ -83,6 +87,8 @@ def run(cfg) -> dict:
                       "em_fast": (kern.EM_PLAIN_SQRTS, kern.EM_PLAIN_DIVISIONS),
                       "leapfrog": (kern.LEAPFROG_SQRTS, kern.LEAPFROG_DIVISIONS)}, threads["threads"])
     em_bound = limits["kernels"]["em"]
+    lowest = floor(threads["threads"])
+    assert (lowest["sqrts"], lowest["divisions"]) == (em_bound["sqrts"], em_bound["divisions"])
     em1, emN = rows["em 1 thread"], rows["em all threads"]
     lf = rows["rebound leapfrog"]
     # the whole driver, once: the kernel's time for these steps is about 1 s on two cores
@@ -112,6 +118,12 @@ def run(cfg) -> dict:
         "limits": limits,
         "em_fraction_of_bound_1thread": em1["particle_steps_per_s"] / em_bound["bound_per_s_1_thread"],
         "em_fraction_of_bound_all_threads": emN["particle_steps_per_s"] / em_bound["bound_per_s_all_threads"],
+        "floor": lowest,
+        "em_ceiling_fraction_of_bound_1thread": em_bound["mix_ns_1_thread"] / lowest["compensated"]["ns_1_thread"],
+        "em_ceiling_fraction_of_bound_all_threads": (em_bound["mix_ns_all_threads"]
+                                                     / lowest["compensated"]["ns_all_threads"]),
+        "em_over_floor_1thread": em1["ns_per_particle_step"] / lowest["compensated"]["ns_1_thread"],
+        "em_over_floor_all_threads": emN["ns_per_particle_step"] / lowest["compensated"]["ns_all_threads"],
         "scene_over_bare": 1.0 / _paired_ratio(times["em scene (PointMasses.advance)"], times["em all threads"],
                                                 WALL),
         "driver": driver,
@@ -134,6 +146,15 @@ def table(section: dict) -> list[str]:
               f"bound {em['bound_per_s_1_thread']:.3g}/s on one thread, {em['bound_per_s_all_threads']:.3g}/s on all; "
               f"em reaches {100 * section['em_fraction_of_bound_1thread']:.0f} % and "
               f"{100 * section['em_fraction_of_bound_all_threads']:.0f} %",
+              f"  floor, the least an em particle-step does on this state ({section['floor']['sqrts']} square roots + "
+              f"{section['floor']['divisions']} divisions, {section['floor']['rows_compensated']} rows updated, "
+              f"compensated): {section['floor']['compensated']['ns_1_thread']:.2f} ns on one thread, "
+              f"{section['floor']['compensated']['ns_all_threads']:.2f} ns on all: no kernel keeping this state "
+              f"reaches more than {100 * section['em_ceiling_fraction_of_bound_1thread']:.0f} % and "
+              f"{100 * section['em_ceiling_fraction_of_bound_all_threads']:.0f} % of the bound; em takes "
+              f"{section['em_over_floor_1thread']:.1f}x and {section['em_over_floor_all_threads']:.1f}x the floor "
+              f"(floor without the compensations, {section['floor']['rows_plain']} rows: "
+              f"{section['floor']['plain']['ns_1_thread']:.2f} and {section['floor']['plain']['ns_all_threads']:.2f} ns)",
               f"  em all threads / REBOUND leapfrog: {section['em_over_rebound_leapfrog']:.2f}x; one thread: "
               f"{section['em_1thread_over_rebound_leapfrog']:.2f}x",
               f"  em roundoff=\"fast\" ({lim['kernels']['em_fast']['sqrts']} square roots + "

@@ -27,11 +27,13 @@ def targets(result: dict) -> list[dict]:
             out.append({"target": f"em{label} ensemble on all threads >= 3x REBOUND leapfrog particle-steps/s",
                         "measured": r, "limit": TARGETS["ensemble_vs_rebound"],
                         "met": r >= TARGETS["ensemble_vs_rebound"]})
-        for where, key in (("one thread", "em_fraction_of_bound_1thread"),
-                           ("all threads", "em_fraction_of_bound_all_threads")):
-            f = ens[key]
+        for where, suffix in (("one thread", "1thread"), ("all threads", "all_threads")):
+            f = ens[f"em_fraction_of_bound_{suffix}"]
+            ceiling = ens[f"em_ceiling_fraction_of_bound_{suffix}"]
             out.append({"target": f"em ensemble >= 80 % of the division / square-root bound ({where})",
-                        "measured": f, "limit": TARGETS["fraction_of_bound"], "met": f >= TARGETS["fraction_of_bound"]})
+                        "measured": f, "limit": TARGETS["fraction_of_bound"], "met": f >= TARGETS["fraction_of_bound"],
+                        "note": f"the floor of this state reaches {100 * ceiling:.0f} % in this run",
+                        "ceiling": ceiling})
         s = ens["scene_over_bare"]
         out.append({"target": "point-mass scene (PointMasses.advance) >= 0.9x the bare kernel's throughput",
                     "measured": s, "limit": TARGETS["scene_vs_bare"], "met": s >= TARGETS["scene_vs_bare"]})
@@ -109,7 +111,8 @@ def run_bench(sections, quick: bool = False, json_path=None, plots_dir=None, con
     print("\ntargets (ratios within this run):")
     for t in result["targets"]:
         verdict = "met" if t["met"] else "NOT met"
-        print(f"  {verdict:>8}  {t['target']}: {t['measured']:.3g} (limit {t['limit']:g})")
+        note = f"; {t['note']}" if "note" in t else ""
+        print(f"  {verdict:>8}  {t['target']}: {t['measured']:.3g} (limit {t['limit']:g}{note})")
     print(f"load average {result['load_average']['before']} -> {result['load_average']['after']}; "
           f"{result['seconds']['total']} s")
     if json_path:
