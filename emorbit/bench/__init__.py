@@ -9,8 +9,9 @@ ensemble        1e5 test particles (a in [5, 10] m, e in [0, 0.9], random planes
                 time-uniform phases, GM = 3.9478, dt = T/1000 of a 6 m orbit): particle-steps
                 per second of em on one thread and on all threads, against REBOUND's leapfrog
                 and WHFast (N_active = 1), with each one's max energy error; the bound from
-                division and square-root throughput measured in the same run; and a
-                point-mass scene's throughput against the bare kernel's
+                division and square-root throughput measured in the same run, and the floor
+                of the kernel's state (the most of that bound any kernel keeping it can
+                reach); and a point-mass scene's throughput against the bare kernel's
 work-precision   final position error (against the analytic Kepler solution) and max energy
                 error against CPU time over 100 orbits, for the paper's orbit and an e = 0.9
                 orbit: every method and order at several dt, REBOUND IAS15 at several epsilons,
