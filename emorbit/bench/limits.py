@@ -83,7 +83,7 @@ def _floor_kick(x0, x1, x2, v0, v1, v2, h, h2gm):
     V = v0 * v0 + v1 * v1 + v2 * v2
     r0 = math.sqrt(A)
     r1 = math.sqrt(A + h * (2.0 * P + h * V))
-    return (h2gm / r0) * (1.0 / r1) / (r0 + r1)
+    return (h2gm / r0) * ((1.0 / r1) * (1.0 / (r0 + r1)))
 
 
 @kernel
