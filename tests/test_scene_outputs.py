@@ -1,0 +1,78 @@
+"""Every shipped scene writes the very bits it wrote when the reference hashes were recorded.
+
+``tests/data/scene_hashes.json`` holds, per scene, a SHA-256 prefix of every dataset of the
+file ``emorbit run SCENE`` writes (records, meshes, checkpoint and final state) and of its
+root attributes other than the provenance ones (creation time, versions). A refactoring
+that changes no physics leaves all of them unchanged; a change that moves a single bit of
+any record fails here, naming the scene and the dataset.
+
+To record new references after a deliberate change of results::
+
+    python tests/test_scene_outputs.py > tests/data/scene_hashes.json
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+import emorbit
+from emorbit.cli import main
+
+REFERENCE = os.path.join(os.path.dirname(__file__), "data", "scene_hashes.json")
+#: root attributes that say when and with what the file was written, not what it holds
+PROVENANCE = {"created", "versions", "creator", "emorbit_version"}
+
+
+def digest(path: str) -> dict[str, str]:
+    """{dataset path: hash} of every dataset in ``path``, and "@attrs" for the root attributes."""
+    out = {}
+    with h5py.File(path, "r") as f:
+
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset):
+                a = np.ascontiguousarray(obj[()])
+                out[name] = hashlib.sha256(str(a.dtype).encode() + str(a.shape).encode() + a.tobytes()).hexdigest()[:16]
+
+        f.visititems(visit)
+        attrs = {k: str(v) for k, v in sorted(f.attrs.items()) if k not in PROVENANCE}
+        out["@attrs"] = hashlib.sha256(json.dumps(attrs).encode()).hexdigest()[:16]
+    return out
+
+
+def run_scene(name: str, folder: str) -> dict[str, str]:
+    path = os.path.join(folder, f"{name}.h5")
+    assert main(["run", name, "-o", path, "-q"]) == 0
+    return digest(path)
+
+
+def _reference() -> dict:
+    with open(REFERENCE) as fh:
+        return json.load(fh)
+
+
+def test_every_shipped_scene_has_a_reference():
+    assert sorted(_reference()) == emorbit.list_scenes()
+
+
+@pytest.mark.parametrize("name", emorbit.list_scenes())
+def test_scene_output_is_bit_identical(name, tmp_path):
+    expected = _reference()[name]
+    got = run_scene(name, str(tmp_path))
+    assert sorted(got) == sorted(expected), f"{name}: the file's datasets changed"
+    changed = [key for key in expected if got[key] != expected[key]]
+    assert not changed, f"{name}: these datasets differ from the reference bits: {changed}"
+
+
+if __name__ == "__main__":  # pragma: no cover - records the references
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        json.dump({n: run_scene(n, folder) for n in emorbit.list_scenes()}, sys.stdout, indent=1, sort_keys=True)
+        sys.stdout.write("\n")
