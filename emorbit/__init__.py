@@ -18,7 +18,7 @@ from .field import BODIES, CentralField
 from .integrators import METHODS, ORDERS
 from .io.hdf5 import read
 from .result import Result
-from .resume import resume
+from .io.resume import resume
 from .scene import Scene, list_scenes, load_scene, parse_scene
 from .simulation import Simulation
 

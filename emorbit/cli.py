@@ -69,7 +69,7 @@ def _parser() -> argparse.ArgumentParser:
 #: subcommands implemented in their own modules: name -> (module, help). Each module has
 #: ``add_arguments(parser)`` and ``run(args) -> int`` and is imported only when needed.
 PLUGINS: dict[str, tuple[str, str]] = {
-    "validate": ("validation.cli", "compare against REBOUND, astropy and Kepler; write a report"),
+    "validate": ("emorbit.validation.cli", "compare against REBOUND, astropy and Kepler; write a report"),
     "sweep": ("emorbit.sweep.cli", "run a parameter sweep of a scene on local processes, Dask or MPI"),
     "bench": ("emorbit.bench", "time emorbit beside REBOUND; work-precision diagrams"),
 }
@@ -101,7 +101,7 @@ def _run(args) -> int:
 
 
 def _resume(args) -> int:
-    from .resume import resume
+    from .io.resume import resume
 
     start = time.perf_counter()
     result = resume(args.file, args.t_end, progress=False if args.quiet else None)

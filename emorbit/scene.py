@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import copy
 import importlib.resources
-import json
 import numbers
 import os
 import sys
@@ -48,8 +47,9 @@ import numpy as np
 
 from .errors import InputError
 from .field import CentralField
-from .integrators import check_order, get_method
-from .simulation import ROUNDOFF, Simulation, check_body_name
+from .integrators import check_order, check_roundoff, get_method
+from .io.scene_toml import simulation_to_toml
+from .simulation import Simulation, check_body_name
 from .units import to_si
 
 __all__ = ["Scene", "load_scene", "list_scenes", "parse_scene", "simulation_to_toml", "SCHEMA"]
@@ -65,7 +65,7 @@ SCHEMA = {
     "body.rigid": {"name": True, "kind": True, "shape": True, "position": True, "velocity": True,
                    "attitude": False, "rotation_vector": False, "angular_velocity": False,
                    "angular_velocity_frame": False, "gravity": False,
-                   # shape parameters (which apply depends on the shape; see emorbit.rigid.SHAPE_PARAMETERS)
+                   # shape parameters (which apply depends on the shape; see emorbit.bodies.rigid.SHAPE_PARAMETERS)
                    "size": False, "radius": False, "height": False, "masses": False, "length": False,
                    "end_radius": False, "density": False, "mass": False, "refinement": False,
                    "nodes": False, "tetrahedra": False, "mesh_unit": False},
@@ -195,9 +195,7 @@ class Scene:
         adaptive = integ.get("adaptive")
         if adaptive is not None and (isinstance(adaptive, bool) or not isinstance(adaptive, (int, float))):
             raise InputError("integrator.adaptive", f"a number in (0, 1] expected, got {adaptive!r}")
-        roundoff = integ.get("roundoff", "brouwer")
-        if roundoff not in ROUNDOFF:
-            raise InputError("integrator.roundoff", f"must be one of {', '.join(map(repr, ROUNDOFF))}, got {roundoff!r}")
+        roundoff = check_roundoff(integ.get("roundoff", "brouwer"), "integrator.roundoff")
         sim = Simulation(field, method=self.method, order=self.order, dt=dt, max_newton_iterations=max_iter,
                          newton=newton, adaptive=adaptive, roundoff=roundoff)
         bodies = d["body"]
@@ -316,77 +314,3 @@ def load_scene(name_or_path) -> Scene:
     if shipped.is_file():
         return parse_scene(shipped.read_text(encoding="utf-8"), path)
     raise InputError("scene", f"{path!r} is neither a file nor a shipped scene; shipped: {', '.join(list_scenes())}")
-
-
-def _q(value: float, unit: str) -> str:
-    return f'"{float(value)!r} {unit}"'
-
-
-def _v(vec, unit: str) -> str:
-    return "[" + ", ".join(_q(c, unit) for c in vec) + "]"
-
-
-def simulation_to_toml(sim: Simulation, t_end: float | None = None, output_every: int = 1) -> str:
-    """A scene reproducing ``sim``'s current set-up in SI units. Point masses are exact to the
-    last bit; a rigid body is written by its attitude (a quaternion, ~1e-16) and its angular
-    velocity, which drops the O(dt^2) non-rigid part of the director velocities after steps
-    have been taken (exact restarts keep the raw state instead)."""
-    lines = []
-    if sim.field is not None:
-        lines.append("[field]")
-        if sim.field.body:
-            lines.append(f'body = "{sim.field.body}"')
-        else:
-            lines.append(f"gm = {_q(sim.field.gm, 'm3 / s2')}")
-        lines += [f"center = {_v(sim.field.center, 'm')}", ""]
-    lines += ["[integrator]",
-              f'method = "{sim.method}"', f"order = {sim.order}", f"dt = {_q(sim.dt, 's')}",
-              f"t_end = {_q(t_end if t_end is not None else sim.time + sim.dt, 's')}",
-              f"output_every = {output_every}", f"max_newton_iterations = {sim.max_newton_iterations}"]
-    if sim.adaptive is not None:
-        lines.append(f"adaptive = {sim.adaptive!r}")
-    if sim.roundoff != "brouwer":
-        lines.append(f'roundoff = "{sim.roundoff}"')
-    if sim.newton != "auto":
-        lines.append(f'newton = "{sim.newton}"')
-    pts = sim.points
-    for i, name in enumerate(pts.names):
-        lines += ["", "[[body]]", f"name = {json.dumps(name)}",
-                  'kind = "point"', f"mass = {_q(pts.masses[i], 'kg')}",
-                  f"position = {_v(pts.x[:, i], 'm')}", f"velocity = {_v(pts.v[:, i], 'm / s')}"]
-    if sim.rigid is not None:
-        rb = sim.rigid
-        now = rb.datasets(rb.current(), 1)
-        for b, name in enumerate(rb.names):
-            d = now[name]
-            lines += ["", "[[body]]", f"name = {json.dumps(name)}", 'kind = "rigid"', f'shape = "{rb.shapes[b]}"',
-                      f"position = {_v(d['position'][0], 'm')}", f"velocity = {_v(d['velocity'][0], 'm / s')}",
-                      "attitude = [" + ", ".join(repr(float(x)) for x in d["attitude"][0]) + "]",
-                      f"angular_velocity = {_v(d['angular_velocity'][0], 'rad / s')}",
-                      f'gravity = "{rb.body_attrs(b)["gravity"]}"']
-            lines += _shape_lines(rb.params[b])
-    if sim.structure is not None:
-        lines += ["", "# elastic bodies and couplings built through the Python API are not written here: "
-                      + ", ".join(sim.structure.names)]
-    return "\n".join(lines) + "\n"
-
-
-_PARAM_UNITS = {"size": "m", "radius": "m", "height": "m", "length": "m", "end_radius": "m", "density": "kg / m3",
-                "mass": "kg", "masses": "kg"}
-
-
-def _shape_lines(params: dict) -> list[str]:
-    out = []
-    for key, value in params.items():
-        if key in ("size", "masses"):
-            out.append(f"{key} = {_v(value, _PARAM_UNITS[key])}")
-        elif key in _PARAM_UNITS:
-            out.append(f"{key} = {_q(value, _PARAM_UNITS[key])}")
-        elif key == "refinement":
-            out.append(f"refinement = {int(value)}")
-        elif key == "nodes":
-            out.append('mesh_unit = "m"')
-            out.append("nodes = [" + ", ".join("[" + ", ".join(repr(float(c)) for c in row) + "]" for row in value) + "]")
-        elif key == "tetrahedra":
-            out.append("tetrahedra = [" + ", ".join("[" + ", ".join(str(int(c)) for c in row) + "]" for row in value) + "]")
-    return out

@@ -16,8 +16,8 @@ Example::
 
 Physical values accept astropy Quantities, strings with units or plain SI floats.
 
-Bodies of each kind live in a *system* (:class:`~emorbit.pointmasses.PointMasses`,
-:class:`~emorbit.rigid.RigidBodies`) that owns their arrays and kernel. Bodies do not
+Bodies of each kind live in a *system* (:class:`~emorbit.bodies.pointmasses.PointMasses`,
+:class:`~emorbit.bodies.rigid.RigidBodies`) that owns their arrays and kernel. Bodies do not
 interact, so every system advances on its own; only the systems that have bodies run, so a
 point-mass scene never touches rigid-body code. A system offers: ``names``, ``DATASETS``,
 ``METHODS``, ``work_per_step()``, ``advance(...)``, ``current()``, ``snapshot()``,
@@ -36,18 +36,17 @@ import numpy as np
 
 from .errors import InputError, IntegrationError
 from .field import CentralField
-from .integrators import METHODS, check_order, coefficients, get_method
+from .integrators import METHODS, check_device, check_order, check_roundoff, coefficients, get_method
+from .integrators.dispatch import require_device
+from .bodies.pointmasses import PointMasses
 from .io.hdf5 import Writer
-from .kernels import pointmass as kern
+from .io.recorder import Sink, progress_bar
+from .kernels.codes import STATUS_NO_CONVERGENCE
 from .orbits import OrbitalElements, elements
-from .pointmasses import PointMasses
 from .result import Result
 from .units import to_si, vector_to_si
 
 __all__ = ["Simulation", "check_body_name"]
-
-#: round-off treatment of em steps (point masses): see Simulation
-ROUNDOFF = ("brouwer", "fast")
 
 #: body-substeps (weighted by system cost) per compiled chunk: about 0.5 s of em work
 CHUNK_WORK = 4_000_000
@@ -80,42 +79,6 @@ def _steps_between(t_start: float, t_end: float, dt: float, key: str) -> int:
     return int(n)
 
 
-def _mesh(mesh, params: dict, strict: bool, key: str):
-    """(nodes in m, tetrahedra, bars) of a generated mesh or a mesh file."""
-    from . import elastic as el
-
-    allowed = {"beam": ("size", "elements"), "chain": ("start", "end", "elements"), "net": ("size", "elements"),
-               "file": ("file", "mesh_unit")}
-    if mesh not in allowed:
-        raise InputError(f"{key}.mesh", f"unknown mesh {mesh!r}; known: {', '.join(allowed)}")
-    for p in params:
-        if p not in allowed[mesh]:
-            raise InputError(f"{key}.{p}", f"not a parameter of mesh {mesh!r}; allowed: {', '.join(allowed[mesh])}")
-    for p in allowed[mesh]:
-        if p not in params and p != "mesh_unit":
-            raise InputError(f"{key}.{p}", f"missing (required for mesh {mesh!r})")
-    empty = np.zeros((0, 4), np.int64), np.zeros((0, 2), np.int64)
-    if mesh == "beam":
-        X, T = el.beam_mesh(vector_to_si(params["size"], "length", f"{key}.size", strict=strict),
-                            params["elements"], key)
-        return X, T, empty[1]
-    if mesh == "chain":
-        X, B = el.chain_mesh(vector_to_si(params["start"], "length", f"{key}.start", strict=strict),
-                             vector_to_si(params["end"], "length", f"{key}.end", strict=strict), params["elements"], key)
-        return X, empty[0], B
-    if mesh == "net":
-        size = params["size"]
-        if isinstance(size, str) or not hasattr(size, "__len__") or len(size) != 2:
-            raise InputError(f"{key}.size", f"two lengths expected, got {size!r}")
-        L = [to_si(s_, "length", f"{key}.size[{i}]", strict=strict, positive=True) for i, s_ in enumerate(size)]
-        X, B = el.net_mesh(L, params["elements"], key)
-        return X, empty[0], B
-    X, T, B = el.read_mesh(params["file"], key)
-    if "mesh_unit" in params:
-        X = X * to_si(f"1 {params['mesh_unit']}", "length", f"{key}.mesh_unit")
-    return X, T, B
-
-
 class Simulation:
     """Bodies in a central field (or in free space), advanced by one method at a fixed step.
 
@@ -134,7 +97,7 @@ class Simulation:
     adaptive : float, optional
         point masses only: step by ``adaptive`` times the local Kepler time scale,
         h = adaptive * 2 pi sqrt(r^3 / GM), at most ``dt``; records stay on the grid of
-        ``dt`` (see :mod:`emorbit.kernels.adaptive`). Default: fixed steps of ``dt``.
+        ``dt`` (see :mod:`emorbit.kernels.pointmass.adaptive`). Default: fixed steps of ``dt``.
     roundoff : str
         point masses, method "em": "brouwer" (default) keeps the energy error a random walk
         over many steps (Brouwer's law; the drift left is below 2e-22 |E| per step at T/100
@@ -143,7 +106,7 @@ class Simulation:
         is, else one on an accurate evaluation; steps with a large
         h**2/2 GM / (r0 r1 (r0 + r1)) and adaptive steps finish on ``g_em`` evaluated to
         within a rounding instead, :func:`emorbit.kernels.pointmass.em_finish`; see
-        :mod:`emorbit.kernels.ensemble`). "fast" skips that (measured on a 2-core AMD EPYC:
+        :mod:`emorbit.kernels.pointmass.packed`). "fast" skips that (measured on a 2-core AMD EPYC:
         about 100 instead of 109 ns per step on one orbit, 8.7 instead of 10.2 ns per
         particle-step of the benchmark ensemble on one thread; README "What accuracy
         costs"), leaving a drift of 4e-20 to
@@ -151,7 +114,7 @@ class Simulation:
     newton : str
         for elastic structures: "full" refactors the Jacobian at every iteration, "reuse" keeps
         sparse LU factors while they converge fast, "auto" (default) picks by size (see
-        :class:`emorbit.structure.Structure`).
+        :class:`emorbit.bodies.coupled.Structure`).
     """
 
     def __init__(self, field: CentralField | None, *, method: str = "em", order: int = 2, dt,
@@ -169,7 +132,7 @@ class Simulation:
         self.max_newton_iterations = int(max_newton_iterations)
         if newton not in ("auto", "reuse", "full"):
             raise InputError("newton", f"must be 'auto', 'reuse' or 'full', got {newton!r}")
-        self.newton = newton  # structures (elastic bodies) only: see emorbit.structure.Structure
+        self.newton = newton  # structures (elastic bodies) only: see emorbit.bodies.coupled.Structure
         if adaptive is not None:
             if isinstance(adaptive, bool) or not isinstance(adaptive, numbers.Real) or not 0 < adaptive <= 1:
                 raise InputError("adaptive", f"must be a number in (0, 1] (steps per local Kepler time scale), "
@@ -177,9 +140,7 @@ class Simulation:
             if field is None:
                 raise InputError("adaptive", "adaptive steps follow the Kepler time scale: they need a central field")
         self.adaptive = None if adaptive is None else float(adaptive)
-        if roundoff not in ROUNDOFF:
-            raise InputError("roundoff", f"must be one of {', '.join(map(repr, ROUNDOFF))}, got {roundoff!r}")
-        self.roundoff = roundoff
+        self.roundoff = check_roundoff(roundoff)
         self.points = PointMasses()
         self.points.adaptive = self.adaptive
         self.points.roundoff = roundoff
@@ -211,6 +172,23 @@ class Simulation:
     def center(self) -> np.ndarray:
         """The field's centre in m (the origin in free space)."""
         return self.field.center if self.field is not None else np.zeros(3)
+
+    @property
+    def device(self) -> str:
+        """Where the point masses run: "cpu" (default) or "gpu" (see
+        :mod:`emorbit.integrators.dispatch`). Rigid and elastic bodies always run on the CPU.
+        Setting "gpu" checks at once that a CUDA device is present and that the run can use
+        it (fixed steps of a method with a CUDA kernel), else raises an :class:`InputError`."""
+        return self.points.device
+
+    @device.setter
+    def device(self, device: str) -> None:
+        device = check_device(device)
+        if device == "gpu":
+            require_device(device)
+            if self.adaptive is not None:
+                raise InputError("device", "adaptive steps run on the CPU only; use device 'cpu'")
+        self.points.device = device
 
     @property
     def systems(self) -> list:
@@ -254,7 +232,7 @@ class Simulation:
     def add_rigid(self, name: str, shape: str, *, position, velocity, attitude=None, rotation_vector=None,
                   angular_velocity=(0.0, 0.0, 0.0), angular_velocity_frame: str = "body", gravity: str | None = None,
                   strict: bool = False, key: str | None = None, **shape_params) -> None:
-        """Add a rigid body discretised into mass points (see :mod:`emorbit.shapes`).
+        """Add a rigid body discretised into mass points (see :mod:`emorbit.bodies.shapes`).
 
         shape            "box" (size), "cylinder" (radius, height), "sphere" (radius),
                          "shell" (radius, mass), "dumbbell" (masses, length[, end_radius]) or
@@ -268,7 +246,7 @@ class Simulation:
                          torque), "point" (all mass at the centre of mass, no torque) or
                          "none" (free motion); default "volume" with a field, "none" without
         """
-        from .rigid import RigidBodies, build_rigid
+        from .bodies.rigid import RigidBodies, build_rigid
 
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
@@ -290,7 +268,7 @@ class Simulation:
 
     def _structure(self):
         if self.structure is None:
-            from .structure import Structure
+            from .bodies.coupled import Structure
 
             self.structure = Structure(newton=self.newton)
         if self.structure._built:
@@ -301,7 +279,7 @@ class Simulation:
                     attitude=None, rotation_vector=None, angular_velocity=(0.0, 0.0, 0.0),
                     angular_velocity_frame: str = "body", gravity: str | None = None, mass_matrix: str = "consistent",
                     node_output_every: int = 1, strict: bool = False, key: str | None = None, **mesh_params) -> None:
-        """Add an elastic body (St. Venant-Kirchhoff bars and/or tetrahedra; see :mod:`emorbit.elastic`).
+        """Add an elastic body (St. Venant-Kirchhoff bars and/or tetrahedra; see :mod:`emorbit.bodies.elastic`).
 
         mesh        "beam" (size, elements), "chain" (start, end, elements), "net" (size,
                     elements) or "file" (file[, mesh_unit]); node coordinates in the body frame
@@ -312,8 +290,8 @@ class Simulation:
         mass_matrix "consistent" or "lumped"
         node_output_every  records between nodal-position outputs in the file
         """
-        from . import elastic as el
-        from .rigid import _attitude_matrix
+        from .bodies import elastic as el
+        from .bodies.rigid import _attitude_matrix
 
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
@@ -332,7 +310,7 @@ class Simulation:
         A = to_si(area, "area", f"{key}.area", strict=strict, positive=True) if area is not None else None
         if poisson is not None and (isinstance(poisson, bool) or not isinstance(poisson, numbers.Real)):
             raise InputError(f"{key}.poisson", f"a number expected, got {poisson!r}")
-        X, tets, bars = _mesh(mesh, mesh_params, strict, key)
+        X, tets, bars = el.mesh_from_parameters(mesh, mesh_params, strict, key)
         x = vector_to_si(position, "length", f"{key}.position", strict=strict)
         v = vector_to_si(velocity, "speed", f"{key}.velocity", strict=strict)
         R, omega = _attitude_matrix(attitude, rotation_vector, angular_velocity, angular_velocity_frame, strict, key)
@@ -443,7 +421,7 @@ class Simulation:
                    default: about half a second of work, at least ``every``). At each
                    checkpoint the records so far and the complete state are flushed to the
                    file, so a run killed at any moment leaves a readable file that
-                   ``emorbit resume`` continues bit for bit (see :mod:`emorbit.resume`).
+                   ``emorbit resume`` continues bit for bit (see :mod:`emorbit.io.resume`).
 
         Raises :class:`~emorbit.errors.IntegrationError` when a step fails; the simulation
         and the file then hold the state at the start of the failing step. Ctrl-C (SIGINT)
@@ -477,7 +455,7 @@ class Simulation:
             attrs["checkpoint_every"] = cp
             writer = Writer(output, bodies, attrs, overwrite=overwrite)
         self._run_origin = self._steps
-        sink = _Sink(self, writer, keep)
+        sink = Sink(self, writer, keep)
         sink.emit([(s, s.current()) for s in self.systems], np.array([self._steps]), 1, 0)
         if writer is not None:
             writer.write_checkpoint(self._steps - self._run_origin, self.time, self.state_arrays(), sink.rows)
@@ -563,7 +541,7 @@ class Simulation:
         return [(s, s.advance(self.method, self.gm, self.center, self._dt, gammas, k, nrec,
                               self.max_newton_iterations)) for s in self.systems]
 
-    def _advance(self, n_steps: int, every: int, sink: "_Sink", progress: bool, cp: int | None = None,
+    def _advance(self, n_steps: int, every: int, sink: "Sink", progress: bool, cp: int | None = None,
                  stop: threading.Event | None = None) -> None:
         """Take ``n_steps`` steps in chunks that end on records and never straddle a checkpoint
         (steps since the run's origin that are multiples of ``cp``); at each checkpoint the
@@ -575,7 +553,7 @@ class Simulation:
         chunk_records = max(1, min(CHUNK_WORK // per_record, CHUNK_BYTES // (128 * nbodies)))
         origin = getattr(self, "_run_origin", 0)
         done = 0
-        with _progress_bar(n_steps, progress) as bar:
+        with progress_bar(n_steps, progress) as bar:
             while done < n_steps:
                 if stop is not None and stop.is_set():
                     return
@@ -644,7 +622,7 @@ class Simulation:
             sink.emit([(s, s.current()) for s in self.systems], np.array([self._steps]), 1, 0)
         system = recs[j][0]
         name = system.names[index]
-        if status == kern.STATUS_NO_CONVERGENCE:
+        if status == STATUS_NO_CONVERGENCE:
             reason = (f"Newton's iteration did not converge within {self.max_newton_iterations} iterations, "
                       f"even in {2 ** self.MAX_SPLIT} sub-steps (method {self.method}, order {self.order}, "
                       f"dt = {self._dt!r} s){self._residual_note(system, index, gammas)}; try a smaller dt")
@@ -665,7 +643,9 @@ class Simulation:
         args = (x[0], x[1], x[2], v[0], v[1], v[2], h, self.gm, c[0], c[1], c[2], self.max_newton_iterations)
         # em: the reference kernel's Newton iteration alone (the accurate finish runs only
         # after it converged)
-        step = kern.em_step(*args, False) if self.method == "em" else kern.midpoint_step(*args)
+        from .kernels.pointmass import reference
+
+        step = reference.em_step(*args, False) if self.method == "em" else reference.midpoint_step(*args)
         dx, dy, dz, a, b, cc, _, _ = step
         d = np.array([dx, dy, dz])
         R = d - h * (v + 0.5 * np.array([a, b, cc]))
@@ -675,121 +655,9 @@ class Simulation:
     def to_toml(self, t_end: float | None = None, output_every: int = 1) -> str:
         """This simulation's set-up as a scene (TOML), in SI units, exact to the last bit
         (point masses; rigid bodies are written with their shape parameters)."""
-        from .scene import simulation_to_toml
+        from .io.scene_toml import simulation_to_toml
 
         return simulation_to_toml(self, t_end=t_end, output_every=output_every)
-
-
-class _NoBar:
-    """Stands in for a progress bar when none is shown: updates are ignored."""
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-    def update(self, n: int) -> None:
-        pass
-
-
-def _progress_bar(n_steps: int, progress: bool):
-    """tqdm's bar over ``n_steps`` steps on stderr (shown after 2 s) when ``progress``, else a
-    :class:`_NoBar`. tqdm is imported only when a bar is wanted: its import took about 45 ms
-    of a quiet run's start-up (``python -X importtime``, development machine)."""
-    if not progress:
-        return _NoBar()
-    from tqdm.auto import tqdm
-
-    return tqdm(total=n_steps, delay=2.0, unit="step", file=sys.stderr, dynamic_ncols=True, leave=False)
-
-
-class _Sink:
-    """Collects records: computes invariants, appends to the file and keeps them in memory."""
-
-    def __init__(self, sim: Simulation, writer: Writer | None, keep: bool):
-        self.sim = sim
-        self.writer = writer
-        self.keep = keep
-        self.blocks: list[tuple] = []
-        self.rows = 0  # records emitted so far
-        self.last_step = None  # the step count of the last record
-
-    def emit_rows(self, recs, steps, nrec: int, k: int) -> None:
-        """Emit only the first ``nrec`` rows (the ones before a collision)."""
-        self.emit(recs, steps[:nrec], nrec, k)
-
-    def emit(self, recs, steps, nrec: int, k: int) -> None:
-        """Record rows [:nrec] of each system's chunk; ``steps`` (nrec,) are the step counts
-        of the rows, ``k`` the steps in each record interval (for the iteration mean; 0 for
-        the start record, which closes no interval)."""
-        sim = self.sim
-        gm, center = sim.gm, sim.center
-        times = sim._t_base + np.asarray(steps) * sim._dt
-        energy = np.zeros(nrec)
-        momentum = np.zeros((nrec, 3))
-        angular = np.zeros((nrec, 3))
-        data = {}
-        iters = np.zeros(nrec)
-        solves = 0
-        for system, rec in recs:
-            e, p, L = system.invariants(rec, nrec, gm, center)
-            energy += e
-            momentum += p
-            angular += L
-            data.update(system.datasets(rec, nrec, times, self.rows))
-            iters += rec.iterations[:nrec].sum(axis=1)
-            if getattr(rec, "solves", None) is not None:  # adaptive: solves counted by the kernel
-                solves = solves + rec.solves[:nrec].sum(axis=1) / max(k, 1)
-            else:  # solves per step: points, bodies, or 1 per structure
-                solves = solves + rec.iterations.shape[1] * coefficients(sim.order).size
-        its = iters / np.maximum(k * solves, 1) if k else np.zeros(nrec)
-        radius = sim.field.radius if sim.field is not None else 0.0
-        if radius > 0.0:  # a body inside the central body: keep the records before, then stop
-            names = list(data)
-            pos = np.stack([data[n]["position"] for n in names])  # (bodies, nrec, 3), one pass
-            below = np.einsum("brk,brk->br", pos - sim.center, pos - sim.center) < radius * radius
-            inside = below.any(axis=0)
-            if inside.any():
-                first = int(np.argmax(inside))
-                who = names[int(np.argmax(below[:, first]))]
-                if first:
-                    self.emit_rows(recs, steps, first, k)
-                raise IntegrationError(float(times[first]), who,
-                                       f"it is inside the central body (r < radius = {radius!r} m); "
-                                       "records up to the one before are written")
-        self.rows += nrec
-        self.last_step = int(steps[nrec - 1])
-        block = (times, energy, momentum, angular, its, data)
-        if self.writer is not None:
-            self.writer.append(*block)
-        if self.keep or not self.blocks:
-            self.blocks.append(block if self.keep else _row(block, 0))
-        if not self.keep:
-            self.blocks[1:] = [_row(block, -1)]
-
-    def result(self) -> Result:
-        blocks = self.blocks
-        sim = self.sim
-        cat = lambda j: np.concatenate([b[j] for b in blocks])  # noqa: E731
-        bodies = {n: {q: np.concatenate([b[5][n][q] for b in blocks]) for q in blocks[0][5][n]} for n in sim.names}
-        masses, kinds = {}, {}
-        for s in sim.systems:
-            for i, n in enumerate(s.names):
-                attrs = s.body_attrs(i)
-                masses[n] = attrs["mass"]
-                kinds[n] = attrs["kind"]
-        return Result(
-            time=cat(0), energy=cat(1), momentum=cat(2), angular_momentum=cat(3), newton_iterations=cat(4),
-            bodies=bodies, masses=masses, kinds=kinds,
-            method=sim.method, order=sim.order, dt=sim.dt, gm=sim.gm, center=sim.center.copy(),
-        )
-
-
-def _row(block, i):
-    sl = slice(i, i + 1) if i >= 0 else slice(i, None)
-    times, e, p, L, its, data = block
-    return (times[sl], e[sl], p[sl], L[sl], its[sl], {n: {q: a[sl] for q, a in d.items()} for n, d in data.items()})
 
 
 # METHODS is re-exported for discoverability: Simulation.METHODS lists what `method` accepts

@@ -8,8 +8,8 @@ and run once before timing, median of 5):
 
 * cpu reference   emorbit.kernels.pointmass (one thread; the 3-vector Newton reference),
                   timed on the first 10,000 points (one thread's rate does not depend on n)
-* cpu ensemble    emorbit.kernels.ensemble, all Numba threads (what Simulation uses)
-* gpu chunk       emorbit.kernels.cuda.chunk: copies the state in and the records out
+* cpu ensemble    emorbit.kernels.pointmass.packed, all Numba threads (what Simulation uses)
+* gpu chunk       emorbit.kernels.pointmass.cuda.chunk: copies the state in and the records out
 * gpu kernel      the kernel alone on device-resident arrays (NVVM -fma=0, as chunk)
 * gpu kernel fma  the same with NVVM's default contraction into fused multiply-adds
 
@@ -58,9 +58,10 @@ def main() -> int:
     args = ap.parse_args()
 
     from emorbit.integrators import coefficients
-    from emorbit.kernels import cuda as kcuda
-    from emorbit.kernels import ensemble as kens
-    from emorbit.kernels import pointmass as kref
+    from emorbit.integrators.dispatch import method_code
+    from emorbit.kernels.pointmass import cuda as kcuda
+    from emorbit.kernels.pointmass import packed as kens
+    from emorbit.kernels.pointmass import reference as kref
 
     if not kcuda.available():
         print("no CUDA device here: GPU throughput not measured")
@@ -73,7 +74,7 @@ def main() -> int:
         gm, x0, v0, dt = ensemble(n)
         center = np.zeros(3)
         for method in ("em", "leapfrog"):
-            code = kcuda.METHODS[method]
+            code = method_code(method)
 
             def arrays(m=n):
                 return ([x0[:, :m].copy(), v0[:, :m].copy(), np.zeros((3, m)), np.zeros((3, m))],
@@ -89,7 +90,7 @@ def main() -> int:
 
             def cpu_ens():
                 a, rec = arrays()
-                kens.ensemble_chunk_parallel(kens.METHOD_LEAPFROG if method == "leapfrog" else code, *a, gm,
+                kens.ensemble_chunk_parallel(code, *a, gm,
                                              center, dt, gammas, args.steps, 1, 50, *rec)
 
             def gpu_chunk():

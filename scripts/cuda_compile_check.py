@@ -30,7 +30,7 @@ def main() -> None:
     from numba import types as nt
 
     import numba.cuda.dispatcher as dispatcher
-    from emorbit.kernels import cuda as kcuda
+    from emorbit.kernels.pointmass import cuda as kcuda
 
     class _Device:
         compute_capability = cc

@@ -16,7 +16,7 @@ The figures in the notes of emorbit/kernels/ensemble.py come from this measureme
 copies, 4 seeds, 1e6 steps: about 20 s per seed on the development machine). ``--kernel``
 picks the kernel: the packed ensemble kernel Simulation uses on the CPU (default), the
 one-point reference kernel of emorbit.kernels.pointmass, or that reference kernel compiled
-for an NVIDIA GPU (emorbit.kernels.cuda; without a CUDA device it stops with the reason).
+for an NVIDIA GPU (emorbit.kernels.pointmass.cuda; without a CUDA device it stops with the reason).
 """
 
 from __future__ import annotations
@@ -27,7 +27,8 @@ import time
 import numpy as np
 
 from emorbit.analysis import relative_energy_change_exact
-from emorbit.kernels import ensemble, pointmass
+from emorbit.integrators.dispatch import method_code
+from emorbit.kernels.pointmass import packed as ensemble, reference as pointmass
 
 GM = 3.9478
 X0 = np.array([10.0, 0.0, 0.0])
@@ -48,7 +49,7 @@ def drift(method: int, dt: float, steps: int, members: int, seed: int,
     t = time.perf_counter()
     args = (x, v, cx, cv, GM, np.zeros(3), dt, np.array([1.0]), steps, 1, 50, rec_x, rec_v, iters, fail)
     if kernel == "gpu":
-        from emorbit.kernels import cuda
+        from emorbit.kernels.pointmass import cuda
 
         cuda.chunk(method, *args, contract=contract)
     elif kernel == "reference":
@@ -82,15 +83,12 @@ def main(argv=None) -> int:
     if args.contract and args.kernel != "gpu":
         p.error(f"--contract applies to --kernel gpu only, got --kernel {args.kernel}")
     if args.kernel == "gpu":
-        from emorbit.errors import InputError
-        from emorbit.kernels import cuda
+        from emorbit.kernels.pointmass import cuda
 
-        try:
-            cuda.require_device()
-        except InputError as exc:
-            print(exc)
+        if cuda.device_problem() is not None:
+            print(cuda.device_problem())
             return 1
-    method = pointmass.METHOD_EM if args.roundoff == "brouwer" else pointmass.METHOD_EM_PLAIN
+    method = method_code("em", args.roundoff)
     per_step, zs = [], []
     for seed in range(args.first_seed, args.first_seed + args.seeds):
         m, z, ns = drift(method, T / args.div, args.steps, args.members, seed, args.kernel, args.contract)

@@ -2,7 +2,7 @@
 
     python scripts/gpu_drift_increments.py MEMBERS STEPS_T100 STEPS_T8     (needs an NVIDIA GPU)
 
-Variants of ``emorbit.kernels.ensemble._increments`` (u = ua a - uv v0 and dx = h v0 + cx u
+Variants of ``emorbit.kernels.pointmass.packed._increments`` (u = ua a - uv v0 and dx = h v0 + cx u
 rounded once with fused multiply-adds, or dx compensated with error-free transformations)
 are compiled into the GPU kernel in place of the plain one, and the energy drift of
 perturbed paper orbits is measured as in scripts/energy_drift.py (seeds 0 and 1 at T/8 and
@@ -22,8 +22,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from numba import cuda  # noqa: E402
 
 import energy_drift as ed  # noqa: E402
-from emorbit.kernels import cuda as kcuda  # noqa: E402
-from emorbit.kernels import ensemble, pointmass  # noqa: E402
+from emorbit.kernels.pointmass import cuda as kcuda  # noqa: E402
+from emorbit.kernels.pointmass import packed as ensemble, reference as pointmass  # noqa: E402
 from emorbit.kernels.eft import fma, two_prod, two_sum  # noqa: E402
 from emorbit.kernels.jit import kernel  # noqa: E402
 

@@ -4,9 +4,9 @@
     python scripts/profile_ensemble.py [--method em] [--seconds 10] [--n 100000] [--steps 50]
                                        [--annotate FILE]
 
-Runs the one-thread kernel (:func:`emorbit.kernels.ensemble.ensemble_chunk`) on the bench's
+Runs the one-thread kernel (:func:`emorbit.kernels.pointmass.packed.ensemble_chunk`) on the bench's
 ensemble (T/1000) for ``--seconds`` while ``perf record -e cpu-clock`` samples this process,
-charges every sample to the compiled function of :mod:`emorbit.kernels.ensemble` it falls in
+charges every sample to the compiled function of :mod:`emorbit.kernels.pointmass.packed` it falls in
 (the passes are separate functions or inlined into the range kernel, as LLVM decided),
 disassembles those functions from memory, and prints their loops (found as backward jumps)
 with their share of the samples, their instruction count and their divisions and square
@@ -49,10 +49,11 @@ def _require(tool: str) -> None:
 
 
 def _kernel(method: str):
-    from emorbit.kernels import ensemble as ens
+    from emorbit.integrators.dispatch import method_code
+    from emorbit.kernels.pointmass import packed as ens
 
-    methods = {"em": ens.METHOD_EM, "fast": ens.METHOD_EM_PLAIN, "midpoint": ens.METHOD_MIDPOINT,
-               "leapfrog": ens.METHOD_LEAPFROG}
+    methods = {"em": method_code("em"), "fast": method_code("em", "fast"), "midpoint": method_code("midpoint"),
+               "leapfrog": method_code("leapfrog")}
     if method not in methods:
         sys.exit(f"profile_ensemble: --method must be one of {sorted(methods)}, not {method!r}")
     return ens, methods[method]

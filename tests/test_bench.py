@@ -10,7 +10,7 @@ from emorbit.bench import SECTIONS, limits
 from emorbit.bench.runner import run_bench
 from emorbit.bench.workprecision import _pareto
 from emorbit.cli import main
-from emorbit.kernels.ensemble import BLOCK, LD
+from emorbit.kernels.pointmass.packed import BLOCK, LD
 
 KEYS = {
     "ensemble": ("em_particle_steps_per_s", "em_1thread_particle_steps_per_s", "rebound_leapfrog_particle_steps_per_s",
@@ -102,7 +102,7 @@ def test_precompile_parts_share_no_kernel(result):
     import sys
 
     from emorbit.bench import precompile as pc
-    from emorbit.kernels import ensemble as kern
+    from emorbit.kernels.pointmass import packed as kern
 
     dispatchers = [getattr(kern, f"_{kind}_{m}") for kind in ("range", "points", "parallel")
                    for m in ("em", "em_plain", "midpoint", "leapfrog")]
@@ -113,10 +113,10 @@ def test_precompile_parts_share_no_kernel(result):
     assert [len(d.signatures) for d in dispatchers] == before
 
     part_of = {}
-    for part, _, _, method in pc._JOBS:
-        part_of.setdefault(method, set()).add(part)
+    for part, _, _, method, roundoff in pc._JOBS:
+        part_of.setdefault((method, roundoff), set()).add(part)
     assert all(len(parts) == 1 for parts in part_of.values()), part_of
-    assert {p for p, _, _, _ in pc._JOBS} == {0, 1}
+    assert {p for p, *_ in pc._JOBS} == {0, 1}
     assert pc.precompile(["rigid", "elastic", "startup"]) is None
     done = subprocess.run([sys.executable, "-m", "emorbit.bench.precompile", "1", "rigid"], timeout=300)
     assert done.returncode == 0

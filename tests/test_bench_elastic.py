@@ -1,6 +1,6 @@
 """The elastic-body bench section: structure and round-off (never timings)."""
 
-from emorbit import bench_elastic
+from emorbit.bench import elastic as bench_elastic
 
 
 def test_tiny_bench_section():

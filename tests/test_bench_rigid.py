@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from emorbit import bench_rigid
+from emorbit.bench import rigid as bench_rigid
 
 
 @pytest.fixture(scope="module")

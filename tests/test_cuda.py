@@ -34,8 +34,9 @@ def run_case(method, order, dt, **gpu_options):
     import warnings
 
     from emorbit.integrators import coefficients
-    from emorbit.kernels import cuda as kcuda
-    from emorbit.kernels import ensemble as kens
+    from emorbit.integrators.dispatch import method_code
+    from emorbit.kernels.pointmass import cuda as kcuda
+    from emorbit.kernels.pointmass import packed as kens
 
     rng = np.random.default_rng(5)
     n, gm, center = 33, 3.9478, np.array([0.5, -0.25, 0.1])
@@ -53,9 +54,9 @@ def run_case(method, order, dt, **gpu_options):
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore")  # the point at the centre divides by zero, as on the CPU
             if device == "gpu":
-                kcuda.chunk(kcuda.METHODS[method], *a, gm, center, dt, g, every, nrec, 50, *rec, **gpu_options)
+                kcuda.chunk(method_code(method), *a, gm, center, dt, g, every, nrec, 50, *rec, **gpu_options)
             else:
-                kens.ensemble_chunk(kcuda.METHODS[method], *a, gm, center, dt, g, every, nrec, 50, *rec)
+                kens.ensemble_chunk(method_code(method), *a, gm, center, dt, g, every, nrec, 50, *rec)
         runs.append((a, rec))
     return runs
 
@@ -89,7 +90,7 @@ CHILD = textwrap.dedent(r'''
     from numba import config
     assert config.ENABLE_CUDASIM
     import emorbit
-    from emorbit.kernels import cuda as K
+    from emorbit.kernels.pointmass import cuda as K
     from emorbit.sweep import parse_sweep, run_sweep, use_device
     ''') + f"CASES = {CASES!r}\n" + "\n".join(textwrap.dedent(inspect.getsource(f)) for f in (run_case, compare)) + \
     textwrap.dedent(r'''
@@ -170,7 +171,7 @@ def test_simulation_on_the_simulated_gpu(simulated):
 
 
 def test_asking_for_a_gpu_without_one_is_a_clear_error(tmp_path, capsys):
-    from emorbit.kernels import cuda as kcuda
+    from emorbit.kernels.pointmass import cuda as kcuda
 
     if kcuda.available():
         pytest.skip("a CUDA device (or the simulator) is present")
@@ -194,7 +195,7 @@ def _real_gpu() -> bool:
     """A real NVIDIA GPU (not the simulator) with numba's CUDA target: none in CI."""
     from numba import config
 
-    from emorbit.kernels import cuda as kcuda
+    from emorbit.kernels.pointmass import cuda as kcuda
 
     return not config.ENABLE_CUDASIM and kcuda.available()
 
@@ -249,8 +250,8 @@ def test_real_gpu_no_drift_at_large_steps(div):
     -1.10, +1.52."""
     from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 
-    from emorbit.kernels import cuda as kcuda
-    from emorbit.kernels import ensemble as ens
+    from emorbit.kernels.pointmass import cuda as kcuda
+    from emorbit.kernels.pointmass import packed as ens
 
     n, steps = 65536, 1_000_000
     rng = np.random.default_rng(0)

@@ -179,7 +179,7 @@ def test_bad_elastic_input(kwargs, key, needle):
 
 
 def test_bad_meshes_and_couplings(tmp_path):
-    from emorbit.elastic import elastic_spec
+    from emorbit.bodies.elastic import elastic_spec
 
     base = dict(young=1e7, density=1000.0, poisson=0.3, position=[0, 0, 0], velocity=[0, 0, 0], R=np.eye(3),
                 omega_space=np.zeros(3))

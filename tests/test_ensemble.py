@@ -1,4 +1,4 @@
-"""The packed point-mass kernels (emorbit.kernels.ensemble) against the reference kernels
+"""The packed point-mass kernels (emorbit.kernels.pointmass.packed) against the reference kernels
 (emorbit.kernels.pointmass): same trajectories to round-off, e up to 0.99 included; a point's
 result independent of its block, of the thread count and of chunking; failures reported as
 the reference reports them; no energy drift; and a point-mass run that compiles no rigid or
@@ -13,8 +13,8 @@ import pytest
 
 from emorbit import orbits
 from emorbit.integrators import coefficients
-from emorbit.kernels import ensemble as ens
-from emorbit.kernels import pointmass as ref
+from emorbit.kernels.pointmass import packed as ens
+from emorbit.kernels.pointmass import reference as ref
 from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 
 GM = PAPER_GM
@@ -427,12 +427,12 @@ def test_point_mass_run_compiles_no_rigid_or_elastic_code(tmp_path):
     banned = ("rigid", "elastic", "structure", "shapes", "rotations")
     assert not [m for m in info["modules"] if any(b in m for b in banned)], info["modules"]
     ours = [name for name in info["compiled"] if not name.startswith("numba.")]  # numba's own overloads
-    assert all(name.startswith(("emorbit.kernels.ensemble.", "emorbit.kernels.pointmass.",
+    assert all(name.startswith(("emorbit.kernels.pointmass.packed.", "emorbit.kernels.pointmass.",
                                 "emorbit.kernels.gravity.")) for name in ours), ours
-    kernels = [name for name in ours if name.startswith(("emorbit.kernels.ensemble._range",
-                                                         "emorbit.kernels.ensemble._points",
-                                                         "emorbit.kernels.ensemble._parallel"))]
-    assert kernels == ["emorbit.kernels.ensemble._points_em"], kernels  # em only, one point: one thread
+    kernels = [name for name in ours if name.startswith(("emorbit.kernels.pointmass.packed._range",
+                                                         "emorbit.kernels.pointmass.packed._points",
+                                                         "emorbit.kernels.pointmass.packed._parallel"))]
+    assert kernels == ["emorbit.kernels.pointmass.packed._points_em"], kernels  # em only, one point: one thread
 
 
 def _default_root(A, P, V, r0, h, tau0, tlo, x, w):

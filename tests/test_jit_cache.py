@@ -32,18 +32,19 @@ def test_cache_files_dropped_when_an_inlined_source_changes(tmp_path):
     assert stamp.is_file()
 
     # a cache entry written after the stamp survives an import with unchanged sources
-    fake = cache / "pointmass.em_step-1.py311.nbi"
+    fake = cache / "coupled.fill_forces-1.py311.nbi"
     fake.write_bytes(b"x")
-    other = root / "emorbit" / "__pycache__"
+    other = root / "emorbit" / "kernels" / "pointmass" / "__pycache__"
     other.mkdir(exist_ok=True)
-    fake_structure = other / "structure._fill-1.py311.1.nbc"
-    fake_structure.write_bytes(b"x")
+    fake_packed = other / "packed._points_em-1.py311.1.nbc"
+    fake_packed.write_bytes(b"x")
     _import_jit(root)
-    assert fake.exists() and fake_structure.exists()
+    assert fake.exists() and fake_packed.exists()
 
-    # an edit to gravity.py (inlined by pointmass' kernels, whose own file is unchanged)
+    # an edit to gravity.py (inlined by the point-mass and coupled kernels, whose own files
+    # are unchanged)
     gravity = root / "emorbit" / "kernels" / "gravity.py"
     gravity.write_text(gravity.read_text() + "\n# edited\n")
     _import_jit(root)
-    assert not fake.exists() and not fake_structure.exists()
+    assert not fake.exists() and not fake_packed.exists()
     assert stamp.is_file()

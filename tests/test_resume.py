@@ -1,7 +1,6 @@
 """Checkpoints and restarts: a resumed run is bit for bit the run that never stopped, for
 point masses, rigid and elastic bodies, after a finished run, SIGINT or SIGKILL."""
 
-import os
 import signal
 import subprocess
 import sys
@@ -13,7 +12,7 @@ import pytest
 
 import emorbit
 from emorbit.cli import main
-from emorbit.resume import resume
+from emorbit.io.resume import resume
 
 
 def _same_files(a, b):

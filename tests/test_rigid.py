@@ -8,11 +8,11 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import emorbit
-from emorbit import shapes
+from emorbit.bodies import shapes
 from emorbit.cli import main
 from emorbit.errors import InputError
 from emorbit.kernels import rigid as kr
-from emorbit.rotations import matrix_to_quaternion, quaternion_to_matrix, rotation_vector_to_matrix
+from emorbit.bodies.rotations import matrix_to_quaternion, quaternion_to_matrix, rotation_vector_to_matrix
 from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 
 GM_EARTH = const.GM_earth.si.value

@@ -9,7 +9,7 @@ import pytest
 
 from emorbit import orbits
 from emorbit.cli import main
-from validation.cases import case_names
+from emorbit.validation.cases import case_names
 
 PNG = b"\x89PNG\r\n\x1a\n"
 

@@ -18,8 +18,8 @@ work-precision   final position error (against the analytic Kepler solution) and
                 WHFast and leapfrog, heyoka's Taylor integrator at tolerances 1e-6 ... eps
 startup         wall time of ``emorbit run paper-ellipse`` with an empty Numba cache (cold)
                 and with it filled (warm)
-rigid           the rigid-body rows of :mod:`emorbit.bench_rigid`
-elastic         the elastic-body rows of :mod:`emorbit.bench_elastic` (cost per step against
+rigid           the rigid-body rows of :mod:`emorbit.bench.rigid`
+elastic         the elastic-body rows of :mod:`emorbit.bench.elastic` (cost per step against
                 degrees of freedom, up to a 10,000-DOF beam)
 
 Ratios are always taken within the run. The JSON (``--json``) records the CPU model, the

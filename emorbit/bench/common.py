@@ -1,7 +1,7 @@
 """What the bench sections share: configurations, the cases, and runners for emorbit and
 REBOUND that take ``n`` steps and return (wall, CPU) seconds.
 
-Timing is :mod:`emorbit.bench_rigid`'s: a warm-up call, calls calibrated to a fixed length,
+Timing is :mod:`emorbit.bench.rigid`'s: a warm-up call, calls calibrated to a fixed length,
 engines of one comparison interleaved repeat by repeat, medians; ratios are medians of the
 per-repeat ratios, so that load from other processes hits both sides.
 """
@@ -13,10 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..bench_rigid import _clock, _loadavg, _machine, _paired_ratio, _since, _timed, _version  # noqa: F401
-from ..integrators import coefficients
+from ..integrators import coefficients, dispatch
 from ..orbits import kepler_period, semi_major_axis, solve_kepler, state_from_elements
-from ..pointmasses import PointMasses
+from ..bodies.pointmasses import PointMasses
+from .timing import clock, package_version, since
 
 #: the paper's orbit (Goettlicher & Schweizerhof): GM, start at aphelion
 GM = 3.9478
@@ -115,9 +115,9 @@ class EmorbitRunner:
         self.steps = 0
 
     def __call__(self, n: int) -> tuple:
-        start = _clock()
+        start = clock()
         rec = self.pm.advance(self.method, GM, np.zeros(3), self.dt, self.gammas, n, 1, self.max_iter)
-        elapsed = _since(start)
+        elapsed = since(start)
         if rec.first_failure() is not None:
             raise RuntimeError(f"emorbit {self.method}: a step failed {rec.first_failure()}")
         self.steps += n
@@ -126,26 +126,24 @@ class EmorbitRunner:
 
 
 class KernelRunner:
-    """``n`` steps of the bare packed kernel (:mod:`emorbit.kernels.ensemble`) on one thread
-    or on all of them; keeps the state between calls."""
+    """``n`` steps of the bare packed kernel (:mod:`emorbit.kernels.pointmass.packed`) of
+    ``method`` and ``roundoff`` on one thread or on all of them; keeps the state between calls."""
 
-    def __init__(self, x, v, method: int, order: int, dt: float, parallel: bool):
-        from ..kernels import ensemble
-
+    def __init__(self, x, v, method: str, order: int, dt: float, parallel: bool, roundoff: str = "brouwer"):
         self.x, self.v = np.array(x, float, order="C"), np.array(v, float, order="C")
         self.cx, self.cv = np.zeros_like(self.x), np.zeros_like(self.v)
-        self.method, self.gammas, self.dt = method, coefficients(order), dt
-        self.kernel = ensemble.ensemble_chunk_parallel if parallel else ensemble.ensemble_chunk
+        self.gammas, self.dt = coefficients(order), dt
+        self.method, self.kernel = dispatch.point_chunk(method, roundoff, "cpu", parallel=parallel)
         self.steps = 0
 
     def __call__(self, n: int) -> tuple:
         m = self.x.shape[1]
         rx, rv = np.empty((1, 3, m)), np.empty((1, 3, m))
         its, fail = np.zeros((1, m), np.int64), np.full((m, 2), -1, np.int64)
-        start = _clock()
+        start = clock()
         self.kernel(self.method, self.x, self.v, self.cx, self.cv, GM, np.zeros(3), self.dt, self.gammas, n, 1, 50,
                     rx, rv, its, fail)
-        elapsed = _since(start)
+        elapsed = since(start)
         if np.any(fail[:, 0] >= 0):
             raise RuntimeError("emorbit kernel: a step failed")
         self.steps += n
@@ -199,9 +197,9 @@ class ReboundRunner:
         self.steps = 0
 
     def __call__(self, n: int) -> tuple:
-        start = _clock()
+        start = clock()
         self.sim.steps(n)
-        elapsed = _since(start)
+        elapsed = since(start)
         self.steps += n
         return elapsed
 
@@ -212,8 +210,8 @@ def versions() -> dict:
     from .._version import __version__
 
     return {"emorbit": __version__, "numba": numba.__version__, "numpy": np.__version__,
-            "rebound": _version("rebound"), "heyoka": _version("heyoka"), "llvmlite": _version("llvmlite"),
-            "scipy": _version("scipy"), "matplotlib": _version("matplotlib")}
+            "rebound": package_version("rebound"), "heyoka": package_version("heyoka"), "llvmlite": package_version("llvmlite"),
+            "scipy": package_version("scipy"), "matplotlib": package_version("matplotlib")}
 
 
 def numba_threads() -> dict:

@@ -2,7 +2,7 @@
 
 1e5 test particles (a uniform in [5, 10] m, e uniform in [0, 0.9], isotropic planes,
 time-uniform phases), GM = 3.9478 m^3/s^2, dt = T/1000 of a 6 m orbit. emorbit's em on one
-thread and on all threads (the bare packed kernel, :mod:`emorbit.kernels.ensemble`), the
+thread and on all threads (the bare packed kernel, :mod:`emorbit.kernels.pointmass.packed`), the
 same with roundoff="fast" (the root of the plainly evaluated scalar equation: the energy
 drifts by a few 1e-20 |E| per step at T/100), its leapfrog on one thread, and REBOUND's leapfrog and WHFast (N_active = 1, WHFast without
 safe mode), all interleaved; wall-clock time per step (the CPU time of the single-threaded
@@ -26,9 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .common import (ENSEMBLE_DT, GM, EmorbitRunner, KernelRunner, ReboundRunner, _clock, _loadavg, _paired_ratio,
-                     _since, _timed, energies, ensemble_states, numba_threads, point_masses, rebound_sim,
-                     rebound_state)
+from .common import (ENSEMBLE_DT, GM, EmorbitRunner, KernelRunner, ReboundRunner, energies, ensemble_states,
+                     numba_threads, point_masses, rebound_sim, rebound_state)
+from .timing import clock, loadavg, paired_ratio, since, timed
 from .limits import floor, measure
 
 WALL = "samples_us"
@@ -45,29 +45,29 @@ def _driver(x, v, steps: int) -> tuple:
     sim = emorbit.Simulation(emorbit.CentralField(gm=GM), method="em", order=2, dt=ENSEMBLE_DT)
     sim.points = point_masses(x, v)
     sim.run(steps=1, every=1, keep=False)  # warm-up
-    start = _clock()
+    start = clock()
     sim.run(steps=steps, every=steps, keep=False)
-    return _since(start)
+    return since(start)
 
 
 def run(cfg) -> dict:
-    from ..kernels import ensemble as kern
+    from ..kernels.pointmass import packed as kern
 
     n = cfg.ensemble_n
-    load = _loadavg()
+    load = loadavg()
     x, v = ensemble_states(n)
     e0 = energies(x, v)
     runners = {
-        "em all threads": KernelRunner(x, v, kern.METHOD_EM, 2, ENSEMBLE_DT, parallel=True),
-        "em 1 thread": KernelRunner(x, v, kern.METHOD_EM, 2, ENSEMBLE_DT, parallel=False),
-        'em roundoff="fast" all threads': KernelRunner(x, v, kern.METHOD_EM_PLAIN, 2, ENSEMBLE_DT, parallel=True),
-        'em roundoff="fast" 1 thread': KernelRunner(x, v, kern.METHOD_EM_PLAIN, 2, ENSEMBLE_DT, parallel=False),
+        "em all threads": KernelRunner(x, v, "em", 2, ENSEMBLE_DT, parallel=True),
+        "em 1 thread": KernelRunner(x, v, "em", 2, ENSEMBLE_DT, parallel=False),
+        'em roundoff="fast" all threads': KernelRunner(x, v, "em", 2, ENSEMBLE_DT, parallel=True, roundoff="fast"),
+        'em roundoff="fast" 1 thread': KernelRunner(x, v, "em", 2, ENSEMBLE_DT, parallel=False, roundoff="fast"),
         "em scene (PointMasses.advance)": EmorbitRunner(x, v, "em", 2, ENSEMBLE_DT),
-        "leapfrog 1 thread": KernelRunner(x, v, kern.METHOD_LEAPFROG, 2, ENSEMBLE_DT, parallel=False),
+        "leapfrog 1 thread": KernelRunner(x, v, "leapfrog", 2, ENSEMBLE_DT, parallel=False),
         "rebound leapfrog": ReboundRunner(rebound_sim(x, v, "leapfrog", ENSEMBLE_DT)),
         "rebound whfast": ReboundRunner(rebound_sim(x, v, "whfast", ENSEMBLE_DT)),
     }
-    times = _timed(runners, cfg)
+    times = timed(runners, cfg)
     rows = {}
     for name, r in runners.items():
         stats = times[name]
@@ -108,10 +108,10 @@ def run(cfg) -> dict:
         "em_1thread_particle_steps_per_s": em1["particle_steps_per_s"],
         "rebound_leapfrog_particle_steps_per_s": lf["particle_steps_per_s"],
         "rebound_whfast_particle_steps_per_s": rows["rebound whfast"]["particle_steps_per_s"],
-        "em_over_rebound_leapfrog": 1.0 / _paired_ratio(times["em all threads"], times["rebound leapfrog"], WALL),
-        "em_1thread_over_rebound_leapfrog": 1.0 / _paired_ratio(times["em 1 thread"], times["rebound leapfrog"],
+        "em_over_rebound_leapfrog": 1.0 / paired_ratio(times["em all threads"], times["rebound leapfrog"], WALL),
+        "em_1thread_over_rebound_leapfrog": 1.0 / paired_ratio(times["em 1 thread"], times["rebound leapfrog"],
                                                                  WALL),
-        "em_fast_over_rebound_leapfrog": 1.0 / _paired_ratio(times['em roundoff="fast" all threads'],
+        "em_fast_over_rebound_leapfrog": 1.0 / paired_ratio(times['em roundoff="fast" all threads'],
                                                               times["rebound leapfrog"], WALL),
         "em_fast_fraction_of_bound_all_threads": (rows['em roundoff="fast" all threads']["particle_steps_per_s"]
                                                   / limits["kernels"]["em_fast"]["bound_per_s_all_threads"]),
@@ -124,7 +124,7 @@ def run(cfg) -> dict:
                                                      / lowest["compensated"]["ns_all_threads"]),
         "em_over_floor_1thread": em1["ns_per_particle_step"] / lowest["compensated"]["ns_1_thread"],
         "em_over_floor_all_threads": emN["ns_per_particle_step"] / lowest["compensated"]["ns_all_threads"],
-        "scene_over_bare": 1.0 / _paired_ratio(times["em scene (PointMasses.advance)"], times["em all threads"],
+        "scene_over_bare": 1.0 / paired_ratio(times["em scene (PointMasses.advance)"], times["em all threads"],
                                                 WALL),
         "driver": driver,
     }

@@ -6,7 +6,7 @@ when the divider is busy all the time; ``mix`` measures exactly such a loop (the
 counts, independent operands), so overlap between the two is included.
 
 The floor (:func:`floor`) is the least work an em particle-step can do on the ensemble
-kernel's state: a block of :data:`~emorbit.kernels.ensemble.BLOCK` points in the kernel's
+kernel's state: a block of :data:`~emorbit.kernels.pointmass.packed.BLOCK` points in the kernel's
 layout (rows ``LD`` apart, in the L1 cache), its 2 square roots and 3 divisions, and the
 compensated update of position and velocity (12 rows read and written); no predictor
 series, Newton update or certificate. ``bound / floor`` is the most of the bound that any
@@ -22,7 +22,7 @@ import time
 import numpy as np
 from numba import prange
 
-from ..kernels.ensemble import BLOCK, LD
+from ..kernels.pointmass.packed import BLOCK, LD
 from ..kernels.jit import kernel
 
 __all__ = ["measure", "floor"]
@@ -202,7 +202,7 @@ _FLOOR_H = 0.05
 def floor(threads: int, seconds: float = 0.05) -> dict:
     """ns per particle-step of :func:`_floor`, compensated and plain, on one thread and on
     ``threads`` (each its own block), with its counts (2 square roots, 3 divisions: the em
-    kernel's, :data:`~emorbit.kernels.ensemble.EM_SQRTS` and ``EM_DIVISIONS``)."""
+    kernel's, :data:`~emorbit.kernels.pointmass.packed.EM_SQRTS` and ``EM_DIVISIONS``)."""
     out = {"sqrts": 2, "divisions": 3, "rows_compensated": 12, "rows_plain": 6}
     for name, comp in (("compensated", True), ("plain", False)):
         one = floor_block()

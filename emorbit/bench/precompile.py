@@ -25,48 +25,42 @@ import subprocess
 import sys
 import time
 
-#: (part, section, kind, kernel method): a job compiles what the section will call, the
+#: (part, section, kind, method, roundoff): a job compiles what the section will call, the
 #: one-orbit kernel ("points", through PointMasses.advance) or the packed one ("range")
 _JOBS = (
-    (0, "single", "points", "METHOD_EM"),
-    (0, "ensemble", "range", "METHOD_EM"),
-    (0, "single", "points", "METHOD_MIDPOINT"),
-    (1, "single", "points", "METHOD_EM_PLAIN"),
-    (1, "ensemble", "range", "METHOD_EM_PLAIN"),
-    (1, "single", "points", "METHOD_LEAPFROG"),
-    (1, "ensemble", "range", "METHOD_LEAPFROG"),
+    (0, "single", "points", "em", "brouwer"),
+    (0, "ensemble", "range", "em", "brouwer"),
+    (0, "single", "points", "midpoint", "brouwer"),
+    (1, "single", "points", "em", "fast"),
+    (1, "ensemble", "range", "em", "fast"),
+    (1, "single", "points", "leapfrog", "brouwer"),
+    (1, "ensemble", "range", "leapfrog", "brouwer"),
 )
 
-#: the scene's method and roundoff that select each kernel method (PointMasses.advance)
-_SCENE = {"METHOD_EM": ("em", "brouwer"), "METHOD_EM_PLAIN": ("em", "fast"),
-          "METHOD_MIDPOINT": ("midpoint", "brouwer"), "METHOD_LEAPFROG": ("leapfrog", "brouwer")}
 
-
-def _run_job(kind: str, method: str) -> None:
-    from ..kernels import ensemble as kern
+def _run_job(kind: str, method: str, roundoff: str) -> None:
     from .common import ENSEMBLE_DT, PAPER_DT, PAPER_V0, PAPER_X0, EmorbitRunner, KernelRunner, ensemble_states
 
     if kind == "points":  # one orbit through PointMasses.advance: the _points_* kernel
-        name, roundoff = _SCENE[method]
-        EmorbitRunner(PAPER_X0[:, None], PAPER_V0[:, None], name, 2, PAPER_DT, roundoff=roundoff)(1)
+        EmorbitRunner(PAPER_X0[:, None], PAPER_V0[:, None], method, 2, PAPER_DT, roundoff=roundoff)(1)
     else:  # the packed kernel on one thread and on all (a last block too small to pack)
         x, v = ensemble_states(3 * 64 + 2)
-        for parallel in (False, True) if method != "METHOD_LEAPFROG" else (False,):
-            KernelRunner(x, v, getattr(kern, method), 2, ENSEMBLE_DT, parallel)(1)
+        for parallel in (False, True) if method != "leapfrog" else (False,):
+            KernelRunner(x, v, method, 2, ENSEMBLE_DT, parallel, roundoff=roundoff)(1)
 
 
 def run_part(part: int, sections) -> None:
     """Compile this part's jobs for ``sections``."""
-    for p, section, kind, method in _JOBS:
+    for p, section, kind, method, roundoff in _JOBS:
         if p == part and section in sections:
-            _run_job(kind, method)
+            _run_job(kind, method, roundoff)
 
 
 def precompile(sections) -> float | None:
     """Compile the jobs of ``sections`` in this process and a helper process at once; returns
     the wall time it took, or None where no section needs it. A helper that fails is
     ignored: the sections compile what is missing themselves."""
-    if not any(section in sections for _, section, _, _ in _JOBS):
+    if not any(section in sections for _, section, *_ in _JOBS):
         return None
     start = time.perf_counter()
     helper = subprocess.Popen([sys.executable, "-m", "emorbit.bench.precompile", "1", *sections],

@@ -6,7 +6,8 @@ import json
 import os
 import time
 
-from .common import CONFIGS, _loadavg, _machine, versions
+from .common import CONFIGS, versions
+from .timing import loadavg, machine
 
 #: the issue's targets, as ratios within one run
 TARGETS = {
@@ -64,8 +65,8 @@ def run_bench(sections, quick: bool = False, json_path=None, plots_dir=None, con
     cfg = CONFIGS[name]
     modules = _sections()
     start = time.perf_counter()
-    result = {"config": name, "machine": _machine(), "versions": versions(),
-              "load_average": {"before": _loadavg()}, "seconds": {}}
+    result = {"config": name, "machine": machine(), "versions": versions(),
+              "load_average": {"before": loadavg()}, "seconds": {}}
     print(f"emorbit bench ({name}): {result['machine']['cpu']}, {result['machine']['cores']} cores, "
           f"{result['machine']['simd']}; load average {result['load_average']['before']}", flush=True)
     if name != "tiny":  # the kernels compile on both cores, before anything is timed
@@ -79,12 +80,12 @@ def run_bench(sections, quick: bool = False, json_path=None, plots_dir=None, con
     for section in sections:
         t0 = time.perf_counter()
         if section == "rigid":
-            from .. import bench_rigid
+            from . import rigid as bench_rigid
 
             data = bench_rigid.run(config="tiny" if name == "tiny" else None, quick=name != "full")
             lines = bench_rigid.table(data).splitlines()
         elif section == "elastic":
-            from .. import bench_elastic
+            from . import elastic as bench_elastic
 
             data = bench_elastic.run(config=name)
             lines = bench_elastic.table(data).splitlines()
@@ -106,7 +107,7 @@ def run_bench(sections, quick: bool = False, json_path=None, plots_dir=None, con
             result["work_precision"]["figures"].append(path)
         print(f"\nfigures: {', '.join(result['work_precision']['figures'])}")
     result["targets"] = targets(result)
-    result["load_average"]["after"] = _loadavg()
+    result["load_average"]["after"] = loadavg()
     result["seconds"]["total"] = round(time.perf_counter() - start, 1)
     print("\ntargets (ratios within this run):")
     for t in result["targets"]:

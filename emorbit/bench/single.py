@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .common import PAPER_DT, PAPER_V0, PAPER_X0, EmorbitRunner, ReboundRunner, _paired_ratio, _timed, period, \
-    rebound_sim
+from .common import PAPER_DT, PAPER_V0, PAPER_X0, EmorbitRunner, ReboundRunner, period, rebound_sim
+from .timing import paired_ratio, timed
 
 METHODS = ("em", "midpoint", "leapfrog")
 ORDERS = (2, 4, 6, 8)
@@ -30,7 +30,7 @@ def run(cfg) -> dict:
     runners["rebound whfast"] = ReboundRunner(rebound_sim(x, v, "whfast", PAPER_DT))
     ias15 = ReboundRunner(rebound_sim(x, v, "ias15", PAPER_DT))
     runners["rebound ias15"] = ias15
-    times = _timed(runners, cfg)
+    times = timed(runners, cfg)
     rows = []
     for name, stats in times.items():
         engine = "rebound" if name.startswith("rebound") else "emorbit"
@@ -48,8 +48,8 @@ def run(cfg) -> dict:
     ias = next(r for r in rows if r["method"] == "ias15")
     ias["steps_per_orbit"] = float(T / (ias15.sim.t / max(1, ias15.sim.steps_done)))
     ref = times["rebound leapfrog"]
-    ratios = {f"{m} {o}": _paired_ratio(times[f"{m} {o}"], ref) for m in METHODS for o in ORDERS}
-    ratios[FAST] = _paired_ratio(times[FAST], ref)
+    ratios = {f"{m} {o}": paired_ratio(times[f"{m} {o}"], ref) for m in METHODS for o in ORDERS}
+    ratios[FAST] = paired_ratio(times[FAST], ref)
     em = next(r for r in rows if r["method"] == "em" and r["order"] == 2 and r["roundoff"] == "brouwer")
     fast = next(r for r in rows if r.get("roundoff") == "fast")
     lf = next(r for r in rows if r["method"] == "leapfrog" and r["engine"] == "rebound")

@@ -9,7 +9,7 @@ ten checkpoints per orbit. Engines:
 
 * emorbit em, midpoint and leapfrog at orders 2, 4, 6 and 8, dt = T/N for several N
   (through :meth:`PointMasses.advance`, checkpoints recorded by the kernel);
-* emorbit em with adaptive steps (``h = eta 2 pi sqrt(r^3/GM)``, :mod:`emorbit.kernels.adaptive`)
+* emorbit em with adaptive steps (``h = eta 2 pi sqrt(r^3/GM)``, :mod:`emorbit.kernels.pointmass.adaptive`)
   at orders 4 and 8 for several eta;
 * REBOUND IAS15 at several epsilons (its adaptive step, exact finish time), WHFast (without
   safe mode) and leapfrog at the same dt as emorbit;

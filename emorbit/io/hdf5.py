@@ -155,13 +155,13 @@ class Writer:
 
     def write_checkpoint(self, steps: int, time: float, arrays: dict, rows: int) -> None:
         """Store the complete state after ``steps`` steps of the run (t = ``time`` s) and the
-        number of records that belong to it, then flush (see :mod:`emorbit.resume`).
+        number of records that belong to it, then flush (see :mod:`emorbit.io.resume`).
 
         The new state goes into ``/checkpoint_next`` first, is flushed, and only then
         replaces ``/checkpoint`` (a link operation): a run killed while the arrays are being
         written keeps the previous, consistent checkpoint (an in-place update could leave
         some arrays of the new state beside the old step count). If a kill falls between the
-        two link operations, :func:`emorbit.resume.load_checkpoint` takes the complete
+        two link operations, :func:`emorbit.io.resume.load_checkpoint` takes the complete
         ``/checkpoint_next``."""
         f = self.file
         if NEXT_CHECKPOINT in f:

@@ -1,5 +1,5 @@
 """An atomic counter for compiled kernels on the CPU: the shared work queue of
-:func:`emorbit.kernels.ensemble.ensemble_chunk_parallel`.
+:func:`emorbit.kernels.pointmass.packed.ensemble_chunk_parallel`.
 
 Numba's ``prange`` hands each thread a fixed, equal share of the iterations before the loop
 starts (its ``omp`` and ``workqueue`` threading layers schedule statically), so a loop over

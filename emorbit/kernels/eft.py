@@ -25,7 +25,7 @@ from numba.extending import intrinsic
 
 from .jit import kernel
 
-__all__ = ["fma", "two_sum", "two_prod", "two_prod_dekker", "dd_add", "dd_mul", "dd_div", "dd_sqrt"]
+__all__ = ["fma", "two_sum", "two_prod", "two_prod_dekker", "dd_add", "dd_mul", "dd_div", "dd_sqrt", "kahan_add"]
 
 _SPLIT = 134217729.0  # 2**27 + 1 (Veltkamp)
 
@@ -110,3 +110,11 @@ def dd_sqrt(ah, al):
     rh, rl = dd_add(ah, al, -ph, -pl)
     corr = (rh + rl) / (s + s)
     return two_sum(s, corr if s > 0.0 else 0.0)  # a select, not a branch: vectorises
+
+
+@kernel
+def kahan_add(s, c, d):
+    """Compensated sum: add ``d`` to ``s`` whose running error is ``c``; returns (s, c)."""
+    y = d - c
+    t = s + y
+    return t, (t - s) - y

@@ -22,7 +22,7 @@ algorithmic stress does work equal to minus the change in strain energy; with g_
 gravity points (linear in the nodes) the discrete energy balance is exact. Jacobians are the
 exact derivatives with respect to the end-of-step configuration (unsymmetric).
 
-Everything here is plain arrays; :mod:`emorbit.structure` builds them.
+Everything here is plain arrays; :mod:`emorbit.bodies.coupled` builds them.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ import numpy as np
 
 from .gravity import accel, accel_jacobian_coeffs, em_accel, em_jacobian_coeffs
 from .jit import kernel
-from .pointmass import METHOD_EM, STATUS_OK, STATUS_SINGULAR
+from .codes import METHOD_EM, STATUS_OK, STATUS_SINGULAR
 
 __all__ = [
     "combine_rows",

@@ -41,7 +41,7 @@ def cache_enabled() -> bool:
 
 #: the sources whose compiled code is cached: a kernel inlines its callees, and Numba
 #: re-validates a cached kernel only against its own file's time stamp
-_CACHED_SOURCES = ("kernels/*.py", "structure.py", "bench/limits.py")
+_CACHED_SOURCES = ("kernels/*.py", "kernels/pointmass/*.py", "bench/limits.py")
 _STAMP = "emorbit-kernel-sources.sha1"
 
 

@@ -63,7 +63,9 @@ import numpy as np
 
 from .gravity import accel, accel_jacobian_coeffs, em_accel, em_jacobian_coeffs
 from .jit import kernel
-from .pointmass import METHOD_EM, METHOD_MIDPOINT, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR, kahan_add
+from .codes import (GRAVITY_NONE, GRAVITY_POINT, GRAVITY_VOLUME, METHOD_EM, METHOD_MIDPOINT, STATUS_NO_CONVERGENCE,
+                    STATUS_OK, STATUS_SINGULAR)
+from .eft import kahan_add
 
 __all__ = [
     "GRAVITY_NONE",
@@ -75,10 +77,6 @@ __all__ = [
     "rigid_step",
     "rigid_chunk",
 ]
-
-GRAVITY_NONE = 0
-GRAVITY_POINT = 1
-GRAVITY_VOLUME = 2
 
 _EPS = 2.220446049250313e-16
 _TOL2 = (4.0 * _EPS) ** 2

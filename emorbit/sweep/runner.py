@@ -27,6 +27,8 @@ import h5py
 import numpy as np
 
 from .._version import __version__
+from ..integrators import check_device
+from ..integrators.dispatch import require_device
 from ..errors import InputError
 from .backends import make_backend
 from .spec import Sweep, load_sweep
@@ -119,8 +121,7 @@ def run_sweep(sweep, output, *, backend: str = "process", workers: int | None = 
     """
     if not isinstance(sweep, Sweep):
         sweep = load_sweep(sweep)
-    if device not in ("cpu", "gpu"):
-        raise InputError("device", f"must be 'cpu' or 'gpu', got {device!r}")
+    check_device(device)
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
         raise InputError("retries", f"must be an integer >= 0, got {retries!r}")
     output = os.path.abspath(os.fspath(output))
@@ -131,9 +132,7 @@ def run_sweep(sweep, output, *, backend: str = "process", workers: int | None = 
         raise InputError("output", f"{output!r} exists and is not a folder")
     be = make_backend(backend, workers=workers, threads=threads, scheduler=scheduler, executor=executor)
     if device == "gpu" and (be.name in ("serial", "process") or (be.name == "dask" and scheduler is None)):
-        from ..kernels.cuda import require_device  # local workers: say now, before anything runs
-
-        require_device()
+        require_device(device)  # local workers: say now, before anything runs
     runs_dir = os.path.join(output, "runs")
     tasks = _task_dicts(sweep, runs_dir, None if be.name == "serial" else threads, device)
     columns = row_columns([p.key for p in sweep.parameters], sweep.body_names())

@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import math
 
-from .jit import kernel
-from .pointmass import METHOD_EM, METHOD_EM_PLAIN, STATUS_OK, STATUS_SINGULAR, em_step, kahan_add, midpoint_step
+from ..codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_LEAPFROG, STATUS_OK, STATUS_SINGULAR
+from ..eft import kahan_add
+from ..jit import kernel
+from .reference import em_step, midpoint_step
 
-__all__ = ["adaptive_chunk", "MAX_HALVINGS", "METHOD_LEAPFROG"]
+__all__ = ["adaptive_chunk", "MAX_HALVINGS"]
 
-METHOD_LEAPFROG = 2
 MAX_HALVINGS = 20
 _TWO_PI = 2.0 * math.pi
 

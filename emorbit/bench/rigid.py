@@ -47,14 +47,14 @@ from __future__ import annotations
 import contextlib
 import io
 import math
-import os
-import platform
 import sys
 import time
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
+
+from .timing import CLOCK, clock, loadavg, machine, package_version, paired_ratio, since, timed
 
 __all__ = ["run", "table", "CONFIGS", "ROUND_OFF"]
 
@@ -75,14 +75,6 @@ TRAPEZOIDAL_DT = 1e-2
 FIELD_DTS = (60.0, 10.0)
 SCAN_DT = 10.0
 EXUDYN_NODES = ("euler-parameters", "rotation-vector")
-#: environment variables that set BLAS / OpenMP threads: recorded, because the volume kernel's
-#: 10 x N block product goes through BLAS, and threaded OpenBLAS on a busy 2-core machine made
-#: the 10,000-point row about 7x slower (README, "What rigid bodies cost")
-#: the time that verdicts, ratios and fits use: CPU (process) time per step. On a shared machine
-#: wall-clock time also counts the time the process waits for a core; for these single-threaded
-#: engines CPU and wall time agree on an idle machine. Both are recorded.
-CLOCK = "cpu_us_per_step"
-THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
 
 @dataclass(frozen=True)
@@ -99,102 +91,6 @@ CONFIGS = {
     "quick": Config(refinements=(1, 2, 3, 5), repeat_s=0.03, repeats=5, orbits=2.0, t_free=20.0),
     "tiny": Config(refinements=(1, 2), repeat_s=0.003, repeats=2, orbits=0.2, t_free=1.0),
 }
-
-
-# -- timing ------------------------------------------------------------------------------------
-def _clock():
-    return time.perf_counter(), time.process_time()
-
-
-def _since(start) -> tuple:
-    """(wall, CPU) seconds since ``start = _clock()``."""
-    wall, cpu = _clock()
-    return wall - start[0], cpu - start[1]
-
-
-def _calibrate(step_runner, repeat_s: float, min_steps: int = 20, max_steps: int = 2_000_000) -> int:
-    """Steps per timed call of ``step_runner(n) -> (wall, CPU) seconds for n steps``, after a warm-up call:
-    n grows until a call takes a quarter of ``repeat_s`` (so a fixed cost per call does not
-    inflate the estimate), then is set so that a call takes about ``repeat_s``."""
-    n = min_steps
-    step_runner(n)  # warm-up: Numba's first call, caches, a peer's first solve
-    while True:
-        t = step_runner(n)[0]
-        if t >= repeat_s / 4 or n >= max_steps:
-            break
-        n = int(min(max_steps, n * min(100.0, max(2.0, repeat_s / 4 / max(t, 1e-9)))))
-    return int(min(max_steps, max(min_steps, n * repeat_s / max(t, 1e-9))))
-
-
-def _timed(runners: dict, cfg: "Config", optional=()) -> dict:
-    """Time several engines interleaved: {name: stats}. ``runners`` maps a name to
-    ``step_runner(n) -> (wall, CPU) seconds``; a runner named in ``optional`` (a peer) that
-    raises is dropped and reported as ``{"status": "skipped: ..."}``. Stats: median and
-    minimum wall-clock us per step, median CPU (process) us per step, and the samples."""
-    steps, out = {}, {}
-    for name, fn in runners.items():
-        try:
-            steps[name] = _calibrate(fn, cfg.repeat_s)
-        except Exception as exc:  # noqa: BLE001
-            if name not in optional:
-                raise
-            out[name] = {"status": f"skipped: {type(exc).__name__}: {exc}"}
-    samples = {name: [] for name in steps}
-    for _ in range(cfg.repeats):
-        for name in list(samples):
-            try:
-                samples[name].append(np.array(runners[name](steps[name])) / steps[name] * 1e6)
-            except Exception as exc:  # noqa: BLE001
-                if name not in optional:
-                    raise
-                out[name] = {"status": f"skipped: {type(exc).__name__}: {exc}"}
-                del samples[name]
-    for name, us in samples.items():
-        wall, cpu = np.array(us).T
-        out[name] = {"us_per_step": float(np.median(wall)), "us_min": float(wall.min()),
-                     "cpu_us_per_step": float(np.median(cpu)), "steps": steps[name], "repeats": len(us),
-                     "samples_us": [round(float(x), 4) for x in wall], "cpu_samples_us": [round(float(x), 4) for x in cpu]}
-    return out
-
-
-def _paired_ratio(a: dict, b: dict, key: str = "cpu_samples_us") -> float:
-    """Median over interleaved repeats of a's time / b's time (CPU time by default)."""
-    return float(np.median(np.array(a[key]) / np.array(b[key])))
-
-
-def _loadavg():
-    try:
-        return [round(x, 2) for x in os.getloadavg()]
-    except OSError:  # pragma: no cover - not on Linux
-        return None
-
-
-def _machine() -> dict:
-    cpu, flags = platform.processor(), set()
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                key, _, value = line.partition(":")
-                if key.strip() == "model name":
-                    cpu = value.strip()
-                elif key.strip() == "flags":
-                    flags = set(value.split())
-                    break
-    except OSError:  # pragma: no cover - not on Linux
-        pass
-    simd = next((f for f in ("avx512f", "avx2", "avx") if f in flags), "")
-    threads = {k: os.environ[k] for k in THREAD_VARIABLES if k in os.environ}
-    return {"cpu": cpu, "cores": os.cpu_count(), "simd": simd, "python": platform.python_version(),
-            "platform": platform.platform(), "thread_variables": threads}
-
-
-def _version(dist: str):
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version(dist)
-    except PackageNotFoundError:
-        return None
 
 
 # -- emorbit -----------------------------------------------------------------------------------
@@ -239,9 +135,9 @@ class _EmorbitRunner:
         self.iterations = []
 
     def __call__(self, n: int) -> tuple:
-        start = _clock()
+        start = clock()
         res = self.sim.run(steps=n, every=n, keep=False)
-        elapsed = _since(start)
+        elapsed = since(start)
         self.iterations.append(float(res.newton_iterations[-1]))
         return elapsed
 
@@ -275,7 +171,7 @@ def _scan(cfg: Config) -> dict:
     rows = []
     for r in cfg.refinements:
         runners = {g: _EmorbitRunner(_leo_sim(r, SCAN_DT, g)) for g in ("volume", "point")}
-        times = _timed(runners, cfg)
+        times = timed(runners, cfg)
         row = {"refinement": r, "mass_points": 8 * r**3}
         for g, runner in runners.items():
             row[g] = {**times[g], "newton_iterations": runner.newton()}
@@ -297,7 +193,7 @@ def _scan(cfg: Config) -> dict:
 
 
 def _field_accuracy(order: int, dt: float, cfg: Config) -> dict:
-    from .rotations import quaternion_to_matrix
+    from ..bodies.rotations import quaternion_to_matrix
 
     sim = _leo_sim(1, dt, order=order)
     n = _orbit_rate(sim.gm)
@@ -352,7 +248,7 @@ class _Basilisk:
                             f"pip install 'emorbit[rigid-peers]'")
             return
         self.mods = (GravityGradientEffector, spacecraft, SimulationBaseClass, macros, simIncludeGravBody)
-        from .rotations import rotation_vector_to_matrix
+        from ..bodies.rotations import rotation_vector_to_matrix
 
         self.gm = _earth().gm
         self.n = _orbit_rate(self.gm)
@@ -400,9 +296,9 @@ class _Basilisk:
         def steps(k: int) -> tuple:
             sim, _ = self.build(dt, False)  # set-up not timed
             sim.ConfigureStopTime(macros.sec2nano(dt * k))
-            start = _clock()
+            start = clock()
             sim.ExecuteSimulation()
-            return _since(start)
+            return since(start)
 
         return steps
 
@@ -498,9 +394,9 @@ class _Exudyn:
         def steps(k: int) -> tuple:
             with self.quiet():
                 mbs, ss, solver, _, _ = self.build(dt, k, node, FREE_OMEGA, "generalized-alpha", False)
-                start = _clock()
+                start = clock()
                 ok, msg = self.solve(mbs, ss, solver)
-                elapsed = _since(start)
+                elapsed = since(start)
             if not ok:
                 raise RuntimeError(f"generalized-alpha did not converge in a timing run: {msg}")
             return elapsed
@@ -534,7 +430,7 @@ def _field(cfg: Config, bsk: _Basilisk) -> dict:
         runners = {f"order{o}": _EmorbitRunner(_leo_sim(1, dt, order=o)) for o in (2, 4)}
         if status == "ok":
             runners["basilisk"] = bsk.runner(dt)
-        times = _timed(runners, cfg, optional=("basilisk",))
+        times = timed(runners, cfg, optional=("basilisk",))
         for o in (2, 4):
             emorbit_rows.append({"order": o, "dt": dt, "mass_points": 8, "gravity": "volume", **times[f"order{o}"],
                                  "newton_iterations": runners[f"order{o}"].newton(), **_field_accuracy(o, dt, cfg)})
@@ -549,12 +445,12 @@ def _field(cfg: Config, bsk: _Basilisk) -> dict:
         except Exception as exc:  # noqa: BLE001
             status = f"skipped: Basilisk failed ({type(exc).__name__}: {exc})"
             continue
-        row["emorbit_ratio"] = _paired_ratio(times["order2"], times["basilisk"])
-        row["emorbit_ratio_wall"] = _paired_ratio(times["order2"], times["basilisk"], "samples_us")
+        row["emorbit_ratio"] = paired_ratio(times["order2"], times["basilisk"])
+        row["emorbit_ratio_wall"] = paired_ratio(times["order2"], times["basilisk"], "samples_us")
         bsk_rows.append(row)
     basilisk = {"status": status, "rows": bsk_rows}
     if status == "ok":
-        basilisk.update(version=_version("bsk"),
+        basilisk.update(version=package_version("bsk"),
                         case=("Spacecraft hub with the box's mass and inertia, point-mass Earth gravity (same GM), "
                               "GravityGradientEffector (first order), same initial state"))
     return {"emorbit": {"rows": emorbit_rows}, "basilisk": basilisk}
@@ -568,7 +464,7 @@ def _torque_free(cfg: Config, ex: _Exudyn) -> dict:
         peers = [node for node in EXUDYN_NODES if dt in EXUDYN_DTS] if status == "ok" else []
         for node in peers:
             runners[node] = ex.runner(dt, node)
-        times = _timed(runners, cfg, optional=peers)
+        times = timed(runners, cfg, optional=peers)
         free_rows.append({"omega0": list(FREE_OMEGA), "dt": dt, **times["emorbit"],
                           "newton_iterations": runners["emorbit"].newton(), **_free_accuracy(dt, FREE_OMEGA, cfg)})
         for node in peers:
@@ -576,8 +472,8 @@ def _torque_free(cfg: Config, ex: _Exudyn) -> dict:
                    **times[node]}
             if "status" not in row:
                 row.update(ex.accuracy(dt, node, FREE_OMEGA, "generalized-alpha", cfg))
-                row["emorbit_ratio"] = _paired_ratio(times["emorbit"], times[node])
-                row["emorbit_ratio_wall"] = _paired_ratio(times["emorbit"], times[node], "samples_us")
+                row["emorbit_ratio"] = paired_ratio(times["emorbit"], times[node])
+                row["emorbit_ratio_wall"] = paired_ratio(times["emorbit"], times[node], "samples_us")
             implicit.append(row)
     for dt in (TRAPEZOIDAL_DT, 10 * TRAPEZOIDAL_DT):
         free_rows.append({"omega0": list(FAST_OMEGA), "dt": dt, **_free_accuracy(dt, FAST_OMEGA, cfg)})
@@ -589,7 +485,7 @@ def _torque_free(cfg: Config, ex: _Exudyn) -> dict:
                                     **ex.accuracy(TRAPEZOIDAL_DT, "euler-parameters", omega, scheme, cfg)})
     exudyn = {"status": status, "implicit": implicit, "trapezoidal": trapezoidal}
     if status == "ok":
-        exudyn.update(version=_version("exudyn"), module=ex.module,
+        exudyn.update(version=package_version("exudyn"), module=ex.module,
                       case=("CreateRigidBody with InertiaCuboid (the same box), no gravity; SolveDynamic timed (its "
                             "set-up, ~60 us a call, amortised over the steps)"))
     return {"emorbit": {"rows": free_rows,
@@ -651,9 +547,9 @@ def run(quick: bool = False, *, config: str | None = None) -> dict:
     cfg = CONFIGS[name]
     import numba
 
-    from ._version import __version__
+    from .._version import __version__
 
-    load_before = _loadavg()
+    load_before = loadavg()
     t0 = time.perf_counter()
     scan = _scan(cfg)
     field = _field(cfg, _Basilisk())
@@ -665,10 +561,10 @@ def run(quick: bool = False, *, config: str | None = None) -> dict:
     return {
         "name": "rigid",
         "config": name,
-        "machine": _machine(),
-        "load_average": {"before": load_before, "after": _loadavg()},
+        "machine": machine(),
+        "load_average": {"before": load_before, "after": loadavg()},
         "versions": {"emorbit": __version__, "numba": numba.__version__, "numpy": np.__version__,
-                     "bsk": _version("bsk"), "exudyn": _version("exudyn")},
+                     "bsk": package_version("bsk"), "exudyn": package_version("exudyn")},
         "round_off": ROUND_OFF,
         "scaling": scan,
         "field": field,

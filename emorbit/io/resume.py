@@ -15,10 +15,11 @@ import os
 import h5py
 import numpy as np
 
-from .errors import InputError
-from .io.hdf5 import NEXT_CHECKPOINT, Writer
-from .result import Result
-from .units import to_si
+from ..errors import InputError
+from ..result import Result
+from ..scene import parse_scene
+from ..units import to_si
+from .hdf5 import NEXT_CHECKPOINT, Writer
 
 __all__ = ["resume", "load_checkpoint"]
 
@@ -29,8 +30,6 @@ def _text(value) -> str:
 
 def load_checkpoint(path):
     """(simulation positioned at the file's last checkpoint, attrs, records at it)."""
-    from .scene import parse_scene
-
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise InputError("file", f"{path!r} does not exist")
@@ -67,7 +66,7 @@ def resume(path, t_end, *, progress: bool | None = None) -> Result:
     Returns the records computed by this call (from the checkpoint on)."""
     import sys
 
-    from .simulation import _Sink
+    from .recorder import Sink
 
     sim, attrs, records = load_checkpoint(path)
     t2 = to_si(t_end, "time", "t_end", positive=False)
@@ -76,7 +75,7 @@ def resume(path, t_end, *, progress: bool | None = None) -> Result:
     cp = int(attrs.get("checkpoint_every", every))
     total = int(round((sim.time - sim._t_base) / sim.dt)) + n_steps
     writer = Writer.reopen(path, records, {"t_end": sim._t_base + total * sim.dt, "steps": total})
-    sink = _Sink(sim, writer, True)
+    sink = Sink(sim, writer, True)
     sink.rows = records
     if progress is None:
         progress = sys.stderr.isatty()

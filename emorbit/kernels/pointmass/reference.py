@@ -38,7 +38,7 @@ Two details keep the energy error a random walk (Brouwer's law) instead of a dri
   and the velocity from ``g_em`` evaluated the same way at the updated ``dx``, leave nothing
   to correlate with: the same measurement gives 6e-21 |E| per step (1.2 standard errors)
   here. ``roundoff="fast"`` skips the finish. The packed kernels
-  (:mod:`~emorbit.kernels.ensemble`, which run point-mass scenes) reach the same end more
+  (:mod:`~emorbit.kernels.pointmass.packed`, which run point-mass scenes) reach the same end more
   cheaply, with the accurate root of their scalar equation instead of this finish (see
   their notes for what each part contributes).
 
@@ -51,11 +51,11 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 
-from .eft import fma, two_sum
-from .gravity import accel, accel_jacobian_coeffs, em_accel, em_accel_dd_lo, em_accel_root, em_jacobian_coeffs, norm_sq_lo
-from .jit import kernel
+from ..codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_MIDPOINT, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from ..eft import fma, kahan_add, two_sum
+from ..gravity import accel, accel_jacobian_coeffs, em_accel, em_accel_dd_lo, em_accel_root, em_jacobian_coeffs, norm_sq_lo
+from ..jit import kernel
 
 __all__ = [
     "STATUS_OK",
@@ -72,27 +72,9 @@ __all__ = [
     "leapfrog_chunk",
 ]
 
-STATUS_OK = 0
-STATUS_NO_CONVERGENCE = 1  # Newton's update never fell to round-off within max_iter
-STATUS_SINGULAR = 2  # a point reached the centre, or the state is no longer finite
-
-METHOD_EM = 0
-METHOD_MIDPOINT = 1
-#: em without the accurate finish (roundoff="fast"): the plain step; the energy drifts down
-#: by 5e-20 to 1.7e-19 |E| per step on the paper's orbit at T/100 (see the module notes)
-METHOD_EM_PLAIN = 3
-
 _EPS = 2.220446049250313e-16
 _TOL2 = (4.0 * _EPS) ** 2  # converged: |update| <= 4 eps |scale|
 _FLOOR2 = (1024.0 * _EPS) ** 2  # a stalled update is accepted as round-off below 1024 eps |scale|
-
-
-@kernel
-def kahan_add(s, c, d):
-    """Compensated sum: add ``d`` to ``s`` whose running error is ``c``; returns (s, c)."""
-    y = d - c
-    t = s + y
-    return t, (t - s) - y
 
 
 @kernel

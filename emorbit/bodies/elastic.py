@@ -1,5 +1,5 @@
 """Elastic bodies: meshes (generated or read), St. Venant-Kirchhoff materials, and the arrays
-a :class:`~emorbit.structure.Structure` needs (an :class:`~emorbit.structure.ElasticSpec`).
+a :class:`~emorbit.bodies.coupled.Structure` needs (an :class:`ElasticSpec`).
 
 Meshes are in the body frame; ``x = position + R X`` places them. Generated meshes:
 
@@ -21,18 +21,52 @@ at the elements' quadrature points (tetrahedra: the 4-point degree-2 rule; bars:
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 
-from .errors import InputError
-from .structure import ElasticSpec
+from ..errors import InputError
+from ..units import to_si, vector_to_si
 
-__all__ = ["beam_mesh", "chain_mesh", "net_mesh", "read_mesh", "elastic_spec", "MESH_KINDS"]
+__all__ = ["ElasticSpec", "beam_mesh", "chain_mesh", "net_mesh", "read_mesh", "elastic_spec", "mesh_from_parameters", "MESH_KINDS"]
 
 MESH_KINDS = ("beam", "chain", "net", "file")
 _TET_A = 0.5854101966249685
 _TET_B = 0.1381966011250105
+
+
+
+@dataclass
+class ElasticSpec:
+    """An elastic body ready to join a structure (SI, body frame already applied).
+
+    nodes (n, 3) initial positions, velocities (n, 3); bars (m, 2) with EA and rest lengths
+    L; tets (k, 4) with reference gradients g (k, 3, 4), volumes V, Lame lambda, mu;
+    node_mass: the scalar mass matrix over the nodes (sparse, n x n); gravity points as
+    (gp_node (q, 4), gp_w (q, 4), gp_m (q,)) in node indices; reference node coordinates
+    ref (n, 3) for output; node_output_every: records between nodal-position outputs.
+    """
+
+    name: str
+    nodes: np.ndarray
+    velocities: np.ndarray
+    ref: np.ndarray
+    bars: np.ndarray
+    bar_EA: np.ndarray
+    bar_L: np.ndarray
+    tets: np.ndarray
+    tet_g: np.ndarray
+    tet_V: np.ndarray
+    tet_lam: np.ndarray
+    tet_mu: np.ndarray
+    node_mass: sp.spmatrix
+    gp_node: np.ndarray
+    gp_w: np.ndarray
+    gp_m: np.ndarray
+    gravity: bool
+    node_output_every: int = 1
+    material: dict | None = None
 
 
 def _grid(size, elements, dim: int, key: str):
@@ -245,3 +279,38 @@ def elastic_spec(name, X, tets, bars, *, young, density, poisson=None, area=None
         gp_node=np.array(gp_node, dtype=np.int64).reshape(-1, 4), gp_w=np.array(gp_w, float).reshape(-1, 4),
         gp_m=np.array(gp_m, float), gravity=bool(gravity), node_output_every=int(node_output_every),
         material=material)
+
+
+def mesh_from_parameters(mesh, params: dict, strict: bool, key: str):
+    """(nodes in m, tetrahedra, bars) of mesh ``mesh`` ("beam", "chain", "net" or "file")
+    with the parameters ``params`` as a scene gives them; errors name ``key.<parameter>``."""
+    allowed = {"beam": ("size", "elements"), "chain": ("start", "end", "elements"), "net": ("size", "elements"),
+               "file": ("file", "mesh_unit")}
+    if mesh not in allowed:
+        raise InputError(f"{key}.mesh", f"unknown mesh {mesh!r}; known: {', '.join(allowed)}")
+    for p in params:
+        if p not in allowed[mesh]:
+            raise InputError(f"{key}.{p}", f"not a parameter of mesh {mesh!r}; allowed: {', '.join(allowed[mesh])}")
+    for p in allowed[mesh]:
+        if p not in params and p != "mesh_unit":
+            raise InputError(f"{key}.{p}", f"missing (required for mesh {mesh!r})")
+    empty = np.zeros((0, 4), np.int64), np.zeros((0, 2), np.int64)
+    if mesh == "beam":
+        X, T = beam_mesh(vector_to_si(params["size"], "length", f"{key}.size", strict=strict),
+                            params["elements"], key)
+        return X, T, empty[1]
+    if mesh == "chain":
+        X, B = chain_mesh(vector_to_si(params["start"], "length", f"{key}.start", strict=strict),
+                             vector_to_si(params["end"], "length", f"{key}.end", strict=strict), params["elements"], key)
+        return X, empty[0], B
+    if mesh == "net":
+        size = params["size"]
+        if isinstance(size, str) or not hasattr(size, "__len__") or len(size) != 2:
+            raise InputError(f"{key}.size", f"two lengths expected, got {size!r}")
+        L = [to_si(s_, "length", f"{key}.size[{i}]", strict=strict, positive=True) for i, s_ in enumerate(size)]
+        X, B = net_mesh(L, params["elements"], key)
+        return X, empty[0], B
+    X, T, B = read_mesh(params["file"], key)
+    if "mesh_unit" in params:
+        X = X * to_si(f"1 {params['mesh_unit']}", "length", f"{key}.mesh_unit")
+    return X, T, B

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 __all__ = ["MassPoints", "box", "cylinder", "sphere", "shell", "dumbbell", "tetra_mesh", "SHAPES"]
 

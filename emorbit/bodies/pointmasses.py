@@ -11,7 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kernels import invariants as inv
+from ..integrators import dispatch
+from ..kernels import invariants as inv
 
 __all__ = ["PointMasses", "ChunkRecords", "earliest_failure"]
 
@@ -145,13 +146,13 @@ class PointMasses:
                 every: int, nrec: int, max_iter: int) -> ChunkRecords:
         """Advance all points ``nrec * every`` composed steps, recording every ``every``.
 
-        Runs the packed kernels of :mod:`emorbit.kernels.ensemble` (same results as the
-        reference kernels in :mod:`emorbit.kernels.pointmass` to round-off, leapfrog bit
-        for bit), on all of Numba's threads from ``ensemble.PARALLEL_MIN`` points on; a point's
-        result does not depend on the thread count or on the other points.
+        The kernel is the one :mod:`emorbit.integrators.dispatch` names for the method,
+        :attr:`roundoff` and :attr:`device`: on the CPU the packed kernels of
+        :mod:`emorbit.kernels.pointmass.packed` (the same results as the reference kernels
+        to round-off, leapfrog bit for bit), on all of Numba's threads from
+        ``PARALLEL_MIN`` points on; a point's result does not depend on the thread count or
+        on the other points.
         """
-        from .kernels import ensemble
-
         n = len(self)
         if self.adaptive is not None:
             return self._advance_adaptive(method, gm, center, dt, gammas, every, nrec, max_iter)
@@ -161,11 +162,7 @@ class PointMasses:
             iterations=np.zeros((nrec, n), dtype=np.int64),
             fail=np.full((n, 2), -1, dtype=np.int64),
         )
-        codes = {"em": ensemble.METHOD_EM, "midpoint": ensemble.METHOD_MIDPOINT, "leapfrog": ensemble.METHOD_LEAPFROG}
-        if method not in codes:  # the Simulation validates names; this guards internal misuse
-            raise ValueError(f"no point-mass kernel for method {method!r}")
-        code = ensemble.METHOD_EM_PLAIN if method == "em" and self.roundoff == "fast" else codes[method]
-        chunk = ensemble.ensemble_chunk_parallel if n >= ensemble.PARALLEL_MIN else ensemble.ensemble_chunk
+        code, chunk = dispatch.point_chunk(method, self.roundoff, self.device, n)
         chunk(code, self.x, self.v, self.cx, self.cv, float(gm), np.ascontiguousarray(center, float),
               float(dt), np.ascontiguousarray(gammas, float), int(every), int(nrec), int(max_iter),
               rec.x, rec.v, rec.iterations, rec.fail)
@@ -175,25 +172,21 @@ class PointMasses:
     adaptive: float | None = None
     #: adaptive steps taken so far, summed over the points
     adaptive_steps: int = 0
-    #: "brouwer" (em steps solved accurately enough that the energy error stays a random walk)
-    #: or "fast" (plain floating point); set by the Simulation
+    #: a name of :data:`emorbit.integrators.ROUNDOFF`; set by the Simulation
     roundoff: str = "brouwer"
+    #: a name of :data:`emorbit.integrators.DEVICES`; set by the Simulation
+    device: str = "cpu"
 
     def _advance_adaptive(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> ChunkRecords:
-        """Adaptive steps (see :mod:`emorbit.kernels.adaptive`); dt is the largest step."""
-        from .kernels import adaptive as ad
-        from .kernels import pointmass as kern
-
+        """Adaptive steps (see :mod:`emorbit.kernels.pointmass.adaptive`); dt is the largest step."""
         n = len(self)
         steps = np.zeros((nrec, n), dtype=np.int64)
         rec = ChunkRecords(np.empty((nrec, 3, n)), np.empty((nrec, 3, n)), np.zeros((nrec, n), dtype=np.int64),
                            np.full((n, 2), -1, dtype=np.int64))
-        code = {"em": kern.METHOD_EM, "midpoint": kern.METHOD_MIDPOINT, "leapfrog": ad.METHOD_LEAPFROG}[method]
-        if method == "em" and self.roundoff == "fast":
-            code = kern.METHOD_EM_PLAIN
-        ad.adaptive_chunk(code, self.x, self.v, self.cx, self.cv, float(gm), np.ascontiguousarray(center, float),
-                          float(dt), float(self.adaptive), np.ascontiguousarray(gammas, float), int(every), int(nrec),
-                          int(max_iter), rec.x, rec.v, rec.iterations, steps, rec.fail)
+        code, chunk = dispatch.adaptive_chunk(method, self.roundoff, self.device)
+        chunk(code, self.x, self.v, self.cx, self.cv, float(gm), np.ascontiguousarray(center, float),
+              float(dt), float(self.adaptive), np.ascontiguousarray(gammas, float), int(every), int(nrec),
+              int(max_iter), rec.x, rec.v, rec.iterations, steps, rec.fail)
         rec.solves = steps * len(gammas)
         self.adaptive_steps += int(steps.sum())
         return rec

@@ -41,19 +41,14 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..errors import InputError
-from . import eft, ensemble, pointmass
-from .ensemble import _run_point
+from .. import eft
+from ..codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_LEAPFROG, METHOD_MIDPOINT
+from .packed import _run_point
 
-__all__ = ["METHOD_EM", "METHOD_EM_PLAIN", "METHOD_MIDPOINT", "METHOD_LEAPFROG", "METHODS", "THREADS_PER_BLOCK", "available",
-           "require_device", "chunk"]
+__all__ = ["CODES", "THREADS_PER_BLOCK", "available", "device_problem", "chunk"]
 
-METHOD_EM = pointmass.METHOD_EM
-METHOD_EM_PLAIN = pointmass.METHOD_EM_PLAIN
-METHOD_MIDPOINT = pointmass.METHOD_MIDPOINT
-METHOD_LEAPFROG = ensemble.METHOD_LEAPFROG
-#: method name -> code
-METHODS = {"em": METHOD_EM, "midpoint": METHOD_MIDPOINT, "leapfrog": METHOD_LEAPFROG}
+#: the method codes that have a CUDA kernel
+CODES = (METHOD_EM, METHOD_EM_PLAIN, METHOD_MIDPOINT, METHOD_LEAPFROG)
 #: threads per block (one point each); a multiple of the warp size
 THREADS_PER_BLOCK = 128
 
@@ -62,29 +57,32 @@ _compiled: dict = {}
 _devices: dict = {}
 
 
-def _cuda():
+def device_problem() -> str | None:
+    """Why the kernels cannot run here (numba.cuda missing, or no device), or None when a
+    CUDA device (or numba's CUDA simulator) is ready."""
     try:
         from numba import cuda
     except ImportError as exc:  # a Numba without its CUDA target
-        raise InputError("device", f"numba.cuda cannot be imported ({exc}); pip install numba-cuda") from None
-    return cuda
+        return f"numba.cuda cannot be imported ({exc}); pip install numba-cuda"
+    if not cuda.is_available():
+        return ("no CUDA device: numba.cuda found no usable NVIDIA GPU and driver on this machine; run on the CPU "
+                "(device 'cpu'), or on a machine with an NVIDIA GPU (pip install 'emorbit[gpu]' for the numba-cuda "
+                "target)")
+    return None
 
 
 def available() -> bool:
     """Whether a CUDA device (or numba's CUDA simulator) can run the kernels."""
-    try:
-        return bool(_cuda().is_available())
-    except InputError:
-        return False
+    return device_problem() is None
 
 
-def require_device():
-    """The numba.cuda module, or an :class:`InputError` saying why the GPU cannot be used."""
-    cuda = _cuda()
-    if not cuda.is_available():
-        raise InputError("device", "no CUDA device: numba.cuda found no usable NVIDIA GPU and driver on this "
-                                   "machine; run on the CPU (device 'cpu'), or on a machine with an NVIDIA GPU "
-                                   "(pip install 'emorbit[gpu]' for the numba-cuda target)")
+def _require_device():
+    """The numba.cuda module; a RuntimeError naming :func:`device_problem` when it cannot run."""
+    problem = device_problem()
+    if problem is not None:
+        raise RuntimeError(problem)
+    from numba import cuda
+
     return cuda
 
 
@@ -233,7 +231,7 @@ def _compile(contract: bool = False):
     contract = bool(contract)
     if contract in _compiled:
         return _compiled[contract]
-    cuda = require_device()
+    cuda = _require_device()
     if not _devices:
         fma = _fma_exact if _simulator() else _fma
         _devices["fma"] = cuda.jit(device=True)(_rebind(fma, cuda, _devices))

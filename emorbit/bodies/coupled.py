@@ -27,52 +27,21 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .errors import InputError
-from .kernels import elastic as kel
-from .kernels import pointmass as kpm
-from .kernels.jit import kernel
+from ..errors import InputError
+from ..integrators.dispatch import method_code
+from ..kernels import coupled as kc
+from ..kernels import elastic as kel
+from ..kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from .elastic import ElasticSpec
 from .rigid import body_angular_velocity
 from .rotations import matrix_to_quaternion
 
-__all__ = ["Structure", "StructureRecords", "ElasticSpec"]
+__all__ = ["Structure", "StructureRecords"]
 
-METHOD_CODES = {"em": kpm.METHOD_EM, "midpoint": kpm.METHOD_MIDPOINT}
 _EPS = 2.220446049250313e-16
 _TOL2 = (4.0 * _EPS) ** 2
 _FLOOR2 = (2.0**20 * _EPS) ** 2  # a stall (see Structure.step) is accepted only below 2.3e-10 |scale|
 _STALLS = 3  # iterations in a row without progress that make a stall
-
-
-@dataclass
-class ElasticSpec:
-    """An elastic body ready to join a structure (SI, body frame already applied).
-
-    nodes (n, 3) initial positions, velocities (n, 3); bars (m, 2) with EA and rest lengths
-    L; tets (k, 4) with reference gradients g (k, 3, 4), volumes V, Lame lambda, mu;
-    node_mass: the scalar mass matrix over the nodes (sparse, n x n); gravity points as
-    (gp_node (q, 4), gp_w (q, 4), gp_m (q,)) in node indices; reference node coordinates
-    ref (n, 3) for output; node_output_every: records between nodal-position outputs.
-    """
-
-    name: str
-    nodes: np.ndarray
-    velocities: np.ndarray
-    ref: np.ndarray
-    bars: np.ndarray
-    bar_EA: np.ndarray
-    bar_L: np.ndarray
-    tets: np.ndarray
-    tet_g: np.ndarray
-    tet_V: np.ndarray
-    tet_lam: np.ndarray
-    tet_mu: np.ndarray
-    node_mass: sp.spmatrix
-    gp_node: np.ndarray
-    gp_w: np.ndarray
-    gp_m: np.ndarray
-    gravity: bool
-    node_output_every: int = 1
-    material: dict | None = None
 
 
 @dataclass
@@ -88,116 +57,6 @@ class StructureRecords:
         if self.fail[0, 0] < 0:
             return None
         return int(self.fail[0, 0]), 0, int(self.fail[0, 1])
-
-
-@kernel
-def _fill(method, hh, hf, x0n, x1n, node_slot, node_coef, bar_node, bar_EA, bar_L, tet_node, tet_g, tet_V,
-          tet_lam, tet_mu, gp_node, gp_w, gp_m, xg0, xg1, gm, c, want_gravity, want_K, indptr, indices, data, Fslot,
-          fn, kb, kt, fg, kg):
-    """The generalised forces into Fslot (n_slots, 3) and, if ``want_K``, -hh K (elements and
-    gravity) added into the Jacobian values ``data``. Returns a status."""
-    fn[:, :] = 0.0
-    kel.bar_forces(method, x0n, x1n, bar_node, bar_EA, bar_L, fn, kb)
-    kel.tet_forces(method, x0n, x1n, tet_node, tet_g, tet_V, tet_lam, tet_mu, fn, kt)
-    status = kpm.STATUS_OK
-    if want_gravity and gp_m.shape[0] > 0:
-        status = kel.gravity_forces(method, gm, c, xg0, xg1, gp_m, fg, kg)
-        kel.spread_rows(fg, gp_node, gp_w, fn)
-    # node forces -> slot forces
-    Fslot[:, :] = 0.0
-    kel.spread_rows(fn, node_slot, node_coef, Fslot)
-    if not want_K:
-        return status
-    # stiffness blocks -> J
-    for e in range(bar_node.shape[0]):
-        a = bar_node[e, 0]
-        b = bar_node[e, 1]
-        _add_block(a, a, kb[e], -hh, node_slot, node_coef, indptr, indices, data)
-        _add_block(b, b, kb[e], -hh, node_slot, node_coef, indptr, indices, data)
-        _add_block(a, b, kb[e], hh, node_slot, node_coef, indptr, indices, data)
-        _add_block(b, a, kb[e], hh, node_slot, node_coef, indptr, indices, data)
-    for e in range(tet_node.shape[0]):
-        for a in range(4):
-            for b in range(4):
-                _add_block(tet_node[e, a], tet_node[e, b], kt[e, a, b], -hh, node_slot, node_coef, indptr, indices,
-                           data)
-    if want_gravity:
-        for q in range(gp_m.shape[0]):
-            for a in range(4):
-                na = gp_node[q, a]
-                if na < 0:
-                    break
-                for b in range(4):
-                    nb = gp_node[q, b]
-                    if nb < 0:
-                        break
-                    _add_block(na, nb, kg[q], -hh * gp_w[q, a] * gp_w[q, b], node_slot, node_coef, indptr, indices,
-                               data)
-    return status
-
-
-@kernel
-def _add_block(na, nb, K, scale, node_slot, node_coef, indptr, indices, data):
-    """data += scale * (c_i c_j) K for every slot pair of nodes na, nb."""
-    for i in range(4):
-        si = node_slot[na, i]
-        if si < 0:
-            break
-        ci = node_coef[na, i]
-        for j in range(4):
-            sj = node_slot[nb, j]
-            if sj < 0:
-                break
-            f = scale * ci * node_coef[nb, j]
-            if f == 0.0:
-                continue
-            for e in range(3):
-                col = 3 * sj + e
-                for d in range(3):
-                    p = kel.csc_find(indptr, indices, 3 * si + d, col)
-                    data[p] += f * K[d, e]
-
-
-@kernel
-def _fill_constraints(rb_slots, u05, u1, nu, es, hf, want_K, indptr, indices, data, R1, R2, nslot3):
-    """Rigid-body constraints: hf G(u05)^T nu into R1, es g(u1) into R2, and the blocks
-    hf/2 S (x) I, hf G05^T, es G1 into the Jacobian values."""
-    pairs = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
-    for r in range(rb_slots.shape[0]):
-        base = nslot3 + 6 * r
-        for j in range(6):
-            k, l = pairs[j]
-            sk = rb_slots[r, 1 + k]
-            sl = rb_slots[r, 1 + l]
-            # residuals
-            dot = 0.0
-            for d in range(3):
-                dot += u1[sk, d] * u1[sl, d]
-            R2[6 * r + j] = es[r] * (0.5 * (dot - 1.0) if k == l else dot)
-            for d in range(3):
-                R1[3 * sk + d] += hf * nu[6 * r + j] * u05[sl, d]
-                if k != l:
-                    R1[3 * sl + d] += hf * nu[6 * r + j] * u05[sk, d]
-            if not want_K:
-                continue
-            # Jacobian: columns of nu (hf G05^T) and rows of g (es G1)
-            for d in range(3):
-                p = kel.csc_find(indptr, indices, 3 * sk + d, base + j)
-                data[p] += hf * u05[sl, d]
-                p = kel.csc_find(indptr, indices, base + j, 3 * sk + d)
-                data[p] += es[r] * u1[sl, d]
-                if k != l:
-                    p = kel.csc_find(indptr, indices, 3 * sl + d, base + j)
-                    data[p] += hf * u05[sk, d]
-                    p = kel.csc_find(indptr, indices, base + j, 3 * sl + d)
-                    data[p] += es[r] * u1[sk, d]
-            # d (hf G05^T nu) / d du = hf/2 nu_j (blocks (k, l) and (l, k) of I)
-            for d in range(3):
-                p = kel.csc_find(indptr, indices, 3 * sk + d, 3 * sl + d)
-                data[p] += 0.5 * hf * nu[6 * r + j]
-                if k != l:
-                    p = kel.csc_find(indptr, indices, 3 * sl + d, 3 * sk + d)
-                    data[p] += 0.5 * hf * nu[6 * r + j]
 
 
 class Structure:
@@ -279,7 +138,7 @@ class Structure:
         return n
 
     def add_rigid(self, name, points, gravity, position, velocity, R, omega_space, shape="", params=None):
-        """A rigid body (points: emorbit.shapes.MassPoints); gravity 'volume' | 'point' | 'none'."""
+        """A rigid body (points: emorbit.bodies.shapes.MassPoints); gravity 'volume' | 'point' | 'none'."""
         E = points.second_moment
         m = points.mass
         mass = np.zeros((4, 4))
@@ -536,7 +395,7 @@ class Structure:
         data = self.J_mass.data.copy() if with_jacobian else self._nodata
         F = np.empty_like(u0)
         hf = 0.5 * h
-        status = _fill(code, hf * h, hf, x0n, x1n, self.node_slot, self.node_coef,
+        status = kc.fill_forces(code, hf * h, hf, x0n, x1n, self.node_slot, self.node_coef,
                        self.bar_node, self.bar_EA, self.bar_L, self.tet_node, self.tet_g, self.tet_V, self.tet_lam,
                        self.tet_mu, self.gp_node, self.gp_w, self.gp_m, xg0, xg1, gm, c, gm != 0.0, with_jacobian,
                        self.J.indptr, self.J.indices, data, F, self._fn, self._kb, self._kt, self._fg, self._kg)
@@ -573,7 +432,7 @@ class Structure:
         size2 = float(np.max(np.sum(u0 * u0, axis=1) * self.slot_pos, initial=0.0))
         base2 = np.sum((h * v0) ** 2, axis=1) + np.where(self.slot_pos > 0, size2, 1.0)
         prev2 = np.inf
-        status = kpm.STATUS_NO_CONVERGENCE
+        status = STATUS_NO_CONVERGENCE
         it = 0
         n = 3 * ns + 6 * nr
         lu = None if self.newton == "full" or self._last_its.get(h, 0) > 4 else self._lus.get(h)
@@ -587,13 +446,13 @@ class Structure:
             u05 = u0 + 0.5 * du
             fresh = lu is None
             st, F, data = self._forces(code, u0, u1, gm, c, h, fresh)
-            if st != kpm.STATUS_OK:
+            if st != STATUS_OK:
                 status = st
                 break
             R1 = (self._Mmul @ du - h * (Mv0 + hf * F)).ravel()
             R2 = np.zeros(6 * nr)
             if nr:
-                _fill_constraints(self.rb_slots, u05, u1, nu, self.rb_es, hf, fresh, self.J.indptr,
+                kc.fill_constraints(self.rb_slots, u05, u1, nu, self.rb_es, hf, fresh, self.J.indptr,
                                   self.J.indices, data, R1, R2, 3 * ns)
             if fresh:
                 try:
@@ -622,7 +481,7 @@ class Structure:
             nu = nu - delta[3 * ns:]
             d2 = float(np.max(np.sum(dd * dd, axis=1) / (base2 + np.sum(du * du, axis=1))))
             if not np.isfinite(d2):
-                status = kpm.STATUS_SINGULAR
+                status = STATUS_SINGULAR
                 break
             # a stall: neither the update nor the residual falls by 2x. Three in a row, with the
             # update below 2.3e-10 of its scale, is the round-off floor of an ill-conditioned
@@ -630,13 +489,13 @@ class Structure:
             # one is not (Newton cycling on a stiff bar stalls once at 5 mm, then moves on).
             stalls = stalls + 1 if (d2 >= 0.25 * prev2 and rflat) else 0
             if d2 <= _TOL2 or (stalls >= _STALLS and d2 <= _FLOOR2):
-                status = kpm.STATUS_OK
+                status = STATUS_OK
                 break
             if self.newton == "full" or (not fresh and d2 > self.SLOW**2 * prev2):
                 lu = None  # renew the factors at the next iterate
             prev2 = d2
         self._last_its[h] = it
-        if status != kpm.STATUS_OK:
+        if status != STATUS_OK:
             self._lus.pop(h, None)
             return du, np.zeros_like(du), it, status
         u1 = u0 + du
@@ -660,7 +519,7 @@ class Structure:
         self._scratch()
         rec = StructureRecords(np.empty((nrec, ns, 3)), np.empty((nrec, ns, 3)), np.zeros((nrec, 1), np.int64),
                                np.full((1, 2), -1, np.int64))
-        code = METHOD_CODES[method]
+        code = method_code(method)
         c = np.asarray(center, float)
         for r in range(nrec):
             its = 0
@@ -671,7 +530,7 @@ class Structure:
                 for g in gammas:
                     status, its_g = self._substeps(code, dt * g, (u, v, cu, cv, lam, acc), gm, c, max_iter, 0)
                     its += its_g
-                    if status != kpm.STATUS_OK:
+                    if status != STATUS_OK:
                         ok = False
                         break
                 if not ok:
@@ -697,23 +556,23 @@ class Structure:
         saved = tuple(a.copy() for a in state)
         urel, ref = self.relative(u, cu)
         du, dv, it, status = self.step(code, urel, v, lam, acc, gm, c - ref, h, max_iter)
-        if status == kpm.STATUS_OK:
+        if status == STATUS_OK:
             u2, cu2 = _kahan(u, cu, du)
             v2, cv2 = _kahan(v, cv, dv)
             if np.all(np.isfinite(u2)) and np.all(np.isfinite(v2)):
                 u[...], cu[...], v[...], cv[...] = u2, cu2, v2, cv2
                 return status, it
-            status = kpm.STATUS_SINGULAR
+            status = STATUS_SINGULAR
         for a, b in zip(state, saved):
             a[...] = b
-        if depth >= self.MAX_SPLIT or status == kpm.STATUS_SINGULAR:
+        if depth >= self.MAX_SPLIT or status == STATUS_SINGULAR:
             return status, it
         self.retries_step += 1
         total = it
         for _ in range(2):
             status, k = self._substeps(code, 0.5 * h, state, gm, c, max_iter, depth + 1)
             total += k
-            if status != kpm.STATUS_OK:
+            if status != STATUS_OK:
                 for a, b in zip(state, saved):
                     a[...] = b
                 return status, total
@@ -862,7 +721,7 @@ class _Factors:
     the factorisations of small structures."""
 
     def __init__(self, data, indices, indptr, n, indices32, indptr32):
-        self.r, self.c, scaled = _equilibrate(data, indices, indptr, n)
+        self.r, self.c, scaled = kc.equilibrate(data, indices, indptr, n)
         self.lu = spla.splu(sp.csc_matrix((scaled, indices32, indptr32), shape=(n, n)))
 
     def solve(self, b):
@@ -871,31 +730,6 @@ class _Factors:
     def norm(self, b) -> float:
         """The max-norm of the equilibrated residual."""
         return float(np.max(np.abs(self.r * b)))
-
-
-@kernel
-def _equilibrate(data, indices, indptr, n):
-    """Row scales r, column scales c (unit max-norm rows, then columns) and the scaled values."""
-    r = np.zeros(n)
-    for col in range(n):
-        for p in range(indptr[col], indptr[col + 1]):
-            a = abs(data[p])
-            if a > r[indices[p]]:
-                r[indices[p]] = a
-    for i in range(n):
-        r[i] = 1.0 / r[i] if r[i] > 0.0 else 1.0
-    c = np.zeros(n)
-    out = np.empty_like(data)
-    for col in range(n):
-        m = 0.0
-        for p in range(indptr[col], indptr[col + 1]):
-            a = abs(data[p]) * r[indices[p]]
-            if a > m:
-                m = a
-        c[col] = 1.0 / m if m > 0.0 else 1.0
-        for p in range(indptr[col], indptr[col + 1]):
-            out[p] = data[p] * r[indices[p]] * c[col]
-    return r, c, out
 
 
 def _kahan(s, c, d):
@@ -909,12 +743,6 @@ def _align(A, pattern):
     out = pattern.copy()
     out.data[:] = 0.0
     A = A.tocoo()
-    _scatter(A.row.astype(np.int64), A.col.astype(np.int64), A.data.astype(float), out.indptr.astype(np.int64),
+    kc.scatter(A.row.astype(np.int64), A.col.astype(np.int64), A.data.astype(float), out.indptr.astype(np.int64),
              out.indices.astype(np.int64), out.data)
     return out
-
-
-@kernel
-def _scatter(rows, cols, vals, indptr, indices, data):
-    for k in range(rows.shape[0]):
-        data[kel.csc_find(indptr, indices, rows[k], cols[k])] += vals[k]

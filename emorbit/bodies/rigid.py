@@ -14,16 +14,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kernels import rigid as kern
+from ..errors import InputError
+from ..integrators.dispatch import method_code
+from ..kernels import rigid as kern
+from ..units import to_si, vector_to_si
+from . import shapes
 from .pointmasses import earliest_failure
-from .rotations import matrix_to_quaternion
+from .rotations import matrix_to_quaternion, quaternion_to_matrix, rotation_vector_to_matrix
 from .shapes import MassPoints
 
 __all__ = ["RigidBodies", "RigidRecords", "GRAVITY_MODELS"]
 
 #: gravity models a rigid body can ask for
 GRAVITY_MODELS = {"volume": kern.GRAVITY_VOLUME, "point": kern.GRAVITY_POINT, "none": kern.GRAVITY_NONE}
-_METHODS = {"em": kern.METHOD_EM, "midpoint": kern.METHOD_MIDPOINT}
 
 
 @dataclass
@@ -63,7 +66,7 @@ class RigidBodies:
     #: per-body datasets and their units (see emorbit.io.hdf5)
     DATASETS = {"position": (3, "m"), "velocity": (3, "m / s"), "attitude": (4, "1"),
                 "angular_velocity": (3, "rad / s")}
-    METHODS = tuple(_METHODS)
+    METHODS = ("em", "midpoint")
 
     def __init__(self):
         self.names: list[str] = []
@@ -151,7 +154,7 @@ class RigidBodies:
         nb = len(self)
         rec = RigidRecords(np.empty((nrec, nb, 12)), np.empty((nrec, nb, 12)), np.zeros((nrec, nb), np.int64),
                            np.full((nb, 2), -1, np.int64))
-        kern.rigid_chunk(_METHODS[method], self.models, self.q, self.v, self.cq, self.cv, self.lam, self.mass,
+        kern.rigid_chunk(method_code(method), self.models, self.q, self.v, self.cq, self.cv, self.lam, self.mass,
                          self.E, self.Einv, self.offsets, self.X, self.mp, float(gm), center, float(dt), gammas,
                          int(every), int(nrec), int(max_iter), rec.q, rec.v, rec.iterations, rec.fail)
         return rec
@@ -239,9 +242,6 @@ SHAPE_PARAMETERS = {
 
 
 def _shape_points(shape: str, params: dict, strict: bool, key: str) -> MassPoints:
-    from . import shapes
-    from .errors import InputError
-    from .units import to_si, vector_to_si
 
     if shape not in SHAPE_PARAMETERS:
         raise InputError(f"{key}.shape", f"unknown shape {shape!r}; known: {', '.join(SHAPE_PARAMETERS)}")
@@ -302,9 +302,6 @@ def build_rigid(shape, params, *, position, velocity, attitude, rotation_vector,
                 gravity, has_field: bool, strict: bool, key: str) -> dict:
     """Check and convert a rigid body's input. Returns a dict with ``points`` (MassPoints),
     ``gravity`` (model name), ``position``, ``velocity``, ``R`` (3x3) and ``omega_space``."""
-    from .errors import InputError
-    from .rotations import quaternion_to_matrix, rotation_vector_to_matrix
-    from .units import to_si, vector_to_si
 
     if not isinstance(shape, str):
         raise InputError(f"{key}.shape", f"expected a shape name, got {shape!r}")
@@ -325,9 +322,6 @@ def build_rigid(shape, params, *, position, velocity, attitude, rotation_vector,
 def _attitude_matrix(attitude, rotation_vector, angular_velocity, frame, strict, key):
     """(R body-to-space, angular velocity in space) from a quaternion or rotation vector and an
     angular velocity in the body or space frame, with errors naming the key."""
-    from .errors import InputError
-    from .rotations import quaternion_to_matrix, rotation_vector_to_matrix
-    from .units import vector_to_si
 
     if attitude is not None and rotation_vector is not None:
         raise InputError(f"{key}.attitude", "give the attitude or the rotation_vector, not both")

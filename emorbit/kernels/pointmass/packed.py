@@ -275,21 +275,13 @@ import numba
 import numpy as np
 from numba import prange
 
-from .atomic import fetch_add
-from .eft import fma, two_prod, two_prod_dekker, two_sum
-from .gravity import accel
-from .jit import kernel
-from .pointmass import (
-    METHOD_EM,
-    METHOD_EM_PLAIN,
-    METHOD_MIDPOINT,
-    STATUS_OK,
-    STATUS_SINGULAR,
-    em_finish,
-    em_step,
-    midpoint_step,
-)
-from .pointmass import kahan_add as _kahan
+from ..atomic import fetch_add
+from ..codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_LEAPFROG, METHOD_MIDPOINT, STATUS_OK, STATUS_SINGULAR
+from ..eft import fma, two_prod, two_prod_dekker, two_sum
+from ..eft import kahan_add as _kahan
+from ..gravity import accel
+from ..jit import kernel
+from .reference import em_finish, em_step, midpoint_step
 
 __all__ = [
     "BLOCK",
@@ -308,7 +300,6 @@ __all__ = [
     "ensemble_chunk_parallel",
 ]
 
-METHOD_LEAPFROG = 2
 
 #: points per block
 BLOCK = 64

@@ -1,0 +1,76 @@
+"""Which kernel runs a method: the one mapping from (method, roundoff, device) to a kernel.
+
+Every caller that runs point masses (the bodies, sweeps, benchmarks) asks here; the body
+kinds with one kernel per method (rigid, coupled) take :func:`method_code` alone.
+
+==========  ==========  ==========================================================
+device      steps       kernel
+==========  ==========  ==========================================================
+"cpu"       fixed       :func:`emorbit.kernels.pointmass.packed.ensemble_chunk`,
+                        ``ensemble_chunk_parallel`` from ``PARALLEL_MIN`` points on
+"cpu"       adaptive    :func:`emorbit.kernels.pointmass.adaptive.adaptive_chunk`
+"gpu"       fixed       :func:`emorbit.kernels.pointmass.cuda.chunk`
+==========  ==========  ==========================================================
+
+The order of a method does not pick a kernel: every kernel takes the composition's
+sub-step coefficients (:func:`emorbit.integrators.coefficients`) as an array.
+"""
+
+from __future__ import annotations
+
+from ..errors import InputError
+from ..kernels import codes
+from . import check_device, check_roundoff, get_method
+
+__all__ = ["method_code", "point_chunk", "adaptive_chunk", "require_device"]
+
+_CODES = {"em": codes.METHOD_EM, "midpoint": codes.METHOD_MIDPOINT, "leapfrog": codes.METHOD_LEAPFROG}
+
+
+def method_code(method: str, roundoff: str = "brouwer") -> int:
+    """The kernels' code of ``method`` (a name of :data:`~emorbit.integrators.METHODS`):
+    em with ``roundoff="fast"`` is :data:`~emorbit.kernels.codes.METHOD_EM_PLAIN`."""
+    name = get_method(method).name
+    if check_roundoff(roundoff) == "fast" and name == "em":
+        return codes.METHOD_EM_PLAIN
+    return _CODES[name]
+
+
+def require_device(device: str) -> None:
+    """Nothing if point masses can run on ``device``, else an :class:`InputError` saying why."""
+    if check_device(device) == "gpu":
+        from ..kernels.pointmass import cuda
+
+        problem = cuda.device_problem()
+        if problem is not None:
+            raise InputError("device", problem)
+
+
+def point_chunk(method: str, roundoff: str = "brouwer", device: str = "cpu", n: int = 0,
+                parallel: bool | None = None):
+    """(code, chunk) of fixed steps of ``n`` point masses: call
+    ``chunk(code, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+    rec_iters, fail)``. On the CPU, ``parallel`` picks the kernel on all of Numba's threads
+    (True) or on one (False); None (default) picks all threads from ``PARALLEL_MIN`` points on."""
+    code = method_code(method, roundoff)
+    if check_device(device) == "gpu":
+        require_device(device)
+        from ..kernels.pointmass import cuda
+
+        return code, cuda.chunk
+    from ..kernels.pointmass import packed
+
+    if parallel is None:
+        parallel = n >= packed.PARALLEL_MIN
+    return code, packed.ensemble_chunk_parallel if parallel else packed.ensemble_chunk
+
+
+def adaptive_chunk(method: str, roundoff: str = "brouwer", device: str = "cpu"):
+    """(code, chunk) of adaptive steps (see :mod:`emorbit.kernels.pointmass.adaptive`); they
+    run on the CPU only."""
+    code = method_code(method, roundoff)
+    if check_device(device) != "cpu":
+        raise InputError("device", f"adaptive steps run on the CPU only, got device {device!r}")
+    from ..kernels.pointmass import adaptive
+
+    return code, adaptive.adaptive_chunk
