@@ -17,8 +17,8 @@ from .errors import EmorbitError, InputError, IntegrationError
 from .field import BODIES, CentralField
 from .integrators import METHODS, ORDERS
 from .io.hdf5 import read
-from .result import Result
 from .io.resume import resume
+from .result import Result
 from .scene import Scene, list_scenes, load_scene, parse_scene
 from .simulation import Simulation
 

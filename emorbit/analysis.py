@@ -12,8 +12,14 @@ import decimal
 
 import numpy as np
 
-__all__ = ["event_times", "crossing_times", "apse_times", "period_from_crossings", "period_from_apses",
-           "relative_energy_change_exact"]
+__all__ = [
+    "event_times",
+    "crossing_times",
+    "apse_times",
+    "period_from_crossings",
+    "period_from_apses",
+    "relative_energy_change_exact",
+]
 
 
 def event_times(t, f, fdot, rising: bool = True) -> np.ndarray:
@@ -31,8 +37,12 @@ def event_times(t, f, fdot, rising: bool = True) -> np.ndarray:
         f0, f1, d0, d1 = f[i], f[i + 1], fdot[i] * h, fdot[i + 1] * h
         s = f0 / (f0 - f1)  # secant start, then Newton on the Hermite cubic for s in [0, 1]
         for _ in range(50):
-            p = (2 * s**3 - 3 * s**2 + 1) * f0 + (s**3 - 2 * s**2 + s) * d0 + (-2 * s**3 + 3 * s**2) * f1 \
+            p = (
+                (2 * s**3 - 3 * s**2 + 1) * f0
+                + (s**3 - 2 * s**2 + s) * d0
+                + (-2 * s**3 + 3 * s**2) * f1
                 + (s**3 - s**2) * d1
+            )
             dp = (6 * s**2 - 6 * s) * (f0 - f1) + (3 * s**2 - 4 * s + 1) * d0 + (3 * s**2 - 2 * s) * d1
             ds = p / dp
             s -= ds

@@ -84,19 +84,32 @@ def _plugin(module: str):
 def _run(args) -> int:
     from .scene import load_scene
 
-    scene = load_scene(args.scene).with_overrides(t_end=args.t_end, dt=args.dt, method=args.method,
-                                                  order=args.order, output_every=args.every,
-                                                  checkpoint_every=args.checkpoint_every)
+    scene = load_scene(args.scene).with_overrides(
+        t_end=args.t_end,
+        dt=args.dt,
+        method=args.method,
+        order=args.order,
+        output_every=args.every,
+        checkpoint_every=args.checkpoint_every,
+    )
     sim = scene.build()
     start = time.perf_counter()
     progress = False if args.quiet else None
-    result = sim.run(t_end=scene.t_end, every=scene.output_every, output=args.output,
-                     overwrite=args.overwrite, progress=progress, keep=False,
-                     checkpoint_every=scene.checkpoint_every)
+    result = sim.run(
+        t_end=scene.t_end,
+        every=scene.output_every,
+        output=args.output,
+        overwrite=args.overwrite,
+        progress=progress,
+        keep=False,
+        checkpoint_every=scene.checkpoint_every,
+    )
     if not args.quiet:
         err = abs(result.relative_energy_error()[-1])
-        print(f"{args.output}: {sim.method} order {sim.order}, dt = {sim.dt!r} s, t = {sim.time:.6g} s, "
-              f"|dE/E0| at end = {err:.3e}, wall {time.perf_counter() - start:.2f} s")
+        print(
+            f"{args.output}: {sim.method} order {sim.order}, dt = {sim.dt!r} s, t = {sim.time:.6g} s, "
+            f"|dE/E0| at end = {err:.3e}, wall {time.perf_counter() - start:.2f} s"
+        )
     return 0
 
 
@@ -107,8 +120,10 @@ def _resume(args) -> int:
     result = resume(args.file, args.t_end, progress=False if args.quiet else None)
     if not args.quiet:
         err = abs(result.energy[-1] / result.energy[0] - 1) if len(result) else 0.0
-        print(f"{args.file}: continued to t = {result.time[-1]:.6g} s, |dE/E| over the continuation = {err:.3e}, "
-              f"wall {time.perf_counter() - start:.2f} s")
+        print(
+            f"{args.file}: continued to t = {result.time[-1]:.6g} s, |dE/E| over the continuation = {err:.3e}, "
+            f"wall {time.perf_counter() - start:.2f} s"
+        )
     return 0
 
 

@@ -61,8 +61,18 @@ class CentralField:
         the named body, if the field was given by name.
     """
 
-    def __init__(self, gm=None, *, g_ref=None, r_ref=None, body=None, center=(0.0, 0.0, 0.0), radius=None,
-                 strict: bool = False, key: str = "field"):
+    def __init__(
+        self,
+        gm=None,
+        *,
+        g_ref=None,
+        r_ref=None,
+        body=None,
+        center=(0.0, 0.0, 0.0),
+        radius=None,
+        strict: bool = False,
+        key: str = "field",
+    ):
         given = [name for name, value in (("gm", gm), ("g_ref", g_ref), ("body", body)) if value is not None]
         if r_ref is not None and g_ref is None:
             raise InputError(f"{key}.r_ref", "r_ref needs g_ref (the acceleration at r_ref)")

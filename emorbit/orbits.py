@@ -162,11 +162,14 @@ def state_from_elements(el: OrbitalElements | tuple, gm, center=(0.0, 0.0, 0.0))
     cO, sO = np.cos(raan), np.sin(raan)
     co, so = np.cos(argp), np.sin(argp)
     ci, si = np.cos(inc), np.sin(inc)
-    rot = np.stack([
-        np.stack([cO * co - sO * so * ci, -cO * so - sO * co * ci, sO * si], axis=-1),
-        np.stack([sO * co + cO * so * ci, -sO * so + cO * co * ci, -cO * si], axis=-1),
-        np.stack([so * si, co * si, ci], axis=-1),
-    ], axis=-2)
+    rot = np.stack(
+        [
+            np.stack([cO * co - sO * so * ci, -cO * so - sO * co * ci, sO * si], axis=-1),
+            np.stack([sO * co + cO * so * ci, -sO * so + cO * co * ci, -cO * si], axis=-1),
+            np.stack([so * si, co * si, ci], axis=-1),
+        ],
+        axis=-2,
+    )
     pos = np.einsum("...ij,...j->...i", rot, rp) + np.asarray(center, float)
     vel = np.einsum("...ij,...j->...i", rot, vp)
     return pos, vel

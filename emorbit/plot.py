@@ -54,8 +54,9 @@ def plot_runs(paths, output, *, title: str | None = None) -> str:
 
     runs = [(p, read(p)) for p in paths]
     rigid = any(res.attitudes for _, res in runs)
-    fig, axes = plt.subplots(2 if rigid else 1, 3, figsize=(16, 9.6 if rigid else 4.8), constrained_layout=True,
-                             squeeze=False)
+    fig, axes = plt.subplots(
+        2 if rigid else 1, 3, figsize=(16, 9.6 if rigid else 4.8), constrained_layout=True, squeeze=False
+    )
     ax_lin, ax_log, ax_orb = axes[0]
     for path, res in runs:
         err = res.relative_energy_error()

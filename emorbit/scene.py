@@ -58,33 +58,103 @@ __all__ = ["Scene", "load_scene", "list_scenes", "parse_scene", "simulation_to_t
 SCHEMA = {
     "": {"field": False, "integrator": True, "body": True, "coupling": False},
     "field": {"gm": False, "g_ref": False, "r_ref": False, "body": False, "center": False, "radius": False},
-    "integrator": {"method": False, "order": False, "dt": True, "t_end": True, "output_every": False,
-                   "max_newton_iterations": False, "newton": False, "checkpoint_every": False,
-                   "adaptive": False, "roundoff": False},
+    "integrator": {
+        "method": False,
+        "order": False,
+        "dt": True,
+        "t_end": True,
+        "output_every": False,
+        "max_newton_iterations": False,
+        "newton": False,
+        "checkpoint_every": False,
+        "adaptive": False,
+        "roundoff": False,
+    },
     "body.point": {"name": True, "kind": True, "mass": True, "position": True, "velocity": True},
-    "body.rigid": {"name": True, "kind": True, "shape": True, "position": True, "velocity": True,
-                   "attitude": False, "rotation_vector": False, "angular_velocity": False,
-                   "angular_velocity_frame": False, "gravity": False,
-                   # shape parameters (which apply depends on the shape; see emorbit.bodies.rigid.SHAPE_PARAMETERS)
-                   "size": False, "radius": False, "height": False, "masses": False, "length": False,
-                   "end_radius": False, "density": False, "mass": False, "refinement": False,
-                   "nodes": False, "tetrahedra": False, "mesh_unit": False},
-    "body.elastic": {"name": True, "kind": True, "mesh": True, "position": True, "velocity": True,
-                     "young": True, "density": True, "poisson": False, "area": False, "mass_matrix": False,
-                     "attitude": False, "rotation_vector": False, "angular_velocity": False,
-                     "angular_velocity_frame": False, "gravity": False, "node_output_every": False,
-                     # mesh parameters (which apply depends on the mesh)
-                     "size": False, "elements": False, "start": False, "end": False, "file": False,
-                     "mesh_unit": False},
+    "body.rigid": {
+        "name": True,
+        "kind": True,
+        "shape": True,
+        "position": True,
+        "velocity": True,
+        "attitude": False,
+        "rotation_vector": False,
+        "angular_velocity": False,
+        "angular_velocity_frame": False,
+        "gravity": False,
+        # shape parameters (which apply depends on the shape; see emorbit.bodies.rigid.SHAPE_PARAMETERS)
+        "size": False,
+        "radius": False,
+        "height": False,
+        "masses": False,
+        "length": False,
+        "end_radius": False,
+        "density": False,
+        "mass": False,
+        "refinement": False,
+        "nodes": False,
+        "tetrahedra": False,
+        "mesh_unit": False,
+    },
+    "body.elastic": {
+        "name": True,
+        "kind": True,
+        "mesh": True,
+        "position": True,
+        "velocity": True,
+        "young": True,
+        "density": True,
+        "poisson": False,
+        "area": False,
+        "mass_matrix": False,
+        "attitude": False,
+        "rotation_vector": False,
+        "angular_velocity": False,
+        "angular_velocity_frame": False,
+        "gravity": False,
+        "node_output_every": False,
+        # mesh parameters (which apply depends on the mesh)
+        "size": False,
+        "elements": False,
+        "start": False,
+        "end": False,
+        "file": False,
+        "mesh_unit": False,
+    },
     "coupling": {"kind": True, "elastic": True, "nodes": True, "to": True},
 }
 BODY_KINDS = ("point", "rigid", "elastic")
 COUPLING_KINDS = ("attach",)
-_ELASTIC_COMMON = ("name", "kind", "mesh", "position", "velocity", "young", "density", "poisson", "area",
-                   "mass_matrix", "attitude", "rotation_vector", "angular_velocity", "angular_velocity_frame",
-                   "gravity", "node_output_every")
-_RIGID_COMMON = ("name", "kind", "shape", "position", "velocity", "attitude", "rotation_vector", "angular_velocity",
-                 "angular_velocity_frame", "gravity")
+_ELASTIC_COMMON = (
+    "name",
+    "kind",
+    "mesh",
+    "position",
+    "velocity",
+    "young",
+    "density",
+    "poisson",
+    "area",
+    "mass_matrix",
+    "attitude",
+    "rotation_vector",
+    "angular_velocity",
+    "angular_velocity_frame",
+    "gravity",
+    "node_output_every",
+)
+_RIGID_COMMON = (
+    "name",
+    "kind",
+    "shape",
+    "position",
+    "velocity",
+    "attitude",
+    "rotation_vector",
+    "angular_velocity",
+    "angular_velocity_frame",
+    "gravity",
+)
 
 
 def check_table(table, allowed: dict, where: str, root: str = "scene") -> dict:
@@ -95,8 +165,9 @@ def check_table(table, allowed: dict, where: str, root: str = "scene") -> dict:
         raise InputError(where or root, f"expected a table, got {table!r}")
     for key in table:
         if key not in allowed:
-            raise InputError(f"{where}.{key}" if where else key,
-                             f"unknown key {key!r}; allowed here: {', '.join(allowed)}")
+            raise InputError(
+                f"{where}.{key}" if where else key, f"unknown key {key!r}; allowed here: {', '.join(allowed)}"
+            )
     for key, required in allowed.items():
         if required and key not in table:
             raise InputError(f"{where}.{key}" if where else key, "missing (required)")
@@ -149,14 +220,21 @@ class Scene:
         value = self.data["integrator"].get("checkpoint_every")
         return None if value is None else int(value)
 
-    def with_overrides(self, *, t_end=None, dt=None, method=None, order=None, output_every=None,
-                       checkpoint_every=None) -> "Scene":
+    def with_overrides(
+        self, *, t_end=None, dt=None, method=None, order=None, output_every=None, checkpoint_every=None
+    ) -> Scene:
         """A copy with integrator settings replaced (values as in the TOML: strings with units),
         checked again; ``text`` gains a comment saying what was overridden."""
         data = copy.deepcopy(self.data)
         changed = {}
-        for key, value in (("t_end", t_end), ("dt", dt), ("method", method), ("order", order),
-                           ("output_every", output_every), ("checkpoint_every", checkpoint_every)):
+        for key, value in (
+            ("t_end", t_end),
+            ("dt", dt),
+            ("method", method),
+            ("order", order),
+            ("output_every", output_every),
+            ("checkpoint_every", checkpoint_every),
+        ):
             if value is not None:
                 data["integrator"][key] = value
                 changed[key] = value
@@ -177,8 +255,15 @@ class Scene:
         if "field" in d:
             f = d["field"]
             _check_keys(f, "field", "field")
-            field = CentralField(gm=f.get("gm"), g_ref=f.get("g_ref"), r_ref=f.get("r_ref"), body=f.get("body"),
-                                 center=f.get("center", ["0 m", "0 m", "0 m"]), radius=f.get("radius"), strict=True)
+            field = CentralField(
+                gm=f.get("gm"),
+                g_ref=f.get("g_ref"),
+                r_ref=f.get("r_ref"),
+                body=f.get("body"),
+                center=f.get("center", ["0 m", "0 m", "0 m"]),
+                radius=f.get("radius"),
+                strict=True,
+            )
         integ = d["integrator"]
         _check_keys(integ, "integrator", "integrator")
         get_method(integ.get("method", "em"), "integrator.method")
@@ -196,8 +281,16 @@ class Scene:
         if adaptive is not None and (isinstance(adaptive, bool) or not isinstance(adaptive, (int, float))):
             raise InputError("integrator.adaptive", f"a number in (0, 1] expected, got {adaptive!r}")
         roundoff = check_roundoff(integ.get("roundoff", "brouwer"), "integrator.roundoff")
-        sim = Simulation(field, method=self.method, order=self.order, dt=dt, max_newton_iterations=max_iter,
-                         newton=newton, adaptive=adaptive, roundoff=roundoff)
+        sim = Simulation(
+            field,
+            method=self.method,
+            order=self.order,
+            dt=dt,
+            max_newton_iterations=max_iter,
+            newton=newton,
+            adaptive=adaptive,
+            roundoff=roundoff,
+        )
         bodies = d["body"]
         if not isinstance(bodies, list) or not bodies:
             raise InputError("body", "a scene needs at least one [[body]] table")
@@ -211,28 +304,51 @@ class Scene:
             _check_keys(b, f"body.{kind}", where)
             check_body_name(b["name"], f"{where}.name")
             if kind == "point":
-                sim.add_point(b["name"], mass=b["mass"], position=b["position"], velocity=b["velocity"],
-                              strict=True, key=where)
+                sim.add_point(
+                    b["name"], mass=b["mass"], position=b["position"], velocity=b["velocity"], strict=True, key=where
+                )
             elif kind == "elastic":
                 mesh_params = {k: v for k, v in b.items() if k not in _ELASTIC_COMMON}
                 if "file" in mesh_params and self.source not in ("<string>",) and os.path.isfile(self.source):
-                    mesh_params["file"] = os.path.join(os.path.dirname(os.path.abspath(self.source)),
-                                                       mesh_params["file"])
-                sim.add_elastic(b["name"], b["mesh"], position=b["position"], velocity=b["velocity"],
-                                young=b["young"], density=b["density"], poisson=b.get("poisson"), area=b.get("area"),
-                                attitude=b.get("attitude"), rotation_vector=b.get("rotation_vector"),
-                                angular_velocity=b.get("angular_velocity", ["0 rad/s", "0 rad/s", "0 rad/s"]),
-                                angular_velocity_frame=b.get("angular_velocity_frame", "body"),
-                                gravity=b.get("gravity"), mass_matrix=b.get("mass_matrix", "consistent"),
-                                node_output_every=b.get("node_output_every", 1), strict=True, key=where,
-                                **mesh_params)
+                    mesh_params["file"] = os.path.join(
+                        os.path.dirname(os.path.abspath(self.source)), mesh_params["file"]
+                    )
+                sim.add_elastic(
+                    b["name"],
+                    b["mesh"],
+                    position=b["position"],
+                    velocity=b["velocity"],
+                    young=b["young"],
+                    density=b["density"],
+                    poisson=b.get("poisson"),
+                    area=b.get("area"),
+                    attitude=b.get("attitude"),
+                    rotation_vector=b.get("rotation_vector"),
+                    angular_velocity=b.get("angular_velocity", ["0 rad/s", "0 rad/s", "0 rad/s"]),
+                    angular_velocity_frame=b.get("angular_velocity_frame", "body"),
+                    gravity=b.get("gravity"),
+                    mass_matrix=b.get("mass_matrix", "consistent"),
+                    node_output_every=b.get("node_output_every", 1),
+                    strict=True,
+                    key=where,
+                    **mesh_params,
+                )
             else:
                 shape_params = {k: v for k, v in b.items() if k not in _RIGID_COMMON}
-                sim.add_rigid(b["name"], b["shape"], position=b["position"], velocity=b["velocity"],
-                              attitude=b.get("attitude"), rotation_vector=b.get("rotation_vector"),
-                              angular_velocity=b.get("angular_velocity", ["0 rad/s", "0 rad/s", "0 rad/s"]),
-                              angular_velocity_frame=b.get("angular_velocity_frame", "body"),
-                              gravity=b.get("gravity"), strict=True, key=where, **shape_params)
+                sim.add_rigid(
+                    b["name"],
+                    b["shape"],
+                    position=b["position"],
+                    velocity=b["velocity"],
+                    attitude=b.get("attitude"),
+                    rotation_vector=b.get("rotation_vector"),
+                    angular_velocity=b.get("angular_velocity", ["0 rad/s", "0 rad/s", "0 rad/s"]),
+                    angular_velocity_frame=b.get("angular_velocity_frame", "body"),
+                    gravity=b.get("gravity"),
+                    strict=True,
+                    key=where,
+                    **shape_params,
+                )
         couplings = d.get("coupling", [])
         if not isinstance(couplings, list):
             raise InputError("coupling", "expected [[coupling]] tables")
@@ -240,10 +356,12 @@ class Scene:
             where = f"coupling[{i}]"
             _check_keys(cpl, "coupling", where)
             if cpl["kind"] not in COUPLING_KINDS:
-                raise InputError(f"{where}.kind", f"unknown coupling kind {cpl['kind']!r}; known: "
-                                                  f"{', '.join(COUPLING_KINDS)}")
-            sim.attach(cpl["elastic"], _select_nodes(sim, cpl["elastic"], cpl["nodes"], f"{where}.nodes"), cpl["to"],
-                       key=where)
+                raise InputError(
+                    f"{where}.kind", f"unknown coupling kind {cpl['kind']!r}; known: {', '.join(COUPLING_KINDS)}"
+                )
+            sim.attach(
+                cpl["elastic"], _select_nodes(sim, cpl["elastic"], cpl["nodes"], f"{where}.nodes"), cpl["to"], key=where
+            )
         sim.steps_until(t_end)  # t_end must lie at least one step ahead
         sim.scene_text = self.text
         sim.t_end_requested = t_end
@@ -270,8 +388,11 @@ def _select_nodes(sim: Simulation, elastic: str, nodes, key: str) -> list[int]:
         target = col.min() if parts[1] == "min" else col.max()
         tol = 1e-9 * max(float(np.ptp(ref, axis=0).max()), 1e-300)
         return np.flatnonzero(np.abs(col - target) <= tol).tolist()
-    raise InputError(key, f"unknown node selector {nodes!r}; use a list of indices, 'first', 'last', "
-                          "or '<axis>-min' / '<axis>-max' with axis x, y or z")
+    raise InputError(
+        key,
+        f"unknown node selector {nodes!r}; use a list of indices, 'first', 'last', "
+        "or '<axis>-min' / '<axis>-max' with axis x, y or z",
+    )
 
 
 def parse_scene(text: str, source: str = "<string>") -> Scene:

@@ -34,11 +34,11 @@ import threading
 
 import numpy as np
 
+from .bodies.pointmasses import PointMasses
 from .errors import InputError, IntegrationError
 from .field import CentralField
 from .integrators import METHODS, check_device, check_order, check_roundoff, coefficients, get_method
 from .integrators.dispatch import require_device
-from .bodies.pointmasses import PointMasses
 from .io.hdf5 import Writer
 from .io.recorder import Sink, progress_bar
 from .kernels.codes import STATUS_NO_CONVERGENCE
@@ -117,17 +117,29 @@ class Simulation:
         :class:`emorbit.bodies.coupled.Structure`).
     """
 
-    def __init__(self, field: CentralField | None, *, method: str = "em", order: int = 2, dt,
-                 max_newton_iterations: int = 50, newton: str = "auto", adaptive: float | None = None,
-                 roundoff: str = "brouwer"):
+    def __init__(
+        self,
+        field: CentralField | None,
+        *,
+        method: str = "em",
+        order: int = 2,
+        dt,
+        max_newton_iterations: int = 50,
+        newton: str = "auto",
+        adaptive: float | None = None,
+        roundoff: str = "brouwer",
+    ):
         if field is not None and not isinstance(field, CentralField):
             raise InputError("field", f"expected a CentralField or None (free space), got {field!r}")
         self.field = field
         self.method = get_method(method).name
         self.order = check_order(order)
         self._dt = to_si(dt, "time", "dt", positive=True)
-        if isinstance(max_newton_iterations, bool) or not isinstance(max_newton_iterations, numbers.Integral) \
-                or max_newton_iterations < 1:
+        if (
+            isinstance(max_newton_iterations, bool)
+            or not isinstance(max_newton_iterations, numbers.Integral)
+            or max_newton_iterations < 1
+        ):
             raise InputError("max_newton_iterations", f"must be an integer >= 1, got {max_newton_iterations!r}")
         self.max_newton_iterations = int(max_newton_iterations)
         if newton not in ("auto", "reuse", "full"):
@@ -135,8 +147,9 @@ class Simulation:
         self.newton = newton  # structures (elastic bodies) only: see emorbit.bodies.coupled.Structure
         if adaptive is not None:
             if isinstance(adaptive, bool) or not isinstance(adaptive, numbers.Real) or not 0 < adaptive <= 1:
-                raise InputError("adaptive", f"must be a number in (0, 1] (steps per local Kepler time scale), "
-                                             f"got {adaptive!r}")
+                raise InputError(
+                    "adaptive", f"must be a number in (0, 1] (steps per local Kepler time scale), got {adaptive!r}"
+                )
             if field is None:
                 raise InputError("adaptive", "adaptive steps follow the Kepler time scale: they need a central field")
         self.adaptive = None if adaptive is None else float(adaptive)
@@ -207,8 +220,11 @@ class Simulation:
 
     def _check_method_supports(self, system, key: str) -> None:
         if self.method not in system.METHODS:
-            raise InputError("method", f"method {self.method!r} has no {system.kind}-body kernel "
-                                       f"(needed by {key}); use one of {', '.join(system.METHODS)}")
+            raise InputError(
+                "method",
+                f"method {self.method!r} has no {system.kind}-body kernel "
+                f"(needed by {key}); use one of {', '.join(system.METHODS)}",
+            )
 
     def add_point(self, name: str, *, mass, position, velocity, strict: bool = False, key: str | None = None) -> None:
         """Add a point mass (a test particle: it feels the field and nothing else).
@@ -229,9 +245,22 @@ class Simulation:
         self._check_method_supports(self.points, key)
         self.points.add(name, m, x, v)
 
-    def add_rigid(self, name: str, shape: str, *, position, velocity, attitude=None, rotation_vector=None,
-                  angular_velocity=(0.0, 0.0, 0.0), angular_velocity_frame: str = "body", gravity: str | None = None,
-                  strict: bool = False, key: str | None = None, **shape_params) -> None:
+    def add_rigid(
+        self,
+        name: str,
+        shape: str,
+        *,
+        position,
+        velocity,
+        attitude=None,
+        rotation_vector=None,
+        angular_velocity=(0.0, 0.0, 0.0),
+        angular_velocity_frame: str = "body",
+        gravity: str | None = None,
+        strict: bool = False,
+        key: str | None = None,
+        **shape_params,
+    ) -> None:
         """Add a rigid body discretised into mass points (see :mod:`emorbit.bodies.shapes`).
 
         shape            "box" (size), "cylinder" (radius, height), "sphere" (radius),
@@ -250,10 +279,20 @@ class Simulation:
 
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
-        spec = build_rigid(shape, shape_params, position=position, velocity=velocity, attitude=attitude,
-                           rotation_vector=rotation_vector, angular_velocity=angular_velocity,
-                           frame=angular_velocity_frame, gravity=gravity, has_field=self.field is not None,
-                           strict=strict, key=key)
+        spec = build_rigid(
+            shape,
+            shape_params,
+            position=position,
+            velocity=velocity,
+            attitude=attitude,
+            rotation_vector=rotation_vector,
+            angular_velocity=angular_velocity,
+            frame=angular_velocity_frame,
+            gravity=gravity,
+            has_field=self.field is not None,
+            strict=strict,
+            key=key,
+        )
         if self.adaptive is not None:
             raise InputError("adaptive", f"adaptive steps are for point masses only ({key} is a rigid body)")
         if spec["gravity"] != "none":
@@ -263,8 +302,17 @@ class Simulation:
         if self.rigid is None:
             self.rigid = RigidBodies()
         self._check_method_supports(self.rigid, key)
-        self.rigid.add(name, shape, spec["points"], spec["gravity"], spec["position"], spec["velocity"], spec["R"],
-                       spec["omega_space"], spec["params"])
+        self.rigid.add(
+            name,
+            shape,
+            spec["points"],
+            spec["gravity"],
+            spec["position"],
+            spec["velocity"],
+            spec["R"],
+            spec["omega_space"],
+            spec["params"],
+        )
 
     def _structure(self):
         if self.structure is None:
@@ -275,10 +323,28 @@ class Simulation:
             raise InputError("body", "bodies and couplings cannot be added after the structure has started running")
         return self.structure
 
-    def add_elastic(self, name: str, mesh: str, *, position, velocity, young, density, poisson=None, area=None,
-                    attitude=None, rotation_vector=None, angular_velocity=(0.0, 0.0, 0.0),
-                    angular_velocity_frame: str = "body", gravity: str | None = None, mass_matrix: str = "consistent",
-                    node_output_every: int = 1, strict: bool = False, key: str | None = None, **mesh_params) -> None:
+    def add_elastic(
+        self,
+        name: str,
+        mesh: str,
+        *,
+        position,
+        velocity,
+        young,
+        density,
+        poisson=None,
+        area=None,
+        attitude=None,
+        rotation_vector=None,
+        angular_velocity=(0.0, 0.0, 0.0),
+        angular_velocity_frame: str = "body",
+        gravity: str | None = None,
+        mass_matrix: str = "consistent",
+        node_output_every: int = 1,
+        strict: bool = False,
+        key: str | None = None,
+        **mesh_params,
+    ) -> None:
         """Add an elastic body (St. Venant-Kirchhoff bars and/or tetrahedra; see :mod:`emorbit.bodies.elastic`).
 
         mesh        "beam" (size, elements), "chain" (start, end, elements), "net" (size,
@@ -298,8 +364,9 @@ class Simulation:
         if self.adaptive is not None:
             raise InputError("adaptive", f"adaptive steps are for point masses only ({key} is an elastic body)")
         if self.method not in ("em", "midpoint"):
-            raise InputError("method", f"method {self.method!r} has no elastic-body kernel (needed by {key}); "
-                                       "use em or midpoint")
+            raise InputError(
+                "method", f"method {self.method!r} has no elastic-body kernel (needed by {key}); use em or midpoint"
+            )
         gravity = gravity or ("volume" if self.field is not None else "none")
         if gravity not in ("volume", "none"):
             raise InputError(f"{key}.gravity", f"must be 'volume' or 'none', got {gravity!r}")
@@ -314,9 +381,24 @@ class Simulation:
         x = vector_to_si(position, "length", f"{key}.position", strict=strict)
         v = vector_to_si(velocity, "speed", f"{key}.velocity", strict=strict)
         R, omega = _attitude_matrix(attitude, rotation_vector, angular_velocity, angular_velocity_frame, strict, key)
-        spec = el.elastic_spec(name, X, tets, bars, young=E, density=rho, poisson=poisson, area=A,
-                               mass_matrix=mass_matrix, position=x, velocity=v, R=R, omega_space=omega,
-                               gravity=gravity == "volume", node_output_every=node_output_every, key=key)
+        spec = el.elastic_spec(
+            name,
+            X,
+            tets,
+            bars,
+            young=E,
+            density=rho,
+            poisson=poisson,
+            area=A,
+            mass_matrix=mass_matrix,
+            position=x,
+            velocity=v,
+            R=R,
+            omega_space=omega,
+            gravity=gravity == "volume",
+            node_output_every=node_output_every,
+            key=key,
+        )
         if gravity == "volume":
             d = np.linalg.norm(spec.nodes - self.center, axis=1)
             if not np.all(d > 0):
@@ -348,14 +430,26 @@ class Simulation:
                 raise InputError(f"{key}.nodes", f"a point mass takes exactly one node, got {len(idx)}")
             x = self.points.x[:, self.points.names.index(to)]
             if np.linalg.norm(spec.nodes[idx[0]] - x) > 1e-9 * max(1.0, np.linalg.norm(x)):
-                raise InputError(f"{key}.nodes", f"node {idx[0]} starts at {spec.nodes[idx[0]].tolist()} m, "
-                                                 f"not at point mass {to!r} ({x.tolist()} m)")
+                raise InputError(
+                    f"{key}.nodes",
+                    f"node {idx[0]} starts at {spec.nodes[idx[0]].tolist()} m, "
+                    f"not at point mass {to!r} ({x.tolist()} m)",
+                )
             m, x, v = self.points.pop(to)
             st.add_point(to, m, x, v)
         elif self.rigid is not None and to in self.rigid.names:
             b = self.rigid.pop(to)
-            st.add_rigid(to, b["points"], b["gravity"], b["position"], b["velocity"], b["R"], b["omega_space"],
-                         b["shape"], b["params"])
+            st.add_rigid(
+                to,
+                b["points"],
+                b["gravity"],
+                b["position"],
+                b["velocity"],
+                b["R"],
+                b["omega_space"],
+                b["shape"],
+                b["params"],
+            )
         elif to in st.names and st._body(to)["kind"] in ("point", "rigid"):
             pass  # already in the structure
         else:
@@ -403,9 +497,18 @@ class Simulation:
         """Number of steps from now to ``t_end`` (rounded up to whole steps)."""
         return _steps_between(self.time, to_si(t_end, "time", "t_end"), self._dt, "t_end")
 
-    def run(self, t_end=None, *, steps: int | None = None, every: int = 1, output=None,
-            overwrite: bool = False, progress: bool | None = None, keep: bool = True,
-            checkpoint_every: int | None = None) -> Result:
+    def run(
+        self,
+        t_end=None,
+        *,
+        steps: int | None = None,
+        every: int = 1,
+        output=None,
+        overwrite: bool = False,
+        progress: bool | None = None,
+        keep: bool = True,
+        checkpoint_every: int | None = None,
+    ) -> Result:
         """Advance to time ``t_end`` (or by ``steps`` steps), recording every ``every`` steps.
 
         The start state is the first record and the end state always the last. The run ends
@@ -449,8 +552,11 @@ class Simulation:
         cp = self._checkpoint_steps(checkpoint_every, every)
         writer = None
         if output is not None:
-            bodies = [{"name": n, "attrs": s.body_attrs(i), "datasets": s.body_datasets(i),
-                       "constants": s.body_constants(i)} for s in self.systems for i, n in enumerate(s.names)]
+            bodies = [
+                {"name": n, "attrs": s.body_attrs(i), "datasets": s.body_datasets(i), "constants": s.body_constants(i)}
+                for s in self.systems
+                for i, n in enumerate(s.names)
+            ]
             attrs = self._file_attrs(every, n_steps)
             attrs["checkpoint_every"] = cp
             writer = Writer(output, bodies, attrs, overwrite=overwrite)
@@ -494,16 +600,18 @@ class Simulation:
             gammas = coefficients(self.order).size
             per_step = max(1, gammas * sum(s.work_per_step() for s in self.systems))
             checkpoint_every = max(every, CHUNK_WORK // per_step)
-        if isinstance(checkpoint_every, bool) or not isinstance(checkpoint_every, numbers.Integral) \
-                or checkpoint_every < 1:
+        if (
+            isinstance(checkpoint_every, bool)
+            or not isinstance(checkpoint_every, numbers.Integral)
+            or checkpoint_every < 1
+        ):
             raise InputError("checkpoint_every", f"must be an integer >= 1, got {checkpoint_every!r}")
         return int(-(-int(checkpoint_every) // every) * every)
 
     # -- state, for checkpoints and restarts -------------------------------------------
     def state_arrays(self) -> dict[str, np.ndarray]:
         """Copies of every system's state arrays, keyed "<kind>/<field>"."""
-        return {f"{s.kind}/{f}": np.array(getattr(s, f), copy=True)
-                for s in self.systems for f in STATE_FIELDS[s.kind]}
+        return {f"{s.kind}/{f}": np.array(getattr(s, f), copy=True) for s in self.systems for f in STATE_FIELDS[s.kind]}
 
     def set_state_arrays(self, arrays: dict, steps: int) -> None:
         """Restore :meth:`state_arrays` output (shapes must match this simulation's bodies)
@@ -538,11 +646,20 @@ class Simulation:
         }
 
     def _advance_all(self, gammas, k: int, nrec: int):
-        return [(s, s.advance(self.method, self.gm, self.center, self._dt, gammas, k, nrec,
-                              self.max_newton_iterations)) for s in self.systems]
+        return [
+            (s, s.advance(self.method, self.gm, self.center, self._dt, gammas, k, nrec, self.max_newton_iterations))
+            for s in self.systems
+        ]
 
-    def _advance(self, n_steps: int, every: int, sink: "Sink", progress: bool, cp: int | None = None,
-                 stop: threading.Event | None = None) -> None:
+    def _advance(
+        self,
+        n_steps: int,
+        every: int,
+        sink: Sink,
+        progress: bool,
+        cp: int | None = None,
+        stop: threading.Event | None = None,
+    ) -> None:
         """Take ``n_steps`` steps in chunks that end on records and never straddle a checkpoint
         (steps since the run's origin that are multiples of ``cp``); at each checkpoint the
         state is written with the records and systems drop path-dependent caches, so that a
@@ -607,9 +724,23 @@ class Simulation:
         self._steps += step
         start = [s.snapshot() for s in self.systems]
         for level in range(1, self.MAX_SPLIT + 1):
-            parts = 2 ** level
-            sub = [(s, s.advance(self.method, self.gm, self.center, self._dt / parts, gammas, parts, 1,
-                                 self.max_newton_iterations)) for s in self.systems]
+            parts = 2**level
+            sub = [
+                (
+                    s,
+                    s.advance(
+                        self.method,
+                        self.gm,
+                        self.center,
+                        self._dt / parts,
+                        gammas,
+                        parts,
+                        1,
+                        self.max_newton_iterations,
+                    ),
+                )
+                for s in self.systems
+            ]
             if all(r.first_failure() is None for _, r in sub):
                 self.retried_steps = getattr(self, "retried_steps", 0) + 1
                 self._steps += 1
@@ -623,13 +754,17 @@ class Simulation:
         system = recs[j][0]
         name = system.names[index]
         if status == STATUS_NO_CONVERGENCE:
-            reason = (f"Newton's iteration did not converge within {self.max_newton_iterations} iterations, "
-                      f"even in {2 ** self.MAX_SPLIT} sub-steps (method {self.method}, order {self.order}, "
-                      f"dt = {self._dt!r} s){self._residual_note(system, index, gammas)}; try a smaller dt")
+            reason = (
+                f"Newton's iteration did not converge within {self.max_newton_iterations} iterations, "
+                f"even in {2**self.MAX_SPLIT} sub-steps (method {self.method}, order {self.order}, "
+                f"dt = {self._dt!r} s){self._residual_note(system, index, gammas)}; try a smaller dt"
+            )
         else:
             x, _ = self.state(name)
-            reason = (f"a point reached the field's centre or the state stopped being finite "
-                      f"(last good position {x.tolist()} m)")
+            reason = (
+                f"a point reached the field's centre or the state stopped being finite "
+                f"(last good position {x.tolist()} m)"
+            )
         raise IntegrationError(self.time, name, reason)
 
     def _residual_note(self, system, index, gammas) -> str:
@@ -649,7 +784,8 @@ class Simulation:
         dx, dy, dz, a, b, cc, _, _ = step
         d = np.array([dx, dy, dz])
         R = d - h * (v + 0.5 * np.array([a, b, cc]))
-        return f", residual |R| = {np.linalg.norm(R):.3g} m ({np.linalg.norm(R) / max(np.linalg.norm(d), 1e-300):.3g} of the step)"
+        r = np.linalg.norm(R)
+        return f", residual |R| = {r:.3g} m ({r / max(np.linalg.norm(d), 1e-300):.3g} of the step)"
 
     # -- scene text ---------------------------------------------------------------------
     def to_toml(self, t_end: float | None = None, output_every: int = 1) -> str:

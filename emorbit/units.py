@@ -43,8 +43,9 @@ def _parse_string(key: str, text: str) -> u.Quantity:
         raise InputError(key, f"cannot read {text!r} as a number with a unit ({exc})") from None
 
 
-def to_si(value, kind: str, key: str, *, strict: bool = False, positive: bool = False,
-          nonnegative: bool = False) -> float:
+def to_si(
+    value, kind: str, key: str, *, strict: bool = False, positive: bool = False, nonnegative: bool = False
+) -> float:
     """Convert one scalar ``value`` of physical ``kind`` (a key of :data:`SI`) to SI.
 
     ``strict``: a plain number (no unit) is an error instead of being read as SI.
@@ -61,7 +62,9 @@ def to_si(value, kind: str, key: str, *, strict: bool = False, positive: bool = 
         if not value.isscalar:
             raise InputError(key, f"expected one value, got an array of shape {value.shape}")
         try:
-            number = float(value.to_value(unit, equivalencies=u.dimensionless_angles() if kind.startswith("angul") else []))
+            number = float(
+                value.to_value(unit, equivalencies=u.dimensionless_angles() if kind.startswith("angul") else [])
+            )
         except u.UnitConversionError:
             raise InputError(key, f"{value} is not a {kind} (expected a unit convertible to {unit})") from None
     elif isinstance(value, numbers.Real) and not isinstance(value, bool):
@@ -69,7 +72,9 @@ def to_si(value, kind: str, key: str, *, strict: bool = False, positive: bool = 
             raise InputError(key, f"{value!r} has no unit; write it with a unit of {kind}, e.g. '{value} {unit}'")
         number = float(value)
     else:
-        raise InputError(key, f"expected a {kind} (a Quantity, a string with a unit, or a number in {unit}), got {value!r}")
+        raise InputError(
+            key, f"expected a {kind} (a Quantity, a string with a unit, or a number in {unit}), got {value!r}"
+        )
     if not math.isfinite(number):
         raise InputError(key, f"{shown} is not finite")
     if positive and not number > 0.0:

@@ -77,9 +77,15 @@ def main() -> int:
             code = method_code(method)
 
             def arrays(m=n):
-                return ([x0[:, :m].copy(), v0[:, :m].copy(), np.zeros((3, m)), np.zeros((3, m))],
-                        [np.empty((1, 3, m)), np.empty((1, 3, m)), np.zeros((1, m), np.int64),
-                         np.full((m, 2), -1, np.int64)])
+                return (
+                    [x0[:, :m].copy(), v0[:, :m].copy(), np.zeros((3, m)), np.zeros((3, m))],
+                    [
+                        np.empty((1, 3, m)),
+                        np.empty((1, 3, m)),
+                        np.zeros((1, m), np.int64),
+                        np.full((m, 2), -1, np.int64),
+                    ],
+                )
 
             def cpu_ref():
                 a, rec = arrays(min(n, 10_000))
@@ -90,8 +96,7 @@ def main() -> int:
 
             def cpu_ens():
                 a, rec = arrays()
-                kens.ensemble_chunk_parallel(code, *a, gm,
-                                             center, dt, gammas, args.steps, 1, 50, *rec)
+                kens.ensemble_chunk_parallel(code, *a, gm, center, dt, gammas, args.steps, 1, 50, *rec)
 
             def gpu_chunk():
                 a, rec = arrays()
@@ -108,9 +113,13 @@ def main() -> int:
                 cuda.synchronize()
 
             row = {"points": n, "method": method, "steps": args.steps}
-            for name, fn, reps, m in (("cpu reference", cpu_ref, 1, min(n, 10_000)), ("cpu ensemble", cpu_ens, 5, n),
-                                      ("gpu chunk", gpu_chunk, 5, n), ("gpu kernel", gpu_kernel, 5, n),
-                                      ("gpu kernel fma", lambda: gpu_kernel(kernels_fma), 5, n)):
+            for name, fn, reps, m in (
+                ("cpu reference", cpu_ref, 1, min(n, 10_000)),
+                ("cpu ensemble", cpu_ens, 5, n),
+                ("gpu chunk", gpu_chunk, 5, n),
+                ("gpu kernel", gpu_kernel, 5, n),
+                ("gpu kernel fma", lambda: gpu_kernel(kernels_fma), 5, n),
+            ):
                 t = timed(fn, reps)
                 row[name] = m * args.steps / t
                 print(f"{n:9d} points {method:8s} {name:14s} {row[name]:12.3e} point-steps/s ({t:.3f} s)")

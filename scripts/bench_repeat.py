@@ -43,12 +43,14 @@ def main(argv=None) -> int:
         med = statistics.median(values)
         medians[t["target"]] = {"median": med, "values": values, "limit": t["limit"]}
         met = med <= t["limit"] if ("<=" in t["target"] and ">=" not in t["target"]) else med >= t["limit"]
-        print(f"  {'met' if met else 'NOT met':>8}  {t['target']}: median {med:.3g} of {['%.3g' % v for v in values]}")
+        print(f"  {'met' if met else 'NOT met':>8}  {t['target']}: median {med:.3g} of {[f'{v:.3g}' for v in values]}")
         if "ceiling" in t:  # the most of the bound the kernel's state allows, measured in each run
             ceilings = [next(u["ceiling"] for u in r["targets"] if u["target"] == t["target"]) for r in runs]
             medians[t["target"]]["ceiling"] = {"median": statistics.median(ceilings), "values": ceilings}
-            print(f"            the floor of the kernel's state: median {statistics.median(ceilings):.3g} of "
-                  f"{['%.3g' % v for v in ceilings]}")
+            print(
+                f"            the floor of the kernel's state: median {statistics.median(ceilings):.3g} of "
+                f"{[f'{v:.3g}' for v in ceilings]}"
+            )
     if args.json:
         with open(args.json, "w") as f:
             json.dump({"runs": runs, "medians": medians}, f, indent=1)

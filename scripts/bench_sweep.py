@@ -25,12 +25,23 @@ DT = 0.464758
 def sweep_text(steps: int, every: int, speeds: int, steps_sizes: int) -> str:
     """The paper's orbit with ``speeds`` speeds at aphelion x ``steps_sizes`` steps, ``steps`` steps each."""
     dts = ", ".join(f'"{DT * (1 + k / 10)!r} s"' for k in range(steps_sizes))
-    return "\n".join([
-        "[sweep]", 'scene = "paper-ellipse"', "[set]", f"integrator.output_every = {every}",
-        f'integrator.t_end = "{steps * DT * (1 + (steps_sizes - 1) / 10)!r} s"',
-        "[[parameter]]", 'key = "integrator.dt"', f"values = [{dts}]",
-        "[[parameter]]", 'key = "body[satellite].velocity[1]"',
-        f"range = {{ start = 0.30, stop = 0.40, num = {speeds} }}", 'unit = "m / s"', ""])
+    return "\n".join(
+        [
+            "[sweep]",
+            'scene = "paper-ellipse"',
+            "[set]",
+            f"integrator.output_every = {every}",
+            f'integrator.t_end = "{steps * DT * (1 + (steps_sizes - 1) / 10)!r} s"',
+            "[[parameter]]",
+            'key = "integrator.dt"',
+            f"values = [{dts}]",
+            "[[parameter]]",
+            'key = "body[satellite].velocity[1]"',
+            f"range = {{ start = 0.30, stop = 0.40, num = {speeds} }}",
+            'unit = "m / s"',
+            "",
+        ]
+    )
 
 
 TINY = sweep_text(steps=5, every=1, speeds=20, steps_sizes=10)  # 200 runs of 5 to 10 steps
@@ -65,12 +76,21 @@ def main() -> None:
                 res = run_sweep(sweep, folder, backend=backend, workers=args.workers)
                 wall = time.perf_counter() - start
                 stepping = sum(r["wall_time"] for r in res.rows)
-                row = {"sweep": name, "backend": backend, "workers": 1 if backend == "serial" else args.workers,
-                       "runs": len(sweep), "completed": res.counts["completed"], "wall_s": round(wall, 2),
-                       "runs_per_s": round(len(sweep) / wall, 1), "sum_of_run_wall_s": round(stepping, 2)}
+                row = {
+                    "sweep": name,
+                    "backend": backend,
+                    "workers": 1 if backend == "serial" else args.workers,
+                    "runs": len(sweep),
+                    "completed": res.counts["completed"],
+                    "wall_s": round(wall, 2),
+                    "runs_per_s": round(len(sweep) / wall, 1),
+                    "sum_of_run_wall_s": round(stepping, 2),
+                }
                 out.append(row)
-                print(f"{name:22s} {backend:8s} workers {row['workers']}: {wall:6.2f} s wall, "
-                      f"{row['runs_per_s']:7.1f} runs/s, runs' own wall time summed {stepping:6.2f} s")
+                print(
+                    f"{name:22s} {backend:8s} workers {row['workers']}: {wall:6.2f} s wall, "
+                    f"{row['runs_per_s']:7.1f} runs/s, runs' own wall time summed {stepping:6.2f} s"
+                )
     finally:
         shutil.rmtree(root, ignore_errors=True)
     if args.json:

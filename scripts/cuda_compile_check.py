@@ -26,10 +26,10 @@ def main() -> None:
     args = ap.parse_args()
     cc = tuple(int(p) for p in args.cc.split("."))
 
+    import numba.cuda.dispatcher as dispatcher
     from numba import cuda
     from numba import types as nt
 
-    import numba.cuda.dispatcher as dispatcher
     from emorbit.kernels.pointmass import cuda as kcuda
 
     class _Device:
@@ -42,16 +42,19 @@ def main() -> None:
     f1, f2, f3 = (nt.Array(nt.float64, k, "C") for k in (1, 2, 3))
     i2 = nt.Array(nt.int64, 2, "C")
     sig = (f2, f2, f2, f2, nt.float64, f1, nt.float64, f1, nt.int64, nt.int64, nt.int64, f3, f3, i2, i2)
-    for code, fn in kcuda._KERNELS.items():
+    for fn in kcuda._KERNELS.values():
         for contract in (False, True):
             start = time.perf_counter()
             with kcuda._nvvm_fma(contract):
                 ptx, _ = cuda.compile_ptx(kcuda._rebind(fn, cuda, devices), sig, device=False, cc=cc)
-            counts = ", ".join(f"{op} {ptx.count(op + ' ')}" for op in ("fma.rn.f64", "mul.rn.f64", "mul.f64",
-                                                                        "add.rn.f64", "add.f64", "div.rn.f64",
-                                                                        "sqrt.rn.f64"))
-            print(f"{fn.__name__:18s} {'contracted' if contract else '-fma=0':10s} sm_{cc[0]}{cc[1]}: "
-                  f"{ptx.count(chr(10))} PTX lines; {counts} ({time.perf_counter() - start:.1f} s)")
+            counts = ", ".join(
+                f"{op} {ptx.count(op + ' ')}"
+                for op in ("fma.rn.f64", "mul.rn.f64", "mul.f64", "add.rn.f64", "add.f64", "div.rn.f64", "sqrt.rn.f64")
+            )
+            print(
+                f"{fn.__name__:18s} {'contracted' if contract else '-fma=0':10s} sm_{cc[0]}{cc[1]}: "
+                f"{ptx.count(chr(10))} PTX lines; {counts} ({time.perf_counter() - start:.1f} s)"
+            )
 
 
 if __name__ == "__main__":

@@ -28,7 +28,8 @@ import numpy as np
 
 from emorbit.analysis import relative_energy_change_exact
 from emorbit.integrators.dispatch import method_code
-from emorbit.kernels.pointmass import packed as ensemble, reference as pointmass
+from emorbit.kernels.pointmass import packed as ensemble
+from emorbit.kernels.pointmass import reference as pointmass
 
 GM = 3.9478
 X0 = np.array([10.0, 0.0, 0.0])
@@ -36,8 +37,9 @@ V0 = np.array([0.0, 0.36276, 0.0])
 T = 46.4758  # the paper's period, s
 
 
-def drift(method: int, dt: float, steps: int, members: int, seed: int,
-          kernel: str = "packed", contract: bool = False) -> tuple[float, float, float]:
+def drift(
+    method: int, dt: float, steps: int, members: int, seed: int, kernel: str = "packed", contract: bool = False
+) -> tuple[float, float, float]:
     """(mean of E/E0 - 1 per step, z, ns per particle-step) for one seed."""
     rng = np.random.default_rng(seed)
     x = np.repeat(X0[:, None], members, axis=1)
@@ -71,13 +73,24 @@ def main(argv=None) -> int:
     p.add_argument("--members", type=int, default=256)
     p.add_argument("--seeds", type=int, default=4)
     p.add_argument("--first-seed", type=int, default=0)
-    p.add_argument("--kernel", choices=("packed", "reference", "gpu"), default="packed",
-                   help="packed ensemble kernel (default), the one-point reference kernel, or the GPU kernel")
-    p.add_argument("--contract", action="store_true",
-                   help="with --kernel gpu: let NVVM fuse multiply-adds (its default; emorbit compiles with -fma=0)")
+    p.add_argument(
+        "--kernel",
+        choices=("packed", "reference", "gpu"),
+        default="packed",
+        help="packed ensemble kernel (default), the one-point reference kernel, or the GPU kernel",
+    )
+    p.add_argument(
+        "--contract",
+        action="store_true",
+        help="with --kernel gpu: let NVVM fuse multiply-adds (its default; emorbit compiles with -fma=0)",
+    )
     args = p.parse_args(argv)
-    for name, value, low in (("--div", args.div, 0.0), ("--steps", args.steps, 0), ("--members", args.members, 1),
-                             ("--seeds", args.seeds, 0)):
+    for name, value, low in (
+        ("--div", args.div, 0.0),
+        ("--steps", args.steps, 0),
+        ("--members", args.members, 1),
+        ("--seeds", args.seeds, 0),
+    ):
         if not value > low:
             p.error(f"{name} must be > {low}, got {value}")
     if args.contract and args.kernel != "gpu":

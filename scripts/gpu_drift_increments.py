@@ -13,19 +13,21 @@ orbits, 1e6 steps at T/100 and 1e5 at T/8 (``65536 1000000 100000``, 45 s): the 
 not where it comes from. (The T/8 drift came from the finish's residual, since fixed:
 pointmass._residual; these figures are from before that fix.) On numba's CUDA simulator the script runs too (small arguments).
 """
+
 import sys
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import energy_drift as ed  # noqa: E402
 from numba import cuda  # noqa: E402
 
-import energy_drift as ed  # noqa: E402
-from emorbit.kernels.pointmass import cuda as kcuda  # noqa: E402
-from emorbit.kernels.pointmass import packed as ensemble, reference as pointmass  # noqa: E402
 from emorbit.kernels.eft import fma, two_prod, two_sum  # noqa: E402
 from emorbit.kernels.jit import kernel  # noqa: E402
+from emorbit.kernels.pointmass import cuda as kcuda  # noqa: E402
+from emorbit.kernels.pointmass import packed as ensemble  # noqa: E402
+from emorbit.kernels.pointmass import reference as pointmass
 
 
 @kernel(inline="always")
@@ -73,8 +75,12 @@ def main() -> int:
     members, steps100, steps8 = (int(a) for a in sys.argv[1:4])
     kcuda._compile(False)
     fma_dev = kcuda._devices["fma"]
-    variants = (("fma u and dx", inc_fma), ("fma u, compensated dx", inc_comp), ("fma dx only", inc_fma_dx),
-                ("baseline", None))
+    variants = (
+        ("fma u and dx", inc_fma),
+        ("fma u, compensated dx", inc_comp),
+        ("fma dx only", inc_fma_dx),
+        ("baseline", None),
+    )
     for name, variant in variants:
         kcuda._devices.clear()
         kcuda._devices["fma"] = fma_dev
@@ -85,7 +91,7 @@ def main() -> int:
         kcuda._compile(False)
         t = time.perf_counter()
         for div, steps in ((8, steps8), (100, steps100)):
-            for seed in ((0,) if variant is None else (0, 1)):
+            for seed in (0,) if variant is None else (0, 1):
                 if variant is None and div == 100:
                     continue
                 m, z, _ = ed.drift(pointmass.METHOD_EM, ed.T / div, steps, members, seed, "gpu")

@@ -52,8 +52,12 @@ def _kernel(method: str):
     from emorbit.integrators.dispatch import method_code
     from emorbit.kernels.pointmass import packed as ens
 
-    methods = {"em": method_code("em"), "fast": method_code("em", "fast"), "midpoint": method_code("midpoint"),
-               "leapfrog": method_code("leapfrog")}
+    methods = {
+        "em": method_code("em"),
+        "fast": method_code("em", "fast"),
+        "midpoint": method_code("midpoint"),
+        "leapfrog": method_code("leapfrog"),
+    }
     if method not in methods:
         sys.exit(f"profile_ensemble: --method must be one of {sorted(methods)}, not {method!r}")
     return ens, methods[method]
@@ -89,7 +93,7 @@ def _loops(rows):
         m = re.search(r"\bj[a-z]+\s+0x([0-9a-f]+)", text)
         if m and int(m.group(1), 16) < a and int(m.group(1), 16) in index:
             j = index[int(m.group(1), 16)]
-            out.append((sum(r[1] for r in rows[j:i + 1]), j, i))
+            out.append((sum(r[1] for r in rows[j : i + 1]), j, i))
     return sorted(out, reverse=True)
 
 
@@ -113,8 +117,12 @@ def main(argv=None) -> int:
     ens, method = _kernel(args.method)
     x, v = ensemble_states(args.n)
     state = [np.array(x), np.array(v), np.zeros_like(x), np.zeros_like(v)]
-    rec = (np.zeros((1, 3, args.n)), np.zeros((1, 3, args.n)), np.zeros((1, args.n), np.int64),
-           np.full((args.n, 2), -1, np.int64))
+    rec = (
+        np.zeros((1, 3, args.n)),
+        np.zeros((1, 3, args.n)),
+        np.zeros((1, args.n), np.int64),
+        np.full((args.n, 2), -1, np.int64),
+    )
     gammas = coefficients(2)
 
     def call(steps):
@@ -123,8 +131,11 @@ def main(argv=None) -> int:
     call(2)  # compiles or loads the kernel
     with tempfile.TemporaryDirectory(prefix="emorbit-profile-") as tmp:
         data = os.path.join(tmp, "perf.data")
-        perf = subprocess.Popen(["perf", "record", "-q", "-e", "cpu-clock", "-F", "4000", "-p", str(os.getpid()),
-                                 "-o", data], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        perf = subprocess.Popen(
+            ["perf", "record", "-q", "-e", "cpu-clock", "-F", "4000", "-p", str(os.getpid()), "-o", data],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+        )
         time.sleep(0.5)  # perf attaches
         start, steps = time.perf_counter(), 0
         while time.perf_counter() - start < args.seconds:
@@ -134,10 +145,13 @@ def main(argv=None) -> int:
         perf.send_signal(signal.SIGINT)
         _, err = perf.communicate(timeout=60)
         if not os.path.exists(data):
-            sys.exit(f"profile_ensemble: perf recorded nothing ({err.decode().strip()[-300:]}); "
-                     "perf_event_paranoid may forbid it")
-        ips = subprocess.run(["perf", "script", "-i", data, "-F", "ip"], capture_output=True, text=True,
-                             check=True).stdout.split()
+            sys.exit(
+                f"profile_ensemble: perf recorded nothing ({err.decode().strip()[-300:]}); "
+                "perf_event_paranoid may forbid it"
+            )
+        ips = subprocess.run(
+            ["perf", "script", "-i", data, "-F", "ip"], capture_output=True, text=True, check=True
+        ).stdout.split()
         counts = collections.Counter(int(ip, 16) for ip in ips)
         total = max(sum(counts.values()), 1)
         starts = sorted(_functions(ens).items())
@@ -146,9 +160,11 @@ def main(argv=None) -> int:
             owner = [(a, name) for a, name in starts if a <= ip < a + CODE_BYTES]
             if owner:
                 per_function[owner[-1]] += n
-        print(f"{args.method}, {args.n} particles, {steps} steps in {elapsed:.1f} s: "
-              f"{1e9 * elapsed / (steps * args.n):.2f} ns per particle-step (one thread, sampled); "
-              f"{total} samples, {100.0 * sum(per_function.values()) / total:.1f} % in emorbit's ensemble kernels")
+        print(
+            f"{args.method}, {args.n} particles, {steps} steps in {elapsed:.1f} s: "
+            f"{1e9 * elapsed / (steps * args.n):.2f} ns per particle-step (one thread, sampled); "
+            f"{total} samples, {100.0 * sum(per_function.values()) / total:.1f} % in emorbit's ensemble kernels"
+        )
         rows = []
         for (entry, name), n in per_function.most_common():
             if 100.0 * n / total < 1.0:
@@ -158,8 +174,12 @@ def main(argv=None) -> int:
             code = os.path.join(tmp, f"{entry:x}.bin")
             with open(code, "wb") as fh:
                 fh.write(ctypes.string_at(entry, size))
-            asm = subprocess.run(["objdump", "-D", "-b", "binary", "-m", "i386:x86-64", f"--adjust-vma={entry:#x}",
-                                  code], capture_output=True, text=True, check=True).stdout
+            asm = subprocess.run(
+                ["objdump", "-D", "-b", "binary", "-m", "i386:x86-64", f"--adjust-vma={entry:#x}", code],
+                capture_output=True,
+                text=True,
+                check=True,
+            ).stdout
             fn_rows = []
             for line in asm.splitlines():
                 m = re.match(r"\s*([0-9a-f]+):\s+(?:[0-9a-f]{2} )+\s*(.*)", line)
@@ -172,10 +192,12 @@ def main(argv=None) -> int:
             for share, j, i in _loops(fn_rows):
                 if len(shown) >= args.top or share < 0.5:
                     break
-                body = [t for _, _, t in fn_rows[j:i + 1]]
+                body = [t for _, _, t in fn_rows[j : i + 1]]
                 shown.append((j, i))
-                print(f"{share:6.1f}% {len(body):>12} {sum('vdiv' in t for t in body):>4} "
-                      f"{sum('sqrt' in t for t in body):>5} {sum('ymm' in t for t in body):>7}  {j}-{i}")
+                print(
+                    f"{share:6.1f}% {len(body):>12} {sum('vdiv' in t for t in body):>4} "
+                    f"{sum('sqrt' in t for t in body):>5} {sum('ymm' in t for t in body):>7}  {j}-{i}"
+                )
             rows += [(name, k, r) for k, r in enumerate(fn_rows)]
     if args.annotate:
         with open(args.annotate, "w") as fh:

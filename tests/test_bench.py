@@ -13,8 +13,12 @@ from emorbit.cli import main
 from emorbit.kernels.pointmass.packed import BLOCK, LD
 
 KEYS = {
-    "ensemble": ("em_particle_steps_per_s", "em_1thread_particle_steps_per_s", "rebound_leapfrog_particle_steps_per_s",
-                 "rebound_whfast_particle_steps_per_s"),
+    "ensemble": (
+        "em_particle_steps_per_s",
+        "em_1thread_particle_steps_per_s",
+        "rebound_leapfrog_particle_steps_per_s",
+        "rebound_whfast_particle_steps_per_s",
+    ),
     "single": ("em_ns_per_step", "em_fast_ns_per_step", "rebound_leapfrog_ns_per_step", "rebound_ias15_ns_per_step"),
     "startup": ("cold_s", "warm_s"),
 }
@@ -24,8 +28,15 @@ KEYS = {
 def result(tmp_path_factory):
     d = tmp_path_factory.mktemp("bench")
     path = d / "out.json"
-    assert run_bench(["single", "ensemble", "work-precision", "startup"], json_path=str(path),
-                     plots_dir=str(d / "plots"), config="tiny") == 0
+    assert (
+        run_bench(
+            ["single", "ensemble", "work-precision", "startup"],
+            json_path=str(path),
+            plots_dir=str(d / "plots"),
+            config="tiny",
+        )
+        == 0
+    )
     return json.loads(path.read_text()), d
 
 
@@ -44,7 +55,8 @@ def test_sections_hang_together(result):
     data, _ = result
     single = data["single"]["rows"]
     assert {(r["method"], r["order"]) for r in single if r["engine"] == "emorbit"} == {
-        (m, o) for m in ("em", "midpoint", "leapfrog") for o in (2, 4, 6, 8)}
+        (m, o) for m in ("em", "midpoint", "leapfrog") for o in (2, 4, 6, 8)
+    }
     assert {r["method"] for r in single if r["engine"] == "rebound"} == {"leapfrog", "whfast", "ias15"}
     ens = data["ensemble"]
     assert ens["rows"]["em 1 thread"]["max_energy_error"] < 1e-12  # em keeps every particle's energy
@@ -52,8 +64,10 @@ def test_sections_hang_together(result):
     assert ens["rows"]['em roundoff="fast" 1 thread']["max_energy_error"] < 1e-12
     assert ens["limits"]["kernels"]["em_fast"]["sqrts"] == 2 and ens["limits"]["kernels"]["em_fast"]["divisions"] == 3
     # the same counts, one measurement: a busy machine once gave em_fast half em's all-threads bound
-    assert ens["limits"]["kernels"]["em_fast"]["bound_per_s_all_threads"] == \
-        ens["limits"]["kernels"]["em"]["bound_per_s_all_threads"]
+    assert (
+        ens["limits"]["kernels"]["em_fast"]["bound_per_s_all_threads"]
+        == ens["limits"]["kernels"]["em"]["bound_per_s_all_threads"]
+    )
     # the floor has em's counts, and the fraction targets say how much of the bound it reaches
     assert (ens["floor"]["sqrts"], ens["floor"]["divisions"]) == (2, 3)
     fraction = [t for t in data["targets"] if "division / square-root bound" in t["target"]]
@@ -104,8 +118,11 @@ def test_precompile_parts_share_no_kernel(result):
     from emorbit.bench import precompile as pc
     from emorbit.kernels.pointmass import packed as kern
 
-    dispatchers = [getattr(kern, f"_{kind}_{m}") for kind in ("range", "points", "parallel")
-                   for m in ("em", "em_plain", "midpoint", "leapfrog")]
+    dispatchers = [
+        getattr(kern, f"_{kind}_{m}")
+        for kind in ("range", "points", "parallel")
+        for m in ("em", "em_plain", "midpoint", "leapfrog")
+    ]
     before = [len(d.signatures) for d in dispatchers]
     assert sum(before) > 0
     pc.run_part(0, ["single", "ensemble"])
@@ -120,14 +137,15 @@ def test_precompile_parts_share_no_kernel(result):
     assert pc.precompile(["rigid", "elastic", "startup"]) is None
     done = subprocess.run([sys.executable, "-m", "emorbit.bench.precompile", "1", "rigid"], timeout=300)
     assert done.returncode == 0
-    bad = subprocess.run([sys.executable, "-m", "emorbit.bench.precompile", "2"], timeout=300, capture_output=True,
-                         text=True)
+    bad = subprocess.run(
+        [sys.executable, "-m", "emorbit.bench.precompile", "2"], timeout=300, capture_output=True, text=True
+    )
     assert bad.returncode == 2 and "PART 0 or 1" in bad.stderr
 
 
 def _floor_energy(W):
-    x = np.array([W[k * LD:k * LD + BLOCK] for k in range(3)])
-    v = np.array([W[(3 + k) * LD:(3 + k) * LD + BLOCK] for k in range(3)])
+    x = np.array([W[k * LD : k * LD + BLOCK] for k in range(3)])
+    v = np.array([W[(3 + k) * LD : (3 + k) * LD + BLOCK] for k in range(3)])
     return 0.5 * (v * v).sum(axis=0) - 1.0 / np.sqrt((x * x).sum(axis=0)), np.sqrt((x * x).sum(axis=0))
 
 
@@ -147,9 +165,9 @@ def test_floor_takes_orbit_steps():
         assert r.min() > 3.0 and r.max() < 15.0  # radii 5-10, e up to about 0.2
         runs[compensated] = W
     comp, plain = runs[True], runs[False]
-    assert np.abs(comp[:6 * LD] - plain[:6 * LD]).max() < 1e-11 * np.abs(plain[:6 * LD]).max()
+    assert np.abs(comp[: 6 * LD] - plain[: 6 * LD]).max() < 1e-11 * np.abs(plain[: 6 * LD]).max()
     for k in range(6):  # each compensation row kept: nonzero, at round-off of its state row
-        state, carried = comp[k * LD:k * LD + BLOCK], comp[(6 + k) * LD:(6 + k) * LD + BLOCK]
+        state, carried = comp[k * LD : k * LD + BLOCK], comp[(6 + k) * LD : (6 + k) * LD + BLOCK]
         assert 0 < np.abs(carried).max() < 1e-14 * np.abs(state).max(), k
     many = np.tile(limits.floor_block(), (3, 1))
     limits._floor_parallel(many, limits._FLOOR_H, 1.0, True, 1000)

@@ -41,7 +41,8 @@ def test_peers_run_or_say_why(section):
         assert all(r["us_per_step"] > 0 and r["jacobi_drift"] >= 0 for r in bsk["rows"])
     if ex["status"] == "ok":
         assert {(r["node"], r["dt"]) for r in ex["implicit"]} == {
-            (n, dt) for n in ("euler-parameters", "rotation-vector") for dt in bench_rigid.EXUDYN_DTS}
+            (n, dt) for n in ("euler-parameters", "rotation-vector") for dt in bench_rigid.EXUDYN_DTS
+        }
         assert all(isinstance(r["converged"], bool) for r in ex["trapezoidal"])
 
 
@@ -61,8 +62,14 @@ def test_missing_peers_are_skipped(section, monkeypatch):
     """Without bsk and exudyn installed the peers say so, and the targets that need them too."""
     import sys
 
-    for mod in ("Basilisk", "Basilisk.simulation", "Basilisk.utilities", "exudyn", "exudyn.utilities",
-                "exudyn.itemInterface"):
+    for mod in (
+        "Basilisk",
+        "Basilisk.simulation",
+        "Basilisk.utilities",
+        "exudyn",
+        "exudyn.utilities",
+        "exudyn.itemInterface",
+    ):
         monkeypatch.setitem(sys.modules, mod, None)
     bsk, ex = bench_rigid._Basilisk(), bench_rigid._Exudyn()
     assert bsk.skipped.startswith("skipped: Basilisk not importable")

@@ -54,10 +54,35 @@ def test_file_reads_back_and_scene_reruns(paper_file, tmp_path):
 
 def test_overrides_and_no_overwrite(tmp_path, paper_file, capsys):
     out = tmp_path / "m.h5"
-    assert main(["run", "paper-ellipse", "-o", str(out), "-q", "--method", "midpoint", "--order", "4",
-                 "--dt", "0.232379 s", "--t-end", "46.4758 s", "--every", "5"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "paper-ellipse",
+                "-o",
+                str(out),
+                "-q",
+                "--method",
+                "midpoint",
+                "--order",
+                "4",
+                "--dt",
+                "0.232379 s",
+                "--t-end",
+                "46.4758 s",
+                "--every",
+                "5",
+            ]
+        )
+        == 0
+    )
     with h5py.File(out, "r") as f:
-        assert (f.attrs["method"], f.attrs["order"], f.attrs["dt"], f.attrs["output_every"]) == ("midpoint", 4, 0.232379, 5)
+        assert (f.attrs["method"], f.attrs["order"], f.attrs["dt"], f.attrs["output_every"]) == (
+            "midpoint",
+            4,
+            0.232379,
+            5,
+        )
         assert f["time"].shape == (41,)
         assert "override" in f.attrs["scene"]
     before = out.read_bytes()

@@ -10,9 +10,9 @@ steps. On a real GPU, compiled without fused multiply-adds, they give the CPU's 
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
-import inspect
 import subprocess
 import sys
 import textwrap
@@ -23,8 +23,14 @@ import pytest
 import emorbit
 from emorbit.errors import InputError
 
-CASES = (("em", 2, 0.46), ("em", 4, 0.46), ("em", 2, 60.0), ("midpoint", 2, 0.46), ("leapfrog", 2, 0.46),
-         ("leapfrog", 6, 0.46))
+CASES = (
+    ("em", 2, 0.46),
+    ("em", 4, 0.46),
+    ("em", 2, 60.0),
+    ("midpoint", 2, 0.46),
+    ("leapfrog", 2, 0.46),
+    ("leapfrog", 6, 0.46),
+)
 
 
 def run_case(method, order, dt, **gpu_options):
@@ -42,15 +48,20 @@ def run_case(method, order, dt, **gpu_options):
     n, gm, center = 33, 3.9478, np.array([0.5, -0.25, 0.1])
     r = rng.uniform(4.0, 10.0, n)
     x = np.vstack([r, np.zeros(n), rng.uniform(-1, 1, n)]) + center[:, None]
-    v = np.vstack([rng.uniform(-0.02, 0.02, n), np.sqrt(gm / r) * rng.uniform(0.5, 1.15, n),
-                   rng.uniform(-0.05, 0.05, n)])
+    v = np.vstack(
+        [rng.uniform(-0.02, 0.02, n), np.sqrt(gm / r) * rng.uniform(0.5, 1.15, n), rng.uniform(-0.05, 0.05, n)]
+    )
     x[:, 7] = center  # a point at the centre fails at once (status 2), on both
     every, nrec, g = 4, 3, coefficients(order)
     runs = []
     for device in ("cpu", "gpu"):
         a = [x.copy(), v.copy(), np.zeros_like(x), np.zeros_like(v)]
-        rec = [np.zeros((nrec, 3, n)), np.zeros((nrec, 3, n)), np.zeros((nrec, n), np.int64),
-               np.full((n, 2), -1, np.int64)]
+        rec = [
+            np.zeros((nrec, 3, n)),
+            np.zeros((nrec, 3, n)),
+            np.zeros((nrec, n), np.int64),
+            np.full((n, 2), -1, np.int64),
+        ]
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore")  # the point at the centre divides by zero, as on the CPU
             if device == "gpu":
@@ -77,13 +88,19 @@ def compare(runs, every=4):
             if rows:
                 rel = max(rel, float(np.abs(p[:rows, :, i] - q[:rows, :, i]).max() / np.abs(p[:, :, ok]).max()))
         its_equal &= bool(np.array_equal(r1[2][:rows, i], r2[2][:rows, i]))
-    return {"rel": rel, "iterations_equal": its_equal, "fail_equal": bool(np.array_equal(r1[3], r2[3])),
-            "fail_centre": r2[3][7].tolist(), "failed": int((r2[3][:, 0] >= 0).sum()),
-            "failed_cpu": int((r1[3][:, 0] >= 0).sum()),
-            "iterations": int(r2[2][:, ok].sum())}
+    return {
+        "rel": rel,
+        "iterations_equal": its_equal,
+        "fail_equal": bool(np.array_equal(r1[3], r2[3])),
+        "fail_centre": r2[3][7].tolist(),
+        "failed": int((r2[3][:, 0] >= 0).sum()),
+        "failed_cpu": int((r1[3][:, 0] >= 0).sum()),
+        "iterations": int(r2[2][:, ok].sum()),
+    }
 
 
-CHILD = textwrap.dedent(r'''
+CHILD = (
+    textwrap.dedent(r"""
     import json, sys, warnings
     import numpy as np
     warnings.simplefilter("ignore")  # the point put at the centre divides by zero, as on the CPU
@@ -92,8 +109,10 @@ CHILD = textwrap.dedent(r'''
     import emorbit
     from emorbit.kernels.pointmass import cuda as K
     from emorbit.sweep import parse_sweep, run_sweep, use_device
-    ''') + f"CASES = {CASES!r}\n" + "\n".join(textwrap.dedent(inspect.getsource(f)) for f in (run_case, compare)) + \
-    textwrap.dedent(r'''
+    """)
+    + f"CASES = {CASES!r}\n"
+    + "\n".join(textwrap.dedent(inspect.getsource(f)) for f in (run_case, compare))
+    + textwrap.dedent(r'''
     out = {"available": K.available()}
     _, kernels = K._compile()
     scopes = [d.fn.__globals__ for d in K._devices.values()] + [k.dispatcher.fn.__globals__ for k in kernels.values()]
@@ -139,16 +158,22 @@ CHILD = textwrap.dedent(r'''
                                for a, b in zip(rows["cpu"], rows["gpu"]))}
     print("RESULT " + json.dumps(out))
 ''')
+)
 
 
 @pytest.fixture(scope="module")
 def simulated(tmp_path_factory):
     env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
-    proc = subprocess.run([sys.executable, "-c", CHILD, str(tmp_path_factory.mktemp("cudasim"))], env=env,
-                          capture_output=True, text=True, timeout=600)
+    proc = subprocess.run(
+        [sys.executable, "-c", CHILD, str(tmp_path_factory.mktemp("cudasim"))],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert proc.returncode == 0, proc.stderr[-4000:]
     line = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")][-1]
-    return json.loads(line[len("RESULT "):])
+    return json.loads(line[len("RESULT ") :])
 
 
 def test_simulator_kernels_equal_the_cpu_kernels(simulated):
@@ -200,8 +225,9 @@ def _real_gpu() -> bool:
     return not config.ENABLE_CUDASIM and kcuda.available()
 
 
-real_gpu = pytest.mark.skipif("not _real_gpu()", reason="no NVIDIA GPU here (CI has none); the simulator tests "
-                                                         "above check the device code")
+real_gpu = pytest.mark.skipif(
+    "not _real_gpu()", reason="no NVIDIA GPU here (CI has none); the simulator tests above check the device code"
+)
 
 
 @real_gpu
@@ -263,8 +289,21 @@ def test_real_gpu_no_drift_at_large_steps(div):
 
     e0 = energy(x, v)
     out = (np.empty((1, 3, n)), np.empty((1, 3, n)), np.zeros((1, n), np.int64), np.full((n, 2), -1, np.int64))
-    kcuda.chunk(ens.METHOD_EM, x, v, np.zeros_like(x), np.zeros_like(v), PAPER_GM, np.zeros(3),
-                PAPER_T / div, np.array([1.0]), steps, 1, 50, *out)
+    kcuda.chunk(
+        ens.METHOD_EM,
+        x,
+        v,
+        np.zeros_like(x),
+        np.zeros_like(v),
+        PAPER_GM,
+        np.zeros(3),
+        PAPER_T / div,
+        np.array([1.0]),
+        steps,
+        1,
+        50,
+        *out,
+    )
     assert (out[3][:, 0] < 0).all()
     rel = energy(x, v) / e0 - 1.0
     z = rel.mean() / (rel.std() / np.sqrt(n))

@@ -26,9 +26,20 @@ def _tethered(method="em", k_ratio=None, dt=None, elements=4):
     for name, x in (("a", R_ORBIT - L / 2), ("b", R_ORBIT + L / 2)):
         sim.add_point(name, mass=m, position=[x, 0, 0], velocity=[0, N_ORBIT * x, 0])
     EA = 1e5 if k_ratio is None else (k_ratio * N_ORBIT) ** 2 * m / 2 * L
-    sim.add_elastic("tether", "chain", start=[-L / 2, 0, 0], end=[L / 2, 0, 0], elements=elements, young=EA / 1e-4,
-                    area=1e-4, density=1000.0 if k_ratio is None else 1e-3, position=[R_ORBIT, 0, 0],
-                    velocity=[0, N_ORBIT * R_ORBIT, 0], angular_velocity=[0, 0, N_ORBIT], angular_velocity_frame="space")
+    sim.add_elastic(
+        "tether",
+        "chain",
+        start=[-L / 2, 0, 0],
+        end=[L / 2, 0, 0],
+        elements=elements,
+        young=EA / 1e-4,
+        area=1e-4,
+        density=1000.0 if k_ratio is None else 1e-3,
+        position=[R_ORBIT, 0, 0],
+        velocity=[0, N_ORBIT * R_ORBIT, 0],
+        angular_velocity=[0, 0, N_ORBIT],
+        angular_velocity_frame="space",
+    )
     sim.attach("tether", [0], "a")
     sim.attach("tether", [elements], "b")
     return sim
@@ -37,8 +48,18 @@ def _tethered(method="em", k_ratio=None, dt=None, elements=4):
 def test_free_tumbling_beam_conserves_over_1e4_steps():
     """A free beam of tetrahedra tumbling at 3 rad/s: energy <= 1e-11, angular momentum <= 1e-12."""
     sim = emorbit.Simulation(None, method="em", dt=0.01)
-    sim.add_elastic("bar", "beam", size=[2.0, 0.1, 0.1], elements=[2, 1, 1], young=1e7, poisson=0.3, density=1000.0,
-                    position=[0, 0, 0], velocity=[0, 0, 0], angular_velocity=[0.3, 0.2, 3.0])
+    sim.add_elastic(
+        "bar",
+        "beam",
+        size=[2.0, 0.1, 0.1],
+        elements=[2, 1, 1],
+        young=1e7,
+        poisson=0.3,
+        density=1000.0,
+        position=[0, 0, 0],
+        velocity=[0, 0, 0],
+        angular_velocity=[0.3, 0.2, 3.0],
+    )
     res = sim.run(steps=10_000, every=100)
     assert np.abs(res.relative_energy_error()).max() <= 1e-11
     assert res.relative_angular_momentum_error().max() <= 1e-12
@@ -81,8 +102,19 @@ def test_axial_vibration_frequency_converges(mass_matrix, sign):
     errs = []
     for n in (4, 8, 16):
         sim = emorbit.Simulation(None, method="em", dt=2 * np.pi / w / 400)
-        sim.add_elastic("bar", "chain", start=[-L / 2, 0, 0], end=[L / 2, 0, 0], elements=n, young=E, area=1e-4,
-                        density=rho, mass_matrix=mass_matrix, position=[0, 0, 0], velocity=[0, 0, 0])
+        sim.add_elastic(
+            "bar",
+            "chain",
+            start=[-L / 2, 0, 0],
+            end=[L / 2, 0, 0],
+            elements=n,
+            young=E,
+            area=1e-4,
+            density=rho,
+            mass_matrix=mass_matrix,
+            position=[0, 0, 0],
+            velocity=[0, 0, 0],
+        )
         st = sim.structure
         st.build()
         st.v[:, 0] = 1e-6 * c * np.sin(np.pi * st.u[:, 0] / L)
@@ -104,9 +136,20 @@ def test_stiff_elastic_box_librates_like_the_rigid_one():
     frequency n sqrt(3 (I_y - I_x) / I_z) (1 - theta0^2/4) within 1% (measured 3e-5)."""
     th0 = np.radians(1.0)
     sim = emorbit.Simulation(emorbit.CentralField(body="earth"), method="em", dt=T_ORBIT / 500)
-    sim.add_elastic("b", "beam", size=[2.0, 1.0, 0.5], elements=[2, 1, 1], young=1e7, poisson=0.3, density=500.0,
-                    position=[R_ORBIT, 0, 0], velocity=[0, np.sqrt(GM / R_ORBIT), 0], rotation_vector=[0, 0, th0],
-                    angular_velocity=[0, 0, N_ORBIT], angular_velocity_frame="space")
+    sim.add_elastic(
+        "b",
+        "beam",
+        size=[2.0, 1.0, 0.5],
+        elements=[2, 1, 1],
+        young=1e7,
+        poisson=0.3,
+        density=500.0,
+        position=[R_ORBIT, 0, 0],
+        velocity=[0, np.sqrt(GM / R_ORBIT), 0],
+        rotation_vector=[0, 0, th0],
+        angular_velocity=[0, 0, N_ORBIT],
+        angular_velocity_frame="space",
+    )
     res = sim.run(steps=4000, every=1)
     X = sim.structure._body("b")["spec"].ref
     ends = [np.isclose(X[:, 0], X[:, 0].min()), np.isclose(X[:, 0], X[:, 0].max())]
@@ -130,8 +173,18 @@ def test_newton_converges_quadratically():
     1.4e-3, 1.6e-5, 1.3e-8, then 1.6e-12 and 2.5e-16, where the linear solve's cond(J) eps
     takes over), down to round-off. The Jacobian itself matches finite differences to 1e-9."""
     sim = emorbit.Simulation(None, method="em", dt=0.05, newton="full")
-    sim.add_elastic("bar", "beam", size=[2.0, 0.1, 0.1], elements=[4, 1, 1], young=1e7, poisson=0.3, density=1000.0,
-                    position=[0, 0, 0], velocity=[0, 0, 0], angular_velocity=[0.3, 0.2, 3.0])
+    sim.add_elastic(
+        "bar",
+        "beam",
+        size=[2.0, 0.1, 0.1],
+        elements=[4, 1, 1],
+        young=1e7,
+        poisson=0.3,
+        density=1000.0,
+        position=[0, 0, 0],
+        velocity=[0, 0, 0],
+        angular_velocity=[0.3, 0.2, 3.0],
+    )
     sim.run(steps=1, every=1)
     r = np.array(sim.structure.residuals)
     quad = r[r > 1e-8]
@@ -144,12 +197,30 @@ def test_coupled_boom_conserves_in_free_space():
     """A boom of tetrahedra clamped to a spinning rigid box: the coupling carries forces both
     ways and energy and angular momentum stay exact."""
     sim = emorbit.Simulation(None, method="em", dt=0.05)
-    sim.add_rigid("bus", "box", size=[2, 2, 2], mass=500.0, position=[0, 0, 0], velocity=[0, 0, 0],
-                  angular_velocity=[0.0, 0.05, 0.2], angular_velocity_frame="space")
+    sim.add_rigid(
+        "bus",
+        "box",
+        size=[2, 2, 2],
+        mass=500.0,
+        position=[0, 0, 0],
+        velocity=[0, 0, 0],
+        angular_velocity=[0.0, 0.05, 0.2],
+        angular_velocity_frame="space",
+    )
     w = np.array([0.0, 0.05, 0.2])
-    sim.add_elastic("boom", "beam", size=[4.0, 0.2, 0.2], elements=[4, 1, 1], young=1e8, poisson=0.3, density=1000.0,
-                    position=[3.0, 0, 0], velocity=np.cross(w, [3.0, 0, 0]), angular_velocity=w,
-                    angular_velocity_frame="space")
+    sim.add_elastic(
+        "boom",
+        "beam",
+        size=[4.0, 0.2, 0.2],
+        elements=[4, 1, 1],
+        young=1e8,
+        poisson=0.3,
+        density=1000.0,
+        position=[3.0, 0, 0],
+        velocity=np.cross(w, [3.0, 0, 0]),
+        angular_velocity=w,
+        angular_velocity_frame="space",
+    )
     sim.attach("boom", np.flatnonzero(np.isclose(sim.structure._body("boom")["spec"].ref[:, 0], -2.0)), "bus")
     res = sim.run(steps=2000, every=20)
     assert np.abs(res.relative_energy_error()).max() <= 1e-12
@@ -157,20 +228,30 @@ def test_coupled_boom_conserves_in_free_space():
     assert res.kinds == {"bus": "rigid", "boom": "elastic"}
 
 
-@pytest.mark.parametrize("kwargs, key, needle", [
-    (dict(poisson=0.5), "poisson", "(-1, 0.5)"),
-    (dict(poisson=0.7), "poisson", "(-1, 0.5)"),
-    (dict(young=0.0), "young", "> 0"),
-    (dict(young=-5.0), "young", "> 0"),
-    (dict(density=0.0), "density", "> 0"),
-    (dict(elements=[0, 1, 1]), "elements", "integers >= 1"),
-    (dict(mass_matrix="diagonal"), "mass_matrix", "lumped"),
-    (dict(thickness=1.0), "thickness", "not a parameter"),
-    (dict(gravity="point"), "gravity", "'volume' or 'none'"),
-])
+@pytest.mark.parametrize(
+    "kwargs, key, needle",
+    [
+        (dict(poisson=0.5), "poisson", "(-1, 0.5)"),
+        (dict(poisson=0.7), "poisson", "(-1, 0.5)"),
+        (dict(young=0.0), "young", "> 0"),
+        (dict(young=-5.0), "young", "> 0"),
+        (dict(density=0.0), "density", "> 0"),
+        (dict(elements=[0, 1, 1]), "elements", "integers >= 1"),
+        (dict(mass_matrix="diagonal"), "mass_matrix", "lumped"),
+        (dict(thickness=1.0), "thickness", "not a parameter"),
+        (dict(gravity="point"), "gravity", "'volume' or 'none'"),
+    ],
+)
 def test_bad_elastic_input(kwargs, key, needle):
-    args = dict(size=[2.0, 0.1, 0.1], elements=[2, 1, 1], young=1e7, poisson=0.3, density=1000.0,
-                position=[0, 0, 0], velocity=[0, 0, 0])
+    args = dict(
+        size=[2.0, 0.1, 0.1],
+        elements=[2, 1, 1],
+        young=1e7,
+        poisson=0.3,
+        density=1000.0,
+        position=[0, 0, 0],
+        velocity=[0, 0, 0],
+    )
     args.update(kwargs)
     sim = emorbit.Simulation(None, dt=0.1)
     with pytest.raises(InputError) as info:
@@ -181,8 +262,15 @@ def test_bad_elastic_input(kwargs, key, needle):
 def test_bad_meshes_and_couplings(tmp_path):
     from emorbit.bodies.elastic import elastic_spec
 
-    base = dict(young=1e7, density=1000.0, poisson=0.3, position=[0, 0, 0], velocity=[0, 0, 0], R=np.eye(3),
-                omega_space=np.zeros(3))
+    base = dict(
+        young=1e7,
+        density=1000.0,
+        poisson=0.3,
+        position=[0, 0, 0],
+        velocity=[0, 0, 0],
+        R=np.eye(3),
+        omega_space=np.zeros(3),
+    )
     nodes = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0], [5, 5, 5]])
     with pytest.raises(InputError, match=r"nodes\[4\].*dangling"):
         elastic_spec("m", nodes, [[0, 1, 2, 3]], [], **base)
@@ -199,14 +287,25 @@ def test_bad_meshes_and_couplings(tmp_path):
         f["nodes"].attrs["unit"] = "cm"
         f["tetrahedra"] = np.array([[0, 1, 2, 3]])
     sim = emorbit.Simulation(None, dt=0.1)
-    sim.add_elastic("m", "file", file=str(path), young=1e7, poisson=0.3, density=1000.0, position=[0, 0, 0],
-                    velocity=[0, 0, 0])
+    sim.add_elastic(
+        "m", "file", file=str(path), young=1e7, poisson=0.3, density=1000.0, position=[0, 0, 0], velocity=[0, 0, 0]
+    )
     np.testing.assert_allclose(sim.structure._body("m")["spec"].ref, nodes[:4])
     # couplings
     sim = emorbit.Simulation(emorbit.CentralField(body="earth"), dt=1.0)
     sim.add_point("p", mass=1.0, position=[R_ORBIT, 0, 0], velocity=[0, 7000.0, 0])
-    sim.add_elastic("c", "chain", start=[0, 0, 0], end=[10.0, 0, 0], elements=2, young=1e9, area=1e-4, density=1000.0,
-                    position=[R_ORBIT, 0, 0], velocity=[0, 7000.0, 0])
+    sim.add_elastic(
+        "c",
+        "chain",
+        start=[0, 0, 0],
+        end=[10.0, 0, 0],
+        elements=2,
+        young=1e9,
+        area=1e-4,
+        density=1000.0,
+        position=[R_ORBIT, 0, 0],
+        velocity=[0, 7000.0, 0],
+    )
     with pytest.raises(InputError, match="not in 0..2"):
         sim.attach("c", [7], "p")
     with pytest.raises(InputError, match="no point mass or rigid body"):
@@ -225,8 +324,18 @@ def test_bad_meshes_and_couplings(tmp_path):
     assert list(sim.points.names) == ["p2"]
     sim2 = emorbit.Simulation(emorbit.CentralField(body="earth"), dt=1.0)
     sim2.add_point("p", mass=1.0, position=[R_ORBIT, 0, 0], velocity=[0, 7000.0, 0])
-    sim2.add_elastic("c", "chain", start=[0, 0, 0], end=[10.0, 0, 0], elements=2, young=1e9, area=1e-4,
-                     density=1000.0, position=[R_ORBIT, 0, 0], velocity=[0, 7001.0, 0])
+    sim2.add_elastic(
+        "c",
+        "chain",
+        start=[0, 0, 0],
+        end=[10.0, 0, 0],
+        elements=2,
+        young=1e9,
+        area=1e-4,
+        density=1000.0,
+        position=[R_ORBIT, 0, 0],
+        velocity=[0, 7001.0, 0],
+    )
     sim2.attach("c", [0], "p")
     with pytest.raises(InputError, match="rigid motion"):
         sim2.run(steps=1)
@@ -235,14 +344,17 @@ def test_bad_meshes_and_couplings(tmp_path):
 def test_nodal_output_stride_and_shipped_scenes(tmp_path):
     """Shipped scenes run (shortened here; full runs 4-23 s each), their files hold nodal
     positions every node_output_every records with their own time axis."""
-    for scene, t_end in (("tethered-satellites", "200 s"), ("satellite-flexible-boom", "20 s"),
-                         ("elastic-bar-tumbling", "2 s")):
+    for scene, t_end in (
+        ("tethered-satellites", "200 s"),
+        ("satellite-flexible-boom", "20 s"),
+        ("elastic-bar-tumbling", "2 s"),
+    ):
         out = tmp_path / f"{scene}.h5"
         assert main(["run", scene, "-o", str(out), "-q", "--t-end", t_end]) == 0
         with h5py.File(out, "r") as f:
             e = f["invariants/energy"][()]
             assert np.abs(e / e[0] - 1).max() < 1e-11
-            for name, g in f["bodies"].items():
+            for g in f["bodies"].values():
                 if g.attrs["kind"] != "elastic":
                     continue
                 k = g.attrs["node_output_every"]

@@ -10,12 +10,12 @@ import textwrap
 
 import numpy as np
 import pytest
+from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 
 from emorbit import orbits
 from emorbit.integrators import coefficients
 from emorbit.kernels.pointmass import packed as ens
 from emorbit.kernels.pointmass import reference as ref
-from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 
 GM = PAPER_GM
 T6 = 2 * np.pi * np.sqrt(6.0**3 / GM)  # period of a 6 m orbit
@@ -28,8 +28,9 @@ def states(a, e, mean_anomaly, seed=0):
     E = orbits.solve_kepler(M, e)
     nu = 2 * np.arctan2(np.sqrt(1 + e) * np.sin(E / 2), np.sqrt(1 - e) * np.cos(E / 2))
     n = a.size
-    x, v = orbits.state_from_elements((a, e, np.arccos(rng.uniform(-1, 1, n)), rng.uniform(0, 2 * np.pi, n),
-                                       rng.uniform(0, 2 * np.pi, n), nu), GM)
+    x, v = orbits.state_from_elements(
+        (a, e, np.arccos(rng.uniform(-1, 1, n)), rng.uniform(0, 2 * np.pi, n), rng.uniform(0, 2 * np.pi, n), nu), GM
+    )
     return np.ascontiguousarray(x.T), np.ascontiguousarray(v.T)
 
 
@@ -39,8 +40,7 @@ def run(kernel, method, x, v, dt, order, every, nrec, max_iter=50, center=(0.0, 
     n = x.shape[1]
     x, v = x.copy(), v.copy()
     cx, cv = (np.zeros_like(x) if cx is None else np.array(cx, float)), np.zeros_like(v)
-    out = (np.empty((nrec, 3, n)), np.empty((nrec, 3, n)), np.zeros((nrec, n), np.int64),
-           np.full((n, 2), -1, np.int64))
+    out = (np.empty((nrec, 3, n)), np.empty((nrec, 3, n)), np.zeros((nrec, n), np.int64), np.full((n, 2), -1, np.int64))
     args = (x, v, cx, cv, GM, np.array(center, float), dt, coefficients(order), every, nrec, max_iter, *out)
     if kernel == "reference":
         if method == ens.METHOD_LEAPFROG:
@@ -118,7 +118,7 @@ def test_point_independent_of_block_threads_and_chunking():
         for a, b in zip(whole[:4], cut[:4]):
             np.testing.assert_array_equal(a, b)
         for i in (0, ens.BLOCK + 5, n - 1):  # in a full block and in the partial last one
-            alone = run("ensemble_chunk", method, x[:, i:i + 1], v[:, i:i + 1], dt, 4, 30, 4)
+            alone = run("ensemble_chunk", method, x[:, i : i + 1], v[:, i : i + 1], dt, 4, 30, 4)
             for a, b in zip(alone[:6], whole[:6]):
                 np.testing.assert_array_equal(a[..., 0], b[..., i])
 
@@ -185,7 +185,7 @@ def test_large_t_steps_same_bits_alone_and_packed():
     whole = run("ensemble_chunk", ens.METHOD_EM, x, v, dt, 2, 20, 1)
     assert (whole[7][:, 0] < 0).all()
     for i in range(n):
-        alone = run("ensemble_chunk", ens.METHOD_EM, x[:, i:i + 1], v[:, i:i + 1], dt, 2, 20, 1)
+        alone = run("ensemble_chunk", ens.METHOD_EM, x[:, i : i + 1], v[:, i : i + 1], dt, 2, 20, 1)
         for a, b in zip(alone[:6], whole[:6]):
             np.testing.assert_array_equal(a[..., 0], b[..., i])
     reference = run("reference", ens.METHOD_EM, x, v, dt, 2, 20, 1)
@@ -270,8 +270,9 @@ def test_huge_midpoint_steps_solve_their_equations():
         m = 0.5 * (x + packed[0])
         g = -GM * m / np.linalg.norm(m, axis=0) ** 3
         assert (np.abs(packed[1] - v - h * g).max(axis=0)[ok] / np.abs(v).max(axis=0)[ok]).max() < 1e-13, div
-        assert (np.abs(packed[0] - x - h * 0.5 * (v + packed[1])).max(axis=0)[ok]
-                / np.abs(x).max(axis=0)[ok]).max() < 1e-12, div
+        assert (
+            np.abs(packed[0] - x - h * 0.5 * (v + packed[1])).max(axis=0)[ok] / np.abs(x).max(axis=0)[ok]
+        ).max() < 1e-12, div
 
 
 @pytest.mark.parametrize("method", [ens.METHOD_EM, ens.METHOD_EM_PLAIN])
@@ -297,8 +298,7 @@ def test_a_step_whose_newton_runs_off_is_solved(method):
 
 def run_from(method, x, v, cx, cv, dt, order, every, nrec):
     n = x.shape[1]
-    out = (np.empty((nrec, 3, n)), np.empty((nrec, 3, n)), np.zeros((nrec, n), np.int64),
-           np.full((n, 2), -1, np.int64))
+    out = (np.empty((nrec, 3, n)), np.empty((nrec, 3, n)), np.zeros((nrec, n), np.int64), np.full((n, 2), -1, np.int64))
     ens.ensemble_chunk(method, x, v, cx, cv, GM, np.zeros(3), dt, coefficients(order), every, nrec, 50, *out)
     return (x, v, cx, cv, *out)
 
@@ -349,7 +349,6 @@ def test_failure_reported_like_the_reference(method):
         np.testing.assert_array_equal(a[..., 1:], b)
 
 
-
 @pytest.mark.parametrize("order, every, nrec", [(2, 1, 1), (2, 1, 3), (2, 3, 2), (4, 1, 2), (4, 3, 2)])
 def test_state_that_overflows_fails_at_its_step(order, every, nrec):
     """em's packed update does not test its new state (the next step's solve does, or the end
@@ -362,17 +361,28 @@ def test_state_that_overflows_fails_at_its_step(order, every, nrec):
     rng = np.random.default_rng(5)
     n = 40
     a, e, nu = rng.uniform(5, 10, n), rng.uniform(0, 0.5, n), rng.uniform(0, 2 * np.pi, n)
-    xo, vo = orbits.state_from_elements((a, e, np.full(n, np.pi / 2), np.full(n, np.pi / 2),
-                                         rng.uniform(0, 2 * np.pi, n), nu), GM)  # planes normal to x
+    xo, vo = orbits.state_from_elements(
+        (a, e, np.full(n, np.pi / 2), np.full(n, np.pi / 2), rng.uniform(0, 2 * np.pi, n), nu), GM
+    )  # planes normal to x
     x = np.stack([np.full(n, big), xo[:, 1], xo[:, 2]])
     v = np.stack([np.zeros(n), vo[:, 1], vo[:, 2]])
     cx = np.zeros_like(x)
-    cx[0, [3, 17]] = -(2.0 ** 970)
+    cx[0, [3, 17]] = -(2.0**970)
     center = (big, 0.0, 0.0)
 
     def chunk(kernel, keep):
-        return run(kernel, ens.METHOD_EM, x[:, keep], v[:, keep], PAPER_T / 100, order, every, nrec,
-                   center=center, cx=cx[:, keep])
+        return run(
+            kernel,
+            ens.METHOD_EM,
+            x[:, keep],
+            v[:, keep],
+            PAPER_T / 100,
+            order,
+            every,
+            nrec,
+            center=center,
+            cx=cx[:, keep],
+        )
 
     every_point = np.arange(n)
     fast = chunk("ensemble_chunk", every_point)
@@ -427,11 +437,21 @@ def test_point_mass_run_compiles_no_rigid_or_elastic_code(tmp_path):
     banned = ("rigid", "elastic", "structure", "shapes", "rotations")
     assert not [m for m in info["modules"] if any(b in m for b in banned)], info["modules"]
     ours = [name for name in info["compiled"] if not name.startswith("numba.")]  # numba's own overloads
-    assert all(name.startswith(("emorbit.kernels.pointmass.packed.", "emorbit.kernels.pointmass.",
-                                "emorbit.kernels.gravity.")) for name in ours), ours
-    kernels = [name for name in ours if name.startswith(("emorbit.kernels.pointmass.packed._range",
-                                                         "emorbit.kernels.pointmass.packed._points",
-                                                         "emorbit.kernels.pointmass.packed._parallel"))]
+    assert all(
+        name.startswith(("emorbit.kernels.pointmass.packed.", "emorbit.kernels.pointmass.", "emorbit.kernels.gravity."))
+        for name in ours
+    ), ours
+    kernels = [
+        name
+        for name in ours
+        if name.startswith(
+            (
+                "emorbit.kernels.pointmass.packed._range",
+                "emorbit.kernels.pointmass.packed._points",
+                "emorbit.kernels.pointmass.packed._parallel",
+            )
+        )
+    ]
     assert kernels == ["emorbit.kernels.pointmass.packed._points_em"], kernels  # em only, one point: one thread
 
 
@@ -442,8 +462,9 @@ def _default_root(A, P, V, r0, h, tau0, tlo, x, w):
     rho, d, cert = ens._em_newton_certified(A, P, V, r0, rho, tau0, tlo)
     resolved = not (cert and ens._em_plausible(rho, A, V))
     if resolved:
-        _, rho, _, status = ens._resolve_point_em(A, P, V, r0, rho, abs(d), h, GM, tau0, tlo,
-                                                  x[0], x[1], x[2], w[0], w[1], w[2], 0.0, 0.0, 0.0, 50)
+        _, rho, _, status = ens._resolve_point_em(
+            A, P, V, r0, rho, abs(d), h, GM, tau0, tlo, x[0], x[1], x[2], w[0], w[1], w[2], 0.0, 0.0, 0.0, 50
+        )
         assert status == 0
     return rho, resolved
 
@@ -520,6 +541,7 @@ def test_default_em_solve_gives_the_correctly_rounded_root():
     |E| per step at T/60, see the notes of kernels/ensemble.py). Measured: the default at
     most 0.49998 ulp from the root, the plain root at least 0.50001 where they differ."""
     import mpmath
+
     mpmath.mp.dps = 40
     rng = np.random.default_rng(3)
     worst = 0.0

@@ -17,25 +17,69 @@ BASE = {
     "field": {"gm": "3.9478 m3 / s2", "center": ["0 m", "0 m", "0 m"]},
     "integrator": {"method": "em", "order": 2, "dt": "0.464758 s", "t_end": "4.64758 s", "output_every": 2},
     "body": [
-        {"name": "sat", "kind": "point", "mass": "1 kg", "position": ["10 m", "0 m", "0 m"],
-         "velocity": ["0 m/s", "0.36276 m/s", "0 m/s"]},
-        {"name": "box", "kind": "rigid", "shape": "box", "size": ["0.3 m", "0.2 m", "0.1 m"],
-         "density": "1000 kg / m3", "position": ["-10 m", "0 m", "0 m"], "velocity": ["0 m/s", "-0.36276 m/s", "0 m/s"],
-         "angular_velocity": ["0 rad/s", "0 rad/s", "0.1 rad/s"]},
-        {"name": "bar", "kind": "elastic", "mesh": "chain", "start": ["0 m", "10 m", "0 m"], "end": ["0 m", "11 m", "0 m"],
-         "elements": 2, "area": "1 mm2", "young": "1 GPa", "density": "1000 kg / m3",
-         "position": ["0 m", "0 m", "0 m"], "velocity": ["-0.36276 m/s", "0 m/s", "0 m/s"]},
+        {
+            "name": "sat",
+            "kind": "point",
+            "mass": "1 kg",
+            "position": ["10 m", "0 m", "0 m"],
+            "velocity": ["0 m/s", "0.36276 m/s", "0 m/s"],
+        },
+        {
+            "name": "box",
+            "kind": "rigid",
+            "shape": "box",
+            "size": ["0.3 m", "0.2 m", "0.1 m"],
+            "density": "1000 kg / m3",
+            "position": ["-10 m", "0 m", "0 m"],
+            "velocity": ["0 m/s", "-0.36276 m/s", "0 m/s"],
+            "angular_velocity": ["0 rad/s", "0 rad/s", "0.1 rad/s"],
+        },
+        {
+            "name": "bar",
+            "kind": "elastic",
+            "mesh": "chain",
+            "start": ["0 m", "10 m", "0 m"],
+            "end": ["0 m", "11 m", "0 m"],
+            "elements": 2,
+            "area": "1 mm2",
+            "young": "1 GPa",
+            "density": "1000 kg / m3",
+            "position": ["0 m", "0 m", "0 m"],
+            "velocity": ["-0.36276 m/s", "0 m/s", "0 m/s"],
+        },
     ],
 }
 
 # the value kind of every dimensional key (a wrong unit for it is one of another kind)
 LENGTH_KEYS = {"position", "center", "size", "start", "end", "r_ref", "radius", "length", "end_radius", "height"}
 POSITIVE = {"dt", "mass", "density", "young", "area", "gm", "t_end"}
-UNITS_OF = {"gm": "m3 / s2", "dt": "s", "t_end": "s", "mass": "kg", "density": "kg / m3", "young": "Pa",
-            "area": "m2", "position": "m", "center": "m", "size": "m", "start": "m", "end": "m",
-            "velocity": "m / s", "angular_velocity": "rad / s"}
-WRONG_UNIT = {"s": "kg", "kg": "m", "m": "s", "m / s": "m", "m3 / s2": "m2", "kg / m3": "kg", "Pa": "m",
-              "m2": "m", "rad / s": "m / s"}
+UNITS_OF = {
+    "gm": "m3 / s2",
+    "dt": "s",
+    "t_end": "s",
+    "mass": "kg",
+    "density": "kg / m3",
+    "young": "Pa",
+    "area": "m2",
+    "position": "m",
+    "center": "m",
+    "size": "m",
+    "start": "m",
+    "end": "m",
+    "velocity": "m / s",
+    "angular_velocity": "rad / s",
+}
+WRONG_UNIT = {
+    "s": "kg",
+    "kg": "m",
+    "m": "s",
+    "m / s": "m",
+    "m3 / s2": "m2",
+    "kg / m3": "kg",
+    "Pa": "m",
+    "m2": "m",
+    "rad / s": "m / s",
+}
 
 
 def _toml_value(v) -> str:
@@ -98,8 +142,13 @@ def bad_scenes(draw):
         key = draw(st.sampled_from(required))
         del table[key]
         return d, f"{path}.{key}" if path else key
-    candidates = [k for k in table if k not in ("kind", "name") and not isinstance(table[k], (dict,))
-                  and not (isinstance(table[k], list) and table[k] and isinstance(table[k][0], dict))]
+    candidates = [
+        k
+        for k in table
+        if k not in ("kind", "name")
+        and not isinstance(table[k], (dict,))
+        and not (isinstance(table[k], list) and table[k] and isinstance(table[k][0], dict))
+    ]
     if not candidates:  # the top level holds only tables
         table["zz_unknown"] = 1
         return d, "zz_unknown"
@@ -114,9 +163,33 @@ def bad_scenes(draw):
     elif isinstance(old, list):
         options += [old[:2], old + [old[0]], [True, True, True], ["1", "2", "3"]]
     elif key in ("method", "shape", "mesh", "body"):
-        options += [draw(names.filter(lambda t: t not in ("em", "midpoint", "leapfrog", "box", "chain", "earth",
-                                                         "sun", "jupiter", "beam", "net", "file", "cylinder",
-                                                         "sphere", "shell", "dumbbell", "mesh")))]
+        options += [
+            draw(
+                names.filter(
+                    lambda t: (
+                        t
+                        not in (
+                            "em",
+                            "midpoint",
+                            "leapfrog",
+                            "box",
+                            "chain",
+                            "earth",
+                            "sun",
+                            "jupiter",
+                            "beam",
+                            "net",
+                            "file",
+                            "cylinder",
+                            "sphere",
+                            "shell",
+                            "dumbbell",
+                            "mesh",
+                        )
+                    )
+                )
+            )
+        ]
     elif key in ("order",):
         options += [3, 0, -2, 2.5, "2"]
     elif key in ("output_every", "elements"):

@@ -75,7 +75,7 @@ def test_em_jacobian_matches_finite_differences(pairs):
     worst = 0.0
     asym = 0.0
     for i in range(300):
-        f = lambda y: g.em_accel_points(x0[:, i:i + 1], y[:, None], GM, c)[:, 0]  # noqa: E731
+        f = lambda y, i=i: g.em_accel_points(x0[:, i : i + 1], y[:, None], GM, c)[:, 0]  # noqa: E731
         Jfd = _fd_jacobian(f, x1[:, i], 1e-6 * np.linalg.norm(c - x1[:, i]))
         worst = max(worst, np.abs(J[i] - Jfd).max() / np.abs(J[i]).max())
         asym = max(asym, np.abs(J[i] - J[i].T).max() / np.abs(J[i]).max())
@@ -94,7 +94,6 @@ def test_field_jacobian_matches_finite_differences(pairs):
         f = lambda y: g.accel_points(y[:, None], GM, c)[:, 0]  # noqa: E731
         Jfd = _fd_jacobian(f, x0[:, i], 1e-6 * r)
         assert np.abs(J - Jfd).max() / np.abs(J).max() < 1e-7
-
 
 
 def _ulp_errors(fn, a, b, r0, t0=None):

@@ -4,10 +4,10 @@ sub-steps or reported cleanly, collisions with the central body, stiff structure
 import h5py
 import numpy as np
 import pytest
+from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0, energy_drift_z
 
 import emorbit
 from emorbit import orbits
-from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0, energy_drift_z
 
 
 def _orbit(e, a=1.0, gm=1.0):
@@ -84,8 +84,15 @@ def test_failed_steps_are_redone_in_substeps():
     redone in halves; energy and angular momentum stay exact."""
     w = 2.0
     sim = emorbit.Simulation(None, method="em", dt=2 * np.tan(np.radians(75)) / w, max_newton_iterations=12)
-    sim.add_rigid("b", "box", size=[3.0, 2.0, 1.0], density=1.0, position=[0, 0, 0], velocity=[0, 0, 0],
-                  angular_velocity=[0.01, w, 0.01])
+    sim.add_rigid(
+        "b",
+        "box",
+        size=[3.0, 2.0, 1.0],
+        density=1.0,
+        position=[0, 0, 0],
+        velocity=[0, 0, 0],
+        angular_velocity=[0.01, w, 0.01],
+    )
     res = sim.run(steps=2000, every=10)
     assert sim.retried_steps > 10
     assert np.abs(res.relative_energy_error()).max() <= 1e-12
@@ -98,8 +105,15 @@ def test_unrecoverable_failure_keeps_the_file(tmp_path):
     file holds every record before it, no NaN, status 'failed'."""
     w = 2.0
     sim = emorbit.Simulation(None, method="em", dt=2 * np.tan(np.radians(87.5)) / w, max_newton_iterations=12)
-    sim.add_rigid("b", "box", size=[3.0, 2.0, 1.0], density=1.0, position=[0, 0, 0], velocity=[0, 0, 0],
-                  angular_velocity=[0.01, w, 0.01])
+    sim.add_rigid(
+        "b",
+        "box",
+        size=[3.0, 2.0, 1.0],
+        density=1.0,
+        position=[0, 0, 0],
+        velocity=[0, 0, 0],
+        angular_velocity=[0.01, w, 0.01],
+    )
     out = tmp_path / "f.h5"
     with pytest.raises(emorbit.IntegrationError) as info:
         sim.run(steps=100_000, every=10, output=out)
@@ -117,8 +131,9 @@ def test_unrecoverable_failure_keeps_the_file(tmp_path):
 def test_point_mass_failure_names_the_residual():
     """A point whose Newton iteration cannot converge (max 1 iteration) stops with an error
     that names the residual."""
-    sim = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="midpoint", dt=PAPER_T / 10,
-                             max_newton_iterations=1)
+    sim = emorbit.Simulation(
+        emorbit.CentralField(gm=PAPER_GM), method="midpoint", dt=PAPER_T / 10, max_newton_iterations=1
+    )
     sim.add_point("s", mass=1.0, position=PAPER_X0, velocity=PAPER_V0)
     with pytest.raises(emorbit.IntegrationError, match="residual"):
         sim.run(steps=100, every=1)
@@ -177,9 +192,20 @@ def test_stiff_structure_stiffness_ratio_1e8():
     sim = emorbit.Simulation(emorbit.CentralField(body="earth"), method="em", dt=2 * np.pi / n / 100)
     for name, x in (("a", r - L / 2), ("b", r + L / 2)):
         sim.add_point(name, mass=m, position=[x, 0, 0], velocity=[0, n * x, 0])
-    sim.add_elastic("bar", "chain", start=[-L / 2, 0, 0], end=[L / 2, 0, 0], elements=1, young=k * L / 1e-4,
-                    area=1e-4, density=1e-3, position=[r, 0, 0], velocity=[0, n * r, 0], angular_velocity=[0, 0, n],
-                    angular_velocity_frame="space")
+    sim.add_elastic(
+        "bar",
+        "chain",
+        start=[-L / 2, 0, 0],
+        end=[L / 2, 0, 0],
+        elements=1,
+        young=k * L / 1e-4,
+        area=1e-4,
+        density=1e-3,
+        position=[r, 0, 0],
+        velocity=[0, n * r, 0],
+        angular_velocity=[0, 0, n],
+        angular_velocity_frame="space",
+    )
     sim.attach("bar", [0], "a")
     sim.attach("bar", [1], "b")
     res = sim.run(steps=2000, every=20)

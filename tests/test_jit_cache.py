@@ -13,13 +13,13 @@ PACKAGE = Path(emorbit.__file__).resolve().parent
 
 
 def _import_jit(root: Path) -> None:
-    code = "import emorbit.kernels.jit, emorbit; assert emorbit.__file__.startswith(%r)" % str(root)
+    code = f"import emorbit.kernels.jit, emorbit; assert emorbit.__file__.startswith({str(root)!r})"
     env = {k: v for k, v in os.environ.items() if k != "EMORBIT_JIT_CACHE"}
     env["PYTHONPATH"] = str(root)
     # -S: no site-packages path hooks (an editable install would shadow the copy); numba and
     # numpy come from the running interpreter's paths, appended after the copy
     paths = [p for p in sys.path if p and "site-packages" in p]
-    code = "import sys; sys.path[1:1] = %r; " % paths + code
+    code = f"import sys; sys.path[1:1] = {paths!r}; " + code
     subprocess.run([sys.executable, "-S", "-c", code], check=True, env=env, cwd=root, timeout=120)
 
 

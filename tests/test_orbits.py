@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
+from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 
 from emorbit import orbits
-from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 
 
 def test_paper_orbit_numbers(paper_kepler_period):
@@ -22,9 +22,14 @@ def test_elements_round_trip():
     rng = np.random.default_rng(3)
     n = 2000
     el = orbits.OrbitalElements(
-        a=rng.uniform(1e3, 1e8, n), e=rng.uniform(0.001, 0.99, n), i=rng.uniform(0.01, np.pi - 0.01, n),
-        raan=rng.uniform(0, 2 * np.pi, n), argp=rng.uniform(0, 2 * np.pi, n), nu=rng.uniform(0, 2 * np.pi, n),
-        M=np.zeros(n))
+        a=rng.uniform(1e3, 1e8, n),
+        e=rng.uniform(0.001, 0.99, n),
+        i=rng.uniform(0.01, np.pi - 0.01, n),
+        raan=rng.uniform(0, 2 * np.pi, n),
+        argp=rng.uniform(0, 2 * np.pi, n),
+        nu=rng.uniform(0, 2 * np.pi, n),
+        M=np.zeros(n),
+    )
     gm = 3.986e14
     x, v = orbits.state_from_elements(el, gm, center=[1e3, 2e3, -3e3])
     back = orbits.elements(x, v, gm, center=[1e3, 2e3, -3e3])

@@ -3,11 +3,11 @@ Newton cost, and the properties of the driver (chunking, reversibility, independ
 
 import numpy as np
 import pytest
+from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0, energy_drift_z, paper_sim
 
 import emorbit
 from emorbit import orbits
 from emorbit.analysis import period_from_apses
-from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0, energy_drift_z, paper_sim
 
 N_ORBITS = 1000
 
@@ -115,8 +115,9 @@ def test_roundoff_fast_is_the_same_step_to_round_off():
     agree to 1e-12 but are not identical (the finish runs)."""
     out = {}
     for roundoff in ("brouwer", "fast"):
-        sim = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="em", order=4, dt=PAPER_T / 100,
-                                 roundoff=roundoff)
+        sim = emorbit.Simulation(
+            emorbit.CentralField(gm=PAPER_GM), method="em", order=4, dt=PAPER_T / 100, roundoff=roundoff
+        )
         sim.add_point("s", mass=1.0, position=PAPER_X0, velocity=PAPER_V0)
         sim.run(steps=1000, every=1000)
         out[roundoff] = np.concatenate(sim.state("s"))
@@ -161,7 +162,9 @@ def test_records_and_chunks_do_not_change_the_result():
 def test_points_are_independent():
     """Several points in one simulation move exactly as each does alone."""
     rng = np.random.default_rng(7)
-    starts = [(PAPER_X0 * s, PAPER_V0 * np.sqrt(1 / s) * f) for s, f in zip(rng.uniform(0.5, 2, 4), rng.uniform(0.8, 1.2, 4))]
+    starts = [
+        (PAPER_X0 * s, PAPER_V0 * np.sqrt(1 / s) * f) for s, f in zip(rng.uniform(0.5, 2, 4), rng.uniform(0.8, 1.2, 4))
+    ]
     together = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="em", order=4, dt=0.2)
     for i, (x, v) in enumerate(starts):
         together.add_point(f"p{i}", mass=1.0 + i, position=x, velocity=v)
@@ -177,6 +180,7 @@ def test_adding_a_point_later_keeps_the_others_bit_for_bit():
     """A point added between runs joins without touching the state of the others: their
     compensation terms (the part of the exact sum the rounded state misses) are kept, so
     they go on exactly as if nothing had been added (resetting them changed the last bits)."""
+
     def sim_with(names):
         s = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="em", order=2, dt=PAPER_T / 100)
         for k, name in enumerate(names):

@@ -20,13 +20,22 @@ def _same_files(a, b):
     they were last written)."""
     diffs = []
     with h5py.File(a, "r") as fa, h5py.File(b, "r") as fb:
+
         def visit(name, obj):
             if isinstance(obj, h5py.Dataset) and not name.startswith(("checkpoint", "final_state")):
                 if name not in fb or not np.array_equal(obj[()], fb[name][()]):
                     diffs.append(name)
+
         fa.visititems(visit)
-        fb.visititems(lambda name, obj: diffs.append(name) if isinstance(obj, h5py.Dataset)
-                      and not name.startswith(("checkpoint", "final_state")) and name not in fa else None)
+        fb.visititems(
+            lambda name, obj: (
+                diffs.append(name)
+                if isinstance(obj, h5py.Dataset)
+                and not name.startswith(("checkpoint", "final_state"))
+                and name not in fa
+                else None
+            )
+        )
     return diffs
 
 
@@ -55,14 +64,17 @@ node_output_every = 2
 """
 
 
-@pytest.mark.parametrize("scene, t1, t2", [
-    ("paper-ellipse", "2000 s", "4647.58 s"),
-    ("rigid-box-paper-ellipse", "1500 s", "3000 s"),
-    ("rigid-dumbbell-libration", "5000 s", "12000 s"),
-    ("elastic-bar-tumbling", "7 s", "14 s"),
-    ("tethered-satellites", "300 s", "700 s"),
-    ("reuse-structure", "1.7 s", "4 s"),
-])
+@pytest.mark.parametrize(
+    "scene, t1, t2",
+    [
+        ("paper-ellipse", "2000 s", "4647.58 s"),
+        ("rigid-box-paper-ellipse", "1500 s", "3000 s"),
+        ("rigid-dumbbell-libration", "5000 s", "12000 s"),
+        ("elastic-bar-tumbling", "7 s", "14 s"),
+        ("tethered-satellites", "300 s", "700 s"),
+        ("reuse-structure", "1.7 s", "4 s"),
+    ],
+)
 def test_resume_is_bit_identical(tmp_path, scene, t1, t2):
     """Run to t1 (off the checkpoint grid), resume to t2: every record equals a single run to t2."""
     if scene == "reuse-structure":

@@ -5,29 +5,33 @@ import astropy.constants as const
 import h5py
 import numpy as np
 import pytest
+from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 from scipy.integrate import solve_ivp
 
 import emorbit
 from emorbit.bodies import shapes
+from emorbit.bodies.rotations import matrix_to_quaternion, quaternion_to_matrix, rotation_vector_to_matrix
 from emorbit.cli import main
 from emorbit.errors import InputError
 from emorbit.kernels import rigid as kr
-from emorbit.bodies.rotations import matrix_to_quaternion, quaternion_to_matrix, rotation_vector_to_matrix
-from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 
 GM_EARTH = const.GM_earth.si.value
 
 
 # -- discretisation ------------------------------------------------------------------------
 
-@pytest.mark.parametrize("points, npts", [
-    (lambda: shapes.box([3.0, 2.0, 1.0], density=7.0, refinement=1), 8),
-    (lambda: shapes.box([3.0, 2.0, 1.0], mass=5.0, refinement=3), 216),
-    (lambda: shapes.cylinder(0.5, 2.0, density=3.0, refinement=2), 2 * 2 * 2 * 2 * 8),
-    (lambda: shapes.sphere(1.5, density=2.0, refinement=2), 24 * 8),
-    (lambda: shapes.shell(2.0, mass=4.0, refinement=2), 32),
-    (lambda: shapes.dumbbell([1.0, 3.0], 10.0, refinement=1), 48),
-])
+
+@pytest.mark.parametrize(
+    "points, npts",
+    [
+        (lambda: shapes.box([3.0, 2.0, 1.0], density=7.0, refinement=1), 8),
+        (lambda: shapes.box([3.0, 2.0, 1.0], mass=5.0, refinement=3), 216),
+        (lambda: shapes.cylinder(0.5, 2.0, density=3.0, refinement=2), 2 * 2 * 2 * 2 * 8),
+        (lambda: shapes.sphere(1.5, density=2.0, refinement=2), 24 * 8),
+        (lambda: shapes.shell(2.0, mass=4.0, refinement=2), 32),
+        (lambda: shapes.dumbbell([1.0, 3.0], 10.0, refinement=1), 48),
+    ],
+)
 def test_discrete_inertia_is_exact(points, npts):
     """The quadratures integrate second moments exactly: the inertia of the mass points
     equals the analytic inertia of the shape, and the centre of mass is the origin."""
@@ -43,7 +47,7 @@ def test_mesh_inertia_and_volume():
     # Kuhn triangulation of the cube along the diagonal 0 -> 7
     paths = [(4, 2, 1), (4, 1, 2), (2, 4, 1), (2, 1, 4), (1, 4, 2), (1, 2, 4)]
     tets = []
-    for a, b, c in paths:
+    for a, b, _c in paths:
         v1 = a
         v2 = a + b
         tet = [0, v1, v2, 7]
@@ -56,12 +60,15 @@ def test_mesh_inertia_and_volume():
     np.testing.assert_allclose(p.inertia, 2.0 / 6.0 * np.eye(3), rtol=1e-13, atol=1e-15)
 
 
-@pytest.mark.parametrize("change, key, needle", [
-    ("invert", "tetrahedra[0]", "inverted"),
-    ("flat", "tetrahedra[0]", "zero-volume"),
-    ("dangling", "nodes[4]", "dangling"),
-    ("index", "tetrahedra[0]", "out of range"),
-])
+@pytest.mark.parametrize(
+    "change, key, needle",
+    [
+        ("invert", "tetrahedra[0]", "inverted"),
+        ("flat", "tetrahedra[0]", "zero-volume"),
+        ("dangling", "nodes[4]", "dangling"),
+        ("index", "tetrahedra[0]", "out of range"),
+    ],
+)
 def test_bad_meshes(change, key, needle):
     nodes = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
     tets = np.array([[0, 1, 2, 3]])
@@ -78,20 +85,23 @@ def test_bad_meshes(change, key, needle):
     assert key in str(info.value) and needle in str(info.value)
 
 
-@pytest.mark.parametrize("kwargs, key", [
-    (dict(shape="cube", size=[1, 1, 1], density=1.0), "shape"),
-    (dict(shape="box", size=[1, 1, 1], density=1.0, radius=2.0), "radius"),
-    (dict(shape="box", size=[1, 1, 1], density=0.0), "density"),
-    (dict(shape="box", size=[1, 1, 1], density=-1.0), "density"),
-    (dict(shape="box", size=[1, 1, 1]), "exactly one of density and mass"),
-    (dict(shape="box", size=[1, 1, 0], density=1.0), "size"),
-    (dict(shape="sphere", radius=1.0, mass=-2.0), "mass"),
-    (dict(shape="box", size=[1, 1, 1], density=1.0, attitude=[1, 1, 0, 0]), "unit quaternion"),
-    (dict(shape="box", size=[1, 1, 1], density=1.0, attitude=[1, 0, 0, 0], rotation_vector=[0, 0, 1]), "not both"),
-    (dict(shape="box", size=[1, 1, 1], density=1.0, gravity="tidal"), "gravity"),
-    (dict(shape="box", size=[1, 1, 1], density=1.0, refinement=0), "refinement"),
-    (dict(shape="mesh", nodes=[[0, 0, 0]], tetrahedra=[[0, 1, 2, 3]], density=1.0), "nodes"),
-])
+@pytest.mark.parametrize(
+    "kwargs, key",
+    [
+        (dict(shape="cube", size=[1, 1, 1], density=1.0), "shape"),
+        (dict(shape="box", size=[1, 1, 1], density=1.0, radius=2.0), "radius"),
+        (dict(shape="box", size=[1, 1, 1], density=0.0), "density"),
+        (dict(shape="box", size=[1, 1, 1], density=-1.0), "density"),
+        (dict(shape="box", size=[1, 1, 1]), "exactly one of density and mass"),
+        (dict(shape="box", size=[1, 1, 0], density=1.0), "size"),
+        (dict(shape="sphere", radius=1.0, mass=-2.0), "mass"),
+        (dict(shape="box", size=[1, 1, 1], density=1.0, attitude=[1, 1, 0, 0]), "unit quaternion"),
+        (dict(shape="box", size=[1, 1, 1], density=1.0, attitude=[1, 0, 0, 0], rotation_vector=[0, 0, 1]), "not both"),
+        (dict(shape="box", size=[1, 1, 1], density=1.0, gravity="tidal"), "gravity"),
+        (dict(shape="box", size=[1, 1, 1], density=1.0, refinement=0), "refinement"),
+        (dict(shape="mesh", nodes=[[0, 0, 0]], tetrahedra=[[0, 1, 2, 3]], density=1.0), "nodes"),
+    ],
+)
 def test_bad_rigid_input(kwargs, key):
     sim = emorbit.Simulation(emorbit.CentralField(gm=1.0), dt=0.1)
     shape = kwargs.pop("shape")
@@ -103,7 +113,9 @@ def test_bad_rigid_input(kwargs, key):
 def test_field_and_method_requirements():
     free = emorbit.Simulation(None, dt=0.1)
     with pytest.raises(InputError, match="needs a central field"):
-        free.add_rigid("b", "box", size=[1, 1, 1], density=1.0, position=[0, 0, 0], velocity=[0, 0, 0], gravity="volume")
+        free.add_rigid(
+            "b", "box", size=[1, 1, 1], density=1.0, position=[0, 0, 0], velocity=[0, 0, 0], gravity="volume"
+        )
     with pytest.raises(InputError, match="point mass"):
         free.add_point("p", mass=1, position=[1, 0, 0], velocity=[0, 0, 0])
     leap = emorbit.Simulation(emorbit.CentralField(gm=1.0), method="leapfrog", dt=0.1)
@@ -127,6 +139,7 @@ def test_rotations_round_trip():
 
 # -- torque-free motion --------------------------------------------------------------------
 
+
 def _euler_reference(inertia, omega0, t):
     """Euler's equations and quaternion kinematics by scipy's DOP853 at rtol 1e-12."""
     Iinv = np.linalg.inv(inertia)
@@ -134,11 +147,14 @@ def _euler_reference(inertia, omega0, t):
     def rhs(_, y):
         om, (w, x, yy, z) = y[:3], y[3:]
         p, q, r = om
-        dq = 0.5 * np.array([-x * p - yy * q - z * r, w * p + yy * r - z * q, w * q + z * p - x * r, w * r + x * q - yy * p])
+        dq = 0.5 * np.array(
+            [-x * p - yy * q - z * r, w * p + yy * r - z * q, w * q + z * p - x * r, w * r + x * q - yy * p]
+        )
         return np.concatenate([Iinv @ np.cross(inertia @ om, om), dq])
 
-    sol = solve_ivp(rhs, (0, t[-1]), np.concatenate([omega0, [1.0, 0, 0, 0]]), method="DOP853", rtol=1e-12,
-                    atol=1e-14, t_eval=t)
+    sol = solve_ivp(
+        rhs, (0, t[-1]), np.concatenate([omega0, [1.0, 0, 0, 0]]), method="DOP853", rtol=1e-12, atol=1e-14, t_eval=t
+    )
     return sol.y[:3].T, sol.y[3:].T
 
 
@@ -149,18 +165,23 @@ def _attitude_error(qa, qb):
     return 2 * np.arcsin(np.clip(d / (2 * np.sqrt(2)), 0, 1))
 
 
-@pytest.mark.parametrize("case, size, omega0, tol", [
-    # measured at dt = 0.01 s over 20 s: omega 8.2e-4 / 3.8e-4 rad/s, attitude 1.35e-3 / 1.38e-3 rad
-    ("intermediate-axis flip", [3.0, 2.0, 1.0], [0.01, 2.0, 0.01], (1.2e-3, 2e-3)),
-    ("symmetric top", [1.0, 1.0, 3.0], [0.3, 0.0, 2.0], (6e-4, 2e-3)),
-])
+@pytest.mark.parametrize(
+    "case, size, omega0, tol",
+    [
+        # measured at dt = 0.01 s over 20 s: omega 8.2e-4 / 3.8e-4 rad/s, attitude 1.35e-3 / 1.38e-3 rad
+        ("intermediate-axis flip", [3.0, 2.0, 1.0], [0.01, 2.0, 0.01], (1.2e-3, 2e-3)),
+        ("symmetric top", [1.0, 1.0, 3.0], [0.3, 0.0, 2.0], (6e-4, 2e-3)),
+    ],
+)
 def test_torque_free_against_dop853(case, size, omega0, tol):
     """Angular velocity and attitude agree with an independent high-accuracy solve within the
     measured second-order error, which falls by 4 when dt halves; E and L exact."""
     errs = []
     for dt in (0.01, 0.005):
         sim = emorbit.Simulation(None, method="em", dt=dt)
-        sim.add_rigid("b", "box", size=size, density=1.0, position=[0, 0, 0], velocity=[0, 0, 0], angular_velocity=omega0)
+        sim.add_rigid(
+            "b", "box", size=size, density=1.0, position=[0, 0, 0], velocity=[0, 0, 0], angular_velocity=omega0
+        )
         res = sim.run(steps=int(round(20.0 / dt)), every=int(round(0.5 / dt)))
         om, q = _euler_reference(sim.rigid.points[0].inertia, np.array(omega0), res.time)
         errs.append((np.abs(res.angular_velocities["b"] - om).max(), _attitude_error(res.attitudes["b"], q).max()))
@@ -180,12 +201,17 @@ def test_angular_velocity_follows_the_composition_order():
     errs = []
     for dt in (0.04, 0.02, 0.01):
         sim = emorbit.Simulation(None, method="em", order=4, dt=dt)
-        sim.add_rigid("b", "box", size=[3.0, 2.0, 1.0], density=1.0, position=[0, 0, 0], velocity=[0, 0, 0],
-                      angular_velocity=om0)
+        sim.add_rigid(
+            "b", "box", size=[3.0, 2.0, 1.0], density=1.0, position=[0, 0, 0], velocity=[0, 0, 0], angular_velocity=om0
+        )
         res = sim.run(steps=int(round(2.0 / dt)), every=int(round(2.0 / dt)))
         om, q = _euler_reference(sim.rigid.points[0].inertia, om0, res.time)
-        errs.append((np.abs(res.angular_velocities["b"][-1] - om[-1]).max(),
-                     _attitude_error(res.attitudes["b"][-1:], q[-1:])[0]))
+        errs.append(
+            (
+                np.abs(res.angular_velocities["b"][-1] - om[-1]).max(),
+                _attitude_error(res.attitudes["b"][-1:], q[-1:])[0],
+            )
+        )
     orders = np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
     np.testing.assert_allclose(orders, 4.0, atol=0.3)
 
@@ -199,8 +225,15 @@ def test_large_rotations_per_step_conserve(degrees):
     w = 2.0
     dt = 2 * np.tan(np.radians(degrees) / 2) / w
     sim = emorbit.Simulation(None, method="em", dt=dt)
-    sim.add_rigid("b", "box", size=[3.0, 2.0, 1.0], density=1.0, position=[0, 0, 0], velocity=[0, 0, 0],
-                  angular_velocity=[0.01, w, 0.01])
+    sim.add_rigid(
+        "b",
+        "box",
+        size=[3.0, 2.0, 1.0],
+        density=1.0,
+        position=[0, 0, 0],
+        velocity=[0, 0, 0],
+        angular_velocity=[0.01, w, 0.01],
+    )
     res = sim.run(steps=100_000, every=1000)
     assert np.abs(res.relative_energy_error()).max() <= 1e-12
     assert res.relative_angular_momentum_error().max() <= 1e-12
@@ -212,15 +245,38 @@ def test_newton_converges_quadratically():
     """The iterates of one step in the field: each error is at most a constant times the
     square of the previous one until round-off (measured 6.7e-6, 1.9e-11, 0)."""
     sim = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="em", dt=PAPER_T / 100)
-    sim.add_rigid("b", "box", size=[0.3, 0.2, 0.1], density=1000.0, refinement=2, position=PAPER_X0,
-                  velocity=PAPER_V0, angular_velocity=[0, 0, 0.1])
+    sim.add_rigid(
+        "b",
+        "box",
+        size=[0.3, 0.2, 0.1],
+        density=1000.0,
+        refinement=2,
+        position=PAPER_X0,
+        velocity=PAPER_V0,
+        angular_velocity=[0, 0, 0.1],
+    )
     sim.run(steps=57, every=57)
     rb = sim.rigid
     iterates = []
     for k in range(1, 6):
         w = kr.work_arrays(rb.X)
-        kr.rigid_step(kr.METHOD_EM, kr.GRAVITY_VOLUME, rb.q[0].copy(), rb.v[0].copy(), rb.lam[0].copy(), rb.mass[0],
-                      rb.E[0], rb.Einv[0], rb.X, rb.mp, PAPER_GM, np.zeros(3), sim.dt, k, w)
+        kr.rigid_step(
+            kr.METHOD_EM,
+            kr.GRAVITY_VOLUME,
+            rb.q[0].copy(),
+            rb.v[0].copy(),
+            rb.lam[0].copy(),
+            rb.mass[0],
+            rb.E[0],
+            rb.Einv[0],
+            rb.X,
+            rb.mp,
+            PAPER_GM,
+            np.zeros(3),
+            sim.dt,
+            k,
+            w,
+        )
         iterates.append(w[16].copy())
     err = [np.abs(x - iterates[-1]).max() for x in iterates[:-1]]
     assert err[0] > 1e-8  # a real first correction
@@ -244,9 +300,17 @@ def _pitch(res):
 
 def _orbiting_box(angle, orbits, div=2000):
     sim = emorbit.Simulation(emorbit.CentralField(body="earth"), method="em", dt=2 * np.pi / N_ORBIT / div)
-    sim.add_rigid("b", "box", size=[2.0, 1.0, 0.5], density=500.0, position=[R_ORBIT, 0, 0],
-                  velocity=[0, np.sqrt(GM_EARTH / R_ORBIT), 0], rotation_vector=[0, 0, angle],
-                  angular_velocity=[0, 0, N_ORBIT], angular_velocity_frame="space")
+    sim.add_rigid(
+        "b",
+        "box",
+        size=[2.0, 1.0, 0.5],
+        density=500.0,
+        position=[R_ORBIT, 0, 0],
+        velocity=[0, np.sqrt(GM_EARTH / R_ORBIT), 0],
+        rotation_vector=[0, 0, angle],
+        angular_velocity=[0, 0, N_ORBIT],
+        angular_velocity_frame="space",
+    )
     return sim, sim.run(steps=orbits * div, every=1)
 
 
@@ -292,8 +356,15 @@ def test_shrinking_body_tends_to_point_mass():
     diffs = []
     for s in (0.1, 0.05, 0.025, 0.0125):
         sim = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="em", dt=PAPER_T / 100)
-        sim.add_rigid("b", "box", size=[s, 0.6 * s, 0.3 * s], density=1.0, position=PAPER_X0, velocity=PAPER_V0,
-                      angular_velocity=[0, 0, 0.2])
+        sim.add_rigid(
+            "b",
+            "box",
+            size=[s, 0.6 * s, 0.3 * s],
+            density=1.0,
+            position=PAPER_X0,
+            velocity=PAPER_V0,
+            angular_velocity=[0, 0, 0.2],
+        )
         sim.run(steps=100, every=100)
         diffs.append(np.linalg.norm(sim.state("b")[0] - xp))
     np.testing.assert_allclose(np.log2(np.array(diffs[:-1]) / np.array(diffs[1:])), 2.0, atol=0.01)
@@ -306,8 +377,15 @@ def test_em_exact_midpoint_not_over_1000_orbits():
     out = {}
     for method in ("em", "midpoint"):
         sim = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method=method, dt=PAPER_T / 100)
-        sim.add_rigid("b", "box", size=[0.5, 0.3, 0.2], density=1000.0, position=PAPER_X0, velocity=PAPER_V0,
-                      angular_velocity=[0.02, 0.01, 0.1])
+        sim.add_rigid(
+            "b",
+            "box",
+            size=[0.5, 0.3, 0.2],
+            density=1000.0,
+            position=PAPER_X0,
+            velocity=PAPER_V0,
+            angular_velocity=[0.02, 0.01, 0.1],
+        )
         out[method] = sim.run(steps=100_000, every=100)
     assert np.abs(out["em"].relative_energy_error()).max() <= 1e-12
     assert out["em"].relative_angular_momentum_error().max() <= 1e-12
@@ -321,8 +399,16 @@ def test_gravity_models():
     spins = {}
     for model in ("point", "volume"):
         sim = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="em", dt=PAPER_T / 100)
-        sim.add_rigid("b", "box", size=[0.4, 0.1, 0.06], density=1.0, position=PAPER_X0, velocity=PAPER_V0,
-                      rotation_vector=[0, 0, 0.4], gravity=model)
+        sim.add_rigid(
+            "b",
+            "box",
+            size=[0.4, 0.1, 0.06],
+            density=1.0,
+            position=PAPER_X0,
+            velocity=PAPER_V0,
+            rotation_vector=[0, 0, 0.4],
+            gravity=model,
+        )
         res = sim.run(steps=500, every=500)
         spins[model] = np.abs(res.angular_velocities["b"][-1]).max()
         assert np.abs(res.relative_energy_error()).max() < 1e-13
@@ -334,9 +420,19 @@ def test_chunking_is_bit_identical_and_mixed_scenes():
     def make():
         sim = emorbit.Simulation(emorbit.CentralField(gm=PAPER_GM), method="em", order=4, dt=PAPER_T / 100)
         sim.add_point("p", mass=1.0, position=PAPER_X0, velocity=PAPER_V0)
-        sim.add_rigid("b", "cylinder", radius=0.2, height=0.5, density=100.0, refinement=1, position=-PAPER_X0,
-                      velocity=-PAPER_V0, angular_velocity=[0.1, 0.2, 0.3])
+        sim.add_rigid(
+            "b",
+            "cylinder",
+            radius=0.2,
+            height=0.5,
+            density=100.0,
+            refinement=1,
+            position=-PAPER_X0,
+            velocity=-PAPER_V0,
+            angular_velocity=[0.1, 0.2, 0.3],
+        )
         return sim
+
     a, b = make(), make()
     ra = a.run(steps=300, every=1)
     b.run(steps=123, every=7)
@@ -348,6 +444,7 @@ def test_chunking_is_bit_identical_and_mixed_scenes():
 
 
 # -- scenes, files and plots ---------------------------------------------------------------
+
 
 @pytest.mark.parametrize("scene", ["rigid-tumbling-box", "rigid-dumbbell-libration", "rigid-box-paper-ellipse"])
 def test_shipped_rigid_scenes(tmp_path, scene):
@@ -390,10 +487,18 @@ def test_dumbbell_scene_librates_at_sqrt3_n(tmp_path):
 def test_adding_a_body_later_keeps_the_others_bit_for_bit():
     """A rigid body added between runs leaves the others' compensation terms and Newton warm
     starts as they were, so they go on exactly as if it had not been added."""
+
     def sim():
         s = emorbit.Simulation(emorbit.CentralField(gm=3.9478), method="em", dt=0.2)
-        s.add_rigid("a", "box", size=[1.0, 0.5, 0.2], density=1.0, position=[6, 0, 0], velocity=[0, 0.8, 0],
-                    angular_velocity=[0.1, 0.3, 1.0])
+        s.add_rigid(
+            "a",
+            "box",
+            size=[1.0, 0.5, 0.2],
+            density=1.0,
+            position=[6, 0, 0],
+            velocity=[0, 0.8, 0],
+            angular_velocity=[0.1, 0.3, 1.0],
+        )
         return s
 
     plain, grown = sim(), sim()

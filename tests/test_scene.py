@@ -26,7 +26,9 @@ def test_field_forms():
     g_ref = PAPER.replace('gm = "3.9478 m3 / s2"', 'g_ref = "0.039478 m / s2"\nr_ref = "10 m"')
     sim = parse_scene(g_ref).build()
     assert sim.field.gm == pytest.approx(3.9478, rel=1e-15)
-    earth = PAPER.replace('gm = "3.9478 m3 / s2"', 'body = "earth"').replace('"10 m", "0 m", "0 m"', '"7000 km", "0 m", "0 m"')
+    earth = PAPER.replace('gm = "3.9478 m3 / s2"', 'body = "earth"').replace(
+        '"10 m", "0 m", "0 m"', '"7000 km", "0 m", "0 m"'
+    )
     sim = parse_scene(earth).build()
     assert sim.field.gm == const.GM_earth.si.value
     moved = PAPER.replace('center = ["0 m", "0 m", "0 m"]', 'center = ["1 km", "0 m", "0 m"]')
@@ -34,7 +36,9 @@ def test_field_forms():
 
 
 def test_to_toml_round_trip_is_exact():
-    sim = emorbit.Simulation(emorbit.CentralField(gm=0.1 + 0.2, center=[1 / 3, 0, 0]), method="leapfrog", order=6, dt=0.1)
+    sim = emorbit.Simulation(
+        emorbit.CentralField(gm=0.1 + 0.2, center=[1 / 3, 0, 0]), method="leapfrog", order=6, dt=0.1
+    )
     sim.add_point('odd "name"', mass=1 / 7, position=[np.pi, 1e-300, 2.0], velocity=[0.0, 1 / 3, 5e-17])
     again = parse_scene(sim.to_toml(t_end=1.0)).build()
     assert again.field.gm == sim.field.gm and np.array_equal(again.field.center, sim.field.center)
@@ -59,15 +63,21 @@ BAD = [
     ("negative dt", 'dt = "0.464758 s"', 'dt = "-1 s"', "integrator.dt", "-1 s"),
     ("zero mass", 'mass = "1 kg"', 'mass = "0 kg"', "body[0].mass", "0 kg"),
     ("negative mass", 'mass = "1 kg"', 'mass = "-2 kg"', "body[0].mass", "-2 kg"),
-    ("point at centre", 'position = ["10 m", "0 m", "0 m"]', 'position = ["0 m", "0 m", "0 m"]', "body[0].position", "centre"),
-    ("missing unit", 'dt = "0.464758 s"', 'dt = 0.464758', "integrator.dt", "0.464758"),
+    (
+        "point at centre",
+        'position = ["10 m", "0 m", "0 m"]',
+        'position = ["0 m", "0 m", "0 m"]',
+        "body[0].position",
+        "centre",
+    ),
+    ("missing unit", 'dt = "0.464758 s"', "dt = 0.464758", "integrator.dt", "0.464758"),
     ("missing unit in a string", 'mass = "1 kg"', 'mass = "1"', "body[0].mass", "'1'"),
     ("wrong unit", 'dt = "0.464758 s"', 'dt = "0.464758 m"', "integrator.dt", "0.464758 m"),
     ("wrong unit on a vector", '"0.36276 m/s"', '"0.36276 m"', "body[0].velocity[1]", "0.36276 m"),
     ("unknown field body", 'gm = "3.9478 m3 / s2"', 'body = "pluto"', "field.body", "pluto"),
     ("unknown top-level key", "[field]", "colour = 1\n[field]", "colour", "colour"),
     ("unknown field key", "[field]", '[field]\nmass = "1 kg"', "field.mass", "mass"),
-    ("unknown integrator key", "[integrator]", '[integrator]\ntolerance = 1e-9', "integrator.tolerance", "tolerance"),
+    ("unknown integrator key", "[integrator]", "[integrator]\ntolerance = 1e-9", "integrator.tolerance", "tolerance"),
     ("unknown body key", 'kind = "point"', 'kind = "point"\ncolor = "red"', "body[0].color", "color"),
     ("unknown body kind", 'kind = "point"', 'kind = "comet"', "body[0].kind", "comet"),
     ("missing dt", 'dt = "0.464758 s"\n', "", "integrator.dt", "missing"),
@@ -79,7 +89,13 @@ BAD = [
     ("two field strengths", 'gm = "3.9478 m3 / s2"', 'gm = "3.9478 m3 / s2"\nbody = "earth"', "field", "gm and body"),
     ("g_ref without r_ref", 'gm = "3.9478 m3 / s2"', 'g_ref = "0.039478 m / s2"', "field.g_ref", "r_ref"),
     ("non-positive GM", 'gm = "3.9478 m3 / s2"', 'gm = "-3.9478 m3 / s2"', "field.gm", "-3.9478"),
-    ("two components", 'position = ["10 m", "0 m", "0 m"]', 'position = ["10 m", "0 m"]', "body[0].position", "3 components"),
+    (
+        "two components",
+        'position = ["10 m", "0 m", "0 m"]',
+        'position = ["10 m", "0 m"]',
+        "body[0].position",
+        "3 components",
+    ),
     ("empty name", 'name = "satellite"', 'name = ""', "body[0].name", "''"),
     ("slash in name", 'name = "satellite"', 'name = "a/b"', "body[0].name", "a/b"),
     ("t_end before one step", 't_end = "4647.58 s"', 't_end = "-5 s"', "integrator.t_end", "-5 s"),
@@ -97,14 +113,14 @@ def test_bad_scene_is_a_clear_error(what, old, new, key, value):
 
 
 def test_duplicate_names():
-    text = PAPER + PAPER[PAPER.index("[[body]]"):]
+    text = PAPER + PAPER[PAPER.index("[[body]]") :]
     with pytest.raises(InputError, match=re.escape("body[1].name") + ".*already exists"):
         parse_scene(text)
 
 
 def test_no_bodies():
     with pytest.raises(InputError, match="body"):
-        parse_scene(PAPER[:PAPER.index("[[body]]")])
+        parse_scene(PAPER[: PAPER.index("[[body]]")])
 
 
 @pytest.mark.parametrize("what, old, new, key, value", BAD[:6], ids=[b[0] for b in BAD[:6]])

@@ -87,13 +87,20 @@ def _one_by_one(speeds, dts, t_end):
             sim = scene.build()
             res = sim.run(t_end=scene.t_end, every=1, progress=False)
             el = sim.elements("satellite")
-            rows.append({"integrator.dt": dt, "body[satellite].velocity[1]": float(v), "status": "completed",
-                         "t_final": float(res.time[-1]), "records": len(res),
-                         "energy_error": float(np.abs(res.relative_energy_error()).max()),
-                         "angular_momentum_error": float(res.relative_angular_momentum_error().max()),
-                         "newton_mean": res.mean_newton_iterations(),
-                         "newton_max": float(np.max(res.newton_iterations[1:])),
-                         **{f"satellite/{n}": float(getattr(el, n)) for n in ("a", "e", "i", "raan", "argp", "nu")}})
+            rows.append(
+                {
+                    "integrator.dt": dt,
+                    "body[satellite].velocity[1]": float(v),
+                    "status": "completed",
+                    "t_final": float(res.time[-1]),
+                    "records": len(res),
+                    "energy_error": float(np.abs(res.relative_energy_error()).max()),
+                    "angular_momentum_error": float(res.relative_angular_momentum_error().max()),
+                    "newton_mean": res.mean_newton_iterations(),
+                    "newton_max": float(np.max(res.newton_iterations[1:])),
+                    **{f"satellite/{n}": float(getattr(el, n)) for n in ("a", "e", "i", "raan", "argp", "nu")},
+                }
+            )
     return rows
 
 
@@ -104,13 +111,14 @@ def test_keys_parse_and_unknown_keys_are_named():
     assert parse_key("integrator.dt") == ("integrator", "dt")
     cases = {
         '[sweep]\nscene = "paper-ellipse"\nsed = 1\n': "sweep.sed",
-        '[sweep]\nscene = "paper-ellipse"\n[[parameter]]\nkey = "integrator.dt"\nvalue = ["1 s"]\n': "parameter[0].value",
+        '[sweep]\nscene = "paper-ellipse"\n[[parameter]]\nkey = "integrator.dt"\n'
+        'value = ["1 s"]\n': "parameter[0].value",
         '[sweep]\nscene = "paper-ellipse"\n[[parameter]]\nkey = "integrator.dtt"\nvalues = ["1 s"]\n': "integrator.dtt",
         '[sweep]\nscene = "paper-ellipse"\n[[parameter]]\nkey = "body[3].mass"\nvalues = ["1 kg"]\n': "body[3]",
         '[sweep]\nscene = "paper-ellipse"\n[[parameter]]\nkey = "body[moon].mass"\nvalues = ["1 kg"]\n': "moon",
         '[sweep]\nscene = "paper-ellipse"\n[[parameter]]\nkey = "body[0].spin"\nvalues = [1]\n': "body[0].spin",
         '[sweep]\nscene = "paper-ellipse"\n[[parameter]]\nkey = "body[0].velocity[1]"\n'
-        'range = { start = 0.3, stop = 0.4, num = 3 }\n': "parameter[0].unit",   # the scene wants a unit
+        "range = { start = 0.3, stop = 0.4, num = 3 }\n": "parameter[0].unit",  # the scene wants a unit
         '[sweep]\nscene = "paper-ellipse"\n[[parameter]]\nkey = "integrator.order"\n'
         'range = { start = 2, stop = 4, step = 2 }\nunit = "s"\n': "parameter[0].unit",  # a bare number wanted
         '[sweep]\nscene = "paper-ellipse"\n[set]\n"integrator.dtt" = "1 s"\n': "set.integrator.dtt",
@@ -150,7 +158,11 @@ unit = "m"
     assert len(sweep) == len(tasks) == 12
     # product, the last list fastest, then the samples
     assert [(t.values["integrator.dt"], t.values["integrator.order"]) for t in tasks[::3]] == [
-        ("0.4 s", 2), ("0.4 s", 4), ("0.2 s", 2), ("0.2 s", 4)]
+        ("0.4 s", 2),
+        ("0.4 s", 4),
+        ("0.2 s", 2),
+        ("0.2 s", 4),
+    ]
     children = np.random.SeedSequence(42).spawn(12)
     for t, child in zip(tasks, children):
         assert t.seed == int(child.generate_state(1, np.uint64)[0])
@@ -311,8 +323,7 @@ def test_process_backend_equals_running_one_by_one(grid_reference, process_summa
     _check_against(summary, reference)
 
 
-def test_dask_local_cluster_equals_one_by_one_and_the_process_backend(grid_reference, process_summary,
-                                                                     tmp_path):
+def test_dask_local_cluster_equals_one_by_one_and_the_process_backend(grid_reference, process_summary, tmp_path):
     pytest.importorskip("distributed", reason="dask.distributed is not installed (pip install 'emorbit[cluster]')")
     sweep, reference = grid_reference
     res = run_sweep(sweep, tmp_path / "out", backend="dask", workers=2)
@@ -357,6 +368,7 @@ def _kill_third(killed, threads):
         if len(killed) == 0 and row["run"] >= 2:
             killed.append(worker["pid"])
             os.kill(worker["pid"], signal.SIGKILL)  # it has already taken its next run
+
     return on_result
 
 
@@ -389,13 +401,19 @@ def test_killing_a_process_worker_loses_nothing_and_duplicates_nothing(killed_pr
 def test_killing_a_dask_worker_loses_nothing_and_duplicates_nothing(killed_process_sweep, tmp_path):
     """On an existing cluster (``scheduler=``, as ``--scheduler tcp://...`` does): Dask's nanny
     restarts the killed worker and the scheduler gives its run to a worker again."""
-    distributed = pytest.importorskip("distributed",
-                                      reason="dask.distributed is not installed (pip install 'emorbit[cluster]')")
+    distributed = pytest.importorskip(
+        "distributed", reason="dask.distributed is not installed (pip install 'emorbit[cluster]')"
+    )
     killed, threads = [], set()
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
-                                  env={"NUMBA_NUM_THREADS": "1"}) as cluster:
-        res = run_sweep(parse_sweep(SLOW), tmp_path / "out", scheduler=cluster.scheduler_address,
-                        on_result=_kill_third(killed, threads))
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=None, env={"NUMBA_NUM_THREADS": "1"}
+    ) as cluster:
+        res = run_sweep(
+            parse_sweep(SLOW),
+            tmp_path / "out",
+            scheduler=cluster.scheduler_address,
+            on_result=_kill_third(killed, threads),
+        )
     assert len(killed) == 1 and threads == {1}
     _no_loss_no_duplicate(res, tmp_path / "out")
     assert _same(_strip(res.rows), _strip(killed_process_sweep[0].rows))

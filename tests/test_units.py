@@ -18,14 +18,17 @@ def test_accepts_quantities_strings_and_floats():
     np.testing.assert_array_equal(vector_to_si(["1 m", "2 km", "0 m"], "length", "p"), [1.0, 2000.0, 0.0])
 
 
-@pytest.mark.parametrize("value, kind, needle", [
-    ("10", "length", "no unit"),
-    ("10 s", "length", "not a length"),
-    ("ten m", "length", "cannot read"),
-    ("nan m", "length", "not finite"),
-    (True, "length", "expected a length"),
-    ([1, 2] * u.m, "length", "one value"),
-])
+@pytest.mark.parametrize(
+    "value, kind, needle",
+    [
+        ("10", "length", "no unit"),
+        ("10 s", "length", "not a length"),
+        ("ten m", "length", "cannot read"),
+        ("nan m", "length", "not finite"),
+        (True, "length", "expected a length"),
+        ([1, 2] * u.m, "length", "one value"),
+    ],
+)
 def test_bad_scalars_name_key_and_value(value, kind, needle):
     with pytest.raises(InputError) as info:
         to_si(value, kind, "the.key", strict=True)

@@ -28,8 +28,12 @@ def _checks(suite):
 
 def test_quick_validation_passes(quick):
     code, _, suite = quick
-    failed = [f"{c['name']}: {ch['id']} = {ch['value']:.3g} > {ch['tolerance']:.3g} {ch['unit']} ({ch['what']})"
-              for c in suite["cases"] for ch in c["checks"] if not ch["passed"]]
+    failed = [
+        f"{c['name']}: {ch['id']} = {ch['value']:.3g} > {ch['tolerance']:.3g} {ch['unit']} ({ch['what']})"
+        for c in suite["cases"]
+        for ch in c["checks"]
+        if not ch["passed"]
+    ]
     assert not failed, "\n".join(failed)
     assert code == 0 and suite["passed"]
 
@@ -73,8 +77,7 @@ def test_must_show_checks_are_present(quick):
 
 def test_failing_tolerance_exits_nonzero(tmp_path, capsys):
     """Tolerances a thousand times tighter than stated must fail (the checks can fail)."""
-    code = main(["validate", "--quick", "--cases", "earth-geo", "--tolerance-scale", "1e-3",
-                 "--report", str(tmp_path)])
+    code = main(["validate", "--quick", "--cases", "earth-geo", "--tolerance-scale", "1e-3", "--report", str(tmp_path)])
     assert code == 1
     out = capsys.readouterr().out
     assert "FAIL" in out
@@ -83,11 +86,14 @@ def test_failing_tolerance_exits_nonzero(tmp_path, capsys):
     assert "FAILED" in (tmp_path / "report.md").read_text()
 
 
-@pytest.mark.parametrize("argv, option", [
-    (["--cases", "no-such-case"], "--cases"),
-    (["--tolerance-scale", "-1"], "--tolerance-scale"),
-    (["--tolerance-scale", "lots"], "--tolerance-scale"),
-])
+@pytest.mark.parametrize(
+    "argv, option",
+    [
+        (["--cases", "no-such-case"], "--cases"),
+        (["--tolerance-scale", "-1"], "--tolerance-scale"),
+        (["--tolerance-scale", "lots"], "--tolerance-scale"),
+    ],
+)
 def test_bad_input_names_the_option(tmp_path, capsys, argv, option):
     assert main(["validate", "--quick", "--report", str(tmp_path / "r"), *argv]) == 2
     assert option in capsys.readouterr().err

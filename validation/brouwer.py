@@ -67,14 +67,33 @@ def run_brouwer(mode: str, outdir: str, *, scale: float = 1.0, figures: bool = T
         ratio = float(np.max(np.abs(mean[last])) / np.max(rms[last]))
         series[div] = (n, rms, mean)
         label = f"T/{div}"
-        checks.append(Check(f"brouwer-slope-{div}", f"log-log slope of the ensemble RMS energy error, dt = {label}",
-                            "Brouwer's law: 0.5 for a random walk, 1 for a drift", slope, SLOPE_MAX * scale, "1",
-                            f"{members} runs, {steps:.0e} steps, fitted from {lo} steps on"))
-        checks.append(Check(f"brouwer-mean-{div}", f"|ensemble mean| / RMS of the energy error, last decade, dt = {label}",
-                            "no systematic drift (a drift makes the mean as large as the RMS)", ratio,
-                            MEAN_OVER_RMS_MAX * scale, "1", f"max over the last decade of steps, {members} runs"))
-        metrics[f"rms_final_{div}"] = {"value": float(rms[-1]), "unit": "1",
-                                       "note": f"RMS relative energy error after {steps:.0e} steps at {label}"}
+        checks.append(
+            Check(
+                f"brouwer-slope-{div}",
+                f"log-log slope of the ensemble RMS energy error, dt = {label}",
+                "Brouwer's law: 0.5 for a random walk, 1 for a drift",
+                slope,
+                SLOPE_MAX * scale,
+                "1",
+                f"{members} runs, {steps:.0e} steps, fitted from {lo} steps on",
+            )
+        )
+        checks.append(
+            Check(
+                f"brouwer-mean-{div}",
+                f"|ensemble mean| / RMS of the energy error, last decade, dt = {label}",
+                "no systematic drift (a drift makes the mean as large as the RMS)",
+                ratio,
+                MEAN_OVER_RMS_MAX * scale,
+                "1",
+                f"max over the last decade of steps, {members} runs",
+            )
+        )
+        metrics[f"rms_final_{div}"] = {
+            "value": float(rms[-1]),
+            "unit": "1",
+            "note": f"RMS relative energy error after {steps:.0e} steps at {label}",
+        }
         metrics[f"cpu_s_{div}"] = {"value": cpu, "unit": "s", "note": f"{members} x {steps:.0e} point-steps"}
     figs = []
     if figures:
@@ -99,10 +118,28 @@ def run_brouwer(mode: str, outdir: str, *, scale: float = 1.0, figures: bool = T
         plt.close(fig)
         figs.append(os.path.basename(path))
     return CaseOutcome(
-        name="brouwer", title="Round-off over many steps (Brouwer's law)", description=__doc__.strip(),
-        params={"orbit": "the paper's (e = 2/3)", "steps": f"{steps:.0e}", "ensemble": str(members),
-                "dt": "T/100 and T/1000"},
-        mode=mode, orbits=None, orbits_high=None, steps_per_period=None, period_s=PAPER_T, runs={}, metrics=metrics,
-        convergence={}, checks=[ch.to_dict() for ch in checks], figures=figs, files=[], error=None, timing={},
-        wall_s=time.perf_counter() - start, passed=all(ch.passed for ch in checks),
+        name="brouwer",
+        title="Round-off over many steps (Brouwer's law)",
+        description=__doc__.strip(),
+        params={
+            "orbit": "the paper's (e = 2/3)",
+            "steps": f"{steps:.0e}",
+            "ensemble": str(members),
+            "dt": "T/100 and T/1000",
+        },
+        mode=mode,
+        orbits=None,
+        orbits_high=None,
+        steps_per_period=None,
+        period_s=PAPER_T,
+        runs={},
+        metrics=metrics,
+        convergence={},
+        checks=[ch.to_dict() for ch in checks],
+        figures=figs,
+        files=[],
+        error=None,
+        timing={},
+        wall_s=time.perf_counter() - start,
+        passed=all(ch.passed for ch in checks),
     )

@@ -97,31 +97,71 @@ class Case:
         return np.asarray(orbits.kepler_period(self.semi_major_axes(), self.gm), float)
 
 
-def _single(name, title, description, gm, center, x0, v0, *, period=None, records=50, orbits_=None,
-            orbits_high=None, convergence=("quick", "full"), target_period=None, params=None, field_body=None,
-            offset_study=()):
+def _single(
+    name,
+    title,
+    description,
+    gm,
+    center,
+    x0,
+    v0,
+    *,
+    period=None,
+    records=50,
+    orbits_=None,
+    orbits_high=None,
+    convergence=("quick", "full"),
+    target_period=None,
+    params=None,
+    field_body=None,
+    offset_study=(),
+):
     x0 = np.atleast_2d(np.asarray(x0, float))
     v0 = np.atleast_2d(np.asarray(v0, float))
     center = np.asarray(center, float)
     el = orbits.elements(x0[0], v0[0], gm, center)
     T = float(orbits.kepler_period(el.a, gm)) if period is None else float(period)
-    return Case(name=name, title=title, description=description, gm=float(gm), center=center, x0=x0, v0=v0,
-                period=T, steps=steps_per_orbit(float(el.e), records), records=records,
-                orbits=orbits_ or {"quick": 100, "full": 1000}, orbits_high=orbits_high or {"quick": 100, "full": 1000},
-                convergence=convergence, target_period=target_period, params=params or {}, field_body=field_body,
-                offset_study=offset_study)
+    return Case(
+        name=name,
+        title=title,
+        description=description,
+        gm=float(gm),
+        center=center,
+        x0=x0,
+        v0=v0,
+        period=T,
+        steps=steps_per_orbit(float(el.e), records),
+        records=records,
+        orbits=orbits_ or {"quick": 100, "full": 1000},
+        orbits_high=orbits_high or {"quick": 100, "full": 1000},
+        convergence=convergence,
+        target_period=target_period,
+        params=params or {},
+        field_body=field_body,
+        offset_study=offset_study,
+    )
 
 
 def _paper() -> Case:
     return _single(
-        "paper", "The paper's orbit",
+        "paper",
+        "The paper's orbit",
         "Goettlicher & Schweizerhof's satellite: start at aphelion r_max = 10 m with v0 = 0.36276 m/s in "
         "GM = 3.9478 m^3/s^2 (a = 6.0000135 m, e = 2/3). Steps as in the paper, dt = T/100 with its "
         "T = 46.4758 s; orders 4-8 at T/400.",
-        PAPER_GM, (0.0, 0.0, 0.0), PAPER_X0, PAPER_V0, period=PAPER_T,
+        PAPER_GM,
+        (0.0, 0.0, 0.0),
+        PAPER_X0,
+        PAPER_V0,
+        period=PAPER_T,
         orbits_high={"quick": 100, "full": 1000},
-        params={"GM": "3.9478 m3 / s2", "r_max": "10 m", "v0": "0.36276 m / s", "T (paper)": "46.4758 s",
-                "centre": "origin"},
+        params={
+            "GM": "3.9478 m3 / s2",
+            "r_max": "10 m",
+            "v0": "0.36276 m / s",
+            "T (paper)": "46.4758 s",
+            "centre": "origin",
+        },
     )
 
 
@@ -149,41 +189,93 @@ def _family() -> list[Case]:
         hard = e >= 0.95  # 21000 steps per orbit: fewer orbits, convergence study in full mode only
         center = NEAR_CENTER if hard else FAMILY_CENTER
         x0, v0 = orbits.state_from_elements(
-            (FAMILY_A, e, math.radians(inc), math.radians(raan), math.radians(argp), math.radians(nu)),
-            PAPER_GM, center)
-        out.append(_single(
-            name, f"3D orbit: {what}",
-            f"A test particle on an orbit with a = {FAMILY_A} m, e = {e}, i = {inc} deg, "
-            f"Omega = {raan} deg, omega = {argp} deg, starting at true anomaly {nu} deg, around a centre at "
-            f"{list(center)} m (not the origin) with GM = 3.9478 m^3/s^2."
-            + (" The centre lies within the periapsis distance of the origin: with absolute coordinates a "
-               "distant centre costs precision at periapsis; the energy errors of em 2 and IAS15 with the centre "
-               f"at {list(OFFSETS[0])} m and {list(OFFSETS[1])} m are reported too." if hard else ""),
-            PAPER_GM, center, x0, v0,
-            orbits_={"quick": 10, "full": 100} if hard else
-                    ({"quick": 1000, "full": 1000} if e == 0.9 else {"quick": 100, "full": 1000}),
-            orbits_high={"quick": 3, "full": 20} if hard else {"quick": 50, "full": 300},
-            convergence=("full",) if hard else ("quick", "full"),
-            offset_study=OFFSETS if hard else (),
-            params={"GM": "3.9478 m3 / s2", "a": f"{FAMILY_A} m", "e": f"{e}", "i": f"{inc} deg",
-                    "Omega": f"{raan} deg", "omega": f"{argp} deg", "nu0": f"{nu} deg",
-                    "centre": f"{list(center)} m"},
-        ))
+            (FAMILY_A, e, math.radians(inc), math.radians(raan), math.radians(argp), math.radians(nu)), PAPER_GM, center
+        )
+        out.append(
+            _single(
+                name,
+                f"3D orbit: {what}",
+                f"A test particle on an orbit with a = {FAMILY_A} m, e = {e}, i = {inc} deg, "
+                f"Omega = {raan} deg, omega = {argp} deg, starting at true anomaly {nu} deg, around a centre at "
+                f"{list(center)} m (not the origin) with GM = 3.9478 m^3/s^2."
+                + (
+                    " The centre lies within the periapsis distance of the origin: with absolute coordinates a "
+                    "distant centre costs precision at periapsis; the energy errors of em 2 and IAS15 with the centre "
+                    f"at {list(OFFSETS[0])} m and {list(OFFSETS[1])} m are reported too."
+                    if hard
+                    else ""
+                ),
+                PAPER_GM,
+                center,
+                x0,
+                v0,
+                orbits_={"quick": 10, "full": 100}
+                if hard
+                else ({"quick": 1000, "full": 1000} if e == 0.9 else {"quick": 100, "full": 1000}),
+                orbits_high={"quick": 3, "full": 20} if hard else {"quick": 50, "full": 300},
+                convergence=("full",) if hard else ("quick", "full"),
+                offset_study=OFFSETS if hard else (),
+                params={
+                    "GM": "3.9478 m3 / s2",
+                    "a": f"{FAMILY_A} m",
+                    "e": f"{e}",
+                    "i": f"{inc} deg",
+                    "Omega": f"{raan} deg",
+                    "omega": f"{argp} deg",
+                    "nu0": f"{nu} deg",
+                    "centre": f"{list(center)} m",
+                },
+            )
+        )
     return out
 
 
-def _earth_case(name, title, description, a, e, inc, raan, argp, nu, *, target=None, params=None,
-                orbits_=None, orbits_high=None, convergence=("quick", "full")):
+def _earth_case(
+    name,
+    title,
+    description,
+    a,
+    e,
+    inc,
+    raan,
+    argp,
+    nu,
+    *,
+    target=None,
+    params=None,
+    orbits_=None,
+    orbits_high=None,
+    convergence=("quick", "full"),
+):
     """An Earth orbit from astropy quantities; GM from astropy.constants.GM_earth."""
     gm = const.GM_earth.to_value(u.m**3 / u.s**2)
     el = (a.to_value(u.m), e, inc.to_value(u.rad), raan.to_value(u.rad), argp.to_value(u.rad), nu.to_value(u.rad))
     x0, v0 = orbits.state_from_elements(el, gm)
-    p = {"GM": f"GM_earth = {const.GM_earth.value:.10g} m3 / s2 (astropy, {const.GM_earth.reference})",
-         "a": f"{a.to(u.km):.6f}", "e": f"{e}", "i": f"{inc:.4g}", "Omega": f"{raan:.4g}", "omega": f"{argp:.4g}",
-         "centre": "origin (Earth's centre)"}
+    p = {
+        "GM": f"GM_earth = {const.GM_earth.value:.10g} m3 / s2 (astropy, {const.GM_earth.reference})",
+        "a": f"{a.to(u.km):.6f}",
+        "e": f"{e}",
+        "i": f"{inc:.4g}",
+        "Omega": f"{raan:.4g}",
+        "omega": f"{argp:.4g}",
+        "centre": "origin (Earth's centre)",
+    }
     p.update(params or {})
-    return _single(name, title, description, gm, (0.0, 0.0, 0.0), x0, v0, target_period=target, params=p,
-                   field_body="earth", orbits_=orbits_, orbits_high=orbits_high, convergence=convergence)
+    return _single(
+        name,
+        title,
+        description,
+        gm,
+        (0.0, 0.0, 0.0),
+        x0,
+        v0,
+        target_period=target,
+        params=p,
+        field_body="earth",
+        orbits_=orbits_,
+        orbits_high=orbits_high,
+        convergence=convergence,
+    )
 
 
 def _semi_major_axis_for(period: u.Quantity) -> u.Quantity:
@@ -197,25 +289,46 @@ def _earth() -> list[Case]:
     geo_T = (1 * u.sday).to(u.s)
     return [
         _earth_case(
-            "earth-leo", "Earth: low orbit at 400 km",
+            "earth-leo",
+            "Earth: low orbit at 400 km",
             "A circular orbit 400 km above astropy's nominal equatorial Earth radius R_earth "
             f"({const.R_earth.to(u.km):.1f}), inclined 51.6 deg (like the ISS).",
-            const.R_earth + leo_alt, 0.0, 51.6 * u.deg, 30 * u.deg, 0 * u.deg, 0 * u.deg,
-            params={"altitude": f"{leo_alt}", "R_earth": f"{const.R_earth.to(u.km):.1f} (astropy)"}),
+            const.R_earth + leo_alt,
+            0.0,
+            51.6 * u.deg,
+            30 * u.deg,
+            0 * u.deg,
+            0 * u.deg,
+            params={"altitude": f"{leo_alt}", "R_earth": f"{const.R_earth.to(u.km):.1f} (astropy)"},
+        ),
         _earth_case(
-            "earth-molniya", "Earth: Molniya orbit",
+            "earth-molniya",
+            "Earth: Molniya orbit",
             "e = 0.74, i = 63.4 deg, omega = 270 deg, period half a sidereal day "
             f"(astropy: 0.5 sday = {molniya_T:.4f}); a from Kepler's third law with GM_earth.",
-            _semi_major_axis_for(molniya_T), 0.74, 63.4 * u.deg, 45 * u.deg, 270 * u.deg, 0 * u.deg,
+            _semi_major_axis_for(molniya_T),
+            0.74,
+            63.4 * u.deg,
+            45 * u.deg,
+            270 * u.deg,
+            0 * u.deg,
             target=(molniya_T.to_value(u.s), "0.5 sidereal day (astropy.units.sday)"),
-            params={"period (target)": f"{molniya_T:.4f} = 0.5 sday"}),
+            params={"period (target)": f"{molniya_T:.4f} = 0.5 sday"},
+        ),
         _earth_case(
-            "earth-geo", "Earth: geostationary orbit",
+            "earth-geo",
+            "Earth: geostationary orbit",
             f"Circular and equatorial, period one sidereal day (astropy: 1 sday = {geo_T:.4f}); "
             "a from Kepler's third law with GM_earth.",
-            _semi_major_axis_for(geo_T), 0.0, 0 * u.deg, 0 * u.deg, 0 * u.deg, 0 * u.deg,
+            _semi_major_axis_for(geo_T),
+            0.0,
+            0 * u.deg,
+            0 * u.deg,
+            0 * u.deg,
+            0 * u.deg,
             target=(geo_T.to_value(u.s), "1 sidereal day (astropy.units.sday)"),
-            params={"period (target)": f"{geo_T:.4f} = 1 sday"}),
+            params={"period (target)": f"{geo_T:.4f} = 1 sday"},
+        ),
     ]
 
 
@@ -241,16 +354,30 @@ def _cloud(n_quick: int = 200, n_full: int = 1000, seed: int = 20240607) -> dict
         dt = min(t_min / BASE_STEPS, float(tau.min()) / (BASE_STEPS * periapsis_timescale(2.0 / 3.0)))
         steps = int(math.ceil(t_min / dt / records) * records)
         out[mode] = Case(
-            name="cloud", title=f"A cloud of {n} test particles at once",
+            name="cloud",
+            title=f"A cloud of {n} test particles at once",
             description=f"{n} test particles (a uniform in [5, 10] m, e uniform in [0, 0.7], isotropic "
-                        f"orientations, random phases; seed {seed}) around GM = 3.9478 m^3/s^2 at {list(CLOUD_CENTER)} m, "
-                        "integrated in one simulation with one dt; IAS15 integrates all of them in one "
-                        "REBOUND simulation with N_active = 1. Times are in periods of the innermost orbit.",
-            gm=PAPER_GM, center=np.asarray(CLOUD_CENTER, float), x0=x0, v0=v0, period=t_min, steps=steps,
-            records=records, orbits={"quick": 10, "full": 50}, orbits_high={"quick": 2, "full": 5},
+            f"orientations, random phases; seed {seed}) around GM = 3.9478 m^3/s^2 at {list(CLOUD_CENTER)} m, "
+            "integrated in one simulation with one dt; IAS15 integrates all of them in one "
+            "REBOUND simulation with N_active = 1. Times are in periods of the innermost orbit.",
+            gm=PAPER_GM,
+            center=np.asarray(CLOUD_CENTER, float),
+            x0=x0,
+            v0=v0,
+            period=t_min,
+            steps=steps,
+            records=records,
+            orbits={"quick": 10, "full": 50},
+            orbits_high={"quick": 2, "full": 5},
             convergence=(),
-            params={"particles": str(n), "GM": "3.9478 m3 / s2", "a": "5 ... 10 m", "e": "0 ... 0.7",
-                    "centre": f"{list(CLOUD_CENTER)} m", "innermost period": f"{t_min:.6g} s"},
+            params={
+                "particles": str(n),
+                "GM": "3.9478 m3 / s2",
+                "a": "5 ... 10 m",
+                "e": "0 ... 0.7",
+                "centre": f"{list(CLOUD_CENTER)} m",
+                "innermost period": f"{t_min:.6g} s",
+            },
         )
     return out
 

@@ -22,13 +22,22 @@ REPORT_FILES = ("report.md", "results.json")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--quick", action="store_true",
-                        help="the quick suite (under 2 minutes on 2 cores); default: the full suite")
-    parser.add_argument("--report", default="validation-report", metavar="DIR",
-                        help="directory for report.md, results.json, <case>.json and figures (default: %(default)s)")
+    parser.add_argument(
+        "--quick", action="store_true", help="the quick suite (under 2 minutes on 2 cores); default: the full suite"
+    )
+    parser.add_argument(
+        "--report",
+        default="validation-report",
+        metavar="DIR",
+        help="directory for report.md, results.json, <case>.json and figures (default: %(default)s)",
+    )
     parser.add_argument("--cases", metavar="NAME,...", help="run only these cases (see --list)")
-    parser.add_argument("--tolerance-scale", default="1", metavar="S",
-                        help="multiply every tolerance by S > 0 (S < 1 tightens; default 1)")
+    parser.add_argument(
+        "--tolerance-scale",
+        default="1",
+        metavar="S",
+        help="multiply every tolerance by S > 0 (S < 1 tightens; default 1)",
+    )
     parser.add_argument("--overwrite", action="store_true", help="replace an existing report in DIR")
     parser.add_argument("--list", action="store_true", help="list the cases and exit")
     parser.add_argument("-q", "--quiet", action="store_true", help="print only the final line")
@@ -75,7 +84,9 @@ def run(args) -> int:
 
     log = None if args.quiet else (lambda line: print(line, flush=True))
     suite = run_suite(outdir, quick=args.quick, names=names, scale=scale, log=log)
-    print(f"{'PASSED' if suite['passed'] else 'FAILED'}: {suite['checks_passed']}/{suite['checks_total']} checks "
-          f"in {len(suite['cases'])} cases, {suite['mode']} mode, {suite['wall_s']:.1f} s; "
-          f"report: {os.path.join(outdir, 'report.md')}")
+    print(
+        f"{'PASSED' if suite['passed'] else 'FAILED'}: {suite['checks_passed']}/{suite['checks_total']} checks "
+        f"in {len(suite['cases'])} cases, {suite['mode']} mode, {suite['wall_s']:.1f} s; "
+        f"report: {os.path.join(outdir, 'report.md')}"
+    )
     return 0 if suite["passed"] else 1

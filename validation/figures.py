@@ -56,12 +56,16 @@ def case_figures(run, outdir: str) -> list[str]:
         m = len(tr.t)
         ax.semilogy(*_thin(tr.t / T, _worst(tr.position_error(kep.head(m), a))), lw=0.9, label=f"{tr.label} vs Kepler")
     em8 = named["em8"]
-    ax.semilogy(*_thin(em8.t / T, _worst(em8.position_error(ias.head(len(em8.t)), a))), "k--", lw=0.9,
-                label="em 8 vs IAS15")
+    ax.semilogy(
+        *_thin(em8.t / T, _worst(em8.position_error(ias.head(len(em8.t)), a))), "k--", lw=0.9, label="em 8 vs IAS15"
+    )
     ax.semilogy(*_thin(ias.t / T, _worst(ias.position_error(kep, a))), lw=0.9, label="IAS15 vs Kepler")
     whf = named["WHFast"]
-    ax.semilogy(*_thin(whf.t / T, _worst(whf.position_error(named["Kepler (WHFast times)"], a))), lw=0.9,
-                label="WHFast vs Kepler")
+    ax.semilogy(
+        *_thin(whf.t / T, _worst(whf.position_error(named["Kepler (WHFast times)"], a))),
+        lw=0.9,
+        label="WHFast vs Kepler",
+    )
     nh = run.nh
     ax.plot([0, nh], [FLOOR, C.POSITION_PER_ORBIT * nh], ":", color="gray", label="em 8 tolerance (1e-9 a / orbit)")
     ax.set(xlabel="time [orbits]", ylabel="|x - x_ref| / a", title="position error")
@@ -111,8 +115,7 @@ def case_figures(run, outdir: str) -> list[str]:
                     continue
                 n = np.asarray(d["steps_per_orbit"], float)
                 e = np.maximum(np.asarray(d["error_a"], float), FLOOR)
-                line, = ax.loglog(n, e, "o-", ms=3, lw=1,
-                                  label=f"order {p}: observed {d['slope']:.2f}")
+                (line,) = ax.loglog(n, e, "o-", ms=3, lw=1, label=f"order {p}: observed {d['slope']:.2f}")
                 ax.loglog(n, e[-1] * (n / n[-1]) ** -p, ":", color=line.get_color(), lw=0.8)
             lo, hi = next(iter(run.convergence.values()))["window_a"]
             ax.axhspan(lo, hi, color="gray", alpha=0.07)
@@ -130,7 +133,10 @@ def case_figures(run, outdir: str) -> list[str]:
         from emorbit.plot import plot_runs
 
         name = "paper_energy.png"
-        plot_runs([os.path.join(outdir, f) for f in run.files], os.path.join(outdir, name),
-                  title=f"The paper's figure: em against midpoint, dt = T/{c.steps}, {run.n} orbits")
+        plot_runs(
+            [os.path.join(outdir, f) for f in run.files],
+            os.path.join(outdir, name),
+            title=f"The paper's figure: em against midpoint, dt = T/{c.steps}, {run.n} orbits",
+        )
         out.insert(0, name)
     return out

@@ -80,8 +80,10 @@ def write_markdown(suite: dict, outdir: str) -> str:
     ]
     for case in suite["cases"]:
         n_ok = sum(ch["passed"] for ch in case["checks"])
-        lines.append(f"| [{case['name']}](#{case['name']}) | {n_ok} / {len(case['checks'])} | "
-                     f"{'PASS' if case['passed'] else '**FAIL**'} | {case['wall_s']:.1f} |")
+        lines.append(
+            f"| [{case['name']}](#{case['name']}) | {n_ok} / {len(case['checks'])} | "
+            f"{'PASS' if case['passed'] else '**FAIL**'} | {case['wall_s']:.1f} |"
+        )
     lines.append("")
     for case in suite["cases"]:
         lines += _case_section(case)
@@ -100,9 +102,12 @@ def _case_section(case: dict) -> list[str]:
         case["description"],
         "",
         "Parameters: " + "; ".join(f"{k} = {v}" for k, v in case["params"].items()) + ".",
-        (f"Order 2 runs {case['orbits']} periods of {case['period_s']:.10g} s at {case['steps_per_period']} "
-         f"steps per period; orders 4-8 run {case['orbits_high']} periods at 4x the steps."
-         if case.get("orbits") is not None else "A study over many steps (see the parameters)."),
+        (
+            f"Order 2 runs {case['orbits']} periods of {case['period_s']:.10g} s at {case['steps_per_period']} "
+            f"steps per period; orders 4-8 run {case['orbits_high']} periods at 4x the steps."
+            if case.get("orbits") is not None
+            else "A study over many steps (see the parameters)."
+        ),
         "",
     ]
     if case.get("error"):
@@ -117,20 +122,28 @@ def _case_section(case: dict) -> list[str]:
             measured += f" ({_esc(ch['detail'])})"
         out.append(
             f"| {'PASS' if ch['passed'] else '**FAIL**'} | {ch['id']} | {_esc(ch['what'])} | {_esc(ch['against'])} | "
-            f"{measured} | {_g(ch['tolerance'])} | {ch['unit']} | {_g(ch.get('margin'), 2)} | {_esc(ch['reason'])} |")
-    out += ["", "<details><summary>runs and further measurements</summary>", "",
-            "| run | wall [s] | steps | dt [s] | Newton iterations per sub-step | ns per particle (sub-)step |",
-            "|-----|----------|-------|--------|--------------------------------|----------------------------|"]
+            f"{measured} | {_g(ch['tolerance'])} | {ch['unit']} | {_g(ch.get('margin'), 2)} | {_esc(ch['reason'])} |"
+        )
+    out += [
+        "",
+        "<details><summary>runs and further measurements</summary>",
+        "",
+        "| run | wall [s] | steps | dt [s] | Newton iterations per sub-step | ns per particle (sub-)step |",
+        "|-----|----------|-------|--------|--------------------------------|----------------------------|",
+    ]
     for label, info in case["runs"].items():
         ns = info.get("ns_per_particle_substep", info.get("ns_per_particle_step"))
-        out.append(f"| {label} | {_g(info['wall_s'])} | {info.get('steps', '-')} | {_g(info.get('dt_s'), 8)} | "
-                   f"{_g(info.get('newton_iterations'))} | {_g(ns)} |")
+        out.append(
+            f"| {label} | {_g(info['wall_s'])} | {info.get('steps', '-')} | {_g(info.get('dt_s'), 8)} | "
+            f"{_g(info.get('newton_iterations'))} | {_g(ns)} |"
+        )
     out += ["", "| measurement | value | unit | note |", "|-------------|-------|------|------|"]
     for key, m in case["metrics"].items():
         value = m["value"]
         if isinstance(value, list):
-            value = "; ".join(", ".join(f"{k} {_g(v) if not isinstance(v, list) else v}" for k, v in row.items())
-                              for row in value)
+            value = "; ".join(
+                ", ".join(f"{k} {_g(v) if not isinstance(v, list) else v}" for k, v in row.items()) for row in value
+            )
         out.append(f"| {key} | {_esc(_g(value, 6))} | {m['unit']} | {_esc(m.get('note', ''))} |")
     out += ["", "</details>", ""]
     for fig in case["figures"]:

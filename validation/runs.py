@@ -37,7 +37,7 @@ class Trajectory:
     wall: float = 0.0
     info: dict = field(default_factory=dict)
 
-    def head(self, m: int) -> "Trajectory":
+    def head(self, m: int) -> Trajectory:
         """The first ``m`` records."""
         return Trajectory(self.label, self.t[:m], self.x[:m], self.v[:m], self.wall, self.info)
 
@@ -70,7 +70,7 @@ class Trajectory:
     def elements(self, case: Case) -> orbits.OrbitalElements:
         return orbits.elements(self.x, self.v, case.gm, case.center)
 
-    def position_error(self, other: "Trajectory", a: np.ndarray) -> np.ndarray:
+    def position_error(self, other: Trajectory, a: np.ndarray) -> np.ndarray:
         """|x - x_other| / a per record and particle (m, n) (records must coincide)."""
         m = min(len(self.t), len(other.t))
         return np.linalg.norm(self.x[:m] - other.x[:m], axis=-1) / a
@@ -84,14 +84,26 @@ def record_times(case: Case, orbits_: int) -> np.ndarray:
     return np.arange(n + 1) * every * dt  # the same expression emorbit uses: steps * dt
 
 
-def run_emorbit(case: Case, method: str, order: int, steps_per_period: int, periods: int, every: int, *,
-                output=None, label: str | None = None) -> Trajectory:
+def run_emorbit(
+    case: Case,
+    method: str,
+    order: int,
+    steps_per_period: int,
+    periods: int,
+    every: int,
+    *,
+    output=None,
+    label: str | None = None,
+) -> Trajectory:
     """emorbit through its public API (astropy quantities at the edge): ``method`` at
     ``order`` with dt = period / steps_per_period for ``periods`` periods, recording every
     ``every`` steps. Raises :class:`emorbit.IntegrationError` if a step fails."""
     dt = case.period / steps_per_period
-    field_ = emorbit.CentralField(body=case.field_body) if case.field_body else \
-        emorbit.CentralField(gm=case.gm * u.m**3 / u.s**2, center=case.center * u.m)
+    field_ = (
+        emorbit.CentralField(body=case.field_body)
+        if case.field_body
+        else emorbit.CentralField(gm=case.gm * u.m**3 / u.s**2, center=case.center * u.m)
+    )
     if field_.gm != case.gm:  # cannot happen: the case takes GM from the same astropy constant
         raise RuntimeError(f"field GM {field_.gm!r} differs from the case's {case.gm!r}")
     sim = emorbit.Simulation(field_, method=method, order=order, dt=dt * u.s)
@@ -104,10 +116,23 @@ def run_emorbit(case: Case, method: str, order: int, steps_per_period: int, peri
     x = np.stack([res.positions[n] for n in case.names], axis=1)
     v = np.stack([res.velocities[n] for n in case.names], axis=1)
     substeps = steps * len(emorbit.integrators.coefficients(order))
-    return Trajectory(label or f"{method} {order}", res.time, x, v, wall,
-                      {"method": method, "order": order, "dt_s": dt, "steps": steps, "substeps": substeps,
-                       "orbits": periods, "newton_iterations": res.mean_newton_iterations(),
-                       "ns_per_particle_substep": 1e9 * wall / (substeps * case.n)})
+    return Trajectory(
+        label or f"{method} {order}",
+        res.time,
+        x,
+        v,
+        wall,
+        {
+            "method": method,
+            "order": order,
+            "dt_s": dt,
+            "steps": steps,
+            "substeps": substeps,
+            "orbits": periods,
+            "newton_iterations": res.mean_newton_iterations(),
+            "ns_per_particle_substep": 1e9 * wall / (substeps * case.n),
+        },
+    )
 
 
 def run_rebound(case: Case, integrator: str, times: np.ndarray) -> Trajectory:
@@ -147,8 +172,11 @@ def run_rebound(case: Case, integrator: str, times: np.ndarray) -> Trajectory:
         vs[k] = bv[1:]
         ts[k] = sim.t
     wall = time.perf_counter() - start
-    info = {"steps": int(sim.steps_done), "central_body_displacement_m": float(np.linalg.norm(bx[0] - c)),
-            "ns_per_particle_step": 1e9 * wall / max(1, sim.steps_done * case.n)}
+    info = {
+        "steps": int(sim.steps_done),
+        "central_body_displacement_m": float(np.linalg.norm(bx[0] - c)),
+        "ns_per_particle_step": 1e9 * wall / max(1, sim.steps_done * case.n),
+    }
     if integrator == "whfast":
         clock = np.arange(m) * sim.dt
         info["clock_drift_s"] = float(np.abs(ts - clock).max())

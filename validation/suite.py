@@ -37,9 +37,15 @@ def environment() -> dict:
 
     return {
         "machine": f"{_cpu()}, {os.cpu_count()} cores, {platform.system()} {platform.release()}",
-        "versions": {"python": platform.python_version(), "emorbit": emorbit.__version__, "numpy": numpy.__version__,
-                     "numba": numba.__version__, "rebound": rebound.__version__, "astropy": astropy.__version__,
-                     "matplotlib": matplotlib.__version__},
+        "versions": {
+            "python": platform.python_version(),
+            "emorbit": emorbit.__version__,
+            "numpy": numpy.__version__,
+            "numba": numba.__version__,
+            "rebound": rebound.__version__,
+            "astropy": astropy.__version__,
+            "matplotlib": matplotlib.__version__,
+        },
     }
 
 
@@ -52,8 +58,10 @@ def run_suite(outdir: str, *, quick: bool = False, names=None, scale: float = 1.
     os.makedirs(outdir, exist_ok=True)
     start = time.perf_counter()
     results = []
-    jobs = [(case.name, lambda c=case: run_case(c, mode, outdir, scale=scale))
-            for case in get_cases(mode, [n for n in names if n in case_names()] if names else None)]
+    jobs = [
+        (case.name, lambda c=case: run_case(c, mode, outdir, scale=scale))
+        for case in get_cases(mode, [n for n in names if n in case_names()] if names else None)
+    ]
     if mode == "full" and (names is None or "brouwer" in names):  # a study, not an orbit case
         from .brouwer import run_brouwer
 
@@ -63,8 +71,10 @@ def run_suite(outdir: str, *, quick: bool = False, names=None, scale: float = 1.
         results.append(out)
         if log:
             n_ok = sum(ch["passed"] for ch in out["checks"])
-            log(f"{name}: {'PASS' if out['passed'] else 'FAIL'} {n_ok}/{len(out['checks'])} checks "
-                f"({out['wall_s']:.1f} s)")
+            log(
+                f"{name}: {'PASS' if out['passed'] else 'FAIL'} {n_ok}/{len(out['checks'])} checks "
+                f"({out['wall_s']:.1f} s)"
+            )
             for ch in out["checks"]:
                 if not ch["passed"]:
                     log(f"  FAIL {ch['id']}: {ch['value']:.3g} > {ch['tolerance']:.3g} {ch['unit']} ({ch['what']})")

@@ -36,15 +36,24 @@ __all__ = ["SECTIONS", "add_arguments", "run"]
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--quick", action="store_true",
-                        help="fewer repeats and step sizes (1.5 min on two cores with Numba's cache filled, 2.5 min "
-                             "when every kernel compiles first)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="fewer repeats and step sizes (1.5 min on two cores with Numba's cache filled, 2.5 min "
+        "when every kernel compiles first)",
+    )
     parser.add_argument("--json", metavar="FILE", help="write every figure, with the machine, as JSON")
     parser.add_argument("--plots", metavar="DIR", help="write the work-precision figures (PNG) into DIR")
-    parser.add_argument("--only", nargs="+", choices=SECTIONS, metavar="SECTION",
-                        help=f"run only these sections ({', '.join(SECTIONS)})")
-    parser.add_argument("--skip", nargs="+", choices=SECTIONS, default=(), metavar="SECTION",
-                        help="leave these sections out")
+    parser.add_argument(
+        "--only",
+        nargs="+",
+        choices=SECTIONS,
+        metavar="SECTION",
+        help=f"run only these sections ({', '.join(SECTIONS)})",
+    )
+    parser.add_argument(
+        "--skip", nargs="+", choices=SECTIONS, default=(), metavar="SECTION", help="leave these sections out"
+    )
 
 
 def run(args) -> int:

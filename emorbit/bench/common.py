@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..bodies.pointmasses import PointMasses
 from ..integrators import coefficients, dispatch
 from ..orbits import kepler_period, semi_major_axis, solve_kepler, state_from_elements
-from ..bodies.pointmasses import PointMasses
 from .timing import clock, package_version, since
 
 #: the paper's orbit (Goettlicher & Schweizerhof): GM, start at aphelion
@@ -44,20 +44,43 @@ class Config:
 
 
 CONFIGS = {
-    "full": Config(repeat_s=0.2, repeats=9, ensemble_n=100_000, orbits=100,
-                   divisions=(25, 35, 50, 71, 100, 141, 200, 283, 400, 566, 800, 1131, 1600, 2263, 3200),
-                   divisions_e09=(100, 141, 200, 283, 400, 566, 800, 1131, 1600, 2263, 3200, 4525, 6400, 9051, 12800),
-                   ias15_eps=(1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10),
-                   heyoka_tol=(1e-6, 1e-8, 1e-10, 1e-12, 1e-14, 2.220446049250313e-16), warm_runs=5),
-    "quick": Config(repeat_s=0.06, repeats=5, ensemble_n=100_000, orbits=100,
-                    divisions=(25, 50, 100, 200, 400, 800, 1600),
-                    divisions_e09=(100, 200, 400, 800, 1600, 3200, 6400, 12800),
-                    ias15_eps=(1e-3, 1e-5, 1e-7, 1e-9), heyoka_tol=(1e-6, 1e-9, 1e-12, 2.220446049250313e-16),
-                    warm_runs=3, adaptive_eta=(0.02, 0.005, 0.0025)),
+    "full": Config(
+        repeat_s=0.2,
+        repeats=9,
+        ensemble_n=100_000,
+        orbits=100,
+        divisions=(25, 35, 50, 71, 100, 141, 200, 283, 400, 566, 800, 1131, 1600, 2263, 3200),
+        divisions_e09=(100, 141, 200, 283, 400, 566, 800, 1131, 1600, 2263, 3200, 4525, 6400, 9051, 12800),
+        ias15_eps=(1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10),
+        heyoka_tol=(1e-6, 1e-8, 1e-10, 1e-12, 1e-14, 2.220446049250313e-16),
+        warm_runs=5,
+    ),
+    "quick": Config(
+        repeat_s=0.06,
+        repeats=5,
+        ensemble_n=100_000,
+        orbits=100,
+        divisions=(25, 50, 100, 200, 400, 800, 1600),
+        divisions_e09=(100, 200, 400, 800, 1600, 3200, 6400, 12800),
+        ias15_eps=(1e-3, 1e-5, 1e-7, 1e-9),
+        heyoka_tol=(1e-6, 1e-9, 1e-12, 2.220446049250313e-16),
+        warm_runs=3,
+        adaptive_eta=(0.02, 0.005, 0.0025),
+    ),
     # a seconds-long smoke run for the tests: its timings mean nothing
-    "tiny": Config(repeat_s=0.005, repeats=2, ensemble_n=2_000, orbits=2,
-                   divisions=(50, 100), divisions_e09=(200, 400), ias15_eps=(1e-6,), heyoka_tol=(1e-9,), warm_runs=1,
-                   adaptive_orders=(8,), adaptive_eta=(0.02,)),
+    "tiny": Config(
+        repeat_s=0.005,
+        repeats=2,
+        ensemble_n=2_000,
+        orbits=2,
+        divisions=(50, 100),
+        divisions_e09=(200, 400),
+        ias15_eps=(1e-6,),
+        heyoka_tol=(1e-9,),
+        warm_runs=1,
+        adaptive_orders=(8,),
+        adaptive_eta=(0.02,),
+    ),
 }
 
 
@@ -141,8 +164,24 @@ class KernelRunner:
         rx, rv = np.empty((1, 3, m)), np.empty((1, 3, m))
         its, fail = np.zeros((1, m), np.int64), np.full((m, 2), -1, np.int64)
         start = clock()
-        self.kernel(self.method, self.x, self.v, self.cx, self.cv, GM, np.zeros(3), self.dt, self.gammas, n, 1, 50,
-                    rx, rv, its, fail)
+        self.kernel(
+            self.method,
+            self.x,
+            self.v,
+            self.cx,
+            self.cv,
+            GM,
+            np.zeros(3),
+            self.dt,
+            self.gammas,
+            n,
+            1,
+            50,
+            rx,
+            rv,
+            its,
+            fail,
+        )
         elapsed = since(start)
         if np.any(fail[:, 0] >= 0):
             raise RuntimeError("emorbit kernel: a step failed")
@@ -209,9 +248,16 @@ def versions() -> dict:
 
     from .._version import __version__
 
-    return {"emorbit": __version__, "numba": numba.__version__, "numpy": np.__version__,
-            "rebound": package_version("rebound"), "heyoka": package_version("heyoka"), "llvmlite": package_version("llvmlite"),
-            "scipy": package_version("scipy"), "matplotlib": package_version("matplotlib")}
+    return {
+        "emorbit": __version__,
+        "numba": numba.__version__,
+        "numpy": np.__version__,
+        "rebound": package_version("rebound"),
+        "heyoka": package_version("heyoka"),
+        "llvmlite": package_version("llvmlite"),
+        "scipy": package_version("scipy"),
+        "matplotlib": package_version("matplotlib"),
+    }
 
 
 def numba_threads() -> dict:

@@ -26,10 +26,21 @@ from __future__ import annotations
 
 import numpy as np
 
-from .common import (ENSEMBLE_DT, GM, EmorbitRunner, KernelRunner, ReboundRunner, energies, ensemble_states,
-                     numba_threads, point_masses, rebound_sim, rebound_state)
-from .timing import clock, loadavg, paired_ratio, since, timed
+from .common import (
+    ENSEMBLE_DT,
+    GM,
+    EmorbitRunner,
+    KernelRunner,
+    ReboundRunner,
+    energies,
+    ensemble_states,
+    numba_threads,
+    point_masses,
+    rebound_sim,
+    rebound_state,
+)
 from .limits import floor, measure
+from .timing import clock, loadavg, paired_ratio, since, timed
 
 WALL = "samples_us"
 
@@ -77,15 +88,24 @@ def run(cfg) -> dict:
             xs, vs = r.x, r.v
         else:
             xs, vs = r.pm.x, r.pm.v
-        rows[name] = {"particle_steps_per_s": n / (1e-6 * stats["us_per_step"]),
-                      "particle_steps_per_s_cpu": n / (1e-6 * stats["cpu_us_per_step"]),
-                      "ns_per_particle_step": 1e3 * stats["us_per_step"] / n,
-                      "steps": r.steps, "max_energy_error": _max_energy_error(xs, vs, e0),
-                      "samples_us_per_step": stats[WALL], "steps_per_call": stats["steps"]}
+        rows[name] = {
+            "particle_steps_per_s": n / (1e-6 * stats["us_per_step"]),
+            "particle_steps_per_s_cpu": n / (1e-6 * stats["cpu_us_per_step"]),
+            "ns_per_particle_step": 1e3 * stats["us_per_step"] / n,
+            "steps": r.steps,
+            "max_energy_error": _max_energy_error(xs, vs, e0),
+            "samples_us_per_step": stats[WALL],
+            "steps_per_call": stats["steps"],
+        }
     threads = numba_threads()
-    limits = measure({"em": (kern.EM_SQRTS, kern.EM_DIVISIONS),
-                      "em_fast": (kern.EM_PLAIN_SQRTS, kern.EM_PLAIN_DIVISIONS),
-                      "leapfrog": (kern.LEAPFROG_SQRTS, kern.LEAPFROG_DIVISIONS)}, threads["threads"])
+    limits = measure(
+        {
+            "em": (kern.EM_SQRTS, kern.EM_DIVISIONS),
+            "em_fast": (kern.EM_PLAIN_SQRTS, kern.EM_PLAIN_DIVISIONS),
+            "leapfrog": (kern.LEAPFROG_SQRTS, kern.LEAPFROG_DIVISIONS),
+        },
+        threads["threads"],
+    )
     em_bound = limits["kernels"]["em"]
     lowest = floor(threads["threads"])
     assert (lowest["sqrts"], lowest["divisions"]) == (em_bound["sqrts"], em_bound["divisions"])
@@ -94,11 +114,17 @@ def run(cfg) -> dict:
     # the whole driver, once: the kernel's time for these steps is about 1 s on two cores
     steps = max(10, int(1.0 * emN["particle_steps_per_s"] / n)) if cfg.repeats > 2 else 10
     wall, cpu = _driver(x, v, steps)
-    driver = {"steps": steps, "wall_s": wall, "particle_steps_per_s": n * steps / wall,
-              "ratio_to_bare_all_threads": n * steps / wall / emN["particle_steps_per_s"]}
+    driver = {
+        "steps": steps,
+        "wall_s": wall,
+        "particle_steps_per_s": n * steps / wall,
+        "ratio_to_bare_all_threads": n * steps / wall / emN["particle_steps_per_s"],
+    }
     return {
-        "case": (f"{n} test particles: a in [5, 10] m, e in [0, 0.9], isotropic planes, time-uniform phases; "
-                 f"GM = {GM}, dt = {ENSEMBLE_DT:.6g} s (T/1000 of a 6 m orbit); em order 2"),
+        "case": (
+            f"{n} test particles: a in [5, 10] m, e in [0, 0.9], isotropic planes, time-uniform phases; "
+            f"GM = {GM}, dt = {ENSEMBLE_DT:.6g} s (T/1000 of a 6 m orbit); em order 2"
+        ),
         "clock": "wall time per step (median of interleaved repeats); CPU time beside it",
         "n": n,
         "threads": threads,
@@ -109,63 +135,71 @@ def run(cfg) -> dict:
         "rebound_leapfrog_particle_steps_per_s": lf["particle_steps_per_s"],
         "rebound_whfast_particle_steps_per_s": rows["rebound whfast"]["particle_steps_per_s"],
         "em_over_rebound_leapfrog": 1.0 / paired_ratio(times["em all threads"], times["rebound leapfrog"], WALL),
-        "em_1thread_over_rebound_leapfrog": 1.0 / paired_ratio(times["em 1 thread"], times["rebound leapfrog"],
-                                                                 WALL),
-        "em_fast_over_rebound_leapfrog": 1.0 / paired_ratio(times['em roundoff="fast" all threads'],
-                                                              times["rebound leapfrog"], WALL),
-        "em_fast_fraction_of_bound_all_threads": (rows['em roundoff="fast" all threads']["particle_steps_per_s"]
-                                                  / limits["kernels"]["em_fast"]["bound_per_s_all_threads"]),
+        "em_1thread_over_rebound_leapfrog": 1.0 / paired_ratio(times["em 1 thread"], times["rebound leapfrog"], WALL),
+        "em_fast_over_rebound_leapfrog": 1.0
+        / paired_ratio(times['em roundoff="fast" all threads'], times["rebound leapfrog"], WALL),
+        "em_fast_fraction_of_bound_all_threads": (
+            rows['em roundoff="fast" all threads']["particle_steps_per_s"]
+            / limits["kernels"]["em_fast"]["bound_per_s_all_threads"]
+        ),
         "limits": limits,
         "em_fraction_of_bound_1thread": em1["particle_steps_per_s"] / em_bound["bound_per_s_1_thread"],
         "em_fraction_of_bound_all_threads": emN["particle_steps_per_s"] / em_bound["bound_per_s_all_threads"],
         "floor": lowest,
         "em_ceiling_fraction_of_bound_1thread": em_bound["mix_ns_1_thread"] / lowest["compensated"]["ns_1_thread"],
-        "em_ceiling_fraction_of_bound_all_threads": (em_bound["mix_ns_all_threads"]
-                                                     / lowest["compensated"]["ns_all_threads"]),
+        "em_ceiling_fraction_of_bound_all_threads": (
+            em_bound["mix_ns_all_threads"] / lowest["compensated"]["ns_all_threads"]
+        ),
         "em_over_floor_1thread": em1["ns_per_particle_step"] / lowest["compensated"]["ns_1_thread"],
         "em_over_floor_all_threads": emN["ns_per_particle_step"] / lowest["compensated"]["ns_all_threads"],
-        "scene_over_bare": 1.0 / paired_ratio(times["em scene (PointMasses.advance)"], times["em all threads"],
-                                                WALL),
+        "scene_over_bare": 1.0 / paired_ratio(times["em scene (PointMasses.advance)"], times["em all threads"], WALL),
         "driver": driver,
     }
 
 
 def table(section: dict) -> list[str]:
     th = section["threads"]
-    lines = [f"ensemble: {section['case']}", f"  {section['clock']}; Numba threads: {th['threads']} "
-             f"({th['threading_layer']})",
-             f"  {'':<34} {'particle-steps/s':>17} {'ns/particle-step':>17} {'max |dE/E|':>11} {'steps':>7}"]
+    lines = [
+        f"ensemble: {section['case']}",
+        f"  {section['clock']}; Numba threads: {th['threads']} ({th['threading_layer']})",
+        f"  {'':<34} {'particle-steps/s':>17} {'ns/particle-step':>17} {'max |dE/E|':>11} {'steps':>7}",
+    ]
     for name, r in section["rows"].items():
-        lines.append(f"  {name:<34} {r['particle_steps_per_s']:>17.3g} {r['ns_per_particle_step']:>17.2f} "
-                     f"{r['max_energy_error']:>11.1e} {r['steps']:>7}")
+        lines.append(
+            f"  {name:<34} {r['particle_steps_per_s']:>17.3g} {r['ns_per_particle_step']:>17.2f} "
+            f"{r['max_energy_error']:>11.1e} {r['steps']:>7}"
+        )
     lim = section["limits"]
     em = lim["kernels"]["em"]
-    lines += [f"  packed division {lim['divide_ns']:.3f} ns, square root {lim['sqrt_ns']:.3f} ns per element "
-              "(one thread)",
-              f"  em kernel: {em['sqrts']} square roots + {em['divisions']} divisions per particle-step: "
-              f"bound {em['bound_per_s_1_thread']:.3g}/s on one thread, {em['bound_per_s_all_threads']:.3g}/s on all; "
-              f"em reaches {100 * section['em_fraction_of_bound_1thread']:.0f} % and "
-              f"{100 * section['em_fraction_of_bound_all_threads']:.0f} %",
-              f"  floor, the least an em particle-step does on this state ({section['floor']['sqrts']} square roots + "
-              f"{section['floor']['divisions']} divisions, {section['floor']['rows_compensated']} rows updated, "
-              f"compensated): {section['floor']['compensated']['ns_1_thread']:.2f} ns on one thread, "
-              f"{section['floor']['compensated']['ns_all_threads']:.2f} ns on all: no kernel keeping this state "
-              f"reaches more than {100 * section['em_ceiling_fraction_of_bound_1thread']:.0f} % and "
-              f"{100 * section['em_ceiling_fraction_of_bound_all_threads']:.0f} % of the bound; em takes "
-              f"{section['em_over_floor_1thread']:.1f}x and {section['em_over_floor_all_threads']:.1f}x the floor "
-              f"(floor without the compensations, {section['floor']['rows_plain']} rows: "
-              f"{section['floor']['plain']['ns_1_thread']:.2f} and {section['floor']['plain']['ns_all_threads']:.2f} ns)",
-              f"  em all threads / REBOUND leapfrog: {section['em_over_rebound_leapfrog']:.2f}x; one thread: "
-              f"{section['em_1thread_over_rebound_leapfrog']:.2f}x",
-              f"  em roundoff=\"fast\" ({lim['kernels']['em_fast']['sqrts']} square roots + "
-              f"{lim['kernels']['em_fast']['divisions']} divisions, plain root: energy drifts by about "
-              f"4e-20 |E| per step at T/100): {section['em_fast_over_rebound_leapfrog']:.2f}x REBOUND leapfrog, "
-              f"{100 * section['em_fast_fraction_of_bound_all_threads']:.0f} % of its bound on all threads",
-              f"  scene (PointMasses.advance) / bare kernel: {section['scene_over_bare']:.3f}; whole driver "
-              f"(Simulation.run, {section['driver']['steps']} steps, one record): "
-              f"{section['driver']['ratio_to_bare_all_threads']:.3f}"]
+    lines += [
+        f"  packed division {lim['divide_ns']:.3f} ns, square root {lim['sqrt_ns']:.3f} ns per element (one thread)",
+        f"  em kernel: {em['sqrts']} square roots + {em['divisions']} divisions per particle-step: "
+        f"bound {em['bound_per_s_1_thread']:.3g}/s on one thread, {em['bound_per_s_all_threads']:.3g}/s on all; "
+        f"em reaches {100 * section['em_fraction_of_bound_1thread']:.0f} % and "
+        f"{100 * section['em_fraction_of_bound_all_threads']:.0f} %",
+        f"  floor, the least an em particle-step does on this state ({section['floor']['sqrts']} square roots + "
+        f"{section['floor']['divisions']} divisions, {section['floor']['rows_compensated']} rows updated, "
+        f"compensated): {section['floor']['compensated']['ns_1_thread']:.2f} ns on one thread, "
+        f"{section['floor']['compensated']['ns_all_threads']:.2f} ns on all: no kernel keeping this state "
+        f"reaches more than {100 * section['em_ceiling_fraction_of_bound_1thread']:.0f} % and "
+        f"{100 * section['em_ceiling_fraction_of_bound_all_threads']:.0f} % of the bound; em takes "
+        f"{section['em_over_floor_1thread']:.1f}x and {section['em_over_floor_all_threads']:.1f}x the floor "
+        f"(floor without the compensations, {section['floor']['rows_plain']} rows: "
+        f"{section['floor']['plain']['ns_1_thread']:.2f} and {section['floor']['plain']['ns_all_threads']:.2f} ns)",
+        f"  em all threads / REBOUND leapfrog: {section['em_over_rebound_leapfrog']:.2f}x; one thread: "
+        f"{section['em_1thread_over_rebound_leapfrog']:.2f}x",
+        f'  em roundoff="fast" ({lim["kernels"]["em_fast"]["sqrts"]} square roots + '
+        f"{lim['kernels']['em_fast']['divisions']} divisions, plain root: energy drifts by about "
+        f"4e-20 |E| per step at T/100): {section['em_fast_over_rebound_leapfrog']:.2f}x REBOUND leapfrog, "
+        f"{100 * section['em_fast_fraction_of_bound_all_threads']:.0f} % of its bound on all threads",
+        f"  scene (PointMasses.advance) / bare kernel: {section['scene_over_bare']:.3f}; whole driver "
+        f"(Simulation.run, {section['driver']['steps']} steps, one record): "
+        f"{section['driver']['ratio_to_bare_all_threads']:.3f}",
+    ]
     load = section.get("load_average_at_start")
     if load and load[0] >= 0.5:
-        lines.append(f"  (the machine was busy: 1-minute load average {load[0]} at the start; the all-threads rows "
-                     "shared cores with other processes)")
+        lines.append(
+            f"  (the machine was busy: 1-minute load average {load[0]} at the start; the all-threads rows "
+            "shared cores with other processes)"
+        )
     return lines

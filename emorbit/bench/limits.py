@@ -22,8 +22,8 @@ import time
 import numpy as np
 from numba import prange
 
-from ..kernels.pointmass.packed import BLOCK, LD
 from ..kernels.jit import kernel
+from ..kernels.pointmass.packed import BLOCK, LD
 
 __all__ = ["measure", "floor"]
 
@@ -96,7 +96,7 @@ def _floor(W, h, gm, compensated, reps):
     finite."""
     hh = 0.5 * h
     h2gm = 2.0 * h * gm
-    for r in range(reps):
+    for _ in range(reps):
         if compensated:
             for i in range(BLOCK):
                 x0, x1, x2 = W[i], W[LD + i], W[2 * LD + i]
@@ -121,7 +121,11 @@ def _floor(W, h, gm, compensated, reps):
                 k = _floor_kick(x0, x1, x2, v0, v1, v2, h, h2gm)
                 d0, d1, d2 = -k * x0, -k * x1, -k * x2
                 W[3 * LD + i], W[4 * LD + i], W[5 * LD + i] = v0 + d0, v1 + d1, v2 + d2
-                W[i], W[LD + i], W[2 * LD + i] = x0 + (h * v0 + hh * d0), x1 + (h * v1 + hh * d1), x2 + (h * v2 + hh * d2)
+                W[i], W[LD + i], W[2 * LD + i] = (
+                    x0 + (h * v0 + hh * d0),
+                    x1 + (h * v1 + hh * d1),
+                    x2 + (h * v2 + hh * d2),
+                )
 
 
 @kernel(parallel=True)
@@ -142,8 +146,8 @@ def floor_block(seed: int = 0) -> np.ndarray:
     n = np.cross(x.T, rng.normal(size=(BLOCK, 3))).T
     v = n / np.sqrt((n * n).sum(axis=0)) * rng.uniform(0.9, 1.1, BLOCK) / np.sqrt(np.sqrt((x * x).sum(axis=0)))
     for k in range(3):
-        W[k * LD:k * LD + BLOCK] = x[k]
-        W[(3 + k) * LD:(3 + k) * LD + BLOCK] = v[k]
+        W[k * LD : k * LD + BLOCK] = x[k]
+        W[(3 + k) * LD : (3 + k) * LD + BLOCK] = v[k]
     return W
 
 
@@ -173,8 +177,11 @@ def measure(counts: dict, threads: int, seconds: float = 0.05) -> dict:
     rng = np.random.default_rng(0)
     a, b, c, d, e = (rng.uniform(1.0, 2.0, _N) for _ in range(5))
     out = np.zeros(_N)
-    result = {"divide_ns": _best_ns(_divide, (a, b, out), _N, seconds),
-              "sqrt_ns": _best_ns(_sqrt, (a, out), _N, seconds), "kernels": {}}
+    result = {
+        "divide_ns": _best_ns(_divide, (a, b, out), _N, seconds),
+        "sqrt_ns": _best_ns(_sqrt, (a, out), _N, seconds),
+        "kernels": {},
+    }
     big = [np.ascontiguousarray(np.tile(q, (threads, 1))) for q in (a, b, c, d, e)]
     big_out = np.zeros((threads, _N))
     mixes = {}  # kernels with the same counts share one measurement (their bounds must agree)
@@ -182,14 +189,19 @@ def measure(counts: dict, threads: int, seconds: float = 0.05) -> dict:
         if (nsqrt, ndiv) not in MIXES:
             raise ValueError(f"no division / square-root loop with counts {(nsqrt, ndiv)}; known: {MIXES}")
         if (nsqrt, ndiv) not in mixes:
-            mixes[nsqrt, ndiv] = (_best_ns(_mix, (a, b, c, d, e, out, nsqrt, ndiv), _N, seconds),
-                                  _best_ns(_mix_parallel, (*big, big_out, nsqrt, ndiv), _N * threads, seconds))
+            mixes[nsqrt, ndiv] = (
+                _best_ns(_mix, (a, b, c, d, e, out, nsqrt, ndiv), _N, seconds),
+                _best_ns(_mix_parallel, (*big, big_out, nsqrt, ndiv), _N * threads, seconds),
+            )
         one, all_ = mixes[nsqrt, ndiv]
         result["kernels"][name] = {
-            "sqrts": nsqrt, "divisions": ndiv,
+            "sqrts": nsqrt,
+            "divisions": ndiv,
             "sum_ns": nsqrt * result["sqrt_ns"] + ndiv * result["divide_ns"],
-            "mix_ns_1_thread": one, "mix_ns_all_threads": all_,
-            "bound_per_s_1_thread": 1e9 / one, "bound_per_s_all_threads": 1e9 / all_,
+            "mix_ns_1_thread": one,
+            "mix_ns_all_threads": all_,
+            "bound_per_s_1_thread": 1e9 / one,
+            "bound_per_s_all_threads": 1e9 / all_,
         }
     return result
 
@@ -207,7 +219,8 @@ def floor(threads: int, seconds: float = 0.05) -> dict:
     for name, comp in (("compensated", True), ("plain", False)):
         one = floor_block()
         many = np.ascontiguousarray(np.tile(one, (threads, 1)))
-        out[name] = {"ns_1_thread": _best_ns(_floor, (one, _FLOOR_H, 1.0, comp), BLOCK, seconds),
-                     "ns_all_threads": _best_ns(_floor_parallel, (many, _FLOOR_H, 1.0, comp), BLOCK * threads,
-                                                seconds)}
+        out[name] = {
+            "ns_1_thread": _best_ns(_floor, (one, _FLOOR_H, 1.0, comp), BLOCK, seconds),
+            "ns_all_threads": _best_ns(_floor_parallel, (many, _FLOOR_H, 1.0, comp), BLOCK * threads, seconds),
+        }
     return out

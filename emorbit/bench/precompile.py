@@ -63,8 +63,11 @@ def precompile(sections) -> float | None:
     if not any(section in sections for _, section, *_ in _JOBS):
         return None
     start = time.perf_counter()
-    helper = subprocess.Popen([sys.executable, "-m", "emorbit.bench.precompile", "1", *sections],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    helper = subprocess.Popen(
+        [sys.executable, "-m", "emorbit.bench.precompile", "1", *sections],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
         run_part(0, sections)
     except BaseException:  # Ctrl-C or a failing job: do not leave the helper compiling
@@ -77,8 +80,9 @@ def precompile(sections) -> float | None:
 
 def _main(argv) -> int:
     if not argv or argv[0] not in ("0", "1"):
-        print(f"usage: python -m emorbit.bench.precompile PART SECTION ... (PART 0 or 1, got {argv[:1]})",
-              file=sys.stderr)
+        print(
+            f"usage: python -m emorbit.bench.precompile PART SECTION ... (PART 0 or 1, got {argv[:1]})", file=sys.stderr
+        )
         return 2
     run_part(int(argv[0]), argv[1:])
     return 0

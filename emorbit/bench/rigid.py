@@ -110,10 +110,18 @@ def _leo_sim(refinement: int, dt: float, gravity: str = "volume", order: int = 2
     field = _earth()
     n = _orbit_rate(field.gm)
     sim = emorbit.Simulation(field, method="em", order=order, dt=dt)
-    sim.add_rigid("box", "box", refinement=refinement, position=[R_ORBIT, 0.0, 0.0],
-                  velocity=[0.0, math.sqrt(field.gm / R_ORBIT), 0.0], rotation_vector=list(LEO_ROTATION_VECTOR),
-                  angular_velocity=[LEO_RATE_OFFSET[0], LEO_RATE_OFFSET[1], n + LEO_RATE_OFFSET[2]],
-                  angular_velocity_frame="space", gravity=gravity, **LEO_BOX)
+    sim.add_rigid(
+        "box",
+        "box",
+        refinement=refinement,
+        position=[R_ORBIT, 0.0, 0.0],
+        velocity=[0.0, math.sqrt(field.gm / R_ORBIT), 0.0],
+        rotation_vector=list(LEO_ROTATION_VECTOR),
+        angular_velocity=[LEO_RATE_OFFSET[0], LEO_RATE_OFFSET[1], n + LEO_RATE_OFFSET[2]],
+        angular_velocity_frame="space",
+        gravity=gravity,
+        **LEO_BOX,
+    )
     return sim
 
 
@@ -121,8 +129,9 @@ def _free_sim(dt: float, omega=FREE_OMEGA):
     import emorbit
 
     sim = emorbit.Simulation(None, method="em", dt=dt)
-    sim.add_rigid("box", "box", position=[0.0, 0.0, 0.0], velocity=[0.0, 0.0, 0.0], angular_velocity=list(omega),
-                  **FREE_BOX)
+    sim.add_rigid(
+        "box", "box", position=[0.0, 0.0, 0.0], velocity=[0.0, 0.0, 0.0], angular_velocity=list(omega), **FREE_BOX
+    )
     return sim
 
 
@@ -158,8 +167,11 @@ def _jacobi(inertia, n, positions, space_to_body, omega_body) -> np.ndarray:
     c_r = np.einsum("nij,nj->ni", space_to_body, r_hat)
     e_n = space_to_body[:, :, 2]
     Iw = omega_body @ inertia
-    return (0.5 * np.einsum("ni,ni->n", omega_body, Iw) - n * np.einsum("ni,ni->n", e_n, Iw)
-            + 1.5 * n * n * np.einsum("ni,ij,nj->n", c_r, inertia, c_r))
+    return (
+        0.5 * np.einsum("ni,ni->n", omega_body, Iw)
+        - n * np.einsum("ni,ni->n", e_n, Iw)
+        + 1.5 * n * n * np.einsum("ni,ij,nj->n", c_r, inertia, c_r)
+    )
 
 
 def _drift(values) -> float:
@@ -182,14 +194,24 @@ def _scan(cfg: Config) -> dict:
     for g in ("volume", "point"):
         us = np.array([row[g][CLOCK] for row in rows])
         slope, intercept = np.polyfit(npts, us, 1)
-        fit[g] = {"us_per_point": float(slope), "intercept_us": float(intercept),
-                  "max_relative_residual": float(np.max(np.abs(us - (slope * npts + intercept)) / us))}
+        fit[g] = {
+            "us_per_point": float(slope),
+            "intercept_us": float(intercept),
+            "max_relative_residual": float(np.max(np.abs(us - (slope * npts + intercept)) / us)),
+        }
     per_point = np.array([row["us_per_point"] for row in rows if row["mass_points"] >= 200])
     spread = float(per_point.max() / per_point.min()) if per_point.size > 1 else None
-    return {"case": (f"box {LEO_BOX['size']} m, {LEO_BOX['density']:g} kg/m3 refined into 8 r^3 mass points, "
-                     f"em order 2, {R_ORBIT / 1e3:g} km circular Earth orbit, near long-axis-radial, turning at "
-                     f"about the orbit rate, dt = {SCAN_DT:g} s"),
-            "dt": SCAN_DT, "rows": rows, "fit": fit, "per_point_spread": spread}
+    return {
+        "case": (
+            f"box {LEO_BOX['size']} m, {LEO_BOX['density']:g} kg/m3 refined into 8 r^3 mass points, "
+            f"em order 2, {R_ORBIT / 1e3:g} km circular Earth orbit, near long-axis-radial, turning at "
+            f"about the orbit rate, dt = {SCAN_DT:g} s"
+        ),
+        "dt": SCAN_DT,
+        "rows": rows,
+        "fit": fit,
+        "per_point_spread": spread,
+    }
 
 
 def _field_accuracy(order: int, dt: float, cfg: Config) -> dict:
@@ -201,8 +223,12 @@ def _field_accuracy(order: int, dt: float, cfg: Config) -> dict:
     res = sim.run(steps=steps, every=1)
     Rt = np.swapaxes(quaternion_to_matrix(res.attitudes["box"]), -1, -2)
     J = _jacobi(sim.rigid.points[0].inertia, n, res.positions["box"], Rt, res.angular_velocities["box"])
-    return {"accuracy_steps": steps, "energy_error": float(np.abs(res.relative_energy_error()).max()),
-            "angular_momentum_error": float(res.relative_angular_momentum_error().max()), "jacobi_drift": _drift(J)}
+    return {
+        "accuracy_steps": steps,
+        "energy_error": float(np.abs(res.relative_energy_error()).max()),
+        "angular_momentum_error": float(res.relative_angular_momentum_error().max()),
+        "jacobi_drift": _drift(J),
+    }
 
 
 def _omega_reference(inertia, omega0, t_end) -> np.ndarray:
@@ -210,18 +236,26 @@ def _omega_reference(inertia, omega0, t_end) -> np.ndarray:
     from scipy.integrate import solve_ivp
 
     Iinv = np.linalg.inv(inertia)
-    sol = solve_ivp(lambda _, w: Iinv @ np.cross(inertia @ w, w), (0.0, t_end), np.asarray(omega0, float),
-                    method="DOP853", rtol=1e-12, atol=1e-14)
+    sol = solve_ivp(
+        lambda _, w: Iinv @ np.cross(inertia @ w, w),
+        (0.0, t_end),
+        np.asarray(omega0, float),
+        method="DOP853",
+        rtol=1e-12,
+        atol=1e-14,
+    )
     return sol.y[:, -1]
 
 
 def _free_accuracy(dt: float, omega, cfg: Config) -> dict:
     res = _free_sim(dt, omega).run(steps=int(round(cfg.t_free / dt)), every=1)
     ref = _omega_reference(_box_inertia(**FREE_BOX), omega, cfg.t_free)
-    return {"energy_error": float(np.abs(res.relative_energy_error()).max()),
-            "angular_momentum_error": float(res.relative_angular_momentum_error().max()),
-            "omega_error": float(np.abs(res.angular_velocities["box"][-1] - ref).max() / np.linalg.norm(ref)),
-            "mean_newton_iterations": res.mean_newton_iterations()}
+    return {
+        "energy_error": float(np.abs(res.relative_energy_error()).max()),
+        "angular_momentum_error": float(res.relative_angular_momentum_error().max()),
+        "omega_error": float(np.abs(res.angular_velocities["box"][-1] - ref).max() / np.linalg.norm(ref)),
+        "mean_newton_iterations": res.mean_newton_iterations(),
+    }
 
 
 # -- Basilisk --------------------------------------------------------------------------------
@@ -244,8 +278,9 @@ class _Basilisk:
             from Basilisk.simulation import GravityGradientEffector, spacecraft
             from Basilisk.utilities import SimulationBaseClass, macros, simIncludeGravBody
         except Exception as exc:  # noqa: BLE001 - any import failure means: skipped
-            self.skipped = (f"skipped: Basilisk not importable ({type(exc).__name__}: {exc}); "
-                            f"pip install 'emorbit[rigid-peers]'")
+            self.skipped = (
+                f"skipped: Basilisk not importable ({type(exc).__name__}: {exc}); pip install 'emorbit[rigid-peers]'"
+            )
             return
         self.mods = (GravityGradientEffector, spacecraft, SimulationBaseClass, macros, simIncludeGravBody)
         from ..bodies.rotations import rotation_vector_to_matrix
@@ -326,13 +361,16 @@ class _Exudyn:
                 from exudyn.itemInterface import SensorNode
                 from exudyn.utilities import InertiaCuboid
         except Exception as exc:  # noqa: BLE001
-            self.skipped = (f"skipped: Exudyn not importable ({type(exc).__name__}: {exc}); "
-                            f"pip install 'emorbit[rigid-peers]'")
+            self.skipped = (
+                f"skipped: Exudyn not importable ({type(exc).__name__}: {exc}); pip install 'emorbit[rigid-peers]'"
+            )
             return
         self.exu, self.SensorNode, self.InertiaCuboid = exu, SensorNode, InertiaCuboid
         self.module = "exudynCPPfast" if "exudyn.exudynCPPfast" in sys.modules else "exudynCPP"
-        self.nodes = {"euler-parameters": exu.NodeType.RotationEulerParameters,
-                      "rotation-vector": exu.NodeType.RotationRotationVector}
+        self.nodes = {
+            "euler-parameters": exu.NodeType.RotationEulerParameters,
+            "rotation-vector": exu.NodeType.RotationRotationVector,
+        }
         self.spectral_radius = float(exu.SimulationSettings().timeIntegration.generalizedAlpha.spectralRadius)
 
     @contextlib.contextmanager
@@ -359,11 +397,21 @@ class _Exudyn:
         exu = self.exu
         mbs = exu.SystemContainer().AddSystem()
         inertia = self.InertiaCuboid(FREE_BOX["density"], sideLengths=list(FREE_BOX["size"]))
-        body = mbs.CreateRigidBody(inertia=inertia, referencePosition=[0.0, 0.0, 0.0], initialAngularVelocity=list(omega),
-                                   nodeType=self.nodes[node], returnDict=True)
-        sens = [mbs.AddSensor(self.SensorNode(nodeNumber=body["nodeNumber"], storeInternal=True, outputVariableType=ov))
-                for ov in (exu.OutputVariableType.AngularVelocityLocal, exu.OutputVariableType.RotationMatrix)] \
-            if sensors else None
+        body = mbs.CreateRigidBody(
+            inertia=inertia,
+            referencePosition=[0.0, 0.0, 0.0],
+            initialAngularVelocity=list(omega),
+            nodeType=self.nodes[node],
+            returnDict=True,
+        )
+        sens = (
+            [
+                mbs.AddSensor(self.SensorNode(nodeNumber=body["nodeNumber"], storeInternal=True, outputVariableType=ov))
+                for ov in (exu.OutputVariableType.AngularVelocityLocal, exu.OutputVariableType.RotationMatrix)
+            ]
+            if sensors
+            else None
+        )
         mbs.Assemble()
         ss = exu.SimulationSettings()
         ti = ss.timeIntegration
@@ -412,8 +460,12 @@ class _Exudyn:
             t_reached = float(mbs.systemData.GetTime())
         E = 0.5 * np.einsum("ni,ij,nj->n", w, inertia, w)
         L = np.einsum("nij,jk,nk->ni", R, inertia, w)
-        out = {"converged": ok, "t_reached": t_reached, "energy_error": float(np.abs(E / E[0] - 1).max()),
-               "angular_momentum_error": float(np.linalg.norm(L - L[0], axis=1).max() / np.linalg.norm(L[0]))}
+        out = {
+            "converged": ok,
+            "t_reached": t_reached,
+            "energy_error": float(np.abs(E / E[0] - 1).max()),
+            "angular_momentum_error": float(np.linalg.norm(L - L[0], axis=1).max() / np.linalg.norm(L[0])),
+        }
         if ok:
             ref = _omega_reference(inertia, omega, cfg.t_free)
             out["omega_error"] = float(np.abs(w[-1] - ref).max() / np.linalg.norm(ref))
@@ -432,8 +484,17 @@ def _field(cfg: Config, bsk: _Basilisk) -> dict:
             runners["basilisk"] = bsk.runner(dt)
         times = timed(runners, cfg, optional=("basilisk",))
         for o in (2, 4):
-            emorbit_rows.append({"order": o, "dt": dt, "mass_points": 8, "gravity": "volume", **times[f"order{o}"],
-                                 "newton_iterations": runners[f"order{o}"].newton(), **_field_accuracy(o, dt, cfg)})
+            emorbit_rows.append(
+                {
+                    "order": o,
+                    "dt": dt,
+                    "mass_points": 8,
+                    "gravity": "volume",
+                    **times[f"order{o}"],
+                    "newton_iterations": runners[f"order{o}"].newton(),
+                    **_field_accuracy(o, dt, cfg),
+                }
+            )
         if status != "ok":
             continue
         if "status" in times["basilisk"]:
@@ -450,9 +511,13 @@ def _field(cfg: Config, bsk: _Basilisk) -> dict:
         bsk_rows.append(row)
     basilisk = {"status": status, "rows": bsk_rows}
     if status == "ok":
-        basilisk.update(version=package_version("bsk"),
-                        case=("Spacecraft hub with the box's mass and inertia, point-mass Earth gravity (same GM), "
-                              "GravityGradientEffector (first order), same initial state"))
+        basilisk.update(
+            version=package_version("bsk"),
+            case=(
+                "Spacecraft hub with the box's mass and inertia, point-mass Earth gravity (same GM), "
+                "GravityGradientEffector (first order), same initial state"
+            ),
+        )
     return {"emorbit": {"rows": emorbit_rows}, "basilisk": basilisk}
 
 
@@ -465,11 +530,23 @@ def _torque_free(cfg: Config, ex: _Exudyn) -> dict:
         for node in peers:
             runners[node] = ex.runner(dt, node)
         times = timed(runners, cfg, optional=peers)
-        free_rows.append({"omega0": list(FREE_OMEGA), "dt": dt, **times["emorbit"],
-                          "newton_iterations": runners["emorbit"].newton(), **_free_accuracy(dt, FREE_OMEGA, cfg)})
+        free_rows.append(
+            {
+                "omega0": list(FREE_OMEGA),
+                "dt": dt,
+                **times["emorbit"],
+                "newton_iterations": runners["emorbit"].newton(),
+                **_free_accuracy(dt, FREE_OMEGA, cfg),
+            }
+        )
         for node in peers:
-            row = {"solver": "generalized-alpha", "node": node, "spectral_radius": ex.spectral_radius, "dt": dt,
-                   **times[node]}
+            row = {
+                "solver": "generalized-alpha",
+                "node": node,
+                "spectral_radius": ex.spectral_radius,
+                "dt": dt,
+                **times[node],
+            }
             if "status" not in row:
                 row.update(ex.accuracy(dt, node, FREE_OMEGA, "generalized-alpha", cfg))
                 row["emorbit_ratio"] = paired_ratio(times["emorbit"], times[node])
@@ -480,25 +557,49 @@ def _torque_free(cfg: Config, ex: _Exudyn) -> dict:
     if status == "ok":
         for scheme in ("trapezoidal", "trapezoidal-index2"):
             for omega in (FREE_OMEGA, FAST_OMEGA):
-                trapezoidal.append({"solver": scheme, "node": "euler-parameters", "omega0": list(omega),
-                                    "dt": TRAPEZOIDAL_DT,
-                                    **ex.accuracy(TRAPEZOIDAL_DT, "euler-parameters", omega, scheme, cfg)})
+                trapezoidal.append(
+                    {
+                        "solver": scheme,
+                        "node": "euler-parameters",
+                        "omega0": list(omega),
+                        "dt": TRAPEZOIDAL_DT,
+                        **ex.accuracy(TRAPEZOIDAL_DT, "euler-parameters", omega, scheme, cfg),
+                    }
+                )
     exudyn = {"status": status, "implicit": implicit, "trapezoidal": trapezoidal}
     if status == "ok":
-        exudyn.update(version=package_version("exudyn"), module=ex.module,
-                      case=("CreateRigidBody with InertiaCuboid (the same box), no gravity; SolveDynamic timed (its "
-                            "set-up, ~60 us a call, amortised over the steps)"))
-    return {"emorbit": {"rows": free_rows,
-                        "case": (f"box {FREE_BOX['size']} m, no field, omega0 = {list(FREE_OMEGA)} rad/s (body frame); "
-                                 f"errors over {cfg.t_free:g} s: max over every step (E, L), omega at the end "
-                                 f"against DOP853")},
-            "exudyn": exudyn}
+        exudyn.update(
+            version=package_version("exudyn"),
+            module=ex.module,
+            case=(
+                "CreateRigidBody with InertiaCuboid (the same box), no gravity; SolveDynamic timed (its "
+                "set-up, ~60 us a call, amortised over the steps)"
+            ),
+        )
+    return {
+        "emorbit": {
+            "rows": free_rows,
+            "case": (
+                f"box {FREE_BOX['size']} m, no field, omega0 = {list(FREE_OMEGA)} rad/s (body frame); "
+                f"errors over {cfg.t_free:g} s: max over every step (E, L), omega at the end "
+                f"against DOP853"
+            ),
+        },
+        "exudyn": exudyn,
+    }
 
 
 def _ratio_target(target: str, ours: dict, row: dict) -> dict:
     """A 'emorbit <= 1x peer' target from a peer row (with its paired ratios) and emorbit's row."""
-    return {"target": target, "emorbit_us": ours[CLOCK], "reference_us": row[CLOCK], "ratio": row["emorbit_ratio"],
-            "ratio_wall": row["emorbit_ratio_wall"], "limit": 1.0, "met": row["emorbit_ratio"] <= 1.0}
+    return {
+        "target": target,
+        "emorbit_us": ours[CLOCK],
+        "reference_us": row[CLOCK],
+        "ratio": row["emorbit_ratio"],
+        "ratio_wall": row["emorbit_ratio_wall"],
+        "limit": 1.0,
+        "met": row["emorbit_ratio"] <= 1.0,
+    }
 
 
 def _targets(scan: dict, field: dict, free: dict) -> list:
@@ -507,36 +608,72 @@ def _targets(scan: dict, field: dict, free: dict) -> list:
     if ex["status"] == "ok":
         for row in ex["implicit"]:
             if "status" in row:
-                out.append({"target": f"torque-free step <= 1x Exudyn generalized-alpha ({row['node']} node), "
-                                      f"dt = {row['dt']:g} s", "met": None, "note": row["status"]})
+                out.append(
+                    {
+                        "target": f"torque-free step <= 1x Exudyn generalized-alpha ({row['node']} node), "
+                        f"dt = {row['dt']:g} s",
+                        "met": None,
+                        "note": row["status"],
+                    }
+                )
                 continue
             ours = next(r for r in free["emorbit"]["rows"] if r["dt"] == row["dt"] and CLOCK in r)
-            out.append(_ratio_target(f"torque-free step <= 1x Exudyn generalized-alpha ({row['node']} node), "
-                                     f"dt = {row['dt']:g} s", ours, row))
+            out.append(
+                _ratio_target(
+                    f"torque-free step <= 1x Exudyn generalized-alpha ({row['node']} node), dt = {row['dt']:g} s",
+                    ours,
+                    row,
+                )
+            )
     else:
         out.append({"target": "torque-free step <= 1x Exudyn's implicit step", "met": None, "note": ex["status"]})
     free_rows = [r for r in free["emorbit"]["rows"] if r["omega0"] == list(FREE_OMEGA)]
     worst = max(max(r["energy_error"], r["angular_momentum_error"]) for r in free_rows)
-    out.append({"target": "torque-free: energy and angular momentum at round-off at dt = "
-                          + ", ".join(f"{r['dt']:g}" for r in free_rows) + " s",
-                "measured": worst, "limit": ROUND_OFF, "met": worst <= ROUND_OFF})
+    out.append(
+        {
+            "target": "torque-free: energy and angular momentum at round-off at dt = "
+            + ", ".join(f"{r['dt']:g}" for r in free_rows)
+            + " s",
+            "measured": worst,
+            "limit": ROUND_OFF,
+            "met": worst <= ROUND_OFF,
+        }
+    )
     bsk = field["basilisk"]
     if bsk["status"] == "ok":
         for row in bsk["rows"]:
             ours = next(r for r in field["emorbit"]["rows"] if r["order"] == 2 and r["dt"] == row["dt"])
-            out.append(_ratio_target(f"8 mass points in the field <= 1x Basilisk (RK4 + gravity gradient), "
-                                     f"dt = {row['dt']:g} s", ours, row))
+            out.append(
+                _ratio_target(
+                    f"8 mass points in the field <= 1x Basilisk (RK4 + gravity gradient), dt = {row['dt']:g} s",
+                    ours,
+                    row,
+                )
+            )
     else:
         out.append({"target": "8 mass points in the field <= 1x Basilisk's step", "met": None, "note": bsk["status"]})
     thousand = [r for r in scan["rows"] if r["mass_points"] == 1000]
     if thousand:
         us = thousand[0]["volume"][CLOCK]
-        out.append({"target": "1000 mass points <= 100 us per step (Newton included)", "measured": us,
-                    "measured_wall": thousand[0]["volume"]["us_per_step"], "limit": 100.0,
-                    "met": us <= 100.0, "newton_iterations": thousand[0]["volume"]["newton_iterations"]})
+        out.append(
+            {
+                "target": "1000 mass points <= 100 us per step (Newton included)",
+                "measured": us,
+                "measured_wall": thousand[0]["volume"]["us_per_step"],
+                "limit": 100.0,
+                "met": us <= 100.0,
+                "newton_iterations": thousand[0]["volume"]["newton_iterations"],
+            }
+        )
     if scan["per_point_spread"] is not None:
-        out.append({"target": "linear in the mass points: (volume - point) / N within 1.5x for N >= 200",
-                    "measured": scan["per_point_spread"], "limit": 1.5, "met": scan["per_point_spread"] <= 1.5})
+        out.append(
+            {
+                "target": "linear in the mass points: (volume - point) / N within 1.5x for N >= 200",
+                "measured": scan["per_point_spread"],
+                "limit": 1.5,
+                "met": scan["per_point_spread"] <= 1.5,
+            }
+        )
     return out
 
 
@@ -554,17 +691,24 @@ def run(quick: bool = False, *, config: str | None = None) -> dict:
     scan = _scan(cfg)
     field = _field(cfg, _Basilisk())
     free = _torque_free(cfg, _Exudyn())
-    field["case"] = (f"box {LEO_BOX['size']} m, {LEO_BOX['density']:g} kg/m3, 8 mass points (volume gravity), "
-                     f"{R_ORBIT / 1e3:g} km circular Earth orbit, rotation vector {list(LEO_ROTATION_VECTOR)} rad from "
-                     f"long-axis-radial, omega = n z + {list(LEO_RATE_OFFSET)} rad/s (space); accuracy over "
-                     f"{cfg.orbits:g} orbits, Jacobi drift relative to |J(0)|")
+    field["case"] = (
+        f"box {LEO_BOX['size']} m, {LEO_BOX['density']:g} kg/m3, 8 mass points (volume gravity), "
+        f"{R_ORBIT / 1e3:g} km circular Earth orbit, rotation vector {list(LEO_ROTATION_VECTOR)} rad from "
+        f"long-axis-radial, omega = n z + {list(LEO_RATE_OFFSET)} rad/s (space); accuracy over "
+        f"{cfg.orbits:g} orbits, Jacobi drift relative to |J(0)|"
+    )
     return {
         "name": "rigid",
         "config": name,
         "machine": machine(),
         "load_average": {"before": load_before, "after": loadavg()},
-        "versions": {"emorbit": __version__, "numba": numba.__version__, "numpy": np.__version__,
-                     "bsk": package_version("bsk"), "exudyn": package_version("exudyn")},
+        "versions": {
+            "emorbit": __version__,
+            "numba": numba.__version__,
+            "numpy": np.__version__,
+            "bsk": package_version("bsk"),
+            "exudyn": package_version("exudyn"),
+        },
         "round_off": ROUND_OFF,
         "scaling": scan,
         "field": field,
@@ -587,26 +731,35 @@ def table(section: dict) -> str:
     """Printable rows of a section from :func:`run`."""
     m = section["machine"]
     threads = ", ".join(f"{k}={v}" for k, v in m.get("thread_variables", {}).items()) or "BLAS threads: default"
-    lines = [f"Rigid bodies ({section['config']}): {m['cpu']}, {m['cores']} cores, {m['simd']}; {threads}; "
-             f"load average {section['load_average']['before']} -> {section['load_average']['after']}; "
-             f"{section['seconds']} s",
-             "  us per step, Newton included, medians of interleaved repeats after a warm-up: wall clock / CPU time;",
-             "  em/peer: median of per-repeat CPU-time ratios emorbit / peer (verdicts and fits use CPU time)"]
+    lines = [
+        f"Rigid bodies ({section['config']}): {m['cpu']}, {m['cores']} cores, {m['simd']}; {threads}; "
+        f"load average {section['load_average']['before']} -> {section['load_average']['after']}; "
+        f"{section['seconds']} s",
+        "  us per step, Newton included, medians of interleaved repeats after a warm-up: wall clock / CPU time;",
+        "  em/peer: median of per-repeat CPU-time ratios emorbit / peer (verdicts and fits use CPU time)",
+    ]
     if section["config"] == "tiny":
         lines.append("  (tiny: a smoke run; its timings are dominated by the fixed cost of each call and mean nothing)")
     scan = section["scaling"]
-    lines += ["", f"  cost per step against mass points: {scan['case']}",
-              f"  {'points':>7} {'volume us':>14} {'Newton':>7} {'point us':>12} {'(vol-pt)/N ns':>14}"]
+    lines += [
+        "",
+        f"  cost per step against mass points: {scan['case']}",
+        f"  {'points':>7} {'volume us':>14} {'Newton':>7} {'point us':>12} {'(vol-pt)/N ns':>14}",
+    ]
     for r in scan["rows"]:
         v, p = r["volume"], r["point"]
-        lines.append(f"  {r['mass_points']:>7} {_us(v['us_per_step']) + ' / ' + _us(v[CLOCK]):>14} "
-                     f"{v['newton_iterations']:>7.2f} {_us(p['us_per_step']) + ' / ' + _us(p[CLOCK]):>12} "
-                     f"{1e3 * r['us_per_point']:>14.1f}")
+        lines.append(
+            f"  {r['mass_points']:>7} {_us(v['us_per_step']) + ' / ' + _us(v[CLOCK]):>14} "
+            f"{v['newton_iterations']:>7.2f} {_us(p['us_per_step']) + ' / ' + _us(p[CLOCK]):>12} "
+            f"{1e3 * r['us_per_point']:>14.1f}"
+        )
     fv = scan["fit"]["volume"]
     spread = scan["per_point_spread"]
-    lines.append(f"  straight line (volume): {1e3 * fv['us_per_point']:.1f} ns per mass point + {fv['intercept_us']:.1f} us, "
-                 f"max residual {100 * fv['max_relative_residual']:.0f} %"
-                 + (f"; (vol-pt)/N spread {spread:.2f}x for N >= 200" if spread is not None else ""))
+    lines.append(
+        f"  straight line (volume): {1e3 * fv['us_per_point']:.1f} ns per mass point + {fv['intercept_us']:.1f} us, "
+        f"max residual {100 * fv['max_relative_residual']:.0f} %"
+        + (f"; (vol-pt)/N spread {spread:.2f}x for N >= 200" if spread is not None else "")
+    )
 
     def timing(r):
         return (_us(r["us_per_step"]) + " / " + _us(r[CLOCK])) if CLOCK in r else "-"
@@ -614,38 +767,54 @@ def table(section: dict) -> str:
     field = section["field"]
     bsk = field["basilisk"]
     ratio = {r["dt"]: r["emorbit_ratio"] for r in bsk["rows"]}
-    lines += ["", f"  in the field: {field['case']}",
-              f"  {'':<34} {'dt s':>5} {'us/step':>13} {'|dE/E|':>8} {'|dL/L|':>8} {'Jacobi':>8} {'em/peer':>8}"]
+    lines += [
+        "",
+        f"  in the field: {field['case']}",
+        f"  {'':<34} {'dt s':>5} {'us/step':>13} {'|dE/E|':>8} {'|dL/L|':>8} {'Jacobi':>8} {'em/peer':>8}",
+    ]
     for r in field["emorbit"]["rows"]:
         vs = f"{ratio[r['dt']]:.2f}x" if r["order"] == 2 and r["dt"] in ratio else ""
-        lines.append(f"  {'emorbit em order ' + str(r['order']) + ', 8 points':<34} {r['dt']:>5g} {timing(r):>13} "
-                     f"{_e(r['energy_error']):>8} {_e(r['angular_momentum_error']):>8} {_e(r['jacobi_drift']):>8} {vs:>8}")
+        lines.append(
+            f"  {'emorbit em order ' + str(r['order']) + ', 8 points':<34} {r['dt']:>5g} {timing(r):>13} "
+            f"{_e(r['energy_error']):>8} {_e(r['angular_momentum_error']):>8} {_e(r['jacobi_drift']):>8} {vs:>8}"
+        )
     for r in bsk["rows"]:
-        lines.append(f"  {'Basilisk ' + bsk['version'] + ' RK4 + GG effector':<34} {r['dt']:>5g} {timing(r):>13} "
-                     f"{'-':>8} {'-':>8} {_e(r['jacobi_drift']):>8}")
+        lines.append(
+            f"  {'Basilisk ' + bsk['version'] + ' RK4 + GG effector':<34} {r['dt']:>5g} {timing(r):>13} "
+            f"{'-':>8} {'-':>8} {_e(r['jacobi_drift']):>8}"
+        )
     if bsk["status"] != "ok":
         lines.append(f"  Basilisk: {bsk['status']}")
 
     free = section["torque_free"]
     ex = free["exudyn"]
-    lines += ["", f"  torque-free: {free['emorbit']['case']}",
-              f"  {'':<42} {'dt s':>6} {'us/step':>13} {'|dE/E|':>8} {'|dL/L|':>8} {'omega err':>9} {'em/peer':>8}"]
+    lines += [
+        "",
+        f"  torque-free: {free['emorbit']['case']}",
+        f"  {'':<42} {'dt s':>6} {'us/step':>13} {'|dE/E|':>8} {'|dL/L|':>8} {'omega err':>9} {'em/peer':>8}",
+    ]
     for r in free["emorbit"]["rows"]:
         label = "emorbit em" + ("" if r["omega0"] == list(FREE_OMEGA) else f" (omega_y = {r['omega0'][1]:g})")
-        lines.append(f"  {label:<42} {r['dt']:>6g} {timing(r):>13} {_e(r['energy_error']):>8} "
-                     f"{_e(r['angular_momentum_error']):>8} {_e(r['omega_error']):>9}")
+        lines.append(
+            f"  {label:<42} {r['dt']:>6g} {timing(r):>13} {_e(r['energy_error']):>8} "
+            f"{_e(r['angular_momentum_error']):>8} {_e(r['omega_error']):>9}"
+        )
     for r in ex["implicit"]:
         label = f"Exudyn {ex['version']} gen-alpha, {r['node']}"
         if "status" in r:
             lines.append(f"  {label:<42} {r['dt']:>6g}  {r['status']}")
             continue
-        lines.append(f"  {label:<42} {r['dt']:>6g} {timing(r):>13} {_e(r['energy_error']):>8} "
-                     f"{_e(r['angular_momentum_error']):>8} {_e(r.get('omega_error')):>9} {r['emorbit_ratio']:>7.2f}x")
+        lines.append(
+            f"  {label:<42} {r['dt']:>6g} {timing(r):>13} {_e(r['energy_error']):>8} "
+            f"{_e(r['angular_momentum_error']):>8} {_e(r.get('omega_error')):>9} {r['emorbit_ratio']:>7.2f}x"
+        )
     for r in ex["trapezoidal"]:
         label = f"Exudyn {r['solver']} (omega_y = {r['omega0'][1]:g})"
         failed = "" if r["converged"] else f"  FAILED at t = {r['t_reached']:.2f} s ({r['failure']})"
-        lines.append(f"  {label:<42} {r['dt']:>6g} {'-':>13} {_e(r['energy_error']):>8} "
-                     f"{_e(r['angular_momentum_error']):>8} {_e(r.get('omega_error')):>9}{failed}")
+        lines.append(
+            f"  {label:<42} {r['dt']:>6g} {'-':>13} {_e(r['energy_error']):>8} "
+            f"{_e(r['angular_momentum_error']):>8} {_e(r.get('omega_error')):>9}{failed}"
+        )
     if ex["status"] == "ok":
         lines.append(f"  (Exudyn module: {ex['module']})")
     else:
@@ -655,8 +824,10 @@ def table(section: dict) -> str:
     for t in section["targets"]:
         verdict = {True: "met", False: "NOT met", None: "skipped"}[t["met"]]
         if "ratio" in t:
-            what = (f"{_us(t['emorbit_us'])} / {_us(t['reference_us'])} CPU us, ratio {t['ratio']:.2f}x "
-                    f"(wall {t['ratio_wall']:.2f}x)")
+            what = (
+                f"{_us(t['emorbit_us'])} / {_us(t['reference_us'])} CPU us, ratio {t['ratio']:.2f}x "
+                f"(wall {t['ratio_wall']:.2f}x)"
+            )
         elif "measured_wall" in t:
             what = f"{t['measured']:.3g} CPU us (wall {t['measured_wall']:.3g}; limit {t['limit']:g})"
         elif "measured" in t:

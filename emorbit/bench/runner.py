@@ -25,30 +25,59 @@ def targets(result: dict) -> list[dict]:
     if ens:
         for label, key in (("", "em_over_rebound_leapfrog"), (' (roundoff="fast")', "em_fast_over_rebound_leapfrog")):
             r = ens[key]
-            out.append({"target": f"em{label} ensemble on all threads >= 3x REBOUND leapfrog particle-steps/s",
-                        "measured": r, "limit": TARGETS["ensemble_vs_rebound"],
-                        "met": r >= TARGETS["ensemble_vs_rebound"]})
+            out.append(
+                {
+                    "target": f"em{label} ensemble on all threads >= 3x REBOUND leapfrog particle-steps/s",
+                    "measured": r,
+                    "limit": TARGETS["ensemble_vs_rebound"],
+                    "met": r >= TARGETS["ensemble_vs_rebound"],
+                }
+            )
         for where, suffix in (("one thread", "1thread"), ("all threads", "all_threads")):
             f = ens[f"em_fraction_of_bound_{suffix}"]
             ceiling = ens[f"em_ceiling_fraction_of_bound_{suffix}"]
-            out.append({"target": f"em ensemble >= 80 % of the division / square-root bound ({where})",
-                        "measured": f, "limit": TARGETS["fraction_of_bound"], "met": f >= TARGETS["fraction_of_bound"],
-                        "note": f"the floor of this state reaches {100 * ceiling:.0f} % in this run",
-                        "ceiling": ceiling})
+            out.append(
+                {
+                    "target": f"em ensemble >= 80 % of the division / square-root bound ({where})",
+                    "measured": f,
+                    "limit": TARGETS["fraction_of_bound"],
+                    "met": f >= TARGETS["fraction_of_bound"],
+                    "note": f"the floor of this state reaches {100 * ceiling:.0f} % in this run",
+                    "ceiling": ceiling,
+                }
+            )
         s = ens["scene_over_bare"]
-        out.append({"target": "point-mass scene (PointMasses.advance) >= 0.9x the bare kernel's throughput",
-                    "measured": s, "limit": TARGETS["scene_vs_bare"], "met": s >= TARGETS["scene_vs_bare"]})
+        out.append(
+            {
+                "target": "point-mass scene (PointMasses.advance) >= 0.9x the bare kernel's throughput",
+                "measured": s,
+                "limit": TARGETS["scene_vs_bare"],
+                "met": s >= TARGETS["scene_vs_bare"],
+            }
+        )
     single = result.get("single")
     if single:
         for label, key in (("", "em 2"), (' (roundoff="fast")', "em 2 fast")):
             r = single["ratio_to_rebound_leapfrog"][key]
-            out.append({"target": f"em{label} single orbit <= 1.0x REBOUND leapfrog's time per step", "measured": r,
-                        "limit": TARGETS["single_vs_rebound"], "met": r <= TARGETS["single_vs_rebound"]})
+            out.append(
+                {
+                    "target": f"em{label} single orbit <= 1.0x REBOUND leapfrog's time per step",
+                    "measured": r,
+                    "limit": TARGETS["single_vs_rebound"],
+                    "met": r <= TARGETS["single_vs_rebound"],
+                }
+            )
     start = result.get("startup")
     if start:
         w = start["warm_s"]
-        out.append({"target": "warm-cache emorbit run paper-ellipse <= 2 s wall", "measured": w,
-                    "limit": TARGETS["warm_startup_s"], "met": w <= TARGETS["warm_startup_s"]})
+        out.append(
+            {
+                "target": "warm-cache emorbit run paper-ellipse <= 2 s wall",
+                "measured": w,
+                "limit": TARGETS["warm_startup_s"],
+                "met": w <= TARGETS["warm_startup_s"],
+            }
+        )
     return out
 
 
@@ -65,18 +94,27 @@ def run_bench(sections, quick: bool = False, json_path=None, plots_dir=None, con
     cfg = CONFIGS[name]
     modules = _sections()
     start = time.perf_counter()
-    result = {"config": name, "machine": machine(), "versions": versions(),
-              "load_average": {"before": loadavg()}, "seconds": {}}
-    print(f"emorbit bench ({name}): {result['machine']['cpu']}, {result['machine']['cores']} cores, "
-          f"{result['machine']['simd']}; load average {result['load_average']['before']}", flush=True)
+    result = {
+        "config": name,
+        "machine": machine(),
+        "versions": versions(),
+        "load_average": {"before": loadavg()},
+        "seconds": {},
+    }
+    print(
+        f"emorbit bench ({name}): {result['machine']['cpu']}, {result['machine']['cores']} cores, "
+        f"{result['machine']['simd']}; load average {result['load_average']['before']}",
+        flush=True,
+    )
     if name != "tiny":  # the kernels compile on both cores, before anything is timed
         from .precompile import precompile
 
         took = precompile(sections)
         if took is not None:
             result["seconds"]["precompile"] = round(took, 1)
-            print(f"point-mass kernels compiled or loaded from Numba's cache in two processes: {took:.1f} s",
-                  flush=True)
+            print(
+                f"point-mass kernels compiled or loaded from Numba's cache in two processes: {took:.1f} s", flush=True
+            )
     for section in sections:
         t0 = time.perf_counter()
         if section == "rigid":
@@ -114,8 +152,10 @@ def run_bench(sections, quick: bool = False, json_path=None, plots_dir=None, con
         verdict = "met" if t["met"] else "NOT met"
         note = f"; {t['note']}" if "note" in t else ""
         print(f"  {verdict:>8}  {t['target']}: {t['measured']:.3g} (limit {t['limit']:g}{note})")
-    print(f"load average {result['load_average']['before']} -> {result['load_average']['after']}; "
-          f"{result['seconds']['total']} s")
+    print(
+        f"load average {result['load_average']['before']} -> {result['load_average']['after']}; "
+        f"{result['seconds']['total']} s"
+    )
     if json_path:
         with open(json_path, "w") as f:
             json.dump(result, f, indent=1, default=_jsonable)

@@ -36,14 +36,21 @@ def run(cfg) -> dict:
         engine = "rebound" if name.startswith("rebound") else "emorbit"
         method, _, order = name.removeprefix("rebound ").partition(" ")
         order = order.removesuffix(" fast")
-        row = {"engine": engine, "method": method, "order": int(order) if order else None,
-               "ns_per_step": 1e3 * stats[CLOCK], "ns_per_step_wall": 1e3 * stats["us_per_step"],
-               "samples_cpu_us": stats["cpu_samples_us"], "steps_per_call": stats["steps"]}
+        row = {
+            "engine": engine,
+            "method": method,
+            "order": int(order) if order else None,
+            "ns_per_step": 1e3 * stats[CLOCK],
+            "ns_per_step_wall": 1e3 * stats["us_per_step"],
+            "samples_cpu_us": stats["cpu_samples_us"],
+            "steps_per_call": stats["steps"],
+        }
         if engine == "emorbit" and method == "em":
             row["roundoff"] = "fast" if name == FAST else "brouwer"
         if engine == "emorbit" and method != "leapfrog":
-            row["newton_iterations_per_substep"] = float(np.median(runners[name].iterations[1:]
-                                                                   or runners[name].iterations))
+            row["newton_iterations_per_substep"] = float(
+                np.median(runners[name].iterations[1:] or runners[name].iterations)
+            )
         rows.append(row)
     ias = next(r for r in rows if r["method"] == "ias15")
     ias["steps_per_orbit"] = float(T / (ias15.sim.t / max(1, ias15.sim.steps_done)))
@@ -67,8 +74,10 @@ def run(cfg) -> dict:
 
 
 def table(section: dict) -> list[str]:
-    lines = [f"single orbit: {section['case']}; {section['clock']}",
-             f"  {'':<27} {'ns/step':>9} {'wall':>9} {'x REBOUND leapfrog':>19} {'Newton/sub-step':>16}"]
+    lines = [
+        f"single orbit: {section['case']}; {section['clock']}",
+        f"  {'':<27} {'ns/step':>9} {'wall':>9} {'x REBOUND leapfrog':>19} {'Newton/sub-step':>16}",
+    ]
     for r in section["rows"]:
         name = f"{r['engine']} {r['method']}" + (f" order {r['order']}" if r["order"] else "")
         key = f"{r['method']} {r['order']}"
@@ -78,6 +87,8 @@ def table(section: dict) -> list[str]:
         extra = f"{r['newton_iterations_per_substep']:.2f}" if "newton_iterations_per_substep" in r else ""
         if r["method"] == "ias15":
             extra = f"({r['steps_per_orbit']:.0f} steps/orbit)"
-        lines.append(f"  {name:<27} {r['ns_per_step']:>9.1f} {r['ns_per_step_wall']:>9.1f} "
-                     f"{(f'{ratio:.2f}x' if ratio is not None else ''):>19} {extra:>16}")
+        lines.append(
+            f"  {name:<27} {r['ns_per_step']:>9.1f} {r['ns_per_step_wall']:>9.1f} "
+            f"{(f'{ratio:.2f}x' if ratio is not None else ''):>19} {extra:>16}"
+        )
     return lines

@@ -30,10 +30,16 @@ def run(cfg) -> dict:
         out = os.path.join(tmp, "paper.h5")
         cold = _run_once(cache, out)
         warm = [_run_once(cache, out) for _ in range(cfg.warm_runs)]
-    return {"case": "emorbit run paper-ellipse -o OUT.h5 --overwrite -q (10,000 em steps), fresh process",
-            "cold_s": cold, "warm_s": float(np.median(warm)), "warm_samples_s": warm}
+    return {
+        "case": "emorbit run paper-ellipse -o OUT.h5 --overwrite -q (10,000 em steps), fresh process",
+        "cold_s": cold,
+        "warm_s": float(np.median(warm)),
+        "warm_samples_s": warm,
+    }
 
 
 def table(section: dict) -> list[str]:
-    return [f"start-up: {section['case']}: cold (empty Numba cache) {section['cold_s']:.2f} s, "
-            f"warm {section['warm_s']:.2f} s (median of {len(section['warm_samples_s'])})"]
+    return [
+        f"start-up: {section['case']}: cold (empty Numba cache) {section['cold_s']:.2f} s, "
+        f"warm {section['warm_s']:.2f} s (median of {len(section['warm_samples_s'])})"
+    ]

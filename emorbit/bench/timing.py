@@ -16,8 +16,18 @@ import time
 
 import numpy as np
 
-__all__ = ["CLOCK", "THREAD_VARIABLES", "clock", "since", "calibrate", "timed", "paired_ratio", "loadavg", "machine",
-           "package_version"]
+__all__ = [
+    "CLOCK",
+    "THREAD_VARIABLES",
+    "clock",
+    "since",
+    "calibrate",
+    "timed",
+    "paired_ratio",
+    "loadavg",
+    "machine",
+    "package_version",
+]
 
 #: environment variables that set BLAS / OpenMP threads: recorded, because the volume kernel's
 #: 10 x N block product goes through BLAS, and threaded OpenBLAS on a busy 2-core machine made
@@ -78,9 +88,15 @@ def timed(runners: dict, cfg, optional=()) -> dict:
                 del samples[name]
     for name, us in samples.items():
         wall, cpu = np.array(us).T
-        out[name] = {"us_per_step": float(np.median(wall)), "us_min": float(wall.min()),
-                     "cpu_us_per_step": float(np.median(cpu)), "steps": steps[name], "repeats": len(us),
-                     "samples_us": [round(float(x), 4) for x in wall], "cpu_samples_us": [round(float(x), 4) for x in cpu]}
+        out[name] = {
+            "us_per_step": float(np.median(wall)),
+            "us_min": float(wall.min()),
+            "cpu_us_per_step": float(np.median(cpu)),
+            "steps": steps[name],
+            "repeats": len(us),
+            "samples_us": [round(float(x), 4) for x in wall],
+            "cpu_samples_us": [round(float(x), 4) for x in cpu],
+        }
     return out
 
 
@@ -111,8 +127,14 @@ def machine() -> dict:
         pass
     simd = next((f for f in ("avx512f", "avx2", "avx") if f in flags), "")
     threads = {k: os.environ[k] for k in THREAD_VARIABLES if k in os.environ}
-    return {"cpu": cpu, "cores": os.cpu_count(), "simd": simd, "python": platform.python_version(),
-            "platform": platform.platform(), "thread_variables": threads}
+    return {
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "simd": simd,
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "thread_variables": threads,
+    }
 
 
 def package_version(dist: str):

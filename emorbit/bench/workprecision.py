@@ -54,8 +54,10 @@ def _cpu(fn):
 
 
 def _errors(x_end, x_ref, energies_, e0, a) -> dict:
-    return {"position_error": float(np.linalg.norm(np.asarray(x_end) - x_ref) / a),
-            "energy_error": float(np.max(np.abs(np.asarray(energies_) / e0 - 1.0)))}
+    return {
+        "position_error": float(np.linalg.norm(np.asarray(x_end) - x_ref) / a),
+        "energy_error": float(np.max(np.abs(np.asarray(energies_) / e0 - 1.0))),
+    }
 
 
 def _energy(x, v) -> float:
@@ -85,8 +87,13 @@ def _emorbit(x0, v0, method, order, N, T, orbits) -> dict:
     vs = np.concatenate([r.v[:, :, 0] for r in recs])
     e = 0.5 * np.einsum("rk,rk->r", vs, vs) - GM / np.linalg.norm(xs, axis=1)
     its = sum(float(r.iterations.sum()) for r in recs)
-    return {"cpu_s": cpu, "x_end": pm.x[:, 0].copy(), "energies": e, "steps": steps,
-            "newton": its / (steps * len(coefficients(order))) if method != "leapfrog" else 0.0}
+    return {
+        "cpu_s": cpu,
+        "x_end": pm.x[:, 0].copy(),
+        "energies": e,
+        "steps": steps,
+        "newton": its / (steps * len(coefficients(order))) if method != "leapfrog" else 0.0,
+    }
 
 
 def _emorbit_adaptive(x0, v0, order, eta, T, orbits) -> dict:
@@ -105,8 +112,13 @@ def _emorbit_adaptive(x0, v0, order, eta, T, orbits) -> dict:
         return {"status": f"failed: record {rec.first_failure()[0]}", "cpu_s": cpu}
     xs, vs = rec.x[:, :, 0], rec.v[:, :, 0]
     e = 0.5 * np.einsum("rk,rk->r", vs, vs) - GM / np.linalg.norm(xs, axis=1)
-    return {"cpu_s": cpu, "x_end": pm.x[:, 0].copy(), "energies": e, "steps": pm.adaptive_steps,
-            "newton": float(rec.iterations.sum()) / (pm.adaptive_steps * len(coefficients(order)))}
+    return {
+        "cpu_s": cpu,
+        "x_end": pm.x[:, 0].copy(),
+        "energies": e,
+        "steps": pm.adaptive_steps,
+        "newton": float(rec.iterations.sum()) / (pm.adaptive_steps * len(coefficients(order))),
+    }
 
 
 def _rebound_fixed(x0, v0, integrator, N, T, orbits) -> dict:
@@ -196,7 +208,7 @@ def _pareto(points: list, key: str) -> list:
     """Indices of the points on the Pareto front (less CPU time and less error)."""
     ok = [(p["cpu_s"], p[key], i) for i, p in enumerate(points) if p.get(key) is not None and p[key] > 0]
     front, best = [], math.inf
-    for cpu, err, i in sorted(ok):
+    for _time, err, i in sorted(ok):
         if err < best:
             front.append(i)
             best = err
@@ -223,13 +235,13 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
 
     for method in METHODS:
         for order in ORDERS:
-            point_masses(x0[:, None], v0[:, None]).advance(method, GM, np.zeros(3), T / 100, coefficients(order),
-                                                           1, 1, 50)  # warm-up: load the kernels
+            point_masses(x0[:, None], v0[:, None]).advance(
+                method, GM, np.zeros(3), T / 100, coefficients(order), 1, 1, 50
+            )  # warm-up: load the kernels
             per_step = None
             for N in divisions:
                 if per_step is not None and per_step * N * orbits > MAX_RUN_S:
-                    add("emorbit", method, order, T / N, "dt", {"status": "skipped: estimated over "
-                                                                           f"{MAX_RUN_S} s"})
+                    add("emorbit", method, order, T / N, "dt", {"status": f"skipped: estimated over {MAX_RUN_S} s"})
                     continue
                 res = _emorbit(x0, v0, method, order, N, T, orbits)
                 per_step = res["cpu_s"] / (N * orbits)
@@ -250,7 +262,7 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
             add("rebound", integrator, 2, T / N, "dt", _rebound_fixed(x0, v0, integrator, N, T, orbits))
     for eps in cfg.ias15_eps:
         add("rebound", "ias15", 15, eps, "epsilon", _ias15(x0, v0, eps, T, orbits))
-    heyoka = "skipped: heyoka is not installed (pip install \"emorbit[peers]\")"
+    heyoka = 'skipped: heyoka is not installed (pip install "emorbit[peers]")'
     if heyoka_system is not None:
         heyoka = "ok"
         for tol in cfg.heyoka_tol:
@@ -268,9 +280,15 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
     for key, flag in (("position_error", "pareto_position"), ("energy_error", "pareto_energy")):
         for i in _pareto(good, key):
             good[i][flag] = True
-    return {"name": name, "a": a, "e": float(np.linalg.norm(
-        ((np.dot(v0, v0) - GM / np.linalg.norm(x0)) * x0 - np.dot(x0, v0) * v0) / GM)),
-            "period_s": T, "orbits": orbits, "heyoka": heyoka, "points": points}
+    return {
+        "name": name,
+        "a": a,
+        "e": float(np.linalg.norm(((np.dot(v0, v0) - GM / np.linalg.norm(x0)) * x0 - np.dot(x0, v0) * v0) / GM)),
+        "period_s": T,
+        "orbits": orbits,
+        "heyoka": heyoka,
+        "points": points,
+    }
 
 
 def run(cfg) -> dict:
@@ -279,19 +297,28 @@ def run(cfg) -> dict:
     except ImportError:
         system = None
     x9, v9 = aphelion_state(6.0, 0.9)
-    orbits = [_orbit("paper", PAPER_X0, PAPER_V0, cfg.divisions, cfg, system),
-              _orbit("e09", x9, v9, cfg.divisions_e09, cfg, system)]
-    return {"case": (f"{cfg.orbits} orbits from aphelion: final position error / a against the Kepler solution, "
-                     f"max |dE/E| over {CHECKPOINTS_PER_ORBIT} checkpoints per orbit, CPU time of the run"),
-            "orbits": orbits, "heyoka": orbits[0]["heyoka"]}
+    orbits = [
+        _orbit("paper", PAPER_X0, PAPER_V0, cfg.divisions, cfg, system),
+        _orbit("e09", x9, v9, cfg.divisions_e09, cfg, system),
+    ]
+    return {
+        "case": (
+            f"{cfg.orbits} orbits from aphelion: final position error / a against the Kepler solution, "
+            f"max |dE/E| over {CHECKPOINTS_PER_ORBIT} checkpoints per orbit, CPU time of the run"
+        ),
+        "orbits": orbits,
+        "heyoka": orbits[0]["heyoka"],
+    }
 
 
 # -- figures ---------------------------------------------------------------------------------
 _MAPS = {"em": "Blues", "midpoint": "Greens", "leapfrog": "Oranges", "em adaptive": "Purples"}
-_PEERS = {("rebound", "ias15"): ("REBOUND IAS15 (epsilon)", "tab:red", "*", "-"),
-          ("rebound", "whfast"): ("REBOUND WHFast (exact Kepler drift)", "tab:purple", "x", "--"),
-          ("rebound", "leapfrog"): ("REBOUND leapfrog", "tab:brown", "+", "--"),
-          ("heyoka", "taylor"): ("heyoka Taylor (tolerance)", "black", "P", "-")}
+_PEERS = {
+    ("rebound", "ias15"): ("REBOUND IAS15 (epsilon)", "tab:red", "*", "-"),
+    ("rebound", "whfast"): ("REBOUND WHFast (exact Kepler drift)", "tab:purple", "x", "--"),
+    ("rebound", "leapfrog"): ("REBOUND leapfrog", "tab:brown", "+", "--"),
+    ("heyoka", "taylor"): ("heyoka Taylor (tolerance)", "black", "P", "-"),
+}
 _MARKERS = {2: "o", 4: "s", 6: "^", 8: "D"}
 
 
@@ -318,31 +345,53 @@ def plot(orbit: dict, path: str) -> None:
         if p.get("status") == "ok":
             key = (p["engine"], p["method"], p["order"] if p["engine"] == "emorbit" else 0)
             series.setdefault(key, []).append(p)
-    for ax, key, flag, label in ((axes[0], "position_error", "pareto_position", "final position error / a"),
-                                 (axes[1], "energy_error", "pareto_energy", "max |dE/E| over the run")):
+    for ax, key, flag, label in (
+        (axes[0], "position_error", "pareto_position", "final position error / a"),
+        (axes[1], "energy_error", "pareto_energy", "max |dE/E| over the run"),
+    ):
         for (engine, method, order), pts in sorted(series.items()):
             pts = sorted(pts, key=lambda p: p["cpu_s"])
             name, color, marker, ls = _style(engine, method, order)
             xs, ys = [p["cpu_s"] for p in pts], [max(p[key], 1e-17) for p in pts]
-            ax.loglog(xs, ys, ls=ls, marker=marker, color=color, ms=5, lw=1.2 if engine == "emorbit" else 1.5,
-                      label=name if ax is axes[0] else None)
+            ax.loglog(
+                xs,
+                ys,
+                ls=ls,
+                marker=marker,
+                color=color,
+                ms=5,
+                lw=1.2 if engine == "emorbit" else 1.5,
+                label=name if ax is axes[0] else None,
+            )
             if engine != "emorbit" or method == "em adaptive":
                 for p, x_, y_ in zip(pts, xs, ys):
                     param = p.get("epsilon", p.get("tolerance", p.get("eta")))
                     if param is not None:
-                        ax.annotate(f"{param:.0e}", (x_, y_), fontsize=6, color=color, xytext=(3, 3),
-                                    textcoords="offset points")
+                        ax.annotate(
+                            f"{param:.0e}", (x_, y_), fontsize=6, color=color, xytext=(3, 3), textcoords="offset points"
+                        )
         front = sorted((p for pts in series.values() for p in pts if p[flag]), key=lambda p: p["cpu_s"])
         fx, fy = [p["cpu_s"] for p in front], [max(p[key], 1e-17) for p in front]
-        ax.step(fx, fy, where="post", color="0.3", lw=3, alpha=0.3, zorder=0,
-                label="Pareto front (circled)" if ax is axes[0] else None)
+        ax.step(
+            fx,
+            fy,
+            where="post",
+            color="0.3",
+            lw=3,
+            alpha=0.3,
+            zorder=0,
+            label="Pareto front (circled)" if ax is axes[0] else None,
+        )
         ax.scatter(fx, fy, s=110, facecolors="none", edgecolors="0.15", lw=1.2, zorder=5)
         ax.set_xlabel(f"CPU time for {orbit['orbits']} orbits [s]")
         ax.set_ylabel(label)
         ax.grid(True, which="major", alpha=0.3)
     fig.legend(fontsize=7, ncol=6, loc="outside lower center")
-    fig.suptitle(f"What accuracy costs: a = {orbit['a']:.2f} m, e = {orbit['e']:.3g}, {orbit['orbits']} orbits from "
-                 "aphelion (one particle, one thread)", fontsize=11)
+    fig.suptitle(
+        f"What accuracy costs: a = {orbit['a']:.2f} m, e = {orbit['e']:.3g}, {orbit['orbits']} orbits from "
+        "aphelion (one particle, one thread)",
+        fontsize=11,
+    )
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -350,14 +399,17 @@ def plot(orbit: dict, path: str) -> None:
 def table(section: dict) -> list[str]:
     lines = [f"work-precision: {section['case']}; heyoka: {section['heyoka']}"]
     for orbit in section["orbits"]:
-        lines.append(f"  {orbit['name']} orbit (a = {orbit['a']:.3f} m, e = {orbit['e']:.3g}): Pareto front, "
-                     "position error")
+        lines.append(
+            f"  {orbit['name']} orbit (a = {orbit['a']:.3f} m, e = {orbit['e']:.3g}): Pareto front, position error"
+        )
         front = sorted((p for p in orbit["points"] if p.get("pareto_position")), key=lambda p: p["cpu_s"])
         for p in front:
             what = f"{p['engine']} {p['method']}" + (f" {p['order']}" if p["engine"] == "emorbit" else "")
             param = next(f"{k} {p[k]:.3g}" for k in ("dt", "epsilon", "tolerance", "eta") if k in p)
-            lines.append(f"    {what:<24} {param:<18} {1e3 * p['cpu_s']:>10.3f} ms  position {p['position_error']:.1e}"
-                         f"  energy {p['energy_error']:.1e}")
+            lines.append(
+                f"    {what:<24} {param:<18} {1e3 * p['cpu_s']:>10.3f} ms  position {p['position_error']:.1e}"
+                f"  energy {p['energy_error']:.1e}"
+            )
         best = {}
         for p in orbit["points"]:
             if p.get("status") == "ok" and p["engine"] == "emorbit" and p["method"] == "em":
@@ -365,11 +417,15 @@ def table(section: dict) -> list[str]:
                 if b is None or p["position_error"] < b["position_error"]:
                     best[p["order"]] = p
         for order, p in sorted(best.items()):
-            lines.append(f"    best em order {order}: position {p['position_error']:.1e} in {1e3 * p['cpu_s']:.1f} ms "
-                         f"(dt = T/{orbit['period_s'] / p['dt']:.0f}), energy {p['energy_error']:.1e}")
+            lines.append(
+                f"    best em order {order}: position {p['position_error']:.1e} in {1e3 * p['cpu_s']:.1f} ms "
+                f"(dt = T/{orbit['period_s'] / p['dt']:.0f}), energy {p['energy_error']:.1e}"
+            )
         for p in orbit["points"]:
             if p.get("status") == "ok" and p["method"] == "em adaptive":
-                lines.append(f"    em adaptive order {p['order']}, eta {p['eta']:g}: position {p['position_error']:.1e} "
-                             f"in {1e3 * p['cpu_s']:.1f} ms ({p['steps'] / orbit['orbits']:.0f} steps per orbit), "
-                             f"energy {p['energy_error']:.1e}")
+                lines.append(
+                    f"    em adaptive order {p['order']}, eta {p['eta']:g}: position {p['position_error']:.1e} "
+                    f"in {1e3 * p['cpu_s']:.1f} ms ({p['steps'] / orbit['orbits']:.0f} steps per orbit), "
+                    f"energy {p['energy_error']:.1e}"
+                )
     return lines

@@ -157,8 +157,18 @@ class Structure:
         elif gravity == "point":
             n = self._new_node([slots[0]], [1.0])
             self._gp.append(([n], [1.0], m))
-        self.bodies.append({"name": name, "kind": "rigid", "slots": slots, "mass": float(m), "points": points,
-                            "gravity": gravity, "shape": shape, "params": params or {}})
+        self.bodies.append(
+            {
+                "name": name,
+                "kind": "rigid",
+                "slots": slots,
+                "mass": float(m),
+                "points": points,
+                "gravity": gravity,
+                "shape": shape,
+                "params": params or {},
+            }
+        )
         return slots
 
     def rigid_node(self, body: str, X) -> int:
@@ -195,8 +205,12 @@ class Structure:
         free = [i for i in range(n) if i not in attached]
         Mn = sp.csr_matrix(spec.node_mass)
         node_of = np.empty(n, dtype=np.int64)
-        slots = self._new_slots([spec.nodes[i] for i in free], [spec.velocities[i] for i in free], [1] * len(free),
-                                Mn[free][:, free].toarray() if len(free) < 2000 else Mn[free][:, free])
+        slots = self._new_slots(
+            [spec.nodes[i] for i in free],
+            [spec.velocities[i] for i in free],
+            [1] * len(free),
+            Mn[free][:, free].toarray() if len(free) < 2000 else Mn[free][:, free],
+        )
         for k, i in enumerate(free):
             node_of[i] = self._new_node([slots[k]], [1.0])
         for i, target in attached.items():
@@ -247,10 +261,12 @@ class Structure:
                         v_target = self._v[s[0]] + sum(X[k] * self._v[s[1 + k]] for k in range(3))
                     gap = float(np.linalg.norm(spec.velocities[i] - v_target))
                     if gap > 1e-9 * max(1.0, float(np.linalg.norm(v_target))):
-                        raise InputError(f"coupling ({spec.name} -> {target})",
-                                         f"node {i} of {spec.name!r} starts at velocity {spec.velocities[i].tolist()} "
-                                         f"m/s but the point of {target!r} it rides on moves at {v_target.tolist()} m/s "
-                                         f"(difference {gap:.3g} m/s): give the elastic body the same rigid motion")
+                        raise InputError(
+                            f"coupling ({spec.name} -> {target})",
+                            f"node {i} of {spec.name!r} starts at velocity {spec.velocities[i].tolist()} "
+                            f"m/s but the point of {target!r} it rides on moves at {v_target.tolist()} m/s "
+                            f"(difference {gap:.3g} m/s): give the elastic body the same rigid motion",
+                        )
             self._layout_elastic(spec, attached)
         ns = len(self._u)
         self.u = np.ascontiguousarray(np.array(self._u, dtype=float).reshape(ns, 3))
@@ -273,8 +289,9 @@ class Structure:
                     rows.append(np.array([si]))
                     cols.append(np.array([sj]))
                     vals.append(np.array([m_ * ca * cb]))
-        self.Ms = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                                shape=(ns, ns)).tocsc()
+        self.Ms = sp.coo_matrix(
+            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(ns, ns)
+        ).tocsc()
         self.Ms.sum_duplicates()
         self.Ms_lu = spla.splu(self.Ms)
         self.mdiag = self.Ms.diagonal()
@@ -395,10 +412,41 @@ class Structure:
         data = self.J_mass.data.copy() if with_jacobian else self._nodata
         F = np.empty_like(u0)
         hf = 0.5 * h
-        status = kc.fill_forces(code, hf * h, hf, x0n, x1n, self.node_slot, self.node_coef,
-                       self.bar_node, self.bar_EA, self.bar_L, self.tet_node, self.tet_g, self.tet_V, self.tet_lam,
-                       self.tet_mu, self.gp_node, self.gp_w, self.gp_m, xg0, xg1, gm, c, gm != 0.0, with_jacobian,
-                       self.J.indptr, self.J.indices, data, F, self._fn, self._kb, self._kt, self._fg, self._kg)
+        status = kc.fill_forces(
+            code,
+            hf * h,
+            hf,
+            x0n,
+            x1n,
+            self.node_slot,
+            self.node_coef,
+            self.bar_node,
+            self.bar_EA,
+            self.bar_L,
+            self.tet_node,
+            self.tet_g,
+            self.tet_V,
+            self.tet_lam,
+            self.tet_mu,
+            self.gp_node,
+            self.gp_w,
+            self.gp_m,
+            xg0,
+            xg1,
+            gm,
+            c,
+            gm != 0.0,
+            with_jacobian,
+            self.J.indptr,
+            self.J.indices,
+            data,
+            F,
+            self._fn,
+            self._kb,
+            self._kt,
+            self._fg,
+            self._kg,
+        )
         return status, F, data
 
     def _solve_mass(self, b):
@@ -452,8 +500,21 @@ class Structure:
             R1 = (self._Mmul @ du - h * (Mv0 + hf * F)).ravel()
             R2 = np.zeros(6 * nr)
             if nr:
-                kc.fill_constraints(self.rb_slots, u05, u1, nu, self.rb_es, hf, fresh, self.J.indptr,
-                                  self.J.indices, data, R1, R2, 3 * ns)
+                kc.fill_constraints(
+                    self.rb_slots,
+                    u05,
+                    u1,
+                    nu,
+                    self.rb_es,
+                    hf,
+                    fresh,
+                    self.J.indptr,
+                    self.J.indices,
+                    data,
+                    R1,
+                    R2,
+                    3 * ns,
+                )
             if fresh:
                 try:
                     lu = _Factors(data, self.J.indices, self.J.indptr, n, self._indices32, self._indptr32)
@@ -478,7 +539,7 @@ class Structure:
             delta = lu.solve(R)
             dd = delta[: 3 * ns].reshape(ns, 3)
             du = du - dd
-            nu = nu - delta[3 * ns:]
+            nu = nu - delta[3 * ns :]
             d2 = float(np.max(np.sum(dd * dd, axis=1) / (base2 + np.sum(du * du, axis=1))))
             if not np.isfinite(d2):
                 status = STATUS_SINGULAR
@@ -517,8 +578,12 @@ class Structure:
     def advance(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> StructureRecords:
         ns = self.u.shape[0]
         self._scratch()
-        rec = StructureRecords(np.empty((nrec, ns, 3)), np.empty((nrec, ns, 3)), np.zeros((nrec, 1), np.int64),
-                               np.full((1, 2), -1, np.int64))
+        rec = StructureRecords(
+            np.empty((nrec, ns, 3)),
+            np.empty((nrec, ns, 3)),
+            np.zeros((nrec, 1), np.int64),
+            np.full((1, 2), -1, np.int64),
+        )
         code = method_code(method)
         c = np.asarray(center, float)
         for r in range(nrec):
@@ -588,8 +653,9 @@ class Structure:
         self._nodata = np.zeros(self.J.data.size)
 
     def current(self) -> StructureRecords:
-        return StructureRecords(self.u[None].copy(), self.v[None].copy(), np.zeros((1, 1), np.int64),
-                                np.full((1, 2), -1, np.int64))
+        return StructureRecords(
+            self.u[None].copy(), self.v[None].copy(), np.zeros((1, 1), np.int64), np.full((1, 2), -1, np.int64)
+        )
 
     def snapshot(self):
         return tuple(a.copy() for a in (self.u, self.v, self.cu, self.cv, self.lam, self.acc))
@@ -618,8 +684,17 @@ class Structure:
             urel, ref = self.relative(u, np.zeros_like(u))
             xn = np.empty((self.node_slot.shape[0], 3))
             kel.combine_rows(urel, self.node_slot, self.node_coef, xn)
-            W = kel.strain_energy(xn, self.bar_node, self.bar_EA, self.bar_L, self.tet_node, self.tet_g, self.tet_V,
-                                  self.tet_lam, self.tet_mu)
+            W = kel.strain_energy(
+                xn,
+                self.bar_node,
+                self.bar_EA,
+                self.bar_L,
+                self.tet_node,
+                self.tet_g,
+                self.tet_V,
+                self.tet_lam,
+                self.tet_mu,
+            )
             V = 0.0
             if gm != 0.0 and self.gp_m.size:
                 xg = np.empty((self.gp_m.size, 3))
@@ -655,9 +730,12 @@ class Structure:
                 D = u[:, s[1:]]  # (nrec, 3, 3): rows d_k
                 dD = v[:, s[1:]]
                 E = b["points"].second_moment
-                out[b["name"]] = {"position": u[:, s[0]].copy(), "velocity": v[:, s[0]].copy(),
-                                  "attitude": matrix_to_quaternion(np.swapaxes(D, -1, -2)),
-                                  "angular_velocity": body_angular_velocity(E, D, dD)}
+                out[b["name"]] = {
+                    "position": u[:, s[0]].copy(),
+                    "velocity": v[:, s[0]].copy(),
+                    "attitude": matrix_to_quaternion(np.swapaxes(D, -1, -2)),
+                    "angular_velocity": body_angular_velocity(E, D, dD),
+                }
             else:
                 spec = b["spec"]
                 nodes = b["nodes"]
@@ -686,12 +764,25 @@ class Structure:
         attrs = {"kind": b["kind"], "mass": b["mass"], "mass_unit": "kg"}
         if b["kind"] == "rigid":
             p = b["points"]
-            attrs.update({"shape": b["shape"], "mass_points": len(p), "gravity": b["gravity"], "inertia": p.inertia,
-                          "inertia_unit": "kg m2"})
+            attrs.update(
+                {
+                    "shape": b["shape"],
+                    "mass_points": len(p),
+                    "gravity": b["gravity"],
+                    "inertia": p.inertia,
+                    "inertia_unit": "kg m2",
+                }
+            )
         if b["kind"] == "elastic":
             spec = b["spec"]
-            attrs.update({"nodes": spec.nodes.shape[0], "bars": spec.bars.shape[0], "tetrahedra": spec.tets.shape[0],
-                          "node_output_every": spec.node_output_every})
+            attrs.update(
+                {
+                    "nodes": spec.nodes.shape[0],
+                    "bars": spec.bars.shape[0],
+                    "tetrahedra": spec.tets.shape[0],
+                    "node_output_every": spec.node_output_every,
+                }
+            )
             for k, v in (spec.material or {}).items():
                 attrs[k] = v
         return attrs
@@ -743,6 +834,12 @@ def _align(A, pattern):
     out = pattern.copy()
     out.data[:] = 0.0
     A = A.tocoo()
-    kc.scatter(A.row.astype(np.int64), A.col.astype(np.int64), A.data.astype(float), out.indptr.astype(np.int64),
-             out.indices.astype(np.int64), out.data)
+    kc.scatter(
+        A.row.astype(np.int64),
+        A.col.astype(np.int64),
+        A.data.astype(float),
+        out.indptr.astype(np.int64),
+        out.indices.astype(np.int64),
+        out.data,
+    )
     return out

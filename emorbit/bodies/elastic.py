@@ -29,12 +29,20 @@ import scipy.sparse as sp
 from ..errors import InputError
 from ..units import to_si, vector_to_si
 
-__all__ = ["ElasticSpec", "beam_mesh", "chain_mesh", "net_mesh", "read_mesh", "elastic_spec", "mesh_from_parameters", "MESH_KINDS"]
+__all__ = [
+    "ElasticSpec",
+    "beam_mesh",
+    "chain_mesh",
+    "net_mesh",
+    "read_mesh",
+    "elastic_spec",
+    "mesh_from_parameters",
+    "MESH_KINDS",
+]
 
 MESH_KINDS = ("beam", "chain", "net", "file")
 _TET_A = 0.5854101966249685
 _TET_B = 0.1381966011250105
-
 
 
 @dataclass
@@ -160,16 +168,35 @@ def read_mesh(path, key: str = "body"):
     try:
         import meshio
     except ImportError:
-        raise InputError(f"{key}.file", f"{path!r} is not HDF5 and meshio is not installed "
-                                        "(pip install meshio, or use the HDF5 layout)") from None
+        raise InputError(
+            f"{key}.file",
+            f"{path!r} is not HDF5 and meshio is not installed (pip install meshio, or use the HDF5 layout)",
+        ) from None
     m = meshio.read(path)
     T = np.concatenate([c.data for c in m.cells if c.type == "tetra"] or [np.zeros((0, 4), np.int64)]).astype(np.int64)
     B = np.concatenate([c.data for c in m.cells if c.type == "line"] or [np.zeros((0, 2), np.int64)]).astype(np.int64)
     return np.asarray(m.points, float), T, B
 
 
-def elastic_spec(name, X, tets, bars, *, young, density, poisson=None, area=None, mass_matrix="consistent",
-                 position, velocity, R, omega_space, gravity=True, node_output_every=1, key="body") -> ElasticSpec:
+def elastic_spec(
+    name,
+    X,
+    tets,
+    bars,
+    *,
+    young,
+    density,
+    poisson=None,
+    area=None,
+    mass_matrix="consistent",
+    position,
+    velocity,
+    R,
+    omega_space,
+    gravity=True,
+    node_output_every=1,
+    key="body",
+) -> ElasticSpec:
     """Check a mesh and a material and build the arrays of an elastic body (SI)."""
     X = np.asarray(X, float)
     tets = np.asarray(tets, dtype=np.int64).reshape(-1, 4)
@@ -242,8 +269,11 @@ def elastic_spec(name, X, tets, bars, *, young, density, poisson=None, area=None
             for b in range(2):
                 rows.append(bars[:, a])
                 cols.append(bars[:, b])
-                vals.append(mb / 6.0 * (2.0 if a == b else 1.0) if mass_matrix == "consistent"
-                            else mb / 2.0 * (1.0 if a == b else 0.0))
+                vals.append(
+                    mb / 6.0 * (2.0 if a == b else 1.0)
+                    if mass_matrix == "consistent"
+                    else mb / 2.0 * (1.0 if a == b else 0.0)
+                )
     M = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(nn, nn)).tocsr()
     M.sum_duplicates()
     # gravity points
@@ -263,29 +293,59 @@ def elastic_spec(name, X, tets, bars, *, young, density, poisson=None, area=None
             gp_m.append(density * area * bar_L[e] / 2.0)
     R = np.asarray(R, float)
     x = np.asarray(position, float)[None] + X @ R.T
-    v = np.asarray(velocity, float)[None] + np.cross(np.asarray(omega_space, float)[None], x - np.asarray(position)[None])
-    if isinstance(node_output_every, bool) or not isinstance(node_output_every, (int, np.integer)) or node_output_every < 1:
+    v = np.asarray(velocity, float)[None] + np.cross(
+        np.asarray(omega_space, float)[None], x - np.asarray(position)[None]
+    )
+    if (
+        isinstance(node_output_every, bool)
+        or not isinstance(node_output_every, (int, np.integer))
+        or node_output_every < 1
+    ):
         raise InputError(f"{key}.node_output_every", f"an integer >= 1 expected, got {node_output_every!r}")
-    material = {"young": float(young), "young_unit": "Pa", "density": float(density), "density_unit": "kg / m3",
-                "mass_matrix": mass_matrix}
+    material = {
+        "young": float(young),
+        "young_unit": "Pa",
+        "density": float(density),
+        "density_unit": "kg / m3",
+        "mass_matrix": mass_matrix,
+    }
     if poisson is not None:
         material["poisson"] = float(poisson)
     if area is not None:
         material["area"] = float(area)
         material["area_unit"] = "m2"
     return ElasticSpec(
-        name=name, nodes=x, velocities=v, ref=X, bars=bars, bar_EA=np.full(nb, young * (area or 0.0)), bar_L=bar_L,
-        tets=tets, tet_g=tet_g, tet_V=tet_V, tet_lam=np.full(nt, lam_), tet_mu=np.full(nt, mu_), node_mass=M,
-        gp_node=np.array(gp_node, dtype=np.int64).reshape(-1, 4), gp_w=np.array(gp_w, float).reshape(-1, 4),
-        gp_m=np.array(gp_m, float), gravity=bool(gravity), node_output_every=int(node_output_every),
-        material=material)
+        name=name,
+        nodes=x,
+        velocities=v,
+        ref=X,
+        bars=bars,
+        bar_EA=np.full(nb, young * (area or 0.0)),
+        bar_L=bar_L,
+        tets=tets,
+        tet_g=tet_g,
+        tet_V=tet_V,
+        tet_lam=np.full(nt, lam_),
+        tet_mu=np.full(nt, mu_),
+        node_mass=M,
+        gp_node=np.array(gp_node, dtype=np.int64).reshape(-1, 4),
+        gp_w=np.array(gp_w, float).reshape(-1, 4),
+        gp_m=np.array(gp_m, float),
+        gravity=bool(gravity),
+        node_output_every=int(node_output_every),
+        material=material,
+    )
 
 
 def mesh_from_parameters(mesh, params: dict, strict: bool, key: str):
     """(nodes in m, tetrahedra, bars) of mesh ``mesh`` ("beam", "chain", "net" or "file")
     with the parameters ``params`` as a scene gives them; errors name ``key.<parameter>``."""
-    allowed = {"beam": ("size", "elements"), "chain": ("start", "end", "elements"), "net": ("size", "elements"),
-               "file": ("file", "mesh_unit")}
+    allowed = {
+        "beam": ("size", "elements"),
+        "chain": ("start", "end", "elements"),
+        "net": ("size", "elements"),
+        "file": ("file", "mesh_unit"),
+    }
     if mesh not in allowed:
         raise InputError(f"{key}.mesh", f"unknown mesh {mesh!r}; known: {', '.join(allowed)}")
     for p in params:
@@ -296,12 +356,15 @@ def mesh_from_parameters(mesh, params: dict, strict: bool, key: str):
             raise InputError(f"{key}.{p}", f"missing (required for mesh {mesh!r})")
     empty = np.zeros((0, 4), np.int64), np.zeros((0, 2), np.int64)
     if mesh == "beam":
-        X, T = beam_mesh(vector_to_si(params["size"], "length", f"{key}.size", strict=strict),
-                            params["elements"], key)
+        X, T = beam_mesh(vector_to_si(params["size"], "length", f"{key}.size", strict=strict), params["elements"], key)
         return X, T, empty[1]
     if mesh == "chain":
-        X, B = chain_mesh(vector_to_si(params["start"], "length", f"{key}.start", strict=strict),
-                             vector_to_si(params["end"], "length", f"{key}.end", strict=strict), params["elements"], key)
+        X, B = chain_mesh(
+            vector_to_si(params["start"], "length", f"{key}.start", strict=strict),
+            vector_to_si(params["end"], "length", f"{key}.end", strict=strict),
+            params["elements"],
+            key,
+        )
         return X, empty[0], B
     if mesh == "net":
         size = params["size"]

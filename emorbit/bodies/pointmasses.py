@@ -123,8 +123,9 @@ class PointMasses:
         if self._index is not None:
             self._index[name] = len(self._names)
         self._names.append(name)
-        self._pending.append((float(mass), np.asarray(position, float).reshape(3).copy(),
-                              np.asarray(velocity, float).reshape(3).copy()))
+        self._pending.append(
+            (float(mass), np.asarray(position, float).reshape(3).copy(), np.asarray(velocity, float).reshape(3).copy())
+        )
 
     def pop(self, name: str):
         """Remove point ``name``; returns (mass, position, velocity). The others keep their
@@ -142,8 +143,17 @@ class PointMasses:
         self._cv = np.ascontiguousarray(self._cv[:, keep])
         return out
 
-    def advance(self, method: str, gm: float, center: np.ndarray, dt: float, gammas: np.ndarray,
-                every: int, nrec: int, max_iter: int) -> ChunkRecords:
+    def advance(
+        self,
+        method: str,
+        gm: float,
+        center: np.ndarray,
+        dt: float,
+        gammas: np.ndarray,
+        every: int,
+        nrec: int,
+        max_iter: int,
+    ) -> ChunkRecords:
         """Advance all points ``nrec * every`` composed steps, recording every ``every``.
 
         The kernel is the one :mod:`emorbit.integrators.dispatch` names for the method,
@@ -163,9 +173,24 @@ class PointMasses:
             fail=np.full((n, 2), -1, dtype=np.int64),
         )
         code, chunk = dispatch.point_chunk(method, self.roundoff, self.device, n)
-        chunk(code, self.x, self.v, self.cx, self.cv, float(gm), np.ascontiguousarray(center, float),
-              float(dt), np.ascontiguousarray(gammas, float), int(every), int(nrec), int(max_iter),
-              rec.x, rec.v, rec.iterations, rec.fail)
+        chunk(
+            code,
+            self.x,
+            self.v,
+            self.cx,
+            self.cv,
+            float(gm),
+            np.ascontiguousarray(center, float),
+            float(dt),
+            np.ascontiguousarray(gammas, float),
+            int(every),
+            int(nrec),
+            int(max_iter),
+            rec.x,
+            rec.v,
+            rec.iterations,
+            rec.fail,
+        )
         return rec
 
     #: steps per local Kepler time scale for adaptive steps (None: fixed steps); set by the Simulation
@@ -181,12 +206,33 @@ class PointMasses:
         """Adaptive steps (see :mod:`emorbit.kernels.pointmass.adaptive`); dt is the largest step."""
         n = len(self)
         steps = np.zeros((nrec, n), dtype=np.int64)
-        rec = ChunkRecords(np.empty((nrec, 3, n)), np.empty((nrec, 3, n)), np.zeros((nrec, n), dtype=np.int64),
-                           np.full((n, 2), -1, dtype=np.int64))
+        rec = ChunkRecords(
+            np.empty((nrec, 3, n)),
+            np.empty((nrec, 3, n)),
+            np.zeros((nrec, n), dtype=np.int64),
+            np.full((n, 2), -1, dtype=np.int64),
+        )
         code, chunk = dispatch.adaptive_chunk(method, self.roundoff, self.device)
-        chunk(code, self.x, self.v, self.cx, self.cv, float(gm), np.ascontiguousarray(center, float),
-              float(dt), float(self.adaptive), np.ascontiguousarray(gammas, float), int(every), int(nrec),
-              int(max_iter), rec.x, rec.v, rec.iterations, steps, rec.fail)
+        chunk(
+            code,
+            self.x,
+            self.v,
+            self.cx,
+            self.cv,
+            float(gm),
+            np.ascontiguousarray(center, float),
+            float(dt),
+            float(self.adaptive),
+            np.ascontiguousarray(gammas, float),
+            int(every),
+            int(nrec),
+            int(max_iter),
+            rec.x,
+            rec.v,
+            rec.iterations,
+            steps,
+            rec.fail,
+        )
         rec.solves = steps * len(gammas)
         self.adaptive_steps += int(steps.sum())
         return rec
@@ -204,8 +250,9 @@ class PointMasses:
     def current(self) -> ChunkRecords:
         """The current state as a one-record chunk."""
         n = len(self)
-        return ChunkRecords(self.x[None].copy(), self.v[None].copy(), np.zeros((1, n), np.int64),
-                            np.full((n, 2), -1, np.int64))
+        return ChunkRecords(
+            self.x[None].copy(), self.v[None].copy(), np.zeros((1, n), np.int64), np.full((n, 2), -1, np.int64)
+        )
 
     def snapshot(self):
         return tuple(a.copy() for a in (self.x, self.v, self.cx, self.cv))
@@ -217,8 +264,11 @@ class PointMasses:
     def invariants(self, rec: ChunkRecords, nrec: int, gm: float, center):
         """Energy (nrec,), linear momentum (nrec, 3), angular momentum about the centre (nrec, 3)."""
         x, v = rec.x[:nrec], rec.v[:nrec]
-        return (inv.energy(self.masses, x, v, gm, center), inv.momentum(self.masses, v),
-                inv.angular_momentum(self.masses, x, v, center))
+        return (
+            inv.energy(self.masses, x, v, gm, center),
+            inv.momentum(self.masses, v),
+            inv.angular_momentum(self.masses, x, v, center),
+        )
 
     def datasets(self, rec: ChunkRecords, nrec: int, times=None, first_row: int = 0) -> dict:
         """{name: {"position": (nrec, 3), "velocity": (nrec, 3)}}."""

@@ -64,8 +64,12 @@ class RigidBodies:
 
     kind = "rigid"
     #: per-body datasets and their units (see emorbit.io.hdf5)
-    DATASETS = {"position": (3, "m"), "velocity": (3, "m / s"), "attitude": (4, "1"),
-                "angular_velocity": (3, "rad / s")}
+    DATASETS = {
+        "position": (3, "m"),
+        "velocity": (3, "m / s"),
+        "attitude": (4, "1"),
+        "angular_velocity": (3, "rad / s"),
+    }
     METHODS = ("em", "midpoint")
 
     def __init__(self):
@@ -93,12 +97,25 @@ class RigidBodies:
     def _pack(self) -> None:
         counts = [len(p) for p in self.points]
         self.offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-        self.X = np.ascontiguousarray(np.concatenate([p.X for p in self.points], axis=1)) if self.points \
+        self.X = (
+            np.ascontiguousarray(np.concatenate([p.X for p in self.points], axis=1))
+            if self.points
             else np.zeros((3, 0))
+        )
         self.mp = np.ascontiguousarray(np.concatenate([p.m for p in self.points])) if self.points else np.zeros(0)
 
-    def add(self, name: str, shape: str, points: MassPoints, model: str, position, velocity, R, omega_space,
-            params: dict | None = None) -> None:
+    def add(
+        self,
+        name: str,
+        shape: str,
+        points: MassPoints,
+        model: str,
+        position,
+        velocity,
+        R,
+        omega_space,
+        params: dict | None = None,
+    ) -> None:
         """Append a body (validated SI values): R the attitude matrix (body to space),
         omega_space its angular velocity in the space frame; params the shape's parameters in
         SI (kept to write the body back as a scene)."""
@@ -131,9 +148,16 @@ class RigidBodies:
         D = q[3:].reshape(3, 3)
         dD = v[3:].reshape(3, 3)
         inv = {val: k for k, val in GRAVITY_MODELS.items()}
-        out = {"shape": self.shapes[b], "points": self.points[b], "gravity": inv[int(self.models[b])],
-               "position": q[:3].copy(), "velocity": v[:3].copy(), "R": D.T.copy(),
-               "omega_space": 0.5 * np.cross(D, dD).sum(axis=0), "params": self.params[b]}
+        out = {
+            "shape": self.shapes[b],
+            "points": self.points[b],
+            "gravity": inv[int(self.models[b])],
+            "position": q[:3].copy(),
+            "velocity": v[:3].copy(),
+            "R": D.T.copy(),
+            "omega_space": 0.5 * np.cross(D, dD).sum(axis=0),
+            "params": self.params[b],
+        }
         keep = [j for j in range(len(self.names)) if j != b]
         for attr in ("names", "shapes", "points", "params"):
             lst = getattr(self, attr)
@@ -146,22 +170,55 @@ class RigidBodies:
     # -- stepping ------------------------------------------------------------------------
     def work_per_step(self) -> int:
         """A rough cost unit (mass points touched) for sizing chunks."""
-        return int(sum(len(p) if m == kern.GRAVITY_VOLUME else 1 for p, m in zip(self.points, self.models))) \
-            + 50 * len(self)
+        return int(sum(len(p) if m == kern.GRAVITY_VOLUME else 1 for p, m in zip(self.points, self.models))) + 50 * len(
+            self
+        )
 
-    def advance(self, method: str, gm: float, center, dt: float, gammas, every: int, nrec: int,
-                max_iter: int) -> RigidRecords:
+    def advance(
+        self, method: str, gm: float, center, dt: float, gammas, every: int, nrec: int, max_iter: int
+    ) -> RigidRecords:
         nb = len(self)
-        rec = RigidRecords(np.empty((nrec, nb, 12)), np.empty((nrec, nb, 12)), np.zeros((nrec, nb), np.int64),
-                           np.full((nb, 2), -1, np.int64))
-        kern.rigid_chunk(method_code(method), self.models, self.q, self.v, self.cq, self.cv, self.lam, self.mass,
-                         self.E, self.Einv, self.offsets, self.X, self.mp, float(gm), center, float(dt), gammas,
-                         int(every), int(nrec), int(max_iter), rec.q, rec.v, rec.iterations, rec.fail)
+        rec = RigidRecords(
+            np.empty((nrec, nb, 12)),
+            np.empty((nrec, nb, 12)),
+            np.zeros((nrec, nb), np.int64),
+            np.full((nb, 2), -1, np.int64),
+        )
+        kern.rigid_chunk(
+            method_code(method),
+            self.models,
+            self.q,
+            self.v,
+            self.cq,
+            self.cv,
+            self.lam,
+            self.mass,
+            self.E,
+            self.Einv,
+            self.offsets,
+            self.X,
+            self.mp,
+            float(gm),
+            center,
+            float(dt),
+            gammas,
+            int(every),
+            int(nrec),
+            int(max_iter),
+            rec.q,
+            rec.v,
+            rec.iterations,
+            rec.fail,
+        )
         return rec
 
     def current(self) -> RigidRecords:
-        return RigidRecords(self.q[None].copy(), self.v[None].copy(), np.zeros((1, len(self)), np.int64),
-                            np.full((len(self), 2), -1, np.int64))
+        return RigidRecords(
+            self.q[None].copy(),
+            self.v[None].copy(),
+            np.zeros((1, len(self)), np.int64),
+            np.full((len(self), 2), -1, np.int64),
+        )
 
     def snapshot(self):
         return tuple(a.copy() for a in (self.q, self.v, self.cq, self.cv, self.lam))
@@ -182,7 +239,9 @@ class RigidBodies:
         dD = v[..., 3:].reshape(v.shape[:-1] + (3, 3))
         T = 0.5 * m * np.einsum("rbi,rbi->rb", dphi, dphi) + 0.5 * np.einsum("bkl,rbki,rbli->rb", self.E, dD, dD)
         P = np.einsum("b,rbi->rbi", m, dphi)
-        L = np.cross(phi - c, P) + np.einsum("bkl,rbklj->rbj", self.E, np.cross(D[:, :, :, None, :], dD[:, :, None, :, :]))
+        L = np.cross(phi - c, P) + np.einsum(
+            "bkl,rbklj->rbj", self.E, np.cross(D[:, :, :, None, :], dD[:, :, None, :, :])
+        )
         V = np.zeros(T.shape)
         for b in range(len(self)):
             if self.models[b] == kern.GRAVITY_POINT:
@@ -218,9 +277,16 @@ class RigidBodies:
         """Attributes of body ``b``'s HDF5 group."""
         p = self.points[b]
         inv = {v: k for k, v in GRAVITY_MODELS.items()}
-        return {"kind": "rigid", "mass": float(self.mass[b]), "mass_unit": "kg", "shape": self.shapes[b],
-                "mass_points": len(p), "gravity": inv[int(self.models[b])],
-                "inertia": p.inertia, "inertia_unit": "kg m2"}
+        return {
+            "kind": "rigid",
+            "mass": float(self.mass[b]),
+            "mass_unit": "kg",
+            "shape": self.shapes[b],
+            "mass_points": len(p),
+            "gravity": inv[int(self.models[b])],
+            "inertia": p.inertia,
+            "inertia_unit": "kg m2",
+        }
 
     def body_constants(self, b: int) -> dict:
         """Fixed datasets of body ``b``: {name: (array, unit)} (its mass points, body frame)."""
@@ -282,8 +348,13 @@ def _shape_points(shape: str, params: dict, strict: bool, key: str) -> MassPoint
             raise InputError(f"{key}.nodes", f"not a table of numbers: {exc}") from None
         kw.update(nodes=nodes, tetrahedra=tets)
         return shapes.tetra_mesh(nodes, tets, density=kw["density"], key=key), kw
-    required = {"box": ("size",), "cylinder": ("radius", "height"), "sphere": ("radius",), "shell": ("radius", "mass"),
-                "dumbbell": ("masses", "length")}[shape]
+    required = {
+        "box": ("size",),
+        "cylinder": ("radius", "height"),
+        "sphere": ("radius",),
+        "shell": ("radius", "mass"),
+        "dumbbell": ("masses", "length"),
+    }[shape]
     for need in required:
         if need not in kw:
             raise InputError(f"{key}.{need}", f"missing (required for a {shape})")
@@ -298,8 +369,21 @@ def _shape_points(shape: str, params: dict, strict: bool, key: str) -> MassPoint
     return fn(args.pop("masses"), args.pop("length"), key=key, **args), kw
 
 
-def build_rigid(shape, params, *, position, velocity, attitude, rotation_vector, angular_velocity, frame,
-                gravity, has_field: bool, strict: bool, key: str) -> dict:
+def build_rigid(
+    shape,
+    params,
+    *,
+    position,
+    velocity,
+    attitude,
+    rotation_vector,
+    angular_velocity,
+    frame,
+    gravity,
+    has_field: bool,
+    strict: bool,
+    key: str,
+) -> dict:
     """Check and convert a rigid body's input. Returns a dict with ``points`` (MassPoints),
     ``gravity`` (model name), ``position``, ``velocity``, ``R`` (3x3) and ``omega_space``."""
 
@@ -315,8 +399,15 @@ def build_rigid(shape, params, *, position, velocity, attitude, rotation_vector,
     x = vector_to_si(position, "length", f"{key}.position", strict=strict)
     v = vector_to_si(velocity, "speed", f"{key}.velocity", strict=strict)
     R, omega_space = _attitude_matrix(attitude, rotation_vector, angular_velocity, frame, strict, key)
-    return {"points": points, "gravity": gravity, "position": x, "velocity": v, "R": R, "omega_space": omega_space,
-            "params": si_params}
+    return {
+        "points": points,
+        "gravity": gravity,
+        "position": x,
+        "velocity": v,
+        "R": R,
+        "omega_space": omega_space,
+        "params": si_params,
+    }
 
 
 def _attitude_matrix(attitude, rotation_vector, angular_velocity, frame, strict, key):

@@ -12,11 +12,14 @@ def quaternion_to_matrix(q) -> np.ndarray:
     """R (..., 3, 3) from unit quaternions (..., 4), scalar first."""
     q = np.asarray(q, float)
     w, x, y, z = np.moveaxis(q, -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        -2,
+    )
 
 
 def matrix_to_quaternion(R) -> np.ndarray:
@@ -33,10 +36,30 @@ def matrix_to_quaternion(R) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         f = 0.5 / s
         opts = [
-            (w0, (R[..., 2, 1] - R[..., 1, 2]) * f, (R[..., 0, 2] - R[..., 2, 0]) * f, (R[..., 1, 0] - R[..., 0, 1]) * f),
-            ((R[..., 2, 1] - R[..., 1, 2]) * f, w0, (R[..., 0, 1] + R[..., 1, 0]) * f, (R[..., 0, 2] + R[..., 2, 0]) * f),
-            ((R[..., 0, 2] - R[..., 2, 0]) * f, (R[..., 0, 1] + R[..., 1, 0]) * f, w0, (R[..., 1, 2] + R[..., 2, 1]) * f),
-            ((R[..., 1, 0] - R[..., 0, 1]) * f, (R[..., 0, 2] + R[..., 2, 0]) * f, (R[..., 1, 2] + R[..., 2, 1]) * f, w0),
+            (
+                w0,
+                (R[..., 2, 1] - R[..., 1, 2]) * f,
+                (R[..., 0, 2] - R[..., 2, 0]) * f,
+                (R[..., 1, 0] - R[..., 0, 1]) * f,
+            ),
+            (
+                (R[..., 2, 1] - R[..., 1, 2]) * f,
+                w0,
+                (R[..., 0, 1] + R[..., 1, 0]) * f,
+                (R[..., 0, 2] + R[..., 2, 0]) * f,
+            ),
+            (
+                (R[..., 0, 2] - R[..., 2, 0]) * f,
+                (R[..., 0, 1] + R[..., 1, 0]) * f,
+                w0,
+                (R[..., 1, 2] + R[..., 2, 1]) * f,
+            ),
+            (
+                (R[..., 1, 0] - R[..., 0, 1]) * f,
+                (R[..., 0, 2] + R[..., 2, 0]) * f,
+                (R[..., 1, 2] + R[..., 2, 1]) * f,
+                w0,
+            ),
         ]
     for j, comps in enumerate(opts):
         sel = k == j

@@ -17,8 +17,18 @@ from dataclasses import dataclass
 from ..errors import InputError
 from .composition import ORDERS, coefficients
 
-__all__ = ["Method", "METHODS", "ORDERS", "ROUNDOFF", "DEVICES", "coefficients", "get_method", "check_order",
-           "check_roundoff", "check_device"]
+__all__ = [
+    "Method",
+    "METHODS",
+    "ORDERS",
+    "ROUNDOFF",
+    "DEVICES",
+    "coefficients",
+    "get_method",
+    "check_order",
+    "check_roundoff",
+    "check_device",
+]
 
 #: round-off treatment of em steps of point masses: "brouwer" solves each step's scalar
 #: equation to its correctly rounded root, so that the energy error stays a random walk;

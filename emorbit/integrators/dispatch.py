@@ -46,8 +46,7 @@ def require_device(device: str) -> None:
             raise InputError("device", problem)
 
 
-def point_chunk(method: str, roundoff: str = "brouwer", device: str = "cpu", n: int = 0,
-                parallel: bool | None = None):
+def point_chunk(method: str, roundoff: str = "brouwer", device: str = "cpu", n: int = 0, parallel: bool | None = None):
     """(code, chunk) of fixed steps of ``n`` point masses: call
     ``chunk(code, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
     rec_iters, fail)``. On the CPU, ``parallel`` picks the kernel on all of Numba's threads

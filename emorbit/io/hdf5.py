@@ -63,13 +63,15 @@ def _versions() -> str:
     import astropy
     import numba
 
-    return json.dumps({
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "numba": numba.__version__,
-        "h5py": h5py.__version__,
-        "astropy": astropy.__version__,
-    })
+    return json.dumps(
+        {
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "numba": numba.__version__,
+            "h5py": h5py.__version__,
+            "astropy": astropy.__version__,
+        }
+    )
 
 
 def _growable(group, name, width, unit, chunk_rows):
@@ -126,8 +128,10 @@ class Writer:
         for key, value in attrs.items():
             f.attrs[key] = value
         f.attrs["status"] = "running"
-        self._ds = {name: _growable(f, name, None if name in _SCALAR else 3, unit, chunk_rows)
-                    for name, unit in LAYOUT_UNITS.items()}
+        self._ds = {
+            name: _growable(f, name, None if name in _SCALAR else 3, unit, chunk_rows)
+            for name, unit in LAYOUT_UNITS.items()
+        }
         self._body_ds = {}
         group = f.create_group("bodies", track_order=True)
         for body in bodies:
@@ -137,16 +141,21 @@ class Writer:
             for path_, (array, unit) in body.get("constants", {}).items():
                 ds = g.create_dataset(path_, data=array)
                 ds.attrs["unit"] = unit
-            self._body_ds[body["name"]] = {q: _growable(g, q, width, unit, chunk_rows)
-                                           for q, (width, unit) in body["datasets"].items()}
+            self._body_ds[body["name"]] = {
+                q: _growable(g, q, width, unit, chunk_rows) for q, (width, unit) in body["datasets"].items()
+            }
         f.flush()
 
     def append(self, time, energy, momentum, angular_momentum, newton_iterations, data):
         """Append a block of records (arrays with one row per record) and flush; ``data`` is
         {body: {dataset: block}}."""
-        for name, block in (("time", time), ("invariants/energy", energy), ("invariants/momentum", momentum),
-                            ("invariants/angular_momentum", angular_momentum),
-                            ("diagnostics/newton_iterations", newton_iterations)):
+        for name, block in (
+            ("time", time),
+            ("invariants/energy", energy),
+            ("invariants/momentum", momentum),
+            ("invariants/angular_momentum", angular_momentum),
+            ("diagnostics/newton_iterations", newton_iterations),
+        ):
             _append(self._ds[name], np.asarray(block, float))
         for name, sets in self._body_ds.items():
             for q, ds in sets.items():
@@ -196,7 +205,7 @@ class Writer:
         return g
 
     @classmethod
-    def reopen(cls, path, records: int, attrs: dict) -> "Writer":
+    def reopen(cls, path, records: int, attrs: dict) -> Writer:
         """Open an existing run file to continue it: every record after the first ``records``
         is dropped, root attributes are updated with ``attrs`` and the status set to running."""
         self = cls.__new__(cls)

@@ -96,9 +96,12 @@ class Sink:
                 who = names[int(np.argmax(below[:, first]))]
                 if first:
                     self.emit_rows(recs, steps, first, k)
-                raise IntegrationError(float(times[first]), who,
-                                       f"it is inside the central body (r < radius = {radius!r} m); "
-                                       "records up to the one before are written")
+                raise IntegrationError(
+                    float(times[first]),
+                    who,
+                    f"it is inside the central body (r < radius = {radius!r} m); "
+                    "records up to the one before are written",
+                )
         self.rows += nrec
         self.last_step = int(steps[nrec - 1])
         block = (times, energy, momentum, angular, its, data)
@@ -121,9 +124,19 @@ class Sink:
                 masses[n] = attrs["mass"]
                 kinds[n] = attrs["kind"]
         return Result(
-            time=cat(0), energy=cat(1), momentum=cat(2), angular_momentum=cat(3), newton_iterations=cat(4),
-            bodies=bodies, masses=masses, kinds=kinds,
-            method=sim.method, order=sim.order, dt=sim.dt, gm=sim.gm, center=sim.center.copy(),
+            time=cat(0),
+            energy=cat(1),
+            momentum=cat(2),
+            angular_momentum=cat(3),
+            newton_iterations=cat(4),
+            bodies=bodies,
+            masses=masses,
+            kinds=kinds,
+            method=sim.method,
+            order=sim.order,
+            dt=sim.dt,
+            gm=sim.gm,
+            center=sim.center.copy(),
         )
 
 

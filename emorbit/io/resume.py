@@ -50,8 +50,12 @@ def load_checkpoint(path):
         steps = int(cp.attrs["steps"])
         records = int(cp.attrs["records"])
     scene = parse_scene(_text(attrs["scene"]), path)
-    scene = scene.with_overrides(method=_text(attrs["method"]), order=int(attrs["order"]),
-                                 dt=f"{float(attrs['dt'])!r} s", output_every=int(attrs["output_every"]))
+    scene = scene.with_overrides(
+        method=_text(attrs["method"]),
+        order=int(attrs["order"]),
+        dt=f"{float(attrs['dt'])!r} s",
+        output_every=int(attrs["output_every"]),
+    )
     sim = scene.build()
     if sim.structure is not None:
         sim.structure.build()

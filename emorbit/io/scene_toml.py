@@ -34,10 +34,15 @@ def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -
         else:
             lines.append(f"gm = {_q(sim.field.gm, 'm3 / s2')}")
         lines += [f"center = {_v(sim.field.center, 'm')}", ""]
-    lines += ["[integrator]",
-              f'method = "{sim.method}"', f"order = {sim.order}", f"dt = {_q(sim.dt, 's')}",
-              f"t_end = {_q(t_end if t_end is not None else sim.time + sim.dt, 's')}",
-              f"output_every = {output_every}", f"max_newton_iterations = {sim.max_newton_iterations}"]
+    lines += [
+        "[integrator]",
+        f'method = "{sim.method}"',
+        f"order = {sim.order}",
+        f"dt = {_q(sim.dt, 's')}",
+        f"t_end = {_q(t_end if t_end is not None else sim.time + sim.dt, 's')}",
+        f"output_every = {output_every}",
+        f"max_newton_iterations = {sim.max_newton_iterations}",
+    ]
     if sim.adaptive is not None:
         lines.append(f"adaptive = {sim.adaptive!r}")
     if sim.roundoff != "brouwer":
@@ -46,28 +51,52 @@ def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -
         lines.append(f'newton = "{sim.newton}"')
     pts = sim.points
     for i, name in enumerate(pts.names):
-        lines += ["", "[[body]]", f"name = {json.dumps(name)}",
-                  'kind = "point"', f"mass = {_q(pts.masses[i], 'kg')}",
-                  f"position = {_v(pts.x[:, i], 'm')}", f"velocity = {_v(pts.v[:, i], 'm / s')}"]
+        lines += [
+            "",
+            "[[body]]",
+            f"name = {json.dumps(name)}",
+            'kind = "point"',
+            f"mass = {_q(pts.masses[i], 'kg')}",
+            f"position = {_v(pts.x[:, i], 'm')}",
+            f"velocity = {_v(pts.v[:, i], 'm / s')}",
+        ]
     if sim.rigid is not None:
         rb = sim.rigid
         now = rb.datasets(rb.current(), 1)
         for b, name in enumerate(rb.names):
             d = now[name]
-            lines += ["", "[[body]]", f"name = {json.dumps(name)}", 'kind = "rigid"', f'shape = "{rb.shapes[b]}"',
-                      f"position = {_v(d['position'][0], 'm')}", f"velocity = {_v(d['velocity'][0], 'm / s')}",
-                      "attitude = [" + ", ".join(repr(float(x)) for x in d["attitude"][0]) + "]",
-                      f"angular_velocity = {_v(d['angular_velocity'][0], 'rad / s')}",
-                      f'gravity = "{rb.body_attrs(b)["gravity"]}"']
+            lines += [
+                "",
+                "[[body]]",
+                f"name = {json.dumps(name)}",
+                'kind = "rigid"',
+                f'shape = "{rb.shapes[b]}"',
+                f"position = {_v(d['position'][0], 'm')}",
+                f"velocity = {_v(d['velocity'][0], 'm / s')}",
+                "attitude = [" + ", ".join(repr(float(x)) for x in d["attitude"][0]) + "]",
+                f"angular_velocity = {_v(d['angular_velocity'][0], 'rad / s')}",
+                f'gravity = "{rb.body_attrs(b)["gravity"]}"',
+            ]
             lines += _shape_lines(rb.params[b])
     if sim.structure is not None:
-        lines += ["", "# elastic bodies and couplings built through the Python API are not written here: "
-                      + ", ".join(sim.structure.names)]
+        lines += [
+            "",
+            "# elastic bodies and couplings built through the Python API are not written here: "
+            + ", ".join(sim.structure.names),
+        ]
     return "\n".join(lines) + "\n"
 
 
-_PARAM_UNITS = {"size": "m", "radius": "m", "height": "m", "length": "m", "end_radius": "m", "density": "kg / m3",
-                "mass": "kg", "masses": "kg"}
+_PARAM_UNITS = {
+    "size": "m",
+    "radius": "m",
+    "height": "m",
+    "length": "m",
+    "end_radius": "m",
+    "density": "kg / m3",
+    "mass": "kg",
+    "masses": "kg",
+}
 
 
 def _shape_lines(params: dict) -> list[str]:
@@ -81,7 +110,11 @@ def _shape_lines(params: dict) -> list[str]:
             out.append(f"refinement = {int(value)}")
         elif key == "nodes":
             out.append('mesh_unit = "m"')
-            out.append("nodes = [" + ", ".join("[" + ", ".join(repr(float(c)) for c in row) + "]" for row in value) + "]")
+            out.append(
+                "nodes = [" + ", ".join("[" + ", ".join(repr(float(c)) for c in row) + "]" for row in value) + "]"
+            )
         elif key == "tetrahedra":
-            out.append("tetrahedra = [" + ", ".join("[" + ", ".join(str(int(c)) for c in row) + "]" for row in value) + "]")
+            out.append(
+                "tetrahedra = [" + ", ".join("[" + ", ".join(str(int(c)) for c in row) + "]" for row in value) + "]"
+            )
     return out

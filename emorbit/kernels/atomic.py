@@ -22,8 +22,13 @@ __all__ = ["fetch_add"]
 def fetch_add(typingctx, counter, index, value):
     """``old = counter[index]; counter[index] += value; return old`` as one atomic operation
     (sequentially consistent) on a C-contiguous int64 array."""
-    if not (isinstance(counter, types.Array) and counter.dtype == types.int64 and counter.ndim == 1
-            and isinstance(index, types.Integer) and isinstance(value, types.Integer)):
+    if not (
+        isinstance(counter, types.Array)
+        and counter.dtype == types.int64
+        and counter.ndim == 1
+        and isinstance(index, types.Integer)
+        and isinstance(value, types.Integer)
+    ):
         return None
     sig = types.int64(counter, index, value)
 

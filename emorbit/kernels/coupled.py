@@ -32,9 +32,41 @@ __all__ = ["fill_forces", "add_block", "fill_constraints", "equilibrate", "scatt
 
 
 @kernel
-def fill_forces(method, hh, hf, x0n, x1n, node_slot, node_coef, bar_node, bar_EA, bar_L, tet_node, tet_g, tet_V,
-          tet_lam, tet_mu, gp_node, gp_w, gp_m, xg0, xg1, gm, c, want_gravity, want_K, indptr, indices, data, Fslot,
-          fn, kb, kt, fg, kg):
+def fill_forces(
+    method,
+    hh,
+    hf,
+    x0n,
+    x1n,
+    node_slot,
+    node_coef,
+    bar_node,
+    bar_EA,
+    bar_L,
+    tet_node,
+    tet_g,
+    tet_V,
+    tet_lam,
+    tet_mu,
+    gp_node,
+    gp_w,
+    gp_m,
+    xg0,
+    xg1,
+    gm,
+    c,
+    want_gravity,
+    want_K,
+    indptr,
+    indices,
+    data,
+    Fslot,
+    fn,
+    kb,
+    kt,
+    fg,
+    kg,
+):
     """The generalised forces into Fslot (n_slots, 3) and, if ``want_K``, -hh K (elements and
     gravity) added into the Jacobian values ``data``. Returns a status."""
     fn[:, :] = 0.0
@@ -60,8 +92,7 @@ def fill_forces(method, hh, hf, x0n, x1n, node_slot, node_coef, bar_node, bar_EA
     for e in range(tet_node.shape[0]):
         for a in range(4):
             for b in range(4):
-                add_block(tet_node[e, a], tet_node[e, b], kt[e, a, b], -hh, node_slot, node_coef, indptr, indices,
-                           data)
+                add_block(tet_node[e, a], tet_node[e, b], kt[e, a, b], -hh, node_slot, node_coef, indptr, indices, data)
     if want_gravity:
         for q in range(gp_m.shape[0]):
             for a in range(4):
@@ -72,8 +103,7 @@ def fill_forces(method, hh, hf, x0n, x1n, node_slot, node_coef, bar_node, bar_EA
                     nb = gp_node[q, b]
                     if nb < 0:
                         break
-                    add_block(na, nb, kg[q], -hh * gp_w[q, a] * gp_w[q, b], node_slot, node_coef, indptr, indices,
-                               data)
+                    add_block(na, nb, kg[q], -hh * gp_w[q, a] * gp_w[q, b], node_slot, node_coef, indptr, indices, data)
     return status
 
 

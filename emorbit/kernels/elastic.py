@@ -31,9 +31,9 @@ import math
 
 import numpy as np
 
+from .codes import METHOD_EM, STATUS_OK, STATUS_SINGULAR
 from .gravity import accel, accel_jacobian_coeffs, em_accel, em_jacobian_coeffs
 from .jit import kernel
-from .codes import METHOD_EM, STATUS_OK, STATUS_SINGULAR
 
 __all__ = [
     "combine_rows",

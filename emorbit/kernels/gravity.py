@@ -143,8 +143,15 @@ def em_accel_dd_lo(ax, ay, az, r0, t0, bx, by, bz, cx, cy, cz, gm, r1, iP):
     gx = k * ux
     gy = k * uy
     gz = k * uz
-    return (gx, gy, gz, (fma(k, ux, -gx) + k * lx) + kl * ux, (fma(k, uy, -gy) + k * ly) + kl * uy,
-            (fma(k, uz, -gz) + k * lz) + kl * uz, k + kl)
+    return (
+        gx,
+        gy,
+        gz,
+        (fma(k, ux, -gx) + k * lx) + kl * ux,
+        (fma(k, uy, -gy) + k * ly) + kl * uy,
+        (fma(k, uz, -gz) + k * lz) + kl * uz,
+        k + kl,
+    )
 
 
 @kernel(inline="always")
@@ -204,8 +211,14 @@ def em_accel_points(x0, x1, gm, center):
         ay = center[1] - x0[1, i]
         az = center[2] - x0[2, i]
         gx, gy, gz, r1, k = em_accel(
-            ax, ay, az, math.sqrt(ax * ax + ay * ay + az * az),
-            center[0] - x1[0, i], center[1] - x1[1, i], center[2] - x1[2, i], gm,
+            ax,
+            ay,
+            az,
+            math.sqrt(ax * ax + ay * ay + az * az),
+            center[0] - x1[0, i],
+            center[1] - x1[1, i],
+            center[2] - x1[2, i],
+            gm,
         )
         out[0, i] = gx
         out[1, i] = gy

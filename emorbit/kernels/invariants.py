@@ -39,9 +39,12 @@ def momentum(masses, v):
 def angular_momentum(masses, x, v, center):
     """Total angular momentum about the centre, sum_i m_i (x_i - X_Z) x v_i; shape (..., 3)."""
     r = x - center[:, None]
-    L = np.stack([
-        r[..., 1, :] * v[..., 2, :] - r[..., 2, :] * v[..., 1, :],
-        r[..., 2, :] * v[..., 0, :] - r[..., 0, :] * v[..., 2, :],
-        r[..., 0, :] * v[..., 1, :] - r[..., 1, :] * v[..., 0, :],
-    ], axis=-2)
+    L = np.stack(
+        [
+            r[..., 1, :] * v[..., 2, :] - r[..., 2, :] * v[..., 1, :],
+            r[..., 2, :] * v[..., 0, :] - r[..., 0, :] * v[..., 2, :],
+            r[..., 0, :] * v[..., 1, :] - r[..., 1, :] * v[..., 0, :],
+        ],
+        axis=-2,
+    )
     return np.einsum("...kn,n->...k", L, masses)

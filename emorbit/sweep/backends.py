@@ -102,8 +102,12 @@ class ProcessBackend(Backend):
         self._saved_env = None
 
     def _new(self) -> cf.Executor:
-        return cf.ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                      initializer=_init_worker, initargs=(self.threads,))
+        return cf.ProcessPoolExecutor(
+            max_workers=self.workers,
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=_init_worker,
+            initargs=(self.threads,),
+        )
 
     def start(self) -> cf.Executor:
         if self.threads is not None:  # BLAS reads these when a worker imports numpy
@@ -141,8 +145,10 @@ class DaskBackend(Backend):
         try:
             import distributed  # noqa: F401
         except ImportError:
-            raise InputError("backend", "the Dask backend needs dask.distributed, which is not installed: "
-                                        "pip install 'emorbit[cluster]'") from None
+            raise InputError(
+                "backend",
+                "the Dask backend needs dask.distributed, which is not installed: pip install 'emorbit[cluster]'",
+            ) from None
         self.workers = workers
         self.threads = threads
         self.scheduler = scheduler
@@ -159,9 +165,15 @@ class DaskBackend(Backend):
                 raise InputError("scheduler", f"cannot reach the Dask scheduler at {self.scheduler!r}: {exc}") from None
         else:
             env = {"NUMBA_NUM_THREADS": str(self.threads)} if self.threads is not None else {}
-            self.cluster = LocalCluster(n_workers=self.workers or os.cpu_count() or 1, threads_per_worker=1,
-                                        processes=True, host="127.0.0.1", dashboard_address=None,
-                                        silence_logs=logging.ERROR, env=env)
+            self.cluster = LocalCluster(
+                n_workers=self.workers or os.cpu_count() or 1,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+                env=env,
+            )
             self.client = Client(self.cluster)
         # pure=False: a resubmitted task is a new task, not the cached result of the lost one
         self.executor = self.client.get_executor(pure=False)
@@ -191,9 +203,12 @@ class MPIBackend(Backend):
             from mpi4py import MPI  # noqa: F401 - loads the MPI library
             from mpi4py.futures import MPIPoolExecutor  # noqa: F401
         except Exception as exc:  # ImportError, or mpi4py present without an MPI library
-            raise InputError("backend", f"the MPI backend needs mpi4py with an MPI library ({exc}); install them "
-                                        "(pip install mpi4py, and Open MPI or MPICH), or use the process or "
-                                        "Dask backend") from None
+            raise InputError(
+                "backend",
+                f"the MPI backend needs mpi4py with an MPI library ({exc}); install them "
+                "(pip install mpi4py, and Open MPI or MPICH), or use the process or "
+                "Dask backend",
+            ) from None
         self.workers = workers
         self.threads = threads
         self.window = 2 * workers if workers else None
@@ -220,8 +235,14 @@ class MPIBackend(Backend):
         return f"MPI ({self.workers or 'all'} workers)"
 
 
-def make_backend(backend: str = "process", *, workers: int | None = None, threads=1, scheduler: str | None = None,
-                 executor: cf.Executor | None = None) -> Backend:
+def make_backend(
+    backend: str = "process",
+    *,
+    workers: int | None = None,
+    threads=1,
+    scheduler: str | None = None,
+    executor: cf.Executor | None = None,
+) -> Backend:
     """The backend named ``backend`` (see :data:`BACKENDS`); ``scheduler`` means Dask on an
     existing cluster; ``executor`` wraps a ready executor (the caller owns and closes it)."""
     if executor is not None:

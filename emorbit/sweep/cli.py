@@ -24,7 +24,9 @@ def add_arguments(p) -> None:
     p.add_argument("-o", "--output", help="folder for the run files and the summary (resumes what is there)")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--dask", action="store_true", help="start a Dask LocalCluster on 127.0.0.1")
-    where.add_argument("--scheduler", metavar="ADDRESS", help="use the Dask cluster at this scheduler (tcp://HOST:PORT)")
+    where.add_argument(
+        "--scheduler", metavar="ADDRESS", help="use the Dask cluster at this scheduler (tcp://HOST:PORT)"
+    )
     where.add_argument("--mpi", action="store_true", help="run on MPI workers through mpi4py.futures")
     where.add_argument("--serial", action="store_true", help="run in this process, one run after another")
     p.add_argument("--workers", type=int, help="worker processes (default: one per core)")
@@ -52,16 +54,27 @@ def run(args) -> int:
         raise InputError("output", "give the output folder with -o OUT")
     backend = "dask" if args.dask else "mpi" if args.mpi else "serial" if args.serial else "process"
     start = time.perf_counter()
-    result = run_sweep(sweep, args.output, backend=backend, workers=args.workers, threads=args.threads,
-                       scheduler=args.scheduler, device=args.device, retries=args.retries,
-                       rerun_failed=args.rerun_failed, overwrite=args.overwrite,
-                       progress=False if args.quiet else None)
+    result = run_sweep(
+        sweep,
+        args.output,
+        backend=backend,
+        workers=args.workers,
+        threads=args.threads,
+        scheduler=args.scheduler,
+        device=args.device,
+        retries=args.retries,
+        rerun_failed=args.rerun_failed,
+        overwrite=args.overwrite,
+        progress=False if args.quiet else None,
+    )
     c = result.counts
     if not args.quiet:
-        print(f"{result.output}: {c['total']} runs, {c['completed']} completed, {c['failed']} failed"
-              + (f", {c['not_run']} not run" if c["not_run"] else "")
-              + f" ({c['skipped']} finished before, {c['ran']} ran now, {c['retried']} retried after a lost worker); "
-              f"summary {result.summary_csv}; wall {time.perf_counter() - start:.1f} s")
+        print(
+            f"{result.output}: {c['total']} runs, {c['completed']} completed, {c['failed']} failed"
+            + (f", {c['not_run']} not run" if c["not_run"] else "")
+            + f" ({c['skipped']} finished before, {c['ran']} ran now, {c['retried']} retried after a lost worker); "
+            f"summary {result.summary_csv}; wall {time.perf_counter() - start:.1f} s"
+        )
         for row in result.rows:
             if row.get("status") != "completed":
                 print(f"  run {row['run']}: {row.get('status')}: {row.get('error')}", file=sys.stderr)

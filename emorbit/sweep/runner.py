@@ -27,9 +27,9 @@ import h5py
 import numpy as np
 
 from .._version import __version__
+from ..errors import InputError
 from ..integrators import check_device
 from ..integrators.dispatch import require_device
-from ..errors import InputError
 from .backends import make_backend
 from .spec import Sweep, load_sweep
 from .task import read_row, row_columns, run_file_name, run_task
@@ -74,9 +74,21 @@ def _task_dicts(sweep: Sweep, runs_dir: str, threads, device: str) -> list[dict]
     bodies = sweep.body_names()
     out = []
     for t in sweep.tasks():
-        out.append({"index": t.index, "seed": t.seed, "values": t.values, "digest": t.digest,
-                    "file": os.path.join(runs_dir, run_file_name(t.index)), "scene": base, "fixed": sweep.fixed,
-                    "params": params, "bodies": bodies, "threads": threads, "device": device})
+        out.append(
+            {
+                "index": t.index,
+                "seed": t.seed,
+                "values": t.values,
+                "digest": t.digest,
+                "file": os.path.join(runs_dir, run_file_name(t.index)),
+                "scene": base,
+                "fixed": sweep.fixed,
+                "params": params,
+                "bodies": bodies,
+                "threads": threads,
+                "device": device,
+            }
+        )
     return out
 
 
@@ -94,10 +106,22 @@ def _remove_orphans(runs_dir: str) -> None:
             pass
 
 
-def run_sweep(sweep, output, *, backend: str = "process", workers: int | None = None, threads: int | None = 1,
-              scheduler: str | None = None, executor: cf.Executor | None = None, device: str = "cpu",
-              retries: int = RETRIES, rerun_failed: bool = False, overwrite: bool = False,
-              on_result=None, progress: bool | None = None) -> SweepResult:
+def run_sweep(
+    sweep,
+    output,
+    *,
+    backend: str = "process",
+    workers: int | None = None,
+    threads: int | None = 1,
+    scheduler: str | None = None,
+    executor: cf.Executor | None = None,
+    device: str = "cpu",
+    retries: int = RETRIES,
+    rerun_failed: bool = False,
+    overwrite: bool = False,
+    on_result=None,
+    progress: bool | None = None,
+) -> SweepResult:
     """Run every run of ``sweep`` (a :class:`Sweep` or the path of a sweep file) not yet
     finished in ``output``, then write the summary (CSV and HDF5) of all of them.
 
@@ -149,10 +173,20 @@ def run_sweep(sweep, output, *, backend: str = "process", workers: int | None = 
         t["rerun"] = row is not None
     if mismatched and not overwrite:
         first = run_file_name(min(mismatched))
-        raise InputError("output", f"{runs_dir!r} holds {len(mismatched)} run files of a different sweep (first: "
-                                   f"{first}); use another output folder, or overwrite to replace them")
-    counts = {"total": len(tasks), "skipped": len(rows), "ran": 0, "completed": 0, "failed": 0, "not_run": 0,
-              "retried": 0}
+        raise InputError(
+            "output",
+            f"{runs_dir!r} holds {len(mismatched)} run files of a different sweep (first: "
+            f"{first}); use another output folder, or overwrite to replace them",
+        )
+    counts = {
+        "total": len(tasks),
+        "skipped": len(rows),
+        "ran": 0,
+        "completed": 0,
+        "failed": 0,
+        "not_run": 0,
+        "retried": 0,
+    }
     ex = be.start() if pending else None  # a scheduler out of reach is an InputError: nothing written yet
     try:
         os.makedirs(runs_dir, exist_ok=True)
@@ -175,8 +209,15 @@ def _run_all(be, ex, pending, rows, counts, retries, on_result, progress) -> Non
     queue = collections.deque(pending)
     attempts = collections.Counter()
     inflight: dict = {}
-    with tqdm(total=len(pending), disable=not progress, unit="run", file=sys.stderr, dynamic_ncols=True,
-              leave=False, delay=1.0) as bar:
+    with tqdm(
+        total=len(pending),
+        disable=not progress,
+        unit="run",
+        file=sys.stderr,
+        dynamic_ncols=True,
+        leave=False,
+        delay=1.0,
+    ) as bar:
         while queue or inflight:
             while queue and (be.window is None or len(inflight) < be.window):
                 t = queue.popleft()

@@ -126,8 +126,11 @@ def parse_key(key, where: str = "key") -> tuple:
     for seg in segments:
         m = _SEGMENT.match(seg)
         if m is None:
-            raise InputError(where, f"{key!r} is not a key: use names joined by dots with [index] or [name] "
-                                    "after a name, e.g. 'body[0].velocity[1]'")
+            raise InputError(
+                where,
+                f"{key!r} is not a key: use names joined by dots with [index] or [name] "
+                "after a name, e.g. 'body[0].velocity[1]'",
+            )
         path.append(m.group(1))
         for inner in _INDEX.findall(m.group(2)):
             inner = inner.strip().strip("'\"")
@@ -165,7 +168,7 @@ def _locate(data: dict, path: tuple, where: str):
     """(container, last part, schema name of the container) for ``path`` in ``data``."""
     node = data
     for j, part in enumerate(path[:-1]):
-        here = _show(path[:j + 1])
+        here = _show(path[: j + 1])
         if isinstance(part, str):
             if not isinstance(node, dict):
                 raise InputError(where, f"{_show(path[:j])} is not a table, so it has no key {part!r}")
@@ -183,8 +186,9 @@ def _list_index(node: list, part, here: str, where: str) -> int:
     if isinstance(part, tuple):
         names = [e.get("name") for e in node if isinstance(e, dict)]
         if part[1] not in names:
-            raise InputError(where, f"no element named {part[1]!r} for {here!r}; names: "
-                                    f"{', '.join(map(str, names)) or 'none'}")
+            raise InputError(
+                where, f"no element named {part[1]!r} for {here!r}; names: {', '.join(map(str, names)) or 'none'}"
+            )
         return names.index(part[1])
     if not -len(node) <= part < len(node):
         raise InputError(where, f"{here!r} does not exist: the list has {len(node)} elements")
@@ -202,8 +206,9 @@ def check_key(data: dict, path: tuple, where: str):
             allowed = SCHEMA.get(schema) if schema is not None else None
             if allowed is None or last not in allowed:
                 hint = f"; allowed here: {', '.join(allowed)}" if allowed else ""
-                raise InputError(where, f"unknown key {_show(path)!r}: {_show(path[:-1]) or 'the scene'} has no "
-                                        f"{last!r}{hint}")
+                raise InputError(
+                    where, f"unknown key {_show(path)!r}: {_show(path[:-1]) or 'the scene'} has no {last!r}{hint}"
+                )
             return None
         return node[last]
     if not isinstance(node, list):
@@ -334,11 +339,13 @@ def _parameter(p, j: int, scene_data: dict) -> Parameter:
     # generated numbers: the scene must want a quantity exactly when a unit is given
     has_unit = isinstance(current, str) or (isinstance(current, list) and any(isinstance(c, str) for c in current))
     if unit is None and has_unit:
-        raise InputError(f"{where}.unit", f"{p['key']} takes a value with a unit (the scene has {current!r}); "
-                                          "give the unit of the numbers, e.g. unit = \"m\"")
+        raise InputError(
+            f"{where}.unit",
+            f"{p['key']} takes a value with a unit (the scene has {current!r}); "
+            'give the unit of the numbers, e.g. unit = "m"',
+        )
     if unit is not None and current is not None and not has_unit:
-        raise InputError(f"{where}.unit", f"{p['key']} takes a bare number (the scene has {current!r}); "
-                                          "drop the unit")
+        raise InputError(f"{where}.unit", f"{p['key']} takes a bare number (the scene has {current!r}); drop the unit")
     return param
 
 
@@ -392,8 +399,9 @@ class Sweep:
         n = len(combos) * self.samples
         children = np.random.SeedSequence(self.seed).spawn(n)
         tasks = []
-        base = json.dumps({"scene": self.scene.text, "fixed": self.fixed, "bodies": self.bodies},
-                          sort_keys=True, default=str)
+        base = json.dumps(
+            {"scene": self.scene.text, "fixed": self.fixed, "bodies": self.bodies}, sort_keys=True, default=str
+        )
         for c, combo in enumerate(combos):
             chosen = dict(zip([p.key for p in axes], combo))
             for s in range(self.samples):
@@ -403,15 +411,23 @@ class Sweep:
                 for p in self.parameters:
                     values[p.key] = p.draw(rng) if p.random else chosen[p.key]
                 seed = int(children[i].generate_state(1, np.uint64)[0])
-                digest = hashlib.sha256(json.dumps([base, values, seed], sort_keys=True, default=str)
-                                        .encode()).hexdigest()[:32]
+                digest = hashlib.sha256(
+                    json.dumps([base, values, seed], sort_keys=True, default=str).encode()
+                ).hexdigest()[:32]
                 tasks.append(Task(i, seed, values, digest))
         return tasks
 
     def scene_for(self, task: Task) -> Scene:
         """The run's scene, unchecked (building it checks it)."""
-        return run_scene(self.scene.data, self.scene.text, self.scene.source, self.fixed,
-                         [(p.key, p.path, p.unit) for p in self.parameters], task.index, task.values)
+        return run_scene(
+            self.scene.data,
+            self.scene.text,
+            self.scene.source,
+            self.fixed,
+            [(p.key, p.path, p.unit) for p in self.parameters],
+            task.index,
+            task.values,
+        )
 
     def body_names(self) -> list[str]:
         """Bodies whose final elements the summary lists."""
@@ -492,11 +508,16 @@ def parse_sweep(text: str, source: str = "<string>") -> Sweep:
             raise InputError(f"set.{key}", f"{key!r} is also a parameter: set it in one place")
     axes = [p for p in params if not p.random]
     if combine == "zip" and len({len(p.values) for p in axes}) > 1:
-        raise InputError("sweep.combine", "zip needs lists of equal length; got "
-                         + ", ".join(f"{p.key}: {len(p.values)}" for p in axes))
+        raise InputError(
+            "sweep.combine",
+            "zip needs lists of equal length; got " + ", ".join(f"{p.key}: {len(p.values)}" for p in axes),
+        )
     if samples > 1 and not any(p.random for p in params):
-        raise InputError("sweep.samples", f"{samples} samples of a sweep without random parameters would repeat "
-                                          "identical runs; add a [[parameter]] with random = {...}")
+        raise InputError(
+            "sweep.samples",
+            f"{samples} samples of a sweep without random parameters would repeat "
+            "identical runs; add a [[parameter]] with random = {...}",
+        )
     bodies = sw.get("bodies")
     names = [b.get("name") for b in scene.data.get("body", []) if isinstance(b, dict)]
     if bodies is not None:
@@ -505,8 +526,17 @@ def parse_sweep(text: str, source: str = "<string>") -> Sweep:
         for b in bodies:
             if b not in names:
                 raise InputError("sweep.bodies", f"no body named {b!r} in the scene; bodies: {', '.join(names)}")
-    return Sweep(scene=scene, parameters=params, fixed=fixed, seed=seed, combine=combine, samples=samples,
-                 bodies=bodies, text=text, source=source)
+    return Sweep(
+        scene=scene,
+        parameters=params,
+        fixed=fixed,
+        seed=seed,
+        combine=combine,
+        samples=samples,
+        bodies=bodies,
+        text=text,
+        source=source,
+    )
 
 
 def load_sweep(path) -> Sweep:

@@ -40,8 +40,16 @@ __all__ = ["run_task", "read_row", "ELEMENTS", "row_columns", "run_file_name", "
 #: the final osculating elements each listed body gets in the summary (name, unit)
 ELEMENTS = (("a", "m"), ("e", "1"), ("i", "rad"), ("raan", "rad"), ("argp", "rad"), ("nu", "rad"))
 #: summary columns after the parameters (name, unit)
-RESULT_COLUMNS = (("status", ""), ("error", ""), ("t_final", "s"), ("records", "1"), ("energy_error", "1"),
-                  ("angular_momentum_error", "1"), ("newton_mean", "1"), ("newton_max", "1"))
+RESULT_COLUMNS = (
+    ("status", ""),
+    ("error", ""),
+    ("t_final", "s"),
+    ("records", "1"),
+    ("energy_error", "1"),
+    ("angular_momentum_error", "1"),
+    ("newton_mean", "1"),
+    ("newton_max", "1"),
+)
 FINISHED = ("completed", "failed")
 
 
@@ -196,8 +204,9 @@ def run_task(task: dict) -> dict:
     status, error = "completed", ""
     try:
         base = task["scene"]
-        scene = run_scene(base["data"], base["text"], base["source"], task["fixed"], task["params"],
-                          task["index"], task["values"])
+        scene = run_scene(
+            base["data"], base["text"], base["source"], task["fixed"], task["params"], task["index"], task["values"]
+        )
         sim = scene.build()
         if task.get("device", "cpu") != "cpu":
             from .device import use_device

@@ -56,8 +56,9 @@ def _composed(method, px, py, pz, vx, vy, vz, ex, ey, ez, fx, fy, fz, h, gammas,
     for k in range(gammas.shape[0]):
         hk = h * gammas[k]
         if method == METHOD_EM or method == METHOD_EM_PLAIN:
-            d0, d1, d2, w0, w1, w2, it, status = em_step(px, py, pz, vx, vy, vz, hk, gm, c0, c1, c2, max_iter,
-                                                         method == METHOD_EM)
+            d0, d1, d2, w0, w1, w2, it, status = em_step(
+                px, py, pz, vx, vy, vz, hk, gm, c0, c1, c2, max_iter, method == METHOD_EM
+            )
         elif method == METHOD_LEAPFROG:
             d0, d1, d2, w0, w1, w2, it, status = _leapfrog_sub(px, py, pz, vx, vy, vz, hk, gm, c0, c1, c2)
         else:
@@ -77,8 +78,26 @@ def _composed(method, px, py, pz, vx, vy, vz, ex, ey, ez, fx, fy, fz, h, gammas,
 
 
 @kernel
-def adaptive_chunk(method, x, v, cx, cv, gm, center, dt_max, eta, gammas, every, nrec, max_iter,
-                   rec_x, rec_v, rec_iters, rec_steps, fail):
+def adaptive_chunk(
+    method,
+    x,
+    v,
+    cx,
+    cv,
+    gm,
+    center,
+    dt_max,
+    eta,
+    gammas,
+    every,
+    nrec,
+    max_iter,
+    rec_x,
+    rec_v,
+    rec_iters,
+    rec_steps,
+    fail,
+):
     """Advance every point by ``nrec`` record intervals of ``every * dt_max`` with adaptive steps.
 
     method       METHOD_EM, METHOD_EM_PLAIN (3), METHOD_MIDPOINT (1) or METHOD_LEAPFROG
@@ -123,9 +142,10 @@ def adaptive_chunk(method, x, v, cx, cv, gm, center, dt_max, eta, gammas, every,
                 elif h > 0.5 * rem:
                     h = 0.5 * rem  # two even steps rather than a long one and a sliver
                 ok = False
-                for halving in range(MAX_HALVINGS + 1):
+                for _halving in range(MAX_HALVINGS + 1):
                     (qx, qy, qz, wx, wy, wz, gx, gy, gz, kx, ky, kz, it, status) = _composed(
-                        method, px, py, pz, vx, vy, vz, ex, ey, ez, fx, fy, fz, h, gammas, gm, c0, c1, c2, max_iter)
+                        method, px, py, pz, vx, vy, vz, ex, ey, ez, fx, fy, fz, h, gammas, gm, c0, c1, c2, max_iter
+                    )
                     its += it
                     if status == STATUS_OK:
                         ok = True

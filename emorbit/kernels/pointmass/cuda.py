@@ -65,9 +65,11 @@ def device_problem() -> str | None:
     except ImportError as exc:  # a Numba without its CUDA target
         return f"numba.cuda cannot be imported ({exc}); pip install numba-cuda"
     if not cuda.is_available():
-        return ("no CUDA device: numba.cuda found no usable NVIDIA GPU and driver on this machine; run on the CPU "
-                "(device 'cpu'), or on a machine with an NVIDIA GPU (pip install 'emorbit[gpu]' for the numba-cuda "
-                "target)")
+        return (
+            "no CUDA device: numba.cuda found no usable NVIDIA GPU and driver on this machine; run on the CPU "
+            "(device 'cpu'), or on a machine with an NVIDIA GPU (pip install 'emorbit[gpu]' for the numba-cuda "
+            "target)"
+        )
     return None
 
 
@@ -93,17 +95,24 @@ def _point_kernel(method: int, name: str):
     def kernel(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
         i = cuda.grid(1)  # noqa: F821 - compiled by _compile with cuda and the device functions in its globals
         if i < x.shape[1]:
-            _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
-                       rec_x, rec_v, rec_iters, fail, i)
+            _run_point(
+                method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, i
+            )
 
     kernel.__name__ = kernel.__qualname__ = f"kernel_{name}"
     return kernel
 
 
 #: method code -> the kernel's Python function
-_KERNELS = {code: _point_kernel(code, name) for code, name in ((METHOD_EM, "em"), (METHOD_EM_PLAIN, "em_plain"),
-                                                                (METHOD_MIDPOINT, "midpoint"),
-                                                                (METHOD_LEAPFROG, "leapfrog"))}
+_KERNELS = {
+    code: _point_kernel(code, name)
+    for code, name in (
+        (METHOD_EM, "em"),
+        (METHOD_EM_PLAIN, "em_plain"),
+        (METHOD_MIDPOINT, "midpoint"),
+        (METHOD_LEAPFROG, "leapfrog"),
+    )
+}
 
 
 def _fma(a, b, c):
@@ -187,6 +196,7 @@ def _nvvm_fma(contract: bool):
     On the simulator (no NVVM) it does nothing."""
     try:
         from numba.cuda.cudadrv import nvvm
+
         original = nvvm.compile_ir
     except (ImportError, AttributeError):
         yield
@@ -244,8 +254,26 @@ def _compile(contract: bool = False):
     return _compiled[contract]
 
 
-def chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-          threads_per_block: int = THREADS_PER_BLOCK, contract: bool = False) -> None:
+def chunk(
+    method,
+    x,
+    v,
+    cx,
+    cv,
+    gm,
+    center,
+    dt,
+    gammas,
+    every,
+    nrec,
+    max_iter,
+    rec_x,
+    rec_v,
+    rec_iters,
+    fail,
+    threads_per_block: int = THREADS_PER_BLOCK,
+    contract: bool = False,
+) -> None:
     """Advance every point ``nrec * every`` composed steps on the GPU.
 
     ``method`` is a code of :data:`METHODS`; the other arguments are those of
@@ -265,7 +293,22 @@ def chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, r
     d_gammas = cuda.to_device(np.ascontiguousarray(gammas, dtype=np.float64))
     blocks = (n + threads_per_block - 1) // threads_per_block
     dx, dv, dcx, dcv, drx, drv, dri, dfail = dev
-    kernels[method][blocks, threads_per_block](dx, dv, dcx, dcv, np.float64(gm), d_center, np.float64(dt), d_gammas,
-                                               int(every), int(nrec), int(max_iter), drx, drv, dri, dfail)
+    kernels[method][blocks, threads_per_block](
+        dx,
+        dv,
+        dcx,
+        dcv,
+        np.float64(gm),
+        d_center,
+        np.float64(dt),
+        d_gammas,
+        int(every),
+        int(nrec),
+        int(max_iter),
+        drx,
+        drv,
+        dri,
+        dfail,
+    )
     for h, d in zip(host, dev):
         h[...] = d.copy_to_host()

@@ -327,22 +327,22 @@ LEAPFROG_SQRTS = 1
 LEAPFROG_DIVISIONS = 1
 
 #: midpoint: accept a Newton update |delta| <= 2**-26 |m| (the next is below eps |m| / 2)
-_ACCEPT2 = 2.0 ** -52
+_ACCEPT2 = 2.0**-52
 #: em: accept a Newton-chord pair |delta1 delta2| <= 2**-56 r1**2 (error ~ 4 |d1 d2| / r1)
-_ACCEPT3 = 2.0 ** -56
+_ACCEPT3 = 2.0**-56
 #: em (roundoff="brouwer"): a Newton update d1 on the accurate F leaves about d1**2 / (2 r1):
 #: |d1| <= 2**-32.5 r1 leaves below 2**-66 r1
-_ACCEPT_NEWTON = 2.0 ** -65
+_ACCEPT_NEWTON = 2.0**-65
 #: ... and only where both updates are below r1 / 64 (a Newton update that ran off to a far
 #: or negative r1 can leave a chord update tiny against that r1: at T/20 near pericentre
 #: one went to -4907 from 1.7 and the chord to 1.8e23, "converged")
-_SMALL = 2.0 ** -6
+_SMALL = 2.0**-6
 #: em (roundoff="brouwer"): steps with t = tau / Q above 1/128 (t / (1 + t) = tau w / GM above
 #: 1/129) are finished by pointmass.em_finish (see the module notes; 1/32 left a drift of
 #: up to 1e-20 |E| per step from T/20 to T/100)
 _BIG_T = 1.0 / 129.0
 #: the unit roundoff of float64
-_U = 2.0 ** -53
+_U = 2.0**-53
 
 # rows of the work array
 _NS = 15  # rows of a state buffer:
@@ -377,6 +377,7 @@ _inline = kernel(inline="always")
 
 # ----------------------------------------------------------------------------------------
 # scalar pieces: every point goes through these, packed or alone
+
 
 @kernel
 def _packed_iters(method):
@@ -759,8 +760,7 @@ def _resolve_plausible(method, rho, A, V):
 
 
 @_inline
-def _resolve_point(method, A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz,
-                   c0, c1, c2, max_iter):
+def _resolve_point(method, A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz, c0, c1, c2, max_iter):
     """Finish a point whose packed solve was not accepted: more Newton updates of the
     scalar unknown; if that misbehaves (leaves the range of :func:`_resolve_plausible`,
     stops shrinking, runs out of iterations), the reference kernel's Newton on 3-vectors.
@@ -829,30 +829,32 @@ def _resolve_point(method, A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz,
 # the scalar path calls these (rarely taken) instead of inlining them with the rest of its
 # step, which keeps its compile time down; one per method, so a run compiles only its own
 
-@kernel
-def _resolve_point_em(A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz, c0, c1, c2,
-                      max_iter):
-    return _resolve_point(METHOD_EM, A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz,
-                          c0, c1, c2, max_iter)
-
 
 @kernel
-def _resolve_point_em_plain(A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz, c0, c1, c2,
-                            max_iter):
-    return _resolve_point(METHOD_EM_PLAIN, A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy,
-                          vz, c0, c1, c2, max_iter)
+def _resolve_point_em(A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz, c0, c1, c2, max_iter):
+    return _resolve_point(
+        METHOD_EM, A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz, c0, c1, c2, max_iter
+    )
 
 
 @kernel
-def _resolve_point_mid(A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz, c0, c1, c2,
-                       max_iter):
-    return _resolve_point(METHOD_MIDPOINT, A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy,
-                          vz, c0, c1, c2, max_iter)
+def _resolve_point_em_plain(A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz, c0, c1, c2, max_iter):
+    return _resolve_point(
+        METHOD_EM_PLAIN, A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz, c0, c1, c2, max_iter
+    )
+
+
+@kernel
+def _resolve_point_mid(A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz, c0, c1, c2, max_iter):
+    return _resolve_point(
+        METHOD_MIDPOINT, A, P, V, r0, rho, prev, h, gm, tau0, tlo, px, py, pz, vx, vy, vz, c0, c1, c2, max_iter
+    )
 
 
 @_inline
-def _implicit_point_impl(method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo,
-                    c0, c1, c2, max_iter):
+def _implicit_point_impl(
+    method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo, c0, c1, c2, max_iter
+):
     """One em or midpoint sub-step of one point, through the same helpers as the packed
     passes. Returns the 12 new state values, extra iterations and status."""
     ax = c0 - x0
@@ -880,14 +882,17 @@ def _implicit_point_impl(method, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2,
     extra = 0
     status = STATUS_OK
     if not ok and method == METHOD_EM:
-        r0, rho, extra, status = _resolve_point_em(A, P, V, r0, rho, abs(delta), h, gm, tau0, tlo,
-                                                   x0, x1, x2, y0, y1, y2, c0, c1, c2, max_iter)
+        r0, rho, extra, status = _resolve_point_em(
+            A, P, V, r0, rho, abs(delta), h, gm, tau0, tlo, x0, x1, x2, y0, y1, y2, c0, c1, c2, max_iter
+        )
     elif not ok and method == METHOD_EM_PLAIN:
-        r0, rho, extra, status = _resolve_point_em_plain(A, P, V, r0, rho, abs(delta), h, gm, tau0, tlo,
-                                                         x0, x1, x2, y0, y1, y2, c0, c1, c2, max_iter)
+        r0, rho, extra, status = _resolve_point_em_plain(
+            A, P, V, r0, rho, abs(delta), h, gm, tau0, tlo, x0, x1, x2, y0, y1, y2, c0, c1, c2, max_iter
+        )
     elif not ok:
-        r0, rho, extra, status = _resolve_point_mid(A, P, V, r0, rho, abs(delta), h, gm, tau0, tlo,
-                                                    x0, x1, x2, y0, y1, y2, c0, c1, c2, max_iter)
+        r0, rho, extra, status = _resolve_point_mid(
+            A, P, V, r0, rho, abs(delta), h, gm, tau0, tlo, x0, x1, x2, y0, y1, y2, c0, c1, c2, max_iter
+        )
     if method != METHOD_MIDPOINT:
         w = _em_w(r0, rho, gm, tau0, tlo)
         if method == METHOD_EM and _em_big_t(w, gm, tau0):
@@ -912,21 +917,23 @@ def _implicit_point_em(x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, ta
     returns 14 through memory). The other methods' steps stay calls: inlined, each would
     be processed (and then dropped) in every method's kernel, adding about 2-3 s to each
     one's first compile."""
-    return _implicit_point_impl(METHOD_EM, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo,
-                                c0, c1, c2, max_iter)
+    return _implicit_point_impl(
+        METHOD_EM, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo, c0, c1, c2, max_iter
+    )
 
 
 @kernel
-def _implicit_point_em_plain(x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo, c0, c1, c2,
-                             max_iter):
-    return _implicit_point_impl(METHOD_EM_PLAIN, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo,
-                                c0, c1, c2, max_iter)
+def _implicit_point_em_plain(x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo, c0, c1, c2, max_iter):
+    return _implicit_point_impl(
+        METHOD_EM_PLAIN, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo, c0, c1, c2, max_iter
+    )
 
 
 @kernel
 def _implicit_point_mid(x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo, c0, c1, c2, max_iter):
-    return _implicit_point_impl(METHOD_MIDPOINT, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo,
-                                c0, c1, c2, max_iter)
+    return _implicit_point_impl(
+        METHOD_MIDPOINT, x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, h, gm, tau0, tlo, c0, c1, c2, max_iter
+    )
 
 
 @kernel
@@ -934,11 +941,11 @@ def _leapfrog_point(x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, b0, b1, b2, 
     """One kick-drift-kick sub-step of one point, with the same operations as
     pointmass.leapfrog_chunk (so the same bits). Returns 15 values and whether finite."""
     hf = 0.5 * h
-    t0, t1, t2, e0, e1, e2 = _kahan3(x0, x1, x2, p0, p1, p2, h * (y0 + hf * b0), h * (y1 + hf * b1),
-                                     h * (y2 + hf * b2))
+    t0, t1, t2, e0, e1, e2 = _kahan3(x0, x1, x2, p0, p1, p2, h * (y0 + hf * b0), h * (y1 + hf * b1), h * (y2 + hf * b2))
     n0, n1, n2, rr = accel(c0 - t0, c1 - t1, c2 - t2, gm)
-    u0, u1, u2, f0, f1, f2 = _kahan3(y0, y1, y2, q0, q1, q2, 0.5 * h * (b0 + n0), 0.5 * h * (b1 + n1),
-                                     0.5 * h * (b2 + n2))
+    u0, u1, u2, f0, f1, f2 = _kahan3(
+        y0, y1, y2, q0, q1, q2, 0.5 * h * (b0 + n0), 0.5 * h * (b1 + n1), 0.5 * h * (b2 + n2)
+    )
     # a centre hit makes the acceleration nan, so "finite" covers the reference's test of r
     good = _finite6(t0, t1, t2, u0, u1, u2) & _finite3(n0, n1, n2)
     return t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, good
@@ -946,6 +953,7 @@ def _leapfrog_point(x0, x1, x2, y0, y1, y2, p0, p1, p2, q0, q1, q2, b0, b1, b2, 
 
 # ----------------------------------------------------------------------------------------
 # packed loops over one block of m points; S, D: offsets of the state buffers read and written
+
 
 @_inline
 def _loop_em_dots(W, m, h, c0, c1, c2, S):
@@ -979,8 +987,7 @@ def _pass_em_solve_impl(W, m, h, gm, tau0, tlo, c0, c1, c2, cur, method):
         for i in range(m):
             W[_RHO + i] = _em_predict_taylor(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], h, gm)
         for i in range(m):
-            rho, d1, qg = _em_newton(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i],
-                                     W[_RHO + i], tau0, tlo)
+            rho, d1, qg = _em_newton(W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], W[_RHO + i], tau0, tlo)
             W[_RHO + i] = rho
             W[_DEL + i] = d1
             W[_QG + i] = qg
@@ -1020,8 +1027,15 @@ def _pass_em_plain_solve(W, m, h, gm, tau0, tlo, c0, c1, c2, cur):
 @_inline
 def _loop_mid_start(W, m, h, c0, c1, c2, S):
     for i in range(m):
-        W[_AA + i] = _mid_start(c0 - W[S + _OX0 + i], c1 - W[S + _OX1 + i], c2 - W[S + _OX2 + i],
-                                W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i], h)
+        W[_AA + i] = _mid_start(
+            c0 - W[S + _OX0 + i],
+            c1 - W[S + _OX1 + i],
+            c2 - W[S + _OX2 + i],
+            W[S + _OV0 + i],
+            W[S + _OV1 + i],
+            W[S + _OV2 + i],
+            h,
+        )
 
 
 @kernel
@@ -1066,10 +1080,8 @@ def _loop_update(W, m, ua, uv, h, c0, c1, c2, S, D, gm, tau0, count_big, count_b
         y2 = W[S + _OV2 + i]
         wg = W[_WG + i]
         d0, d1, d2, w0, w1, w2 = _increments(c0 - x0, c1 - x1, c2 - x2, y0, y1, y2, wg, ua, uv, h)
-        t0, t1, t2, e0, e1, e2 = _kahan3(x0, x1, x2, W[S + _OCX0 + i], W[S + _OCX1 + i], W[S + _OCX2 + i],
-                                         d0, d1, d2)
-        u0, u1, u2, f0, f1, f2 = _kahan3(y0, y1, y2, W[S + _OCV0 + i], W[S + _OCV1 + i], W[S + _OCV2 + i],
-                                         w0, w1, w2)
+        t0, t1, t2, e0, e1, e2 = _kahan3(x0, x1, x2, W[S + _OCX0 + i], W[S + _OCX1 + i], W[S + _OCX2 + i], d0, d1, d2)
+        u0, u1, u2, f0, f1, f2 = _kahan3(y0, y1, y2, W[S + _OCV0 + i], W[S + _OCV1 + i], W[S + _OCV2 + i], w0, w1, w2)
         _store_state(W, D, i, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2)
         if count_bad:
             nbad += 0 if _finite6(t0, t1, t2, u0, u1, u2) else 1
@@ -1096,10 +1108,8 @@ def _loop_finish_big_t(W, m, h, gm, tau0, c0, c1, c2, S, D):
         y1 = W[S + _OV1 + i]
         y2 = W[S + _OV2 + i]
         d0, d1, d2, w0, w1, w2 = _em_finished(c0 - x0, c1 - x1, c2 - x2, y0, y1, y2, W[_WG + i], W[_R0 + i], h, gm)
-        t0, t1, t2, e0, e1, e2 = _kahan3(x0, x1, x2, W[S + _OCX0 + i], W[S + _OCX1 + i], W[S + _OCX2 + i],
-                                         d0, d1, d2)
-        u0, u1, u2, f0, f1, f2 = _kahan3(y0, y1, y2, W[S + _OCV0 + i], W[S + _OCV1 + i], W[S + _OCV2 + i],
-                                         w0, w1, w2)
+        t0, t1, t2, e0, e1, e2 = _kahan3(x0, x1, x2, W[S + _OCX0 + i], W[S + _OCX1 + i], W[S + _OCX2 + i], d0, d1, d2)
+        u0, u1, u2, f0, f1, f2 = _kahan3(y0, y1, y2, W[S + _OCV0 + i], W[S + _OCV1 + i], W[S + _OCV2 + i], w0, w1, w2)
         _store_state(W, D, i, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2)
         nbad += 0 if _finite6(t0, t1, t2, u0, u1, u2) else 1
     return nbad
@@ -1142,11 +1152,27 @@ def _loop_leapfrog(W, m, h, gm, c0, c1, c2, S, D):
     nbad = 0
     for i in range(m):
         (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, good) = _leapfrog_point(
-            W[S + _OX0 + i], W[S + _OX1 + i], W[S + _OX2 + i],
-            W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i],
-            W[S + _OCX0 + i], W[S + _OCX1 + i], W[S + _OCX2 + i],
-            W[S + _OCV0 + i], W[S + _OCV1 + i], W[S + _OCV2 + i],
-            W[S + _OG0 + i], W[S + _OG1 + i], W[S + _OG2 + i], h, gm, c0, c1, c2)
+            W[S + _OX0 + i],
+            W[S + _OX1 + i],
+            W[S + _OX2 + i],
+            W[S + _OV0 + i],
+            W[S + _OV1 + i],
+            W[S + _OV2 + i],
+            W[S + _OCX0 + i],
+            W[S + _OCX1 + i],
+            W[S + _OCX2 + i],
+            W[S + _OCV0 + i],
+            W[S + _OCV1 + i],
+            W[S + _OCV2 + i],
+            W[S + _OG0 + i],
+            W[S + _OG1 + i],
+            W[S + _OG2 + i],
+            h,
+            gm,
+            c0,
+            c1,
+            c2,
+        )
         _store_state(W, D, i, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2)
         W[D + _OG0 + i] = n0
         W[D + _OG1 + i] = n1
@@ -1167,6 +1193,7 @@ def _pass_leapfrog(W, m, h, gm, c0, c1, c2, cur):
 # ----------------------------------------------------------------------------------------
 # scalar passes over a block: the points whose packed solve was not accepted, and failures
 
+
 @_inline
 def _resolve_impl(W, method, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S, check_input):
     """Finish the points flagged pending (see _resolve_point) and set their w; returns the
@@ -1178,16 +1205,40 @@ def _resolve_impl(W, method, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S, check
     for i in range(m):
         if W[_PEND + i] == 0.0 or W[_ST + i] != 0.0 or W[_ALIVE + i] != 1.0:
             continue
-        if method == METHOD_EM and check_input and not _finite6(
-                W[S + _OX0 + i], W[S + _OX1 + i], W[S + _OX2 + i], W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i]):
+        if (
+            method == METHOD_EM
+            and check_input
+            and not _finite6(
+                W[S + _OX0 + i], W[S + _OX1 + i], W[S + _OX2 + i], W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i]
+            )
+        ):
             W[_PEND + i] = 2.0
             W[_ST + i] = float(STATUS_SINGULAR)
             nin += 1
             continue
         r0, rho, extra, status = _resolve_point(
-            method, W[_AA + i], W[_PP + i], W[_VV + i], W[_R0 + i], W[_RHO + i],
-            abs(W[_DEL + i]), h, gm, tau0, tlo, W[S + _OX0 + i], W[S + _OX1 + i], W[S + _OX2 + i],
-            W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i], c0, c1, c2, max_iter)
+            method,
+            W[_AA + i],
+            W[_PP + i],
+            W[_VV + i],
+            W[_R0 + i],
+            W[_RHO + i],
+            abs(W[_DEL + i]),
+            h,
+            gm,
+            tau0,
+            tlo,
+            W[S + _OX0 + i],
+            W[S + _OX1 + i],
+            W[S + _OX2 + i],
+            W[S + _OV0 + i],
+            W[S + _OV1 + i],
+            W[S + _OV2 + i],
+            c0,
+            c1,
+            c2,
+            max_iter,
+        )
         W[_EXTRA + i] += extra
         if status == STATUS_OK:
             W[_R0 + i] = r0
@@ -1226,8 +1277,9 @@ def _fail_before(W, m, S, P, fail, lo, step, check):
         if W[_ALIVE + i] != 1.0:
             continue
         if check:
-            bad = not _finite6(W[S + _OX0 + i], W[S + _OX1 + i], W[S + _OX2 + i],
-                               W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i])
+            bad = not _finite6(
+                W[S + _OX0 + i], W[S + _OX1 + i], W[S + _OX2 + i], W[S + _OV0 + i], W[S + _OV1 + i], W[S + _OV2 + i]
+            )
         else:
             bad = W[_PEND + i] == 2.0
         if bad:
@@ -1247,8 +1299,9 @@ def _fixup(W, m, S, D):
     """After a sub-step in which a point failed (or with dead points): give such points
     their old state back (buffer S into D) and record a non-finite state in _ST."""
     for i in range(m):
-        fin = _finite6(W[D + _OX0 + i], W[D + _OX1 + i], W[D + _OX2 + i],
-                       W[D + _OV0 + i], W[D + _OV1 + i], W[D + _OV2 + i])
+        fin = _finite6(
+            W[D + _OX0 + i], W[D + _OX1 + i], W[D + _OX2 + i], W[D + _OV0 + i], W[D + _OV1 + i], W[D + _OV2 + i]
+        )
         fin = fin & _finite3(W[D + _OG0 + i], W[D + _OG1 + i], W[D + _OG2 + i])
         if not fin and W[_ST + i] == 0.0:
             W[_ST + i] = float(STATUS_SINGULAR)
@@ -1260,6 +1313,7 @@ def _fixup(W, m, S, D):
 # ----------------------------------------------------------------------------------------
 # one block: every step of the chunk
 
+
 @kernel
 def _work_array():
     """A block's work array ``W`` (:data:`_NROWS` rows of :data:`LD`), its rows on 64-byte
@@ -1269,12 +1323,13 @@ def _work_array():
     development machine, 1e5 points, one thread)."""
     buf = np.empty(_NROWS * LD + 8)
     off = (8 - (buf.ctypes.data // 8) % 8) % 8
-    return buf[off:off + _NROWS * LD]
+    return buf[off : off + _NROWS * LD]
 
 
 @_inline
-def _run_packed(method, W, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
-                rec_x, rec_v, rec_iters, fail, lo, hi):
+def _run_packed(
+    method, W, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi
+):
     """Every step of the chunk for the block of points lo..hi (at most :data:`BLOCK`) in
     the work array ``W`` (:func:`_work_array`, any content)."""
     m = hi - lo
@@ -1331,8 +1386,9 @@ def _run_packed(method, W, x, v, cx, cv, gm, center, dt, gammas, every, nrec, ma
                         nf, nin = _resolve_em(W, m, h, gm, tau0, tlo, c0, c1, c2, max_iter, S, not first)
                         nbad += nf
                         if nin and ns == 1:  # the step before made them so
-                            ndead += _fail_before(W, m, S, _BUF1 if cur == 0 else _BUF0, fail, lo,
-                                                  r * every + s - 1, False)
+                            ndead += _fail_before(
+                                W, m, S, _BUF1 if cur == 0 else _BUF0, fail, lo, r * every + s - 1, False
+                            )
                         else:  # an earlier sub-step of this step
                             nbad += nin
                     nb, nbig = _pass_update_em(W, m, h, gm, tau0, c0, c1, c2, cur, k == ns - 1 > 0)
@@ -1383,8 +1439,7 @@ def _run_packed(method, W, x, v, cx, cv, gm, center, dt, gammas, every, nrec, ma
 
 
 @_inline
-def _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
-               rec_x, rec_v, rec_iters, fail, i):
+def _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, i):
     """Every step of the chunk for point ``i`` alone (blocks too small to pack)."""
     c0 = center[0]
     c1 = center[1]
@@ -1414,21 +1469,25 @@ def _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_it
                 h = dt * gammas[k]
                 if method == METHOD_LEAPFROG:
                     (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, good) = _leapfrog_point(
-                        t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2)
+                        t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2
+                    )
                     if not good:
                         status = STATUS_SINGULAR
                 elif method == METHOD_EM:
                     tau0, tlo = _tau(h, gm)
                     (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, extra, status) = _implicit_point_em(
-                        t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, h, gm, tau0, tlo, c0, c1, c2, max_iter)
+                        t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, h, gm, tau0, tlo, c0, c1, c2, max_iter
+                    )
                 elif method == METHOD_EM_PLAIN:
                     tau0, tlo = _tau(h, gm)
                     (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, extra, status) = _implicit_point_em_plain(
-                        t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, h, gm, tau0, tlo, c0, c1, c2, max_iter)
+                        t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, h, gm, tau0, tlo, c0, c1, c2, max_iter
+                    )
                 else:
                     tau0, tlo = _tau(h, gm)
                     (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, extra, status) = _implicit_point_mid(
-                        t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, h, gm, tau0, tlo, c0, c1, c2, max_iter)
+                        t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, h, gm, tau0, tlo, c0, c1, c2, max_iter
+                    )
                 if method != METHOD_LEAPFROG:
                     its += packed + extra
                 if status != STATUS_OK:
@@ -1461,93 +1520,227 @@ def _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_it
 # are inlined at the Numba level once per method; deeper nesting of such inlining made
 # compiling several times slower.)
 
+
 @_inline
-def _run_points(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                lo, hi):
+def _run_points(
+    method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi
+):
     """Every step of the chunk for points lo..hi one by one (blocks too small to pack)."""
     for i in range(lo, hi):
-        _run_point(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
-                   fail, i)
+        _run_point(
+            method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, i
+        )
 
 
 @kernel
-def _points_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-               lo, hi):
-    _run_points(METHOD_EM, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
-                fail, lo, hi)
+def _points_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi):
+    _run_points(
+        METHOD_EM, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi
+    )
 
 
 @kernel
-def _points_em_plain(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                     lo, hi):
-    _run_points(METHOD_EM_PLAIN, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-                rec_iters, fail, lo, hi)
+def _points_em_plain(
+    x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi
+):
+    _run_points(
+        METHOD_EM_PLAIN,
+        x,
+        v,
+        cx,
+        cv,
+        gm,
+        center,
+        dt,
+        gammas,
+        every,
+        nrec,
+        max_iter,
+        rec_x,
+        rec_v,
+        rec_iters,
+        fail,
+        lo,
+        hi,
+    )
 
 
 @kernel
-def _points_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                     lo, hi):
-    _run_points(METHOD_MIDPOINT, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-                rec_iters, fail, lo, hi)
+def _points_midpoint(
+    x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi
+):
+    _run_points(
+        METHOD_MIDPOINT,
+        x,
+        v,
+        cx,
+        cv,
+        gm,
+        center,
+        dt,
+        gammas,
+        every,
+        nrec,
+        max_iter,
+        rec_x,
+        rec_v,
+        rec_iters,
+        fail,
+        lo,
+        hi,
+    )
 
 
 @kernel
-def _points_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                     lo, hi):
-    _run_points(METHOD_LEAPFROG, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-                rec_iters, fail, lo, hi)
+def _points_leapfrog(
+    x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi
+):
+    _run_points(
+        METHOD_LEAPFROG,
+        x,
+        v,
+        cx,
+        cv,
+        gm,
+        center,
+        dt,
+        gammas,
+        every,
+        nrec,
+        max_iter,
+        rec_x,
+        rec_v,
+        rec_iters,
+        fail,
+        lo,
+        hi,
+    )
 
 
 @_inline
-def _run_range(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
-               rec_x, rec_v, rec_iters, fail, lo, hi):
+def _run_range(
+    method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi
+):
     """Every step of the chunk for points lo..hi, block by block (packed, or point by point
     where a block is too small)."""
     W = _work_array()
     for b in range(lo, hi, BLOCK):
         e = min(b + BLOCK, hi)
         if e - b >= _PACKED_MIN:
-            _run_packed(method, W, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
-                        rec_x, rec_v, rec_iters, fail, b, e)
+            _run_packed(
+                method,
+                W,
+                x,
+                v,
+                cx,
+                cv,
+                gm,
+                center,
+                dt,
+                gammas,
+                every,
+                nrec,
+                max_iter,
+                rec_x,
+                rec_v,
+                rec_iters,
+                fail,
+                b,
+                e,
+            )
         elif method == METHOD_EM:  # a call, not inlined: the one-orbit path's own kernel
-            _points_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
-                       fail, b, e)
+            _points_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, b, e)
         elif method == METHOD_EM_PLAIN:
-            _points_em_plain(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-                             rec_iters, fail, b, e)
+            _points_em_plain(
+                x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, b, e
+            )
         elif method == METHOD_MIDPOINT:
-            _points_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-                             rec_iters, fail, b, e)
+            _points_midpoint(
+                x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, b, e
+            )
         else:
-            _points_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-                             rec_iters, fail, b, e)
+            _points_leapfrog(
+                x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, b, e
+            )
 
 
 @kernel
 def _range_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi):
-    _run_range(METHOD_EM, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
-               fail, lo, hi)
+    _run_range(
+        METHOD_EM, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi
+    )
 
 
 @kernel
-def _range_em_plain(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                    lo, hi):
-    _run_range(METHOD_EM_PLAIN, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-               rec_iters, fail, lo, hi)
+def _range_em_plain(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi):
+    _run_range(
+        METHOD_EM_PLAIN,
+        x,
+        v,
+        cx,
+        cv,
+        gm,
+        center,
+        dt,
+        gammas,
+        every,
+        nrec,
+        max_iter,
+        rec_x,
+        rec_v,
+        rec_iters,
+        fail,
+        lo,
+        hi,
+    )
 
 
 @kernel
-def _range_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                    lo, hi):
-    _run_range(METHOD_MIDPOINT, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-               rec_iters, fail, lo, hi)
+def _range_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi):
+    _run_range(
+        METHOD_MIDPOINT,
+        x,
+        v,
+        cx,
+        cv,
+        gm,
+        center,
+        dt,
+        gammas,
+        every,
+        nrec,
+        max_iter,
+        rec_x,
+        rec_v,
+        rec_iters,
+        fail,
+        lo,
+        hi,
+    )
 
 
 @kernel
-def _range_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                    lo, hi):
-    _run_range(METHOD_LEAPFROG, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-               rec_iters, fail, lo, hi)
+def _range_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi):
+    _run_range(
+        METHOD_LEAPFROG,
+        x,
+        v,
+        cx,
+        cv,
+        gm,
+        center,
+        dt,
+        gammas,
+        every,
+        nrec,
+        max_iter,
+        rec_x,
+        rec_v,
+        rec_iters,
+        fail,
+        lo,
+        hi,
+    )
 
 
 @_inline
@@ -1560,8 +1753,9 @@ def _claim_blocks(n, threads):
 
 
 @_inline
-def _run_claims(method, counter, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-                rec_iters, fail, threads):
+def _run_claims(
+    method, counter, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, threads
+):
     """One thread's part of a parallel run: claim blocks from ``counter`` and run them with
     the method's range kernel until none are left."""
     n = x.shape[1]
@@ -1570,66 +1764,155 @@ def _run_claims(method, counter, x, v, cx, cv, gm, center, dt, gammas, every, nr
     while b < nb:
         lo, hi = b * BLOCK, min((b + grain) * BLOCK, n)
         if method == METHOD_EM:
-            _range_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                      lo, hi)
+            _range_em(
+                x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi
+            )
         elif method == METHOD_EM_PLAIN:
-            _range_em_plain(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
-                            fail, lo, hi)
+            _range_em_plain(
+                x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi
+            )
         elif method == METHOD_MIDPOINT:
-            _range_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
-                            fail, lo, hi)
+            _range_midpoint(
+                x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi
+            )
         else:
-            _range_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters,
-                            fail, lo, hi)
+            _range_leapfrog(
+                x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, lo, hi
+            )
         b = fetch_add(counter, 0, grain)
 
 
 @kernel(parallel=True)
-def _parallel_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                 threads):
+def _parallel_em(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, threads):
     counter = np.zeros(1, np.int64)
     for _ in prange(threads):
-        _run_claims(METHOD_EM, counter, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-                    rec_iters, fail, threads)
+        _run_claims(
+            METHOD_EM,
+            counter,
+            x,
+            v,
+            cx,
+            cv,
+            gm,
+            center,
+            dt,
+            gammas,
+            every,
+            nrec,
+            max_iter,
+            rec_x,
+            rec_v,
+            rec_iters,
+            fail,
+            threads,
+        )
 
 
 @kernel(parallel=True)
-def _parallel_em_plain(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                       threads):
+def _parallel_em_plain(
+    x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, threads
+):
     counter = np.zeros(1, np.int64)
     for _ in prange(threads):
-        _run_claims(METHOD_EM_PLAIN, counter, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x,
-                    rec_v, rec_iters, fail, threads)
+        _run_claims(
+            METHOD_EM_PLAIN,
+            counter,
+            x,
+            v,
+            cx,
+            cv,
+            gm,
+            center,
+            dt,
+            gammas,
+            every,
+            nrec,
+            max_iter,
+            rec_x,
+            rec_v,
+            rec_iters,
+            fail,
+            threads,
+        )
 
 
 @kernel(parallel=True)
-def _parallel_midpoint(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                       threads):
+def _parallel_midpoint(
+    x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, threads
+):
     counter = np.zeros(1, np.int64)
     for _ in prange(threads):
-        _run_claims(METHOD_MIDPOINT, counter, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x,
-                    rec_v, rec_iters, fail, threads)
+        _run_claims(
+            METHOD_MIDPOINT,
+            counter,
+            x,
+            v,
+            cx,
+            cv,
+            gm,
+            center,
+            dt,
+            gammas,
+            every,
+            nrec,
+            max_iter,
+            rec_x,
+            rec_v,
+            rec_iters,
+            fail,
+            threads,
+        )
 
 
 @kernel(parallel=True)
-def _parallel_leapfrog(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                       threads):
+def _parallel_leapfrog(
+    x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, threads
+):
     counter = np.zeros(1, np.int64)
     for _ in prange(threads):
-        _run_claims(METHOD_LEAPFROG, counter, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x,
-                    rec_v, rec_iters, fail, threads)
+        _run_claims(
+            METHOD_LEAPFROG,
+            counter,
+            x,
+            v,
+            cx,
+            cv,
+            gm,
+            center,
+            dt,
+            gammas,
+            every,
+            nrec,
+            max_iter,
+            rec_x,
+            rec_v,
+            rec_iters,
+            fail,
+            threads,
+        )
 
 
-_RANGE = {METHOD_EM: _range_em, METHOD_EM_PLAIN: _range_em_plain, METHOD_MIDPOINT: _range_midpoint,
-          METHOD_LEAPFROG: _range_leapfrog}
-_POINTS = {METHOD_EM: _points_em, METHOD_EM_PLAIN: _points_em_plain, METHOD_MIDPOINT: _points_midpoint,
-           METHOD_LEAPFROG: _points_leapfrog}
-_PARALLEL = {METHOD_EM: _parallel_em, METHOD_EM_PLAIN: _parallel_em_plain, METHOD_MIDPOINT: _parallel_midpoint,
-             METHOD_LEAPFROG: _parallel_leapfrog}
+_RANGE = {
+    METHOD_EM: _range_em,
+    METHOD_EM_PLAIN: _range_em_plain,
+    METHOD_MIDPOINT: _range_midpoint,
+    METHOD_LEAPFROG: _range_leapfrog,
+}
+_POINTS = {
+    METHOD_EM: _points_em,
+    METHOD_EM_PLAIN: _points_em_plain,
+    METHOD_MIDPOINT: _points_midpoint,
+    METHOD_LEAPFROG: _points_leapfrog,
+}
+_PARALLEL = {
+    METHOD_EM: _parallel_em,
+    METHOD_EM_PLAIN: _parallel_em_plain,
+    METHOD_MIDPOINT: _parallel_midpoint,
+    METHOD_LEAPFROG: _parallel_leapfrog,
+}
 
 
-def ensemble_chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
-                   rec_x, rec_v, rec_iters, fail):
+def ensemble_chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
     """Advance every point ``nrec * every`` composed steps on one thread.
 
     method     METHOD_EM, METHOD_EM_PLAIN (roundoff="fast"), METHOD_MIDPOINT or METHOD_LEAPFROG;
@@ -1638,18 +1921,37 @@ def ensemble_chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, ma
                ignores ``max_iter`` and counts no iterations).
     """
     if x.shape[1] < _PACKED_MIN:  # a kernel of the point-by-point path alone: less to compile
-        _POINTS[method](x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                        0, x.shape[1])
+        _POINTS[method](
+            x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, 0, x.shape[1]
+        )
     else:
-        _RANGE[method](x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                       0, x.shape[1])
+        _RANGE[method](
+            x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail, 0, x.shape[1]
+        )
 
 
-def ensemble_chunk_parallel(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
-                            rec_x, rec_v, rec_iters, fail):
+def ensemble_chunk_parallel(
+    method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail
+):
     """:func:`ensemble_chunk` on all of Numba's threads (blocks are independent, and each
     point's result is the same as on one thread). The threads claim blocks from a shared
     counter as they finish the previous ones (:mod:`.atomic`): a thread that runs slower,
     on a core shared with other work, takes fewer blocks instead of holding up the run."""
-    _PARALLEL[method](x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
-                      numba.get_num_threads())
+    _PARALLEL[method](
+        x,
+        v,
+        cx,
+        cv,
+        gm,
+        center,
+        dt,
+        gammas,
+        every,
+        nrec,
+        max_iter,
+        rec_x,
+        rec_v,
+        rec_iters,
+        fail,
+        numba.get_num_threads(),
+    )

@@ -51,10 +51,17 @@ from __future__ import annotations
 
 import math
 
-
 from ..codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_MIDPOINT, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
 from ..eft import fma, kahan_add, two_sum
-from ..gravity import accel, accel_jacobian_coeffs, em_accel, em_accel_dd_lo, em_accel_root, em_jacobian_coeffs, norm_sq_lo
+from ..gravity import (
+    accel,
+    accel_jacobian_coeffs,
+    em_accel,
+    em_accel_dd_lo,
+    em_accel_root,
+    em_jacobian_coeffs,
+    norm_sq_lo,
+)
 from ..jit import kernel
 
 __all__ = [
@@ -162,8 +169,14 @@ def em_finish(ax, ay, az, r0, vx, vy, vz, dx, dy, dz, h, gm):
     # g_em at dx - e, to first order: g + k e - w (b.e) u, added to the accurate value's
     # correction before the one rounding
     f = w * (bx * ex + by * ey + bz * ez)
-    return (dx - ex, dy - ey, dz - ez, gx + (lx + (k * ex - f * ux)), gy + (ly + (k * ey - f * uy)),
-            gz + (lz + (k * ez - f * uz)))
+    return (
+        dx - ex,
+        dy - ey,
+        dz - ez,
+        gx + (lx + (k * ex - f * ux)),
+        gy + (ly + (k * ey - f * uy)),
+        gz + (lz + (k * ez - f * uz)),
+    )
 
 
 @kernel
@@ -292,8 +305,7 @@ def _finite(a, b, c, d, e, f):
 
 
 @kernel
-def implicit_chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
-                   rec_x, rec_v, rec_iters, fail):
+def implicit_chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
     """Advance every point ``nrec * every`` composed steps of ``em`` or ``midpoint``.
 
     method     METHOD_EM, METHOD_EM_PLAIN or METHOD_MIDPOINT
@@ -335,10 +347,12 @@ def implicit_chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, ma
                     h = dt * gammas[k]
                     if method != METHOD_MIDPOINT:
                         d0, d1, d2, w0, w1, w2, it, status = em_step(
-                            t0, t1, t2, u0, u1, u2, h, gm, c0, c1, c2, max_iter, method == METHOD_EM)
+                            t0, t1, t2, u0, u1, u2, h, gm, c0, c1, c2, max_iter, method == METHOD_EM
+                        )
                     else:
                         d0, d1, d2, w0, w1, w2, it, status = midpoint_step(
-                            t0, t1, t2, u0, u1, u2, h, gm, c0, c1, c2, max_iter)
+                            t0, t1, t2, u0, u1, u2, h, gm, c0, c1, c2, max_iter
+                        )
                     its += it
                     t0, g0 = kahan_add(t0, g0, d0)
                     t1, g1 = kahan_add(t1, g1, d1)
@@ -381,8 +395,7 @@ def implicit_chunk(method, x, v, cx, cv, gm, center, dt, gammas, every, nrec, ma
 
 
 @kernel
-def leapfrog_chunk(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
-                   rec_x, rec_v, rec_iters, fail):
+def leapfrog_chunk(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
     """Advance every point with explicit kick-drift-kick leapfrog (same arguments as
     :func:`implicit_chunk` without ``method``; ``max_iter`` is unused, iterations are 0).
 
