@@ -1,5 +1,5 @@
 """The packed point-mass kernels (emorbit.kernels.pointmass.packed) against the reference kernels
-(emorbit.kernels.pointmass): same trajectories to round-off, e up to 0.99 included; a point's
+(emorbit.kernels.pointmass.reference): same trajectories to round-off, e up to 0.99 included; a point's
 result independent of its block, of the thread count and of chunking; failures reported as
 the reference reports them; no energy drift; and a point-mass run that compiles no rigid or
 elastic code. Timings are the bench's business, never asserted here."""
@@ -15,6 +15,7 @@ from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 from emorbit import orbits
 from emorbit.integrators import coefficients
 from emorbit.kernels.pointmass import packed as ens
+from emorbit.kernels.pointmass import point_step, roots
 from emorbit.kernels.pointmass import reference as ref
 
 GM = PAPER_GM
@@ -196,7 +197,7 @@ def test_large_t_steps_same_bits_alone_and_packed():
     assert t.max() > 0.2 and t.min() < 1.0 / 128  # measured 0.004 to 0.23
 
 
-@pytest.mark.parametrize("predictor, order", [(ens._em_predict, 7), (ens._em_predict_taylor, 4)])
+@pytest.mark.parametrize("predictor, order", [(roots._em_predict, 7), (roots._em_predict_taylor, 4)])
 def test_predictor_orders(predictor, order):
     """The predictors' error in r1 against the step's converged root, near pericentre of an
     e = 2/3 orbit, at h = 0.8 s halved four times: the series predictor (W to fourth order)
@@ -206,11 +207,11 @@ def test_predictor_orders(predictor, order):
     errors = []
     for k in range(5):
         h = 0.8 / 2**k
-        A, P, V, r0 = ens._em_dots(a[0], a[1], a[2], v[0], v[1], v[2], h)
-        tau0, tlo = ens._tau(h, GM)
+        A, P, V, r0 = roots._em_dots(a[0], a[1], a[2], v[0], v[1], v[2], h)
+        tau0, tlo = roots._tau(h, GM)
         r = rho = predictor(A, P, V, r0, h, GM)
         for _ in range(8):
-            r, _, _ = ens._em_newton(A, P, V, r0, r, tau0, tlo)
+            r, _, _ = roots._em_newton(A, P, V, r0, r, tau0, tlo)
         errors.append(abs(rho - r) / r)
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert np.all(np.abs(orders - order) < 0.3), orders
@@ -437,10 +438,9 @@ def test_point_mass_run_compiles_no_rigid_or_elastic_code(tmp_path):
     banned = ("rigid", "elastic", "structure", "shapes", "rotations")
     assert not [m for m in info["modules"] if any(b in m for b in banned)], info["modules"]
     ours = [name for name in info["compiled"] if not name.startswith("numba.")]  # numba's own overloads
-    assert all(
-        name.startswith(("emorbit.kernels.pointmass.packed.", "emorbit.kernels.pointmass.", "emorbit.kernels.gravity."))
-        for name in ours
-    ), ours
+    point_mass = tuple(f"emorbit.kernels.pointmass.{m}." for m in ("packed", "chunk", "block", "point_step", "roots"))
+    shared = ("emorbit.kernels.pointmass.reference.", "emorbit.kernels.gravity.", "emorbit.kernels.eft.")
+    assert all(name.startswith(point_mass + shared) for name in ours), ours
     kernels = [
         name
         for name in ours
@@ -458,11 +458,11 @@ def test_point_mass_run_compiles_no_rigid_or_elastic_code(tmp_path):
 def _default_root(A, P, V, r0, h, tau0, tlo, x, w):
     """r1 as the default em solve finds it: series predictor, a certified Newton update, and
     for the steps whose update is not certified the scalar pass."""
-    rho = ens._em_predict(A, P, V, r0, h, GM)
-    rho, d, cert = ens._em_newton_certified(A, P, V, r0, rho, tau0, tlo)
-    resolved = not (cert and ens._em_plausible(rho, A, V))
+    rho = roots._em_predict(A, P, V, r0, h, GM)
+    rho, d, cert = roots._em_newton_certified(A, P, V, r0, rho, tau0, tlo)
+    resolved = not (cert and roots._em_plausible(rho, A, V))
     if resolved:
-        _, rho, _, status = ens._resolve_point_em(
+        _, rho, _, status = point_step._resolve_point_em(
             A, P, V, r0, rho, abs(d), h, GM, tau0, tlo, x[0], x[1], x[2], w[0], w[1], w[2], 0.0, 0.0, 0.0, 50
         )
         assert status == 0
@@ -472,7 +472,7 @@ def _default_root(A, P, V, r0, h, tau0, tlo, x, w):
 def _plain_root(A, P, V, r0, rho, tau0, tlo):
     """Newton converged on the plainly evaluated F (roundoff="fast" iterated to the end)."""
     for _ in range(4):
-        rho, _, _ = ens._em_newton(A, P, V, r0, rho, tau0, tlo)
+        rho, _, _ = roots._em_newton(A, P, V, r0, rho, tau0, tlo)
     return rho
 
 
@@ -504,16 +504,16 @@ def test_certified_update_is_the_accurate_root():
     share = {}
     for div in (1000, 200, 100, 60, 30):
         h = T6 / div
-        tau0, tlo = ens._tau(h, GM)
+        tau0, tlo = roots._tau(h, GM)
         tested = certified = 0
         for i in range(n):
             a, w = -x[:, i], v[:, i]
-            A, P, V, r0 = ens._em_dots(a[0], a[1], a[2], w[0], w[1], w[2], h)
-            rho = ens._em_predict(A, P, V, r0, h, GM)
-            r, _, cert = ens._em_newton_certified(A, P, V, r0, rho, tau0, tlo)
+            A, P, V, r0 = roots._em_dots(a[0], a[1], a[2], w[0], w[1], w[2], h)
+            rho = roots._em_predict(A, P, V, r0, h, GM)
+            r, _, cert = roots._em_newton_certified(A, P, V, r0, rho, tau0, tlo)
             acc = rho
             for _ in range(5):
-                acc, _ = ens._em_newton_accurate(A, P, V, r0, acc, tau0, tlo)
+                acc, _ = roots._em_newton_accurate(A, P, V, r0, acc, tau0, tlo)
             if tau0 / (r0 * acc * (r0 + acc)) > 1.0 / 128:
                 continue
             tested += 1
@@ -538,7 +538,7 @@ def test_default_em_solve_gives_the_correctly_rounded_root():
     so the test also takes the states among 20,000 at T/60 where the two differ (53; 0.3 %
     of the steps at T/60): there the default is within
     half an ulp and the plain root is not (a one-sided choice of that kind drifted: +2.1e-21
-    |E| per step at T/60, see the notes of kernels/ensemble.py). Measured: the default at
+    |E| per step at T/60, see docs/methods.md). Measured: the default at
     most 0.49998 ulp from the root, the plain root at least 0.50001 where they differ."""
     import mpmath
 
@@ -550,16 +550,16 @@ def test_default_em_solve_gives_the_correctly_rounded_root():
         x, v = states(np.full(n, 6.0), rng.uniform(0, 0.99, n), rng.uniform(0, 2 * np.pi, n), seed=seed)
         for div in divs:
             h = T6 / div
-            tau0, tlo = ens._tau(h, GM)
+            tau0, tlo = roots._tau(h, GM)
             tau = mpmath.mpf(tau0) + mpmath.mpf(tlo)
             differ = []
             for i in range(n):
                 a, w = -x[:, i], v[:, i]
-                A, P, V, r0 = ens._em_dots(a[0], a[1], a[2], w[0], w[1], w[2], h)
+                A, P, V, r0 = roots._em_dots(a[0], a[1], a[2], w[0], w[1], w[2], h)
                 r, res = _default_root(A, P, V, r0, h, tau0, tlo, x[:, i], w)
                 if tau0 / (r0 * r * (r0 + r)) > 1.0 / 128:  # finished by em_finish (_em_big_t)
                     continue
-                plain = _plain_root(A, P, V, r0, ens._em_predict(A, P, V, r0, h, GM), tau0, tlo)
+                plain = _plain_root(A, P, V, r0, roots._em_predict(A, P, V, r0, h, GM), tau0, tlo)
                 if n > 600 and plain == r:
                     continue
                 resolved += res

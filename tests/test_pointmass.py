@@ -103,7 +103,7 @@ def test_energy_error_is_a_random_walk_not_a_drift():
     1e6 steps at T/100 is within 2.5 standard errors of zero (measured over seeds 0-5: -0.98
     to 2.17, of both signs); roundoff="fast" drifts (measured: z = -4.8 to -7.2, -3.3e-20 to
     -5.1e-20 of the energy per step, one sign), which is what the accurate root removes (see
-    the notes of kernels/ensemble.py)."""
+    docs/methods.md)."""
     z, _ = energy_drift_z("brouwer")
     assert abs(z) < 2.5, z
     z_fast, per_step = energy_drift_z("fast")

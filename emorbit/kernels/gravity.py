@@ -105,7 +105,7 @@ def em_accel_dd(ax, ay, az, r0, t0, bx, by, bz, gm, r1, iP):
 
     Why: the plain evaluation has an error of a few roundings (up to 4 ulp, measured) that a
     Newton iteration in plain floating point converges on, so its work ``dg . dx`` does not
-    average out over many steps (see :func:`emorbit.kernels.pointmass.em_finish`).
+    average out over many steps (see :func:`emorbit.kernels.pointmass.reference.em_finish`).
     """
     return em_accel_dd_lo(ax, ay, az, r0, t0, bx, by, bz, 0.0, 0.0, 0.0, gm, r1, iP)
 

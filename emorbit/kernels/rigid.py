@@ -20,34 +20,18 @@ Newton solves for ``z = (dq, nu)`` with the constraint impulse ``nu = h lambda``
     R1 = M dq - h (M v0 + (h/2) F) + (h/2) G(q0 + dq/2)^T nu = 0      (12)
     R2 = g(q0 + dq) = 0                                                (6)
 
-on the 18 x 18 system with the unsymmetric load stiffness ``K = dF/dq1``; the constraint
-rows are scaled by ``trace(E)/3`` so that the system is balanced. The velocity follows as
-``M dv = h F - G(q05)^T nu`` with ``F`` linearised at the final iterate.
+on the 18 x 18 system with the unsymmetric load stiffness ``K = dF/dq1``, constraint rows scaled by
+``trace(E)/3``; then ``M dv = h F - G(q05)^T nu`` with ``F`` linearised at the final iterate.
 
-No rounded constant may enter every step the same way, or the energy drifts (see
-:mod:`.pointmass`): ``h*h/2``, ``2/h`` and an explicit ``E^-1`` are never applied to the
-state. Only exact scalings (``h/2``) appear between the two equations, and ``E dv = ...``
-is solved with a stored inverse plus one step of iterative refinement, which removes the
-inverse's fixed rounding error to second order. (Measured, 30 degrees per step, 1e5 steps:
-a drift to 2e-12 with ``2/h`` and ``E^-1`` applied directly; round-off without.)
+No rounded constant may enter every step the same way, or the energy drifts: ``h*h/2``, ``2/h``
+and an explicit ``E^-1`` are never applied to the state; ``E dv = ...`` is solved with a stored
+inverse plus one step of iterative refinement (the inverse's rounding error to second order).
 
-Known limit: at 90 degrees per step the energy still drifts (+3.5e-17 relative per step,
-1e-12 after 1e5 steps). Evaluating the energy of the computed increments in 40-digit
-arithmetic puts the bias in the consistency ``dq = h v0 + (h/2) dv``: Newton zeroes the
-*computed* residual, whose rounding error has a nonzero mean along the velocity at such
-rotations. Tried and measured (1e5-step runs, 3 perturbed starts each): evaluating R1 and R2
-in double-double (Dot2) made it worse at every angle with dv from the forces (90 degrees:
-1.9e-12 after 4e4 steps); with dv = (dq - h v0)/(h/2) from the exact difference, 30 degrees
-became a clean random walk (1e-14) but 90 degrees drifted faster (3.6e-12 after 4e4 steps),
-the bias still in the dq/dv consistency. This form is kept as the best at 90 degrees.
-
-Known limit in a field: the point-mass kernel's accurate finish (:func:`.pointmass.em_finish`)
-is not here. On the paper's ellipse at T/100 (a box, 32-48 copies with the speed perturbed by
-1e-9, 2e5 steps) the energy falls by 6e-19 |E| per step with volume gravity and 2.5e-19 with
-point gravity, 5-10 standard errors from zero. One more Newton update with g_em accurate at
-every mass point did not change the volume case; with the translation rows' residual also in
-double-double the point case fell to 9e-20 (tried, measured, not kept: the rest of the bias
-is in the sums over mass points, the director rows and the velocity solve).
+Known limits (docs/methods.md): at 90 degrees of rotation per step the energy drifts (Newton
+zeroes the computed residual, whose rounding error has a nonzero mean along the velocity at such
+rotations); in a field the point-mass kernel's accurate finish (:func:`.pointmass.reference.em_finish`)
+is not here, and the plain sums over mass points, the director rows and the velocity solve
+leave a drift of the energy above the point-mass step's.
 
 Gravity models (per body): ``GRAVITY_VOLUME`` sums over the mass points (gravity-gradient
 torque included), ``GRAVITY_POINT`` puts all mass at the centre of mass (no torque),
@@ -224,7 +208,7 @@ def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, G, 
 def _gram(P, W):
     """P W^T for (p, N) and (q, N) arrays, with four partial sums per entry (the loop stays
     throughput-bound without fastmath). Deliberately not BLAS: a threaded BLAS oversubscribes
-    small machines (measured 4-7x slower at 10,000 mass points on 2 busy cores) and may sum
+    small machines (several times slower at 10,000 mass points on 2 busy cores) and may sum
     in an order that depends on the thread count, which would break bit-exact restarts."""
     n = P.shape[1]
     T = np.empty((P.shape[0], W.shape[0]))
@@ -557,7 +541,7 @@ def rigid_chunk(
     models (nb,) gravity model per body; q, v, cq, cv (nb, 12) state and Kahan compensation;
     lam (nb, 6) multiplier warm starts; mass (nb,), E and Einv (nb, 3, 3); body b's mass
     points are X[:, offsets[b]:offsets[b+1]] (3, N) with masses mp. rec_q/rec_v (nrec, nb, 12),
-    rec_iters (nrec, nb), fail (nb, 2) as in :func:`emorbit.kernels.pointmass.implicit_chunk`.
+    rec_iters (nrec, nb), fail (nb, 2) as in :func:`emorbit.kernels.pointmass.reference.implicit_chunk`.
     """
     nb = q.shape[0]
     ns = gammas.shape[0]

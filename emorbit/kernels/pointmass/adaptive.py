@@ -103,7 +103,7 @@ def adaptive_chunk(
     method       METHOD_EM, METHOD_EM_PLAIN (3), METHOD_MIDPOINT (1) or METHOD_LEAPFROG
     eta          steps per local Kepler time scale: h = eta 2 pi sqrt(r^3 / GM) <= dt_max
     rec_steps    (nrec, n) steps each point took in each interval
-    Other arguments as in :func:`emorbit.kernels.pointmass.implicit_chunk`; ``fail[i]`` holds
+    Other arguments as in :func:`emorbit.kernels.pointmass.reference.implicit_chunk`; ``fail[i]`` holds
     (record interval index * every, status) for a point that failed even after halving its
     step :data:`MAX_HALVINGS` times (the point then stops at the start of that interval).
     """

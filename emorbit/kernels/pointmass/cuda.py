@@ -1,12 +1,12 @@
 """CUDA kernels for point-mass ensembles: the CPU's own per-point steps on the GPU.
 
 One GPU thread advances one point through a whole chunk (``nrec * every`` composed steps),
-exactly as :func:`~.ensemble._run_point` does on the CPU for a point taken alone (the packed
-kernels of :mod:`.ensemble` give the same bits; tests/test_ensemble.py). The device code is
+exactly as :func:`~.chunk._run_point` does on the CPU for a point taken alone (the packed
+kernels of :mod:`.packed` give the same bits; tests/test_ensemble.py). The device code is
 not a second copy of the algorithm: :func:`_compile` takes the Python functions behind those
 CPU kernels (``_run_point`` and every kernel it calls, found by following the names each
-function uses: the em root solve with its accurate last chord update, the large-t finish
-:func:`~.pointmass.em_finish`, the midpoint and leapfrog steps, the compensated sums, the
+function uses, across modules: the em root solve of :mod:`.roots`, the point steps of
+:mod:`.point_step`, the reference kernel's finish and Newton, the compensated sums, the
 gravity helpers) and compiles them again with ``numba.cuda.jit(device=True)``, their calls
 re-pointed at the device versions, and ``eft.fma`` at ``cuda.fma``. Each thread calls
 ``_run_point`` on its own column of the (3, n) arrays, so a point's result does not depend
@@ -15,20 +15,17 @@ on the others.
 Rounding. NVVM contracts a multiply and an add into one fused multiply-add by default; the
 kernels here are compiled with its ``-fma=0`` (:func:`_nvvm_fma`), so every product and sum
 is rounded as on the CPU (division and square root are IEEE-rounded on both) and the GPU
-gives the CPU's results. ``chunk(..., contract=True)`` compiles with NVVM's default, which
-differs from the CPU at round-off. Measured on an NVIDIA H100 (numba-cuda 0.30.4, NVVM 2.0,
-tests/test_cuda.py): with ``-fma=0`` the GPU gives the CPU's bits in every case (em orders 2
-and 4, em at a step where Newton fails, midpoint, leapfrog orders 2 and 6; states, records,
-iteration counts, failures); contracted, the states differ by up to 4e-15 relative after
-12 steps, and at huge steps a different set of points can fail. The kernel alone runs at
-2.5e10 em point-steps/s with ``-fma=0`` and 2.65e10 contracted (1e6 points;
-``python scripts/bench_gpu.py --steps 1000``). On numba's CUDA simulator
-(``NUMBA_ENABLE_CUDASIM=1``, which runs the device code as Python with IEEE doubles) the
-results equal the CPU kernels bit for bit as well (the tests require it).
+gives the CPU's results: states, records, iteration counts and failures, for em at orders 2
+and 4 (also where Newton fails), midpoint and leapfrog (tests/test_cuda.py; on an NVIDIA H100
+with numba-cuda 0.30.4). ``chunk(..., contract=True)`` compiles with NVVM's default, which
+differs from the CPU at round-off (the states by up to 4e-15 relative after 12 steps; at huge
+steps a different set of points can fail). On numba's CUDA simulator (``NUMBA_ENABLE_CUDASIM=1``,
+which runs the device code as Python with IEEE doubles) the results equal the CPU kernels
+bit for bit as well (the tests require it).
 
 Use: :func:`chunk` has the arguments of the CPU chunk kernels plus a method code and runs
-on the device, copying the arrays there and back; :func:`require_device` raises a clear
-:class:`~emorbit.errors.InputError` when no CUDA device is present.
+on the device, copying the arrays there and back; :func:`device_problem` says why the kernels
+cannot run (numba.cuda missing, no device), and :func:`chunk` raises a RuntimeError with it.
 """
 
 from __future__ import annotations
@@ -43,7 +40,7 @@ import numpy as np
 
 from .. import eft
 from ..codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_LEAPFROG, METHOD_MIDPOINT
-from .packed import _run_point
+from .chunk import _run_point
 
 __all__ = ["CODES", "THREADS_PER_BLOCK", "available", "device_problem", "chunk"]
 
@@ -89,7 +86,7 @@ def _require_device():
 
 
 def _point_kernel(method: int, name: str):
-    """The kernel of one method: one thread per point, :func:`~.ensemble._run_point` on
+    """The kernel of one method: one thread per point, :func:`~.chunk._run_point` on
     column i. ``method`` is a constant of the closure, so NVVM drops the other methods."""
 
     def kernel(x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
@@ -160,8 +157,8 @@ def _rebind(f, cuda, devices: dict):
     # A warning raised in a function inserts __warningregistry__ into its globals. On the
     # simulator every device call iterates its function's globals (numba swaps its cuda
     # module in), and a point dividing by zero in one simulated thread while another
-    # iterates made that "dictionary changed size during iteration" (seen once in CI); so
-    # the key is there from the start and no launch changes the size of a scope.
+    # iterates can make that "dictionary changed size during iteration"; so the key is
+    # there from the start and no launch changes the size of a scope.
     scope.setdefault("__warningregistry__", {})
     if _simulator() and "math" in scope:  # the simulator runs the device code as Python
         scope["math"] = _SimulatorMath()
@@ -276,8 +273,8 @@ def chunk(
 ) -> None:
     """Advance every point ``nrec * every`` composed steps on the GPU.
 
-    ``method`` is a code of :data:`METHODS`; the other arguments are those of
-    :func:`~.pointmass.implicit_chunk` (host arrays, updated in place: ``x, v, cx, cv``
+    ``method`` is a code of :data:`CODES`; the other arguments are those of
+    :func:`~.reference.implicit_chunk` (host arrays, updated in place: ``x, v, cx, cv``
     and the records ``rec_x, rec_v, rec_iters, fail``, which the caller pre-fills with -1).
     ``contract=True`` lets NVVM fuse multiply-adds (its default; see the module notes).
     """

@@ -1,10 +1,11 @@
-"""Point-mass (test-particle) step kernels: energy-momentum, implicit midpoint, leapfrog.
+"""Point-mass (test-particle) step kernels, one point at a time: energy-momentum, implicit
+midpoint, leapfrog. The reference the packed kernels (:mod:`.packed`) are tested against, and the
+per-point steps the adaptive (:mod:`.adaptive`) and scalar fallback paths use.
 
 The points do not disturb the field and do not attract each other, so every point is
 integrated on its own. State arrays are structure-of-arrays float64, shape (3, n):
 positions ``x``, velocities ``v`` and their compensation terms ``cx``, ``cv`` (the low
-bits lost by ``x += dx``, carried by Kahan summation so that round-off stays near
-Brouwer's law over 1e7 steps).
+bits lost by ``x += dx``, carried by Kahan summation).
 
 One step of size ``h`` of each implicit method solves for the increment ``dx = x1 - x0``::
 
@@ -14,37 +15,27 @@ with ``g_* = g_em(x0, x0 + dx)`` (``em``) or ``g(x0 + dx/2)`` (``midpoint``). Bo
 are a scaled identity plus a rank-one term, so each Newton update is solved exactly by the
 Sherman-Morrison formula. Newton starts from the explicit Taylor predictor
 ``h v0 + h**2/2 g(x0)`` and stops when the update falls below the round-off of the unknown
-or stops shrinking (its floor), never at a loose tolerance.
+or stops shrinking (its floor), never at a loose tolerance. Leapfrog is kick-drift-kick; the
+closing kick's acceleration is reused by the next sub-step's opening kick.
 
 A chunk kernel advances every point ``nrec * every`` steps of the composed method (each
-step is the sequence of sub-steps ``gammas[k] * dt``), storing the state every ``every``
-steps.
+step is the sequence of sub-steps ``gammas[k] * dt``), storing the state every ``every`` steps.
 
-Two details keep the energy error a random walk (Brouwer's law) instead of a drift:
+Two details keep the energy error a random walk (Brouwer's law) instead of a drift
+(docs/methods.md has the measurements):
 
-* ``h**2/2`` is never formed. A rounded ``hh = fl(h*h/2)`` carries the same relative error
-  in every step, so the scheme would solve ``dx = h v0 + hh (1 + eps) g`` with ``dv = h g``:
-  an energy error ``-hh eps |g|**2`` of one sign in every step (measured: +2e-18 per step
-  at T/100 on the paper's orbit, 100x less at T/1000). The residual is written
-  ``dx - h (v0 + (h/2) g)`` instead, whose roundings depend on the state.
-* ``em`` finishes with an accurate ``g_em`` (:func:`em_finish`). Newton in floating point
-  converges on the plain evaluation of ``g_em``, whose error of a few roundings (up to 4
-  ulp, measured) is then correlated with the solution it picks; the work ``g . dx`` of that
-  error does not average out. Measured on 64 perturbed paper orbits at T/100 over 1e6 steps:
-  the energy falls by 1.7e-19 |E| per step in this kernel (the ensemble mean 23 standard
-  errors from zero); over 1e7 steps that drift overtakes the random walk.
-  One more Newton update whose residual uses ``g_em`` evaluated to within a rounding
-  (:func:`~.gravity.em_accel_accurate`) and is itself carried to eps**2 (:func:`_residual`),
-  and the velocity from ``g_em`` evaluated the same way at the updated ``dx``, leave nothing
-  to correlate with: the same measurement gives 6e-21 |E| per step (1.2 standard errors)
-  here. ``roundoff="fast"`` skips the finish. The packed kernels
-  (:mod:`~emorbit.kernels.pointmass.packed`, which run point-mass scenes) reach the same end more
-  cheaply, with the accurate root of their scalar equation instead of this finish (see
-  their notes for what each part contributes).
+* ``h**2/2`` is never formed: a rounded ``hh = fl(h*h/2)`` carries the same relative error
+  in every step, an energy error ``-hh eps |g|**2`` of one sign. The residual is written
+  ``dx - h (v0 + (h/2) g)``, whose roundings depend on the state.
+* ``em`` ends with an accurate update (:func:`em_finish`): Newton in floating point converges
+  on the plain evaluation of ``g_em``, whose error of a few roundings is then correlated with
+  the solution it picks. One more Newton update whose residual uses ``g_em`` evaluated to
+  within a rounding (:func:`~.gravity.em_accel_dd_lo`) and is itself carried to eps**2
+  (:func:`_residual`) leaves nothing to correlate with. ``roundoff="fast"`` skips it.
 
-Failures (Newton not converging, a point at the centre, a non-finite state) stop
-that point before the failing step and are reported in ``fail`` (step index, code); the
-caller turns them into errors. Codes: see ``STATUS_*``.
+Failures (Newton not converging, a point at the centre, a non-finite state) stop that point
+before the failing step and are reported in ``fail`` (step index, code, ``STATUS_*``); the
+caller turns them into errors.
 """
 
 from __future__ import annotations
@@ -100,12 +91,9 @@ def _residual(d, v, g, gl, h, hf):
     (error-free transformations; ``g + gl`` the double-double ``g_em``): the residual of the
     energy-momentum step is then exact to far below one rounding of ``d``, so the Newton
     update lands on the rounded exact solution whatever ``d`` it starts from (the packed and
-    reference kernels start from different ones). ``g`` rounded to a double before it enters
-    (``gl`` dropped) left an error of a rounding of ``h hf g``, which at large steps is one
-    of ``d``: at T/8 the energy drifted by -4.9e-20 |E| per step (4096 orbits, 2 seeds, 1e5
-    steps: -3.4 and -2.4 standard errors; -11 and -13 with 65536 on a GPU), and with the
-    finish iterated twice by -2.7e-19; carrying ``gl``: -2.4e-20 and -7.3e-21 (-1.4, -0.4),
-    the same with one update or two."""
+    reference kernels start from different ones). With ``g`` rounded to a double (``gl``
+    dropped) the residual would carry an error of a rounding of ``h hf g``, at large steps
+    one of ``d``, which the update converges on: a drift at large steps (docs/methods.md)."""
     q = hf * g
     s, es = two_sum(v, q)
     es += fma(hf, g, -q) + hf * gl
@@ -125,18 +113,13 @@ def em_finish(ax, ay, az, r0, vx, vy, vz, dx, dy, dz, h, gm):
 
     Why (see the module notes): the plain evaluation's error of a few roundings is what
     Newton converges on, so the solution it picks is correlated with that error and the
-    energy drifts (by 1.7e-19 |E| per step on the paper's orbit at T/100). From an accurate
-    ``g_em`` and residual the update lands within a rounding of the exact solution whatever
-    ``dx`` it starts from, with nothing to correlate with. A Newton update (not a
-    fixed-point one) keeps this sound at any step size, where ``h**2/2 |dg/dx|`` exceeds 1.
-    ``b = a - dx`` is formed with its rounding error (a two-sum), and ``g_em`` evaluated at
-    the exact difference (:func:`~.gravity.em_accel_dd_lo`): the state moves by exactly
-    ``dx``, and with ``b`` rounded the update converged on that rounding. Measured
-    (``python scripts/energy_drift.py --div 30 --steps 100000 --members 1024 --seeds 2``,
-    the packed kernel with every step finished): -8.5e-20 |E| per step (11 standard errors
-    from zero) with ``b`` rounded, +7.6e-22 (0.1) with it carried; this kernel at T/100
-    (``--kernel reference --members 4096 --steps 200000 --seeds 1``): +6.6e-21 (4.8), then
-    -1.8e-21 (1.4).
+    energy drifts. From an accurate ``g_em`` and residual the update lands within a rounding
+    of the exact solution whatever ``dx`` it starts from, with nothing to correlate with. A
+    Newton update (not a fixed-point one) keeps this sound at any step size, where
+    ``h**2/2 |dg/dx|`` exceeds 1. ``b = a - dx`` is formed with its rounding error (a
+    two-sum), and ``g_em`` evaluated at the exact difference
+    (:func:`~.gravity.em_accel_dd_lo`): the state moves by exactly ``dx``, and with ``b``
+    rounded the update would converge on that rounding (docs/methods.md).
     Cost: one square root and two divisions (the Jacobian's coefficients come from the
     reciprocal of :func:`~.gravity.em_accel_root`), and about 120 other operations."""
     hf = 0.5 * h
