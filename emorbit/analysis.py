@@ -23,8 +23,24 @@ __all__ = [
 
 
 def event_times(t, f, fdot, rising: bool = True) -> np.ndarray:
-    """Times where ``f`` crosses zero (upwards if ``rising``, else downwards), given samples
-    ``f`` and exact derivatives ``fdot`` at times ``t`` (all (n,))."""
+    """Times where a sampled function crosses zero, located on its cubic Hermite interpolant.
+
+    Parameters
+    ----------
+    t : array_like
+        Sample times (n,), s.
+    f : array_like
+        Samples of the function (n,).
+    fdot : array_like
+        Its exact time derivative at the samples (n,), per s.
+    rising : bool
+        Upward crossings (f goes from < 0 to >= 0) if true, else downward ones.
+
+    Returns
+    -------
+    ndarray
+        The crossing times, s, in order.
+    """
     t = np.asarray(t, float)
     f = np.asarray(f, float)
     fdot = np.asarray(fdot, float)
@@ -53,10 +69,25 @@ def event_times(t, f, fdot, rising: bool = True) -> np.ndarray:
 
 
 def crossing_times(t, x, v, normal, center=(0.0, 0.0, 0.0), side=None) -> np.ndarray:
-    """Times at which the trajectory crosses the plane through ``center`` with ``normal`` in
-    the +normal direction, optionally only where (x - center) . side > 0.
+    """Times at which a recorded trajectory crosses a plane through the centre.
 
-    t (n,), x and v (n, 3), recorded close enough that the cubic through two records is accurate.
+    Parameters
+    ----------
+    t : array_like
+        Record times (n,), s, close enough that the cubic through two records is accurate.
+    x, v : array_like
+        Positions and velocities (n, 3), m and m/s.
+    normal : array_like
+        Normal of the plane (3,); crossings in the +normal direction count.
+    center : array_like
+        A point of the plane (the field's centre), m.
+    side : array_like, optional
+        Keep only crossings where (x - center) . side > 0 (a half-plane).
+
+    Returns
+    -------
+    ndarray
+        The crossing times, s.
     """
     x = np.asarray(x, float) - np.asarray(center, float)
     nrm = np.asarray(normal, float)
@@ -68,8 +99,33 @@ def crossing_times(t, x, v, normal, center=(0.0, 0.0, 0.0), side=None) -> np.nda
 
 
 def apse_times(t, x, v, gm, center=(0.0, 0.0, 0.0), apse: str = "apoapsis") -> np.ndarray:
-    """Times of apoapsis (or ``"periapsis"``) passages: zeros of r . v, whose derivative
-    v^2 - GM/r is exact at every record in a central field."""
+    """Times of apoapsis or periapsis passages: the zeros of r . v.
+
+    The derivative of r . v, v^2 - GM/r, is exact at every record in a central field.
+
+    Parameters
+    ----------
+    t : array_like
+        Record times (n,), s.
+    x, v : array_like
+        Positions and velocities (n, 3), m and m/s.
+    gm : float
+        GM of the centre, m^3/s^2.
+    center : array_like
+        The centre, m.
+    apse : str
+        ``"apoapsis"`` or ``"periapsis"``.
+
+    Returns
+    -------
+    ndarray
+        The passage times, s.
+
+    Raises
+    ------
+    ValueError
+        ``apse`` is neither.
+    """
     r = np.asarray(x, float) - np.asarray(center, float)
     v = np.asarray(v, float)
     f = np.einsum("ij,ij->i", r, v)
@@ -86,16 +142,66 @@ def _slope(times) -> float:
 
 
 def period_from_apses(t, x, v, gm, center=(0.0, 0.0, 0.0), apse: str = "apoapsis") -> tuple[float, int]:
-    """The anomalistic period (apse to apse) of a recorded orbit: least-squares slope of the
-    passage times against their number. Returns (period in s, number of passages)."""
+    """The anomalistic period (apse to apse) of a recorded orbit.
+
+    The least-squares slope of the passage times (:func:`apse_times`) against their number.
+
+    Parameters
+    ----------
+    t : array_like
+        Record times (n,), s.
+    x, v : array_like
+        Positions and velocities (n, 3), m and m/s.
+    gm : float
+        GM of the centre, m^3/s^2.
+    center : array_like
+        The centre, m.
+    apse : str
+        ``"apoapsis"`` or ``"periapsis"``: which passages to time.
+
+    Returns
+    -------
+    period : float
+        s.
+    passages : int
+        Number of passages the fit used.
+
+    Raises
+    ------
+    ValueError
+        Fewer than two passages were recorded.
+    """
     times = apse_times(t, x, v, gm, center, apse)
     return _slope(times), int(times.size)
 
 
 def period_from_crossings(t, x, v, center=(0.0, 0.0, 0.0)) -> tuple[float, int]:
-    """The sidereal period: successive crossings of the half-plane through the initial
-    position (this includes the apsidal precession of a numerical orbit).
-    Returns (period in s, number of crossings)."""
+    """The sidereal period: successive crossings of the half-plane through the first position.
+
+    This includes the apsidal precession of a numerical orbit; it is defined for circular
+    orbits, which have no apses.
+
+    Parameters
+    ----------
+    t : array_like
+        Record times (n,), s.
+    x, v : array_like
+        Positions and velocities (n, 3), m and m/s.
+    center : array_like
+        The centre, m.
+
+    Returns
+    -------
+    period : float
+        s.
+    crossings : int
+        Number of crossings the fit used.
+
+    Raises
+    ------
+    ValueError
+        Fewer than two crossings were recorded.
+    """
     x = np.asarray(x, float)
     r0 = x[0] - np.asarray(center, float)
     normal = np.cross(np.cross(r0, np.asarray(v, float)[0]), r0)  # in the orbital plane, along the motion
@@ -104,18 +210,37 @@ def period_from_crossings(t, x, v, center=(0.0, 0.0, 0.0)) -> tuple[float, int]:
 
 
 def relative_energy_change_exact(x0, v0, x1, v1, gm, cx1=None, cv1=None) -> np.ndarray:
-    """``E1 / E0 - 1`` of test particles in a central field (``E = |v|**2 / 2 - gm / |x|``,
-    centre at the origin), from their float64 states, evaluated exactly (60 significant
-    digits) and rounded once. Arrays are (3, n), the kernels' layout; ``cx1``, ``cv1``:
-    the compensation terms of the final state (the state is then ``x1 - cx1``,
-    ``v1 - cv1``, see :func:`emorbit.kernels.pointmass.kahan_add`).
+    """Relative energy change E1 / E0 - 1 of test particles, evaluated exactly.
 
-    For drift measurements whose signal is below one rounding of the energy: evaluated in
-    float64, ``E0`` of copies that start at one position carries the same rounding error of
-    ``gm / |x0|`` in every copy, an offset of the ensemble mean that does not average out.
-    For the paper's orbit (``gm / 10``) that is -6.7e-17 of ``E``: over 1e6 steps it read as
-    a drift of -6.7e-23 per step (once taken for a drift of the em step at T/1000:
-    ``scripts/energy_drift.py``)."""
+    ``E = |v|**2 / 2 - gm / |x|`` (centre at the origin) is evaluated from the float64
+    states with 60 significant digits and the ratio rounded once. This is for drift
+    measurements whose signal is below one rounding of the energy: evaluated in float64,
+    ``E0`` of copies that start at one position carries the same rounding error of
+    ``gm / |x0|`` in every copy, an offset of the ensemble mean that does not average out
+    (for the paper's orbit, ``gm / 10``, it is -6.7e-17 of ``E``).
+
+    Parameters
+    ----------
+    x0, v0 : array_like
+        Initial positions and velocities (3, n), the kernels' layout, m and m/s.
+    x1, v1 : array_like
+        Final positions and velocities (3, n).
+    gm : float
+        GM, m^3/s^2.
+    cx1, cv1 : array_like, optional
+        Compensation terms of the final state (3, n): the state is then ``x1 - cx1``,
+        ``v1 - cv1`` (see :func:`emorbit.kernels.eft.kahan_add`).
+
+    Returns
+    -------
+    ndarray
+        E1 / E0 - 1 per particle (n,).
+
+    Raises
+    ------
+    ValueError
+        Shapes differ from (3, n), a state is not finite, or a point is at the centre.
+    """
     arrays = [np.asarray(a, float) for a in (x0, v0, x1, v1)]
     if any(a.ndim != 2 or a.shape[0] != 3 or a.shape != arrays[0].shape for a in arrays):
         raise ValueError(f"x0, v0, x1, v1 must all be (3, n) arrays, got shapes {[a.shape for a in arrays]}")

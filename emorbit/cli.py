@@ -4,6 +4,7 @@
     emorbit resume OUT.h5 --t-end T2
     emorbit plot OUT.h5 [OUT2.h5 ...] -o FIG.png
     emorbit scenes
+    emorbit validate | sweep | bench ...     (plug-ins: see PLUGINS)
 
 SCENE is a shipped scene's name (``emorbit scenes`` lists them) or a TOML file. Values given
 on the command line carry units like those in a scene: ``--t-end "100 s"``, ``--dt "0.1 s"``.
@@ -148,7 +149,19 @@ def _scenes(args) -> int:
 
 
 def main(argv=None) -> int:
-    """Run the command line with ``argv`` (default: sys.argv[1:]); returns the exit code."""
+    """Run the command line.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments after the program name (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit code: 0 success, 1 a run failed while stepping (or a plug-in's own
+        failure), 2 bad input, 130 interrupted.
+    """
     args = _parser().parse_args(argv)
     if getattr(args, "unavailable", None):
         print(f"emorbit: error: {args.unavailable}", file=sys.stderr)
@@ -171,17 +184,25 @@ def main(argv=None) -> int:
 
 
 def console_main(argv=None) -> None:
-    """Entry point of the ``emorbit`` script and of ``python -m emorbit.cli``: run
-    :func:`main` and exit the process with its code.
+    """Entry point of the ``emorbit`` script and of ``python -m emorbit.cli``.
 
-    Before the interpreter shuts down, every object still alive is frozen out of the cyclic
-    garbage collector (:func:`gc.freeze`). The collections Python runs while it tears its
-    modules down then skip the roughly 10^5 objects that astropy and Numba leave behind; they
-    took about 0.3 s of each command's wall time (measured on the 2-core development machine:
-    a process that imported Numba and called one cached kernel exited in 0.30-0.38 s after its
-    last statement, 0.03-0.04 s with the freeze). Only cyclic garbage goes unfreed, which
-    the process's exit returns anyway: the HDF5 files a command writes are closed by then,
-    and atexit handlers still run. Tests call :func:`main`, which leaves the collector alone.
+    Runs :func:`main` and exits the process with its code. Before the interpreter shuts
+    down, every object still alive is frozen out of the cyclic garbage collector
+    (:func:`gc.freeze`), so the collections Python runs while it tears its modules down
+    skip the many objects that astropy and Numba leave behind, a noticeable part of a short
+    command's wall time. Only cyclic garbage goes unfreed, which the process's exit returns
+    anyway: the HDF5 files a command writes are closed by then, and atexit handlers still
+    run. Tests call :func:`main`, which leaves the collector alone.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        As for :func:`main`.
+
+    Raises
+    ------
+    SystemExit
+        Always, with :func:`main`'s exit code.
     """
     code = main(argv)
     gc.freeze()

@@ -10,7 +10,23 @@ class EmorbitError(Exception):
 
 
 class InputError(EmorbitError, ValueError):
-    """Bad input: ``key`` is where it was found (e.g. ``"body[0].position"``)."""
+    """Bad input, raised before anything runs.
+
+    Parameters
+    ----------
+    key : str
+        Where the value was found, e.g. ``"body[0].position"`` or ``"integrator.dt"``
+        (empty when the error concerns no single key).
+    message : str
+        What is wrong with it and, where it helps, what to write instead.
+
+    Attributes
+    ----------
+    key : str
+        As given.
+    message : str
+        As given; ``str(error)`` is ``"<key>: <message>"``.
+    """
 
     def __init__(self, key: str, message: str):
         self.key = key
@@ -19,10 +35,28 @@ class InputError(EmorbitError, ValueError):
 
 
 class IntegrationError(EmorbitError, RuntimeError):
-    """A step could not be taken (Newton did not converge, a point reached the centre).
+    """A step could not be taken: Newton did not converge, or a body reached the centre.
 
-    ``time`` is the start of the failing step in s, ``body`` the body's name, ``reason``
-    what went wrong. Everything before ``time`` has been recorded and written.
+    Everything before ``time`` has been recorded and, for a run with an output file,
+    written.
+
+    Parameters
+    ----------
+    time : float
+        Start of the failing step, s.
+    body : str
+        Name of the body whose step failed.
+    reason : str
+        What went wrong.
+
+    Attributes
+    ----------
+    time : float
+        As given, s.
+    body : str
+        As given.
+    reason : str
+        As given.
     """
 
     def __init__(self, time: float, body: str, reason: str):

@@ -18,47 +18,64 @@ from .units import to_si, vector_to_si
 
 __all__ = ["CentralField", "BODIES", "RADII"]
 
-#: named central bodies and the astropy constant that gives their GM (IAU 2015 nominal values)
 BODIES = {
     "earth": const.GM_earth,
     "sun": const.GM_sun,
     "jupiter": const.GM_jup,
 }
-#: their nominal equatorial radii (IAU 2015), the default collision radius
+"""The named central bodies and the astropy constant that gives their GM (IAU 2015 nominal)."""
 RADII = {
     "earth": const.R_earth,
     "sun": const.R_sun,
     "jupiter": const.R_jup,
 }
+"""Their nominal equatorial radii (IAU 2015): a named field's default collision radius."""
 
 
 class CentralField:
     """A stationary, radially symmetric field of a fixed point mass.
 
+    Give exactly one of ``gm``, ``g_ref`` with ``r_ref``, and ``body``. Physical values
+    are astropy Quantities, strings with a unit, or plain numbers in SI.
+
     Parameters
     ----------
     gm : Quantity, str or float, optional
-        GM in m^3/s^2 (plain numbers are SI).
-    g_ref, r_ref : optional
-        acceleration (m/s^2) at distance ``r_ref`` (m); GM = g_ref * r_ref**2.
+        GM, m^3/s^2.
+    g_ref : Quantity, str or float, optional
+        The acceleration at distance ``r_ref``, m/s^2; GM = g_ref r_ref^2 (the paper's form).
+    r_ref : Quantity, str or float, optional
+        The distance at which ``g_ref`` is given, m.
     body : str, optional
-        ``"earth"``, ``"sun"`` or ``"jupiter"``: GM from astropy.constants.
-    center : 3-vector, optional
-        position X_Z of the centre in m (default: the origin).
-    radius : optional
-        the central body's radius in m: a body whose recorded position comes closer is
-        stopped with an error (default: the nominal radius of a named body, else 0).
+        ``"earth"``, ``"sun"`` or ``"jupiter"``: GM from :mod:`astropy.constants`
+        (:data:`BODIES`).
+    center : Quantity or sequence, optional
+        Position of the centre, m (default: the origin).
+    radius : Quantity, str or float, optional
+        The central body's radius, m: a body whose recorded position comes closer stops
+        the run with an :class:`~emorbit.errors.IntegrationError` (default: the nominal
+        radius of a named body, :data:`RADII`, else 0: no check).
     strict : bool
-        require units on every value (used for scenes).
+        Require units on every value (scenes do).
+    key : str
+        Prefix of the keys that error messages name.
 
     Attributes
     ----------
     gm : float
-        GM in m^3/s^2.
-    center : ndarray (3,)
-        the centre in m.
+        GM, m^3/s^2.
+    center : ndarray
+        The centre (3,), m.
+    radius : float
+        The collision radius, m (0: none).
     body : str or None
-        the named body, if the field was given by name.
+        The named body, if the field was given by name.
+
+    Raises
+    ------
+    InputError
+        Not exactly one way of giving GM, an unknown body, or a value that is not a
+        positive quantity of the right kind.
     """
 
     def __init__(
@@ -104,11 +121,33 @@ class CentralField:
         return f"CentralField({src}, center={self.center.tolist()!r})"
 
     def acceleration(self, position) -> np.ndarray:
-        """g at ``position`` (3,) or (3, n) in m; returns m/s^2 with the same shape."""
+        """The field's acceleration g at given positions.
+
+        Parameters
+        ----------
+        position : array_like
+            Positions (3,) or (3, n), m.
+
+        Returns
+        -------
+        ndarray
+            g, m/s^2, with the shape of ``position``.
+        """
         r = self.center.reshape((3,) + (1,) * (np.ndim(position) - 1)) - np.asarray(position, dtype=float)
         return self.gm * r / np.linalg.norm(r, axis=0) ** 3
 
     def potential(self, position) -> np.ndarray:
-        """Potential per unit mass V = -GM / r at ``position`` (3,) or (3, n), in J/kg."""
+        """The potential per unit mass V = -GM / r at given positions.
+
+        Parameters
+        ----------
+        position : array_like
+            Positions (3,) or (3, n), m.
+
+        Returns
+        -------
+        ndarray
+            V, J/kg: a scalar for (3,), shape (n,) for (3, n).
+        """
         r = self.center.reshape((3,) + (1,) * (np.ndim(position) - 1)) - np.asarray(position, dtype=float)
         return -self.gm / np.linalg.norm(r, axis=0)

@@ -30,11 +30,28 @@ _ROUND = 1e-11  # e below this is circular, sin(i) below this is equatorial
 
 
 class OrbitalElements(NamedTuple):
-    """Osculating elements. Angles in rad, ``a`` in m (negative for hyperbolic orbits).
+    """Osculating elements, each an array over the states' leading axes.
 
     For a circular orbit ``argp`` is 0 and ``nu``/``M`` are measured from the ascending node
     (argument of latitude); for an equatorial orbit ``raan`` is 0 and ``argp`` is measured
     from the x axis (longitude of periapsis); both: true longitude.
+
+    Attributes
+    ----------
+    a : ndarray
+        Semi-major axis, m (negative for hyperbolic orbits).
+    e : ndarray
+        Eccentricity.
+    i : ndarray
+        Inclination, rad.
+    raan : ndarray
+        Longitude of the ascending node, rad.
+    argp : ndarray
+        Argument of periapsis, rad.
+    nu : ndarray
+        True anomaly, rad.
+    M : ndarray
+        Mean anomaly, rad.
     """
 
     a: np.ndarray
@@ -55,14 +72,47 @@ def _angle(y, x):
 
 
 def semi_major_axis(position, velocity, gm, center=(0.0, 0.0, 0.0)):
-    """a from the vis-viva law, 1/a = 2/r - v^2/GM (negative for hyperbolic states)."""
+    """Semi-major axis from the vis-viva law, 1/a = 2/r - v^2/GM.
+
+    Parameters
+    ----------
+    position, velocity : array_like
+        States (..., 3), m and m/s.
+    gm : float
+        GM of the centre, m^3/s^2.
+    center : array_like
+        The centre, m.
+
+    Returns
+    -------
+    ndarray
+        a in m over the leading axes (negative for hyperbolic states).
+    """
     r = np.linalg.norm(np.asarray(position, float) - np.asarray(center, float), axis=-1)
     v2 = _dot(np.asarray(velocity, float), np.asarray(velocity, float))
     return 1.0 / (2.0 / r - v2 / gm)
 
 
 def kepler_period(a, gm):
-    """The Kepler period 2 pi sqrt(a^3 / GM) in s for a > 0."""
+    """The Kepler period 2 pi sqrt(a^3 / GM).
+
+    Parameters
+    ----------
+    a : array_like
+        Semi-major axis, m (> 0).
+    gm : float
+        GM, m^3/s^2.
+
+    Returns
+    -------
+    ndarray
+        The period, s.
+
+    Raises
+    ------
+    ValueError
+        Some a <= 0 (an unbound orbit has no period).
+    """
     a = np.asarray(a, float)
     if np.any(a <= 0):
         raise ValueError("the Kepler period needs a > 0 (a bound orbit)")
@@ -70,7 +120,20 @@ def kepler_period(a, gm):
 
 
 def mean_from_true(nu, e):
-    """Mean anomaly from the true anomaly (elliptic and hyperbolic), in [0, 2 pi) for e < 1."""
+    """Mean anomaly from the true anomaly, for elliptic and hyperbolic orbits.
+
+    Parameters
+    ----------
+    nu : array_like
+        True anomaly, rad.
+    e : array_like
+        Eccentricity.
+
+    Returns
+    -------
+    ndarray
+        Mean anomaly, rad: in [0, 2 pi) for e < 1, e sinh F - F for e > 1.
+    """
     nu = np.asarray(nu, float)
     e = np.asarray(e, float)
     with np.errstate(invalid="ignore"):
@@ -82,7 +145,22 @@ def mean_from_true(nu, e):
 
 
 def elements(position, velocity, gm, center=(0.0, 0.0, 0.0)) -> OrbitalElements:
-    """Osculating elements of states (..., 3) about a centre with parameter ``gm``."""
+    """Osculating elements of states about a centre.
+
+    Parameters
+    ----------
+    position, velocity : array_like
+        States (..., 3), m and m/s.
+    gm : float
+        GM of the centre, m^3/s^2.
+    center : array_like
+        The centre, m.
+
+    Returns
+    -------
+    OrbitalElements
+        The elements over the states' leading axes.
+    """
     r = np.asarray(position, float) - np.asarray(center, float)
     v = np.asarray(velocity, float)
     rn = np.linalg.norm(r, axis=-1)
@@ -110,10 +188,29 @@ def elements(position, velocity, gm, center=(0.0, 0.0, 0.0)) -> OrbitalElements:
 
 
 def solve_kepler(M, e, *, max_iter: int = 50):
-    """Eccentric anomaly E with E - e sin E = M (0 <= e < 1), to round-off.
+    """Eccentric anomaly E with E - e sin E = M, to round-off.
 
-    Halley's iteration from Danby's starter E0 = M + 0.85 e sign(sin M); the result is
-    reduced to the branch of M (E - M in (-pi, pi)).
+    Halley's iteration from Danby's starter E0 = M + 0.85 e sign(sin M), then one Newton
+    polish; the result is on the branch of M (E - M in (-pi, pi)).
+
+    Parameters
+    ----------
+    M : array_like
+        Mean anomaly, rad.
+    e : array_like
+        Eccentricity, 0 <= e < 1.
+    max_iter : int
+        Halley iterations at most.
+
+    Returns
+    -------
+    ndarray
+        E in rad, broadcast over M and e.
+
+    Raises
+    ------
+    ValueError
+        Some e outside [0, 1).
     """
     M = np.asarray(M, float)
     e = np.asarray(e, float)
@@ -136,7 +233,27 @@ def solve_kepler(M, e, *, max_iter: int = 50):
 
 
 def solve_kepler_hyperbolic(M, e, *, max_iter: int = 100):
-    """Hyperbolic anomaly F with e sinh F - F = M (e > 1), to round-off (Newton)."""
+    """Hyperbolic anomaly F with e sinh F - F = M, to round-off (Newton from asinh(M / e)).
+
+    Parameters
+    ----------
+    M : array_like
+        Mean anomaly, rad.
+    e : array_like
+        Eccentricity, e > 1.
+    max_iter : int
+        Newton iterations at most.
+
+    Returns
+    -------
+    ndarray
+        F, broadcast over M and e.
+
+    Raises
+    ------
+    ValueError
+        Some e <= 1.
+    """
     M = np.asarray(M, float)
     e = np.asarray(e, float)
     if np.any(e <= 1):
@@ -151,7 +268,27 @@ def solve_kepler_hyperbolic(M, e, *, max_iter: int = 100):
 
 
 def state_from_elements(el: OrbitalElements | tuple, gm, center=(0.0, 0.0, 0.0)):
-    """Position and velocity (..., 3) from (a, e, i, raan, argp, nu[, M]); M is ignored."""
+    """Position and velocity from osculating elements.
+
+    Parameters
+    ----------
+    el : OrbitalElements or tuple
+        (a, e, i, raan, argp, nu[, M]) in m and rad; M, if given, is ignored.
+    gm : float
+        GM of the centre, m^3/s^2.
+    center : array_like
+        The centre, m.
+
+    Returns
+    -------
+    position, velocity : ndarray
+        States (..., 3), m and m/s.
+
+    Raises
+    ------
+    ValueError
+        Some a (1 - e^2) <= 0 (the state of a parabolic orbit has no a).
+    """
     a, e, inc, raan, argp, nu = (np.asarray(q, float) for q in tuple(el)[:6])
     p = a * (1.0 - e * e)
     if np.any(p <= 0):
@@ -206,12 +343,30 @@ def _stumpff(z):
 
 
 def propagate(position, velocity, gm, dt, center=(0.0, 0.0, 0.0), *, max_iter: int = 60):
-    """The exact Kepler motion: state after time ``dt`` (s) from each state (..., 3).
+    """The exact Kepler motion: the state a time ``dt`` after each given state.
 
-    Universal-variable Kepler equation solved by Newton to round-off, with Lagrange's f and g.
-    For bound orbits ``dt`` is first reduced modulo the period, so long spans keep their
-    accuracy (the reduction costs about n_periods * 1e-16 in phase).
-    Returns (position, velocity) with the broadcast shape of the inputs and ``dt``.
+    The universal-variable Kepler equation is solved by Newton's method to round-off
+    (bisection where a Newton step leaves its bracket), then Lagrange's f and g give the
+    state. For bound orbits ``dt`` is first reduced modulo the period, so long spans keep
+    their accuracy (the reduction costs about n_periods * 1e-16 in phase).
+
+    Parameters
+    ----------
+    position, velocity : array_like
+        States (..., 3), m and m/s.
+    gm : float
+        GM of the centre, m^3/s^2.
+    dt : array_like
+        Time to propagate, s (broadcast against the states' leading axes).
+    center : array_like
+        The centre, m.
+    max_iter : int
+        Newton iterations at most.
+
+    Returns
+    -------
+    position, velocity : ndarray
+        States (..., 3) with the broadcast shape of the inputs and ``dt``, m and m/s.
     """
     c = np.asarray(center, float)
     r0v = np.asarray(position, float) - c

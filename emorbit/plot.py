@@ -16,7 +16,18 @@ def _label(path, res) -> str:
 
 
 def euler_angles(q) -> np.ndarray:
-    """Yaw, pitch, roll (z-y'-x'' Euler angles, rad) of body-to-space quaternions (n, 4)."""
+    """Yaw, pitch and roll (z-y'-x'' Euler angles) of body-to-space quaternions.
+
+    Parameters
+    ----------
+    q : array_like
+        Unit quaternions (n, 4), scalar first.
+
+    Returns
+    -------
+    ndarray
+        (n, 3): yaw, pitch, roll in rad.
+    """
     w, x, y, z = np.asarray(q, float).T
     yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
     pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1, 1))
@@ -43,10 +54,27 @@ def _plot_attitudes(runs, axes) -> None:
 
 
 def plot_runs(paths, output, *, title: str | None = None) -> str:
-    """Plot the relative energy error over time of every file in ``paths`` on shared axes
-    (linear, as in the paper, and |error| on a log scale) and the orbits (x-y projection,
-    centre marked); for rigid bodies also their attitude angles and body-frame angular
-    velocity. Writes ``output`` (any format matplotlib knows by its extension)."""
+    """Plot run files: energy error over time, the orbits, and rigid bodies' attitudes.
+
+    The relative energy error of every file goes on shared axes (linear, as in the paper,
+    and its magnitude on a log scale), the orbits in an x-y projection with the centre
+    marked; for rigid bodies a second row shows their attitude angles and body-frame
+    angular velocity.
+
+    Parameters
+    ----------
+    paths : list of str
+        HDF5 run files.
+    output : str or os.PathLike
+        The figure to write, in any format matplotlib knows by its extension.
+    title : str, optional
+        A title over the figure.
+
+    Returns
+    -------
+    str
+        The path of the figure.
+    """
     import matplotlib
 
     matplotlib.use("Agg")

@@ -1,5 +1,5 @@
-"""The recorded history of a run, in SI units, as returned by
-:meth:`emorbit.Simulation.run` and :func:`emorbit.io.read`."""
+"""The records of a run, in SI units, as :meth:`emorbit.Simulation.run` returns them and
+:func:`emorbit.read` reads them from a file."""
 
 from __future__ import annotations
 
@@ -14,19 +14,44 @@ __all__ = ["Result"]
 
 @dataclass
 class Result:
-    """Records of a run. Arrays have one row per record; all values SI.
+    """The records of a run: one row per record, all values in SI units.
 
-    time               (n,) s
-    energy             (n,) J, total over all bodies
-    momentum           (n, 3) kg m/s (not conserved in a fixed field; recorded for completeness)
-    angular_momentum   (n, 3) kg m^2/s, about the field's centre
-    newton_iterations  (n,) mean Newton iterations per body and sub-step during the interval
-                       that ends at each record (0 for the first record and explicit methods)
-    bodies             {name: {dataset: (n, width)}}: "position" (m), "velocity" (m/s) for
-                       every body; rigid bodies add "attitude" (unit quaternion, scalar first,
-                       body to space) and "angular_velocity" (rad/s, body frame)
-    masses, kinds      {name: mass in kg}, {name: "point" | "rigid"}
-    method, order, dt, gm, center: how the run was made
+    Attributes
+    ----------
+    time : ndarray
+        (n,) record times, s.
+    energy : ndarray
+        (n,) total energy of all bodies, J.
+    momentum : ndarray
+        (n, 3) total linear momentum, kg m/s (not conserved in a fixed field; recorded for
+        completeness).
+    angular_momentum : ndarray
+        (n, 3) total angular momentum about the field's centre, kg m^2/s.
+    newton_iterations : ndarray
+        (n,) mean Newton iterations per body and sub-step in the interval that ends at each
+        record (0 for the first record and for explicit methods).
+    bodies : dict
+        {name: {dataset: array}}: ``"position"`` (n, 3) in m (the centre of mass of an
+        extended body) and ``"velocity"`` (n, 3) in m/s for every body; rigid bodies add
+        ``"attitude"`` (n, 4, unit quaternion, scalar first, body to space) and
+        ``"angular_velocity"`` (n, 3, rad/s, body frame); elastic bodies add
+        ``"nodes/position"`` and ``"nodes/time"`` (see :mod:`emorbit.io.hdf5`).
+    masses : dict
+        {name: mass in kg}.
+    kinds : dict
+        {name: ``"point"``, ``"rigid"`` or ``"elastic"``}.
+    method : str
+        The method's name.
+    order : int
+        The composition's order.
+    dt : float
+        The step, s.
+    gm : float
+        GM of the field, m^3/s^2 (0 in free space).
+    center : ndarray
+        The field's centre (3,), m.
+    attrs : dict
+        The file's root attributes, for a Result read from a file (empty otherwise).
     """
 
     time: np.ndarray
@@ -76,20 +101,50 @@ class Result:
         return self._dataset("angular_velocity")
 
     def relative_energy_error(self) -> np.ndarray:
-        """(E - E0) / |E0| per record."""
+        """The relative energy error of every record.
+
+        Returns
+        -------
+        ndarray
+            (E - E0) / |E0|, shape (n,).
+        """
         return (self.energy - self.energy[0]) / abs(self.energy[0])
 
     def relative_angular_momentum_error(self) -> np.ndarray:
-        """|L - L0| / |L0| per record."""
+        """The relative angular-momentum error of every record.
+
+        Returns
+        -------
+        ndarray
+            |L - L0| / |L0|, shape (n,).
+        """
         L0 = self.angular_momentum[0]
         return np.linalg.norm(self.angular_momentum - L0, axis=-1) / np.linalg.norm(L0)
 
     def mean_newton_iterations(self) -> float:
-        """Mean Newton iterations per body and sub-step over the whole run (weights: records)."""
+        """Mean Newton iterations per body and sub-step over the run.
+
+        Returns
+        -------
+        float
+            The mean of :attr:`newton_iterations` over the record intervals (each interval
+            weighs the same); 0 with fewer than two records.
+        """
         if len(self.time) < 2:
             return 0.0
         return float(np.mean(self.newton_iterations[1:]))
 
     def elements(self, name: str) -> orbits.OrbitalElements:
-        """Osculating elements of body ``name`` (its centre of mass) at every record."""
+        """Osculating elements of a body's centre of mass at every record.
+
+        Parameters
+        ----------
+        name : str
+            The body.
+
+        Returns
+        -------
+        OrbitalElements
+            Arrays of shape (n,), m and rad (see :mod:`emorbit.orbits`).
+        """
         return orbits.elements(self.positions[name], self.velocities[name], self.gm, self.center)

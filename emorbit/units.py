@@ -46,10 +46,34 @@ def _parse_string(key: str, text: str) -> u.Quantity:
 def to_si(
     value, kind: str, key: str, *, strict: bool = False, positive: bool = False, nonnegative: bool = False
 ) -> float:
-    """Convert one scalar ``value`` of physical ``kind`` (a key of :data:`SI`) to SI.
+    """Convert one scalar value of a physical kind to a float in SI units.
 
-    ``strict``: a plain number (no unit) is an error instead of being read as SI.
-    ``positive`` / ``nonnegative``: the value must be > 0 / >= 0. Non-finite values are errors.
+    Parameters
+    ----------
+    value : Quantity, str or float
+        An astropy Quantity, a string such as ``"3.9478 m3 / s2"``, or a plain number
+        (read as SI unless ``strict``).
+    kind : str
+        A key of :data:`SI` (``"length"``, ``"time"``, ``"gm"``, ...): the unit to convert to.
+    key : str
+        Where the value came from, named in error messages.
+    strict : bool
+        A plain number (no unit) is an error instead of being read as SI.
+    positive : bool
+        The value must be > 0.
+    nonnegative : bool
+        The value must be >= 0.
+
+    Returns
+    -------
+    float
+        The value in the SI unit of ``kind``.
+
+    Raises
+    ------
+    InputError
+        The value has no unit (``strict``), a unit of another kind, is not a scalar, is not
+        finite, or breaks ``positive`` / ``nonnegative``.
     """
     unit = SI[kind]
     shown = repr(value) if not isinstance(value, u.Quantity) else f"'{value}'"  # the value as given
@@ -85,8 +109,29 @@ def to_si(
 
 
 def vector_to_si(value, kind: str, key: str, *, strict: bool = False) -> np.ndarray:
-    """Convert a 3-vector (a Quantity of shape (3,), or a sequence of 3 scalars as accepted by
-    :func:`to_si`) to a float64 array of shape (3,) in SI."""
+    """Convert a 3-vector to a float64 array of shape (3,) in SI units.
+
+    Parameters
+    ----------
+    value : Quantity, ndarray or sequence
+        A Quantity of shape (3,), or three scalars as :func:`to_si` accepts them.
+    kind : str
+        A key of :data:`SI`.
+    key : str
+        Where the value came from; a component's error names ``key[i]``.
+    strict : bool
+        Plain numbers (no unit) are errors instead of being read as SI.
+
+    Returns
+    -------
+    ndarray
+        Shape (3,), in the SI unit of ``kind``.
+
+    Raises
+    ------
+    InputError
+        Not three components, or a component that :func:`to_si` refuses.
+    """
     if isinstance(value, u.Quantity) and not value.isscalar:
         if value.shape != (3,):
             raise InputError(key, f"expected 3 components, got shape {value.shape}")

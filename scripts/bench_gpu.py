@@ -1,4 +1,4 @@
-"""Point-mass ensemble throughput on the GPU against the CPU kernels.
+"""Point-mass ensemble throughput on the GPU against the CPU kernels (``emorbit bench`` has no GPU rows).
 
     python scripts/bench_gpu.py [--points 100000 1000000] [--steps 100] [--json FILE]
 
@@ -6,8 +6,9 @@ Test particles on random orbits (e up to 0.9) around the paper's field, em and l
 order 2, dt = T/1000 of the widest orbit. Rows, in point-steps per second (warm: compiled
 and run once before timing, median of 5):
 
-* cpu reference   emorbit.kernels.pointmass (one thread; the 3-vector Newton reference),
-                  timed on the first 10,000 points (one thread's rate does not depend on n)
+* cpu reference   emorbit.kernels.pointmass.reference (one thread; the 3-vector Newton
+                  reference), timed on the first 10,000 points (one thread's rate does not
+                  depend on n)
 * cpu ensemble    emorbit.kernels.pointmass.packed, all Numba threads (what Simulation uses)
 * gpu chunk       emorbit.kernels.pointmass.cuda.chunk: copies the state in and the records out
 * gpu kernel      the kernel alone on device-resident arrays (NVVM -fma=0, as chunk)

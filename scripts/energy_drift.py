@@ -1,22 +1,24 @@
-"""Round-off drift of the point-mass em step: perturbed copies of the paper's orbit
-(speeds scaled by 1 + 1e-9 N(0, 1)) in one packed ensemble, STEPS steps of T/DIV, several
-seeds. For each seed: the mean of E/E0 - 1 over the copies at the end, per step, and its
-distance from zero in standard errors (z; a random walk gives |z| ~ 1, a drift grows like
-sqrt(steps)). E < 0, so a positive mean means the energy falls. Energies are evaluated
-exactly from the float64 states (emorbit.analysis.relative_energy_change_exact): until
-2026-11-23 they were evaluated in float64, and the rounding of GM / |x0|, the same in every
-copy, offset every mean by -6.7e-17 of E, which over 1e6 steps read as a drift of -6.7e-23
-per step (the "T/1000 drift" of the notes in emorbit/kernels/ensemble.py).
+"""Round-off drift of the point-mass em step: is the energy error a random walk or a drift?
 
     python scripts/energy_drift.py [--roundoff brouwer|fast] [--div 100] [--steps 1000000]
                                    [--members 256] [--seeds 4] [--first-seed 0]
                                    [--kernel packed|reference|gpu] [--contract]
 
-The figures in the notes of emorbit/kernels/ensemble.py come from this measurement (256
-copies, 4 seeds, 1e6 steps: about 20 s per seed on the development machine). ``--kernel``
-picks the kernel: the packed ensemble kernel Simulation uses on the CPU (default), the
-one-point reference kernel of emorbit.kernels.pointmass, or that reference kernel compiled
-for an NVIDIA GPU (emorbit.kernels.pointmass.cuda; without a CUDA device it stops with the reason).
+Perturbed copies of the paper's orbit (speeds scaled by 1 + 1e-9 N(0, 1)) run as one
+ensemble, STEPS steps of T/DIV, for several seeds. For each seed it prints the mean of
+E/E0 - 1 over the copies at the end, per step, and that mean's distance from zero in
+standard errors (z): a random walk gives |z| ~ 1, a drift grows like sqrt(steps). E < 0, so a
+positive mean means the energy falls. Energies are evaluated exactly from the float64 states
+(:func:`emorbit.analysis.relative_energy_change_exact`): in float64, the rounding of
+GM / |x0|, the same in every copy, would offset every mean (by -6.7e-17 of E for the
+paper's orbit) and read as a drift.
+
+``--kernel`` picks the kernel: the packed ensemble kernel a Simulation uses on the CPU
+(default), the one-point reference kernel (:mod:`emorbit.kernels.pointmass.reference`), or
+the per-point step compiled for an NVIDIA GPU (:mod:`emorbit.kernels.pointmass.cuda`;
+without a CUDA device the script says why and exits with status 1). ``--contract`` lets NVVM fuse
+multiply-adds on the GPU. methods.md explains the two roundoff settings;
+tests/test_hardcases.py asserts the same z-test at T/8 and T/30.
 """
 
 from __future__ import annotations
@@ -28,8 +30,7 @@ import numpy as np
 
 from emorbit.analysis import relative_energy_change_exact
 from emorbit.integrators.dispatch import method_code
-from emorbit.kernels.pointmass import packed as ensemble
-from emorbit.kernels.pointmass import reference as pointmass
+from emorbit.kernels.pointmass import packed, reference
 
 GM = 3.9478
 X0 = np.array([10.0, 0.0, 0.0])
@@ -40,7 +41,30 @@ T = 46.4758  # the paper's period, s
 def drift(
     method: int, dt: float, steps: int, members: int, seed: int, kernel: str = "packed", contract: bool = False
 ) -> tuple[float, float, float]:
-    """(mean of E/E0 - 1 per step, z, ns per particle-step) for one seed."""
+    """The drift of one seed's ensemble.
+
+    Parameters
+    ----------
+    method : int
+        A method code (:func:`emorbit.integrators.dispatch.method_code`).
+    dt : float
+        The step, s.
+    steps : int
+        Steps.
+    members : int
+        Copies of the orbit.
+    seed : int
+        Seed of the speed perturbations.
+    kernel : str
+        ``"packed"``, ``"reference"`` or ``"gpu"``.
+    contract : bool
+        With ``"gpu"``: let NVVM fuse multiply-adds.
+
+    Returns
+    -------
+    tuple of float
+        (mean of E/E0 - 1 per step, z, ns per particle-step of wall time).
+    """
     rng = np.random.default_rng(seed)
     x = np.repeat(X0[:, None], members, axis=1)
     v = V0[:, None] * (1.0 + 1e-9 * rng.normal(size=members))[None, :]
@@ -55,9 +79,9 @@ def drift(
 
         cuda.chunk(method, *args, contract=contract)
     elif kernel == "reference":
-        pointmass.implicit_chunk(method, *args)
+        reference.implicit_chunk(method, *args)
     else:
-        ensemble.ensemble_chunk(method, *args)
+        packed.ensemble_chunk(method, *args)
     ns = 1e9 * (time.perf_counter() - t) / (members * steps)
     if (fail[:, 0] >= 0).any():
         raise RuntimeError(f"{int((fail[:, 0] >= 0).sum())} copies failed")

@@ -1,27 +1,20 @@
 """Where the packed ensemble kernel spends its time, loop by loop (Linux, needs ``perf`` and
 ``objdump``).
 
-    python scripts/profile_ensemble.py [--method em] [--seconds 10] [--n 100000] [--steps 50]
-                                       [--annotate FILE]
+    python scripts/profile_ensemble.py [--method em|fast|midpoint|leapfrog] [--seconds 10]
+                                       [--n 100000] [--steps 50] [--top 12] [--annotate FILE]
 
-Runs the one-thread kernel (:func:`emorbit.kernels.pointmass.packed.ensemble_chunk`) on the bench's
-ensemble (T/1000) for ``--seconds`` while ``perf record -e cpu-clock`` samples this process,
-charges every sample to the compiled function of :mod:`emorbit.kernels.pointmass.packed` it falls in
-(the passes are separate functions or inlined into the range kernel, as LLVM decided),
-disassembles those functions from memory, and prints their loops (found as backward jumps)
-with their share of the samples, their instruction count and their divisions and square
-roots (a loop nested in another is listed inside its share too). A sample is charged to the
-instruction after a slow one (skid), so read shares per loop, not per instruction.
-``--annotate`` writes the disassembly with each instruction's share.
-
-Measured on the development machine (2-core AMD EPYC Zen 3, 2026-11-23, em, one thread; the
-passes were all inlined into ``_range_em``): the certified Newton loop 30 % of the samples
-(116 instructions per 4 particles, 2 divisions), the predictor 22 % (51 instructions, 1
-division and 1 square root: about 21 cycles per 4 particles, twice its divider time; moving
-its division into the dot-product loop, or evaluating it with Estrin's scheme and r1**2 as
-a quadratic in W, made no measurable difference), the update 22 % (one loop per state
-buffer, 11 % each), the dot products 8 %, scalar code (loading and storing the blocks,
-records, the resolve pass) about 13 %.
+Runs the one-thread kernel (:func:`emorbit.kernels.pointmass.packed.ensemble_chunk`) on the
+bench's ensemble (:func:`emorbit.bench.common.ensemble_states`, dt = T/1000) for
+``--seconds`` while ``perf record -e cpu-clock`` samples this process, charges every sample
+to the compiled function of :mod:`emorbit.kernels.pointmass.packed` it falls in (the passes
+are separate functions or inlined into the range kernel, as LLVM decides), disassembles
+those functions from memory, and prints the ns per particle-step and, per function, its
+loops (found as backward jumps) with their share of the samples, their instruction count
+and their divisions, square roots and packed (ymm) instructions; a loop nested in another
+is counted in its share too. A sample is charged to the instruction after a slow one
+(skid), so read shares per loop, not per instruction. ``--annotate`` writes the
+disassembly with each instruction's share.
 """
 
 from __future__ import annotations

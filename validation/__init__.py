@@ -1,16 +1,19 @@
 """emorbit's validation suite: emorbit against REBOUND (IAS15, WHFast), astropy's constants
 and units, and the analytic Kepler solution, with a report a reviewer can read.
 
-Run it with ``emorbit validate [--quick] --report DIR`` or from Python::
+The repository's ``validation/`` folder is installed as ``emorbit.validation`` (never as a
+top-level module ``validation``, which any file of that name in the working folder would
+shadow). Run it with ``emorbit validate [--quick] --report DIR`` or from Python::
 
-    from validation import run_suite
+    from emorbit.validation import run_suite
     suite = run_suite("report-dir", quick=True)
     assert suite["passed"]
 
 Modules: :mod:`.cases` (initial conditions, steps, run lengths), :mod:`.runs` (emorbit,
 REBOUND and Kepler trajectories on shared record times), :mod:`.checks` (tolerances with
 units and reasons), :mod:`.runner` (one case: runs, checks, convergence study),
-:mod:`.figures`, :mod:`.report` (Markdown and JSON), :mod:`.suite`, :mod:`.cli`.
+:mod:`.brouwer` (round-off over many steps, full suite), :mod:`.figures`, :mod:`.report`
+(Markdown and JSON), :mod:`.suite` (the whole suite), :mod:`.cli` (``emorbit validate``).
 """
 
 from .cases import case_names, get_cases

@@ -53,7 +53,24 @@ def _slope(n, rms, lo):
 
 
 def run_brouwer(mode: str, outdir: str, *, scale: float = 1.0, figures: bool = True) -> CaseOutcome:
-    """Run the study in ``mode`` and return its outcome (checks, metrics, figure)."""
+    """Run the Brouwer study and return its outcome.
+
+    Parameters
+    ----------
+    mode : str
+        ``"quick"`` or ``"full"`` (:data:`SIZES`).
+    outdir : str
+        Folder for the figure.
+    scale : float
+        Multiplies every tolerance.
+    figures : bool
+        Draw ``brouwer.png``.
+
+    Returns
+    -------
+    CaseOutcome
+        Its checks (slope of the RMS and mean over RMS at T/100 and T/1000), metrics and figure.
+    """
     steps, records, members = SIZES[mode]
     start = time.perf_counter()
     checks, metrics, series = [], {}, {}

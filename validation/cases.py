@@ -31,14 +31,42 @@ HIGH_ORDER_REFINEMENT = 4
 
 
 def periapsis_timescale(e: float) -> float:
-    """tau_p / T: the time a body needs to cross its periapsis distance there, r_p / v_p,
-    as a fraction of the period: (1 - e)^1.5 / (2 pi sqrt(1 + e))."""
+    """The periapsis time-scale as a fraction of the period.
+
+    tau_p = r_p / v_p, the time a body needs to cross its periapsis distance there:
+    tau_p / T = (1 - e)^1.5 / (2 pi sqrt(1 + e)).
+
+    Parameters
+    ----------
+    e : float
+        Eccentricity, 0 <= e < 1.
+
+    Returns
+    -------
+    float
+        tau_p / T.
+    """
     return (1.0 - e) ** 1.5 / (2.0 * math.pi * math.sqrt(1.0 + e))
 
 
 def steps_per_orbit(e: float, records: int) -> int:
-    """Steps per period for order 2: the paper's T/100 scaled to the same steps per periapsis
-    time-scale, at least 100, rounded up to a multiple of ``records``."""
+    """Steps per period at order 2, by the suite's resolution rule.
+
+    The paper's T/100 scaled to the same steps per periapsis time-scale, at least 100,
+    rounded up to a multiple of ``records``.
+
+    Parameters
+    ----------
+    e : float
+        Eccentricity.
+    records : int
+        Records per period.
+
+    Returns
+    -------
+    int
+        Steps per period.
+    """
     n = max(float(BASE_STEPS), BASE_STEPS * periapsis_timescale(2.0 / 3.0) / periapsis_timescale(e))
     return int(math.ceil(n / records - 1e-9) * records)
 
@@ -47,16 +75,36 @@ def steps_per_orbit(e: float, records: int) -> int:
 class Case:
     """One validation case: test particles around a fixed point mass.
 
-    gm            GM in m^3/s^2;  center: the field's centre in m
-    x0, v0        (n, 3) initial positions (m) and velocities (m/s)
-    period        the period (s) that sets the steps: dt = period / steps (order 2)
-    steps         steps per ``period`` at order 2 (orders 4-8: HIGH_ORDER_REFINEMENT times more)
-    records       records per ``period`` (all runs and references share these times)
-    orbits        {"quick": n, "full": n} periods run at order 2 (and by the references)
-    orbits_high   the same for orders 4, 6, 8
-    convergence   modes in which the order-of-convergence study runs
-    target_period an independent period (s) the simulated one must reproduce, and its source
-    params        human-readable parameters for the report (strings with units)
+    Attributes
+    ----------
+    name, title, description : str
+        How the report names and describes it.
+    gm : float
+        GM, m^3/s^2.
+    center : ndarray
+        The field's centre (3,), m.
+    x0, v0 : ndarray
+        (n, 3) initial positions (m) and velocities (m/s).
+    period : float
+        The period that sets the steps, s: dt = period / steps at order 2.
+    steps : int
+        Steps per ``period`` at order 2 (orders 4-8: HIGH_ORDER_REFINEMENT times more).
+    records : int
+        Records per ``period`` (all runs and references share these times).
+    orbits : dict
+        {"quick": n, "full": n}: periods run at order 2 and by the references.
+    orbits_high : dict
+        The same for orders 4, 6, 8.
+    convergence : tuple of str
+        Modes in which the order-of-convergence study runs.
+    target_period : tuple or None
+        An independent period (s) the simulated one must reproduce, and its source.
+    params : dict
+        Human-readable parameters for the report (strings with units).
+    field_body : str or None
+        A named central body (GM from astropy), or None.
+    offset_study : tuple
+        Other centres (m) at which em 2's and IAS15's energy errors are also measured.
     """
 
     name: str
@@ -80,20 +128,42 @@ class Case:
 
     @property
     def n(self) -> int:
+        """The number of particles."""
         return len(self.x0)
 
     @property
     def names(self) -> list[str]:
+        """The particles' body names."""
         return ["satellite"] if self.n == 1 else [f"p{i:04d}" for i in range(self.n)]
 
     def initial_elements(self) -> orbits.OrbitalElements:
+        """The osculating elements of the initial states.
+
+        Returns
+        -------
+        OrbitalElements
+            Arrays over the particles, m and rad.
+        """
         return orbits.elements(self.x0, self.v0, self.gm, self.center)
 
     def semi_major_axes(self) -> np.ndarray:
-        """(n,) semi-major axes in m (errors in position are reported in units of these)."""
+        """The particles' semi-major axes: position errors are reported in units of these.
+
+        Returns
+        -------
+        ndarray
+            (n,), m.
+        """
         return np.asarray(orbits.semi_major_axis(self.x0, self.v0, self.gm, self.center), float)
 
     def kepler_periods(self) -> np.ndarray:
+        """The particles' Kepler periods.
+
+        Returns
+        -------
+        ndarray
+            (n,), s.
+        """
         return np.asarray(orbits.kepler_period(self.semi_major_axes(), self.gm), float)
 
 
@@ -391,12 +461,31 @@ CASES = ("paper", *(f[0] for f in _FAMILY), "earth-leo", "earth-molniya", "earth
 
 
 def case_names() -> tuple[str, ...]:
-    """Names of every case, in the order they run."""
+    """The names of every case, in the order they run.
+
+    Returns
+    -------
+    tuple of str
+        The names.
+    """
     return CASES
 
 
 def get_cases(mode: str, names=None) -> list[Case]:
-    """The cases for ``mode`` ("quick" or "full"), all or those in ``names`` (in suite order)."""
+    """The cases of a mode, all or some.
+
+    Parameters
+    ----------
+    mode : str
+        ``"quick"`` or ``"full"`` (run lengths and ensemble sizes differ).
+    names : iterable of str, optional
+        Only these cases (in suite order); default: all.
+
+    Returns
+    -------
+    list of Case
+        The cases.
+    """
     table = _all_cases(mode)
     wanted = CASES if names is None else [n for n in CASES if n in set(names)]
     return [table[n] for n in wanted]

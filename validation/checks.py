@@ -36,18 +36,18 @@ __all__ = [
 
 EPS = float(np.finfo(float).eps)
 
-#: relative energy error |E - E0| / |E0| that em at order 2 must keep wherever IAS15 keeps it (issue 3)
+#: relative energy error |E - E0| / |E0| that em at order 2 must keep wherever IAS15 keeps it
 ENERGY_ORDER2 = 1e-12
-#: relative energy error for em at orders 4-8 (issue 3: a plain composition reached 3e-11
-#: after 6e5 sub-steps; compensated summation must bring it below this), and for order 2
+#: relative energy error for em at orders 4-8 (exact up to round-off; the compensated (Kahan)
+#: update of the state keeps the round-off of many sub-steps below this), and for order 2
 #: where IAS15 itself exceeds ENERGY_ORDER2
 ENERGY_HIGH = 1e-11
 #: |L - L0| / |L0| for em (and for midpoint and leapfrog, which apply central forces only);
 #: 1e-12 leaves Brouwer's round-off walk (eps sqrt(steps), ~3e-13 after 1e6 steps) a margin
 ANGULAR_MOMENTUM = 1e-12
 #: position error in units of a per orbit for em at order 8 on the high-order step (the
-#: paper's T/400, the same steps per periapsis time-scale for every orbit): issue 3 asks for
-#: < 1e-7 a after 100 orbits; a phase error grows linearly in time, hence per orbit
+#: paper's T/400, the same steps per periapsis time-scale for every orbit): the suite's
+#: target is < 1e-7 a after 100 orbits; a phase error grows linearly in time, hence per orbit
 POSITION_PER_ORBIT = 1e-9
 #: a referee (IAS15, WHFast) may use at most this fraction of the tolerance it referees, so
 #: its own error cannot decide a check
@@ -70,7 +70,31 @@ CIRCULAR = 0.01
 
 @dataclass
 class Check:
-    """One comparison: ``value`` (a deviation >= 0) against ``tolerance`` (after scaling)."""
+    """One comparison: a measured deviation against a tolerance, with its unit and reason.
+
+    It passes when ``value`` is finite and at most ``tolerance``.
+
+    Attributes
+    ----------
+    id : str
+        A short name, unique in the case.
+    what : str
+        What is measured.
+    against : str
+        What it is compared with.
+    value : float
+        The measured deviation (>= 0).
+    tolerance : float
+        The tolerance, after scaling.
+    unit : str
+        The unit of both.
+    reason : str
+        Why the tolerance has its size.
+    detail : str
+        Further measurements for the report.
+    passed : bool
+        Set from value and tolerance.
+    """
 
     id: str
     what: str
@@ -93,6 +117,13 @@ class Check:
         return math.inf if self.value == 0 else self.tolerance / self.value
 
     def to_dict(self) -> dict:
+        """The check as a JSON-ready dict, with its margin (None for an infinite one).
+
+        Returns
+        -------
+        dict
+            The fields and ``margin``.
+        """
         d = asdict(self)
         d["margin"] = None if math.isinf(self.margin) else self.margin
         return d
@@ -100,7 +131,19 @@ class Check:
 
 @dataclass
 class Period:
-    """A period measured from event passages: slope of passage times against their number."""
+    """A period measured from event passages: the slope of passage times against their number.
+
+    Attributes
+    ----------
+    value : float
+        The period, s.
+    sigma : float
+        The standard error of the slope, s (nan with fewer than 4 events).
+    events : int
+        Passages used.
+    kind : str
+        ``"apses"`` or ``"crossings"``.
+    """
 
     value: float  # s
     sigma: float  # standard error of the slope, s
@@ -109,10 +152,35 @@ class Period:
 
 
 def measure_period(t, x, v, gm, center, kind: str) -> Period:
-    """The period of one particle's recorded orbit from apoapsis passages (``kind="apses"``,
-    :func:`emorbit.analysis.period_from_apses`) or from crossings of the half-plane through
-    the start (``"crossings"``, :func:`emorbit.analysis.period_from_crossings`), with the
-    standard error of the least-squares slope."""
+    """The period of one particle's recorded orbit, with the standard error of the fit.
+
+    From apoapsis passages (``kind="apses"``, :func:`emorbit.analysis.period_from_apses`) or
+    from crossings of the half-plane through the start (``"crossings"``,
+    :func:`emorbit.analysis.period_from_crossings`).
+
+    Parameters
+    ----------
+    t : array_like
+        Record times (m,), s.
+    x, v : array_like
+        Positions and velocities (m, 3), m and m/s.
+    gm : float
+        GM, m^3/s^2.
+    center : array_like
+        The centre, m.
+    kind : str
+        ``"apses"`` or ``"crossings"``.
+
+    Returns
+    -------
+    Period
+        The period and its standard error.
+
+    Raises
+    ------
+    ValueError
+        An unknown kind, or fewer than two events.
+    """
     if kind == "apses":
         value, n = analysis.period_from_apses(t, x, v, gm, center)
         times = analysis.apse_times(t, x, v, gm, center)
@@ -131,15 +199,53 @@ def measure_period(t, x, v, gm, center, kind: str) -> Period:
 
 
 def richardson(value_h: float, value_other: float, ratio: float, order: int) -> float:
-    """The discretisation error of ``value_h`` (step h) estimated from a second value at step
-    ``ratio * h``, for an error C h^order: (v_h - v_other) / (1 - ratio^order)."""
+    """The discretisation error of a value, estimated from a second value at another step.
+
+    For an error C h^order: (v_h - v_other) / (1 - ratio^order).
+
+    Parameters
+    ----------
+    value_h : float
+        The value at step h.
+    value_other : float
+        The value at step ``ratio * h``.
+    ratio : float
+        The ratio of the steps.
+    order : int
+        The order of the error.
+
+    Returns
+    -------
+    float
+        The estimated error of ``value_h``.
+    """
     return (value_h - value_other) / (1.0 - ratio**order)
 
 
 def fit_slope(n_steps, errors, lo: float, hi: float, finest: int = 3):
-    """Order of convergence: minus the slope of log(error) against log(steps per orbit),
-    fitted to the ``finest`` smallest steps whose errors lie in [lo, hi] (the most
-    asymptotic points above round-off). Returns (slope, points used); nan with fewer than 3."""
+    """The order of convergence: minus the slope of log(error) against log(steps per orbit).
+
+    It is fitted to the ``finest`` smallest steps whose errors lie in [lo, hi], the most
+    asymptotic points above round-off.
+
+    Parameters
+    ----------
+    n_steps : array_like
+        Steps per orbit, ascending.
+    errors : array_like
+        The errors at those steps.
+    lo, hi : float
+        The window of errors that may be used.
+    finest : int
+        How many of the finest usable points to fit.
+
+    Returns
+    -------
+    slope : float
+        The order (nan with fewer than 3 points).
+    used : int
+        Points used.
+    """
     n = np.asarray(n_steps, float)
     e = np.asarray(errors, float)
     ok = np.flatnonzero(np.isfinite(e) & (e >= lo) & (e <= hi))[-finest:]
@@ -149,5 +255,16 @@ def fit_slope(n_steps, errors, lo: float, hi: float, finest: int = 3):
 
 
 def wrap(angle):
-    """Angle differences folded into [-pi, pi)."""
+    """Angle differences folded into [-pi, pi).
+
+    Parameters
+    ----------
+    angle : array_like
+        rad.
+
+    Returns
+    -------
+    ndarray
+        rad.
+    """
     return np.mod(np.asarray(angle, float) + np.pi, 2 * np.pi) - np.pi

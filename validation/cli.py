@@ -22,8 +22,15 @@ REPORT_FILES = ("report.md", "results.json")
 
 
 def add_arguments(parser) -> None:
+    """Add ``emorbit validate``'s options to its sub-command parser.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The parser of the ``validate`` sub-command.
+    """
     parser.add_argument(
-        "--quick", action="store_true", help="the quick suite (under 2 minutes on 2 cores); default: the full suite"
+        "--quick", action="store_true", help="the quick suite (fewer orbits and particles); default: the full suite"
     )
     parser.add_argument(
         "--report",
@@ -73,6 +80,23 @@ def _report_dir(path: str, overwrite: bool) -> str:
 
 
 def run(args) -> int:
+    """Run ``emorbit validate`` with parsed arguments.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        0 every check passed, 1 a check failed.
+
+    Raises
+    ------
+    InputError
+        Bad options or a report folder that holds a report (exit code 2).
+    """
     if args.list:
         for name in case_names():
             print(name)

@@ -38,7 +38,20 @@ def _worst(y):
 
 
 def case_figures(run, outdir: str) -> list[str]:
-    """Write the figures of a finished case run; returns their file names (in ``outdir``)."""
+    """Write the figures of a finished case run.
+
+    Parameters
+    ----------
+    run : object
+        The case run (the runner's internal record of runs, checks and convergence study).
+    outdir : str
+        The report folder.
+
+    Returns
+    -------
+    list of str
+        The figures' file names, in ``outdir``.
+    """
     plt = _plt()
     c = run.case
     named = run.named

@@ -24,7 +24,20 @@ def _clean(obj):
 
 
 def write_json(suite: dict, outdir: str) -> list[str]:
-    """results.json and one file per case; returns the file names."""
+    """Write ``results.json`` (everything) and one ``<case>.json`` per case.
+
+    Parameters
+    ----------
+    suite : dict
+        What :func:`emorbit.validation.run_suite` assembles.
+    outdir : str
+        The report folder.
+
+    Returns
+    -------
+    list of str
+        The file names written.
+    """
     names = ["results.json"]
     with open(os.path.join(outdir, "results.json"), "w") as f:
         json.dump(_clean(suite), f, indent=1)
@@ -55,7 +68,20 @@ def _esc(text: str) -> str:
 
 
 def write_markdown(suite: dict, outdir: str) -> str:
-    """Write report.md; returns its path."""
+    """Write ``report.md``: a summary table, then each case's checks, runs and figures.
+
+    Parameters
+    ----------
+    suite : dict
+        What :func:`emorbit.validation.run_suite` assembles.
+    outdir : str
+        The report folder.
+
+    Returns
+    -------
+    str
+        The path of ``report.md``.
+    """
     env = suite["environment"]
     lines = [
         "# emorbit validation report",

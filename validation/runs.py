@@ -25,9 +25,20 @@ __all__ = ["Trajectory", "run_emorbit", "run_rebound", "analytic", "record_times
 
 @dataclass
 class Trajectory:
-    """States of all of a case's particles at the record times.
+    """The states of all of a case's particles at the record times.
 
-    t (m,) s; x, v (m, n, 3) in m and m/s; label names the method; wall in s.
+    Attributes
+    ----------
+    label : str
+        The run's name (method, order, step).
+    t : ndarray
+        (m,) record times, s.
+    x, v : ndarray
+        (m, n, 3) positions (m) and velocities (m/s).
+    wall : float
+        Wall time of the run, s.
+    info : dict
+        The run's settings and counts (method, order, dt_s, steps, ...).
     """
 
     label: str
@@ -38,46 +49,152 @@ class Trajectory:
     info: dict = field(default_factory=dict)
 
     def head(self, m: int) -> Trajectory:
-        """The first ``m`` records."""
+        """The first records.
+
+        Parameters
+        ----------
+        m : int
+            How many.
+
+        Returns
+        -------
+        Trajectory
+            The first ``m`` records.
+        """
         return Trajectory(self.label, self.t[:m], self.x[:m], self.v[:m], self.wall, self.info)
 
     # -- invariants per particle ---------------------------------------------------------
     def energy(self, case: Case) -> np.ndarray:
-        """Specific energy v^2/2 - GM/r per record and particle (m, n), J/kg."""
+        """The specific energy v^2/2 - GM/r per record and particle.
+
+        Parameters
+        ----------
+        case : Case
+            The case (GM and centre).
+
+        Returns
+        -------
+        ndarray
+            (m, n), J/kg.
+        """
         ones = np.ones(1)
         return invariants.energy(ones, self.x[..., None], self.v[..., None], case.gm, case.center)
 
     def rel_energy_error(self, case: Case) -> np.ndarray:
-        """|E - E0| / |E0| per record and particle (m, n)."""
+        """The relative energy error |E - E0| / |E0| per record and particle.
+
+        Parameters
+        ----------
+        case : Case
+            The case (GM and centre).
+
+        Returns
+        -------
+        ndarray
+            (m, n).
+        """
         e = self.energy(case)
         return np.abs(e - e[0]) / np.abs(e[0])
 
     def angular_momentum(self, case: Case) -> np.ndarray:
-        """Specific angular momentum about the centre (m, n, 3), m^2/s."""
+        """The specific angular momentum about the centre per record and particle.
+
+        Parameters
+        ----------
+        case : Case
+            The case (GM and centre).
+
+        Returns
+        -------
+        ndarray
+            (m, n, 3), m^2/s.
+        """
         return np.cross(self.x - case.center, self.v)
 
     def rel_angular_momentum_error(self, case: Case) -> np.ndarray:
-        """|L - L0| / |L0| per record and particle (m, n)."""
+        """The relative angular-momentum error |L - L0| / |L0| per record and particle.
+
+        Parameters
+        ----------
+        case : Case
+            The case (GM and centre).
+
+        Returns
+        -------
+        ndarray
+            (m, n).
+        """
         L = self.angular_momentum(case)
         return np.linalg.norm(L - L[0], axis=-1) / np.linalg.norm(L[0], axis=-1)
 
     def plane_tilt(self, case: Case) -> np.ndarray:
-        """Angle (rad) between the orbit normal L/|L| now and at the start, (m, n); well
-        conditioned at every inclination, unlike i and Omega."""
+        """The angle between the orbit normal L/|L| now and at the start.
+
+        Well conditioned at every inclination, unlike i and Omega.
+
+        Parameters
+        ----------
+        case : Case
+            The case (its centre).
+
+        Returns
+        -------
+        ndarray
+            (m, n), rad.
+        """
         L = self.angular_momentum(case)
         return np.arctan2(np.linalg.norm(np.cross(L[0], L), axis=-1), np.einsum("...k,...k->...", L[0], L))
 
     def elements(self, case: Case) -> orbits.OrbitalElements:
+        """The osculating elements per record and particle.
+
+        Parameters
+        ----------
+        case : Case
+            The case (GM and centre).
+
+        Returns
+        -------
+        OrbitalElements
+            (m, n), m and rad.
+        """
         return orbits.elements(self.x, self.v, case.gm, case.center)
 
     def position_error(self, other: Trajectory, a: np.ndarray) -> np.ndarray:
-        """|x - x_other| / a per record and particle (m, n) (records must coincide)."""
+        """The distance to another trajectory in units of a, per record and particle.
+
+        Parameters
+        ----------
+        other : Trajectory
+            Recorded at the same times (the shorter length is used).
+        a : ndarray
+            (n,) semi-major axes, m.
+
+        Returns
+        -------
+        ndarray
+            |x - x_other| / a, shape (m, n).
+        """
         m = min(len(self.t), len(other.t))
         return np.linalg.norm(self.x[:m] - other.x[:m], axis=-1) / a
 
 
 def record_times(case: Case, orbits_: int) -> np.ndarray:
-    """The shared record times (s), start included: k * period / records."""
+    """The record times the runs and references share, start included.
+
+    Parameters
+    ----------
+    case : Case
+        The case.
+    orbits_ : int
+        Periods.
+
+    Returns
+    -------
+    ndarray
+        k * period / records for k = 0 .. orbits_ * records, s (computed as steps * dt, as
+        emorbit counts time).
+    """
     n = orbits_ * case.records
     every = case.steps // case.records
     dt = case.period / case.steps
@@ -95,9 +212,37 @@ def run_emorbit(
     output=None,
     label: str | None = None,
 ) -> Trajectory:
-    """emorbit through its public API (astropy quantities at the edge): ``method`` at
-    ``order`` with dt = period / steps_per_period for ``periods`` periods, recording every
-    ``every`` steps. Raises :class:`emorbit.IntegrationError` if a step fails."""
+    """Run emorbit through its public API, astropy quantities at the edge.
+
+    Parameters
+    ----------
+    case : Case
+        The case.
+    method : str
+        A name of :data:`emorbit.METHODS`.
+    order : int
+        The composition's order.
+    steps_per_period : int
+        dt = period / steps_per_period.
+    periods : int
+        Periods to run.
+    every : int
+        Steps between records.
+    output : str, optional
+        An HDF5 file to write.
+    label : str, optional
+        The trajectory's label.
+
+    Returns
+    -------
+    Trajectory
+        The records, with the run's settings, Newton iterations and cost in ``info``.
+
+    Raises
+    ------
+    IntegrationError
+        A step failed.
+    """
     dt = case.period / steps_per_period
     field_ = (
         emorbit.CentralField(body=case.field_body)
@@ -136,12 +281,28 @@ def run_emorbit(
 
 
 def run_rebound(case: Case, integrator: str, times: np.ndarray) -> Trajectory:
-    """REBOUND with its default settings for ``integrator`` ("ias15": adaptive, epsilon 1e-9,
-    PRS23 step control; "whfast": fixed step = the record interval, Jacobi coordinates, safe
-    mode), sampled at ``times``. IAS15 lands on each exactly (exact_finish_time). WHFast takes
-    one step per record; its record time is k * dt, not ``sim.t``: REBOUND advances its clock
-    by adding dt, whose rounding reaches ~1e-7 s after 5e4 steps of 0.9 s (measured), a
-    position error of 1e-8 a that is the clock's, not the integrator's."""
+    """Run REBOUND with its default settings for an integrator, sampled at given times.
+
+    IAS15 (adaptive, epsilon 1e-9) lands on each time exactly (``exact_finish_time``). WHFast
+    (Jacobi coordinates, safe mode) takes one step per record interval; its record time is
+    k * dt, not ``sim.t``: REBOUND advances its clock by adding dt, whose rounding grows with
+    the steps, an error of the clock and not of the integrator.
+
+    Parameters
+    ----------
+    case : Case
+        The case.
+    integrator : str
+        ``"ias15"`` or ``"whfast"``.
+    times : ndarray
+        Record times, s.
+
+    Returns
+    -------
+    Trajectory
+        The records; ``info`` holds the steps, the central body's displacement and, for
+        WHFast, the clock's drift.
+    """
     import rebound
 
     sim = rebound.Simulation()
@@ -185,8 +346,23 @@ def run_rebound(case: Case, integrator: str, times: np.ndarray) -> Trajectory:
 
 
 def analytic(case: Case, times: np.ndarray) -> Trajectory:
-    """The exact Kepler motion of every particle at ``times`` (emorbit.orbits.propagate:
-    universal variables, Kepler's equation solved by Newton to round-off)."""
+    """The exact Kepler motion of every particle at given times.
+
+    By :func:`emorbit.orbits.propagate` (universal variables, Kepler's equation solved by
+    Newton's method to round-off).
+
+    Parameters
+    ----------
+    case : Case
+        The case.
+    times : array_like
+        Times, s.
+
+    Returns
+    -------
+    Trajectory
+        Labelled ``"Kepler"``.
+    """
     start = time.perf_counter()
     x, v = orbits.propagate(case.x0[None], case.v0[None], case.gm, np.asarray(times, float)[:, None], case.center)
     return Trajectory("Kepler", np.asarray(times, float), x, v, time.perf_counter() - start)

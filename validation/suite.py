@@ -26,7 +26,13 @@ def _cpu() -> str:
 
 
 def environment() -> dict:
-    """Machine and versions, for the report."""
+    """The machine and the package versions, for the report.
+
+    Returns
+    -------
+    dict
+        ``machine`` (CPU, cores, OS) and ``versions``.
+    """
     import astropy
     import matplotlib
     import numba
@@ -50,10 +56,30 @@ def environment() -> dict:
 
 
 def run_suite(outdir: str, *, quick: bool = False, names=None, scale: float = 1.0, log=None) -> dict:
-    """Run the cases (all, or ``names``) in quick or full mode, write ``outdir``/report.md,
-    results.json, <case>.json and the figures; return the suite's results. ``scale``
-    multiplies every tolerance (1 = as stated; < 1 tightens them, e.g. to see a check fail).
-    ``log`` receives one line per finished case."""
+    """Run the validation suite and write its report.
+
+    Writes ``report.md``, ``results.json``, one ``<case>.json`` per case and the figures into
+    ``outdir``. The full suite adds the Brouwer study of round-off over many steps.
+
+    Parameters
+    ----------
+    outdir : str
+        The report folder (created if missing).
+    quick : bool
+        The quick suite instead of the full one.
+    names : iterable of str, optional
+        Only these cases (and ``"brouwer"``); default: all.
+    scale : float
+        Multiplies every tolerance (1 as stated; < 1 tightens them, e.g. to see a check fail).
+    log : callable, optional
+        Receives one line per finished case and one per failed check.
+
+    Returns
+    -------
+    dict
+        ``mode``, ``tolerance_scale``, ``created``, ``environment``, ``wall_s``,
+        ``checks_total``, ``checks_passed``, ``passed`` and ``cases`` (each a CaseOutcome).
+    """
     mode = "quick" if quick else "full"
     os.makedirs(outdir, exist_ok=True)
     start = time.perf_counter()

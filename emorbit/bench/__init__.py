@@ -4,7 +4,7 @@ installed) in one process, on the machine it runs on.
 Sections (``--only`` / ``--skip`` pick them):
 
 single          the paper's orbit at dt = T/100: ns per step of em, midpoint and leapfrog at
-                orders 2-8, and of REBOUND's leapfrog, WHFast and IAS15
+                orders 2-8, and of REBOUND's leapfrog, WHFast and IAS15 (:mod:`.single`)
 ensemble        1e5 test particles (a in [5, 10] m, e in [0, 0.9], random planes and
                 time-uniform phases, GM = 3.9478, dt = T/1000 of a 6 m orbit): particle-steps
                 per second of em on one thread and on all threads, against REBOUND's leapfrog
@@ -12,35 +12,45 @@ ensemble        1e5 test particles (a in [5, 10] m, e in [0, 0.9], random planes
                 division and square-root throughput measured in the same run, and the floor
                 of the kernel's state (the most of that bound any kernel keeping it can
                 reach); and a point-mass scene's throughput against the bare kernel's
-work-precision   final position error (against the analytic Kepler solution) and max energy
+                (:mod:`.ensemble`, :mod:`.limits`)
+work-precision  final position error (against the analytic Kepler solution) and max energy
                 error against CPU time over 100 orbits, for the paper's orbit and an e = 0.9
                 orbit: every method and order at several dt, REBOUND IAS15 at several epsilons,
                 WHFast and leapfrog, heyoka's Taylor integrator at tolerances 1e-6 ... eps
+                (:mod:`.workprecision`)
 startup         wall time of ``emorbit run paper-ellipse`` with an empty Numba cache (cold)
-                and with it filled (warm)
+                and with it filled (warm) (:mod:`.startup`)
 rigid           the rigid-body rows of :mod:`emorbit.bench.rigid`
 elastic         the elastic-body rows of :mod:`emorbit.bench.elastic` (cost per step against
                 degrees of freedom, up to a 10,000-DOF beam)
 
-Ratios are always taken within the run. The JSON (``--json``) records the CPU model, the
-core count, the load average and package versions beside every figure; ``--plots DIR``
-writes the work-precision figures. Only this module is imported to build the command
-line; the sections import what they need when they run.
+Ratios are always taken within the run, and the targets are ratios (:mod:`.runner`). The
+JSON (``--json``) records the CPU model, the core count, the load average and package
+versions beside every figure; ``--plots DIR`` writes the work-precision figures. How it
+times is :mod:`.timing`; what the sections share is :mod:`.common`. Only this module is
+imported to build the command line; the sections import what they need when they run.
 """
 
 from __future__ import annotations
 
+#: the sections, in the order they run
 SECTIONS = ("single", "ensemble", "work-precision", "startup", "rigid", "elastic")
 
 __all__ = ["SECTIONS", "add_arguments", "run"]
 
 
 def add_arguments(parser) -> None:
+    """Add ``emorbit bench``'s options to its sub-command parser.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The parser of the ``bench`` sub-command.
+    """
     parser.add_argument(
         "--quick",
         action="store_true",
-        help="fewer repeats and step sizes (1.5 min on two cores with Numba's cache filled, 2.5 min "
-        "when every kernel compiles first)",
+        help="fewer repeats and step sizes: a shorter, noisier run",
     )
     parser.add_argument("--json", metavar="FILE", help="write every figure, with the machine, as JSON")
     parser.add_argument("--plots", metavar="DIR", help="write the work-precision figures (PNG) into DIR")
@@ -57,6 +67,18 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
+    """Run ``emorbit bench`` with parsed arguments.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        The exit code (0).
+    """
     from .runner import run_bench
 
     sections = [s for s in (args.only or SECTIONS) if s not in args.skip]

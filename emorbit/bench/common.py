@@ -1,9 +1,12 @@
-"""What the bench sections share: configurations, the cases, and runners for emorbit and
-REBOUND that take ``n`` steps and return (wall, CPU) seconds.
+"""What the point-mass sections of the bench share: configurations, the cases, and runners
+for emorbit and REBOUND that take ``n`` steps and return (wall, CPU) seconds.
 
-Timing is :mod:`emorbit.bench.rigid`'s: a warm-up call, calls calibrated to a fixed length,
-engines of one comparison interleaved repeat by repeat, medians; ratios are medians of the
-per-repeat ratios, so that load from other processes hits both sides.
+The runners are timed by :mod:`emorbit.bench.timing`: a warm-up call, calls calibrated to a
+fixed length, the engines of one comparison interleaved repeat by repeat, medians; ratios
+are medians of the per-repeat ratios, so that load from other processes hits both sides.
+The cases: the paper's orbit (GM = 3.9478 m^3/s^2, from aphelion r = 10 m at 0.36276 m/s,
+dt = T/100) and an ensemble of test particles (:func:`ensemble_states`, dt = T/1000 of a
+6 m orbit).
 """
 
 from __future__ import annotations
@@ -18,6 +21,28 @@ from ..integrators import coefficients, dispatch
 from ..orbits import kepler_period, semi_major_axis, solve_kepler, state_from_elements
 from .timing import clock, package_version, since
 
+__all__ = [
+    "GM",
+    "PAPER_X0",
+    "PAPER_V0",
+    "PAPER_DT",
+    "ENSEMBLE_DT",
+    "Config",
+    "CONFIGS",
+    "ensemble_states",
+    "aphelion_state",
+    "period",
+    "energies",
+    "point_masses",
+    "EmorbitRunner",
+    "KernelRunner",
+    "rebound_sim",
+    "rebound_state",
+    "ReboundRunner",
+    "versions",
+    "numba_threads",
+]
+
 #: the paper's orbit (Goettlicher & Schweizerhof): GM, start at aphelion
 GM = 3.9478
 PAPER_X0 = np.array([10.0, 0.0, 0.0])
@@ -30,6 +55,8 @@ ENSEMBLE_DT = 2 * math.pi * math.sqrt(6.0**3 / GM) / 1000
 
 @dataclass(frozen=True)
 class Config:
+    """How long and how often the point-mass sections measure (see :data:`CONFIGS`)."""
+
     repeat_s: float  # wall time aimed at per timed call
     repeats: int
     ensemble_n: int  # test particles
@@ -43,6 +70,7 @@ class Config:
     adaptive_eta: tuple = (0.02, 0.01, 0.005, 0.0025, 0.00125)  # steps per Kepler time scale
 
 
+#: "full", "quick" (``emorbit bench --quick``) and "tiny"
 CONFIGS = {
     "full": Config(
         repeat_s=0.2,
@@ -85,9 +113,23 @@ CONFIGS = {
 
 
 def ensemble_states(n: int, seed: int = 1):
-    """(3, n) positions and velocities: a uniform in [5, 10] m, e uniform in [0, 0.9], planes
-    isotropic (cos i uniform, node and argument of pericentre uniform), time-uniform phase
-    (mean anomaly uniform)."""
+    """The bench's ensemble of test particles around GM = 3.9478 m^3/s^2.
+
+    a uniform in [5, 10] m, e uniform in [0, 0.9], isotropic planes (cos i, node and argument
+    of pericentre uniform), time-uniform phases (mean anomaly uniform).
+
+    Parameters
+    ----------
+    n : int
+        Number of particles.
+    seed : int
+        Seed of numpy's default generator.
+
+    Returns
+    -------
+    x, v : ndarray
+        (3, n) positions (m) and velocities (m/s), C-contiguous.
+    """
     rng = np.random.default_rng(seed)
     a = rng.uniform(5.0, 10.0, n)
     e = rng.uniform(0.0, 0.9, n)
@@ -100,23 +142,69 @@ def ensemble_states(n: int, seed: int = 1):
 
 
 def aphelion_state(a: float, e: float):
-    """Start at aphelion on the x axis, moving along +y: (x0, v0)."""
+    """The state at aphelion on the x axis, moving along +y, of an orbit around GM.
+
+    Parameters
+    ----------
+    a : float
+        Semi-major axis, m.
+    e : float
+        Eccentricity.
+
+    Returns
+    -------
+    x0, v0 : ndarray
+        (3,) position (m) and velocity (m/s).
+    """
     ra = a * (1 + e)
     return np.array([ra, 0.0, 0.0]), np.array([0.0, math.sqrt(GM * (1 - e) / ra), 0.0])
 
 
 def period(x0, v0) -> float:
+    """The Kepler period of the orbit through a state, around GM.
+
+    Parameters
+    ----------
+    x0, v0 : array_like
+        (3,) position (m) and velocity (m/s).
+
+    Returns
+    -------
+    float
+        s.
+    """
     return float(kepler_period(semi_major_axis(x0, v0, GM), GM))
 
 
 def energies(x, v):
-    """Specific energy of each point, x and v (3, n) or (..., 3) with axis=-2 sum."""
+    """The specific energy v^2/2 - GM/r of each point, J/kg.
+
+    Parameters
+    ----------
+    x, v : ndarray
+        (..., 3, n) positions (m) and velocities (m/s), summed over the axis of length 3.
+
+    Returns
+    -------
+    ndarray
+        (..., n).
+    """
     return 0.5 * np.einsum("...kn,...kn->...n", v, v) - GM / np.sqrt(np.einsum("...kn,...kn->...n", x, x))
 
 
 def point_masses(x, v) -> PointMasses:
-    """A PointMasses holding the (3, n) states (filled directly: adding 1e5 points one by one
-    copies the arrays each time)."""
+    """A :class:`~emorbit.bodies.pointmasses.PointMasses` holding given states, of unit masses.
+
+    Parameters
+    ----------
+    x, v : ndarray
+        (3, n) positions (m) and velocities (m/s).
+
+    Returns
+    -------
+    PointMasses
+        Points named ``p0``, ``p1``, ..., with zero compensation terms.
+    """
     pm = PointMasses()
     n = x.shape[1]
     pm.names = [f"p{i}" for i in range(n)]
@@ -127,8 +215,26 @@ def point_masses(x, v) -> PointMasses:
 
 
 class EmorbitRunner:
-    """``n`` steps of one method and order through :meth:`PointMasses.advance` (the scene's
-    path), one record at the end; keeps the state between calls."""
+    """``n`` steps of one method and order through ``PointMasses.advance``, the scene's path.
+
+    Each call takes ``n`` steps with one record at the end and returns (wall, CPU) seconds;
+    the state carries over between calls.
+
+    Parameters
+    ----------
+    x, v : ndarray
+        (3, n) initial positions (m) and velocities (m/s).
+    method : str
+        A name in :data:`emorbit.METHODS`.
+    order : int
+        The composition's order.
+    dt : float
+        The step, s.
+    max_iter : int
+        Newton iterations per sub-step at most.
+    roundoff : str
+        ``"brouwer"`` or ``"fast"``.
+    """
 
     def __init__(self, x, v, method: str, order: int, dt: float, max_iter: int = 50, roundoff: str = "brouwer"):
         self.pm = point_masses(x, v)
@@ -149,8 +255,26 @@ class EmorbitRunner:
 
 
 class KernelRunner:
-    """``n`` steps of the bare packed kernel (:mod:`emorbit.kernels.pointmass.packed`) of
-    ``method`` and ``roundoff`` on one thread or on all of them; keeps the state between calls."""
+    """``n`` steps of the bare packed kernel (:mod:`emorbit.kernels.pointmass.packed`).
+
+    Each call takes ``n`` steps with one record and returns (wall, CPU) seconds; the state
+    carries over between calls.
+
+    Parameters
+    ----------
+    x, v : ndarray
+        (3, n) initial positions (m) and velocities (m/s).
+    method : str
+        A name in :data:`emorbit.METHODS`.
+    order : int
+        The composition's order.
+    dt : float
+        The step, s.
+    parallel : bool
+        The kernel on all of Numba's threads, or on one.
+    roundoff : str
+        ``"brouwer"`` or ``"fast"``.
+    """
 
     def __init__(self, x, v, method: str, order: int, dt: float, parallel: bool, roundoff: str = "brouwer"):
         self.x, self.v = np.array(x, float, order="C"), np.array(v, float, order="C")
@@ -190,9 +314,27 @@ class KernelRunner:
 
 
 def rebound_sim(x, v, integrator: str, dt: float | None = None, epsilon: float | None = None):
-    """A REBOUND simulation of test particles (m = 0, N_active = 1) around a central mass GM
-    at the origin (G = 1); x, v (3, n). WHFast without safe mode (no synchronisation between
-    steps), as for a production run."""
+    """A REBOUND simulation of test particles around a central mass GM at the origin.
+
+    G = 1, the central mass is GM, the particles have m = 0 and N_active = 1. WHFast runs
+    without safe mode (no synchronisation between steps), as for a production run.
+
+    Parameters
+    ----------
+    x, v : ndarray
+        (3, n) positions (m) and velocities (m/s).
+    integrator : str
+        REBOUND's integrator name (``"leapfrog"``, ``"whfast"``, ``"ias15"``).
+    dt : float, optional
+        The step (IAS15's first step), s.
+    epsilon : float, optional
+        IAS15's precision parameter.
+
+    Returns
+    -------
+    rebound.Simulation
+        Ready to step.
+    """
     import rebound
 
     n = x.shape[1]
@@ -219,8 +361,19 @@ def rebound_sim(x, v, integrator: str, dt: float | None = None, epsilon: float |
 
 
 def rebound_state(sim):
-    """(x, v) of the test particles as (3, n), synchronised (WHFast without safe mode keeps
-    them in its own coordinates between steps)."""
+    """The test particles' states of a REBOUND simulation, synchronised first.
+
+    Parameters
+    ----------
+    sim : rebound.Simulation
+        Made by :func:`rebound_sim` (WHFast without safe mode keeps its own coordinates
+        between steps, hence the synchronisation).
+
+    Returns
+    -------
+    x, v : ndarray
+        (3, n) positions (m) and velocities (m/s) relative to the central mass.
+    """
     sim.synchronize()
     n = sim.N - 1
     xyz, vel = np.empty((n + 1, 3)), np.empty((n + 1, 3))
@@ -229,7 +382,14 @@ def rebound_state(sim):
 
 
 class ReboundRunner:
-    """``n`` steps of a REBOUND simulation (fixed-step integrators, or IAS15's own steps)."""
+    """``n`` steps of a REBOUND simulation per call, returning (wall, CPU) seconds.
+
+    Parameters
+    ----------
+    sim : rebound.Simulation
+        Made by :func:`rebound_sim`; fixed-step integrators take ``n`` steps of dt, IAS15
+        ``n`` of its own.
+    """
 
     def __init__(self, sim):
         self.sim = sim
@@ -244,6 +404,13 @@ class ReboundRunner:
 
 
 def versions() -> dict:
+    """The versions of emorbit and of the packages the bench uses.
+
+    Returns
+    -------
+    dict
+        {package: version, or None where it is not installed}.
+    """
     import numba
 
     from .._version import __version__
@@ -261,6 +428,13 @@ def versions() -> dict:
 
 
 def numba_threads() -> dict:
+    """Numba's thread count and threading layer.
+
+    Returns
+    -------
+    dict
+        ``threads`` and ``threading_layer`` (None until a parallel kernel has run).
+    """
     import numba
 
     return {"threads": numba.get_num_threads(), "threading_layer": _threading_layer()}

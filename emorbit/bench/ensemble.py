@@ -2,12 +2,12 @@
 
 1e5 test particles (a uniform in [5, 10] m, e uniform in [0, 0.9], isotropic planes,
 time-uniform phases), GM = 3.9478 m^3/s^2, dt = T/1000 of a 6 m orbit. emorbit's em on one
-thread and on all threads (the bare packed kernel, :mod:`emorbit.kernels.pointmass.packed`), the
-same with roundoff="fast" (the root of the plainly evaluated scalar equation: the energy
-drifts by a few 1e-20 |E| per step at T/100), its leapfrog on one thread, and REBOUND's leapfrog and WHFast (N_active = 1, WHFast without
-safe mode), all interleaved; wall-clock time per step (the CPU time of the single-threaded
-engines beside it). Each engine's max relative energy error over the particles after the
-steps it took. Then:
+thread and on all threads (the bare packed kernel, :mod:`emorbit.kernels.pointmass.packed`),
+the same with roundoff="fast" (the root of the plainly evaluated scalar equation: its energy
+drifts at round-off level), its leapfrog on one thread, and REBOUND's leapfrog and WHFast
+(N_active = 1, WHFast without safe mode), all interleaved; wall-clock time per step (the CPU
+time of the single-threaded engines beside it). Each engine's max relative energy error
+over the particles after the steps it took. Then:
 
 * the bound from division and square-root throughput (:mod:`.limits`), measured in the same
   run, for the em kernel's counts per particle-step (the same for both roundoff settings)
@@ -42,6 +42,9 @@ from .common import (
 from .limits import floor, measure
 from .timing import clock, loadavg, paired_ratio, since, timed
 
+__all__ = ["run", "table"]
+
+#: the samples that ratios use here: wall clock (the all-threads rows use every core)
 WALL = "samples_us"
 
 
@@ -62,6 +65,20 @@ def _driver(x, v, steps: int) -> tuple:
 
 
 def run(cfg) -> dict:
+    """Measure the section.
+
+    Parameters
+    ----------
+    cfg : Config
+        A configuration of :data:`emorbit.bench.common.CONFIGS`.
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``rows`` (one per engine: particle-steps per second, ns per
+        particle-step, max energy error), the bound and the floor (:mod:`.limits`), the
+        ratios the targets use, and the whole driver's throughput.
+    """
     from ..kernels.pointmass import packed as kern
 
     n = cfg.ensemble_n
@@ -158,6 +175,18 @@ def run(cfg) -> dict:
 
 
 def table(section: dict) -> list[str]:
+    """The section as printable lines.
+
+    Parameters
+    ----------
+    section : dict
+        What :func:`run` returned.
+
+    Returns
+    -------
+    list of str
+        The lines of the table.
+    """
     th = section["threads"]
     lines = [
         f"ensemble: {section['case']}",
@@ -189,8 +218,8 @@ def table(section: dict) -> list[str]:
         f"  em all threads / REBOUND leapfrog: {section['em_over_rebound_leapfrog']:.2f}x; one thread: "
         f"{section['em_1thread_over_rebound_leapfrog']:.2f}x",
         f'  em roundoff="fast" ({lim["kernels"]["em_fast"]["sqrts"]} square roots + '
-        f"{lim['kernels']['em_fast']['divisions']} divisions, plain root: energy drifts by about "
-        f"4e-20 |E| per step at T/100): {section['em_fast_over_rebound_leapfrog']:.2f}x REBOUND leapfrog, "
+        f"{lim['kernels']['em_fast']['divisions']} divisions, plain root: its energy drifts at round-off "
+        f"level): {section['em_fast_over_rebound_leapfrog']:.2f}x REBOUND leapfrog, "
         f"{100 * section['em_fast_fraction_of_bound_all_threads']:.0f} % of its bound on all threads",
         f"  scene (PointMasses.advance) / bare kernel: {section['scene_over_bare']:.3f}; whole driver "
         f"(Simulation.run, {section['driver']['steps']} steps, one record): "

@@ -136,8 +136,18 @@ def _floor_parallel(W, h, gm, compensated, reps):
 
 
 def floor_block(seed: int = 0) -> np.ndarray:
-    """A block of points on near-circular orbits (GM = 1, radii 5-10) in the kernel's
-    layout, compensations zero: the floor's state."""
+    """The floor's state: a block of points on near-circular orbits in the kernel's layout.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of numpy's default generator.
+
+    Returns
+    -------
+    ndarray
+        (12 LD,): rows of positions and velocities (GM = 1, radii 5-10), compensations zero.
+    """
     rng = np.random.default_rng(seed)
     W = np.zeros(12 * LD)
     x = rng.uniform(-10.0, 10.0, (3, BLOCK))
@@ -172,8 +182,30 @@ def _best_ns(fn, args, elements: int, seconds: float) -> float:
 
 
 def measure(counts: dict, threads: int, seconds: float = 0.05) -> dict:
-    """ns per packed division and square root (one thread); ns per element of loops with a
-    kernel's counts ``{name: (square roots, divisions)}`` on one thread and on ``threads``."""
+    """The machine's packed division and square-root throughput, and the bounds it sets.
+
+    Parameters
+    ----------
+    counts : dict
+        {kernel name: (square roots, divisions) per particle-step}; each pair one of
+        :data:`MIXES`.
+    threads : int
+        Threads of the all-threads measurement.
+    seconds : float
+        Length of one timed call, s.
+
+    Returns
+    -------
+    dict
+        ``divide_ns`` and ``sqrt_ns`` per element on one thread, and per kernel: its counts,
+        ns per element of a loop with those counts on one thread and on ``threads``, and the
+        bound in particle-steps per second each gives.
+
+    Raises
+    ------
+    ValueError
+        A pair of counts that no loop here measures.
+    """
     rng = np.random.default_rng(0)
     a, b, c, d, e = (rng.uniform(1.0, 2.0, _N) for _ in range(5))
     out = np.zeros(_N)
@@ -212,9 +244,22 @@ _FLOOR_H = 0.05
 
 
 def floor(threads: int, seconds: float = 0.05) -> dict:
-    """ns per particle-step of :func:`_floor`, compensated and plain, on one thread and on
-    ``threads`` (each its own block), with its counts (2 square roots, 3 divisions: the em
-    kernel's, :data:`~emorbit.kernels.pointmass.packed.EM_SQRTS` and ``EM_DIVISIONS``)."""
+    """The floor: ns per particle-step of the least work an em step does on the kernel's state.
+
+    Parameters
+    ----------
+    threads : int
+        Threads of the all-threads measurement (each thread its own block).
+    seconds : float
+        Length of one timed call, s.
+
+    Returns
+    -------
+    dict
+        Its counts (2 square roots and 3 divisions: the em kernel's,
+        :data:`~emorbit.kernels.pointmass.packed.EM_SQRTS` and ``EM_DIVISIONS``), and ns per
+        particle-step compensated (12 rows) and plain (6 rows), on one thread and on all.
+    """
     out = {"sqrts": 2, "divisions": 3, "rows_compensated": 12, "rows_plain": 6}
     for name, comp in (("compensated", True), ("plain", False)):
         one = floor_block()

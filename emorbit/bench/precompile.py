@@ -2,20 +2,18 @@
 timed.
 
 Numba compiles one function at a time on one core, and with an empty cache (a first run
-after installing, or after a kernel's source changed) the kernels of the ``single`` and
-``ensemble`` sections took about 90 s to compile one after the other on the development
-machine (2 cores; the ``_range_*`` kernels about 20 s each; 94 s of CPU time for the jobs
-below, 49 s of wall time split in two). :func:`precompile` splits them
-into two parts: a helper process (``python -m emorbit.bench.precompile PART SECTION ...``)
-compiles one, this process the other, and the run waits for the helper before its first
-timing, so no timing shares a core with a compilation. Each job calls the bench's own
-runners (:class:`~.common.EmorbitRunner`, :class:`~.common.KernelRunner`) on a few points
-for one step, so it compiles exactly the signatures the sections call; the compiled code
-goes into Numba's cache, where the sections find it. With the cache filled both parts only
-load their kernels (a few seconds, side by side).
+after installing, or after a kernel's source changed) compiling the kernels of the
+``single`` and ``ensemble`` sections one after the other takes minutes. :func:`precompile`
+splits them into two parts: a helper process (``python -m emorbit.bench.precompile PART
+SECTION ...``) compiles one, this process the other, and the run waits for the helper
+before its first timing, so no timing shares a core with a compilation. Each job calls the
+bench's own runners (:class:`~.common.EmorbitRunner`, :class:`~.common.KernelRunner`) on a
+few points for one step, so it compiles exactly the signatures the sections call; the
+compiled code goes into Numba's cache, where the sections find it. With the cache filled
+both parts only load their kernels.
 
-The parts share no kernel: ``_range_em`` calls ``_points_em``, so both are in part 0, and
-so on; the small helpers both parts call may be compiled twice (at worst the later write
+The jobs of one method and roundoff are in one part, so the parts share no top-level
+kernel; the small helpers both parts call may be compiled twice (at worst the later write
 of a cache index wins and a kernel is compiled again when it is used: time, not results).
 """
 
@@ -24,6 +22,8 @@ from __future__ import annotations
 import subprocess
 import sys
 import time
+
+__all__ = ["precompile", "run_part"]
 
 #: (part, section, kind, method, roundoff): a job compiles what the section will call, the
 #: one-orbit kernel ("points", through PointMasses.advance) or the packed one ("range")
@@ -50,16 +50,35 @@ def _run_job(kind: str, method: str, roundoff: str) -> None:
 
 
 def run_part(part: int, sections) -> None:
-    """Compile this part's jobs for ``sections``."""
+    """Compile one part's jobs for the given sections.
+
+    Parameters
+    ----------
+    part : int
+        0 or 1.
+    sections : sequence of str
+        Section names; jobs of other sections are skipped.
+    """
     for p, section, kind, method, roundoff in _JOBS:
         if p == part and section in sections:
             _run_job(kind, method, roundoff)
 
 
 def precompile(sections) -> float | None:
-    """Compile the jobs of ``sections`` in this process and a helper process at once; returns
-    the wall time it took, or None where no section needs it. A helper that fails is
-    ignored: the sections compile what is missing themselves."""
+    """Compile the kernels of the given sections in this process and a helper process at once.
+
+    A helper that fails is ignored: the sections compile what is missing themselves.
+
+    Parameters
+    ----------
+    sections : sequence of str
+        Section names.
+
+    Returns
+    -------
+    float or None
+        The wall time it took, s; None where no section needs it.
+    """
     if not any(section in sections for _, section, *_ in _JOBS):
         return None
     start = time.perf_counter()

@@ -1,45 +1,36 @@
-"""Rigid-body rows of ``emorbit bench``: what one rigid-body step costs, side by side with
-Basilisk and Exudyn in the same process.
+"""Rigid-body rows of ``emorbit bench``: what a rigid-body step costs, beside Basilisk and
+Exudyn in the same process. :func:`run` measures and returns a JSON-ready section,
+:func:`table` prints it; the cases are in :mod:`emorbit.bench.rigid_cases`.
 
-``run(quick)`` measures and returns a JSON-ready section; ``table(section)`` prints it.
+Timing is :mod:`emorbit.bench.timing`'s: a warm-up call, calls calibrated to a fixed length,
+the engines of a row interleaved repeat by repeat; CPU and wall-clock time per step (Newton
+included), medians; ratios are medians of the per-repeat CPU-time ratios.
 
-Timing: wall-clock time per step, Newton included, after a warm-up call (Numba's first call
-and a peer's first solve are not counted), the median of repeats. The engines compared in a
-row run interleaved (emorbit, peer, emorbit, peer, ...), and a ratio is the median of the
-per-repeat ratios, so that load from other processes on a shared machine hits both sides.
-
-What is measured:
-
-1. emorbit's em step against the number of mass points: a box refined into 8 r^3 points in a
-   7000 km circular Earth orbit, attitude near the gravity-gradient-stable orientation (long
-   axis radial) and turning at about the orbit rate, dt = 10 s; gravity ``"volume"`` (summed
-   over the mass points, gravity-gradient torque included) against ``"point"`` (all mass at
-   the centre of mass, no work per mass point). Cost per mass point: the slope of a
+1. Cost against mass points: the orbiting box refined into 8 r^3 mass points, em order 2,
+   dt = 10 s, gravity ``"volume"`` (summed over the mass points: gravity-gradient torque)
+   against ``"point"`` (all mass at the centre of mass). Cost per mass point: the slope of a
    straight-line fit and, row by row, (volume - point) / N.
-2. That orbiting box with 8 mass points against Basilisk (``bsk``): a ``Spacecraft`` hub with
-   the same mass and inertia and initial state, point-mass Earth gravity (same GM) and its
-   first-order ``GravityGradientEffector``, RK4, at dt = 60 s and 10 s: time per step and the
-   drift of the rotational Jacobi integral J = T - n e_n.(I w) + 3/2 n^2 c_r.I c_r (T the
-   rotational kinetic energy, e_n the orbit normal and c_r the radial unit vector in body
-   axes, n the orbit rate), max over the run relative to |J(0)|. emorbit at order 2 and 4:
-   time per step, its energy and angular-momentum errors (its invariants) and the same J.
-3. A torque-free box (3 x 2 x 1 m) tumbling near its intermediate axis (omega0 = (0.01, 2,
-   0.01) rad/s, body frame; it flips) against Exudyn's implicit generalized-alpha solver
-   (spectral radius 0.9, its default) with its default Euler-parameter node and with a
-   rotation-vector (Lie-group) node, at dt = 2e-3 s and 1e-2 s; emorbit at those steps and at
-   10x larger ones. Errors over 20 s: energy and angular momentum (max over every step,
-   relative) and the body-frame angular velocity at the end against scipy's DOP853 (rtol
-   1e-12) on Euler's equations. Exudyn's trapezoidal rule (Newmark beta = 1/4, gamma = 1/2,
-   index-3 Euler-parameter constraints; and its ``TrapezoidalIndex2``) at dt = 1e-2 s on
-   that tumble and a faster one (omega_y = 5 rad/s): whether it converges, and its errors.
-4. The issue's targets as ratios: torque-free step <= 1x Exudyn's implicit step, with energy
-   and angular momentum at round-off (<= 1e-12 relative) at every dt where Exudyn runs and at
-   10x larger; 8 mass points in the field <= 1x Basilisk's step; 1000 mass points <= 100 us
-   per step and linear in the points.
+2. The orbiting box with 8 mass points against Basilisk (``bsk``): a ``Spacecraft`` hub with
+   the same mass, inertia and initial state, point-mass Earth gravity (same GM) and its
+   first-order ``GravityGradientEffector``, RK4, at dt = 60 s and 10 s. Time per step and
+   the drift of the rotational Jacobi integral (max over the run relative to |J(0)|);
+   emorbit at orders 2 and 4 also reports its energy and angular-momentum errors.
+3. The torque-free box (omega0 = (0.01, 2, 0.01) rad/s, body frame) against Exudyn's
+   generalized-alpha solver (its default spectral radius) with Euler-parameter and
+   rotation-vector nodes at dt = 2e-3 s and 1e-2 s; emorbit at those steps and 10x larger.
+   Errors over 20 s: energy and angular momentum (max over every step, relative) and the
+   body-frame angular velocity at the end against DOP853 on Euler's equations. Exudyn's
+   trapezoidal rules (Newmark beta = 1/4, gamma = 1/2 with index-3 constraints, and
+   ``TrapezoidalIndex2``) at dt = 1e-2 s on that tumble and a faster one (omega_y = 5
+   rad/s): whether they converge, and their errors.
+4. The bench's targets, as ratios within the run: a torque-free step <= 1x Exudyn's
+   implicit step, with energy and angular momentum at round-off (:data:`ROUND_OFF`) at every
+   dt; 8 mass points in the field <= 1x Basilisk's step; 1000 mass points <= 100 us per step
+   and linear in the points.
 
 A peer that is not installed (``pip install "emorbit[rigid-peers]"``) or that fails is
 reported as ``"skipped: <reason>"``; the bench never stops for it. Exudyn's fast module
-(``exudynCPPfast``: no range checks, AVX2) is used when Exudyn was not imported before.
+(``exudynCPPfast``: no range checks, AVX2) is used when nothing imported Exudyn before.
 """
 
 from __future__ import annotations
@@ -50,89 +41,41 @@ import math
 import sys
 import time
 import warnings
-from dataclasses import dataclass
 
 import numpy as np
 
+from .rigid_cases import (
+    CONFIGS,
+    EXUDYN_DTS,
+    EXUDYN_NODES,
+    FAST_OMEGA,
+    FIELD_DTS,
+    FREE_BOX,
+    FREE_DTS,
+    FREE_OMEGA,
+    LEO_BOX,
+    LEO_RATE_OFFSET,
+    LEO_ROTATION_VECTOR,
+    R_ORBIT,
+    SCAN_DT,
+    TRAPEZOIDAL_DT,
+    Config,
+    box_inertia,
+    drift,
+    earth_field,
+    free_sim,
+    jacobi,
+    leo_sim,
+    mrp_to_dcm,
+    omega_reference,
+    orbit_rate,
+)
 from .timing import CLOCK, clock, loadavg, machine, package_version, paired_ratio, since, timed
 
 __all__ = ["run", "table", "CONFIGS", "ROUND_OFF"]
 
-#: relative energy / angular-momentum error counted as round-off (the issue: <= 1e-12)
+#: relative energy and angular-momentum error that counts as round-off (a target of the bench)
 ROUND_OFF = 1e-12
-
-# -- the cases -------------------------------------------------------------------------------
-R_ORBIT = 7.0e6  # m, circular Earth orbit
-LEO_BOX = dict(size=[2.0, 1.0, 0.5], density=500.0)  # 500 kg
-LEO_ROTATION_VECTOR = (0.05, 0.03, 0.1)  # rad, from the stable orientation (long axis radial)
-LEO_RATE_OFFSET = (2e-4, -1e-4, 3e-4)  # rad/s in space axes, added to the orbit rate about z
-FREE_BOX = dict(size=[3.0, 2.0, 1.0], density=1.0)
-FREE_OMEGA = (0.01, 2.0, 0.01)  # rad/s body frame: near the intermediate axis, it flips
-FAST_OMEGA = (0.01, 5.0, 0.01)
-EXUDYN_DTS = (2e-3, 1e-2)
-FREE_DTS = (2e-3, 1e-2, 2e-2, 1e-1)  # Exudyn's steps and 10x larger
-TRAPEZOIDAL_DT = 1e-2
-FIELD_DTS = (60.0, 10.0)
-SCAN_DT = 10.0
-EXUDYN_NODES = ("euler-parameters", "rotation-vector")
-
-
-@dataclass(frozen=True)
-class Config:
-    refinements: tuple  # box refinements of the scan (8 r^3 mass points)
-    repeat_s: float  # wall time aimed at per timed call
-    repeats: int
-    orbits: float  # length of the accuracy runs in the field
-    t_free: float  # s, length of the torque-free accuracy runs
-
-
-CONFIGS = {
-    "full": Config(refinements=(2, 3, 4, 5, 6, 8, 11), repeat_s=0.1, repeats=11, orbits=10.0, t_free=20.0),
-    "quick": Config(refinements=(1, 2, 3, 5), repeat_s=0.03, repeats=5, orbits=2.0, t_free=20.0),
-    "tiny": Config(refinements=(1, 2), repeat_s=0.003, repeats=2, orbits=0.2, t_free=1.0),
-}
-
-
-# -- emorbit -----------------------------------------------------------------------------------
-def _earth():
-    import emorbit
-
-    return emorbit.CentralField(body="earth")
-
-
-def _orbit_rate(gm: float) -> float:
-    return math.sqrt(gm / R_ORBIT**3)
-
-
-def _leo_sim(refinement: int, dt: float, gravity: str = "volume", order: int = 2):
-    import emorbit
-
-    field = _earth()
-    n = _orbit_rate(field.gm)
-    sim = emorbit.Simulation(field, method="em", order=order, dt=dt)
-    sim.add_rigid(
-        "box",
-        "box",
-        refinement=refinement,
-        position=[R_ORBIT, 0.0, 0.0],
-        velocity=[0.0, math.sqrt(field.gm / R_ORBIT), 0.0],
-        rotation_vector=list(LEO_ROTATION_VECTOR),
-        angular_velocity=[LEO_RATE_OFFSET[0], LEO_RATE_OFFSET[1], n + LEO_RATE_OFFSET[2]],
-        angular_velocity_frame="space",
-        gravity=gravity,
-        **LEO_BOX,
-    )
-    return sim
-
-
-def _free_sim(dt: float, omega=FREE_OMEGA):
-    import emorbit
-
-    sim = emorbit.Simulation(None, method="em", dt=dt)
-    sim.add_rigid(
-        "box", "box", position=[0.0, 0.0, 0.0], velocity=[0.0, 0.0, 0.0], angular_velocity=list(omega), **FREE_BOX
-    )
-    return sim
 
 
 class _EmorbitRunner:
@@ -154,35 +97,10 @@ class _EmorbitRunner:
         return float(np.median(self.iterations[1:] or self.iterations))
 
 
-def _box_inertia(size, density) -> np.ndarray:
-    a, b, c = size
-    m = density * a * b * c
-    return np.diag([m / 12 * (b * b + c * c), m / 12 * (a * a + c * c), m / 12 * (a * a + b * b)])
-
-
-def _jacobi(inertia, n, positions, space_to_body, omega_body) -> np.ndarray:
-    """Rotational Jacobi integral of a rigid body in a circular orbit (rate n about z) under
-    the first-order gravity-gradient torque, per record: T - n e_n.(I w) + 3/2 n^2 c_r.I c_r."""
-    r_hat = positions / np.linalg.norm(positions, axis=-1)[:, None]
-    c_r = np.einsum("nij,nj->ni", space_to_body, r_hat)
-    e_n = space_to_body[:, :, 2]
-    Iw = omega_body @ inertia
-    return (
-        0.5 * np.einsum("ni,ni->n", omega_body, Iw)
-        - n * np.einsum("ni,ni->n", e_n, Iw)
-        + 1.5 * n * n * np.einsum("ni,ij,nj->n", c_r, inertia, c_r)
-    )
-
-
-def _drift(values) -> float:
-    values = np.asarray(values, float)
-    return float(np.abs(values / values[0] - 1.0).max())
-
-
 def _scan(cfg: Config) -> dict:
     rows = []
     for r in cfg.refinements:
-        runners = {g: _EmorbitRunner(_leo_sim(r, SCAN_DT, g)) for g in ("volume", "point")}
+        runners = {g: _EmorbitRunner(leo_sim(r, SCAN_DT, g)) for g in ("volume", "point")}
         times = timed(runners, cfg)
         row = {"refinement": r, "mass_points": 8 * r**3}
         for g, runner in runners.items():
@@ -217,39 +135,23 @@ def _scan(cfg: Config) -> dict:
 def _field_accuracy(order: int, dt: float, cfg: Config) -> dict:
     from ..bodies.rotations import quaternion_to_matrix
 
-    sim = _leo_sim(1, dt, order=order)
-    n = _orbit_rate(sim.gm)
+    sim = leo_sim(1, dt, order=order)
+    n = orbit_rate(sim.gm)
     steps = max(1, int(round(cfg.orbits * 2 * math.pi / n / dt)))
     res = sim.run(steps=steps, every=1)
     Rt = np.swapaxes(quaternion_to_matrix(res.attitudes["box"]), -1, -2)
-    J = _jacobi(sim.rigid.points[0].inertia, n, res.positions["box"], Rt, res.angular_velocities["box"])
+    J = jacobi(sim.rigid.points[0].inertia, n, res.positions["box"], Rt, res.angular_velocities["box"])
     return {
         "accuracy_steps": steps,
         "energy_error": float(np.abs(res.relative_energy_error()).max()),
         "angular_momentum_error": float(res.relative_angular_momentum_error().max()),
-        "jacobi_drift": _drift(J),
+        "jacobi_drift": drift(J),
     }
 
 
-def _omega_reference(inertia, omega0, t_end) -> np.ndarray:
-    """Body-frame angular velocity at t_end from Euler's equations (DOP853, rtol 1e-12)."""
-    from scipy.integrate import solve_ivp
-
-    Iinv = np.linalg.inv(inertia)
-    sol = solve_ivp(
-        lambda _, w: Iinv @ np.cross(inertia @ w, w),
-        (0.0, t_end),
-        np.asarray(omega0, float),
-        method="DOP853",
-        rtol=1e-12,
-        atol=1e-14,
-    )
-    return sol.y[:, -1]
-
-
 def _free_accuracy(dt: float, omega, cfg: Config) -> dict:
-    res = _free_sim(dt, omega).run(steps=int(round(cfg.t_free / dt)), every=1)
-    ref = _omega_reference(_box_inertia(**FREE_BOX), omega, cfg.t_free)
+    res = free_sim(dt, omega).run(steps=int(round(cfg.t_free / dt)), every=1)
+    ref = omega_reference(box_inertia(**FREE_BOX), omega, cfg.t_free)
     return {
         "energy_error": float(np.abs(res.relative_energy_error()).max()),
         "angular_momentum_error": float(res.relative_angular_momentum_error().max()),
@@ -259,14 +161,6 @@ def _free_accuracy(dt: float, omega, cfg: Config) -> dict:
 
 
 # -- Basilisk --------------------------------------------------------------------------------
-def _mrp_to_dcm(sigma) -> np.ndarray:
-    """[BN] (space to body components) from modified Rodrigues parameters sigma_BN (n, 3)."""
-    s = np.asarray(sigma, float)
-    s2 = np.einsum("ni,ni->n", s, s)
-    S = np.zeros(s.shape[:-1] + (3, 3))
-    S[:, 0, 1], S[:, 0, 2], S[:, 1, 2] = -s[:, 2], s[:, 1], -s[:, 0]
-    S -= np.swapaxes(S, -1, -2)
-    return np.eye(3) + (8 * S @ S - 4 * (1 - s2)[:, None, None] * S) / ((1 + s2) ** 2)[:, None, None]
 
 
 class _Basilisk:
@@ -285,9 +179,9 @@ class _Basilisk:
         self.mods = (GravityGradientEffector, spacecraft, SimulationBaseClass, macros, simIncludeGravBody)
         from ..bodies.rotations import rotation_vector_to_matrix
 
-        self.gm = _earth().gm
-        self.n = _orbit_rate(self.gm)
-        self.inertia = _box_inertia(**LEO_BOX)
+        self.gm = earth_field().gm
+        self.n = orbit_rate(self.gm)
+        self.inertia = box_inertia(**LEO_BOX)
         self.mass = LEO_BOX["density"] * float(np.prod(LEO_BOX["size"]))
         rv = np.array(LEO_ROTATION_VECTOR)
         th = float(np.linalg.norm(rv))
@@ -342,8 +236,8 @@ class _Basilisk:
         sim, rec = self.build(dt, True)
         sim.ConfigureStopTime(self.mods[3].sec2nano(dt * k))
         sim.ExecuteSimulation()
-        J = _jacobi(self.inertia, self.n, np.asarray(rec.r_BN_N), _mrp_to_dcm(rec.sigma_BN), np.asarray(rec.omega_BN_B))
-        return {"accuracy_steps": k, "jacobi_drift": _drift(J)}
+        J = jacobi(self.inertia, self.n, np.asarray(rec.r_BN_N), mrp_to_dcm(rec.sigma_BN), np.asarray(rec.omega_BN_B))
+        return {"accuracy_steps": k, "jacobi_drift": drift(J)}
 
 
 # -- Exudyn ----------------------------------------------------------------------------------
@@ -467,7 +361,7 @@ class _Exudyn:
             "angular_momentum_error": float(np.linalg.norm(L - L[0], axis=1).max() / np.linalg.norm(L[0])),
         }
         if ok:
-            ref = _omega_reference(inertia, omega, cfg.t_free)
+            ref = omega_reference(inertia, omega, cfg.t_free)
             out["omega_error"] = float(np.abs(w[-1] - ref).max() / np.linalg.norm(ref))
         else:
             out["failure"] = msg
@@ -479,7 +373,7 @@ def _field(cfg: Config, bsk: _Basilisk) -> dict:
     emorbit_rows, bsk_rows = [], []
     status = bsk.skipped or "ok"
     for dt in FIELD_DTS:
-        runners = {f"order{o}": _EmorbitRunner(_leo_sim(1, dt, order=o)) for o in (2, 4)}
+        runners = {f"order{o}": _EmorbitRunner(leo_sim(1, dt, order=o)) for o in (2, 4)}
         if status == "ok":
             runners["basilisk"] = bsk.runner(dt)
         times = timed(runners, cfg, optional=("basilisk",))
@@ -525,7 +419,7 @@ def _torque_free(cfg: Config, ex: _Exudyn) -> dict:
     free_rows, implicit, trapezoidal = [], [], []
     status = ex.skipped or "ok"
     for dt in FREE_DTS:
-        runners = {"emorbit": _EmorbitRunner(_free_sim(dt))}
+        runners = {"emorbit": _EmorbitRunner(free_sim(dt))}
         peers = [node for node in EXUDYN_NODES if dt in EXUDYN_DTS] if status == "ok" else []
         for node in peers:
             runners[node] = ex.runner(dt, node)
@@ -678,8 +572,22 @@ def _targets(scan: dict, field: dict, free: dict) -> list:
 
 
 def run(quick: bool = False, *, config: str | None = None) -> dict:
-    """Measure everything; returns the JSON-ready section. ``config``: "full", "quick" or
-    "tiny" (a seconds-long smoke run for the tests); by default from ``quick``."""
+    """Measure the rigid-body section: the scan, the orbiting box and the torque-free box.
+
+    Parameters
+    ----------
+    quick : bool
+        The quick configuration instead of the full one.
+    config : str, optional
+        ``"full"``, ``"quick"`` or ``"tiny"`` (a seconds-long smoke run for the tests);
+        overrides ``quick``.
+
+    Returns
+    -------
+    dict
+        JSON-ready: the machine, versions, ``scaling``, ``field``, ``torque_free`` and
+        ``targets``.
+    """
     name = config or ("quick" if quick else "full")
     cfg = CONFIGS[name]
     import numba
@@ -728,7 +636,18 @@ def _us(x) -> str:
 
 
 def table(section: dict) -> str:
-    """Printable rows of a section from :func:`run`."""
+    """The section as printable rows.
+
+    Parameters
+    ----------
+    section : dict
+        What :func:`run` returned.
+
+    Returns
+    -------
+    str
+        The tables and the targets, one row per line.
+    """
     m = section["machine"]
     threads = ", ".join(f"{k}={v}" for k, v in m.get("thread_variables", {}).items()) or "BLAS threads: default"
     lines = [

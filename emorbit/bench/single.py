@@ -1,11 +1,10 @@
 """One orbit, the paper's: what a step costs.
 
 emorbit's em, midpoint and leapfrog at orders 2, 4, 6 and 8 through the scene's path
-(:meth:`PointMasses.advance`, one record per call), em at order 2 also with
-roundoff="fast", beside REBOUND's leapfrog and WHFast at
-the same step (dt = T/100) and IAS15 with its default epsilon (1e-9, adaptive: it takes
-longer steps, and its steps per orbit are recorded). Each comparison's engines run
-interleaved; CPU time per step, medians.
+(``PointMasses.advance``, one record per call), em at order 2 also with roundoff="fast",
+beside REBOUND's leapfrog and WHFast at the same step (dt = T/100) and IAS15 with its
+default epsilon (1e-9, adaptive: it takes longer steps, and its steps per orbit are
+recorded). The engines run interleaved; CPU time per step, medians.
 """
 
 from __future__ import annotations
@@ -15,6 +14,8 @@ import numpy as np
 from .common import PAPER_DT, PAPER_V0, PAPER_X0, EmorbitRunner, ReboundRunner, period, rebound_sim
 from .timing import paired_ratio, timed
 
+__all__ = ["run", "table"]
+
 METHODS = ("em", "midpoint", "leapfrog")
 ORDERS = (2, 4, 6, 8)
 CLOCK = "cpu_us_per_step"
@@ -22,6 +23,19 @@ FAST = "em 2 fast"  # em order 2 with roundoff="fast" (no accurate finish of eac
 
 
 def run(cfg) -> dict:
+    """Measure the section.
+
+    Parameters
+    ----------
+    cfg : Config
+        A configuration of :data:`emorbit.bench.common.CONFIGS`.
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``rows`` (one per engine, ns per step in CPU and wall time, Newton
+        iterations), ratios to REBOUND's leapfrog, and the headline figures.
+    """
     x, v = PAPER_X0[:, None], PAPER_V0[:, None]
     T = period(PAPER_X0, PAPER_V0)
     runners = {f"{m} {o}": EmorbitRunner(x, v, m, o, PAPER_DT) for m in METHODS for o in ORDERS}
@@ -74,6 +88,18 @@ def run(cfg) -> dict:
 
 
 def table(section: dict) -> list[str]:
+    """The section as printable lines.
+
+    Parameters
+    ----------
+    section : dict
+        What :func:`run` returned.
+
+    Returns
+    -------
+    list of str
+        The lines of the table.
+    """
     lines = [
         f"single orbit: {section['case']}; {section['clock']}",
         f"  {'':<27} {'ns/step':>9} {'wall':>9} {'x REBOUND leapfrog':>19} {'Newton/sub-step':>16}",

@@ -14,6 +14,8 @@ import time
 
 import numpy as np
 
+__all__ = ["run", "table"]
+
 
 def _run_once(cache_dir: str, out: str) -> float:
     env = {**os.environ, "NUMBA_CACHE_DIR": cache_dir}
@@ -24,6 +26,18 @@ def _run_once(cache_dir: str, out: str) -> float:
 
 
 def run(cfg) -> dict:
+    """Measure the section: one cold run, then ``cfg.warm_runs`` warm ones.
+
+    Parameters
+    ----------
+    cfg : Config
+        A configuration of :data:`emorbit.bench.common.CONFIGS`.
+
+    Returns
+    -------
+    dict
+        ``cold_s``, ``warm_s`` (the median) and the warm samples, s of wall time.
+    """
     with tempfile.TemporaryDirectory(prefix="emorbit-bench-") as tmp:
         cache = os.path.join(tmp, "numba-cache")
         os.makedirs(cache)
@@ -39,6 +53,18 @@ def run(cfg) -> dict:
 
 
 def table(section: dict) -> list[str]:
+    """The section as printable lines.
+
+    Parameters
+    ----------
+    section : dict
+        What :func:`run` returned.
+
+    Returns
+    -------
+    list of str
+        One line.
+    """
     return [
         f"start-up: {section['case']}: cold (empty Numba cache) {section['cold_s']:.2f} s, "
         f"warm {section['warm_s']:.2f} s (median of {len(section['warm_samples_s'])})"

@@ -29,30 +29,63 @@ __all__ = [
     "package_version",
 ]
 
-#: environment variables that set BLAS / OpenMP threads: recorded, because the volume kernel's
-#: 10 x N block product goes through BLAS, and threaded OpenBLAS on a busy 2-core machine made
-#: the 10,000-point row about 7x slower (README, "What rigid bodies cost")
 #: the time that verdicts, ratios and fits use: CPU (process) time per step. On a shared machine
 #: wall-clock time also counts the time the process waits for a core; for these single-threaded
 #: engines CPU and wall time agree on an idle machine. Both are recorded.
 CLOCK = "cpu_us_per_step"
+#: environment variables that set BLAS, OpenMP and Numba threads: recorded with every result,
+#: because threaded BLAS on a busy machine slows the rigid-body rows down
 THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
 
 def clock():
+    """The current wall and CPU clocks, to pass to :func:`since`.
+
+    Returns
+    -------
+    tuple of float
+        (``time.perf_counter()``, ``time.process_time()``), s.
+    """
     return time.perf_counter(), time.process_time()
 
 
 def since(start) -> tuple:
-    """(wall, CPU) seconds since ``start = clock()``."""
+    """Wall and CPU seconds since a :func:`clock` reading.
+
+    Parameters
+    ----------
+    start : tuple
+        What :func:`clock` returned.
+
+    Returns
+    -------
+    tuple of float
+        (wall, CPU) seconds.
+    """
     wall, cpu = clock()
     return wall - start[0], cpu - start[1]
 
 
 def calibrate(step_runner, repeat_s: float, min_steps: int = 20, max_steps: int = 2_000_000) -> int:
-    """Steps per timed call of ``step_runner(n) -> (wall, CPU) seconds for n steps``, after a warm-up call:
-    n grows until a call takes a quarter of ``repeat_s`` (so a fixed cost per call does not
-    inflate the estimate), then is set so that a call takes about ``repeat_s``."""
+    """Steps per timed call, so that a call lasts about ``repeat_s``.
+
+    After a warm-up call, n grows until a call takes a quarter of ``repeat_s`` (so that a
+    fixed cost per call does not inflate the estimate), then is scaled to ``repeat_s``.
+
+    Parameters
+    ----------
+    step_runner : callable
+        ``step_runner(n) -> (wall, CPU)`` seconds for n steps.
+    repeat_s : float
+        Wall time aimed at per call, s.
+    min_steps, max_steps : int
+        Bounds on the result.
+
+    Returns
+    -------
+    int
+        Steps per call.
+    """
     n = min_steps
     step_runner(n)  # warm-up: Numba's first call, caches, a peer's first solve
     while True:
@@ -64,10 +97,24 @@ def calibrate(step_runner, repeat_s: float, min_steps: int = 20, max_steps: int 
 
 
 def timed(runners: dict, cfg, optional=()) -> dict:
-    """Time several engines interleaved: {name: stats}. ``runners`` maps a name to
-    ``step_runner(n) -> (wall, CPU) seconds``; a runner named in ``optional`` (a peer) that
-    raises is dropped and reported as ``{"status": "skipped: ..."}``. Stats: median and
-    minimum wall-clock us per step, median CPU (process) us per step, and the samples."""
+    """Time several engines interleaved, repeat by repeat.
+
+    Parameters
+    ----------
+    runners : dict
+        {name: ``step_runner(n) -> (wall, CPU)`` seconds}.
+    cfg : Config
+        ``repeat_s`` (length of a call) and ``repeats``.
+    optional : sequence of str
+        Runners (peers) that may fail: one that raises is dropped and reported as
+        ``{"status": "skipped: ..."}``; any other runner's exception propagates.
+
+    Returns
+    -------
+    dict
+        {name: stats}: ``us_per_step`` (median wall clock), ``us_min``, ``cpu_us_per_step``
+        (median CPU time), ``steps`` per call, ``repeats`` and the samples, in us per step.
+    """
     steps, out = {}, {}
     for name, fn in runners.items():
         try:
@@ -101,11 +148,31 @@ def timed(runners: dict, cfg, optional=()) -> dict:
 
 
 def paired_ratio(a: dict, b: dict, key: str = "cpu_samples_us") -> float:
-    """Median over interleaved repeats of a's time / b's time (CPU time by default)."""
+    """The median over interleaved repeats of a's time over b's.
+
+    Parameters
+    ----------
+    a, b : dict
+        Stats of :func:`timed` from the same call.
+    key : str
+        The samples to compare (CPU time by default; ``"samples_us"``: wall clock).
+
+    Returns
+    -------
+    float
+        The ratio.
+    """
     return float(np.median(np.array(a[key]) / np.array(b[key])))
 
 
 def loadavg():
+    """The load averages of the machine.
+
+    Returns
+    -------
+    list of float or None
+        The 1-, 5- and 15-minute load averages, rounded; None where the OS has none.
+    """
     try:
         return [round(x, 2) for x in os.getloadavg()]
     except OSError:  # pragma: no cover - not on Linux
@@ -113,6 +180,15 @@ def loadavg():
 
 
 def machine() -> dict:
+    """The machine the bench runs on.
+
+    Returns
+    -------
+    dict
+        ``cpu`` (model), ``cores``, ``simd`` (the widest of avx512f, avx2, avx),
+        ``python``, ``platform`` and ``thread_variables`` (those of :data:`THREAD_VARIABLES`
+        that are set).
+    """
     cpu, flags = platform.processor(), set()
     try:
         with open("/proc/cpuinfo") as f:
@@ -138,6 +214,18 @@ def machine() -> dict:
 
 
 def package_version(dist: str):
+    """The installed version of a distribution.
+
+    Parameters
+    ----------
+    dist : str
+        The distribution's name.
+
+    Returns
+    -------
+    str or None
+        Its version, or None if it is not installed.
+    """
     from importlib.metadata import PackageNotFoundError, version
 
     try:

@@ -8,7 +8,7 @@ for runs under 50 ms), the final position error against the analytic Kepler solu
 ten checkpoints per orbit. Engines:
 
 * emorbit em, midpoint and leapfrog at orders 2, 4, 6 and 8, dt = T/N for several N
-  (through :meth:`PointMasses.advance`, checkpoints recorded by the kernel);
+  (through ``PointMasses.advance``, checkpoints recorded by the kernel);
 * emorbit em with adaptive steps (``h = eta 2 pi sqrt(r^3/GM)``, :mod:`emorbit.kernels.pointmass.adaptive`)
   at orders 4 and 8 for several eta;
 * REBOUND IAS15 at several epsilons (its adaptive step, exact finish time), WHFast (without
@@ -32,6 +32,8 @@ import numpy as np
 from ..integrators import coefficients
 from ..orbits import propagate, semi_major_axis
 from .common import GM, PAPER_V0, PAPER_X0, aphelion_state, period, point_masses, rebound_sim, rebound_state
+
+__all__ = ["run", "table", "plot"]
 
 METHODS = ("em", "midpoint", "leapfrog")
 ORDERS = (2, 4, 6, 8)
@@ -292,6 +294,20 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
 
 
 def run(cfg) -> dict:
+    """Measure the section: both orbits, every engine.
+
+    Parameters
+    ----------
+    cfg : Config
+        A configuration of :data:`emorbit.bench.common.CONFIGS` (orbits, steps, epsilons,
+        tolerances).
+
+    Returns
+    -------
+    dict
+        JSON-ready: per orbit its ``points`` (engine, method, order, parameter, CPU time,
+        position and energy errors, status, Pareto flags) and whether heyoka ran.
+    """
     try:
         system = _heyoka_system()
     except ImportError:
@@ -334,6 +350,15 @@ def _style(engine, method, order):
 
 
 def plot(orbit: dict, path: str) -> None:
+    """Draw one orbit's work-precision figure: position and energy error against CPU time.
+
+    Parameters
+    ----------
+    orbit : dict
+        One entry of the section's ``orbits``.
+    path : str
+        The PNG to write.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -397,6 +422,18 @@ def plot(orbit: dict, path: str) -> None:
 
 
 def table(section: dict) -> list[str]:
+    """The section as printable lines: each orbit's Pareto front and em's best points.
+
+    Parameters
+    ----------
+    section : dict
+        What :func:`run` returned.
+
+    Returns
+    -------
+    list of str
+        The lines of the table.
+    """
     lines = [f"work-precision: {section['case']}; heyoka: {section['heyoka']}"]
     for orbit in section["orbits"]:
         lines.append(

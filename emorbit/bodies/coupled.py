@@ -13,15 +13,16 @@ One step of size h solves, for the increments ``du`` and the constraint impulses
     R2 = g(u0 + du) = 0
 
 by Newton's method on a sparse Jacobian whose pattern is built once; the values are filled
-by Numba kernels and the system is solved with SuperLU (scipy.sparse.linalg.splu). The
-velocity follows from ``M dv = h F - G(u05)^T nu`` with F at the final iterate, M applied
-through a factorisation with one step of iterative refinement (no fixed rounded inverse is
-applied to the state; see :mod:`emorbit.kernels.pointmass` on why).
+by Numba kernels (:mod:`emorbit.kernels.coupled`) and the system, equilibrated, is solved
+with SuperLU (scipy.sparse.linalg.splu). The velocity follows from
+``M dv = h F - G(u05)^T nu`` with F at the final iterate, M solved through its factorisation
+with one step of iterative refinement: a fixed rounded inverse of M would make the same
+error in every step, which adds up as a drift instead of a random walk. A step that fails
+is redone in two halves, down to 2**MAX_SPLIT sub-steps. What a structure records is
+:mod:`emorbit.bodies.coupled_output`.
 """
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -32,50 +33,55 @@ from ..integrators.dispatch import method_code
 from ..kernels import coupled as kc
 from ..kernels import elastic as kel
 from ..kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from .coupled_output import StructureOutput, StructureRecords
+from .coupled_sparse import EquilibratedLU, jacobian_pattern, slot_pairs
 from .elastic import ElasticSpec
-from .rigid import body_angular_velocity
-from .rotations import matrix_to_quaternion
 
 __all__ = ["Structure", "StructureRecords"]
 
 _EPS = 2.220446049250313e-16
 _TOL2 = (4.0 * _EPS) ** 2
-_FLOOR2 = (2.0**20 * _EPS) ** 2  # a stall (see Structure.step) is accepted only below 2.3e-10 |scale|
+_FLOOR2 = (2.0**20 * _EPS) ** 2  # a stall (see Structure.step) is accepted only below 2**20 eps |scale|
 _STALLS = 3  # iterations in a row without progress that make a stall
 
 
-@dataclass
-class StructureRecords:
-    """States recorded by one call: u, v (nrec, n_slots, 3), iterations (nrec, 1), fail (1, 2)."""
+class Structure(StructureOutput):
+    """A coupled structure of elastic bodies, rigid bodies and point masses: one system.
 
-    u: np.ndarray
-    v: np.ndarray
-    iterations: np.ndarray
-    fail: np.ndarray
+    Bodies are added, attachments declared, then :meth:`build` lays out the slots and the
+    Jacobian's pattern before the first step; nothing can be added after that.
 
-    def first_failure(self):
-        if self.fail[0, 0] < 0:
-            return None
-        return int(self.fail[0, 0]), 0, int(self.fail[0, 1])
+    Parameters
+    ----------
+    newton : str
+        ``"full"`` refactors the Jacobian at every iteration (Newton's method proper,
+        quadratic convergence); ``"reuse"`` keeps the sparse LU factors (one set per
+        distinct sub-step) across iterations and steps, and renews them when an iteration
+        contracts by less than 1 / :attr:`SLOW`, when an update made with them raises the
+        residual, or at the start of a step when the last one needed more than 4
+        iterations; ``"auto"`` (default) is ``"full"`` below :attr:`AUTO_FULL` unknowns and
+        ``"reuse"`` above. All iterate to round-off; they differ in cost and robustness:
+        reusing factors saves most of the work per step on large structures and needs more
+        iterations on stiff, ill-conditioned ones (``emorbit bench --only elastic``
+        measures the cost per step against size).
 
-
-class Structure:
-    """A coupled structure of elastic bodies, rigid bodies and point masses.
-
-    ``newton``: "full" refactors the Jacobian at every iteration (Newton's method proper,
-    quadratic convergence); "reuse" keeps the sparse LU factors (one set per distinct
-    sub-step) across iterations and steps, and renews them when an iteration contracts by
-    less than 5x, when an update made with them raises the residual, or at the start of a
-    step when the last one needed more than 4 iterations; "auto" (default) is "full" below
-    :attr:`AUTO_FULL` unknowns and "reuse" above. All iterate to round-off; they differ in
-    cost and robustness (measured: an 11,907-DOF beam, 0.5 s per step with "full", 0.057 s
-    with "reuse"; the 138-unknown satellite-flexible-boom, stiff and ill-conditioned, needs
-    about 7 iterations per step with "full" and 20-45 with "reuse").
+    Attributes
+    ----------
+    newton : str
+        The mode in use (``"auto"`` resolved by :meth:`build`).
+    factorizations : int
+        LU factorisations so far.
+    retries_total : int
+        Steps that were redone in sub-steps.
+    bodies : list of dict
+        The bodies: name, kind, slots or nodes, and what their output needs.
     """
 
     kind = "structure"
+    #: methods with a structure kernel
     METHODS = ("em", "midpoint")
     NEWTON = ("auto", "reuse", "full")
+    #: unknowns from which "auto" reuses factors
     AUTO_FULL = 500
     #: contraction (|update_k| / |update_k-1|) above which the factors are renewed
     SLOW = 0.2
@@ -106,6 +112,7 @@ class Structure:
     # -- building ---------------------------------------------------------------------------
     @property
     def names(self) -> list[str]:
+        """Body names, in the order of adding."""
         return [b["name"] for b in self.bodies]
 
     def __len__(self) -> int:
@@ -130,7 +137,22 @@ class Structure:
         return len(self._node_slot) - 1
 
     def add_point(self, name, mass, x, v) -> int:
-        """A point mass; returns its node index (a node on its slot)."""
+        """Add a point mass.
+
+        Parameters
+        ----------
+        name : str
+            Its name.
+        mass : float
+            kg.
+        x, v : array_like
+            (3,) position (m) and velocity (m/s).
+
+        Returns
+        -------
+        int
+            Its node index (a node on its own slot).
+        """
         (s,) = self._new_slots([x], [v], [1], [[mass]])
         n = self._new_node([s], [1.0])
         self._gp.append(([n], [1.0], mass))
@@ -138,7 +160,32 @@ class Structure:
         return n
 
     def add_rigid(self, name, points, gravity, position, velocity, R, omega_space, shape="", params=None):
-        """A rigid body (points: emorbit.bodies.shapes.MassPoints); gravity 'volume' | 'point' | 'none'."""
+        """Add a rigid body: four slots (centre of mass and three axes) with 6 constraints.
+
+        Parameters
+        ----------
+        name : str
+            Its name.
+        points : MassPoints
+            Its mass points (:mod:`emorbit.bodies.shapes`).
+        gravity : str
+            ``"volume"``, ``"point"`` or ``"none"``.
+        position, velocity : array_like
+            (3,) centre of mass, m and m/s.
+        R : array_like
+            (3, 3) attitude, body to space.
+        omega_space : array_like
+            (3,) angular velocity in space axes, rad/s.
+        shape : str
+            The shape's name, for the output.
+        params : dict, optional
+            The shape's parameters, for the output.
+
+        Returns
+        -------
+        ndarray
+            Its four slot indices.
+        """
         E = points.second_moment
         m = points.mass
         mass = np.zeros((4, 4))
@@ -172,11 +219,36 @@ class Structure:
         return slots
 
     def rigid_node(self, body: str, X) -> int:
-        """A node riding on rigid body ``body`` at body coordinates X (relative to its centre of mass)."""
+        """Add a node riding on a rigid body.
+
+        Parameters
+        ----------
+        body : str
+            The rigid body.
+        X : array_like
+            (3,) body coordinates relative to its centre of mass, m.
+
+        Returns
+        -------
+        int
+            The node index.
+        """
         b = self._body(body)
         return self._new_node(b["slots"], [1.0, float(X[0]), float(X[1]), float(X[2])])
 
     def point_node(self, body: str) -> int:
+        """The node of a point mass of the structure.
+
+        Parameters
+        ----------
+        body : str
+            The point mass.
+
+        Returns
+        -------
+        int
+            Its node index.
+        """
         return self._body(body)["node"]
 
     def _body(self, name):
@@ -186,14 +258,32 @@ class Structure:
         raise KeyError(name)
 
     def add_elastic(self, spec: ElasticSpec) -> None:
-        """An elastic body; it is laid out in :meth:`build`, after every attachment is known."""
+        """Add an elastic body; it is laid out in :meth:`build`, once every attachment is known.
+
+        Parameters
+        ----------
+        spec : ElasticSpec
+            The body.
+        """
         self._pending = getattr(self, "_pending", [])
         self._pending.append(spec)
         self.bodies.append({"name": spec.name, "kind": "elastic", "spec": spec, "mass": float(spec.node_mass.sum())})
 
     def attach(self, elastic: str, nodes, target: str) -> None:
-        """Nodes ``nodes`` of elastic body ``elastic`` ride on body ``target`` (a rigid body: on
-        the material point where the node is now; a point mass: the node is that point mass)."""
+        """Declare that nodes of an elastic body ride on another body of the structure.
+
+        On a rigid body a node rides at the material point where it is at :meth:`build`; a
+        node attached to a point mass is that point mass.
+
+        Parameters
+        ----------
+        elastic : str
+            The elastic body.
+        nodes : sequence of int
+            Indices into its mesh's nodes.
+        target : str
+            A rigid body or point mass of the structure.
+        """
         self._attach = getattr(self, "_attach", [])
         self._attach.append((elastic, [int(n) for n in nodes], target))
 
@@ -239,8 +329,15 @@ class Structure:
         body["free_slots"] = slots
 
     def build(self) -> None:
-        """Lay out the elastic bodies and their attachments, then freeze the arrays and the
-        Jacobian's sparsity pattern. Called once, before the first step."""
+        """Lay out the elastic bodies and their attachments, then freeze the arrays and the pattern.
+
+        Called before the first step; later calls do nothing.
+
+        Raises
+        ------
+        InputError
+            An attached node does not start with the velocity of the point it rides on.
+        """
         if self._built:
             return
         for spec in getattr(self, "_pending", []):
@@ -285,7 +382,7 @@ class Structure:
             vals.append(c.data)
         for na, nb, mv in getattr(self, "_node_mass_terms", []):
             for a, b, m_ in zip(na, nb, mv):  # node masses through the node maps: M += m c_a c_b^T
-                for si, sj, ca, cb in self._slot_pairs(a, b):
+                for si, sj, ca, cb in slot_pairs(self.node_slot, self.node_coef, a, b):
                     rows.append(np.array([si]))
                     cols.append(np.array([sj]))
                     vals.append(np.array([m_ * ca * cb]))
@@ -316,88 +413,16 @@ class Structure:
         self.rb_es = np.array(self._rb_es, dtype=float)
         self.lam = np.zeros(6 * len(self.rb_slots))
         self.acc = np.zeros_like(self.u)  # the last step's mean acceleration (predictor warm start)
-        self._pattern()
+        self.J, self._indices32, self._indptr32, self.J_mass = jacobian_pattern(
+            self.Ms, self.node_slot, self.bar_node, self.tet_node, self.gp_node, self.rb_slots
+        )
         if self.newton_option == "auto":
             self.newton = "full" if self.J.shape[0] < self.AUTO_FULL else "reuse"
         self._built = True
 
-    def _slot_pairs(self, a: int, b: int) -> list:
-        """(slot of node a, slot of node b, their coefficients) for every pair of the slots that
-        nodes a and b are made of (see node_slot, node_coef)."""
-        out = []
-        for i in range(4):
-            si = self.node_slot[a, i]
-            if si < 0:
-                break
-            for j in range(4):
-                sj = self.node_slot[b, j]
-                if sj < 0:
-                    break
-                out.append((si, sj, self.node_coef[a, i], self.node_coef[b, j]))
-        return out
-
-    def _pattern(self) -> None:
-        ns = self.u.shape[0]
-        nr = self.rb_slots.shape[0]
-        n = 3 * ns + 6 * nr
-        pairs = []
-        M = self.Ms.tocoo()
-        pairs.append(np.stack([M.row, M.col], 1))
-        if len(self.bar_node):
-            a, b = self.bar_node[:, 0], self.bar_node[:, 1]
-            pairs.append(self._slot_pairs_fast(np.concatenate([a, a, b, b]), np.concatenate([a, b, a, b])))
-        if len(self.tet_node):
-            na = np.repeat(self.tet_node, 4, axis=1).ravel()
-            nb = np.tile(self.tet_node, (1, 4)).ravel()
-            pairs.append(self._slot_pairs_fast(na, nb))
-        for q in range(self.gp_m.size):
-            nodes = self.gp_node[q][self.gp_node[q] >= 0]
-            pairs.append(self._slot_pairs_fast(np.repeat(nodes, nodes.size), np.tile(nodes, nodes.size)))
-        for r in range(nr):
-            d = self.rb_slots[r, 1:]
-            pairs.append(np.stack([np.repeat(d, 3), np.tile(d, 3)], 1))
-        P = np.unique(np.concatenate(pairs), axis=0)
-        rr = np.repeat(3 * P[:, 0], 9) + np.tile(np.repeat(np.arange(3), 3), len(P))
-        cc = np.repeat(3 * P[:, 1], 9) + np.tile(np.tile(np.arange(3), 3), len(P))
-        rows = [rr]
-        cols = [cc]
-        for r in range(nr):
-            base = 3 * ns + 6 * r
-            for s in self.rb_slots[r, 1:]:
-                for j in range(6):
-                    for d in range(3):
-                        rows += [np.array([3 * s + d]), np.array([base + j])]
-                        cols += [np.array([base + j]), np.array([3 * s + d])]
-        R = np.concatenate(rows)
-        C = np.concatenate(cols)
-        pattern = sp.csc_matrix((np.ones(R.size), (R, C)), shape=(n, n))
-        pattern.sum_duplicates()
-        pattern.sort_indices()
-        self._indptr32 = pattern.indptr.astype(np.int32)
-        self._indices32 = pattern.indices.astype(np.int32)
-        pattern.indptr = pattern.indptr.astype(np.int64)
-        pattern.indices = pattern.indices.astype(np.int64)
-        self.J = pattern
-        self.J.data[:] = 0.0
-        # the mass part of the Jacobian, precomputed
-        Mfull = sp.kron(self.Ms, sp.identity(3), format="coo")
-        Mfull.resize((n, n))
-        self.J_mass = _align(Mfull, pattern)
-
-    def _slot_pairs_fast(self, na, nb):
-        """(P, 2) slot pairs of the node pairs (na[p], nb[p]), every slot of one node with every
-        slot of the other (unused entries of node_slot are -1 and dropped)."""
-        ns = self.node_slot
-        nc = ns.shape[1]
-        si = ns[na]  # (P, 4)
-        sj = ns[nb]
-        I = np.repeat(si, nc, axis=1)
-        Jm = np.tile(sj, (1, nc))
-        ok = (I >= 0) & (Jm >= 0)
-        return np.stack([I[ok], Jm[ok]], 1)
-
     # -- stepping ------------------------------------------------------------------------------
     def work_per_step(self) -> int:
+        """Slots, elements and gravity points touched per step."""
         return int(20 * (self.u.shape[0] + self.tet_node.shape[0] + self.gp_m.size))
 
     def _forces(self, code, u0, u1, gm, c, h, with_jacobian: bool, with_stiffness: bool | None = None):
@@ -456,18 +481,56 @@ class Structure:
         return x + self.Ms_lu.solve(r)
 
     def relative(self, u, cu):
-        """(u0, ref): the compensated state (u - cu) with the position slots taken relative to
-        ``ref``, the first position slot's (exact) value. Internal forces depend on coordinate
-        differences only, so this keeps them precise to eps x (body size) however far from the
-        origin the body is (absolute coordinates of 7e6 m would limit a 0.2 m element's strain
-        to ~1e-8 and feed stress noise into stiff modes every step)."""
+        """The compensated state with the position slots taken relative to a reference point.
+
+        Internal forces depend on coordinate differences only, so this keeps them precise to
+        eps times the body's size however far from the origin the body is (absolute
+        coordinates of 7e6 m would limit a 0.2 m element's strain to ~1e-8 and feed stress
+        noise into stiff modes every step).
+
+        Parameters
+        ----------
+        u, cu : ndarray
+            (n_slots, 3) state and its compensation terms.
+
+        Returns
+        -------
+        urel : ndarray
+            (n_slots, 3) ``u - cu`` with ``ref`` subtracted from the position slots.
+        ref : ndarray
+            (3,) the first position slot's value, m (zero without position slots).
+        """
         ref = u[int(np.argmax(self.slot_pos))] * (1.0 if self.slot_pos.any() else 0.0)
         return (u - ref[None, :] * self.slot_pos[:, None]) - cu, ref
 
     def step(self, code: int, u0, v0, lam, acc, gm, c, h, max_iter):
-        """One step from u0 (relative coordinates, see :meth:`relative`; ``c`` is the field's
-        centre relative to the same reference); returns (du, dv, iterations, status) and
-        updates the warm starts lam (constraint forces) and acc (mean acceleration) in place."""
+        """One step of the energy-momentum (or midpoint) scheme by Newton's method.
+
+        Parameters
+        ----------
+        code : int
+            The method code.
+        u0, v0 : ndarray
+            (n_slots, 3) start state in relative coordinates (:meth:`relative`).
+        lam : ndarray
+            (6 n_rigid,) constraint forces, the warm start; updated in place.
+        acc : ndarray
+            (n_slots, 3) the last step's mean acceleration, the predictor; updated in place.
+        gm : float
+            GM, m^3/s^2.
+        c : ndarray
+            (3,) the field's centre, relative to the same reference, m.
+        h : float
+            The step, s.
+        max_iter : int
+            Newton iterations at most.
+
+        Returns
+        -------
+        tuple
+            (du, dv, iterations, status): the increments of position and velocity, the
+            iterations taken and a ``STATUS_*`` code of :mod:`emorbit.kernels.codes`.
+        """
         ns = u0.shape[0]
         nr = self.rb_slots.shape[0]
         hf = 0.5 * h
@@ -517,7 +580,7 @@ class Structure:
                 )
             if fresh:
                 try:
-                    lu = _Factors(data, self.J.indices, self.J.indptr, n, self._indices32, self._indptr32)
+                    lu = EquilibratedLU(data, self.J.indices, self.J.indptr, n, self._indices32, self._indptr32)
                 except RuntimeError:  # singular
                     break
                 self.factorizations += 1
@@ -576,6 +639,32 @@ class Structure:
         return du, dv, it, status
 
     def advance(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> StructureRecords:
+        """Advance the structure ``nrec * every`` composed steps, recording every ``every``.
+
+        Parameters
+        ----------
+        method : str
+            ``"em"`` or ``"midpoint"``.
+        gm : float
+            GM, m^3/s^2.
+        center : array_like
+            The field's centre (3,), m.
+        dt : float
+            The step, s.
+        gammas : ndarray
+            The composition's sub-step fractions.
+        every : int
+            Steps per record.
+        nrec : int
+            Records.
+        max_iter : int
+            Newton iterations per sub-step at most.
+
+        Returns
+        -------
+        StructureRecords
+            The records; after a failure the state is that before the failing step.
+        """
         ns = self.u.shape[0]
         self._scratch()
         rec = StructureRecords(
@@ -653,193 +742,28 @@ class Structure:
         self._nodata = np.zeros(self.J.data.size)
 
     def current(self) -> StructureRecords:
+        """The current state as one record."""
         return StructureRecords(
             self.u[None].copy(), self.v[None].copy(), np.zeros((1, 1), np.int64), np.full((1, 2), -1, np.int64)
         )
 
     def snapshot(self):
+        """Copies of u, v, cu, cv, lam, acc."""
         return tuple(a.copy() for a in (self.u, self.v, self.cu, self.cv, self.lam, self.acc))
 
     def restore(self, snap) -> None:
+        """Put back u, v, cu, cv, lam, acc from :meth:`snapshot` and drop the path-dependent caches."""
         self.u, self.v, self.cu, self.cv, self.lam, self.acc = (a.copy() for a in snap)
         self.on_checkpoint()
 
     def on_checkpoint(self) -> None:
         """Drop the reused LU factors and iteration counts: they depend on the path, so a run
-        restarted from a checkpoint and one that went through it must both start afresh there."""
+        restarted from a checkpoint and one that went through it both start afresh there."""
         self._lus.clear()
         self._last_its.clear()
-
-    # -- diagnostics ------------------------------------------------------------------------------
-    def invariants(self, rec, nrec, gm, center):
-        c = np.asarray(center, float)
-        E = np.empty(nrec)
-        P = np.empty((nrec, 3))
-        L = np.empty((nrec, 3))
-        pos = self.slot_pos
-        for r in range(nrec):
-            u, v = rec.u[r], rec.v[r]
-            Mv = self.Ms @ v
-            T = 0.5 * float(np.sum(v * Mv))
-            urel, ref = self.relative(u, np.zeros_like(u))
-            xn = np.empty((self.node_slot.shape[0], 3))
-            kel.combine_rows(urel, self.node_slot, self.node_coef, xn)
-            W = kel.strain_energy(
-                xn,
-                self.bar_node,
-                self.bar_EA,
-                self.bar_L,
-                self.tet_node,
-                self.tet_g,
-                self.tet_V,
-                self.tet_lam,
-                self.tet_mu,
-            )
-            V = 0.0
-            if gm != 0.0 and self.gp_m.size:
-                xg = np.empty((self.gp_m.size, 3))
-                kel.combine_rows(xn, self.gp_node, self.gp_w, xg)
-                V = -gm * float(np.sum(self.gp_m / np.linalg.norm(xg - (c - ref), axis=1)))
-            E[r] = T + W + V
-            P[r] = np.sum(pos[:, None] * Mv, axis=0)
-            L[r] = np.sum(np.cross(u, Mv), axis=0) - np.cross(c, P[r])
-        return E, P, L
-
-    def body_datasets(self, i: int) -> dict:
-        """{dataset: (width or shape, unit)} of body i (they differ by kind)."""
-        b = self.bodies[i]
-        out = {"position": (3, "m"), "velocity": (3, "m / s")}
-        if b["kind"] == "rigid":
-            out.update({"attitude": (4, "1"), "angular_velocity": (3, "rad / s")})
-        if b["kind"] == "elastic":
-            n = b["nodes"].size
-            out.update({"nodes/position": ((n, 3), "m"), "nodes/time": (None, "s")})
-        return out
-
-    def datasets(self, rec, nrec, times=None, first_row: int = 0) -> dict:
-        """{name: {dataset: rows}}; an elastic body's nodal positions only on records whose
-        global index (``first_row`` + r) is a multiple of its ``node_output_every``."""
-        out = {}
-        for b in self.bodies:
-            u, v = rec.u[:nrec], rec.v[:nrec]
-            if b["kind"] == "point":
-                s = b["slot"]
-                out[b["name"]] = {"position": u[:, s].copy(), "velocity": v[:, s].copy()}
-            elif b["kind"] == "rigid":
-                s = b["slots"]
-                D = u[:, s[1:]]  # (nrec, 3, 3): rows d_k
-                dD = v[:, s[1:]]
-                E = b["points"].second_moment
-                out[b["name"]] = {
-                    "position": u[:, s[0]].copy(),
-                    "velocity": v[:, s[0]].copy(),
-                    "attitude": matrix_to_quaternion(np.swapaxes(D, -1, -2)),
-                    "angular_velocity": body_angular_velocity(E, D, dD),
-                }
-            else:
-                spec = b["spec"]
-                nodes = b["nodes"]
-                xn = np.empty((nrec, nodes.size, 3))
-                vn = np.empty_like(xn)
-                for r in range(nrec):
-                    allx = np.empty((self.node_slot.shape[0], 3))
-                    allv = np.empty_like(allx)
-                    kel.combine_rows(u[r], self.node_slot, self.node_coef, allx)
-                    kel.combine_rows(v[r], self.node_slot, self.node_coef, allv)
-                    xn[r] = allx[nodes]
-                    vn[r] = allv[nodes]
-                mrow = np.asarray(spec.node_mass.sum(axis=1)).ravel()
-                com = np.einsum("n,rni->ri", mrow, xn) / mrow.sum()
-                vcom = np.einsum("n,rni->ri", mrow, vn) / mrow.sum()
-                d = {"position": com, "velocity": vcom}
-                k = spec.node_output_every
-                rows = [r for r in range(nrec) if (first_row + r) % k == 0]
-                d["nodes/position"] = xn[rows]
-                d["nodes/time"] = np.asarray(times, float)[rows] if times is not None else np.zeros(len(rows))
-                out[b["name"]] = d
-        return out
-
-    def body_attrs(self, i: int) -> dict:
-        b = self.bodies[i]
-        attrs = {"kind": b["kind"], "mass": b["mass"], "mass_unit": "kg"}
-        if b["kind"] == "rigid":
-            p = b["points"]
-            attrs.update(
-                {
-                    "shape": b["shape"],
-                    "mass_points": len(p),
-                    "gravity": b["gravity"],
-                    "inertia": p.inertia,
-                    "inertia_unit": "kg m2",
-                }
-            )
-        if b["kind"] == "elastic":
-            spec = b["spec"]
-            attrs.update(
-                {
-                    "nodes": spec.nodes.shape[0],
-                    "bars": spec.bars.shape[0],
-                    "tetrahedra": spec.tets.shape[0],
-                    "node_output_every": spec.node_output_every,
-                }
-            )
-            for k, v in (spec.material or {}).items():
-                attrs[k] = v
-        return attrs
-
-    def body_constants(self, i: int) -> dict:
-        b = self.bodies[i]
-        if b["kind"] == "rigid":
-            p = b["points"]
-            return {"mass_points/position": (np.ascontiguousarray(p.X.T), "m"), "mass_points/mass": (p.m, "kg")}
-        if b["kind"] == "elastic":
-            spec = b["spec"]
-            out = {"mesh/reference_nodes": (spec.ref, "m")}
-            if len(spec.bars):
-                out["mesh/bars"] = (spec.bars, "1")
-            if len(spec.tets):
-                out["mesh/tetrahedra"] = (spec.tets, "1")
-            return out
-        return {}
-
-
-class _Factors:
-    """Sparse LU factors of an equilibrated Jacobian: rows and columns are scaled to unit
-    max-norm first (as LAPACK's geequ does; SuperLU's factorisation alone does not), which
-    brings structures that mix stiff elements, rigid-body axes and constraint impulses from
-    condition numbers near 1e13 to about 1e7 (measured on satellite-flexible-boom). The
-    scaling runs in Numba on the CSC arrays: scipy's sparse-matrix bookkeeping cost more than
-    the factorisations of small structures."""
-
-    def __init__(self, data, indices, indptr, n, indices32, indptr32):
-        self.r, self.c, scaled = kc.equilibrate(data, indices, indptr, n)
-        self.lu = spla.splu(sp.csc_matrix((scaled, indices32, indptr32), shape=(n, n)))
-
-    def solve(self, b):
-        return self.c * self.lu.solve(self.r * b)
-
-    def norm(self, b) -> float:
-        """The max-norm of the equilibrated residual."""
-        return float(np.max(np.abs(self.r * b)))
 
 
 def _kahan(s, c, d):
     y = d - c
     t = s + y
     return t, (t - s) - y
-
-
-def _align(A, pattern):
-    """A's values on ``pattern``'s CSC structure (A's nonzeros must be inside the pattern)."""
-    out = pattern.copy()
-    out.data[:] = 0.0
-    A = A.tocoo()
-    kc.scatter(
-        A.row.astype(np.int64),
-        A.col.astype(np.int64),
-        A.data.astype(float),
-        out.indptr.astype(np.int64),
-        out.indices.astype(np.int64),
-        out.data,
-    )
-    return out

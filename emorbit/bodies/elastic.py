@@ -20,6 +20,7 @@ at the elements' quadrature points (tetrahedra: the 4-point degree-2 rule; bars:
 
 from __future__ import annotations
 
+import numbers
 import os
 from dataclasses import dataclass
 
@@ -28,6 +29,7 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from ..units import to_si, vector_to_si
+from .rotations import attitude_matrix
 
 __all__ = [
     "ElasticSpec",
@@ -37,9 +39,11 @@ __all__ = [
     "read_mesh",
     "elastic_spec",
     "mesh_from_parameters",
+    "build_elastic",
     "MESH_KINDS",
 ]
 
+#: the meshes an elastic body can be given
 MESH_KINDS = ("beam", "chain", "net", "file")
 _TET_A = 0.5854101966249685
 _TET_B = 0.1381966011250105
@@ -47,13 +51,39 @@ _TET_B = 0.1381966011250105
 
 @dataclass
 class ElasticSpec:
-    """An elastic body ready to join a structure (SI, body frame already applied).
+    """An elastic body ready to join a structure, in SI units, placed in space.
 
-    nodes (n, 3) initial positions, velocities (n, 3); bars (m, 2) with EA and rest lengths
-    L; tets (k, 4) with reference gradients g (k, 3, 4), volumes V, Lame lambda, mu;
-    node_mass: the scalar mass matrix over the nodes (sparse, n x n); gravity points as
-    (gp_node (q, 4), gp_w (q, 4), gp_m (q,)) in node indices; reference node coordinates
-    ref (n, 3) for output; node_output_every: records between nodal-position outputs.
+    Attributes
+    ----------
+    name : str
+        The body's name.
+    nodes, velocities : ndarray
+        (n, 3) initial node positions (m) and velocities (m/s) in space.
+    ref : ndarray
+        (n, 3) reference node coordinates in the body frame, m (written to the file).
+    bars : ndarray
+        (m, 2) node indices of the bars.
+    bar_EA, bar_L : ndarray
+        (m,) axial stiffness E A (N) and rest length (m) of each bar.
+    tets : ndarray
+        (k, 4) node indices of the tetrahedra.
+    tet_g : ndarray
+        (k, 3, 4) reference gradients of the shape functions, 1/m.
+    tet_V : ndarray
+        (k,) reference volumes, m^3.
+    tet_lam, tet_mu : ndarray
+        (k,) Lame parameters, Pa.
+    node_mass : scipy.sparse matrix
+        (n, n) scalar mass matrix over the nodes, kg.
+    gp_node, gp_w, gp_m : ndarray
+        Gravity points: (q, 4) node indices (-1 unused), (q, 4) weights, (q,) masses in kg.
+    gravity : bool
+        Whether the field acts on the body.
+    node_output_every : int
+        Records between nodal-position outputs.
+    material : dict or None
+        Young's modulus, density, mass matrix and, where given, Poisson's ratio and area,
+        with their units (the file's body attributes).
     """
 
     name: str
@@ -91,7 +121,29 @@ def _grid(size, elements, dim: int, key: str):
 
 
 def beam_mesh(size, elements, key: str = "body"):
-    """Nodes (n, 3) and tetrahedra (m, 4) of a box cut into 6 tetrahedra per cell."""
+    """A box meshed with tetrahedra: 6 per hexahedral cell (Kuhn's conforming split).
+
+    Parameters
+    ----------
+    size : array_like
+        (Lx, Ly, Lz), m; the box is centred on the origin.
+    elements : array_like
+        (nx, ny, nz) cells along each axis.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    nodes : ndarray
+        (n, 3), m.
+    tetrahedra : ndarray
+        (6 nx ny nz, 4) node indices, positively oriented.
+
+    Raises
+    ------
+    InputError
+        Sizes or counts that are not positive.
+    """
     L, n = _grid(size, elements, 3, key)
     axes = [np.linspace(-L[k] / 2, L[k] / 2, n[k] + 1) for k in range(3)]
     X = np.array(np.meshgrid(*axes, indexing="ij")).reshape(3, -1).T
@@ -119,7 +171,29 @@ def beam_mesh(size, elements, key: str = "body"):
 
 
 def chain_mesh(start, end, elements, key: str = "body"):
-    """Nodes (n + 1, 3) and bars (n, 2) on the segment from ``start`` to ``end``."""
+    """A chain of bars on a segment (a tether).
+
+    Parameters
+    ----------
+    start, end : array_like
+        The ends (3,), m.
+    elements : int
+        Number of bars.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    nodes : ndarray
+        (elements + 1, 3), m.
+    bars : ndarray
+        (elements, 2) node indices.
+
+    Raises
+    ------
+    InputError
+        ``elements`` is not an integer >= 1.
+    """
     a = np.asarray(start, float)
     b = np.asarray(end, float)
     if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) or elements < 1:
@@ -131,7 +205,29 @@ def chain_mesh(start, end, elements, key: str = "body"):
 
 
 def net_mesh(size, elements, key: str = "body"):
-    """Nodes and bars of a rectangular grid of bars in the x-y plane, centred on the origin."""
+    """A rectangular net of bars in the x-y plane, centred on the origin.
+
+    Parameters
+    ----------
+    size : array_like
+        (Lx, Ly), m.
+    elements : array_like
+        (nx, ny) cells along each axis.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    nodes : ndarray
+        ((nx + 1) (ny + 1), 3), m.
+    bars : ndarray
+        The grid's edges as node index pairs.
+
+    Raises
+    ------
+    InputError
+        Sizes or counts that are not positive.
+    """
     L, n = _grid(size, elements, 2, key)
     xs = np.linspace(-L[0] / 2, L[0] / 2, n[0] + 1)
     ys = np.linspace(-L[1] / 2, L[1] / 2, n[1] + 1)
@@ -143,8 +239,33 @@ def net_mesh(size, elements, key: str = "body"):
 
 
 def read_mesh(path, key: str = "body"):
-    """(nodes in m, tetrahedra, bars) from an HDF5 file in the documented layout, or from any
-    file meshio reads."""
+    """Read a mesh file: HDF5 in emorbit's layout, or any format meshio reads.
+
+    The HDF5 layout: ``/nodes`` (n, 3) with an optional ``unit`` attribute (default m),
+    ``/tetrahedra`` (m, 4) and/or ``/bars`` (m, 2) of 0-based node indices.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    nodes : ndarray
+        (n, 3), m (meshio's points as they are).
+    tetrahedra : ndarray
+        (k, 4) node indices.
+    bars : ndarray
+        (m, 2) node indices.
+
+    Raises
+    ------
+    InputError
+        No such file, no ``/nodes``, a unit that is not a length, or a non-HDF5 file without
+        meshio installed.
+    """
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise InputError(f"{key}.file", f"mesh file {path!r} does not exist")
@@ -197,7 +318,52 @@ def elastic_spec(
     node_output_every=1,
     key="body",
 ) -> ElasticSpec:
-    """Check a mesh and a material and build the arrays of an elastic body (SI)."""
+    """Check a mesh and a material and build the arrays of an elastic body.
+
+    Parameters
+    ----------
+    name : str
+        The body's name.
+    X : array_like
+        (n, 3) node coordinates in the body frame, m.
+    tets : array_like
+        (k, 4) tetrahedra (node indices; may be empty).
+    bars : array_like
+        (m, 2) bars (node indices; may be empty).
+    young : float
+        Young's modulus, Pa.
+    density : float
+        kg/m^3.
+    poisson : float, optional
+        Poisson's ratio in (-1, 0.5); required with tetrahedra.
+    area : float, optional
+        Bar cross-section, m^2; required with bars.
+    mass_matrix : str
+        ``"consistent"`` or ``"lumped"``.
+    position, velocity : array_like
+        The body frame's origin in space (m) and its velocity (m/s).
+    R : array_like
+        (3, 3) attitude, body to space.
+    omega_space : array_like
+        (3,) rigid angular velocity in space axes, rad/s.
+    gravity : bool
+        Whether the field acts on the body.
+    node_output_every : int
+        Records between nodal-position outputs.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    ElasticSpec
+        The body, placed and moving in space.
+
+    Raises
+    ------
+    InputError
+        A bad mesh (no elements, an index out of range, a dangling node, an inverted,
+        zero-volume or zero-length element) or material.
+    """
     X = np.asarray(X, float)
     tets = np.asarray(tets, dtype=np.int64).reshape(-1, 4)
     bars = np.asarray(bars, dtype=np.int64).reshape(-1, 2)
@@ -338,8 +504,34 @@ def elastic_spec(
 
 
 def mesh_from_parameters(mesh, params: dict, strict: bool, key: str):
-    """(nodes in m, tetrahedra, bars) of mesh ``mesh`` ("beam", "chain", "net" or "file")
-    with the parameters ``params`` as a scene gives them; errors name ``key.<parameter>``."""
+    """A mesh from its kind and parameters, as a scene gives them.
+
+    Parameters
+    ----------
+    mesh : str
+        One of :data:`MESH_KINDS`.
+    params : dict
+        beam: ``size``, ``elements``; chain: ``start``, ``end``, ``elements``; net:
+        ``size``, ``elements``; file: ``file`` [, ``mesh_unit``].
+    strict : bool
+        Require units on lengths.
+    key : str
+        Prefix of the keys that error messages name (``key.<parameter>``).
+
+    Returns
+    -------
+    nodes : ndarray
+        (n, 3), m.
+    tetrahedra : ndarray
+        (k, 4) node indices (empty for bar meshes).
+    bars : ndarray
+        (m, 2) node indices (empty for beams).
+
+    Raises
+    ------
+    InputError
+        An unknown mesh or parameter, a missing one, or a bad value.
+    """
     allowed = {
         "beam": ("size", "elements"),
         "chain": ("start", "end", "elements"),
@@ -377,3 +569,105 @@ def mesh_from_parameters(mesh, params: dict, strict: bool, key: str):
     if "mesh_unit" in params:
         X = X * to_si(f"1 {params['mesh_unit']}", "length", f"{key}.mesh_unit")
     return X, T, B
+
+
+def build_elastic(
+    name,
+    mesh,
+    mesh_params,
+    *,
+    position,
+    velocity,
+    young,
+    density,
+    poisson,
+    area,
+    attitude,
+    rotation_vector,
+    angular_velocity,
+    frame,
+    gravity,
+    mass_matrix,
+    node_output_every,
+    has_field: bool,
+    strict: bool,
+    key: str,
+) -> ElasticSpec:
+    """Check and convert an elastic body's input as a scene or the Python API gives it.
+
+    Parameters
+    ----------
+    name : str
+        The body's name.
+    mesh : str
+        One of :data:`MESH_KINDS`.
+    mesh_params : dict
+        The mesh's parameters (see :func:`mesh_from_parameters`).
+    position, velocity : Quantity or sequence
+        The body frame's initial position (m) and velocity (m/s).
+    young : Quantity, str or float
+        Young's modulus, Pa.
+    density : Quantity, str or float
+        Density, kg/m^3.
+    poisson : float or None
+        Poisson's ratio (tetrahedra).
+    area : Quantity, str, float or None
+        Cross-section of the bars, m^2.
+    attitude, rotation_vector, angular_velocity, frame
+        The body frame's attitude and rigid rotation (see
+        :func:`~emorbit.bodies.rotations.attitude_matrix`).
+    gravity : str or None
+        ``"volume"`` or ``"none"``; None: ``"volume"`` with a field, else ``"none"``.
+    mass_matrix : str
+        ``"consistent"`` or ``"lumped"``.
+    node_output_every : int
+        Records between nodal-position outputs.
+    has_field : bool
+        Whether the simulation has a central field.
+    strict : bool
+        Require units on every value.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    ElasticSpec
+        The body, placed and moving in space.
+
+    Raises
+    ------
+    InputError
+        A bad mesh, material, gravity model or value.
+    """
+    gravity = gravity or ("volume" if has_field else "none")
+    if gravity not in ("volume", "none"):
+        raise InputError(f"{key}.gravity", f"must be 'volume' or 'none', got {gravity!r}")
+    if gravity == "volume" and not has_field:
+        raise InputError(f"{key}.gravity", "'volume' needs a central field; without one use 'none'")
+    E = to_si(young, "pressure", f"{key}.young", strict=strict, positive=True)
+    rho = to_si(density, "density", f"{key}.density", strict=strict, positive=True)
+    A = to_si(area, "area", f"{key}.area", strict=strict, positive=True) if area is not None else None
+    if poisson is not None and (isinstance(poisson, bool) or not isinstance(poisson, numbers.Real)):
+        raise InputError(f"{key}.poisson", f"a number expected, got {poisson!r}")
+    X, tets, bars = mesh_from_parameters(mesh, mesh_params, strict, key)
+    x = vector_to_si(position, "length", f"{key}.position", strict=strict)
+    v = vector_to_si(velocity, "speed", f"{key}.velocity", strict=strict)
+    R, omega = attitude_matrix(attitude, rotation_vector, angular_velocity, frame, strict, key)
+    return elastic_spec(
+        name,
+        X,
+        tets,
+        bars,
+        young=E,
+        density=rho,
+        poisson=poisson,
+        area=A,
+        mass_matrix=mass_matrix,
+        position=x,
+        velocity=v,
+        R=R,
+        omega_space=omega,
+        gravity=gravity == "volume",
+        node_output_every=node_output_every,
+        key=key,
+    )

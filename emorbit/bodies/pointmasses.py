@@ -1,8 +1,10 @@
 """Point masses (test particles): names, masses and their structure-of-arrays state.
 
 The points neither disturb the field nor attract each other, so they are advanced
-independently by the kernels in :mod:`emorbit.kernels.pointmass`; this module only keeps
-their arrays and calls the kernel of the chosen method.
+independently by the kernels in :mod:`emorbit.kernels.pointmass`; this module keeps their
+arrays and calls the kernel that :mod:`emorbit.integrators.dispatch` names. The state is
+(3, n) float64 arrays of positions ``x`` (m) and velocities ``v`` (m/s) with Kahan
+compensation terms ``cx`` and ``cv``: the exact state is ``x - cx``, ``v - cv``.
 """
 
 from __future__ import annotations
@@ -13,13 +15,25 @@ import numpy as np
 
 from ..integrators import dispatch
 from ..kernels import invariants as inv
+from .system import BodySystem
 
 __all__ = ["PointMasses", "ChunkRecords", "earliest_failure"]
 
 
 def earliest_failure(fail: np.ndarray):
-    """(step index in the chunk, body index, status) of the earliest failure in a kernel's
-    ``fail`` array (n, 2; step -1 where none), or None."""
+    """The earliest failure in a kernel's ``fail`` array.
+
+    Parameters
+    ----------
+    fail : ndarray
+        (n, 2) int64: per body, the step index within the chunk and the status code of its
+        failure, step -1 where none.
+
+    Returns
+    -------
+    tuple of int or None
+        (step index in the chunk, body index, status), or None if no body failed.
+    """
     bad = np.flatnonzero(fail[:, 0] >= 0)
     if bad.size == 0:
         return None
@@ -29,11 +43,18 @@ def earliest_failure(fail: np.ndarray):
 
 @dataclass
 class ChunkRecords:
-    """States recorded by one kernel call.
+    """The states one kernel call recorded.
 
-    x, v        (nrec, 3, n) positions (m) and velocities (m/s) after each record interval
-    iterations  (nrec, n) Newton iterations summed over each interval's sub-steps
-    fail        (n, 2) step index within the chunk and status code per point, -1 if none
+    Attributes
+    ----------
+    x, v : ndarray
+        (nrec, 3, n) positions (m) and velocities (m/s) after each record interval.
+    iterations : ndarray
+        (nrec, n) Newton iterations summed over each interval's sub-steps.
+    fail : ndarray
+        (n, 2) step index within the chunk and status code per point, -1 if none.
+    solves : ndarray or None
+        (nrec, n) implicit solves per interval, when the steps vary (adaptive).
     """
 
     x: np.ndarray
@@ -43,15 +64,22 @@ class ChunkRecords:
     solves: np.ndarray | None = None  # (nrec, n) implicit solves per interval, when steps vary (adaptive)
 
     def first_failure(self):
-        """(step index in the chunk, point index, status) of the earliest failure, or None."""
+        """The earliest failure.
+
+        Returns
+        -------
+        tuple of int or None
+            (step index in the chunk, body index, status), or None.
+        """
         return earliest_failure(self.fail)
 
 
-class PointMasses:
-    """A set of independent point masses.
+class PointMasses(BodySystem):
+    """A set of independent point masses, the point-mass system of a simulation.
 
     The state lives in (3, n) float64 arrays ``x``, ``v`` with Kahan compensation terms
-    ``cx``, ``cv`` (the part of the exact sum that the rounded arrays miss); all SI.
+    ``cx``, ``cv`` (the part of the exact sum that the rounded arrays miss); all SI. Points
+    added one by one are appended to the arrays at once, when the arrays are next read.
     """
 
     kind = "point"
@@ -118,8 +146,17 @@ class PointMasses:
         self._index = None
 
     def add(self, name: str, mass: float, position: np.ndarray, velocity: np.ndarray) -> None:
-        """Append one point (already validated, SI floats); the others keep their state and
-        compensation terms."""
+        """Append one point; the others keep their state and compensation terms.
+
+        Parameters
+        ----------
+        name : str
+            A new name (checked by the simulation).
+        mass : float
+            kg.
+        position, velocity : array_like
+            (3,) m and m/s.
+        """
         if self._index is not None:
             self._index[name] = len(self._names)
         self._names.append(name)
@@ -128,8 +165,18 @@ class PointMasses:
         )
 
     def pop(self, name: str):
-        """Remove point ``name``; returns (mass, position, velocity). The others keep their
-        state and compensation terms."""
+        """Remove a point; the others keep their state and compensation terms.
+
+        Parameters
+        ----------
+        name : str
+            The point.
+
+        Returns
+        -------
+        tuple
+            (mass in kg, position (3,) in m, velocity (3,) in m/s).
+        """
         self._flush()
         i = self._names.index(name)
         out = (float(self._masses[i]), self._x[:, i].copy(), self._v[:, i].copy())
@@ -161,7 +208,31 @@ class PointMasses:
         :mod:`emorbit.kernels.pointmass.packed` (the same results as the reference kernels
         to round-off, leapfrog bit for bit), on all of Numba's threads from
         ``PARALLEL_MIN`` points on; a point's result does not depend on the thread count or
-        on the other points.
+        on the other points. With :attr:`adaptive` set, the adaptive kernel runs instead.
+
+        Parameters
+        ----------
+        method : str
+            A name of :data:`emorbit.METHODS`.
+        gm : float
+            GM, m^3/s^2.
+        center : array_like
+            The field's centre (3,), m.
+        dt : float
+            The step (the largest step, adaptive), s.
+        gammas : ndarray
+            The composition's sub-step fractions.
+        every : int
+            Steps per record.
+        nrec : int
+            Records.
+        max_iter : int
+            Newton iterations per sub-step at most.
+
+        Returns
+        -------
+        ChunkRecords
+            The records; on a failure, the point's state stops at the failing step.
         """
         n = len(self)
         if self.adaptive is not None:
@@ -237,32 +308,34 @@ class PointMasses:
         self.adaptive_steps += int(steps.sum())
         return rec
 
-    # -- the interface every body kind offers the simulation driver -----------------------
+    # -- the BodySystem interface ------------------------------------------------------
     #: per-body datasets (width, unit) written to the output file
     DATASETS = {"position": (3, "m"), "velocity": (3, "m / s")}
     #: methods with a point-mass kernel
     METHODS = ("em", "midpoint", "leapfrog")
 
     def work_per_step(self) -> int:
-        """A rough cost unit for sizing chunks (point updates per step)."""
+        """Point updates per step."""
         return len(self)
 
     def current(self) -> ChunkRecords:
-        """The current state as a one-record chunk."""
+        """The current state as one record."""
         n = len(self)
         return ChunkRecords(
             self.x[None].copy(), self.v[None].copy(), np.zeros((1, n), np.int64), np.full((n, 2), -1, np.int64)
         )
 
     def snapshot(self):
+        """Copies of x, v, cx, cv."""
         return tuple(a.copy() for a in (self.x, self.v, self.cx, self.cv))
 
     def restore(self, snap) -> None:
+        """Put back x, v, cx, cv from :meth:`snapshot`."""
         for a, s in zip((self.x, self.v, self.cx, self.cv), snap):
             a[...] = s
 
     def invariants(self, rec: ChunkRecords, nrec: int, gm: float, center):
-        """Energy (nrec,), linear momentum (nrec, 3), angular momentum about the centre (nrec, 3)."""
+        """Energy, momentum and angular momentum of the points at each record."""
         x, v = rec.x[:nrec], rec.v[:nrec]
         return (
             inv.energy(self.masses, x, v, gm, center),
@@ -271,7 +344,7 @@ class PointMasses:
         )
 
     def datasets(self, rec: ChunkRecords, nrec: int, times=None, first_row: int = 0) -> dict:
-        """{name: {"position": (nrec, 3), "velocity": (nrec, 3)}}."""
+        """{name: {"position": (nrec, 3) m, "velocity": (nrec, 3) m/s}}."""
         # one transposing copy each, then a contiguous (nrec, 3) view per point (a copy per
         # point cost about 2 us each, most of the driver's time per record with 1e5 points)
         x = np.ascontiguousarray(rec.x[:nrec].transpose(2, 0, 1))
@@ -279,11 +352,13 @@ class PointMasses:
         return {n: {"position": x[i], "velocity": v[i]} for i, n in enumerate(self.names)}
 
     def body_datasets(self, i: int) -> dict:
-        """{dataset: (width, unit)} of body i."""
+        """:attr:`DATASETS`, the same for every point."""
         return self.DATASETS
 
     def body_attrs(self, i: int) -> dict:
+        """``kind`` "point" and ``mass`` (kg)."""
         return {"kind": "point", "mass": float(self.masses[i]), "mass_unit": "kg"}
 
     def body_constants(self, i: int) -> dict:
+        """None: a point has no fixed datasets."""
         return {}

@@ -1,11 +1,13 @@
 """Rigid bodies: their mass points, director state, and the calls into
-:mod:`emorbit.kernels.rigid`.
+:mod:`emorbit.kernels.rigid`; and a rigid body checked from user input (:func:`build_rigid`).
 
 State per body (SI): ``q = (phi, d1, d2, d3)`` and ``v = dq/dt`` (12 each, rows of (nb, 12)
-arrays) with Kahan compensation terms, and a warm start for the constraint multipliers.
-The attitude is R = [d1 d2 d3] (body axes in space); recorded as a unit quaternion (scalar
-first) and the angular velocity in the body frame, Omega = J^-1 R^T L from the spin angular
-momentum (see :func:`body_angular_velocity`).
+arrays) with Kahan compensation terms, and a warm start for the 6 multipliers of the
+orthonormality constraints d_k . d_l = delta_kl. The attitude is R = [d1 d2 d3] (body axes
+in space); it is recorded as a unit quaternion (scalar first) and the angular velocity in
+the body frame, Omega = J^-1 R^T L from the spin angular momentum
+(:func:`body_angular_velocity`). The director mass matrix is E = sum m X X^T over the mass
+points (:mod:`emorbit.bodies.shapes`), the inertia J = tr(E) I - E.
 """
 
 from __future__ import annotations
@@ -20,10 +22,11 @@ from ..kernels import rigid as kern
 from ..units import to_si, vector_to_si
 from . import shapes
 from .pointmasses import earliest_failure
-from .rotations import matrix_to_quaternion, quaternion_to_matrix, rotation_vector_to_matrix
+from .rotations import attitude_matrix, matrix_to_quaternion
 from .shapes import MassPoints
+from .system import BodySystem
 
-__all__ = ["RigidBodies", "RigidRecords", "GRAVITY_MODELS"]
+__all__ = ["RigidBodies", "RigidRecords", "GRAVITY_MODELS", "body_angular_velocity", "build_rigid"]
 
 #: gravity models a rigid body can ask for
 GRAVITY_MODELS = {"volume": kern.GRAVITY_VOLUME, "point": kern.GRAVITY_POINT, "none": kern.GRAVITY_NONE}
@@ -31,7 +34,17 @@ GRAVITY_MODELS = {"volume": kern.GRAVITY_VOLUME, "point": kern.GRAVITY_POINT, "n
 
 @dataclass
 class RigidRecords:
-    """States recorded by one kernel call: q, v (nrec, nb, 12), iterations (nrec, nb), fail (nb, 2)."""
+    """The states one kernel call recorded.
+
+    Attributes
+    ----------
+    q, v : ndarray
+        (nrec, nb, 12) director states and their velocities after each record interval, SI.
+    iterations : ndarray
+        (nrec, nb) Newton iterations summed over each interval.
+    fail : ndarray
+        (nb, 2) step index within the chunk and status code per body, -1 if none.
+    """
 
     q: np.ndarray
     v: np.ndarray
@@ -39,18 +52,38 @@ class RigidRecords:
     fail: np.ndarray
 
     def first_failure(self):
+        """The earliest failure.
+
+        Returns
+        -------
+        tuple of int or None
+            (step index in the chunk, body index, status), or None.
+        """
         return earliest_failure(self.fail)
 
 
 def body_angular_velocity(E, D, dD):
-    """Body-frame angular velocity Omega = J^-1 R^T L from the spin angular momentum
-    L = sum_kl E_kl d_k x dd_l that the scheme conserves, with J = tr(E) I - E.
+    """The body-frame angular velocity Omega = J^-1 R^T L from the spin angular momentum.
 
-    E (..., 3, 3) per body, D and dD (..., 3, 3) with rows d_k and their velocities. The
-    director velocities meet the velocity-level constraints only to O(dt^2), so their skew
-    part (1/2 sum d_k x dd_k) is a second-order angular velocity even when compositions make
-    the attitude fourth order; this form follows the attitude's order (measured, torque-free
-    box at order 4: errors falling by 15.9 and 16.0 per halving of dt, against 4.0).
+    L = sum_kl E_kl d_k x dd_l is what the scheme conserves, J = tr(E) I - E. The director
+    velocities meet the velocity-level constraints only to O(dt^2), so their skew part
+    (1/2 sum d_k x dd_k) is a second-order angular velocity even when a composition makes
+    the attitude fourth order; this form follows the attitude's order
+    (tests/test_rigid.py::test_angular_velocity_follows_the_composition_order).
+
+    Parameters
+    ----------
+    E : ndarray
+        (..., 3, 3) director mass matrices, kg m^2.
+    D : ndarray
+        (..., 3, 3) with rows d_k, the body axes in space.
+    dD : ndarray
+        (..., 3, 3) with rows the velocities of d_k, 1/s.
+
+    Returns
+    -------
+    ndarray
+        (..., 3) angular velocity in the body frame, rad/s.
     """
     L = np.einsum("...kl,...ki,...lj->...ij", E, D, dD)
     L = L[..., [1, 2, 0], [2, 0, 1]] - L[..., [2, 0, 1], [1, 2, 0]]  # the vector of sum E_kl d_k x dd_l
@@ -59,8 +92,12 @@ def body_angular_velocity(E, D, dD):
     return np.linalg.solve(np.broadcast_to(J, body.shape[:-1] + (3, 3)), body[..., None])[..., 0]
 
 
-class RigidBodies:
-    """A set of rigid bodies, each with its own mass points and gravity model."""
+class RigidBodies(BodySystem):
+    """A set of rigid bodies, each with its own mass points and gravity model.
+
+    The rigid-body system of a simulation; the arrays hold every body's state in rows and
+    all mass points packed into one (3, N) array with ``offsets`` per body.
+    """
 
     kind = "rigid"
     #: per-body datasets and their units (see emorbit.io.hdf5)
@@ -88,12 +125,6 @@ class RigidBodies:
         self.lam = np.zeros((0, 6))
         self._pack()
 
-    def __len__(self) -> int:
-        return len(self.names)
-
-    def __contains__(self, name) -> bool:
-        return name in self.names
-
     def _pack(self) -> None:
         counts = [len(p) for p in self.points]
         self.offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
@@ -116,9 +147,27 @@ class RigidBodies:
         omega_space,
         params: dict | None = None,
     ) -> None:
-        """Append a body (validated SI values): R the attitude matrix (body to space),
-        omega_space its angular velocity in the space frame; params the shape's parameters in
-        SI (kept to write the body back as a scene)."""
+        """Append a body; the others keep their state, compensation terms and warm starts.
+
+        Parameters
+        ----------
+        name : str
+            A new name.
+        shape : str
+            The shape's name.
+        points : MassPoints
+            The mass points, body frame.
+        model : str
+            A key of :data:`GRAVITY_MODELS`.
+        position, velocity : array_like
+            The centre of mass's state (3,), m and m/s.
+        R : array_like
+            (3, 3) attitude matrix, body to space.
+        omega_space : array_like
+            (3,) angular velocity in space axes, rad/s.
+        params : dict, optional
+            The shape's parameters in SI, kept to write the body back as a scene.
+        """
         self.names.append(name)
         self.shapes.append(shape)
         self.params.append(dict(params or {}))
@@ -141,8 +190,19 @@ class RigidBodies:
         self._pack()
 
     def pop(self, name: str) -> dict:
-        """Remove body ``name``; returns what is needed to add it elsewhere (shape, points,
-        gravity, position, velocity, R, omega_space, params)."""
+        """Remove a body and return what is needed to add it elsewhere.
+
+        Parameters
+        ----------
+        name : str
+            The body.
+
+        Returns
+        -------
+        dict
+            ``shape``, ``points``, ``gravity``, ``position``, ``velocity``, ``R``,
+            ``omega_space`` and ``params``.
+        """
         b = self.names.index(name)
         q, v = self.q[b], self.v[b]
         D = q[3:].reshape(3, 3)
@@ -169,7 +229,7 @@ class RigidBodies:
 
     # -- stepping ------------------------------------------------------------------------
     def work_per_step(self) -> int:
-        """A rough cost unit (mass points touched) for sizing chunks."""
+        """Mass points touched per step."""
         return int(sum(len(p) if m == kern.GRAVITY_VOLUME else 1 for p, m in zip(self.points, self.models))) + 50 * len(
             self
         )
@@ -177,6 +237,32 @@ class RigidBodies:
     def advance(
         self, method: str, gm: float, center, dt: float, gammas, every: int, nrec: int, max_iter: int
     ) -> RigidRecords:
+        """Advance all bodies ``nrec * every`` composed steps, recording every ``every``.
+
+        Parameters
+        ----------
+        method : str
+            ``"em"`` or ``"midpoint"``.
+        gm : float
+            GM, m^3/s^2.
+        center : array_like
+            The field's centre (3,), m.
+        dt : float
+            The step, s.
+        gammas : ndarray
+            The composition's sub-step fractions.
+        every : int
+            Steps per record.
+        nrec : int
+            Records.
+        max_iter : int
+            Newton iterations per sub-step at most.
+
+        Returns
+        -------
+        RigidRecords
+            The records.
+        """
         nb = len(self)
         rec = RigidRecords(
             np.empty((nrec, nb, 12)),
@@ -213,6 +299,7 @@ class RigidBodies:
         return rec
 
     def current(self) -> RigidRecords:
+        """The current state as one record."""
         return RigidRecords(
             self.q[None].copy(),
             self.v[None].copy(),
@@ -221,16 +308,18 @@ class RigidBodies:
         )
 
     def snapshot(self):
+        """Copies of q, v, cq, cv, lam."""
         return tuple(a.copy() for a in (self.q, self.v, self.cq, self.cv, self.lam))
 
     def restore(self, snap) -> None:
+        """Put back q, v, cq, cv, lam from :meth:`snapshot`."""
         for a, s in zip((self.q, self.v, self.cq, self.cv, self.lam), snap):
             a[...] = s
 
     # -- diagnostics -----------------------------------------------------------------------
     def invariants(self, rec: RigidRecords, nrec: int, gm: float, center):
-        """Energy (nrec,), linear momentum (nrec, 3) and angular momentum about the centre
-        (nrec, 3) of all rigid bodies, with each body's own gravity model for the potential."""
+        """Energy, momentum and angular momentum (orbital plus spin) at each record, each body
+        with its own gravity model."""
         q, v = rec.q[:nrec], rec.v[:nrec]
         c = np.asarray(center, float)
         m = self.mass
@@ -253,7 +342,8 @@ class RigidBodies:
         return (T + V).sum(axis=1), P.sum(axis=1), L.sum(axis=1)
 
     def datasets(self, rec: RigidRecords, nrec: int, times=None, first_row: int = 0) -> dict:
-        """{name: {dataset: (nrec, width)}} for position, velocity, attitude, angular_velocity."""
+        """{name: {dataset: (nrec, width)}}: ``position`` (m), ``velocity`` (m/s), ``attitude`` (unit
+        quaternion w, x, y, z) and ``angular_velocity`` (rad/s, body frame)."""
         q, v = rec.q[:nrec], rec.v[:nrec]
         D = q[..., 3:].reshape(q.shape[:-1] + (3, 3))
         dD = v[..., 3:].reshape(v.shape[:-1] + (3, 3))
@@ -270,11 +360,12 @@ class RigidBodies:
         return out
 
     def body_datasets(self, i: int) -> dict:
-        """{dataset: (width, unit)} of body i."""
+        """:attr:`DATASETS`, the same for every rigid body."""
         return self.DATASETS
 
     def body_attrs(self, b: int) -> dict:
-        """Attributes of body ``b``'s HDF5 group."""
+        """``kind`` "rigid", ``mass`` (kg), ``shape``, ``mass_points``, ``gravity`` and ``inertia``
+        (kg m^2, of the mass points)."""
         p = self.points[b]
         inv = {v: k for k, v in GRAVITY_MODELS.items()}
         return {
@@ -289,14 +380,14 @@ class RigidBodies:
         }
 
     def body_constants(self, b: int) -> dict:
-        """Fixed datasets of body ``b``: {name: (array, unit)} (its mass points, body frame)."""
+        """The mass points in the body frame: positions (m) and masses (kg)."""
         p = self.points[b]
         return {"mass_points/position": (np.ascontiguousarray(p.X.T), "m"), "mass_points/mass": (p.m, "kg")}
 
 
 # -- building a body from user input ---------------------------------------------------------
 #: shape -> {parameter: kind of value} ("length", "mass", "density", "masses", "lengths", "int",
-#: "mesh"); every shape also takes "refinement" except "mesh"
+#: "mesh", "unit"): the parameters a scene or :meth:`emorbit.Simulation.add_rigid` may give
 SHAPE_PARAMETERS = {
     "box": {"size": "lengths", "density": "density", "mass": "mass", "refinement": "int"},
     "cylinder": {"radius": "length", "height": "length", "density": "density", "mass": "mass", "refinement": "int"},
@@ -384,8 +475,39 @@ def build_rigid(
     strict: bool,
     key: str,
 ) -> dict:
-    """Check and convert a rigid body's input. Returns a dict with ``points`` (MassPoints),
-    ``gravity`` (model name), ``position``, ``velocity``, ``R`` (3x3) and ``omega_space``."""
+    """Check and convert a rigid body's input as a scene or the Python API gives it.
+
+    Parameters
+    ----------
+    shape : str
+        A key of :data:`SHAPE_PARAMETERS`.
+    params : dict
+        The shape's parameters.
+    position, velocity : Quantity or sequence
+        The centre of mass's initial state, m and m/s.
+    attitude, rotation_vector, angular_velocity, frame
+        The attitude and angular velocity (see
+        :func:`~emorbit.bodies.rotations.attitude_matrix`).
+    gravity : str or None
+        A key of :data:`GRAVITY_MODELS`; None: ``"volume"`` with a field, else ``"none"``.
+    has_field : bool
+        Whether the simulation has a central field.
+    strict : bool
+        Require units on every value.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    dict
+        ``points`` (MassPoints), ``gravity`` (model name), ``position``, ``velocity``, ``R``
+        (3, 3), ``omega_space`` and ``params`` (the shape's parameters in SI).
+
+    Raises
+    ------
+    InputError
+        An unknown shape, parameter or gravity model, or a bad value.
+    """
 
     if not isinstance(shape, str):
         raise InputError(f"{key}.shape", f"expected a shape name, got {shape!r}")
@@ -398,7 +520,7 @@ def build_rigid(
         raise InputError(f"{key}.gravity", f"{gravity!r} needs a central field; without one use 'none'")
     x = vector_to_si(position, "length", f"{key}.position", strict=strict)
     v = vector_to_si(velocity, "speed", f"{key}.velocity", strict=strict)
-    R, omega_space = _attitude_matrix(attitude, rotation_vector, angular_velocity, frame, strict, key)
+    R, omega_space = attitude_matrix(attitude, rotation_vector, angular_velocity, frame, strict, key)
     return {
         "points": points,
         "gravity": gravity,
@@ -408,33 +530,3 @@ def build_rigid(
         "omega_space": omega_space,
         "params": si_params,
     }
-
-
-def _attitude_matrix(attitude, rotation_vector, angular_velocity, frame, strict, key):
-    """(R body-to-space, angular velocity in space) from a quaternion or rotation vector and an
-    angular velocity in the body or space frame, with errors naming the key."""
-
-    if attitude is not None and rotation_vector is not None:
-        raise InputError(f"{key}.attitude", "give the attitude or the rotation_vector, not both")
-    if attitude is not None:
-        try:
-            qa = np.asarray(attitude, dtype=float)
-        except (TypeError, ValueError):
-            raise InputError(f"{key}.attitude", f"expected 4 numbers (w, x, y, z), got {attitude!r}") from None
-        if qa.shape != (4,) or not np.all(np.isfinite(qa)):
-            raise InputError(f"{key}.attitude", f"expected 4 finite numbers (w, x, y, z), got {attitude!r}")
-        nq = float(np.linalg.norm(qa))
-        if abs(nq - 1.0) > 1e-6:
-            raise InputError(f"{key}.attitude", f"a unit quaternion is needed, |q| = {nq!r}")
-        R = quaternion_to_matrix(qa / nq)
-    elif rotation_vector is not None:
-        R = rotation_vector_to_matrix(vector_to_si(rotation_vector, "angle", f"{key}.rotation_vector", strict=strict))
-    else:
-        R = np.eye(3)
-    # re-orthonormalise to round-off so the constraints hold from the start
-    U, _, Vt = np.linalg.svd(R)
-    R = U @ Vt
-    w = vector_to_si(angular_velocity, "angular_speed", f"{key}.angular_velocity", strict=strict)
-    if frame not in ("body", "space"):
-        raise InputError(f"{key}.angular_velocity_frame", f"must be 'body' or 'space', got {frame!r}")
-    return R, (R @ w if frame == "body" else w)

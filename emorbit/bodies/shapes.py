@@ -28,15 +28,28 @@ __all__ = ["MassPoints", "box", "cylinder", "sphere", "shell", "dumbbell", "tetr
 
 @dataclass
 class MassPoints:
-    """Mass points of a discretised body (body frame, relative to the centre of mass)."""
+    """Mass points of a discretised body (body frame, relative to the centre of mass).
 
-    X: np.ndarray  # (3, N) m
-    m: np.ndarray  # (N,) kg
-    volume: float | None = None  # m^3, None for a body without volume
-    analytic_inertia: np.ndarray | None = None  # (3, 3) kg m^2 about the centre of mass
+    Attributes
+    ----------
+    X : ndarray
+        (3, N) positions, m.
+    m : ndarray
+        (N,) masses, kg.
+    volume : float or None
+        The body's volume, m^3 (None for a body without volume).
+    analytic_inertia : ndarray or None
+        (3, 3) inertia of the continuous shape about its centre of mass, kg m^2, where known.
+    """
+
+    X: np.ndarray
+    m: np.ndarray
+    volume: float | None = None
+    analytic_inertia: np.ndarray | None = None
 
     @property
     def mass(self) -> float:
+        """The total mass, kg."""
         return float(self.m.sum())
 
     @property
@@ -88,8 +101,31 @@ def _mass_from(density, mass, volume, key) -> float:
 
 
 def box(size, *, density=None, mass=None, refinement: int = 1, key: str = "body") -> MassPoints:
-    """A box with edges ``size`` = (a, b, c) along the body axes, ``refinement`` cells per edge,
-    2x2x2 Gauss points per cell (8 refinement^3 points)."""
+    """A homogeneous box: 2 x 2 x 2 Gauss points in each of refinement^3 cells.
+
+    Parameters
+    ----------
+    size : array_like
+        Edges (a, b, c) along the body axes, m.
+    density : float, optional
+        kg/m^3; give exactly one of density and mass.
+    mass : float, optional
+        Total mass, kg.
+    refinement : int
+        Cells per edge: 8 refinement^3 mass points.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    MassPoints
+        Relative to the centre of mass, with the analytic inertia of the continuous shape.
+
+    Raises
+    ------
+    InputError
+        A size that is not positive, not exactly one of density and mass, or a bad refinement.
+    """
     n = _refinement(refinement, f"{key}.refinement")
     a = np.asarray(size, float)
     if a.shape != (3,) or not np.all(a > 0):
@@ -112,8 +148,34 @@ def box(size, *, density=None, mass=None, refinement: int = 1, key: str = "body"
 
 
 def cylinder(radius, height, *, density=None, mass=None, refinement: int = 1, key: str = "body") -> MassPoints:
-    """A solid cylinder along the body z axis: ``refinement`` radial rings and axial layers,
-    max(4, 4 refinement) angles; 2-point Gauss in r (weight r) and z."""
+    """A solid homogeneous cylinder along the body z axis.
+
+    ``refinement`` radial rings and axial layers, max(4, 4 refinement) angles; 2-point Gauss
+    in r (weight r) and in z.
+
+    Parameters
+    ----------
+    radius, height : float
+        m.
+    density : float, optional
+        kg/m^3; give exactly one of density and mass.
+    mass : float, optional
+        Total mass, kg.
+    refinement : int
+        Rings and layers.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    MassPoints
+        Relative to the centre of mass, with the analytic inertia of the continuous shape.
+
+    Raises
+    ------
+    InputError
+        A size that is not positive, not exactly one of density and mass, or a bad refinement.
+    """
     n = _refinement(refinement, f"{key}.refinement")
     R, H = float(radius), float(height)
     if not (R > 0 and H > 0):
@@ -151,8 +213,34 @@ def _sphere_directions(n):
 
 
 def sphere(radius, *, density=None, mass=None, refinement: int = 1, key: str = "body") -> MassPoints:
-    """A solid sphere: ``refinement`` radial shells with 3-point Gauss in r (weight r^2) times
-    the direction rule (2 refinement x 4 refinement directions): 24 refinement^3 points."""
+    """A solid homogeneous sphere: 24 refinement^3 mass points.
+
+    ``refinement`` radial shells with 3-point Gauss in r (weight r^2), times the direction
+    rule (2 refinement x 4 refinement directions).
+
+    Parameters
+    ----------
+    radius : float
+        m.
+    density : float, optional
+        kg/m^3; give exactly one of density and mass.
+    mass : float, optional
+        Total mass, kg.
+    refinement : int
+        Radial shells.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    MassPoints
+        Relative to the centre of mass, with the analytic inertia of the continuous shape.
+
+    Raises
+    ------
+    InputError
+        A size that is not positive, not exactly one of density and mass, or a bad refinement.
+    """
     n = _refinement(refinement, f"{key}.refinement")
     R = float(radius)
     if not R > 0:
@@ -171,7 +259,29 @@ def sphere(radius, *, density=None, mass=None, refinement: int = 1, key: str = "
 
 
 def shell(radius, *, mass, refinement: int = 1, key: str = "body") -> MassPoints:
-    """A thin spherical shell (mass on the surface): 8 refinement^2 points."""
+    """A thin spherical shell, all mass on the surface: 8 refinement^2 mass points.
+
+    Parameters
+    ----------
+    radius : float
+        m.
+    mass : float
+        kg.
+    refinement : int
+        Refinement of the direction rule.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    MassPoints
+        With the analytic inertia 2/3 m R^2.
+
+    Raises
+    ------
+    InputError
+        A radius or mass that is not positive, or a bad refinement.
+    """
     n = _refinement(refinement, f"{key}.refinement")
     R = float(radius)
     if not R > 0:
@@ -182,9 +292,34 @@ def shell(radius, *, mass, refinement: int = 1, key: str = "body") -> MassPoints
 
 
 def dumbbell(masses, length, *, end_radius=None, refinement: int = 1, key: str = "body") -> MassPoints:
-    """Two masses on a massless rod of ``length`` along the body x axis. Each end is a small
-    solid sphere of ``end_radius`` (default length / 20) discretised like :func:`sphere`, which
-    gives the body its (small) inertia about the rod."""
+    """Two masses on a massless rod along the body x axis.
+
+    Each end is a small solid sphere discretised like :func:`sphere`, which gives the body
+    its (small) inertia about the rod.
+
+    Parameters
+    ----------
+    masses : sequence of 2 floats
+        kg.
+    length : float
+        The rod's length between the two centres, m.
+    end_radius : float, optional
+        Radius of the end spheres, m, in (0, length / 2) (default length / 20).
+    refinement : int
+        Refinement of each end sphere.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    MassPoints
+        Relative to the centre of mass.
+
+    Raises
+    ------
+    InputError
+        A mass, length or end radius out of range.
+    """
     m1, m2 = (float(x) for x in masses)
     L = float(length)
     if not (m1 > 0 and m2 > 0):
@@ -209,9 +344,33 @@ _TET_B = 0.1381966011250105
 
 
 def tetra_mesh(nodes, tetrahedra, *, density, key: str = "body") -> MassPoints:
-    """A body meshed with 4-node tetrahedra of uniform ``density``: the degree-2 four-point rule
-    in every element (exact inertia for the meshed geometry). Inverted or zero-volume elements
-    and nodes that belong to no element are errors naming the element or node."""
+    """A homogeneous body meshed with 4-node tetrahedra.
+
+    The degree-2 four-point rule in every element gives the exact inertia of the meshed
+    geometry.
+
+    Parameters
+    ----------
+    nodes : array_like
+        (n >= 4, 3) node coordinates, m.
+    tetrahedra : array_like
+        (k, 4) 0-based node indices, positively oriented.
+    density : float
+        kg/m^3.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    MassPoints
+        4 k mass points, with the meshed volume.
+
+    Raises
+    ------
+    InputError
+        Bad arrays, an index out of range, a node of no element, or an inverted or
+        zero-volume element (named).
+    """
     P = np.asarray(nodes, dtype=float)
     T = np.asarray(tetrahedra)
     if P.ndim != 2 or P.shape[1] != 3 or P.shape[0] < 4:
@@ -247,7 +406,7 @@ def tetra_mesh(nodes, tetrahedra, *, density, key: str = "body") -> MassPoints:
     return _finish(X, m, float(vol.sum()), None, key)
 
 
-#: shape name -> (function, required keys, optional keys) as used by scenes
+#: shape name -> the function that discretises it
 SHAPES = {
     "box": box,
     "cylinder": cylinder,

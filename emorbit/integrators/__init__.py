@@ -4,9 +4,9 @@ them: :data:`ORDERS`, :data:`ROUNDOFF` and :data:`DEVICES`, each checked here an
 Every method is a symmetric second-order step; :mod:`.composition` raises it to order 4, 6
 or 8. :mod:`.dispatch` maps (method, roundoff, device) to the kernel that runs it. To add a
 method: give it a code in :mod:`emorbit.kernels.codes`, write its step kernel for each body
-kind it supports (see :mod:`emorbit.kernels.pointmass`), add a :class:`Method` entry here and
-its code to :mod:`.dispatch`; the test suite's parametrised checks (order of convergence,
-exact invariants, reversibility) pick it up.
+kind it supports (see :mod:`emorbit.kernels.pointmass`), add a :class:`Method` entry here
+and its code to :mod:`.dispatch`; the test suite's parametrised checks (order of
+convergence, exact invariants, reversibility) pick it up.
 """
 
 from __future__ import annotations
@@ -30,17 +30,30 @@ __all__ = [
     "check_device",
 ]
 
-#: round-off treatment of em steps of point masses: "brouwer" solves each step's scalar
-#: equation to its correctly rounded root, so that the energy error stays a random walk;
-#: "fast" solves it in plain floating point (faster; the energy drifts at round-off level)
 ROUNDOFF = ("brouwer", "fast")
-#: where point masses run: "cpu" (the packed Numba kernels) or "gpu" (numba's CUDA target)
+"""Round-off treatments of em steps of point masses: ``"brouwer"`` solves each step's scalar
+equation to its correctly rounded root, so that the energy error stays a random walk;
+``"fast"`` solves it in plain floating point (cheaper; the energy drifts at round-off level)."""
 DEVICES = ("cpu", "gpu")
+"""Where point masses run: ``"cpu"`` (the packed Numba kernels) or ``"gpu"`` (Numba's CUDA target)."""
 
 
 @dataclass(frozen=True)
 class Method:
-    """What a method is and what it conserves exactly (up to round-off)."""
+    """What a method is and what it conserves exactly (up to round-off).
+
+    Attributes
+    ----------
+    name : str
+        The name a simulation or scene gives.
+    summary : str
+        One line on what the step does.
+    implicit : bool
+        Whether a step solves an implicit equation (Newton iterations).
+    conserves : tuple of str
+        ``"energy"`` and/or ``"angular_momentum"``: what the step conserves exactly in a
+        central field (every method conserves angular momentum there).
+    """
 
     name: str
     summary: str
@@ -68,31 +81,104 @@ METHODS = {
         conserves=("angular_momentum",),
     ),
 }
+"""The methods by name: ``"em"`` (energy-momentum), ``"midpoint"`` and ``"leapfrog"``."""
 
 
 def get_method(name, key: str = "method") -> Method:
-    """The :class:`Method` called ``name``; an unknown name is an :class:`InputError`."""
+    """The method of a name.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`METHODS`.
+    key : str
+        Where the name came from, for the error message.
+
+    Returns
+    -------
+    Method
+        The method.
+
+    Raises
+    ------
+    InputError
+        An unknown name.
+    """
     if not isinstance(name, str) or name not in METHODS:
         raise InputError(key, f"unknown method {name!r}; known: {', '.join(METHODS)}")
     return METHODS[name]
 
 
 def check_order(order, key: str = "order") -> int:
-    """``order`` as an int if it is one of :data:`ORDERS`, else an :class:`InputError`."""
+    """Check a composition order.
+
+    Parameters
+    ----------
+    order : int
+        One of :data:`ORDERS`.
+    key : str
+        Where it came from, for the error message.
+
+    Returns
+    -------
+    int
+        ``order``.
+
+    Raises
+    ------
+    InputError
+        Not one of :data:`ORDERS`.
+    """
     if isinstance(order, bool) or not isinstance(order, numbers.Integral) or int(order) not in ORDERS:
         raise InputError(key, f"order must be one of {', '.join(map(str, ORDERS))}, got {order!r}")
     return int(order)
 
 
 def check_roundoff(roundoff, key: str = "roundoff") -> str:
-    """``roundoff`` if it is one of :data:`ROUNDOFF`, else an :class:`InputError`."""
+    """Check a round-off treatment.
+
+    Parameters
+    ----------
+    roundoff : str
+        One of :data:`ROUNDOFF`.
+    key : str
+        Where it came from, for the error message.
+
+    Returns
+    -------
+    str
+        ``roundoff``.
+
+    Raises
+    ------
+    InputError
+        Not one of :data:`ROUNDOFF`.
+    """
     if not isinstance(roundoff, str) or roundoff not in ROUNDOFF:
         raise InputError(key, f"must be one of {', '.join(map(repr, ROUNDOFF))}, got {roundoff!r}")
     return roundoff
 
 
 def check_device(device, key: str = "device") -> str:
-    """``device`` if it is one of :data:`DEVICES`, else an :class:`InputError`."""
+    """Check a device name.
+
+    Parameters
+    ----------
+    device : str
+        One of :data:`DEVICES`.
+    key : str
+        Where it came from, for the error message.
+
+    Returns
+    -------
+    str
+        ``device``.
+
+    Raises
+    ------
+    InputError
+        Not one of :data:`DEVICES`.
+    """
     if not isinstance(device, str) or device not in DEVICES:
         raise InputError(key, f"must be one of {', '.join(DEVICES)}, got {device!r}")
     return device

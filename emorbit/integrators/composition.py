@@ -55,14 +55,30 @@ COMPOSITIONS = {
 }
 
 ORDERS = tuple(sorted(COMPOSITIONS))
+"""The orders a simulation accepts: 2 (the base step), 4, 6 and 8."""
 
 
 def coefficients(order: int) -> np.ndarray:
-    """The sub-step fractions of the symmetric composition of ``order`` (they sum to 1).
+    """The sub-step fractions of the symmetric composition of an order.
 
-    The middle coefficient is recomputed as 1 - 2 * (sum of the others), so the consistency
-    condition holds to double precision whatever digits the source printed. (Time is
-    counted as steps * dt, never by adding sub-steps.)
+    The middle coefficient is recomputed as 1 - 2 * (sum of the others), so the fractions
+    sum to 1 to double precision whatever digits the source printed. (Time is counted as
+    steps * dt, never by adding sub-steps.)
+
+    Parameters
+    ----------
+    order : int
+        One of :data:`ORDERS`.
+
+    Returns
+    -------
+    ndarray
+        The gammas of the sub-steps, in order (1, 3, 9 or 17 of them).
+
+    Raises
+    ------
+    ValueError
+        Not one of :data:`ORDERS`.
     """
     if order not in COMPOSITIONS:
         raise ValueError(f"order must be one of {ORDERS}, got {order!r}")

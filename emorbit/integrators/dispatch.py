@@ -28,8 +28,26 @@ _CODES = {"em": codes.METHOD_EM, "midpoint": codes.METHOD_MIDPOINT, "leapfrog": 
 
 
 def method_code(method: str, roundoff: str = "brouwer") -> int:
-    """The kernels' code of ``method`` (a name of :data:`~emorbit.integrators.METHODS`):
-    em with ``roundoff="fast"`` is :data:`~emorbit.kernels.codes.METHOD_EM_PLAIN`."""
+    """The kernels' code of a method.
+
+    Parameters
+    ----------
+    method : str
+        A name of :data:`~emorbit.integrators.METHODS`.
+    roundoff : str
+        A name of :data:`~emorbit.integrators.ROUNDOFF`: em with ``"fast"`` is
+        :data:`~emorbit.kernels.codes.METHOD_EM_PLAIN`.
+
+    Returns
+    -------
+    int
+        A ``METHOD_*`` code of :mod:`emorbit.kernels.codes`.
+
+    Raises
+    ------
+    InputError
+        An unknown method or roundoff.
+    """
     name = get_method(method).name
     if check_roundoff(roundoff) == "fast" and name == "em":
         return codes.METHOD_EM_PLAIN
@@ -37,7 +55,18 @@ def method_code(method: str, roundoff: str = "brouwer") -> int:
 
 
 def require_device(device: str) -> None:
-    """Nothing if point masses can run on ``device``, else an :class:`InputError` saying why."""
+    """Check that point masses can run on a device.
+
+    Parameters
+    ----------
+    device : str
+        A name of :data:`~emorbit.integrators.DEVICES`.
+
+    Raises
+    ------
+    InputError
+        They cannot (for ``"gpu"``: no CUDA target or device), saying why.
+    """
     if check_device(device) == "gpu":
         from ..kernels.pointmass import cuda
 
@@ -47,10 +76,37 @@ def require_device(device: str) -> None:
 
 
 def point_chunk(method: str, roundoff: str = "brouwer", device: str = "cpu", n: int = 0, parallel: bool | None = None):
-    """(code, chunk) of fixed steps of ``n`` point masses: call
-    ``chunk(code, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v,
-    rec_iters, fail)``. On the CPU, ``parallel`` picks the kernel on all of Numba's threads
-    (True) or on one (False); None (default) picks all threads from ``PARALLEL_MIN`` points on."""
+    """The kernel that takes fixed steps of point masses, and its method code.
+
+    Call it as ``chunk(code, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
+    rec_x, rec_v, rec_iters, fail)``.
+
+    Parameters
+    ----------
+    method : str
+        A name of :data:`~emorbit.integrators.METHODS`.
+    roundoff : str
+        A name of :data:`~emorbit.integrators.ROUNDOFF`.
+    device : str
+        ``"cpu"`` or ``"gpu"``.
+    n : int
+        Number of points (picks the threading on the CPU).
+    parallel : bool, optional
+        On the CPU: the kernel on all of Numba's threads (True) or on one (False); None
+        picks all threads from ``PARALLEL_MIN`` points on.
+
+    Returns
+    -------
+    code : int
+        The method code.
+    chunk : callable
+        The kernel.
+
+    Raises
+    ------
+    InputError
+        An unknown name, or a GPU that cannot be used.
+    """
     code = method_code(method, roundoff)
     if check_device(device) == "gpu":
         require_device(device)
@@ -65,8 +121,31 @@ def point_chunk(method: str, roundoff: str = "brouwer", device: str = "cpu", n: 
 
 
 def adaptive_chunk(method: str, roundoff: str = "brouwer", device: str = "cpu"):
-    """(code, chunk) of adaptive steps (see :mod:`emorbit.kernels.pointmass.adaptive`); they
-    run on the CPU only."""
+    """The kernel that takes adaptive steps of point masses, and its method code.
+
+    See :mod:`emorbit.kernels.pointmass.adaptive`; adaptive steps run on the CPU only.
+
+    Parameters
+    ----------
+    method : str
+        A name of :data:`~emorbit.integrators.METHODS`.
+    roundoff : str
+        A name of :data:`~emorbit.integrators.ROUNDOFF`.
+    device : str
+        Must be ``"cpu"``.
+
+    Returns
+    -------
+    code : int
+        The method code.
+    chunk : callable
+        The kernel.
+
+    Raises
+    ------
+    InputError
+        An unknown name, or a device other than the CPU.
+    """
     code = method_code(method, roundoff)
     if check_device(device) != "cpu":
         raise InputError("device", f"adaptive steps run on the CPU only, got device {device!r}")

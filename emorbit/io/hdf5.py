@@ -1,35 +1,37 @@
-"""HDF5 output of a run, written in chunks while it runs.
+"""The HDF5 run file: written in chunks while a run runs, read back into a Result.
 
-Layout (every dataset has a ``unit`` attribute; one row per record)::
+Layout (every dataset has a ``unit`` attribute; one row per record unless said)::
 
-    /time                          (n,)    s
-    /invariants/energy             (n,)    J
-    /invariants/momentum           (n, 3)  kg m / s
-    /invariants/angular_momentum   (n, 3)  kg m2 / s     about the field's centre
-    /diagnostics/newton_iterations (n,)    1             mean per point and sub-step
-    /bodies/<name>/position        (n, 3)  m        (the centre of mass for extended bodies)
-    /bodies/<name>/velocity        (n, 3)  m / s
-    /bodies/<name>/attitude        (n, 4)  1        rigid: unit quaternion (w, x, y, z), body to space
-    /bodies/<name>/angular_velocity (n, 3) rad / s  rigid: in the body frame
-    /bodies/<name>/mass_points/position (N, 3) m    rigid: the mass points, body frame
-    /bodies/<name>/mass_points/mass     (N,)   kg
-    /bodies/<name>  attributes: kind ("point" | "rigid"), mass (kg); rigid: shape, gravity,
-                    mass_points, inertia (3x3, kg m2, of the discretisation)
+    /time                              (n,)      s
+    /invariants/energy                 (n,)      J
+    /invariants/momentum               (n, 3)    kg m / s
+    /invariants/angular_momentum       (n, 3)    kg m2 / s   about the field's centre
+    /diagnostics/newton_iterations     (n,)      1           mean per body and sub-step
+    /bodies/<name>/position            (n, 3)    m           centre of mass of extended bodies
+    /bodies/<name>/velocity            (n, 3)    m / s
+    /bodies/<name>/attitude            (n, 4)    1           rigid: unit quaternion (w, x, y, z), body to space
+    /bodies/<name>/angular_velocity    (n, 3)    rad / s     rigid: in the body frame
+    /bodies/<name>/mass_points/...     position (N, 3) m, mass (N,) kg: rigid, body frame, written once
+    /bodies/<name>/nodes/position      (k, N, 3) m           elastic: every node_output_every records
+    /bodies/<name>/nodes/time          (k,)      s
+    /bodies/<name>/mesh/...            reference_nodes (N, 3) m, bars, tetrahedra: elastic, written once
 
-Root attributes: ``creator`` ("emorbit <version>"), ``emorbit_version``, ``created`` (UTC,
-ISO 8601), ``method``, ``order``, ``dt`` (s), ``t_end`` (s, requested), ``gm`` (m3 / s2),
-``center`` (m), ``output_every``, ``scene`` (the scene as TOML text), ``versions`` (JSON of
-python, numpy, numba, h5py, astropy), ``status`` ("running", "completed", "failed") and
-``error`` (the message of a failed run). Datasets are chunked and growable
-(``maxshape=(None, ...)``); each appended block is flushed, so a run that stops early
-leaves a readable file with every record written before it stopped.
+Body groups carry ``kind`` ("point", "rigid", "elastic") and ``mass`` (kg); rigid bodies
+``shape``, ``gravity``, ``mass_points`` and ``inertia`` (kg m2, of the discretisation);
+elastic bodies their element counts and material. Root attributes: ``creator``,
+``emorbit_version``, ``created`` (UTC, ISO 8601), ``versions`` (JSON), the run's ``method``,
+``order``, ``dt`` (s), ``t_start`` and ``t_end`` (s), ``steps``, ``output_every``,
+``checkpoint_every``, ``gm`` (m3 / s2), ``center`` (m), ``field_body``, ``field_radius`` (m),
+``adaptive``, ``roundoff``, ``scene`` (the scene as TOML text), ``status`` ("running",
+"completed", "failed", "interrupted") and ``error``. Datasets are chunked and growable and
+every appended block is flushed, so a run that stops early leaves a readable file.
 
-Checkpoints: ``/checkpoint`` holds the complete state (every system's arrays, compensation
-terms and warm starts included; attributes ``steps`` since the run's start, ``time`` and
-``records``, the number of records that belong to it), replaced every ``checkpoint_every``
-steps together with the records (written as ``/checkpoint_next``, flushed, then renamed, so
-that a kill never leaves half a checkpoint); ``/final_state`` holds the state at the end of the run, also
-of an interrupted one (status "interrupted"). ``emorbit resume`` continues from the checkpoint.
+``/checkpoint`` holds the complete state (every system's arrays, compensation terms and
+warm starts included; attributes ``steps`` since the run's start, ``time`` and ``records``),
+replaced every ``checkpoint_every`` steps: written as ``/checkpoint_next``, flushed, then
+renamed, so that a kill never leaves half a checkpoint. ``/final_state`` holds the state at
+the end of the run, also of an interrupted one. ``emorbit resume`` continues from the
+checkpoint (:mod:`emorbit.io.resume`); hdf5.md lists every dataset and attribute.
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ from ..result import Result
 
 __all__ = ["Writer", "read", "LAYOUT_UNITS"]
 
-#: unit attribute of each top-level dataset
+#: the unit attribute of each top-level dataset
 LAYOUT_UNITS = {
     "time": "s",
     "invariants/energy": "J",
@@ -99,13 +101,28 @@ NEXT_CHECKPOINT = "checkpoint_next"
 
 
 class Writer:
-    """Create ``path`` and append records to it.
+    """A run file being written: created with its layout, then appended to record by record.
 
-    ``bodies`` is a list of dicts with keys ``name``, ``attrs`` (group attributes),
-    ``datasets`` ({dataset: (width or shape, unit)}, growable, a row per record or fewer) and ``constants``
-    ({path: (array, unit)}, written once); ``attrs`` root attributes to store. An existing
-    file is an :class:`InputError` unless ``overwrite`` is true, so a finished run is never
-    lost by accident.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to create.
+    bodies : list of dict
+        One per body: ``name``, ``attrs`` (the group's attributes), ``datasets``
+        ({dataset: (width or shape, unit)}: growable, a row per record or fewer) and
+        ``constants`` ({path: (array, unit)}, written once).
+    attrs : dict
+        Root attributes to store.
+    overwrite : bool
+        Replace an existing file; otherwise an existing file is an error, so a finished run
+        is never lost by accident.
+    chunk_rows : int
+        Rows per HDF5 chunk (at most 1 MiB per chunk).
+
+    Raises
+    ------
+    InputError
+        The file exists (without ``overwrite``), its folder does not, or it cannot be created.
     """
 
     def __init__(self, path, bodies, attrs: dict, *, overwrite: bool = False, chunk_rows: int = 1024):
@@ -147,8 +164,21 @@ class Writer:
         f.flush()
 
     def append(self, time, energy, momentum, angular_momentum, newton_iterations, data):
-        """Append a block of records (arrays with one row per record) and flush; ``data`` is
-        {body: {dataset: block}}."""
+        """Append a block of records and flush.
+
+        Parameters
+        ----------
+        time : array_like
+            (k,) record times, s.
+        energy : array_like
+            (k,) total energy, J.
+        momentum, angular_momentum : array_like
+            (k, 3) totals, kg m/s and kg m^2/s.
+        newton_iterations : array_like
+            (k,) mean Newton iterations per body and sub-step.
+        data : dict
+            {body: {dataset: block}}, a block of rows for each of the body's datasets.
+        """
         for name, block in (
             ("time", time),
             ("invariants/energy", energy),
@@ -163,15 +193,26 @@ class Writer:
         self.file.flush()
 
     def write_checkpoint(self, steps: int, time: float, arrays: dict, rows: int) -> None:
-        """Store the complete state after ``steps`` steps of the run (t = ``time`` s) and the
-        number of records that belong to it, then flush (see :mod:`emorbit.io.resume`).
+        """Store the complete state and the number of records that belong to it, then flush.
 
         The new state goes into ``/checkpoint_next`` first, is flushed, and only then
         replaces ``/checkpoint`` (a link operation): a run killed while the arrays are being
         written keeps the previous, consistent checkpoint (an in-place update could leave
         some arrays of the new state beside the old step count). If a kill falls between the
         two link operations, :func:`emorbit.io.resume.load_checkpoint` takes the complete
-        ``/checkpoint_next``."""
+        ``/checkpoint_next``.
+
+        Parameters
+        ----------
+        steps : int
+            Steps since the start of the run.
+        time : float
+            The time of the state, s.
+        arrays : dict
+            {``"<kind>/<field>"``: array}, as :meth:`emorbit.Simulation.state_arrays` gives.
+        rows : int
+            Records written up to and including this state.
+        """
         f = self.file
         if NEXT_CHECKPOINT in f:
             del f[NEXT_CHECKPOINT]
@@ -185,7 +226,17 @@ class Writer:
         f.flush()
 
     def write_final_state(self, steps: int, time: float, arrays: dict) -> None:
-        """Store the state at the end of the run (for inspection; resuming uses the checkpoint)."""
+        """Store the state at the end of the run in ``/final_state`` (resuming uses the checkpoint).
+
+        Parameters
+        ----------
+        steps : int
+            Steps since the start of the run.
+        time : float
+            The time of the state, s.
+        arrays : dict
+            {``"<kind>/<field>"``: array}.
+        """
         self._state_group("final_state", steps, time, arrays)
         self.file.flush()
 
@@ -206,8 +257,25 @@ class Writer:
 
     @classmethod
     def reopen(cls, path, records: int, attrs: dict) -> Writer:
-        """Open an existing run file to continue it: every record after the first ``records``
-        is dropped, root attributes are updated with ``attrs`` and the status set to running."""
+        """Open an existing run file to continue it.
+
+        Every record after the first ``records`` is dropped (nodal outputs after the last
+        kept record too), the root attributes are updated and the status is set to running.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The run file.
+        records : int
+            Records to keep.
+        attrs : dict
+            Root attributes to set.
+
+        Returns
+        -------
+        Writer
+            Appending after the kept records.
+        """
         self = cls.__new__(cls)
         self.path = os.fspath(path)
         self.file = h5py.File(self.path, "r+")
@@ -237,7 +305,15 @@ class Writer:
         return self
 
     def close(self, status: str = "completed", error: str | None = None) -> None:
-        """Mark the run ``status`` (and its ``error``), flush and close. Safe to call twice."""
+        """Mark the run's status, flush and close the file; a second call does nothing.
+
+        Parameters
+        ----------
+        status : str
+            ``"completed"``, ``"failed"`` or ``"interrupted"``.
+        error : str, optional
+            The message to store in the root attribute ``error``.
+        """
         if not self.file:
             return
         self.file.attrs["status"] = status
@@ -247,7 +323,18 @@ class Writer:
 
 
 def read(path) -> Result:
-    """Read a run file into a :class:`~emorbit.result.Result` (SI arrays)."""
+    """Read a run file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An HDF5 file written by emorbit.
+
+    Returns
+    -------
+    Result
+        Every record, SI arrays; ``attrs`` holds the root attributes.
+    """
     with h5py.File(path, "r") as f:
         bodies, masses, kinds = {}, {}, {}
         for name, g in f["bodies"].items():

@@ -35,9 +35,22 @@ class _NoBar:
 
 
 def progress_bar(n_steps: int, progress: bool):
-    """tqdm's bar over ``n_steps`` steps on stderr (shown after 2 s) when ``progress``, else a
-    :class:`_NoBar`. tqdm is imported only when a bar is wanted: its import took about 45 ms
-    of a quiet run's start-up (``python -X importtime``, development machine)."""
+    """A progress bar over the steps of a run, or a stand-in that ignores updates.
+
+    tqdm is imported only when a bar is wanted, so a quiet run does not pay for its import.
+
+    Parameters
+    ----------
+    n_steps : int
+        The steps the run takes.
+    progress : bool
+        Show tqdm's bar on stderr (after 2 s).
+
+    Returns
+    -------
+    context manager
+        An object with ``update(n)``, used in a ``with`` block.
+    """
     if not progress:
         return _NoBar()
     from tqdm.auto import tqdm
@@ -46,7 +59,24 @@ def progress_bar(n_steps: int, progress: bool):
 
 
 class Sink:
-    """Collects records: computes invariants, appends to the file and keeps them in memory."""
+    """Collects records: computes invariants, appends to the file and keeps them in memory.
+
+    Parameters
+    ----------
+    sim : Simulation
+        The simulation whose systems record.
+    writer : Writer or None
+        The output file, if any.
+    keep : bool
+        Keep every record in memory (else the first and the last).
+
+    Attributes
+    ----------
+    rows : int
+        Records emitted so far.
+    last_step : int or None
+        The step count of the last record.
+    """
 
     def __init__(self, sim, writer, keep: bool):
         self.sim = sim
@@ -57,13 +87,41 @@ class Sink:
         self.last_step = None  # the step count of the last record
 
     def emit_rows(self, recs, steps, nrec: int, k: int) -> None:
-        """Emit only the first ``nrec`` rows (the ones before a collision)."""
+        """Record the first ``nrec`` rows of a chunk (the ones before a collision).
+
+        Parameters
+        ----------
+        recs : list
+            (system, records) pairs of one chunk.
+        steps : ndarray
+            Step counts of the chunk's records.
+        nrec : int
+            Rows to record.
+        k : int
+            Steps in each record interval.
+        """
         self.emit(recs, steps[:nrec], nrec, k)
 
     def emit(self, recs, steps, nrec: int, k: int) -> None:
-        """Record rows [:nrec] of each system's chunk; ``steps`` (nrec,) are the step counts
-        of the rows, ``k`` the steps in each record interval (for the iteration mean; 0 for
-        the start record, which closes no interval)."""
+        """Record rows of each system's chunk: invariants, datasets, file, memory.
+
+        Parameters
+        ----------
+        recs : list
+            (system, records) pairs of one chunk.
+        steps : ndarray
+            (nrec,) step counts of the rows.
+        nrec : int
+            Rows to record.
+        k : int
+            Steps in each record interval, for the mean Newton iterations (0 for the start
+            record, which closes no interval).
+
+        Raises
+        ------
+        IntegrationError
+            A body is inside the central body's radius; the rows before it are recorded.
+        """
         sim = self.sim
         gm, center = sim.gm, sim.center
         times = sim._t_base + np.asarray(steps) * sim._dt
@@ -113,6 +171,13 @@ class Sink:
             self.blocks[1:] = [_row(block, -1)]
 
     def result(self) -> Result:
+        """The kept records.
+
+        Returns
+        -------
+        Result
+            With the simulation's method, order, step, field and body masses and kinds.
+        """
         blocks = self.blocks
         sim = self.sim
         cat = lambda j: np.concatenate([b[j] for b in blocks])  # noqa: E731

@@ -29,7 +29,27 @@ def _text(value) -> str:
 
 
 def load_checkpoint(path):
-    """(simulation positioned at the file's last checkpoint, attrs, records at it)."""
+    """Rebuild a run file's simulation at its last checkpoint.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A run file.
+
+    Returns
+    -------
+    sim : Simulation
+        Built from the file's scene and settings, with the checkpoint's state restored.
+    attrs : dict
+        The file's root attributes.
+    records : int
+        The records that belong to the checkpoint.
+
+    Raises
+    ------
+    InputError
+        The file is missing, unreadable or has no checkpoint.
+    """
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise InputError("file", f"{path!r} does not exist")
@@ -44,7 +64,7 @@ def load_checkpoint(path):
         elif NEXT_CHECKPOINT in f and f[NEXT_CHECKPOINT].attrs.get("complete", False):
             cp = f[NEXT_CHECKPOINT]  # killed between replacing the old checkpoint and renaming the new one
         else:
-            raise InputError("file", f"{path!r} has no checkpoint (written by emorbit older than resume support?)")
+            raise InputError("file", f"{path!r} has no checkpoint to continue from")
         arrays = {}
         cp.visititems(lambda name, obj: arrays.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
         steps = int(cp.attrs["steps"])
@@ -66,8 +86,29 @@ def load_checkpoint(path):
 
 
 def resume(path, t_end, *, progress: bool | None = None) -> Result:
-    """Continue the run in ``path`` to time ``t_end`` (a Quantity, string with a unit, or s).
-    Returns the records computed by this call (from the checkpoint on)."""
+    """Continue the run in a file to a later time, in place.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A run file (finished, failed, interrupted or killed).
+    t_end : Quantity, str or float
+        The new end time, s.
+    progress : bool, optional
+        A progress bar on stderr; default: when stderr is a terminal.
+
+    Returns
+    -------
+    Result
+        The records computed by this call, from the checkpoint on.
+
+    Raises
+    ------
+    InputError
+        The file cannot be continued, or ``t_end`` is not after its checkpoint.
+    IntegrationError
+        A step failed, as in :meth:`emorbit.Simulation.run`.
+    """
     import sys
 
     from .recorder import Sink

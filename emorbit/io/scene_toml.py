@@ -22,10 +22,27 @@ def _v(vec, unit: str) -> str:
 
 
 def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -> str:
-    """A scene reproducing ``sim``'s current set-up in SI units. Point masses are exact to the
-    last bit; a rigid body is written by its attitude (a quaternion, ~1e-16) and its angular
-    velocity, which drops the O(dt^2) non-rigid part of the director velocities after steps
-    have been taken (exact restarts keep the raw state instead)."""
+    """A scene reproducing a simulation's current set-up, in SI units.
+
+    Point masses are exact to the last bit; a rigid body is written by its attitude (a
+    quaternion, ~1e-16) and its angular velocity, which drops the O(dt^2) non-rigid part of
+    the director velocities after steps have been taken (exact restarts keep the raw state
+    instead). Elastic bodies and couplings are named in a comment only.
+
+    Parameters
+    ----------
+    sim : Simulation
+        The simulation.
+    t_end : float, optional
+        The scene's ``t_end``, s (default: one step from now).
+    output_every : int
+        The scene's ``output_every``.
+
+    Returns
+    -------
+    str
+        The scene as TOML text.
+    """
     lines = []
     if sim.field is not None:
         lines.append("[field]")

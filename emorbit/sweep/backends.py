@@ -30,14 +30,29 @@ from ..errors import InputError
 __all__ = ["BACKENDS", "make_backend", "InlineExecutor"]
 
 BACKENDS = ("process", "dask", "mpi", "serial")
+"""The backends :func:`make_backend` knows, the default first."""
 #: thread-count variables of BLAS / OpenMP set for spawned workers unless already set
 _THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
 class InlineExecutor(cf.Executor):
-    """Runs each call at submit, in the calling thread (the serial backend)."""
+    """An executor that runs each call at submit, in the calling thread (the serial backend)."""
 
     def submit(self, fn, /, *args, **kwargs):
+        """Run ``fn(*args, **kwargs)`` now.
+
+        Parameters
+        ----------
+        fn : callable
+            The function.
+        *args, **kwargs
+            Its arguments.
+
+        Returns
+        -------
+        concurrent.futures.Future
+            Done, holding the result or the exception.
+        """
         future = cf.Future()
         try:
             future.set_result(fn(*args, **kwargs))
@@ -53,7 +68,23 @@ def _init_worker(threads) -> None:
 
 
 class Backend:
-    """Starts an executor, replaces it when it breaks, and closes it."""
+    """Starts an executor, replaces it when it breaks, and closes it.
+
+    This base class wraps an executor the caller owns; the subclasses start their own.
+
+    Parameters
+    ----------
+    executor : concurrent.futures.Executor, optional
+        A ready executor (the caller closes it).
+
+    Attributes
+    ----------
+    name : str
+        The backend's name.
+    window : int or None
+        At most this many tasks in flight (None: submit all); it bounds what a broken pool
+        loses.
+    """
 
     name = "executor"
     #: at most this many tasks in flight (None: submit all); bounds what a broken pool loses
@@ -63,20 +94,54 @@ class Backend:
         self.executor = executor
 
     def start(self) -> cf.Executor:
+        """Start the executor.
+
+        Returns
+        -------
+        concurrent.futures.Executor
+            Ready for tasks.
+        """
         return self.executor
 
     def restart(self) -> cf.Executor:
-        """A working executor after :class:`~concurrent.futures.BrokenExecutor`."""
+        """A working executor after :class:`~concurrent.futures.BrokenExecutor`.
+
+        Returns
+        -------
+        concurrent.futures.Executor
+            A new or the same executor.
+
+        Raises
+        ------
+        RuntimeError
+            A wrapped executor cannot be restarted.
+        """
         raise RuntimeError("the executor broke and cannot be restarted")
 
     def close(self) -> None:
+        """Stop the executor and its workers (a wrapped executor is left to its owner)."""
         pass
 
     def describe(self) -> str:
+        """What runs the tasks, in words (stored in the summary file).
+
+        Returns
+        -------
+        str
+            A short description.
+        """
         return f"executor {type(self.executor).__name__}"
 
 
 class SerialBackend(Backend):
+    """The runs in this process, one after another.
+
+    Parameters
+    ----------
+    threads : int or None
+        Ignored: the calling process keeps its Numba threads.
+    """
+
     name = "serial"
     window = 1
 
@@ -85,13 +150,37 @@ class SerialBackend(Backend):
         self.threads = threads
 
     def restart(self) -> cf.Executor:
+        """The same inline executor (it never breaks).
+
+        Returns
+        -------
+        InlineExecutor
+            The executor.
+        """
         return self.executor
 
     def describe(self) -> str:
+        """``"serial (this process)"``.
+
+        Returns
+        -------
+        str
+            The description.
+        """
         return "serial (this process)"
 
 
 class ProcessBackend(Backend):
+    """Local worker processes (``spawn``), each with its own Numba threads.
+
+    Parameters
+    ----------
+    workers : int or None
+        Processes (default: one per core).
+    threads : int or None
+        Numba (and BLAS) threads per worker; None leaves the defaults.
+    """
+
     name = "process"
 
     def __init__(self, workers: int | None, threads):
@@ -110,6 +199,13 @@ class ProcessBackend(Backend):
         )
 
     def start(self) -> cf.Executor:
+        """Start the pool; BLAS and OpenMP thread variables are set for the workers.
+
+        Returns
+        -------
+        concurrent.futures.ProcessPoolExecutor
+            The pool.
+        """
         if self.threads is not None:  # BLAS reads these when a worker imports numpy
             self._saved_env = {k: os.environ.get(k) for k in _THREAD_VARS}
             for k in _THREAD_VARS:
@@ -118,11 +214,19 @@ class ProcessBackend(Backend):
         return self.executor
 
     def restart(self) -> cf.Executor:
+        """Replace a broken pool with a new one.
+
+        Returns
+        -------
+        concurrent.futures.ProcessPoolExecutor
+            The new pool.
+        """
         self.executor.shutdown(wait=True, cancel_futures=True)  # a broken pool has stopped its workers
         self.executor = self._new()
         return self.executor
 
     def close(self) -> None:
+        """Shut the pool down and restore the thread variables."""
         if self.executor is not None:
             self.executor.shutdown(wait=True, cancel_futures=True)
         if self._saved_env is not None:
@@ -134,10 +238,34 @@ class ProcessBackend(Backend):
             self._saved_env = None
 
     def describe(self) -> str:
+        """``"<n> local processes"``.
+
+        Returns
+        -------
+        str
+            The description.
+        """
         return f"{self.workers} local processes"
 
 
 class DaskBackend(Backend):
+    """Dask distributed: a LocalCluster on loopback, or an existing cluster.
+
+    Parameters
+    ----------
+    workers : int or None
+        LocalCluster workers (default: one per core).
+    threads : int or None
+        Numba threads per worker.
+    scheduler : str, optional
+        ``tcp://HOST:PORT`` of an existing scheduler.
+
+    Raises
+    ------
+    InputError
+        dask.distributed is not installed.
+    """
+
     name = "dask"
 
     def __init__(self, workers: int | None, threads, scheduler: str | None = None):
@@ -156,6 +284,18 @@ class DaskBackend(Backend):
         self.client = None
 
     def start(self) -> cf.Executor:
+        """Start a LocalCluster or connect to the scheduler.
+
+        Returns
+        -------
+        concurrent.futures.Executor
+            The client's executor.
+
+        Raises
+        ------
+        InputError
+            The scheduler cannot be reached.
+        """
         from distributed import Client, LocalCluster
 
         if self.scheduler is not None:
@@ -180,21 +320,51 @@ class DaskBackend(Backend):
         return self.executor
 
     def restart(self) -> cf.Executor:
+        """The same executor: Dask replaces lost workers itself.
+
+        Returns
+        -------
+        concurrent.futures.Executor
+            The executor.
+        """
         return self.executor  # Dask replaces lost workers itself; the executor never breaks
 
     def close(self) -> None:
+        """Close the client and, if this backend started one, the cluster."""
         if self.client is not None:
             self.client.close()
         if self.cluster is not None:
             self.cluster.close()
 
     def describe(self) -> str:
+        """The cluster, in words.
+
+        Returns
+        -------
+        str
+            The description.
+        """
         if self.scheduler is not None:
             return f"Dask cluster at {self.scheduler}"
         return f"Dask LocalCluster, {self.workers or os.cpu_count()} workers on 127.0.0.1"
 
 
 class MPIBackend(Backend):
+    """MPI workers through :class:`mpi4py.futures.MPIPoolExecutor`.
+
+    Parameters
+    ----------
+    workers : int or None
+        Workers (default: what MPI offers).
+    threads : int or None
+        Numba threads per worker.
+
+    Raises
+    ------
+    InputError
+        mpi4py or an MPI library is missing.
+    """
+
     name = "mpi"
 
     def __init__(self, workers: int | None, threads):
@@ -219,19 +389,41 @@ class MPIBackend(Backend):
         return MPIPoolExecutor(max_workers=self.workers, initializer=_init_worker, initargs=(self.threads,))
 
     def start(self) -> cf.Executor:
+        """Start the pool.
+
+        Returns
+        -------
+        concurrent.futures.Executor
+            The MPI pool.
+        """
         self.executor = self._new()
         return self.executor
 
     def restart(self) -> cf.Executor:
+        """Replace a broken pool with a new one.
+
+        Returns
+        -------
+        concurrent.futures.Executor
+            The new pool.
+        """
         self.executor.shutdown(wait=False, cancel_futures=True)
         self.executor = self._new()
         return self.executor
 
     def close(self) -> None:
+        """Shut the pool down."""
         if self.executor is not None:
             self.executor.shutdown(wait=True, cancel_futures=True)
 
     def describe(self) -> str:
+        """``"MPI (<n> workers)"``.
+
+        Returns
+        -------
+        str
+            The description.
+        """
         return f"MPI ({self.workers or 'all'} workers)"
 
 
@@ -243,8 +435,31 @@ def make_backend(
     scheduler: str | None = None,
     executor: cf.Executor | None = None,
 ) -> Backend:
-    """The backend named ``backend`` (see :data:`BACKENDS`); ``scheduler`` means Dask on an
-    existing cluster; ``executor`` wraps a ready executor (the caller owns and closes it)."""
+    """The backend of a name, or one wrapping a ready executor.
+
+    Parameters
+    ----------
+    backend : str
+        One of :data:`BACKENDS`.
+    workers : int, optional
+        Worker processes (default: one per core).
+    threads : int or None
+        Numba threads per worker (None: Numba's default).
+    scheduler : str, optional
+        ``tcp://HOST:PORT``: Dask on an existing cluster (with backend "dask" or "process").
+    executor : concurrent.futures.Executor, optional
+        A ready executor; the caller owns and closes it.
+
+    Returns
+    -------
+    Backend
+        Not started yet.
+
+    Raises
+    ------
+    InputError
+        An unknown backend, bad counts, or a scheduler with a backend other than Dask.
+    """
     if executor is not None:
         if not isinstance(executor, cf.Executor):
             raise InputError("executor", f"a concurrent.futures.Executor expected, got {executor!r}")

@@ -20,6 +20,13 @@ __all__ = ["add_arguments", "run"]
 
 
 def add_arguments(p) -> None:
+    """Add ``emorbit sweep``'s options to its sub-command parser.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The parser of the ``sweep`` sub-command.
+    """
     p.add_argument("sweep", help="the sweep file (TOML: a base scene and the parameters to vary)")
     p.add_argument("-o", "--output", help="folder for the run files and the summary (resumes what is there)")
     where = p.add_mutually_exclusive_group()
@@ -40,6 +47,23 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
+    """Run ``emorbit sweep`` with parsed arguments.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The options of :func:`add_arguments`.
+
+    Returns
+    -------
+    int
+        0 every run completed, 1 some run failed or did not run.
+
+    Raises
+    ------
+    InputError
+        A bad sweep file or option (the command line turns it into exit code 2).
+    """
     from .runner import run_sweep
     from .spec import load_sweep
 

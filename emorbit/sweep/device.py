@@ -20,6 +20,20 @@ __all__ = ["use_device", "DEVICES"]
 
 
 def use_device(sim, device: str = "gpu") -> None:
-    """Advance ``sim``'s point masses on ``device`` ("gpu", or "cpu", the default path);
-    the same as setting :attr:`emorbit.Simulation.device`."""
+    """Advance a simulation's point masses on a device.
+
+    The same as setting :attr:`emorbit.Simulation.device`.
+
+    Parameters
+    ----------
+    sim : Simulation
+        The simulation.
+    device : str
+        ``"gpu"`` or ``"cpu"`` (the default path).
+
+    Raises
+    ------
+    InputError
+        No usable CUDA device, or adaptive steps (CPU only).
+    """
     sim.device = device

@@ -44,10 +44,19 @@ RETRIES = 3
 class SweepResult:
     """What :func:`run_sweep` did.
 
-    rows        one dict per run, in run order (columns: :attr:`columns`)
-    units       {column: unit} ("" for text and parameter columns)
-    counts      total, skipped (finished before), ran, completed, failed, not_run, retried
-                (tasks submitted again after their worker was lost)
+    Attributes
+    ----------
+    output : str
+        The output folder (absolute).
+    rows : list of dict
+        One per run, in run order (columns: :attr:`columns`).
+    columns : list of str
+        The summary's columns, in order.
+    units : dict
+        {column: unit} ("" for text and parameter columns).
+    counts : dict
+        ``total``, ``skipped`` (finished before), ``ran``, ``completed``, ``failed``,
+        ``not_run`` and ``retried`` (tasks submitted again after their worker was lost).
     """
 
     output: str
@@ -58,13 +67,27 @@ class SweepResult:
 
     @property
     def summary_csv(self) -> str:
+        """The path of ``summary.csv``."""
         return os.path.join(self.output, "summary.csv")
 
     @property
     def summary_h5(self) -> str:
+        """The path of ``summary.h5``."""
         return os.path.join(self.output, "summary.h5")
 
     def column(self, name: str) -> list:
+        """One column of the summary.
+
+        Parameters
+        ----------
+        name : str
+            A column name.
+
+        Returns
+        -------
+        list
+            Its value in every row (None where a row has none).
+        """
         return [r.get(name) for r in self.rows]
 
 
@@ -122,26 +145,51 @@ def run_sweep(
     on_result=None,
     progress: bool | None = None,
 ) -> SweepResult:
-    """Run every run of ``sweep`` (a :class:`Sweep` or the path of a sweep file) not yet
-    finished in ``output``, then write the summary (CSV and HDF5) of all of them.
-
-    backend       "process" (default), "dask", "mpi" or "serial" (see :mod:`.backends`);
-                  ``scheduler="tcp://HOST:PORT"`` runs on an existing Dask cluster and
-                  ``executor=`` on any :class:`concurrent.futures.Executor` you own
-    workers       processes (process, mpi) or LocalCluster workers (default: one per core)
-    threads       Numba threads per worker (default 1; None: Numba's default)
-    device        "cpu" or "gpu": point masses step on the CUDA device (see :mod:`.device`)
-    retries       times a run is tried again after its worker was lost
-    rerun_failed  run again the runs that failed before (by default a finished run, failed
-                  or not, is kept)
-    overwrite     replace run files of a different sweep found in ``output`` (otherwise an
-                  error: one folder holds one sweep)
-    on_result     called in this process as ``on_result(row, worker)`` for every run that
-                  finishes now (``worker``: {"host", "pid", "threads"} that ran it)
+    """Run every run of a sweep not yet finished in a folder, then write the summary of all.
 
     A run that fails is recorded in its row (status "failed", the error) and the sweep goes
-    on. Re-running skips finished runs. Raises :class:`~emorbit.errors.InputError` for a bad
-    sweep or option, before anything runs.
+    on; running again skips finished runs.
+
+    Parameters
+    ----------
+    sweep : Sweep or str or os.PathLike
+        A parsed sweep or the path of a sweep file.
+    output : str or os.PathLike
+        The output folder (its parent must exist); one folder holds one sweep.
+    backend : str
+        ``"process"`` (default), ``"dask"``, ``"mpi"`` or ``"serial"`` (:mod:`.backends`).
+    workers : int, optional
+        Processes (process, mpi) or LocalCluster workers (default: one per core).
+    threads : int or None
+        Numba threads per worker (default 1; None: Numba's default).
+    scheduler : str, optional
+        ``tcp://HOST:PORT``: run on an existing Dask cluster.
+    executor : concurrent.futures.Executor, optional
+        Run on this executor, which the caller owns.
+    device : str
+        ``"cpu"`` or ``"gpu"``: where point masses step (:mod:`.device`).
+    retries : int
+        Times a run is tried again after its worker was lost.
+    rerun_failed : bool
+        Run again the runs that failed before (by default a finished run, failed or not, is
+        kept).
+    overwrite : bool
+        Replace run files of a different sweep found in ``output`` (otherwise an error).
+    on_result : callable, optional
+        Called in this process as ``on_result(row, worker)`` for every run that finishes now
+        (``worker``: {"host", "pid", "threads"} that ran it).
+    progress : bool, optional
+        A progress bar on stderr; default: when stderr is a terminal.
+
+    Returns
+    -------
+    SweepResult
+        Every run's row, the columns and units, and the counts.
+
+    Raises
+    ------
+    InputError
+        A bad sweep or option, or a folder holding another sweep, before anything runs.
     """
     if not isinstance(sweep, Sweep):
         sweep = load_sweep(sweep)
@@ -350,7 +398,18 @@ def _write_h5(path, names, units, rows, sweep, be, counts) -> None:
 
 
 def read_summary(path) -> list[dict]:
-    """The rows of a ``summary.h5`` (or of the summary in a sweep's output folder)."""
+    """The rows of a sweep's ``summary.h5``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file, or the sweep's output folder.
+
+    Returns
+    -------
+    list of dict
+        One per run, {column: value}.
+    """
     path = os.fspath(path)
     if os.path.isdir(path):
         path = os.path.join(path, "summary.h5")

@@ -27,23 +27,17 @@
     random = { distribution = "uniform", low = 9.5, high = 10.5 }
     unit = "m"                   # normal: mean, std; loguniform: low, high
 
-A key is a dotted path into the scene: ``integrator.dt``, ``field.gm``,
-``body[0].velocity[1]`` (body 0, component 1), ``body[satellite].mass`` (the body named
-"satellite"), ``coupling[0].nodes``. Every table on the path must exist in the base scene;
-the last name must be a key that table allows (it may be absent from the base scene). A
-parameter with ``unit`` takes numbers and writes ``"<number> <unit>"`` into the scene; one
-without writes its values unchanged, so a number goes where the scene wants a bare number
-and a string with a unit where it wants a quantity. Unknown keys in the sweep file, keys
-that do not exist in the scene, and a unit where the scene has none (or the other way
-round) are errors that name the key, raised before anything runs. A bad *value* (a
-negative step, say) is not: that run fails on its own and the sweep goes on.
-
-Runs are numbered in the order of the combinations (``product``: the last parameter
-changes fastest), ``samples`` consecutive runs per combination. Run i draws its random
-values, in the order of the ``[[parameter]]`` tables, from
-``numpy.random.default_rng(numpy.random.SeedSequence(seed).spawn(n)[i])``; since spawned
-children depend only on (seed, i), a sweep with more samples keeps the draws of the runs it
-shares with a smaller one.
+A key is a dotted path into the scene: ``integrator.dt``, ``body[0].velocity[1]`` (body 0,
+component 1), ``body[satellite].mass`` (the body named "satellite"), ``coupling[0].nodes``.
+Every table on the path must exist in the base scene; the last name must be a key that
+table allows. A parameter with ``unit`` writes ``"<number> <unit>"`` into the scene; one
+without writes its values unchanged. Unknown keys, keys the scene does not have, and a unit
+where the scene has none (or the other way round) are errors naming the key, raised before
+anything runs; a bad *value* (a negative step, say) fails its run alone. Runs are numbered
+in the order of the combinations (``product``: the last parameter changes fastest),
+``samples`` consecutive runs per combination. Run i draws its random values, in the order
+of the tables, from ``default_rng(SeedSequence(seed).spawn(n)[i])``, which depends only on
+(seed, i): a sweep with more samples keeps the draws of the runs it shares with a smaller one.
 """
 
 from __future__ import annotations
@@ -110,8 +104,29 @@ _INDEX = re.compile(r"\[([^\[\]]+)\]")
 
 
 def parse_key(key, where: str = "key") -> tuple:
-    """``"body[0].velocity[1]"`` -> ``("body", 0, "velocity", 1)``; a bracket that is not an
-    integer selects the list element whose ``name`` it is: ``body[sat]`` -> ``("body", ("name", "sat"))``."""
+    """Split a dotted key into its path.
+
+    ``"body[0].velocity[1]"`` gives ``("body", 0, "velocity", 1)``; a bracket that is not an
+    integer selects the list element of that ``name``: ``body[sat]`` gives
+    ``("body", ("name", "sat"))``. Dots inside brackets belong to the name.
+
+    Parameters
+    ----------
+    key : str
+        The key.
+    where : str
+        Where it came from, for the error message.
+
+    Returns
+    -------
+    tuple
+        Names, indices and ("name", ...) selectors.
+
+    Raises
+    ------
+    InputError
+        Not a key.
+    """
     if not isinstance(key, str) or not key:
         raise InputError(where, f"a dotted key such as 'integrator.dt' expected, got {key!r}")
     segments, depth, start = [], 0, 0
@@ -196,8 +211,27 @@ def _list_index(node: list, part, here: str, where: str) -> int:
 
 
 def check_key(data: dict, path: tuple, where: str):
-    """Check that ``path`` can be set in ``data`` (see the module notes); returns the current
-    value there (None if the key is allowed but absent)."""
+    """Check that a path can be set in a scene (see the module notes).
+
+    Parameters
+    ----------
+    data : dict
+        The base scene.
+    path : tuple
+        From :func:`parse_key`.
+    where : str
+        Where the key came from, for the error message.
+
+    Returns
+    -------
+    object
+        The current value there, or None if the key is allowed but absent.
+
+    Raises
+    ------
+    InputError
+        A table on the path does not exist, or the last name is not a key its table allows.
+    """
     node, last, schema = _locate(data, path, where)
     if isinstance(last, str):
         if not isinstance(node, dict):
@@ -217,7 +251,17 @@ def check_key(data: dict, path: tuple, where: str):
 
 
 def set_value(data: dict, path: tuple, value) -> None:
-    """Set ``value`` at ``path`` in ``data`` (a scene dict), in place."""
+    """Set a value at a path in a scene, in place.
+
+    Parameters
+    ----------
+    data : dict
+        The scene.
+    path : tuple
+        From :func:`parse_key`.
+    value : object
+        The value, as written in a scene.
+    """
     node, last, _ = _locate(data, path, _show(path))
     if isinstance(last, str):
         node[last] = value
@@ -239,7 +283,23 @@ def _with_unit(value, unit: str | None, where: str):
 
 @dataclass
 class Parameter:
-    """One ``[[parameter]]``: a key, and values (a list) or a random distribution."""
+    """One ``[[parameter]]``: a key, and a list of values or a random distribution.
+
+    Attributes
+    ----------
+    key : str
+        The key as written.
+    path : tuple
+        The key's path (:func:`parse_key`).
+    unit : str or None
+        The values' unit: numbers become ``"<number> <unit>"`` in the scene.
+    values : list or None
+        The values (None for a random parameter).
+    distribution : str or None
+        ``"uniform"``, ``"normal"`` or ``"loguniform"``.
+    args : tuple
+        The distribution's parameters.
+    """
 
     key: str
     path: tuple
@@ -250,9 +310,22 @@ class Parameter:
 
     @property
     def random(self) -> bool:
+        """Whether the parameter is drawn at random."""
         return self.values is None
 
     def draw(self, rng: np.random.Generator) -> float:
+        """Draw one value of a random parameter.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The run's generator.
+
+        Returns
+        -------
+        float
+            The value (in the parameter's unit).
+        """
         a, b = self.args
         if self.distribution == "uniform":
             return float(rng.uniform(a, b))
@@ -261,6 +334,21 @@ class Parameter:
         return float(math.exp(rng.uniform(math.log(a), math.log(b))))
 
     def scene_value(self, value, where: str):
+        """A value as written into the scene.
+
+        Parameters
+        ----------
+        value : object
+            A value of the parameter.
+        where : str
+            Where it came from, for the error message.
+
+        Returns
+        -------
+        object
+            With a unit, numbers become ``"<number> <unit>"`` (lists element by element); without
+            one, the value unchanged.
+        """
         return _with_unit(value, self.unit, where)
 
 
@@ -352,8 +440,19 @@ def _parameter(p, j: int, scene_data: dict) -> Parameter:
 # -- the sweep ---------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Task:
-    """One run of a sweep: its index, seed and the values of every parameter (as written
-    into the scene); ``digest`` identifies the run (base scene, values, seed) in its file."""
+    """One run of a sweep.
+
+    Attributes
+    ----------
+    index : int
+        The run's number.
+    seed : int
+        Its seed (from ``SeedSequence(seed).spawn(n)[index]``).
+    values : dict
+        {key: value} of every parameter, as written into the scene.
+    digest : str
+        Identifies the run (base scene, fixed values, its values and seed) in its file.
+    """
 
     index: int
     seed: int
@@ -363,7 +462,29 @@ class Task:
 
 @dataclass
 class Sweep:
-    """A checked sweep: the base scene, fixed values, parameters and how they combine."""
+    """A checked sweep: the base scene, fixed values, parameters and how they combine.
+
+    Attributes
+    ----------
+    scene : Scene
+        The base scene.
+    parameters : list of Parameter
+        The ``[[parameter]]`` tables, in order.
+    fixed : dict
+        {key: value} written into every run.
+    seed : int
+        The root seed.
+    combine : str
+        ``"product"`` or ``"zip"``.
+    samples : int
+        Runs per combination.
+    bodies : list of str or None
+        Bodies whose final elements the summary lists (None: all).
+    text : str
+        The sweep file's text.
+    source : str
+        Where it came from.
+    """
 
     scene: Scene
     parameters: list[Parameter]
@@ -390,7 +511,13 @@ class Sweep:
         return math.prod(len(p.values) for p in axes)
 
     def tasks(self) -> list[Task]:
-        """Every run, in order (see the module notes)."""
+        """Every run, in order (see the module notes).
+
+        Returns
+        -------
+        list of Task
+            ``len(self)`` tasks.
+        """
         axes = self._axes()
         if self.combine == "zip":
             combos = list(zip(*[p.values for p in axes]))
@@ -418,7 +545,18 @@ class Sweep:
         return tasks
 
     def scene_for(self, task: Task) -> Scene:
-        """The run's scene, unchecked (building it checks it)."""
+        """The scene of one run, unchecked (building it checks it).
+
+        Parameters
+        ----------
+        task : Task
+            The run.
+
+        Returns
+        -------
+        Scene
+            The base scene with the fixed values and the run's values set.
+        """
         return run_scene(
             self.scene.data,
             self.scene.text,
@@ -430,16 +568,46 @@ class Sweep:
         )
 
     def body_names(self) -> list[str]:
-        """Bodies whose final elements the summary lists."""
+        """The bodies whose final elements the summary lists.
+
+        Returns
+        -------
+        list of str
+            ``bodies``, or every named body of the scene.
+        """
         if self.bodies is not None:
             return list(self.bodies)
         return [b["name"] for b in self.scene.data.get("body", []) if isinstance(b, dict) and "name" in b]
 
 
 def run_scene(data: dict, text: str, source: str, fixed: dict, params, index: int, values: dict) -> Scene:
-    """Run ``index``'s scene: the base scene ``data`` with the ``fixed`` values and the run's
-    ``values`` of ``params`` ((key, path, unit) each) set; its text is the base text after
-    comments naming them. Unchecked: building it checks it."""
+    """One run's scene: the base scene with the fixed values and the run's values set.
+
+    Its text is the base text after comments naming what was set. Unchecked: building it
+    checks it.
+
+    Parameters
+    ----------
+    data : dict
+        The base scene.
+    text : str
+        The base scene's text.
+    source : str
+        Where the base scene came from.
+    fixed : dict
+        {key: value} set in every run.
+    params : list of tuple
+        (key, path, unit) of each parameter.
+    index : int
+        The run's number.
+    values : dict
+        {key: value} of the run.
+
+    Returns
+    -------
+    Scene
+        The run's scene.
+    """
     data = copy.deepcopy(data)
     notes = []
     for key, value in fixed.items():
@@ -465,8 +633,27 @@ def _flatten(table: dict, prefix: str = "") -> dict:
 
 
 def parse_sweep(text: str, source: str = "<string>") -> Sweep:
-    """Parse and check a sweep from TOML text; a relative scene path is taken from the
-    folder of ``source``."""
+    """Parse and check a sweep from TOML text.
+
+    Parameters
+    ----------
+    text : str
+        The sweep file's text.
+    source : str
+        Its path: a relative scene path is taken from its folder.
+
+    Returns
+    -------
+    Sweep
+        The checked sweep.
+
+    Raises
+    ------
+    InputError
+        Bad TOML, an unknown or misplaced key, a key the scene does not have, a unit where the
+        scene has none (or the other way round), or inconsistent options; the error names the
+        key.
+    """
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -540,7 +727,23 @@ def parse_sweep(text: str, source: str = "<string>") -> Sweep:
 
 
 def load_sweep(path) -> Sweep:
-    """A sweep from a TOML file."""
+    """Read and check a sweep file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The TOML file.
+
+    Returns
+    -------
+    Sweep
+        The checked sweep.
+
+    Raises
+    ------
+    InputError
+        No such file, or what :func:`parse_sweep` raises.
+    """
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise InputError("sweep", f"{path!r} is not a file")

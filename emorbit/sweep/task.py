@@ -54,12 +54,39 @@ FINISHED = ("completed", "failed")
 
 
 def run_file_name(index: int) -> str:
+    """The file name of run ``index``: ``run-000012.h5``.
+
+    Parameters
+    ----------
+    index : int
+        The run's number.
+
+    Returns
+    -------
+    str
+        The name.
+    """
     return f"run-{index:06d}.h5"
 
 
 def row_columns(parameter_keys, bodies) -> list[tuple[str, str]]:
-    """(name, unit) of every summary column, in order. Parameter columns are named by their
-    key; element columns ``<body>/<element>`` (a body name never holds '/')."""
+    """Every summary column, in order, with its unit.
+
+    Parameter columns are named by their key; element columns ``<body>/<element>`` (a body
+    name never holds '/').
+
+    Parameters
+    ----------
+    parameter_keys : list of str
+        The parameters' keys.
+    bodies : list of str
+        Bodies whose final elements are listed.
+
+    Returns
+    -------
+    list of tuple
+        (name, unit) per column.
+    """
     cols = [("run", "1"), ("seed", "1")]
     cols += [(k, "") for k in parameter_keys]
     cols += list(RESULT_COLUMNS)
@@ -69,8 +96,13 @@ def row_columns(parameter_keys, bodies) -> list[tuple[str, str]]:
 
 
 def limit_threads(threads: int | None) -> None:
-    """Let Numba (and BLAS, where threadpoolctl is installed) use ``threads`` threads in
-    this worker thread; None leaves the defaults."""
+    """Set the threads of Numba (and of BLAS, where threadpoolctl is installed) in this worker.
+
+    Parameters
+    ----------
+    threads : int or None
+        Threads; None leaves the defaults.
+    """
     if threads is None:
         return
     import numba
@@ -84,9 +116,20 @@ def limit_threads(threads: int | None) -> None:
 
 
 def read_row(path: str, digest: str | None = None):
-    """The summary row stored in a finished run file, or None if the file is missing,
-    unreadable or not finished. With ``digest``, a finished file of another run (another
-    sweep wrote it) returns the string ``"mismatch"``."""
+    """The summary row stored in a finished run file.
+
+    Parameters
+    ----------
+    path : str
+        The run file.
+    digest : str, optional
+        The run's digest: a finished file of another run gives ``"mismatch"``.
+
+    Returns
+    -------
+    dict or str or None
+        The row; ``"mismatch"``; or None if the file is missing, unreadable or not finished.
+    """
     try:
         with h5py.File(path, "r") as f:
             if str(f.attrs.get("status", "")) not in FINISHED or "sweep" not in f:
@@ -178,16 +221,38 @@ def _finish(tmp: str, final: str, task: dict, status: str, error: str, wall: flo
 
 
 def row_values(task: dict) -> dict:
+    """A task's parameter values, JSON-ready.
+
+    Parameters
+    ----------
+    task : dict
+        The task.
+
+    Returns
+    -------
+    dict
+        {key: value} with numpy scalars as Python numbers.
+    """
     return {k: _json_value(v) for k, v in task["values"].items()}
 
 
 def run_task(task: dict) -> dict:
-    """Run one sweep task (a dict made by :func:`emorbit.sweep.runner.task_dict`) and
-    return ``{"row": summary row, "worker": {"host", "pid", "threads"}, "ran": bool}`` (threads:
-    Numba's thread count in the worker while it ran).
+    """Run one sweep task, as a worker does, and write its file.
 
-    Never raises for a failing run: its error goes into the row. Only a failure of the
-    worker itself (killed, out of memory) reaches the client, which retries the task.
+    Never raises for a failing run: its error goes into the row. Only a failure of the worker
+    itself (killed, out of memory) reaches the client, which retries the task.
+
+    Parameters
+    ----------
+    task : dict
+        Made by the client (:func:`emorbit.sweep.run_sweep`): the run's index, seed, values,
+        digest, file, base scene, fixed values, parameters, bodies, threads and device.
+
+    Returns
+    -------
+    dict
+        ``row`` (the summary row), ``worker`` ({"host", "pid", "threads"}: Numba's thread
+        count in the worker while it ran) and ``ran`` (False if the run was finished before).
     """
     import numba
 

@@ -1,0 +1,190 @@
+"""What a coupled structure records: its invariants, the datasets of its bodies and their
+file attributes (the output half of :class:`~emorbit.bodies.coupled.Structure`).
+
+Energy is kinetic (1/2 v^T M v over the slots) plus the St. Venant-Kirchhoff strain energy
+of the elements plus the field's potential at the gravity points; linear momentum is the
+mass matrix times the velocities of the position slots; angular momentum sums u x (M v)
+over all slots (for a rigid body's director slots, its spin) and is taken about the field's
+centre. A rigid body's attitude and body-frame angular velocity come from its director
+slots as in :mod:`emorbit.bodies.rigid`; an elastic body's position is its nodes' centre of
+mass, and its nodal positions are written every ``node_output_every`` records.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..kernels import elastic as kel
+from .rigid import body_angular_velocity
+from .rotations import matrix_to_quaternion
+from .system import BodySystem
+
+__all__ = ["StructureRecords", "StructureOutput"]
+
+
+@dataclass
+class StructureRecords:
+    """States recorded by one call: u, v (nrec, n_slots, 3), iterations (nrec, 1), fail (1, 2)."""
+
+    u: np.ndarray
+    v: np.ndarray
+    iterations: np.ndarray
+    fail: np.ndarray
+
+    def first_failure(self):
+        """The failure, if any: (step index in the chunk, 0, status), or None.
+
+        Returns
+        -------
+        tuple of int or None
+            The structure fails as one body.
+        """
+        if self.fail[0, 0] < 0:
+            return None
+        return int(self.fail[0, 0]), 0, int(self.fail[0, 1])
+
+
+class StructureOutput(BodySystem):
+    """The output half of :class:`~emorbit.bodies.coupled.Structure` (a base class).
+
+    It reads the structure's built arrays: slots, nodes, elements, gravity points and bodies.
+    """
+
+    # -- diagnostics ------------------------------------------------------------------------------
+    def invariants(self, rec, nrec, gm, center):
+        """Energy (kinetic, strain and potential), momentum and angular momentum at each record."""
+        c = np.asarray(center, float)
+        E = np.empty(nrec)
+        P = np.empty((nrec, 3))
+        L = np.empty((nrec, 3))
+        pos = self.slot_pos
+        for r in range(nrec):
+            u, v = rec.u[r], rec.v[r]
+            Mv = self.Ms @ v
+            T = 0.5 * float(np.sum(v * Mv))
+            urel, ref = self.relative(u, np.zeros_like(u))
+            xn = np.empty((self.node_slot.shape[0], 3))
+            kel.combine_rows(urel, self.node_slot, self.node_coef, xn)
+            W = kel.strain_energy(
+                xn,
+                self.bar_node,
+                self.bar_EA,
+                self.bar_L,
+                self.tet_node,
+                self.tet_g,
+                self.tet_V,
+                self.tet_lam,
+                self.tet_mu,
+            )
+            V = 0.0
+            if gm != 0.0 and self.gp_m.size:
+                xg = np.empty((self.gp_m.size, 3))
+                kel.combine_rows(xn, self.gp_node, self.gp_w, xg)
+                V = -gm * float(np.sum(self.gp_m / np.linalg.norm(xg - (c - ref), axis=1)))
+            E[r] = T + W + V
+            P[r] = np.sum(pos[:, None] * Mv, axis=0)
+            L[r] = np.sum(np.cross(u, Mv), axis=0) - np.cross(c, P[r])
+        return E, P, L
+
+    def body_datasets(self, i: int) -> dict:
+        """The datasets of body i's group, by kind; an elastic body's ``nodes/...`` datasets grow
+        by one row every ``node_output_every`` records."""
+        b = self.bodies[i]
+        out = {"position": (3, "m"), "velocity": (3, "m / s")}
+        if b["kind"] == "rigid":
+            out.update({"attitude": (4, "1"), "angular_velocity": (3, "rad / s")})
+        if b["kind"] == "elastic":
+            n = b["nodes"].size
+            out.update({"nodes/position": ((n, 3), "m"), "nodes/time": (None, "s")})
+        return out
+
+    def datasets(self, rec, nrec, times=None, first_row: int = 0) -> dict:
+        """{name: {dataset: rows}}; an elastic body's nodal positions appear only on records whose
+        index in the run (``first_row + r``) is a multiple of its ``node_output_every``."""
+        out = {}
+        for b in self.bodies:
+            u, v = rec.u[:nrec], rec.v[:nrec]
+            if b["kind"] == "point":
+                s = b["slot"]
+                out[b["name"]] = {"position": u[:, s].copy(), "velocity": v[:, s].copy()}
+            elif b["kind"] == "rigid":
+                s = b["slots"]
+                D = u[:, s[1:]]  # (nrec, 3, 3): rows d_k
+                dD = v[:, s[1:]]
+                E = b["points"].second_moment
+                out[b["name"]] = {
+                    "position": u[:, s[0]].copy(),
+                    "velocity": v[:, s[0]].copy(),
+                    "attitude": matrix_to_quaternion(np.swapaxes(D, -1, -2)),
+                    "angular_velocity": body_angular_velocity(E, D, dD),
+                }
+            else:
+                spec = b["spec"]
+                nodes = b["nodes"]
+                xn = np.empty((nrec, nodes.size, 3))
+                vn = np.empty_like(xn)
+                for r in range(nrec):
+                    allx = np.empty((self.node_slot.shape[0], 3))
+                    allv = np.empty_like(allx)
+                    kel.combine_rows(u[r], self.node_slot, self.node_coef, allx)
+                    kel.combine_rows(v[r], self.node_slot, self.node_coef, allv)
+                    xn[r] = allx[nodes]
+                    vn[r] = allv[nodes]
+                mrow = np.asarray(spec.node_mass.sum(axis=1)).ravel()
+                com = np.einsum("n,rni->ri", mrow, xn) / mrow.sum()
+                vcom = np.einsum("n,rni->ri", mrow, vn) / mrow.sum()
+                d = {"position": com, "velocity": vcom}
+                k = spec.node_output_every
+                rows = [r for r in range(nrec) if (first_row + r) % k == 0]
+                d["nodes/position"] = xn[rows]
+                d["nodes/time"] = np.asarray(times, float)[rows] if times is not None else np.zeros(len(rows))
+                out[b["name"]] = d
+        return out
+
+    def body_attrs(self, i: int) -> dict:
+        """``kind`` and ``mass`` (kg); rigid bodies as in :mod:`emorbit.bodies.rigid`; elastic bodies
+        their element counts, ``node_output_every`` and material."""
+        b = self.bodies[i]
+        attrs = {"kind": b["kind"], "mass": b["mass"], "mass_unit": "kg"}
+        if b["kind"] == "rigid":
+            p = b["points"]
+            attrs.update(
+                {
+                    "shape": b["shape"],
+                    "mass_points": len(p),
+                    "gravity": b["gravity"],
+                    "inertia": p.inertia,
+                    "inertia_unit": "kg m2",
+                }
+            )
+        if b["kind"] == "elastic":
+            spec = b["spec"]
+            attrs.update(
+                {
+                    "nodes": spec.nodes.shape[0],
+                    "bars": spec.bars.shape[0],
+                    "tetrahedra": spec.tets.shape[0],
+                    "node_output_every": spec.node_output_every,
+                }
+            )
+            for k, v in (spec.material or {}).items():
+                attrs[k] = v
+        return attrs
+
+    def body_constants(self, i: int) -> dict:
+        """A rigid body's mass points; an elastic body's reference nodes (m) and elements."""
+        b = self.bodies[i]
+        if b["kind"] == "rigid":
+            p = b["points"]
+            return {"mass_points/position": (np.ascontiguousarray(p.X.T), "m"), "mass_points/mass": (p.m, "kg")}
+        if b["kind"] == "elastic":
+            spec = b["spec"]
+            out = {"mesh/reference_nodes": (spec.ref, "m")}
+            if len(spec.bars):
+                out["mesh/bars"] = (spec.bars, "1")
+            if len(spec.tets):
+                out["mesh/tetrahedra"] = (spec.tets, "1")
+            return out
+        return {}

@@ -1,0 +1,154 @@
+"""The interface every body kind offers a :class:`~emorbit.simulation.Simulation`.
+
+A *system* holds all bodies of one kind as flat float64 arrays and advances them with its
+kernels: :class:`~emorbit.bodies.pointmasses.PointMasses`,
+:class:`~emorbit.bodies.rigid.RigidBodies` and :class:`~emorbit.bodies.coupled.Structure`.
+Systems do not interact, so the simulation advances each one on its own, in chunks: a call
+of :meth:`BodySystem.advance` takes ``nrec * every`` composed steps and returns *records*,
+an object with the states after every ``every`` steps, the Newton iterations per record
+interval and the earliest failure. The simulation turns records into invariants and file
+datasets through the same system (:meth:`~BodySystem.invariants`,
+:meth:`~BodySystem.datasets`), and takes and restores snapshots of the whole state (for a
+failed step redone in sub-steps, and for checkpoints).
+
+To add a body kind: subclass :class:`BodySystem`, implement every method below, give the
+kind's state arrays (compensation terms and warm starts included) to
+``emorbit.stepping.STATE_FIELDS`` so that checkpoints store them, and let the simulation
+create the system when a scene adds a body of that kind.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["BodySystem"]
+
+
+class BodySystem:
+    """Bodies of one kind, their state arrays and their kernel calls.
+
+    Attributes
+    ----------
+    kind : str
+        The kind's name: the group of its state in checkpoints (``"<kind>/<field>"``).
+    METHODS : tuple of str
+        The methods (names of :data:`emorbit.integrators.METHODS`) it has kernels for.
+    names : list of str
+        The bodies' names, in the order of adding (an attribute or a property of the kind).
+    """
+
+    kind: str = ""
+    METHODS: tuple[str, ...] = ()
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def __contains__(self, name) -> bool:
+        return name in self.names
+
+    def work_per_step(self) -> int:
+        """A rough cost of one step, in point updates, for sizing chunks of steps."""
+        raise NotImplementedError
+
+    def advance(self, method: str, gm: float, center, dt: float, gammas, every: int, nrec: int, max_iter: int):
+        """Advance every body ``nrec * every`` composed steps, recording every ``every`` steps.
+
+        Parameters
+        ----------
+        method : str
+            A name of :attr:`METHODS`.
+        gm : float
+            GM of the field, m^3/s^2 (0 in free space).
+        center : ndarray
+            The field's centre (3,), m.
+        dt : float
+            The step, s.
+        gammas : ndarray
+            The composition's sub-step coefficients (:func:`emorbit.integrators.coefficients`).
+        every : int
+            Steps per record.
+        nrec : int
+            Records to take.
+        max_iter : int
+            Newton iterations allowed per implicit sub-step.
+
+        Returns
+        -------
+        records
+            The states after each record interval, the Newton iterations per interval and
+            ``first_failure()``: (step index in the chunk, body index, status) of the
+            earliest failed step, or None. A failed body stops at the start of its failing step.
+        """
+        raise NotImplementedError
+
+    def current(self):
+        """The current state as records of one record (nothing failed)."""
+        raise NotImplementedError
+
+    def snapshot(self):
+        """Copies of the whole state, compensation terms included, for :meth:`restore`."""
+        raise NotImplementedError
+
+    def restore(self, snap) -> None:
+        """Put back the state :meth:`snapshot` returned."""
+        raise NotImplementedError
+
+    def on_checkpoint(self) -> None:
+        """Drop what depends on the path taken so far (cached factorisations, warm starts that
+        are not state), so that a run restarted from a checkpoint continues bit for bit."""
+
+    def invariants(self, rec, nrec: int, gm: float, center) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The bodies' total invariants at each of the first ``nrec`` records.
+
+        Parameters
+        ----------
+        rec : records
+            What :meth:`advance` or :meth:`current` returned.
+        nrec : int
+            How many records to evaluate.
+        gm : float
+            GM of the field, m^3/s^2.
+        center : array_like
+            The field's centre, m.
+
+        Returns
+        -------
+        tuple of ndarray
+            Energy (nrec,) in J, linear momentum (nrec, 3) in kg m/s, angular momentum about
+            the centre (nrec, 3) in kg m^2/s.
+        """
+        raise NotImplementedError
+
+    def datasets(self, rec, nrec: int, times=None, first_row: int = 0) -> dict:
+        """The first ``nrec`` records as per-body datasets.
+
+        Parameters
+        ----------
+        rec : records
+            What :meth:`advance` or :meth:`current` returned.
+        nrec : int
+            How many records.
+        times : ndarray, optional
+            The records' times, s (for datasets written at a lower rate than the records).
+        first_row : int
+            The index of the first of these records in the run.
+
+        Returns
+        -------
+        dict
+            {body name: {dataset: array with one row per record}}, in the units of
+            :meth:`body_datasets`.
+        """
+        raise NotImplementedError
+
+    def body_datasets(self, i: int) -> dict:
+        """The growing datasets of body ``i``'s HDF5 group: {path: (width or shape, unit)}."""
+        raise NotImplementedError
+
+    def body_attrs(self, i: int) -> dict:
+        """The attributes of body ``i``'s HDF5 group: ``kind``, ``mass`` (kg) and the kind's own."""
+        raise NotImplementedError
+
+    def body_constants(self, i: int) -> dict:
+        """The fixed datasets of body ``i``, written once: {path: (array, unit)}."""
+        raise NotImplementedError
