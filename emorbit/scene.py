@@ -3,19 +3,12 @@
 ::
 
     [field]
-    gm = "3.9478 m3 / s2"          # or: g_ref = "0.039478 m / s2" and r_ref = "10 m"; or: body = "earth"
-    center = ["0 m", "0 m", "0 m"] # optional, default: the origin
-    radius = "6378.1 km"           # optional collision radius (default: a named body's radius, else 0)
+    gm = "3.9478 m3 / s2"
     [integrator]
-    method = "em"                  # em | midpoint | leapfrog        (default em)
-    order = 2                      # 2 | 4 | 6 | 8                   (default 2)
+    method = "em"
     dt = "0.464758 s"
     t_end = "4647.58 s"
-    output_every = 10              # steps between records           (default 1)
-    checkpoint_every = 1000        # steps between checkpoints       (default ~0.5 s of work)
-    adaptive = 0.01                # point masses: step = 0.01 of the local Kepler time, <= dt (default: off)
-    roundoff = "brouwer"           # em, point masses: "brouwer" (energy error a random walk) | "fast"
-    max_newton_iterations = 50     # per implicit sub-step           (default 50)
+    output_every = 10
     [[body]]
     name = "satellite"
     kind = "point"
@@ -24,9 +17,11 @@
     velocity = ["0 m/s", "0.36276 m/s", "0 m/s"]
 
 Every dimensional value is a string with a unit (anything astropy reads: "1 km", "1 d",
-"3.9478 m3 / s2"). Unknown keys, missing keys, wrong units and bad values are errors
-naming the key, raised before anything runs. Shipped scenes are found by name
-(:func:`list_scenes`).
+"3.9478 m3 / s2"). Unknown keys, missing keys, wrong units and bad values are errors naming
+the key, raised before anything runs. :data:`KEYS` lists every key of every table with its
+unit, default, allowed values and meaning; :data:`SCHEMA` (which keys each table allows, and
+which it requires) is derived from it, and the scenes page of the documentation is generated
+from it. Shipped scenes are found by name (:func:`list_scenes`).
 """
 
 from __future__ import annotations
@@ -46,121 +41,236 @@ else:  # pragma: no cover - Python 3.10
 import numpy as np
 
 from .errors import InputError
-from .field import CentralField
-from .integrators import check_order, check_roundoff, get_method
+from .field import BODIES, CentralField
+from .integrators import METHODS, ORDERS, ROUNDOFF, check_order, check_roundoff, get_method
 from .io.scene_toml import simulation_to_toml
 from .simulation import Simulation, check_body_name
 from .units import to_si
 
-__all__ = ["Scene", "load_scene", "list_scenes", "parse_scene", "simulation_to_toml", "SCHEMA"]
+__all__ = ["Scene", "Key", "KEYS", "SCHEMA", "load_scene", "list_scenes", "parse_scene", "simulation_to_toml"]
 
-#: allowed keys per table; values: required?
-SCHEMA = {
-    "": {"field": False, "integrator": True, "body": True, "coupling": False},
-    "field": {"gm": False, "g_ref": False, "r_ref": False, "body": False, "center": False, "radius": False},
-    "integrator": {
-        "method": False,
-        "order": False,
-        "dt": True,
-        "t_end": True,
-        "output_every": False,
-        "max_newton_iterations": False,
-        "newton": False,
-        "checkpoint_every": False,
-        "adaptive": False,
-        "roundoff": False,
-    },
-    "body.point": {"name": True, "kind": True, "mass": True, "position": True, "velocity": True},
-    "body.rigid": {
-        "name": True,
-        "kind": True,
-        "shape": True,
-        "position": True,
-        "velocity": True,
-        "attitude": False,
-        "rotation_vector": False,
-        "angular_velocity": False,
-        "angular_velocity_frame": False,
-        "gravity": False,
-        # shape parameters (which apply depends on the shape; see emorbit.bodies.rigid.SHAPE_PARAMETERS)
-        "size": False,
-        "radius": False,
-        "height": False,
-        "masses": False,
-        "length": False,
-        "end_radius": False,
-        "density": False,
-        "mass": False,
-        "refinement": False,
-        "nodes": False,
-        "tetrahedra": False,
-        "mesh_unit": False,
-    },
-    "body.elastic": {
-        "name": True,
-        "kind": True,
-        "mesh": True,
-        "position": True,
-        "velocity": True,
-        "young": True,
-        "density": True,
-        "poisson": False,
-        "area": False,
-        "mass_matrix": False,
-        "attitude": False,
-        "rotation_vector": False,
-        "angular_velocity": False,
-        "angular_velocity_frame": False,
-        "gravity": False,
-        "node_output_every": False,
-        # mesh parameters (which apply depends on the mesh)
-        "size": False,
-        "elements": False,
-        "start": False,
-        "end": False,
-        "file": False,
-        "mesh_unit": False,
-    },
-    "coupling": {"kind": True, "elastic": True, "nodes": True, "to": True},
-}
+
+@dataclass(frozen=True)
+class Key:
+    """One key of a scene table and what the documentation says about it.
+
+    Attributes
+    ----------
+    name : str
+        The key as written in the TOML table.
+    required : bool
+        Whether every table of its kind must have it.
+    unit : str
+        The kind of quantity and its SI unit (a string with any unit of that kind is
+        accepted), or the TOML type of a value without a unit.
+    default : str
+        The value taken when the key is absent ("" for a key without a default).
+    allowed : str
+        The values it may take.
+    meaning : str
+        What it does, in one line.
+    applies : tuple of str
+        For shape and mesh parameters: the shapes or meshes that take it (empty: every body
+        of the table's kind).
+    """
+
+    name: str
+    required: bool
+    unit: str
+    default: str
+    allowed: str
+    meaning: str
+    applies: tuple[str, ...] = ()
+
+
+#: the kinds of [[body]] and [[coupling]] tables
 BODY_KINDS = ("point", "rigid", "elastic")
 COUPLING_KINDS = ("attach",)
-_ELASTIC_COMMON = (
-    "name",
-    "kind",
-    "mesh",
-    "position",
-    "velocity",
-    "young",
-    "density",
-    "poisson",
-    "area",
-    "mass_matrix",
-    "attitude",
-    "rotation_vector",
-    "angular_velocity",
-    "angular_velocity_frame",
-    "gravity",
-    "node_output_every",
+_RIGID_SHAPES = ("box", "cylinder", "sphere", "shell", "dumbbell", "mesh")
+_ELASTIC_MESHES = ("beam", "chain", "net", "file")
+
+
+def _choices(values) -> str:
+    return ", ".join(f'"{v}"' if isinstance(v, str) else str(v) for v in values)
+
+
+# One key per entry: Key(name, required, value, default, allowed, meaning[, applies]).
+# fmt: off
+_V, _ANY, _REQ = "3 strings with units", "3 finite values", " (required)"
+_LENGTH, _LENGTHS = "length (m)", f"length (m), {_V}"
+_IDENTITY = (
+    Key("name", True, "string", "", "unique in the scene, not empty, no '/'", "the body's name (its HDF5 group)"),
+    Key("kind", True, "string", "", _choices(BODY_KINDS), "the kind of body"),
 )
-_RIGID_COMMON = (
-    "name",
-    "kind",
-    "shape",
-    "position",
-    "velocity",
-    "attitude",
-    "rotation_vector",
-    "angular_velocity",
-    "angular_velocity_frame",
-    "gravity",
+
+
+def _motion(position: str, velocity: str) -> tuple[Key, ...]:
+    """The position and velocity keys of a body; the arguments say what they place."""
+    return (Key("position", True, _LENGTHS, "", _ANY, position),
+            Key("velocity", True, f"speed (m / s), {_V}", "", _ANY, velocity))
+
+
+_ATTITUDE = (
+    Key("attitude", False, "4 numbers", "[1, 0, 0, 0]", "a unit quaternion (w, x, y, z)",
+        "the rotation from body axes to space axes; not together with rotation_vector"),
+    Key("rotation_vector", False, f"angle (rad), {_V}", "no rotation", _ANY,
+        "the attitude as angle times axis; not together with attitude"),
+    Key("angular_velocity", False, f"angular speed (rad / s), {_V}", '["0 rad/s", "0 rad/s", "0 rad/s"]', _ANY,
+        "the initial angular velocity of the body frame"),
+    Key("angular_velocity_frame", False, "string", '"body"', _choices(("body", "space")),
+        "the frame angular_velocity is written in"),
 )
+_GRAVITY_DEFAULT = '"volume" with a [field], else "none"'
+
+#: Every key of every scene table, in the order the parser lists them: ``""`` is the top
+#: level, ``"body.<kind>"`` a ``[[body]]`` table of that kind.
+KEYS: dict[str, tuple[Key, ...]] = {
+    "": (
+        Key("field", False, "table", "free space (no gravity)", "a [field] table", "the central field"),
+        Key("integrator", True, "table", "", "an [integrator] table", "the method, the step and the run's length"),
+        Key("body", True, "array of tables", "", "one or more [[body]] tables", "the bodies"),
+        Key("coupling", False, "array of tables", "none", "[[coupling]] tables",
+            "nodes of elastic bodies attached to other bodies"),
+    ),
+    "field": (
+        Key("gm", False, "gravitational parameter (m3 / s2)", "", "> 0",
+            "GM of the central mass; give exactly one of gm, g_ref with r_ref, or body"),
+        Key("g_ref", False, "acceleration (m / s2)", "", "> 0",
+            "the acceleration at distance r_ref: GM = g_ref r_ref^2 (needs r_ref)"),
+        Key("r_ref", False, _LENGTH, "", "> 0", "the distance at which the acceleration is g_ref (needs g_ref)"),
+        Key("body", False, "string", "", _choices(sorted(BODIES)) + " (any case)",
+            "a named central body: GM from astropy.constants (IAU 2015 nominal values)"),
+        Key("center", False, _LENGTHS, '["0 m", "0 m", "0 m"]', _ANY, "the central mass's position"),
+        Key("radius", False, _LENGTH, "a named body's nominal equatorial radius, else 0", ">= 0",
+            "a body recorded closer to the centre than this stops the run with an error"),
+    ),
+    "integrator": (
+        Key("method", False, "string", '"em"', _choices(METHODS), "the integration method"),
+        Key("order", False, "integer", "2", _choices(ORDERS),
+            "2 is the base step; 4, 6, 8 symmetric compositions of it"),
+        Key("dt", True, "time (s)", "", "> 0", "the step (with adaptive: the largest step)"),
+        Key("t_end", True, "time (s)", "", "> 0, at least one step",
+            "the end time, rounded up to a whole step unless within 1e-9 (relative) of one"),
+        Key("output_every", False, "integer", "1", ">= 1", "steps between records"),
+        Key("max_newton_iterations", False, "integer", "50", ">= 1", "Newton iterations per implicit sub-step"),
+        Key("newton", False, "string", '"auto"', _choices(("auto", "reuse", "full")),
+            'elastic structures: refactor the Jacobian every iteration ("full"), keep the factors while they '
+            'converge fast ("reuse"), or choose by size ("auto")'),
+        Key("checkpoint_every", False, "integer", "about half a second of work", ">= 1",
+            "steps between checkpoints, rounded up to a multiple of output_every"),
+        Key("adaptive", False, "number", "off (fixed steps of dt)", "in (0, 1]",
+            "point masses: each step is this fraction of the local Kepler time 2 pi sqrt(r^3 / GM), at most dt"),
+        Key("roundoff", False, "string", '"brouwer"', _choices(ROUNDOFF),
+            'em steps of point masses: "brouwer" keeps the energy error a random walk; "fast" is cheaper and '
+            "drifts at round-off level"),
+    ),
+    "body.point": (
+        *_IDENTITY,
+        Key("mass", True, "mass (kg)", "", "> 0", "the point's mass (a test particle: it feels only the field)"),
+        *_motion("the point's position", "the point's velocity"),
+    ),
+    "body.rigid": (
+        *_IDENTITY,
+        Key("shape", True, "string", "", _choices(_RIGID_SHAPES), "the shape, discretised into mass points"),
+        *_motion("the centre of mass", "the centre of mass's velocity"),
+        *_ATTITUDE,
+        Key("gravity", False, "string", _GRAVITY_DEFAULT, _choices(("volume", "point", "none")),
+            '"volume": summed over the mass points (gravity-gradient torque); "point": all mass at the centre '
+            'of mass; "none": free motion'),
+        Key("size", False, _LENGTHS, "", "> 0", "the edge lengths along the body axes" + _REQ, ("box",)),
+        Key("radius", False, _LENGTH, "", "> 0", "the radius" + _REQ, ("cylinder", "sphere", "shell")),
+        Key("height", False, _LENGTH, "", "> 0", "the length along the body's z axis" + _REQ, ("cylinder",)),
+        Key("masses", False, "mass (kg), 2 strings with units", "", "> 0", "the masses of the two ends" + _REQ,
+            ("dumbbell",)),
+        Key("length", False, _LENGTH, "", "> 0", "the distance between the two ends, along x" + _REQ, ("dumbbell",)),
+        Key("end_radius", False, _LENGTH, "length / 20", "in (0, length / 2)",
+            "the radius of each end, a small solid sphere", ("dumbbell",)),
+        Key("density", False, "density (kg / m3)", "", "> 0",
+            "the density; box, cylinder, sphere: give density or mass; mesh: required",
+            ("box", "cylinder", "sphere", "mesh")),
+        Key("mass", False, "mass (kg)", "", "> 0",
+            "the total mass; box, cylinder, sphere: give density or mass; shell: required",
+            ("box", "cylinder", "sphere", "shell")),
+        Key("refinement", False, "integer", "1", ">= 1",
+            "elements per edge (more mass points: a better gravity integral, the same inertia)",
+            ("box", "cylinder", "sphere", "shell", "dumbbell")),
+        Key("nodes", False, "numbers in mesh_unit", "", "n >= 4 rows [x, y, z]", "the mesh's nodes" + _REQ, ("mesh",)),
+        Key("tetrahedra", False, "integers", "", "rows [i, j, k, l] of 0-based node indices, positive volume",
+            "the mesh's 4-node tetrahedra" + _REQ, ("mesh",)),
+        Key("mesh_unit", False, "a length unit", "", 'e.g. "m", "mm"', "the unit of nodes" + _REQ, ("mesh",)),
+    ),
+    "body.elastic": (
+        *_IDENTITY,
+        Key("mesh", True, "string", "", _choices(_ELASTIC_MESHES), "a generated mesh or a mesh file"),
+        *_motion("where the mesh's origin goes", "the velocity of the body frame's origin"),
+        Key("young", True, "pressure (Pa)", "", "> 0", "Young's modulus (St. Venant-Kirchhoff material)"),
+        Key("density", True, "density (kg / m3)", "", "> 0", "the mass density"),
+        Key("poisson", False, "number", "", "in (-1, 0.5)", "Poisson's ratio; required with tetrahedra"),
+        Key("area", False, "area (m2)", "", "> 0", "the cross-section of bars; required with bars"),
+        Key("mass_matrix", False, "string", '"consistent"', _choices(("consistent", "lumped")), "the mass matrix"),
+        *_ATTITUDE,
+        Key("gravity", False, "string", _GRAVITY_DEFAULT, _choices(("volume", "none")),
+            '"volume": the field at the elements\' quadrature points; "none": free motion'),
+        Key("node_output_every", False, "integer", "1", ">= 1", "records between outputs of the nodal positions"),
+        Key("size", False, f"{_LENGTHS} (net: 2)", "", "> 0",
+            "beam: a box (Lx, Ly, Lz); net: a rectangle (Lx, Ly) in the x-y plane; centred on the origin" + _REQ,
+            ("beam", "net")),
+        Key("elements", False, "integers", "", ">= 1",
+            "beam: cells (nx, ny, nz), 6 tetrahedra each; chain: the number of bars; net: cells (nx, ny)" + _REQ,
+            ("beam", "chain", "net")),
+        Key("start", False, _LENGTHS, "", _ANY, "the chain's first node" + _REQ, ("chain",)),
+        Key("end", False, _LENGTHS, "", _ANY, "the chain's last node" + _REQ, ("chain",)),
+        Key("file", False, "string", "", "a path, relative to the scene file",
+            "an HDF5 mesh (/nodes, /tetrahedra, /bars) or any file meshio reads" + _REQ, ("file",)),
+        Key("mesh_unit", False, "a length unit", '"m"', 'e.g. "m", "mm"',
+            "the unit of the coordinates of a meshio file (an HDF5 file's /nodes carries its own unit attribute)",
+            ("file",)),
+    ),
+    "coupling": (
+        Key("kind", True, "string", "", _choices(COUPLING_KINDS), "the kind of coupling"),
+        Key("elastic", True, "string", "", "the name of an elastic body", "the body whose nodes are attached"),
+        Key("nodes", True, "integers or a string", "",
+            'a list of node indices, "first", "last", or "<axis>-min" / "<axis>-max" with axis x, y or z',
+            "the nodes (selectors: faces of the reference mesh)"),
+        Key("to", True, "string", "", "the name of a rigid body or point mass",
+            "a node rides on the rigid body's material point, or is the point mass"),
+    ),
+}
+# fmt: on
+
+#: allowed keys per table: {table: {key: required?}}, derived from :data:`KEYS`
+SCHEMA: dict[str, dict[str, bool]] = {table: {k.name: k.required for k in keys} for table, keys in KEYS.items()}
+#: the keys of a rigid or elastic body that are not parameters of its shape or mesh
+_RIGID_COMMON = tuple(k.name for k in KEYS["body.rigid"] if not k.applies)
+_ELASTIC_COMMON = tuple(k.name for k in KEYS["body.elastic"] if not k.applies)
 
 
 def check_table(table, allowed: dict, where: str, root: str = "scene") -> dict:
-    """``table`` itself, after checking that it is a table with only the keys of ``allowed``
-    ({key: required?}) and every required one; errors name ``where.key`` (``root`` for a
-    top-level table that is not one). Shared by scenes and sweep files."""
+    """Check that ``table`` is a table with only allowed keys and every required one.
+
+    Shared by scenes and sweep files.
+
+    Parameters
+    ----------
+    table : object
+        The value read from TOML.
+    allowed : dict
+        ``{key: required?}``, e.g. a value of :data:`SCHEMA`.
+    where : str
+        The table's path, prefixed to the keys named in errors (``""`` for the top level).
+    root : str
+        What to name in the error when a top-level value is not a table.
+
+    Returns
+    -------
+    dict
+        ``table`` itself.
+
+    Raises
+    ------
+    InputError
+        Naming ``where.key`` for an unknown or a missing key.
+    """
     if not isinstance(table, dict):
         raise InputError(where or root, f"expected a table, got {table!r}")
     for key in table:
@@ -186,8 +296,19 @@ def _int(value, key: str, minimum: int) -> int:
 
 @dataclass
 class Scene:
-    """A checked scene. Values are kept as given (strings with units) and converted to SI
-    by :meth:`build`; ``text`` is the TOML it came from (stored in output files)."""
+    """A checked scene.
+
+    Values are kept as given (strings with units) and converted to SI by :meth:`build`.
+
+    Attributes
+    ----------
+    data : dict
+        The tables as read from TOML.
+    text : str
+        The TOML text it came from (stored in output files).
+    source : str
+        The file or shipped scene it was read from (``"<string>"`` for text).
+    """
 
     data: dict
     text: str
@@ -196,35 +317,51 @@ class Scene:
     # -- the integrator settings, in SI ---------------------------------------------------
     @property
     def method(self) -> str:
+        """The method's name (``integrator.method``, default ``"em"``)."""
         return self.data["integrator"].get("method", "em")
 
     @property
     def order(self) -> int:
+        """The order (``integrator.order``, default 2)."""
         return int(self.data["integrator"].get("order", 2))
 
     @property
     def dt(self) -> float:
+        """The step in s (``integrator.dt``)."""
         return to_si(self.data["integrator"]["dt"], "time", "integrator.dt", strict=True, positive=True)
 
     @property
     def t_end(self) -> float:
+        """The end time in s (``integrator.t_end``)."""
         return to_si(self.data["integrator"]["t_end"], "time", "integrator.t_end", strict=True, positive=True)
 
     @property
     def output_every(self) -> int:
+        """Steps between records (``integrator.output_every``, default 1)."""
         return int(self.data["integrator"].get("output_every", 1))
 
     @property
     def checkpoint_every(self) -> int | None:
-        """Steps between checkpoints, or None for the default (see Simulation.run)."""
+        """Steps between checkpoints, or None for the default (see :meth:`Simulation.run`)."""
         value = self.data["integrator"].get("checkpoint_every")
         return None if value is None else int(value)
 
     def with_overrides(
         self, *, t_end=None, dt=None, method=None, order=None, output_every=None, checkpoint_every=None
     ) -> Scene:
-        """A copy with integrator settings replaced (values as in the TOML: strings with units),
-        checked again; ``text`` gains a comment saying what was overridden."""
+        """A copy with integrator settings replaced, checked again.
+
+        Parameters
+        ----------
+        t_end, dt, method, order, output_every, checkpoint_every : optional
+            New values of the ``[integrator]`` keys, written as in the TOML (strings with
+            units for ``t_end`` and ``dt``); ``None`` keeps the scene's.
+
+        Returns
+        -------
+        Scene
+            The new scene; its ``text`` gains a comment line per overridden key.
+        """
         data = copy.deepcopy(self.data)
         changed = {}
         for key, value in (
@@ -244,11 +381,28 @@ class Scene:
         return scene
 
     def check(self) -> None:
-        """Validate everything (raises :class:`InputError`); building a simulation does too."""
+        """Validate everything, as building a simulation does.
+
+        Raises
+        ------
+        InputError
+            Naming the first key that is wrong.
+        """
         self.build()
 
     def build(self) -> Simulation:
-        """A :class:`Simulation` with this scene's field, method and bodies."""
+        """A new simulation with this scene's field, method and bodies.
+
+        Returns
+        -------
+        Simulation
+            Ready to run to :attr:`t_end` (not yet run).
+
+        Raises
+        ------
+        InputError
+            Naming the first key that is wrong.
+        """
         d = self.data
         _check_keys(d, "", "")
         field = None  # no [field]: free space
@@ -309,6 +463,8 @@ class Scene:
                 )
             elif kind == "elastic":
                 mesh_params = {k: v for k, v in b.items() if k not in _ELASTIC_COMMON}
+                if "file" in mesh_params and not isinstance(mesh_params["file"], str):
+                    raise InputError(f"{where}.file", f"a path (a string) expected, got {mesh_params['file']!r}")
                 if "file" in mesh_params and self.source not in ("<string>",) and os.path.isfile(self.source):
                     mesh_params["file"] = os.path.join(
                         os.path.dirname(os.path.abspath(self.source)), mesh_params["file"]
@@ -369,7 +525,7 @@ class Scene:
 
 
 def _select_nodes(sim: Simulation, elastic: str, nodes, key: str) -> list[int]:
-    """Node indices from a list, or a selector: "first", "last" (chains), "<axis>-min" or
+    """Node indices from a list, or from a selector: "first", "last" (chains), "<axis>-min" or
     "<axis>-max" (the nodes on that face of the reference mesh, axis x, y or z)."""
     if not isinstance(nodes, str):
         return nodes
@@ -396,7 +552,25 @@ def _select_nodes(sim: Simulation, elastic: str, nodes, key: str) -> list[int]:
 
 
 def parse_scene(text: str, source: str = "<string>") -> Scene:
-    """Parse and check a scene from TOML text."""
+    """Parse and check a scene from TOML text.
+
+    Parameters
+    ----------
+    text : str
+        The TOML text.
+    source : str
+        Where it came from (named in errors; a file's path also locates mesh files).
+
+    Returns
+    -------
+    Scene
+        The checked scene.
+
+    Raises
+    ------
+    InputError
+        For text that is not TOML and for every wrong key or value.
+    """
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -411,13 +585,36 @@ def _shipped():
 
 
 def list_scenes() -> list[str]:
-    """Names of the scenes shipped with emorbit."""
+    """The names of the scenes shipped with emorbit, sorted.
+
+    Returns
+    -------
+    list of str
+        Names that :func:`load_scene` takes.
+    """
     return sorted(p.name[:-5] for p in _shipped().iterdir() if p.name.endswith(".toml"))
 
 
 def read_text(path: str, what: str) -> str:
-    """The UTF-8 text of the file ``path``, or an error naming it (``what``: "scene",
-    "sweep")."""
+    """The UTF-8 text of the file ``path``.
+
+    Parameters
+    ----------
+    path : str
+        The file.
+    what : str
+        What the file is (``"scene"``, ``"sweep"``), named in the error.
+
+    Returns
+    -------
+    str
+        The file's text.
+
+    Raises
+    ------
+    InputError
+        If the file is not UTF-8 text.
+    """
     with open(path, "rb") as fh:
         raw = fh.read()
     try:
@@ -427,7 +624,23 @@ def read_text(path: str, what: str) -> str:
 
 
 def load_scene(name_or_path) -> Scene:
-    """A shipped scene by name (see :func:`list_scenes`) or a TOML file by path."""
+    """Load and check a shipped scene by name or a TOML file by path.
+
+    Parameters
+    ----------
+    name_or_path : str or os.PathLike
+        A file, or the name of a shipped scene (see :func:`list_scenes`).
+
+    Returns
+    -------
+    Scene
+        The checked scene.
+
+    Raises
+    ------
+    InputError
+        If it is neither a file nor a shipped scene, or the scene is wrong.
+    """
     path = os.fspath(name_or_path)
     if os.path.isfile(path):
         return parse_scene(read_text(path, "scene"), path)

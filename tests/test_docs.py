@@ -1,0 +1,324 @@
+"""The documentation says what the code does: README's examples run, the scene keys and the
+benchmark tables on the site are generated from the parser and from the recorded run, the
+HDF5 page names what a run file holds, the architecture page names every module, and the
+site builds with ``mkdocs build --strict`` (which fails on a broken link)."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import pytest
+from test_house import history_lines, modules
+
+from emorbit.bodies.coupled import Structure
+from emorbit.bodies.pointmasses import PointMasses
+from emorbit.bodies.rigid import GRAVITY_MODELS, SHAPE_PARAMETERS, RigidBodies
+from emorbit.errors import InputError
+from emorbit.integrators import METHODS
+from emorbit.scene import BODY_KINDS, KEYS, SCHEMA, list_scenes, load_scene, parse_scene
+
+REPO = Path(__file__).resolve().parent.parent
+DOCS = REPO / "docs"
+README = (REPO / "README.md").read_text(encoding="utf-8")
+
+
+def _script(name: str):
+    """A generator script of scripts/, imported as a module."""
+    spec = importlib.util.spec_from_file_location(name, REPO / "scripts" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _page(name: str) -> str:
+    return (DOCS / name).read_text(encoding="utf-8")
+
+
+def _blocks(text: str, language: str) -> list[str]:
+    return re.findall(rf"```{language}\n(.*?)```", text, re.S)
+
+
+def _section(text: str, heading: str) -> str:
+    """The text under ``heading`` up to the next heading of the same level."""
+    level = heading.split(" ", 1)[0]
+    start = text.index(heading + "\n")
+    rest = text[start + len(heading) + 1 :]
+    end = re.search(rf"^{level} ", rest, re.M)
+    return rest[: end.start()] if end else rest
+
+
+# -- the scenes page ---------------------------------------------------------------------
+def test_scenes_page_lists_exactly_the_keys_the_parser_accepts():
+    gen = _script("docs_scene_keys")
+    page = _page("scenes.md")
+    region = page.split(gen.BEGIN, 1)[1].split(gen.END, 1)[0]
+    titles = {title: table for table, title in gen.TITLES.items()}
+    found, required = {}, {}
+    for part in region.split("\n### ")[1:]:
+        title, body = part.split("\n", 1)
+        table = titles[title.strip()]
+        found[table] = re.findall(r"^\| `([a-z_]+)` \|", body, re.M)
+        required[table] = re.findall(r"^\| `([a-z_]+)` \| yes \|", body, re.M)
+    assert list(found) == list(SCHEMA)
+    for table, keys in SCHEMA.items():
+        assert found[table] == list(keys), table
+        assert required[table] == [k for k, req in keys.items() if req], table
+
+
+def test_scenes_page_is_generated_from_the_parser():
+    gen = _script("docs_scene_keys")
+    page = _page("scenes.md")
+    assert gen.render(page) == page, "run: python scripts/docs_scene_keys.py"
+
+
+def test_scene_keys_agree_with_the_bodies():
+    """What KEYS says about shapes, meshes and gravity models is what the bodies accept."""
+    from emorbit.bodies.elastic import MESH_KINDS, mesh_from_parameters
+
+    keys = {table: {k.name: k for k in ks} for table, ks in KEYS.items()}
+    rigid = keys["body.rigid"]
+    assert [f'"{s}"' for s in SHAPE_PARAMETERS] == rigid["shape"].allowed.split(", ")
+    for name, key in rigid.items():
+        takers = tuple(s for s, params in SHAPE_PARAMETERS.items() if name in params)
+        assert key.applies == takers, name
+    assert rigid["gravity"].allowed == ", ".join(f'"{g}"' for g in GRAVITY_MODELS)
+    elastic = keys["body.elastic"]
+    assert elastic["mesh"].allowed == ", ".join(f'"{m}"' for m in MESH_KINDS)
+    for name, key in elastic.items():
+        for mesh in MESH_KINDS:
+            if mesh in key.applies or not key.applies:
+                continue
+            with pytest.raises(InputError, match="not a parameter of mesh"):
+                mesh_from_parameters(mesh, {name: 1}, True, "body[0]")
+    for mesh in MESH_KINDS:  # every mesh parameter is documented as one
+        for name in ("size", "elements", "start", "end", "file", "mesh_unit"):
+            if mesh in elastic[name].applies:
+                try:
+                    mesh_from_parameters(mesh, {name: "nowhere.h5"}, True, "body[0]")
+                except InputError as exc:
+                    assert "not a parameter" not in str(exc), (mesh, name)
+    assert keys["body.point"]["kind"].allowed == ", ".join(f'"{k}"' for k in BODY_KINDS)
+
+
+def test_every_shipped_scene_is_on_the_scenes_page():
+    page = _page("scenes.md")
+    for name in list_scenes():
+        assert f"| `{name}` |" in page, name
+
+
+def test_complete_scenes_and_sweeps_on_the_pages_parse():
+    from emorbit.sweep import parse_sweep
+
+    count = 0
+    for path in sorted(DOCS.glob("*.md")):
+        for block in _blocks(path.read_text(encoding="utf-8"), "toml"):
+            if block.lstrip().startswith("[sweep]"):
+                parse_sweep(block, str(REPO / "sweep.toml"))
+                count += 1
+            elif "[integrator]" in block:
+                parse_scene(block)
+                count += 1
+    assert count >= 3
+
+
+# -- README ---------------------------------------------------------------------------------
+def test_readme_has_the_two_commands():
+    ci = (REPO / ".ci" / "run").read_text(encoding="utf-8")
+    test_command = 'python3 -m venv .venv && .venv/bin/pip install -e ".[test]" && .venv/bin/python -m pytest'
+    assert test_command in ci and f"    {test_command}\n" in README
+    assert "    python3 -m venv .venv && .venv/bin/pip install . && .venv/bin/emorbit run paper-ellipse" in README
+    assert len(README.splitlines()) <= 200
+
+
+def test_readme_script_runs(tmp_path, monkeypatch, capsys):
+    (code,) = _blocks(README, "python")
+    assert len(code.strip().splitlines()) <= 15
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, "README.md", "exec"), {})
+    energy, a, newton, t_end = capsys.readouterr().out.split()
+    assert float(energy) < 1e-12
+    assert abs(float(a) - 6.0000135) < 1e-4
+    assert float(newton) > 0
+    assert abs(float(t_end) - 100 * 46.4758) < 1e-6
+
+
+def test_readme_scene_runs(tmp_path):
+    (text,) = _blocks(README, "toml")
+    assert len(text.strip().splitlines()) <= 15
+    scene = parse_scene(text)
+    result = scene.build().run(t_end=scene.t_end, every=100, output=tmp_path / "paper.h5")
+    assert abs(result.relative_energy_error()).max() < 1e-12
+    paper = load_scene("paper-ellipse")
+    assert scene.dt == paper.dt and scene.t_end == paper.t_end
+
+
+def test_readme_methods_table_is_what_the_code_says():
+    """Methods x body kinds: a body kind runs a method where its system has a kernel for it;
+    "conserves" is the Method's own list."""
+    systems = {"point masses": PointMasses, "rigid bodies": RigidBodies, "elastic bodies": Structure}
+    for text in (README, _page("index.md")):
+        rows = re.findall(r"^\| `(\w+)` \| (.+) \|$", text, re.M)
+        table = {m: [c.strip() for c in cells.split("|")] for m, cells in rows if m in METHODS}
+        assert list(table) == list(METHODS)
+        for method, cells in table.items():
+            for cell, system in zip(cells, systems.values()):
+                assert (cell == "yes") == (method in system.METHODS), (method, cell)
+            said = cells[-1]
+            assert ("energy" in said) == ("energy" in METHODS[method].conserves), method
+            assert ("angular momentum" in said) == ("angular_momentum" in METHODS[method].conserves), method
+
+
+# -- the benchmarks page ------------------------------------------------------------------
+def test_benchmark_tables_are_generated_from_the_recorded_run():
+    gen = _script("docs_bench_table")
+    with open(gen.JSON) as f:
+        data = json.load(f)
+    page = _page("benchmarks.md")
+    assert gen.render(page, data) == page, "run: python scripts/docs_bench_table.py"
+    assert data.get("date") and data["machine"]["cpu"] and data["load_average"]["before"]
+    for figure in data.get("work_precision", {}).get("figures", []):
+        assert (DOCS / "data" / Path(figure).name).is_file(), figure
+
+
+def test_benchmark_targets_on_the_page_are_the_runners():
+    from emorbit.bench.runner import TARGETS
+
+    rows = _section(_page("benchmarks.md"), "## Targets")
+    shown = {
+        "ensemble_vs_rebound": ("em on all threads", ">= {:g}x"),
+        "fraction_of_bound": ("em's fraction of the bound", ">= {:.0f} %"),
+        "scene_vs_bare": ("a point-mass scene", ">= {:g}x"),
+        "single_vs_rebound": ("em on one orbit", "<= {:g}x"),
+        "warm_startup_s": ("warm-cache", "<= {:g} s"),
+    }
+    assert set(shown) == set(TARGETS)
+    for name, limit in TARGETS.items():
+        what, form = shown[name]
+        (row,) = [r for r in rows.splitlines() if r.startswith(f"| {what}")]
+        assert row.endswith(f"| {form.format(100 * limit if '%' in form else limit)} |"), (name, row)
+
+
+# -- the HDF5 page ----------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def run_files(tmp_path_factory):
+    """A short run file of each kind of system: free points, free rigid bodies, a structure
+    with bars and rigid bodies, a structure with tetrahedra."""
+    folder = tmp_path_factory.mktemp("layout")
+    out = []
+    for name, t_end in (
+        ("paper-ellipse", "4.64758 s"),
+        ("rigid-box-paper-ellipse", "4.64758 s"),
+        ("tethered-satellites", "40 s"),
+        ("elastic-bar-tumbling", "0.2 s"),
+    ):
+        scene = load_scene(name).with_overrides(t_end=t_end)
+        path = folder / f"{name}.h5"
+        scene.build().run(t_end=scene.t_end, every=scene.output_every, output=path, keep=False)
+        out.append(path)
+    return out
+
+
+def test_hdf5_page_names_every_dataset_and_attribute(run_files):
+    page = _page("hdf5.md")
+    named = set(re.findall(r"`([^`\s]+)`", page))
+    missing = set()
+    for path in run_files:
+        with h5py.File(path, "r") as f:
+            bodies = set(f["bodies"])
+
+            def visit(name, obj, bodies=bodies):
+                parts = name.split("/")
+                if parts[0] == "bodies" and len(parts) > 1 and parts[1] in bodies:
+                    parts[1] = "<name>"
+                shown = "/".join(parts)
+                if isinstance(obj, h5py.Dataset):
+                    if parts[0] in ("checkpoint", "final_state"):
+                        shown = "/".join(parts[1:])  # the state arrays: <system>/<array>
+                    else:
+                        shown = "/" + shown
+                        assert obj.attrs.get("unit") is not None, name
+                    if shown not in named:
+                        missing.add(shown)
+                for attr in obj.attrs:
+                    if attr not in named and attr != "unit":
+                        missing.add(f"{name}@{attr}")
+
+            f.visititems(visit)
+            missing.update(f"/@{a}" for a in f.attrs if a not in named)
+    assert not missing, f"not on docs/hdf5.md: {sorted(missing)}"
+
+
+def test_hdf5_page_units_are_the_files(run_files):
+    rows = dict(re.findall(r"^\| `(/[^`]+)` \| [^|]+ \| ([^|]+?) \|", _page("hdf5.md"), re.M))
+    for path in run_files:
+        with h5py.File(path, "r") as f:
+            for name in ("time", "invariants/energy", "invariants/momentum", "invariants/angular_momentum"):
+                assert rows[f"/{name}"] == f[name].attrs["unit"], name
+            for body, g in f["bodies"].items():
+                for q, ds in g.items():
+                    if isinstance(ds, h5py.Dataset):
+                        assert rows[f"/bodies/<name>/{q}"] == ds.attrs["unit"], (body, q)
+
+
+# -- the architecture page --------------------------------------------------------------------
+def test_architecture_tree_names_every_module():
+    (tree,) = _blocks(_section(_page("architecture.md"), "## The tree"), "text")
+    listed, stack = set(), []
+    for line in tree.splitlines():
+        m = re.match(r"^( *)(\S+)", line)
+        depth = len(m.group(1)) // 2
+        stack[depth:] = [m.group(2)]
+        if m.group(2).endswith(".py"):
+            listed.add("".join(stack))
+    files = {str(path.relative_to(REPO)) for path in modules().values()}
+    assert listed == files, {"not on the page": sorted(files - listed), "not in the tree": sorted(listed - files)}
+
+
+# -- every page -----------------------------------------------------------------------------------
+def test_docs_say_what_is_true_now():
+    """No dates, sessions, internal issue numbers or commit hashes; the benchmark run's date
+    is its own record."""
+    found = {}
+    for path in [REPO / "README.md", *sorted(DOCS.rglob("*.md"))]:
+        text = path.read_text(encoding="utf-8")
+        text = re.sub(r"^\| date \(UTC\) \|.*$", "", text, flags=re.M)
+        if lines := history_lines(text):
+            found[str(path.relative_to(REPO))] = lines
+    assert not found, found
+
+
+def _mkdocs(config: Path, site: Path) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "--config-file", str(config), "--site-dir", str(site)],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "NO_MKDOCS_2_WARNING": "1"},
+    )
+
+
+def test_site_builds_in_strict_mode(tmp_path):
+    done = _mkdocs(REPO / "mkdocs.yml", tmp_path / "site")
+    assert done.returncode == 0, done.stderr[-4000:]
+    assert (tmp_path / "site" / "api" / "emorbit" / "index.html").is_file()
+    assert "emorbit.Simulation.run" in (tmp_path / "site" / "api" / "emorbit" / "index.html").read_text()
+
+
+def test_strict_build_fails_on_a_broken_link(tmp_path):
+    """The site's own configuration (inherited) turns a link to a missing page into an error."""
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "index.md").write_text("# x\n\nSee [the missing page](missing.md) and [an anchor](#nowhere).\n")
+    config = tmp_path / "mkdocs.yml"
+    config.write_text(f"INHERIT: {REPO / 'mkdocs.yml'}\ndocs_dir: docs\nnav:\n  - index.md\n")
+    done = _mkdocs(config, tmp_path / "site")
+    assert done.returncode != 0
+    assert "missing.md" in done.stderr
