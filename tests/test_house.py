@@ -1,0 +1,301 @@
+"""The house rules of the source tree: layers, no import cycles, sizes, docs that say what is
+true now, lint, and a distribution that installs nothing but ``emorbit``.
+
+The import graph is built from the source with :mod:`ast` (every ``import`` statement,
+those inside functions included), so it needs no import of the package and sees
+``emorbit.validation``, which lives in the repository's ``validation/`` folder.
+"""
+
+from __future__ import annotations
+
+import ast
+import os
+import re
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+#: package name -> folder: emorbit, and validation/ installed as emorbit.validation
+ROOTS = {"emorbit": REPO / "emorbit", "emorbit.validation": REPO / "validation"}
+#: the most lines a module of emorbit (validation included) may have
+MAX_MODULE_LINES = 800
+#: the most lines a kernel module's docstring may have
+MAX_KERNEL_DOCSTRING_LINES = 40
+#: the most lines README.md may have
+MAX_README_LINES = 200
+#: what a kernel may import from outside the standard library
+KERNEL_THIRD_PARTY = {"numpy", "numba", "llvmlite"}
+#: the model: what it must not import
+MODEL = ("emorbit.bodies", "emorbit.scene", "emorbit.simulation", "emorbit.io")
+ABOVE_MODEL = ("emorbit.bench", "emorbit.validation", "emorbit.sweep", "emorbit.cli")
+
+
+def modules(roots: dict[str, Path] = ROOTS) -> dict[str, Path]:
+    """{dotted module name: file} of every module under ``roots``."""
+    out = {}
+    for package, folder in roots.items():
+        for path in sorted(folder.rglob("*.py")):
+            rel = path.relative_to(folder).with_suffix("")
+            parts = [p for p in rel.parts if p != "__init__"]
+            name = ".".join([package, *parts])
+            if name in out:  # emorbit.validation is both a folder of emorbit/ (none) and validation/
+                raise AssertionError(f"{name} is defined twice")
+            out[name] = path
+    return out
+
+
+def _resolve(name: str, module: str, is_package: bool, level: int) -> str:
+    """The absolute name of a relative import ``from <level dots><name>`` inside ``module``."""
+    if level == 0:
+        return name
+    base = module.split(".")
+    if not is_package:
+        base = base[:-1]
+    base = base[: len(base) - (level - 1)]
+    return ".".join(base + ([name] if name else []))
+
+
+def imports(mods: dict[str, Path]) -> dict[str, set[str]]:
+    """{module: the names it imports}, absolute, in functions too; ``from X import y`` gives
+    ``X.y`` where that is a module, else ``X``."""
+    graph = {}
+    for name, path in mods.items():
+        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+        is_package = path.name == "__init__.py"
+        found = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                found.update(alias.name for alias in node.names)
+            elif isinstance(node, ast.ImportFrom):
+                target = _resolve(node.module or "", name, is_package, node.level)
+                for alias in node.names:
+                    sub = f"{target}.{alias.name}"
+                    found.add(sub if sub in mods else target)
+        graph[name] = found
+    return graph
+
+
+def internal_edges(graph: dict[str, set[str]], mods) -> dict[str, set[str]]:
+    """The graph restricted to emorbit's own modules (an import of a.b.c where only a.b is a
+    module counts as an import of a.b)."""
+    out = {}
+    for src, targets in graph.items():
+        edges = set()
+        for t in targets:
+            while t and t not in mods:
+                t = t.rpartition(".")[0]
+            if t and t != src:
+                edges.add(t)
+        out[src] = edges
+    return out
+
+
+def cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components with more than one module (Tarjan)."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+    counter = [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in sorted(edges.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def _within(name: str, packages) -> bool:
+    return any(name == p or name.startswith(p + ".") for p in packages)
+
+
+def layer_violations(graph: dict[str, set[str]]) -> list[str]:
+    """Imports that break the layers (docs/architecture.md): a kernel importing anything but
+    the standard library, numpy, numba, llvmlite and emorbit.kernels; the model importing
+    bench, validation, sweep or cli."""
+    stdlib = set(sys.stdlib_module_names)
+    bad = []
+    for src, targets in graph.items():
+        for t in sorted(targets):
+            top = t.split(".")[0]
+            if _within(src, ("emorbit.kernels",)):
+                if top == "emorbit" and not _within(t, ("emorbit.kernels",)):
+                    bad.append(f"{src} imports {t}")
+                elif top not in stdlib and top not in KERNEL_THIRD_PARTY and top not in ("__future__", "emorbit"):
+                    bad.append(f"{src} imports {t}")
+            if _within(src, MODEL) and _within(t, ABOVE_MODEL):
+                bad.append(f"{src} imports {t}")
+    return bad
+
+
+def test_the_graph_sees_every_module_and_its_imports():
+    mods = modules()
+    assert "emorbit.validation.cli" in mods and "emorbit.kernels.pointmass.packed" in mods
+    edges = internal_edges(imports(mods), mods)
+    assert "emorbit.simulation" in edges["emorbit.scene"]  # a top-level import
+    assert "emorbit.bodies.rigid" in edges["emorbit.simulation"]  # an import inside a method
+    assert "emorbit.kernels.eft" in edges["emorbit.kernels.pointmass.cuda"]  # from .. import eft
+
+
+def test_no_import_cycle():
+    mods = modules()
+    found = cycles(internal_edges(imports(mods), mods))
+    assert not found, f"import cycles among emorbit's modules: {found}"
+
+
+def test_cycles_and_layer_breaks_are_found(tmp_path):
+    """The checks above fail on a tree that breaks them."""
+    pkg = tmp_path / "emorbit"
+    (pkg / "kernels").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "kernels" / "__init__.py").write_text("")
+    (pkg / "kernels" / "k.py").write_text("import astropy.units\nfrom ..errors import InputError\n")
+    (pkg / "errors.py").write_text("")
+    (pkg / "scene.py").write_text("def f():\n    from .simulation import x\n")
+    (pkg / "simulation.py").write_text("from .scene import f\nfrom .cli import main\n")
+    (pkg / "cli.py").write_text("")
+    mods = modules({"emorbit": pkg})
+    graph = imports(mods)
+    assert cycles(internal_edges(graph, mods)) == [["emorbit.scene", "emorbit.simulation"]]
+    assert sorted(layer_violations(graph)) == [
+        "emorbit.kernels.k imports astropy.units",
+        "emorbit.kernels.k imports emorbit.errors",
+        "emorbit.simulation imports emorbit.cli",
+    ]
+
+
+def test_layers_hold():
+    assert not layer_violations(imports(modules()))
+
+
+def test_import_contracts():
+    """import-linter's contracts in pyproject.toml (the same layers, as users of the tool see them)."""
+    exe = shutil.which("lint-imports", path=os.path.dirname(sys.executable)) or shutil.which("lint-imports")
+    assert exe, "lint-imports (import-linter) is part of the test extra"
+    done = subprocess.run([exe, "--no-cache"], cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+
+
+@pytest.mark.parametrize("name", sorted(modules()))
+def test_module_is_not_too_long(name):
+    lines = len(modules()[name].read_text(encoding="utf-8").splitlines())
+    assert lines <= MAX_MODULE_LINES, f"{name}: {lines} lines (at most {MAX_MODULE_LINES}); split it by job"
+
+
+def test_kernel_docstrings_are_short():
+    long = {}
+    for name, path in modules().items():
+        if _within(name, ("emorbit.kernels",)):
+            doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8")))
+            assert doc, f"{name} has no module docstring"
+            if len(doc.splitlines()) > MAX_KERNEL_DOCSTRING_LINES:
+                long[name] = len(doc.splitlines())
+    assert not long, f"kernel module docstrings over {MAX_KERNEL_DOCSTRING_LINES} lines: {long}"
+
+
+def test_readme_is_short():
+    lines = len((REPO / "README.md").read_text(encoding="utf-8").splitlines())
+    assert lines <= MAX_README_LINES, f"README.md has {lines} lines; the rest belongs in docs/"
+
+
+#: what an account of earlier work looks like in a source file: a date, a session, an
+#: internal issue number, a commit hash named as such
+HISTORY = [
+    (re.compile(r"\b20\d\d-[01]\d-[0-3]\d\b"), "a date"),
+    (re.compile(r"\bsessions?\b", re.I), "a session"),
+    (re.compile(r"\bissues?\s*#?\d+", re.I), "an internal issue number"),
+    (re.compile(r"\bcommits?\s+[0-9a-f]{7,40}\b", re.I), "a commit hash"),
+    (re.compile(r"\b(?:at|since|before|after)\s+[0-9a-f]{7,12}\b(?=[\s,.;:)])"), "a commit hash"),
+]
+
+
+def history_lines(text: str) -> list[str]:
+    """'line N: <what>' for each line of ``text`` that reads like an account of earlier work."""
+    out = []
+    for i, line in enumerate(text.splitlines(), 1):
+        for pattern, what in HISTORY:
+            if pattern.search(line):
+                out.append(f"line {i}: {what}: {line.strip()[:100]}")
+    return out
+
+
+def test_history_patterns_are_found():
+    text = "measured 2026-11-23\nthis session found\nas issue 4 asks\nsince commit 58e838c\nat 68bc302, 4.15 ns\n"
+    assert len(history_lines(text)) == 5
+    assert not history_lines("g_em = GM / (r0 r1) (r0 + r1); 2**-53; 0x7ff8000000000000; dt = T/100\n")
+
+
+def test_no_history_in_source():
+    """Docstrings and comments say what is true now; git keeps the history."""
+    files = [p for p in modules().values()] + [REPO / "validation" / "README.md"]
+    found = {str(p.relative_to(REPO)): h for p in files if (h := history_lines(p.read_text(encoding="utf-8")))}
+    assert not found, f"accounts of earlier work in the source: {found}"
+
+
+def _tool(name: str) -> str:
+    exe = shutil.which(name, path=os.path.dirname(sys.executable)) or shutil.which(name)
+    assert exe, f"{name} is part of the test extra"
+    return exe
+
+
+def test_ruff_lint_and_format():
+    ruff = _tool("ruff")
+    paths = ["emorbit", "validation", "tests", "scripts"]
+    lint = subprocess.run([ruff, "check", "--no-cache", *paths], cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert lint.returncode == 0, lint.stdout[-3000:]
+    fmt = subprocess.run(
+        [ruff, "format", "--check", "--no-cache", *paths], cwd=REPO, capture_output=True, text=True, timeout=300
+    )
+    assert fmt.returncode == 0, fmt.stdout[-3000:]
+
+
+def test_distribution_installs_only_emorbit(tmp_path):
+    """``pip install .`` puts ``emorbit`` (validation as ``emorbit.validation``, the scenes
+    beside it) and its metadata into site-packages, and no top-level ``validation``."""
+    done = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(REPO)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    (wheel,) = tmp_path.glob("emorbit-*.whl")
+    names = zipfile.ZipFile(wheel).namelist()
+    tops = {n.split("/")[0] for n in names}
+    assert {t for t in tops if not t.endswith(".dist-info")} == {"emorbit"}, tops
+    assert "emorbit/validation/cli.py" in names and "emorbit/scenes/paper-ellipse.toml" in names
+    packaged = {n[: -len(".py")].replace("/", ".").removesuffix(".__init__") for n in names if n.endswith(".py")}
+    assert packaged == set(modules()), set(modules()) ^ packaged
+
+
+def test_validate_runs_beside_a_file_named_validation(tmp_path):
+    """A validation.py in the working folder does not shadow the validation suite."""
+    (tmp_path / "validation.py").write_text("raise SystemExit('the wrong validation module was imported')\n")
+    script = Path(sys.executable).with_name("emorbit")
+    for argv in ([sys.executable, "-m", "emorbit.cli", "validate", "--list"], [str(script), "validate", "--list"]):
+        done = subprocess.run(argv, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        assert "paper" in done.stdout
