@@ -26,20 +26,12 @@ from .io.recorder import Sink, progress_bar
 from .kernels.codes import STATUS_NO_CONVERGENCE
 from .result import Result
 
-__all__ = ["ChunkDriver", "CHUNK_WORK", "CHUNK_BYTES", "STATE_FIELDS"]
+__all__ = ["ChunkDriver", "CHUNK_WORK", "CHUNK_BYTES"]
 
 #: body-substeps (weighted by system cost) per compiled chunk: about 0.5 s of em work
 CHUNK_WORK = 4_000_000
 #: bytes of recorded state per chunk at most
 CHUNK_BYTES = 128 * 2**20
-
-#: the arrays that are a system's whole state (compensation terms and warm starts included):
-#: what a checkpoint stores and a restart restores, bit for bit
-STATE_FIELDS = {
-    "point": ("x", "v", "cx", "cv"),
-    "rigid": ("q", "v", "cq", "cv", "lam"),
-    "structure": ("u", "v", "cu", "cv", "lam", "acc"),
-}
 
 
 class ChunkDriver:
@@ -57,10 +49,11 @@ class ChunkDriver:
         Returns
         -------
         dict
-            {``"<kind>/<field>"``: array}, compensation terms and warm starts included
-            (see :data:`STATE_FIELDS`).
+            {``"<kind>/<name>"``: array}: each system's
+            :meth:`~emorbit.bodies.system.BodySystem.state_arrays`, compensation terms and warm
+            starts included.
         """
-        return {f"{s.kind}/{f}": np.array(getattr(s, f), copy=True) for s in self.systems for f in STATE_FIELDS[s.kind]}
+        return {f"{s.kind}/{k}": a for s in self.systems for k, a in s.state_arrays().items()}
 
     def set_state_arrays(self, arrays: dict, steps: int) -> None:
         """Restore a state written by :meth:`state_arrays` and set the step counter.
@@ -78,13 +71,8 @@ class ChunkDriver:
             An array is missing or its shape does not match.
         """
         for s in self.systems:
-            for f in STATE_FIELDS[s.kind]:
-                key = f"{s.kind}/{f}"
-                current = getattr(s, f)
-                if key not in arrays or np.shape(arrays[key]) != np.shape(current):
-                    raise InputError("checkpoint", f"the file's state {key!r} does not match the scene's bodies")
-                setattr(s, f, np.ascontiguousarray(np.array(arrays[key], dtype=float)))
-            s.on_checkpoint()
+            prefix = f"{s.kind}/"
+            s.set_state_arrays({k[len(prefix) :]: a for k, a in arrays.items() if k.startswith(prefix)})
         self._steps = int(steps)
 
     def _file_attrs(self, every: int, n_steps: int) -> dict:

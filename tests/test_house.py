@@ -275,8 +275,14 @@ def test_ruff_lint_and_format():
 def test_distribution_installs_only_emorbit(tmp_path):
     """``pip install .`` puts ``emorbit`` (validation as ``emorbit.validation``, the scenes
     beside it) and its metadata into site-packages, and no top-level ``validation``."""
+    # from a copy of the sources, so that no build/ folder left by an earlier build adds files
+    src = tmp_path / "src"
+    for part in ("emorbit", "validation"):
+        shutil.copytree(REPO / part, src / part, ignore=shutil.ignore_patterns("__pycache__", "*.nb[ic]"))
+    for part in ("pyproject.toml", "README.md"):
+        shutil.copy2(REPO / part, src / part)
     done = subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(REPO)],
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(src)],
         capture_output=True,
         text=True,
         timeout=600,

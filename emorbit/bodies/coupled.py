@@ -80,6 +80,8 @@ class Structure(StructureOutput):
     kind = "structure"
     #: methods with a structure kernel
     METHODS = ("em", "midpoint")
+    #: the whole state: what a checkpoint stores
+    STATE_FIELDS = ("u", "v", "cu", "cv", "lam", "acc")
     NEWTON = ("auto", "reuse", "full")
     #: unknowns from which "auto" reuses factors
     AUTO_FULL = 500

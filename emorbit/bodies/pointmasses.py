@@ -313,6 +313,8 @@ class PointMasses(BodySystem):
     DATASETS = {"position": (3, "m"), "velocity": (3, "m / s")}
     #: methods with a point-mass kernel
     METHODS = ("em", "midpoint", "leapfrog")
+    #: the whole state: what a checkpoint stores
+    STATE_FIELDS = ("x", "v", "cx", "cv")
 
     def work_per_step(self) -> int:
         """Point updates per step."""

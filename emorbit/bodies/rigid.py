@@ -108,6 +108,8 @@ class RigidBodies(BodySystem):
         "angular_velocity": (3, "rad / s"),
     }
     METHODS = ("em", "midpoint")
+    #: the whole state: what a checkpoint stores
+    STATE_FIELDS = ("q", "v", "cq", "cv", "lam")
 
     def __init__(self):
         self.names: list[str] = []

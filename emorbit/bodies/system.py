@@ -11,15 +11,17 @@ datasets through the same system (:meth:`~BodySystem.invariants`,
 :meth:`~BodySystem.datasets`), and takes and restores snapshots of the whole state (for a
 failed step redone in sub-steps, and for checkpoints).
 
-To add a body kind: subclass :class:`BodySystem`, implement every method below, give the
-kind's state arrays (compensation terms and warm starts included) to
-``emorbit.stepping.STATE_FIELDS`` so that checkpoints store them, and let the simulation
+To add a body kind: subclass :class:`BodySystem`, implement every method below, name the
+kind's state arrays (compensation terms and warm starts included) in
+:attr:`~BodySystem.STATE_FIELDS` so that checkpoints store them, and let the simulation
 create the system when a scene adds a body of that kind.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from ..errors import InputError
 
 __all__ = ["BodySystem"]
 
@@ -35,10 +37,14 @@ class BodySystem:
         The methods (names of :data:`emorbit.integrators.METHODS`) it has kernels for.
     names : list of str
         The bodies' names, in the order of adding (an attribute or a property of the kind).
+    STATE_FIELDS : tuple of str
+        The attributes (float64 arrays) that are the kind's whole state, compensation terms
+        and warm starts included: what :meth:`state_arrays` returns by default.
     """
 
     kind: str = ""
     METHODS: tuple[str, ...] = ()
+    STATE_FIELDS: tuple[str, ...] = ()
 
     def __len__(self) -> int:
         return len(self.names)
@@ -92,6 +98,32 @@ class BodySystem:
     def restore(self, snap) -> None:
         """Put back the state :meth:`snapshot` returned."""
         raise NotImplementedError
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """Copies of the whole state, by name: what a checkpoint stores (default: the arrays
+        named in :attr:`STATE_FIELDS`)."""
+        return {f: np.array(getattr(self, f), copy=True) for f in self.STATE_FIELDS}
+
+    def set_state_arrays(self, arrays: dict) -> None:
+        """Restore the state :meth:`state_arrays` returned, bit for bit, then :meth:`on_checkpoint`.
+
+        Parameters
+        ----------
+        arrays : dict
+            {name: array}, as read from a checkpoint.
+
+        Raises
+        ------
+        InputError
+            An array is missing or its shape does not match the bodies (key ``checkpoint``).
+        """
+        for f in self.STATE_FIELDS:
+            current = getattr(self, f)
+            if f not in arrays or np.shape(arrays[f]) != np.shape(current):
+                raise InputError("checkpoint", f"the file's state '{self.kind}/{f}' does not match the scene's bodies")
+        for f in self.STATE_FIELDS:
+            setattr(self, f, np.ascontiguousarray(np.array(arrays[f], dtype=float)))
+        self.on_checkpoint()
 
     def on_checkpoint(self) -> None:
         """Drop what depends on the path taken so far (cached factorisations, warm starts that
