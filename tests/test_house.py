@@ -279,7 +279,7 @@ def test_distribution_installs_only_emorbit(tmp_path):
     src = tmp_path / "src"
     for part in ("emorbit", "validation"):
         shutil.copytree(REPO / part, src / part, ignore=shutil.ignore_patterns("__pycache__", "*.nb[ic]"))
-    for part in ("pyproject.toml", "README.md"):
+    for part in ("pyproject.toml", "README.md", "LICENSE"):
         shutil.copy2(REPO / part, src / part)
     done = subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(src)],
@@ -295,6 +295,8 @@ def test_distribution_installs_only_emorbit(tmp_path):
     assert "emorbit/validation/cli.py" in names and "emorbit/scenes/paper-ellipse.toml" in names
     packaged = {n[: -len(".py")].replace("/", ".").removesuffix(".__init__") for n in names if n.endswith(".py")}
     assert packaged == set(modules()), set(modules()) ^ packaged
+    licenses = [n for n in names if ".dist-info/" in n and n.rsplit("/", 1)[-1].startswith("LICENSE")]
+    assert licenses and b"MIT License" in zipfile.ZipFile(wheel).read(licenses[0]), names
 
 
 def test_validate_runs_beside_a_file_named_validation(tmp_path):
