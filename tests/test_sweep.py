@@ -5,10 +5,14 @@ killed in the middle of a sweep."""
 from __future__ import annotations
 
 import copy
+import csv
+import json
 import math
 import os
 import signal
+import subprocess
 import sys
+import time
 
 import h5py
 import numpy as np
@@ -220,7 +224,38 @@ def test_failed_runs_are_recorded_and_the_sweep_goes_on(tmp_path):
     with h5py.File(tmp_path / "out/runs/run-000002.h5", "r") as f:
         assert f.attrs["status"] == "failed" and "time" not in f  # bad input: nothing ran
     csv_lines = (tmp_path / "out/summary.csv").read_text().splitlines()
-    assert csv_lines[0].split(",")[:3] == ["run", "seed", "integrator.dt"] and len(csv_lines) == 5
+    assert len(csv_lines) == 5
+    # every numeric column names its unit in the header ("[1]": dimensionless); text columns
+    # (and parameters written with their units, such as "0.464758 s") have none
+    assert csv_lines[0].split(",") == [
+        "run [1]",
+        "seed [1]",
+        "integrator.dt",
+        "integrator.max_newton_iterations [1]",
+        "status",
+        "error",
+        "t_final [s]",
+        "records [1]",
+        "energy_error [1]",
+        "angular_momentum_error [1]",
+        "newton_mean [1]",
+        "newton_max [1]",
+        "satellite/a [m]",
+        "satellite/e [1]",
+        "satellite/i [rad]",
+        "satellite/raan [rad]",
+        "satellite/argp [rad]",
+        "satellite/nu [rad]",
+        "wall_time [s]",
+        "file",
+    ]
+    with open(tmp_path / "out/summary.csv", newline="") as fh:
+        table = list(csv.DictReader(fh))
+    assert [r["t_final [s]"] for r in table] == [repr(r["t_final"]) for r in res.rows]
+    assert float(table[0]["satellite/a [m]"]) == res.rows[0]["satellite/a"]
+    assert res.units["t_final"] == "s" and res.units["integrator.max_newton_iterations"] == "1"
+    with h5py.File(tmp_path / "out/summary.h5", "r") as f:
+        assert json.loads(f["summary"].attrs["units"]) == res.units
     assert _same(_strip(read_summary(tmp_path / "out")), _strip(res.rows))
 
 
@@ -269,6 +304,161 @@ def test_command_line(tmp_path, capsys):
     assert main(["sweep", str(bad), "-o", str(tmp_path / "o3")]) == 2
     assert "integrator.step" in capsys.readouterr().err
     assert not (tmp_path / "o3").exists()  # nothing created
+
+
+# -- how many runs: counted before anything is listed ---------------------------------------
+#: 1e16 runs: two ranges of 1e8 values each
+HUGE = """
+[sweep]
+scene = "paper-ellipse"
+
+[[parameter]]
+key = "integrator.dt"
+range = { start = 0.1, stop = 0.2, num = 100000000 }
+unit = "s"
+
+[[parameter]]
+key = "body[satellite].velocity[1]"
+range = { start = 0.30, stop = 0.40, step = 1e-9 }
+unit = "m / s"
+"""
+
+#: 1,000,000 runs: more than the default limit, 100,000
+MILLION = """
+[sweep]
+scene = "paper-ellipse"
+
+[[parameter]]
+key = "integrator.dt"
+range = { start = 0.1, stop = 0.2, num = 1000 }
+unit = "s"
+
+[[parameter]]
+key = "body[satellite].velocity[1]"
+range = { start = 0.30, stop = 0.40, num = 1000 }
+unit = "m / s"
+"""
+
+
+def test_a_sweep_over_the_run_limit_is_refused_before_it_is_expanded():
+    with pytest.raises(InputError) as info:
+        parse_sweep(MILLION)
+    message = str(info.value)
+    assert message.startswith("parameter: the sweep has 1,000,000 runs"), message
+    assert "parameter[0] (integrator.dt): 1,000 values" in message
+    assert "parameter[1] (body[satellite].velocity[1]): 1,000 values" in message
+    assert "100,000" in message and "max_runs" in message and "--max-runs" in message
+    # raised on purpose: in the file, or by the caller (which wins over the file)
+    start = time.perf_counter()
+    sweep = parse_sweep(MILLION.replace('scene = "paper-ellipse"', 'scene = "paper-ellipse"\nmax_runs = 1000000'))
+    assert len(sweep) == 1_000_000
+    first = next(iter(sweep.iter_tasks()))  # one at a time, without making the other runs
+    assert first.index == 0 and first.values["integrator.dt"] == 0.1
+    assert time.perf_counter() - start < 30
+    assert len(parse_sweep(MILLION, max_runs=1_000_000)) == 1_000_000
+    with pytest.raises(InputError, match=r"more than max_runs \(12\)"):
+        parse_sweep(
+            MILLION.replace('scene = "paper-ellipse"', 'scene = "paper-ellipse"\nmax_runs = 10000000'), max_runs=12
+        )
+    for bad in ("0", '"many"', "1.5", "true"):
+        with pytest.raises(InputError, match="sweep.max_runs"):
+            parse_sweep(MILLION.replace('scene = "paper-ellipse"', f'scene = "paper-ellipse"\nmax_runs = {bad}'))
+    with pytest.raises(InputError, match="max_runs"):
+        parse_sweep(MILLION, max_runs=0)
+    # samples count too, and a zip is as long as its longest list (checked before zip's lengths)
+    samples = '[sweep]\nscene = "paper-ellipse"\nsamples = 1000000000000\n[[parameter]]\nkey = "body[0].mass"\n'
+    samples += 'random = { distribution = "uniform", low = 1, high = 2 }\nunit = "kg"\n'
+    with pytest.raises(
+        InputError, match=r"^sweep.samples: the sweep has 1,000,000,000,000 runs \(samples = 1,000,000,000,000\)"
+    ):
+        parse_sweep(samples)
+    endless = HUGE.replace("start = 0.30, stop = 0.40, step = 1e-9", "start = -1e308, stop = 1e308, step = 1e-300")
+    with pytest.raises(InputError, match=r"the sweep has over 1e308 runs"):
+        parse_sweep(endless, max_runs=10**18)
+    zipped = HUGE.replace('scene = "paper-ellipse"', 'scene = "paper-ellipse"\ncombine = "zip"')
+    with pytest.raises(InputError, match=r"the sweep has 100,000,001 runs .* side by side with "):
+        parse_sweep(zipped)
+
+
+def test_zip_of_random_parameters_only_has_its_samples():
+    text = '[sweep]\nscene = "paper-ellipse"\ncombine = "zip"\nsamples = 3\n[[parameter]]\nkey = "body[0].mass"\n'
+    sweep = parse_sweep(text + 'random = { distribution = "uniform", low = 1, high = 2 }\nunit = "kg"\n')
+    assert len(sweep) == 3 and [t.index for t in sweep.tasks()] == [0, 1, 2]
+
+
+def test_a_huge_sweep_fails_at_once_on_the_command_line(tmp_path):
+    """1e16 runs: exit 2 with one line naming the parameters and the count, for --list and
+    for a run, within seconds (a child process, so that a regression cannot hang the suite)."""
+    f = tmp_path / "huge.toml"
+    f.write_text(HUGE)
+    for args in (["--list"], ["-o", str(tmp_path / "out")]):
+        done = subprocess.run(
+            [sys.executable, "-m", "emorbit.cli", "sweep", str(f), *args],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert done.returncode == 2, done.stderr[-2000:]
+        lines = done.stderr.strip().splitlines()
+        assert len(lines) == 1 and "10,000,000,100,000,000 runs" in lines[0], done.stderr
+        assert "integrator.dt" in lines[0] and "body[satellite].velocity[1]" in lines[0]
+        assert done.stdout == ""
+    assert not (tmp_path / "out").exists()
+    # the limit raised on the command line
+    small = tmp_path / "small.toml"
+    small.write_text(MILLION.replace("num = 1000 }", "num = 3 }"))
+    assert main(["sweep", str(small), "--list", "--max-runs", "8"]) == 2
+    assert main(["sweep", str(small), "--list", "--max-runs", "9"]) == 0
+
+
+def test_list_shows_each_value_with_its_unit(tmp_path, capsys):
+    f = tmp_path / "s.toml"
+    f.write_text(
+        """
+[sweep]
+scene = "paper-ellipse"
+samples = 2
+
+[[parameter]]
+key = "integrator.dt"
+values = ["0.4 s", "0.2 s"]
+
+[[parameter]]
+key = "body[satellite].velocity[1]"
+range = { start = 0.30, stop = 0.40, num = 2 }
+unit = "m / s"
+
+[[parameter]]
+key = "body[satellite].position[0]"
+random = { distribution = "uniform", low = 9.5, high = 10.5 }
+unit = "m"
+
+[[parameter]]
+key = "integrator.order"
+values = [2]
+"""
+    )
+    assert main(["sweep", str(f), "--list"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split("\t") == [
+        "run",
+        "seed",
+        "integrator.dt",
+        "body[satellite].velocity[1]",
+        "body[satellite].position[0]",
+        "integrator.order",
+    ]
+    assert len(lines) == 9
+    tasks = load_sweep(f).tasks()
+    for line, t in zip(lines[1:], tasks):
+        cells = line.split("\t")
+        assert cells[:4] == [
+            str(t.index),
+            str(t.seed),
+            t.values["integrator.dt"],
+            "0.3 m / s" if t.index % 4 < 2 else "0.4 m / s",
+        ]
+        assert cells[4] == f"{t.values['body[satellite].position[0]']!r} m" and cells[5] == "2"
 
 
 def _mpi_missing():

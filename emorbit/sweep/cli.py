@@ -2,15 +2,17 @@
 
     emorbit sweep SWEEP.toml -o OUT [--dask | --scheduler tcp://HOST:PORT | --mpi | --serial]
                   [--workers N] [--threads N] [--device cpu|gpu] [--retries N]
-                  [--rerun-failed] [--overwrite] [--list] [-q]
+                  [--rerun-failed] [--overwrite] [--max-runs N] [--list] [-q]
 
 Exit codes: 0 every run completed, 1 some run failed (each is in the summary with its
-error), 2 bad input (nothing ran).
+error), 2 bad input (nothing ran). ``--list`` prints one line per run, each parameter value with
+its unit (``0.35 m / s``), as it is written into the run's scene.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 
@@ -42,8 +44,19 @@ def add_arguments(p) -> None:
     p.add_argument("--retries", type=int, default=3, help="tries again after a lost worker (default 3)")
     p.add_argument("--rerun-failed", action="store_true", help="run again the runs that failed before")
     p.add_argument("--overwrite", action="store_true", help="replace run files of a different sweep in OUT")
+    p.add_argument(
+        "--max-runs",
+        type=int,
+        metavar="N",
+        help="the most runs the sweep may have (default: the sweep file's max_runs, else 100000)",
+    )
     p.add_argument("--list", action="store_true", help="print the runs and their parameters; run nothing")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar and no summary line")
+
+
+def _shown(value) -> str:
+    """A value as written into a scene, for --list: text as it is ("0.35 m / s"), anything else as JSON."""
+    return value if isinstance(value, str) else json.dumps(value)
 
 
 def run(args) -> int:
@@ -67,12 +80,16 @@ def run(args) -> int:
     from .runner import run_sweep
     from .spec import load_sweep
 
-    sweep = load_sweep(args.sweep)
+    sweep = load_sweep(args.sweep, args.max_runs)
     if args.list:
-        keys = [p.key for p in sweep.parameters]
-        print("\t".join(["run", "seed"] + keys))
-        for t in sweep.tasks():
-            print("\t".join([str(t.index), str(t.seed)] + [json.dumps(t.values[k]) for k in keys]))
+        try:
+            print("\t".join(["run", "seed"] + [p.key for p in sweep.parameters]))
+            for t in sweep.iter_tasks():
+                shown = [_shown(p.scene_value(t.values[p.key], p.key)) for p in sweep.parameters]
+                print("\t".join([str(t.index), str(t.seed)] + shown))
+            sys.stdout.flush()
+        except BrokenPipeError:  # the reader stopped (emorbit sweep ... --list | head)
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     if not args.output:
         raise InputError("output", "give the output folder with -o OUT")
@@ -90,6 +107,7 @@ def run(args) -> int:
         rerun_failed=args.rerun_failed,
         overwrite=args.overwrite,
         progress=False if args.quiet else None,
+        max_runs=args.max_runs,
     )
     c = result.counts
     if not args.quiet:

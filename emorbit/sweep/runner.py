@@ -4,7 +4,8 @@ with it, and write the summary table.
 Output folder::
 
     OUT/runs/run-000000.h5 ...   one file per run (see emorbit.sweep.task), written atomically
-    OUT/summary.csv              one row per run, columns as in emorbit.sweep.task.row_columns
+    OUT/summary.csv              one row per run, columns as in emorbit.sweep.task.row_columns;
+                                 a header names each column with its unit: "t_final [s]"
     OUT/summary.h5               the same table as a compound dataset /summary; attribute
                                  ``units`` (JSON, column -> unit), the sweep file in ``sweep``
 """
@@ -53,7 +54,7 @@ class SweepResult:
     columns : list of str
         The summary's columns, in order.
     units : dict
-        {column: unit} ("" for text and parameter columns).
+        {column: unit} ("1" for dimensionless numbers, "" for text).
     counts : dict
         ``total``, ``skipped`` (finished before), ``ran``, ``completed``, ``failed``,
         ``not_run`` and ``retried`` (tasks submitted again after their worker was lost).
@@ -91,6 +92,13 @@ class SweepResult:
         return [r.get(name) for r in self.rows]
 
 
+def _check_size(sweep: Sweep, max_runs) -> None:
+    if isinstance(max_runs, bool) or not isinstance(max_runs, int) or max_runs < 1:
+        raise InputError("max_runs", f"must be an integer >= 1, got {max_runs!r}")
+    if len(sweep) > max_runs:
+        raise InputError("max_runs", f"the sweep has {len(sweep):,} runs, more than max_runs = {max_runs:,}")
+
+
 def _task_dicts(sweep: Sweep, runs_dir: str, threads, device: str) -> list[dict]:
     base = {"data": sweep.scene.data, "text": sweep.scene.text, "source": sweep.scene.source}
     params = [(p.key, p.path, p.unit) for p in sweep.parameters]
@@ -121,8 +129,10 @@ def _not_run(task: dict, status: str, error: str) -> dict:
 
 
 def _remove_orphans(runs_dir: str) -> None:
-    """Remove temporary files of attempts that never finished (their workers died)."""
-    for path in glob.glob(os.path.join(runs_dir, ".run-*.h5.*.tmp")):
+    """Remove temporary files of attempts that never finished (their workers died): the
+    worker's ``.run-000012.h5.<random>.tmp`` and any temporary file the run's writer made
+    beside it (every hidden ``.tmp`` file in ``runs/``)."""
+    for path in glob.glob(os.path.join(runs_dir, ".*.tmp")):
         try:
             os.remove(path)
         except OSError:
@@ -144,6 +154,7 @@ def run_sweep(
     overwrite: bool = False,
     on_result=None,
     progress: bool | None = None,
+    max_runs: int | None = None,
 ) -> SweepResult:
     """Run every run of a sweep not yet finished in a folder, then write the summary of all.
 
@@ -180,6 +191,9 @@ def run_sweep(
         (``worker``: {"host", "pid", "threads"} that ran it).
     progress : bool, optional
         A progress bar on stderr; default: when stderr is a terminal.
+    max_runs : int, optional
+        The most runs the sweep may have; default: the sweep file's ``max_runs``, else
+        :data:`emorbit.sweep.spec.MAX_RUNS` (100,000). Counted before anything is listed.
 
     Returns
     -------
@@ -189,10 +203,13 @@ def run_sweep(
     Raises
     ------
     InputError
-        A bad sweep or option, or a folder holding another sweep, before anything runs.
+        A bad sweep or option, more runs than ``max_runs``, or a folder holding another
+        sweep, before anything runs.
     """
     if not isinstance(sweep, Sweep):
-        sweep = load_sweep(sweep)
+        sweep = load_sweep(sweep, max_runs)
+    elif max_runs is not None:
+        _check_size(sweep, max_runs)
     check_device(device)
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
         raise InputError("retries", f"must be an integer >= 0, got {retries!r}")
@@ -207,7 +224,9 @@ def run_sweep(
         require_device(device)  # local workers: say now, before anything runs
     runs_dir = os.path.join(output, "runs")
     tasks = _task_dicts(sweep, runs_dir, None if be.name == "serial" else threads, device)
-    columns = row_columns([p.key for p in sweep.parameters], sweep.body_names())
+    columns = row_columns(
+        [p.key for p in sweep.parameters], sweep.body_names(), {p.key: p.column_unit for p in sweep.parameters}
+    )
     rows: dict[int, dict] = {}
     pending, mismatched = [], set()
     for t in tasks:
@@ -341,7 +360,7 @@ def _finish(output, sweep, tasks, rows, columns, counts, be) -> SweepResult:
     counts["not_run"] = sum(r.get("status") == "not run" for r in ordered)
     names = [c for c, _ in columns]
     units = dict(columns)
-    _write_csv(os.path.join(output, "summary.csv"), names, ordered)
+    _write_csv(os.path.join(output, "summary.csv"), names, units, ordered)
     _write_h5(os.path.join(output, "summary.h5"), names, units, ordered, sweep, be, counts)
     return SweepResult(output=output, rows=ordered, columns=names, units=units, counts=dict(counts))
 
@@ -356,11 +375,29 @@ def _text(v) -> str:
     return str(v)
 
 
-def _write_csv(path, names, rows) -> None:
+def _csv_header(name: str, unit: str) -> str:
+    """A summary.csv column header: the column's name, then its unit in brackets where it has one.
+
+    Parameters
+    ----------
+    name : str
+        The column (``"t_final"``).
+    unit : str
+        Its unit (``"s"``; ``"1"`` dimensionless; ``""`` text).
+
+    Returns
+    -------
+    str
+        ``"t_final [s]"``, or the name alone for a text column.
+    """
+    return f"{name} [{unit}]" if unit else name
+
+
+def _write_csv(path, names, units, rows) -> None:
     tmp = path + ".tmp"
     with open(tmp, "w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
-        w.writerow(names)
+        w.writerow([_csv_header(n, units.get(n, "")) for n in names])
         for r in rows:
             w.writerow([_text(r.get(c)) for c in names])
     os.replace(tmp, path)

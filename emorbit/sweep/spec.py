@@ -3,41 +3,31 @@
 ::
 
     [sweep]
-    scene = "paper-ellipse"      # a shipped scene's name or a TOML file (relative to this file)
-    seed = 2024                  # root seed (default 0): run i draws from SeedSequence(seed).spawn(n)[i]
-    combine = "product"          # product: every combination of the listed values (default)
-                                 # zip: the lists side by side (equal lengths)
-    samples = 1                  # runs per combination; random parameters draw anew in each (default 1)
-    bodies = ["satellite"]       # bodies whose final elements the summary lists (default: all)
-
-    [set]                        # the same value in every run (keys as below)
+    scene = "paper-ellipse"   # a shipped scene or a TOML file (relative to this file)
+    seed = 2024               # root seed (default 0)
+    combine = "product"       # every combination (default) | "zip": the lists side by side
+    samples = 1               # runs per combination; random parameters draw anew in each
+    bodies = ["satellite"]    # bodies whose final elements the summary lists (default: all)
+    max_runs = 100000         # the most runs the sweep may have (default MAX_RUNS)
+    [set]                     # the same value in every run
     "integrator.t_end" = "46.4758 s"
-
-    [[parameter]]                # a list of values, written as in a scene
-    key = "integrator.dt"
-    values = ["0.2 s", "0.1 s"]
-
-    [[parameter]]                # evenly spaced numbers (both ends included); or step = 0.01
-    key = "body[0].velocity[1]"
-    range = { start = 0.30, stop = 0.40, num = 11 }    # spacing = "log" for geometric
+    [[parameter]]             # values = [...] | range = {start, stop, num or step, spacing}
+    key = "body[0].velocity[1]"             # | random = {distribution, its parameters}
+    range = { start = 0.30, stop = 0.40, num = 11 }
     unit = "m / s"
 
-    [[parameter]]                # a seeded random draw in every run
-    key = "body[satellite].position[0]"
-    random = { distribution = "uniform", low = 9.5, high = 10.5 }
-    unit = "m"                   # normal: mean, std; loguniform: low, high
-
-A key is a dotted path into the scene: ``integrator.dt``, ``body[0].velocity[1]`` (body 0,
-component 1), ``body[satellite].mass`` (the body named "satellite"), ``coupling[0].nodes``.
-Every table on the path must exist in the base scene; the last name must be a key that
-table allows. A parameter with ``unit`` writes ``"<number> <unit>"`` into the scene; one
-without writes its values unchanged. Unknown keys, keys the scene does not have, and a unit
-where the scene has none (or the other way round) are errors naming the key, raised before
-anything runs; a bad *value* (a negative step, say) fails its run alone. Runs are numbered
-in the order of the combinations (``product``: the last parameter changes fastest),
-``samples`` consecutive runs per combination. Run i draws its random values, in the order
-of the tables, from ``default_rng(SeedSequence(seed).spawn(n)[i])``, which depends only on
-(seed, i): a sweep with more samples keeps the draws of the runs it shares with a smaller one.
+A key is a dotted path into the scene (``body[satellite].velocity[1]``); every table on the
+path must exist in the base scene and the last name must be a key that table allows. A
+parameter with ``unit`` writes ``"<number> <unit>"`` into the scene; one without writes its
+values unchanged. Unknown keys, keys the scene does not have, and a unit where the scene has
+none (or the other way round) are errors naming the key, raised before anything runs; a bad
+*value* (a negative step, say) fails its run alone. Runs are numbered in the order of the
+combinations (``product``: the last parameter changes fastest), ``samples`` consecutive runs
+per combination. Run i draws its random values, in the order of the tables, from
+``default_rng(SeedSequence(seed).spawn(n)[i])``, which depends only on (seed, i). The runs
+are counted before any range is listed: more than ``max_runs`` (the argument of
+:func:`parse_sweep`, else the file's ``max_runs``, else :data:`MAX_RUNS`) is an error naming
+the parameters and the count. ``docs/sweeps.md`` has the whole schema.
 """
 
 from __future__ import annotations
@@ -63,14 +53,16 @@ import numpy as np
 from ..errors import InputError
 from ..scene import SCHEMA, Scene, check_table, load_scene, read_text
 
-__all__ = ["Sweep", "Parameter", "Task", "load_sweep", "parse_sweep", "parse_key", "set_value", "run_scene"]
+__all__ = ["Sweep", "Parameter", "Task", "MAX_RUNS", "load_sweep", "parse_sweep", "parse_key", "set_value", "run_scene"]
 
 _TOP = {"sweep": True, "set": False, "parameter": False}
-_SWEEP = {"scene": True, "seed": False, "combine": False, "samples": False, "bodies": False}
+_SWEEP = {"scene": True, "seed": False, "combine": False, "samples": False, "bodies": False, "max_runs": False}
 _PARAMETER = {"key": True, "values": False, "range": False, "random": False, "unit": False}
 _RANGE = {"start": True, "stop": True, "num": False, "step": False, "spacing": False}
 #: random distributions and their parameters
 DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"), "loguniform": ("low", "high")}
+#: the most runs a sweep may have unless its ``max_runs`` (or the caller's) says more
+MAX_RUNS = 100_000
 
 
 def _check_table(table, allowed: dict, where: str) -> dict:
@@ -351,8 +343,18 @@ class Parameter:
         """
         return _with_unit(value, self.unit, where)
 
+    @property
+    def column_unit(self) -> str:
+        """The unit of its summary column: ``unit``; "1" for bare numbers; "" for text such as "0.4 s"."""
+        if self.unit:
+            return self.unit
+        if self.random or all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in self.values):
+            return "1"
+        return ""
 
-def _range_values(r, where: str) -> list:
+
+def _range_count(r, where: str) -> int | float:
+    """How many values a range table gives, checked, without listing them (inf: too many to count)."""
     _check_table(r, _RANGE, where)
     start = _number(r["start"], f"{where}.start")
     stop = _number(r["stop"], f"{where}.stop")
@@ -367,19 +369,25 @@ def _range_values(r, where: str) -> list:
         if not (start > 0 and stop > 0):
             raise InputError(where, f"a log range needs start, stop > 0, got {start!r}, {stop!r}")
     if "num" in r:
-        num = _int(r["num"], f"{where}.num", 1)
-        if num == 1:
-            return [start]
-        grid = np.geomspace(start, stop, num) if spacing == "log" else np.linspace(start, stop, num)
-        return [float(x) for x in grid]
+        return _int(r["num"], f"{where}.num", 1)
     step = _number(r["step"], f"{where}.step")
     if step == 0 or (stop - start) * step < 0:
         raise InputError(f"{where}.step", f"{step!r} does not lead from {start!r} to {stop!r}")
     count = (stop - start) / step
-    n = int(math.floor(count + 1e-9)) + 1
+    return int(math.floor(count + 1e-9)) + 1 if math.isfinite(count) else math.inf
+
+
+def _range_values(r, where: str) -> list:
+    n = _range_count(r, where)
+    start, stop, step = r["start"], r["stop"], r.get("step")
+    if "num" in r:
+        if n == 1:
+            return [start]
+        grid = np.geomspace(start, stop, n) if r.get("spacing") == "log" else np.linspace(start, stop, n)
+        return [float(x) for x in grid]
     if all(isinstance(r[k], numbers.Integral) for k in ("start", "stop", "step")):
-        return [int(start + j * step) for j in range(n)]
-    return [float(start + j * step) for j in range(n)]
+        return list(range(start, start + n * step, step))
+    return (start + np.arange(n, dtype=np.float64) * step).tolist()  # start + j * step, as in Python
 
 
 def _parameter(p, j: int, scene_data: dict) -> Parameter:
@@ -404,7 +412,10 @@ def _parameter(p, j: int, scene_data: dict) -> Parameter:
             param.scene_value(v, f"{where}.values[{k}]")  # numbers where a unit is given
         param.values = list(vals)
     elif "range" in p:
-        param.values = _range_values(p["range"], f"{where}.range")
+        try:
+            param.values = _range_values(p["range"], f"{where}.range")
+        except MemoryError:  # only where max_runs was raised that far
+            raise InputError(f"{where}.range", "too many values to hold in memory; vary fewer") from None
     else:
         r = p["random"]
         rw = f"{where}.random"
@@ -497,18 +508,11 @@ class Sweep:
     source: str = "<string>"
 
     def __len__(self) -> int:
-        return self._combinations() * self.samples
+        sizes = [len(p.values) for p in self._axes()] or [1]
+        return (sizes[0] if self.combine == "zip" else math.prod(sizes)) * self.samples
 
     def _axes(self) -> list[Parameter]:
         return [p for p in self.parameters if not p.random]
-
-    def _combinations(self) -> int:
-        axes = self._axes()
-        if not axes:
-            return 1
-        if self.combine == "zip":
-            return len(axes[0].values)
-        return math.prod(len(p.values) for p in axes)
 
     def tasks(self) -> list[Task]:
         """Every run, in order (see the module notes).
@@ -518,14 +522,24 @@ class Sweep:
         list of Task
             ``len(self)`` tasks.
         """
+        return list(self.iter_tasks())
+
+    def iter_tasks(self):
+        """Every run, in order, one at a time (as :meth:`tasks`, without holding them all).
+
+        Yields
+        ------
+        Task
+            Run 0, 1, ... ``len(self) - 1``.
+        """
         axes = self._axes()
-        if self.combine == "zip":
-            combos = list(zip(*[p.values for p in axes]))
+        if not axes:
+            combos = [()]
+        elif self.combine == "zip":
+            combos = zip(*[p.values for p in axes])
         else:
-            combos = list(itertools.product(*[p.values for p in axes]))
-        n = len(combos) * self.samples
-        children = np.random.SeedSequence(self.seed).spawn(n)
-        tasks = []
+            combos = itertools.product(*[p.values for p in axes])
+        root = np.random.SeedSequence(self.seed)
         base = json.dumps(
             {"scene": self.scene.text, "fixed": self.fixed, "bodies": self.bodies}, sort_keys=True, default=str
         )
@@ -533,16 +547,17 @@ class Sweep:
             chosen = dict(zip([p.key for p in axes], combo))
             for s in range(self.samples):
                 i = c * self.samples + s
-                rng = np.random.default_rng(children[i])
+                # SeedSequence(seed).spawn(n)[i], made alone
+                child = np.random.SeedSequence(root.entropy, spawn_key=(i,), pool_size=root.pool_size)
+                rng = np.random.default_rng(child)
                 values = {}
                 for p in self.parameters:
                     values[p.key] = p.draw(rng) if p.random else chosen[p.key]
-                seed = int(children[i].generate_state(1, np.uint64)[0])
+                seed = int(child.generate_state(1, np.uint64)[0])
                 digest = hashlib.sha256(
                     json.dumps([base, values, seed], sort_keys=True, default=str).encode()
                 ).hexdigest()[:32]
-                tasks.append(Task(i, seed, values, digest))
-        return tasks
+                yield Task(i, seed, values, digest)
 
     def scene_for(self, task: Task) -> Scene:
         """The scene of one run, unchecked (building it checks it).
@@ -632,7 +647,36 @@ def _flatten(table: dict, prefix: str = "") -> dict:
     return out
 
 
-def parse_sweep(text: str, source: str = "<string>") -> Sweep:
+def _size(value) -> str:
+    return f"{value:,}" if isinstance(value, int) else "over 1e308"
+
+
+def _count_runs(params_raw: list, combine: str, samples: int, limit: int, limit_from: str) -> None:
+    """Count the runs from the tables as written, before any range is listed; raise above ``limit``."""
+    counts = []
+    for j, p in enumerate(params_raw):
+        if not isinstance(p, dict) or sum(k in p for k in ("values", "range", "random")) != 1:
+            continue  # reported when the table is read
+        if isinstance(p.get("values"), list):
+            counts.append((j, p.get("key"), len(p["values"])))
+        elif "range" in p:
+            counts.append((j, p.get("key"), _range_count(p["range"], f"parameter[{j}].range")))
+    sizes = [n for _, _, n in counts] or [1]
+    total = (max(sizes) if combine == "zip" else math.prod(sizes)) * samples
+    if total <= limit:
+        return
+    parts = [f"parameter[{j}] ({key}): {_size(n)} values" for j, key, n in counts]
+    parts += [f"samples = {_size(samples)}"] if samples > 1 or not parts else []
+    sep = " side by side with " if combine == "zip" else " x "
+    raise InputError(
+        "parameter" if counts else "sweep.samples",
+        f"the sweep has {_size(total)} runs ({sep.join(parts)}), more than {limit_from} ({_size(limit)}); "
+        "vary fewer values, or raise the limit with max_runs in [sweep], emorbit sweep --max-runs N "
+        "or run_sweep(..., max_runs=N)",
+    )
+
+
+def parse_sweep(text: str, source: str = "<string>", max_runs: int | None = None) -> Sweep:
     """Parse and check a sweep from TOML text.
 
     Parameters
@@ -641,6 +685,9 @@ def parse_sweep(text: str, source: str = "<string>") -> Sweep:
         The sweep file's text.
     source : str
         Its path: a relative scene path is taken from its folder.
+    max_runs : int, optional
+        The most runs the sweep may have; default: the file's ``max_runs``, else
+        :data:`MAX_RUNS`. The runs are counted before anything is listed.
 
     Returns
     -------
@@ -651,9 +698,11 @@ def parse_sweep(text: str, source: str = "<string>") -> Sweep:
     ------
     InputError
         Bad TOML, an unknown or misplaced key, a key the scene does not have, a unit where the
-        scene has none (or the other way round), or inconsistent options; the error names the
-        key.
+        scene has none (or the other way round), inconsistent options, or more runs than
+        ``max_runs``; the error names the key.
     """
+    if max_runs is not None:
+        _int(max_runs, "max_runs", 1)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -679,6 +728,9 @@ def parse_sweep(text: str, source: str = "<string>") -> Sweep:
     params_raw = data.get("parameter", [])
     if not isinstance(params_raw, list):
         raise InputError("parameter", "expected [[parameter]] tables")
+    limit = max_runs if max_runs is not None else _int(sw.get("max_runs", MAX_RUNS), "sweep.max_runs", 1)
+    named = "max_runs" if max_runs is not None else "sweep.max_runs" if "max_runs" in sw else "the default limit"
+    _count_runs(params_raw, combine, samples, limit, named)
     params = [_parameter(p, j, scene.data) for j, p in enumerate(params_raw)]
     for p in params:
         same = [k for k, q in enumerate(params) if q.path == p.path]
@@ -713,26 +765,18 @@ def parse_sweep(text: str, source: str = "<string>") -> Sweep:
         for b in bodies:
             if b not in names:
                 raise InputError("sweep.bodies", f"no body named {b!r} in the scene; bodies: {', '.join(names)}")
-    return Sweep(
-        scene=scene,
-        parameters=params,
-        fixed=fixed,
-        seed=seed,
-        combine=combine,
-        samples=samples,
-        bodies=bodies,
-        text=text,
-        source=source,
-    )
+    return Sweep(scene, params, fixed, seed, combine, samples, bodies, text, source)
 
 
-def load_sweep(path) -> Sweep:
+def load_sweep(path, max_runs: int | None = None) -> Sweep:
     """Read and check a sweep file.
 
     Parameters
     ----------
     path : str or os.PathLike
         The TOML file.
+    max_runs : int, optional
+        The most runs the sweep may have (see :func:`parse_sweep`).
 
     Returns
     -------
@@ -747,4 +791,4 @@ def load_sweep(path) -> Sweep:
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise InputError("sweep", f"{path!r} is not a file")
-    return parse_sweep(read_text(path, "sweep"), path)
+    return parse_sweep(read_text(path, "sweep"), path, max_runs)

@@ -4,12 +4,12 @@ A worker builds the run's scene, runs it into a temporary file beside the final 
 (``runs/.run-000012.h5.<random>.tmp``), adds the ``/sweep`` group (the run's index, seed,
 parameter values, digest and summary row), flushes it to disk and only then renames it to
 ``runs/run-000012.h5``. A rename within a folder is atomic, so the final name never points at
-a half-written file: a worker killed at any moment leaves at most a ``.tmp`` file, which
-the client removes. A run is *finished* when its final file exists, its root attribute
-``status`` is ``completed`` or ``failed`` and its ``/sweep`` digest matches the run; a
-finished run is never run again (resume), and a task that finds its run finished returns
-the stored row, so running a task twice (a retry after a lost worker, a duplicate
-scheduled by Dask) gives one file and one row.
+a half-written file: a worker killed at any moment leaves at most hidden ``.tmp`` files
+(its own, and one the run's writer made beside it), which the client removes. A run is
+*finished* when its final file exists, its root attribute ``status`` is ``completed`` or
+``failed`` and its ``/sweep`` digest matches the run; a finished run is never run again
+(resume), and a task that finds its run finished returns the stored row, so running a task
+twice (a retry after a lost worker, a duplicate scheduled by Dask) gives one file and one row.
 
 A run that fails is recorded, not raised: bad input (:class:`~emorbit.errors.InputError`)
 gives a file holding only the ``/sweep`` group and the error; a step that fails
@@ -69,11 +69,11 @@ def run_file_name(index: int) -> str:
     return f"run-{index:06d}.h5"
 
 
-def row_columns(parameter_keys, bodies) -> list[tuple[str, str]]:
+def row_columns(parameter_keys, bodies, parameter_units=None) -> list[tuple[str, str]]:
     """Every summary column, in order, with its unit.
 
     Parameter columns are named by their key; element columns ``<body>/<element>`` (a body
-    name never holds '/').
+    name never holds '/'). A unit is ``"1"`` for a dimensionless number and ``""`` for text.
 
     Parameters
     ----------
@@ -81,6 +81,8 @@ def row_columns(parameter_keys, bodies) -> list[tuple[str, str]]:
         The parameters' keys.
     bodies : list of str
         Bodies whose final elements are listed.
+    parameter_units : dict, optional
+        {key: unit} of the parameter columns (default: "" each).
 
     Returns
     -------
@@ -88,7 +90,7 @@ def row_columns(parameter_keys, bodies) -> list[tuple[str, str]]:
         (name, unit) per column.
     """
     cols = [("run", "1"), ("seed", "1")]
-    cols += [(k, "") for k in parameter_keys]
+    cols += [(k, (parameter_units or {}).get(k, "")) for k in parameter_keys]
     cols += list(RESULT_COLUMNS)
     cols += [(f"{b}/{name}", unit) for b in bodies for name, unit in ELEMENTS]
     cols += [("wall_time", "s"), ("file", "")]
