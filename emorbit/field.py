@@ -120,6 +120,62 @@ class CentralField:
         src = f"body={self.body!r}" if self.body else f"gm={self.gm!r}"
         return f"CentralField({src}, center={self.center.tolist()!r})"
 
+    #: |r x v| below this fraction of r |v| is a radial line through the centre (round-off)
+    RADIAL = 1e-12
+
+    def check_start(self, points, position, velocity, *, gravity: bool, key: str, what: str, motion_key: str) -> None:
+        """Refuse a body that starts inside the central body or runs into the singular centre.
+
+        Parameters
+        ----------
+        points : array_like
+            (n, 3) positions, m: a point mass's position, a rigid body's mass points or an
+            elastic body's nodes.
+        position, velocity : array_like
+            (3,) position (m) and velocity (m/s) of the body's centre of mass.
+        gravity : bool
+            Whether the field acts on the body (the centre is singular only then).
+        key : str
+            The key that placed the points (``body[0].position`` or ``body[0].orbit``).
+        what : str
+            What the points are, for the message (``"the point"``, ``"a mass point of the body"``).
+        motion_key : str
+            The key of the velocity (``body[0].velocity`` or ``body[0].orbit``).
+
+        Raises
+        ------
+        InputError
+            A point at the centre (with gravity), a point closer to the centre than
+            :attr:`radius`, or (with gravity and no radius) a centre of mass that moves on a
+            radial line through the centre towards it, or away from it too slowly to escape:
+            angular momentum zero to round-off (:attr:`RADIAL` of r |v|), with v = 0 included.
+        """
+        x = np.atleast_2d(np.asarray(points, float)) - self.center
+        d = np.linalg.norm(x, axis=1)
+        if gravity and not np.all(d > 0):
+            raise InputError(key, f"{what} is at the field's centre, where gravity is singular")
+        if self.radius > 0 and np.any(d < self.radius):
+            raise InputError(
+                key,
+                f"{what} starts inside the central body: r = {float(d.min())!r} m from the centre, below the "
+                f"field's radius {self.radius!r} m",
+            )
+        if not gravity or self.radius > 0:
+            return
+        r = np.asarray(position, float) - self.center
+        v = np.asarray(velocity, float)
+        rn, vn = float(np.linalg.norm(r)), float(np.linalg.norm(v))
+        if rn == 0 or float(np.linalg.norm(np.cross(r, v))) > self.RADIAL * rn * vn:
+            return
+        if float(r @ v) > 0 and 0.5 * vn * vn >= self.gm / rn:
+            return  # outwards at escape speed or more: it never comes back
+        raise InputError(
+            motion_key,
+            "the body moves on a radial line through the field's centre (no angular momentum about it) and "
+            "reaches the centre, where gravity is singular and nothing stops it; give the [field] a radius "
+            "(a collision radius stops the run there) or the velocity a part across the line to the centre",
+        )
+
     def acceleration(self, position) -> np.ndarray:
         """The field's acceleration g at given positions.
 

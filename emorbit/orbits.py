@@ -3,15 +3,22 @@ analytic propagation used as the exact reference.
 
 All functions are vectorised numpy over leading axes and use SI units and radians.
 States are given as ``position`` and ``velocity`` arrays whose *last* axis has length 3,
-relative to the field's centre unless ``center`` is given.
+relative to the field's centre unless ``center`` is given. :func:`orbit_state` turns
+elements as a scene or the scripting API gives them (values with units, a periapsis and an
+apoapsis in place of a and e) into a state.
 """
 
 from __future__ import annotations
 
 import math
+import numbers
+from collections.abc import Mapping
 from typing import NamedTuple
 
 import numpy as np
+
+from .errors import InputError
+from .units import to_si
 
 __all__ = [
     "OrbitalElements",
@@ -23,6 +30,9 @@ __all__ = [
     "kepler_period",
     "semi_major_axis",
     "propagate",
+    "ORBIT_ELEMENTS",
+    "orbit_state",
+    "initial_state",
 ]
 
 _TWO_PI = 2.0 * math.pi
@@ -293,6 +303,12 @@ def state_from_elements(el: OrbitalElements | tuple, gm, center=(0.0, 0.0, 0.0))
     p = a * (1.0 - e * e)
     if np.any(p <= 0):
         raise ValueError("state_from_elements needs a (1 - e^2) > 0")
+    return _state_from_p(p, e, inc, raan, argp, nu, gm, center)
+
+
+def _state_from_p(p, e, inc, raan, argp, nu, gm, center):
+    """The state of an orbit with semi-latus rectum p > 0 (any e >= 0, a parabola included)."""
+    p, e, inc, raan, argp, nu = (np.asarray(q, float) for q in (p, e, inc, raan, argp, nu))
     r = p / (1.0 + e * np.cos(nu))
     rp = np.stack([r * np.cos(nu), r * np.sin(nu), np.zeros_like(r)], axis=-1)
     vp = np.stack([-np.sin(nu), e + np.cos(nu), np.zeros_like(r)], axis=-1) * np.sqrt(gm / p)[..., None]
@@ -310,6 +326,211 @@ def state_from_elements(el: OrbitalElements | tuple, gm, center=(0.0, 0.0, 0.0))
     pos = np.einsum("...ij,...j->...i", rot, rp) + np.asarray(center, float)
     vel = np.einsum("...ij,...j->...i", rot, vp)
     return pos, vel
+
+
+#: the keys of an orbit given by elements, and the kind of value each takes
+ORBIT_ELEMENTS = {
+    "a": "length",
+    "e": "number",
+    "periapsis_radius": "length",
+    "apoapsis_radius": "length",
+    "periapsis_altitude": "length",
+    "apoapsis_altitude": "length",
+    "i": "angle",
+    "raan": "angle",
+    "argp": "angle",
+    "nu": "angle",
+    "mean_anomaly": "angle",
+}
+
+
+def _given(orbit, names) -> list[str]:
+    return [n for n in names if n in orbit]
+
+
+def _size_and_shape(orbit, radius: float, strict: bool, key: str) -> tuple[float, float]:
+    """(p, e): the semi-latus rectum (m) and e, from a and e, a periapsis and an apoapsis, or a periapsis and e."""
+    sizes = _given(orbit, ("a", "periapsis_radius", "periapsis_altitude"))
+    apo = _given(orbit, ("apoapsis_radius", "apoapsis_altitude"))
+    if len(sizes) != 1:
+        what = " and ".join(sizes) if sizes else "none"
+        raise InputError(key, f"give exactly one of a, periapsis_radius and periapsis_altitude; got {what}")
+    if len(apo) > 1:
+        raise InputError(key, "give at most one of apoapsis_radius and apoapsis_altitude")
+    if apo and "e" in orbit:
+        raise InputError(f"{key}.e", f"e and {apo[0]} both fix the shape: give one of them")
+    if apo and sizes[0] == "a":
+        raise InputError(f"{key}.{apo[0]}", "an apoapsis goes with a periapsis (periapsis_radius or _altitude), not a")
+
+    def radius_of(name: str) -> float:
+        value = to_si(orbit[name], "length", f"{key}.{name}", strict=strict)
+        if name.endswith("_altitude"):
+            if not radius > 0:
+                raise InputError(
+                    f"{key}.{name}",
+                    "an altitude is measured from the central body's surface, and this field has no radius; "
+                    f"give {name.replace('altitude', 'radius')} (from the centre) or a [field] radius",
+                )
+            value += radius
+        if not value > 0:
+            raise InputError(f"{key}.{name}", f"the distance from the centre must be > 0, got {value!r} m")
+        return value
+
+    e = None
+    if "e" in orbit:
+        e = orbit["e"]
+        if hasattr(e, "unit") and hasattr(e, "to_value"):  # a dimensionless Quantity
+            try:
+                e = float(e.to_value(""))
+            except Exception:
+                raise InputError(f"{key}.e", f"the eccentricity is a number without a unit, got {e!r}") from None
+        if isinstance(e, bool) or not isinstance(e, numbers.Real) or not math.isfinite(e) or e < 0:
+            raise InputError(f"{key}.e", f"the eccentricity must be a finite number >= 0, got {orbit['e']!r}")
+        e = float(e)
+    if sizes[0] == "a":
+        a = to_si(orbit["a"], "length", f"{key}.a", strict=strict)
+        e = 0.0 if e is None else e
+        if e == 1.0:
+            raise InputError(f"{key}.e", "a parabola (e = 1) has no finite a: give periapsis_radius with e = 1")
+        if not (a > 0 and e < 1) and not (a < 0 and e > 1):
+            raise InputError(
+                f"{key}.a",
+                f"a = {a!r} m does not fit e = {e!r}: an ellipse (e < 1) has a > 0, a hyperbola (e > 1) a < 0",
+            )
+        return a * (1.0 - e * e), e
+    rp = radius_of(sizes[0])
+    if apo:
+        ra = radius_of(apo[0])
+        if ra < rp:
+            raise InputError(f"{key}.{apo[0]}", f"the apoapsis ({ra!r} m) is below the periapsis ({rp!r} m)")
+        e = (ra - rp) / (ra + rp)
+        return 2.0 * ra * rp / (ra + rp), e
+    if e is None:
+        raise InputError(f"{key}.e", f"missing: {sizes[0]} needs e or an apoapsis to fix the shape")
+    return rp * (1.0 + e), e
+
+
+def orbit_state(orbit, gm: float, center, radius: float = 0.0, *, strict: bool = False, key: str = "orbit"):
+    """The state of osculating elements about a field's centre, as a scene or the API gives them.
+
+    The elements are those of :func:`elements` (reference plane x-y, reference direction x):
+    the size and shape as ``a`` and ``e`` (e default 0), as a periapsis and an apoapsis, or
+    as a periapsis and ``e``; distances from the centre (``*_radius``) or above the field's
+    radius (``*_altitude``); the angles ``i`` (in [0, 180] deg), ``raan``, ``argp`` (default
+    0) and the position on the orbit as the true anomaly ``nu`` or ``mean_anomaly`` (default:
+    ``nu`` = 0, the periapsis). A hyperbola has a < 0 and e > 1, a parabola e = 1 with a
+    periapsis and ``nu``.
+
+    Parameters
+    ----------
+    orbit : mapping
+        {name: value} with names of :data:`ORBIT_ELEMENTS`: lengths and angles as Quantities,
+        strings with units or (unless ``strict``) plain SI numbers (m, rad); ``e`` a number.
+    gm : float
+        GM of the field, m^3/s^2.
+    center : array_like
+        The field's centre (3,), m.
+    radius : float
+        The field's radius, m, from which altitudes are measured (0: altitudes are refused).
+    strict : bool
+        Require units on lengths and angles.
+    key : str
+        The key of the orbit, prefixed to the element named in errors.
+
+    Returns
+    -------
+    position, velocity : ndarray
+        (3,) m and m/s.
+
+    Raises
+    ------
+    InputError
+        Not a table, an unknown element, a missing or conflicting one, e < 0, a sign of a
+        that does not fit e, an altitude without a field radius, an apoapsis below the
+        periapsis, an inclination outside [0, 180] deg, or a true anomaly a hyperbola does
+        not reach.
+    """
+    if not isinstance(orbit, Mapping):
+        raise InputError(key, f"a table of orbital elements expected (a, e, i, raan, argp, nu ...), got {orbit!r}")
+    for name in orbit:
+        if name not in ORBIT_ELEMENTS:
+            raise InputError(f"{key}.{name}", f"not an orbital element; allowed: {', '.join(ORBIT_ELEMENTS)}")
+    p, e = _size_and_shape(orbit, radius, strict, key)
+    angles = {}
+    for name in ("i", "raan", "argp", "nu", "mean_anomaly"):
+        if name in orbit:
+            angles[name] = to_si(orbit[name], "angle", f"{key}.{name}", strict=strict)
+    inc = angles.get("i", 0.0)
+    if not 0.0 <= inc <= math.pi:
+        raise InputError(f"{key}.i", f"the inclination must be in [0, 180] deg, got {orbit['i']!r}")
+    if "nu" in angles and "mean_anomaly" in angles:
+        raise InputError(f"{key}.mean_anomaly", "give nu or mean_anomaly, not both")
+    if "mean_anomaly" in angles:
+        M = angles["mean_anomaly"]
+        if e < 1.0:
+            E = float(solve_kepler(M, e))
+            nu = 2.0 * math.atan2(math.sqrt(1.0 + e) * math.sin(0.5 * E), math.sqrt(1.0 - e) * math.cos(0.5 * E))
+        elif e > 1.0:
+            F = float(solve_kepler_hyperbolic(M, e))
+            nu = 2.0 * math.atan(math.sqrt((e + 1.0) / (e - 1.0)) * math.tanh(0.5 * F))
+        else:
+            raise InputError(f"{key}.mean_anomaly", "a parabola (e = 1) takes nu, not mean_anomaly")
+    else:
+        nu = angles.get("nu", 0.0)
+    if e >= 1.0:
+        limit = math.pi - math.acos(1.0 / e) if e > 1.0 else math.pi
+        wrapped = math.remainder(nu, 2.0 * math.pi)
+        if not abs(wrapped) < limit:
+            raise InputError(
+                f"{key}.nu",
+                f"an open orbit with e = {e!r} reaches true anomalies within +-{math.degrees(limit):.6g} deg only, "
+                f"got {math.degrees(wrapped):.6g} deg",
+            )
+    pos, vel = _state_from_p(p, e, inc, angles.get("raan", 0.0), angles.get("argp", 0.0), nu, gm, center)
+    return pos, vel
+
+
+def initial_state(position, velocity, orbit, field, *, strict: bool, key: str):
+    """A body's initial state as given: a position and a velocity, or osculating elements.
+
+    Parameters
+    ----------
+    position, velocity : Quantity, sequence or None
+        As the body's table or the API gives them (checked later, as given).
+    orbit : mapping or None
+        Elements for :func:`orbit_state`, instead of ``position`` and ``velocity``.
+    field : CentralField or None
+        The field the elements are taken about.
+    strict : bool
+        Require units.
+    key : str
+        The body's key, e.g. ``body[0]``.
+
+    Returns
+    -------
+    position, velocity
+        As given, or Quantities (3,) in m and m/s from ``orbit``.
+    position_key, velocity_key : str
+        The keys that name them in later errors (``<key>.orbit`` for both from elements).
+
+    Raises
+    ------
+    InputError
+        Neither or both forms, elements without a field, or what :func:`orbit_state` refuses.
+    """
+    if orbit is None:
+        for what, value in (("position", position), ("velocity", velocity)):
+            if value is None:
+                raise InputError(f"{key}.{what}", "missing: give position and velocity, or orbit (elements)")
+        return position, velocity, f"{key}.position", f"{key}.velocity"
+    if position is not None or velocity is not None:
+        raise InputError(f"{key}.orbit", "give either orbit (elements) or position and velocity, not both")
+    if field is None:
+        raise InputError(f"{key}.orbit", "orbital elements are taken about a central field; there is none")
+    import astropy.units as u
+
+    x, v = orbit_state(orbit, field.gm, field.center, field.radius, strict=strict, key=f"{key}.orbit")
+    return x * u.m, v * (u.m / u.s), f"{key}.orbit", f"{key}.orbit"
 
 
 def _stumpff(z):

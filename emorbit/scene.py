@@ -38,13 +38,11 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-import numpy as np
-
 from .errors import InputError
 from .field import BODIES, CentralField
 from .integrators import METHODS, ORDERS, ROUNDOFF, check_order, check_roundoff, get_method
 from .io.scene_toml import simulation_to_toml
-from .simulation import Simulation, check_body_name
+from .simulation import MAX_OUTPUT, Simulation, check_body_name
 from .units import to_si
 
 __all__ = ["Scene", "Key", "KEYS", "SCHEMA", "load_scene", "list_scenes", "parse_scene", "simulation_to_toml"]
@@ -104,10 +102,13 @@ _IDENTITY = (
 )
 
 
-def _motion(position: str, velocity: str) -> tuple[Key, ...]:
-    """The position and velocity keys of a body; the arguments say what they place."""
-    return (Key("position", True, _LENGTHS, "", _ANY, position),
-            Key("velocity", True, f"speed (m / s), {_V}", "", _ANY, velocity))
+def _motion(position: str, velocity: str, orbit: str) -> tuple[Key, ...]:
+    """The position, velocity and orbit keys of a body; the arguments say what they place."""
+    either = "; give position and velocity, or orbit"
+    return (Key("position", False, _LENGTHS, "", _ANY, position + either),
+            Key("velocity", False, f"speed (m / s), {_V}", "", _ANY, velocity + either),
+            Key("orbit", False, "table", "", "an orbit table (see below)",
+                f"the osculating elements of {orbit} about the field's centre, instead of position and velocity"))
 
 
 _ATTITUDE = (
@@ -156,23 +157,26 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("newton", False, "string", '"auto"', _choices(("auto", "reuse", "full")),
             'elastic structures: refactor the Jacobian every iteration ("full"), keep the factors while they '
             'converge fast ("reuse"), or choose by size ("auto")'),
-        Key("checkpoint_every", False, "integer", "about half a second of work", ">= 1",
+        Key("checkpoint_every", False, "integer", "by wall time: at most 5 s between checkpoints", ">= 1",
             "steps between checkpoints, rounded up to a multiple of output_every"),
         Key("adaptive", False, "number", "off (fixed steps of dt)", "in (0, 1]",
             "point masses: each step is this fraction of the local Kepler time 2 pi sqrt(r^3 / GM), at most dt"),
         Key("roundoff", False, "string", '"brouwer"', _choices(ROUNDOFF),
             'em steps of point masses: "brouwer" keeps the energy error a random walk; "fast" is cheaper and '
             "drifts at round-off level"),
+        Key("max_output", False, "information (B)", f'"{MAX_OUTPUT}"', "> 0",
+            "the largest output the run may project (its records, nodal positions included, in the file and in "
+            "memory); a longer run is refused before anything is created"),
     ),
     "body.point": (
         *_IDENTITY,
         Key("mass", True, "mass (kg)", "", "> 0", "the point's mass (a test particle: it feels only the field)"),
-        *_motion("the point's position", "the point's velocity"),
+        *_motion("the point's position", "the point's velocity", "the point"),
     ),
     "body.rigid": (
         *_IDENTITY,
         Key("shape", True, "string", "", _choices(_RIGID_SHAPES), "the shape, discretised into mass points"),
-        *_motion("the centre of mass", "the centre of mass's velocity"),
+        *_motion("the centre of mass", "the centre of mass's velocity", "the centre of mass"),
         *_ATTITUDE,
         Key("gravity", False, "string", _GRAVITY_DEFAULT, _choices(("volume", "point", "none")),
             '"volume": summed over the mass points (gravity-gradient torque); "point": all mass at the centre '
@@ -202,7 +206,7 @@ KEYS: dict[str, tuple[Key, ...]] = {
     "body.elastic": (
         *_IDENTITY,
         Key("mesh", True, "string", "", _choices(_ELASTIC_MESHES), "a generated mesh or a mesh file"),
-        *_motion("where the mesh's origin goes", "the velocity of the body frame's origin"),
+        *_motion("where the mesh's origin goes", "the velocity of the body frame's origin", "the body frame's origin"),
         Key("young", True, "pressure (Pa)", "", "> 0", "Young's modulus (St. Venant-Kirchhoff material)"),
         Key("density", True, "density (kg / m3)", "", "> 0", "the mass density"),
         Key("poisson", False, "number", "", "in (-1, 0.5)", "Poisson's ratio; required with tetrahedra"),
@@ -222,9 +226,30 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("end", False, _LENGTHS, "", _ANY, "the chain's last node" + _REQ, ("chain",)),
         Key("file", False, "string", "", "a path, relative to the scene file",
             "an HDF5 mesh (/nodes, /tetrahedra, /bars) or any file meshio reads" + _REQ, ("file",)),
-        Key("mesh_unit", False, "a length unit", '"m"', 'e.g. "m", "mm"',
-            "the unit of the coordinates of a meshio file (an HDF5 file's /nodes carries its own unit attribute)",
-            ("file",)),
+        Key("mesh_unit", False, "a length unit", "the unit attribute of an HDF5 file's /nodes", 'e.g. "m", "mm"',
+            "the unit of the file's coordinates: required for a meshio file and for an HDF5 file whose /nodes has "
+            "no unit attribute; where both are given they must agree", ("file",)),
+    ),
+    "orbit": (
+        Key("a", False, _LENGTH, "", "> 0 with e < 1, < 0 with e > 1",
+            "the semi-major axis; give exactly one of a, periapsis_radius and periapsis_altitude"),
+        Key("e", False, "number", "0 with a", ">= 0",
+            "the eccentricity; with a periapsis give e or an apoapsis (e = 1: a parabola, with a periapsis)"),
+        Key("periapsis_radius", False, _LENGTH, "", "> 0", "the periapsis's distance from the centre, instead of a"),
+        Key("apoapsis_radius", False, _LENGTH, "", ">= the periapsis",
+            "the apoapsis's distance from the centre: with a periapsis, instead of e"),
+        Key("periapsis_altitude", False, _LENGTH, "", "> -radius",
+            "the periapsis's height above the field's radius, instead of a (needs a radius: a named body or "
+            "[field] radius)"),
+        Key("apoapsis_altitude", False, _LENGTH, "", ">= the periapsis",
+            "the apoapsis's height above the field's radius: with a periapsis, instead of e"),
+        Key("i", False, "angle (rad)", '"0 deg"', "in [0 deg, 180 deg]", "the inclination to the x-y plane"),
+        Key("raan", False, "angle (rad)", '"0 deg"', "any", "the longitude of the ascending node, from the x axis"),
+        Key("argp", False, "angle (rad)", '"0 deg"', "any", "the argument of periapsis, from the ascending node"),
+        Key("nu", False, "angle (rad)", '"0 deg" (the periapsis)', "any; an open orbit: between its asymptotes",
+            "the true anomaly; not with mean_anomaly"),
+        Key("mean_anomaly", False, "angle (rad)", "", "any; not for e = 1",
+            "the mean anomaly (Kepler's equation gives the true anomaly); not with nu"),
     ),
     "coupling": (
         Key("kind", True, "string", "", _choices(COUPLING_KINDS), "the kind of coupling"),
@@ -346,16 +371,30 @@ class Scene:
         value = self.data["integrator"].get("checkpoint_every")
         return None if value is None else int(value)
 
+    @property
+    def max_output(self) -> float:
+        """The largest projected output of a run in bytes (``integrator.max_output``, default 10 GB)."""
+        value = self.data["integrator"].get("max_output", MAX_OUTPUT)
+        return to_si(value, "information", "integrator.max_output", strict=True, positive=True)
+
     def with_overrides(
-        self, *, t_end=None, dt=None, method=None, order=None, output_every=None, checkpoint_every=None
+        self,
+        *,
+        t_end=None,
+        dt=None,
+        method=None,
+        order=None,
+        output_every=None,
+        checkpoint_every=None,
+        max_output=None,
     ) -> Scene:
         """A copy with integrator settings replaced, checked again.
 
         Parameters
         ----------
-        t_end, dt, method, order, output_every, checkpoint_every : optional
+        t_end, dt, method, order, output_every, checkpoint_every, max_output : optional
             New values of the ``[integrator]`` keys, written as in the TOML (strings with
-            units for ``t_end`` and ``dt``); ``None`` keeps the scene's.
+            units for ``t_end``, ``dt`` and ``max_output``); ``None`` keeps the scene's.
 
         Returns
         -------
@@ -371,6 +410,7 @@ class Scene:
             ("order", order),
             ("output_every", output_every),
             ("checkpoint_every", checkpoint_every),
+            ("max_output", max_output),
         ):
             if value is not None:
                 data["integrator"][key] = value
@@ -428,6 +468,7 @@ class Scene:
         max_iter = _int(integ.get("max_newton_iterations", 50), "integrator.max_newton_iterations", 1)
         dt = self.dt
         t_end = self.t_end
+        max_output = self.max_output
         newton = integ.get("newton", "auto")
         if newton not in ("auto", "reuse", "full"):
             raise InputError("integrator.newton", f"must be 'auto', 'reuse' or 'full', got {newton!r}")
@@ -445,6 +486,8 @@ class Scene:
             adaptive=adaptive,
             roundoff=roundoff,
         )
+        sim.keys = {k: f"integrator.{k}" for k in ("t_end", "dt", "max_output")} | {"every": "integrator.output_every"}
+        sim.max_output = max_output
         bodies = d["body"]
         if not isinstance(bodies, list) or not bodies:
             raise InputError("body", "a scene needs at least one [[body]] table")
@@ -458,9 +501,7 @@ class Scene:
             _check_keys(b, f"body.{kind}", where)
             check_body_name(b["name"], f"{where}.name")
             if kind == "point":
-                sim.add_point(
-                    b["name"], mass=b["mass"], position=b["position"], velocity=b["velocity"], strict=True, key=where
-                )
+                sim.add_point(b["name"], mass=b["mass"], **_placement(b), strict=True, key=where)
             elif kind == "elastic":
                 mesh_params = {k: v for k, v in b.items() if k not in _ELASTIC_COMMON}
                 if "file" in mesh_params and not isinstance(mesh_params["file"], str):
@@ -472,8 +513,7 @@ class Scene:
                 sim.add_elastic(
                     b["name"],
                     b["mesh"],
-                    position=b["position"],
-                    velocity=b["velocity"],
+                    **_placement(b),
                     young=b["young"],
                     density=b["density"],
                     poisson=b.get("poisson"),
@@ -494,8 +534,7 @@ class Scene:
                 sim.add_rigid(
                     b["name"],
                     b["shape"],
-                    position=b["position"],
-                    velocity=b["velocity"],
+                    **_placement(b),
                     attitude=b.get("attitude"),
                     rotation_vector=b.get("rotation_vector"),
                     angular_velocity=b.get("angular_velocity", ["0 rad/s", "0 rad/s", "0 rad/s"]),
@@ -515,40 +554,16 @@ class Scene:
                 raise InputError(
                     f"{where}.kind", f"unknown coupling kind {cpl['kind']!r}; known: {', '.join(COUPLING_KINDS)}"
                 )
-            sim.attach(
-                cpl["elastic"], _select_nodes(sim, cpl["elastic"], cpl["nodes"], f"{where}.nodes"), cpl["to"], key=where
-            )
+            sim.attach(cpl["elastic"], cpl["nodes"], cpl["to"], key=where)
         sim.steps_until(t_end)  # t_end must lie at least one step ahead
         sim.scene_text = self.text
         sim.t_end_requested = t_end
         return sim
 
 
-def _select_nodes(sim: Simulation, elastic: str, nodes, key: str) -> list[int]:
-    """Node indices from a list, or from a selector: "first", "last" (chains), "<axis>-min" or
-    "<axis>-max" (the nodes on that face of the reference mesh, axis x, y or z)."""
-    if not isinstance(nodes, str):
-        return nodes
-    st = sim.structure
-    if st is None or elastic not in st.names:
-        raise InputError(key, f"no elastic body named {elastic!r} to select nodes from")
-    ref = st._body(elastic)["spec"].ref
-    if nodes == "first":
-        return [0]
-    if nodes == "last":
-        return [ref.shape[0] - 1]
-    axes = {"x": 0, "y": 1, "z": 2}
-    parts = nodes.split("-")
-    if len(parts) == 2 and parts[0] in axes and parts[1] in ("min", "max"):
-        col = ref[:, axes[parts[0]]]
-        target = col.min() if parts[1] == "min" else col.max()
-        tol = 1e-9 * max(float(np.ptp(ref, axis=0).max()), 1e-300)
-        return np.flatnonzero(np.abs(col - target) <= tol).tolist()
-    raise InputError(
-        key,
-        f"unknown node selector {nodes!r}; use a list of indices, 'first', 'last', "
-        "or '<axis>-min' / '<axis>-max' with axis x, y or z",
-    )
+def _placement(body: dict) -> dict:
+    """The keys of a body table that place it: position, velocity and orbit (None where absent)."""
+    return {k: body.get(k) for k in ("position", "velocity", "orbit")}
 
 
 def parse_scene(text: str, source: str = "<string>") -> Scene:

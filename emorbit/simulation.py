@@ -14,6 +14,7 @@ interface of :class:`emorbit.bodies.system.BodySystem`.
 
 from __future__ import annotations
 
+import copy
 import math
 import numbers
 import sys
@@ -21,48 +22,36 @@ import sys
 import numpy as np
 
 from .bodies.pointmasses import PointMasses
+from .bodies.system import check_body_name, check_output
 from .errors import InputError
 from .field import CentralField
 from .integrators import METHODS, check_device, check_order, check_roundoff, get_method
 from .integrators.dispatch import require_device
 from .io.hdf5 import Writer
 from .io.recorder import Sink
-from .orbits import OrbitalElements, elements
+from .orbits import OrbitalElements, elements, initial_state
 from .result import Result
 from .stepping import ChunkDriver
-from .units import to_si, vector_to_si
+from .units import to_count, to_si, vector_to_si
 
-__all__ = ["Simulation", "check_body_name"]
+__all__ = ["Simulation", "check_body_name", "MAX_STEPS", "MAX_OUTPUT"]
 
-
-def check_body_name(name, key: str = "name") -> str:
-    """Check a body name: a non-empty string without '/' (it names an HDF5 group).
-
-    Parameters
-    ----------
-    name : object
-        The proposed name.
-    key : str
-        Where it came from, for the error message.
-
-    Returns
-    -------
-    str
-        ``name``, unchanged.
-
-    Raises
-    ------
-    InputError
-        ``name`` is not such a string, or is ``"."`` or ``".."``.
-    """
-    if not isinstance(name, str) or not name.strip() or "/" in name or name in (".", ".."):
-        raise InputError(key, f"a body name must be a non-empty string without '/', got {name!r}")
-    return name
+#: the most steps one run takes (the step counters are int64)
+MAX_STEPS = 2**63 - 1
+#: the default limit of a run's projected output (file, or records kept in memory)
+MAX_OUTPUT = "10 GB"
 
 
-def _steps_between(t_start: float, t_end: float, dt: float, key: str) -> int:
-    """Whole steps from t_start to t_end: the nearest count if within 1e-9 relative, else rounded up."""
+def _steps_between(t_start: float, t_end: float, dt: float, key: str, dt_key: str = "dt") -> int:
+    """Whole steps from t_start to t_end: the nearest count if within 1e-9 relative, else rounded up
+    (at most :data:`MAX_STEPS`)."""
     span = (t_end - t_start) / dt
+    if not span <= MAX_STEPS:
+        raise InputError(
+            key,
+            f"t_end = {t_end!r} s is {span:.3g} steps of {dt_key} = {dt!r} s from {t_start!r} s, more than a run "
+            f"can count ({MAX_STEPS}); shorten t_end or raise {dt_key}",
+        )
     nearest = round(span)
     n = nearest if abs(span - nearest) <= 1e-9 * max(1.0, abs(span)) else math.ceil(span)
     if n < 1:
@@ -120,6 +109,12 @@ class Simulation(ChunkDriver):
     scene_text : str or None
         The scene text stored in output files (set by :meth:`emorbit.Scene.build`; when
         None, :meth:`to_toml` writes one).
+    max_output : Quantity, str or float
+        The default limit of :meth:`run`'s projected output, bytes: :data:`MAX_OUTPUT`, or
+        a scene's ``integrator.max_output`` after :meth:`emorbit.Scene.build`.
+    keys : dict
+        How errors about the run's length and output name ``t_end``, ``dt``, ``every`` and
+        ``max_output`` (as scene keys ``integrator.*`` after :meth:`emorbit.Scene.build`).
 
     Raises
     ------
@@ -146,13 +141,7 @@ class Simulation(ChunkDriver):
         self.method = get_method(method).name
         self.order = check_order(order)
         self._dt = to_si(dt, "time", "dt", positive=True)
-        if (
-            isinstance(max_newton_iterations, bool)
-            or not isinstance(max_newton_iterations, numbers.Integral)
-            or max_newton_iterations < 1
-        ):
-            raise InputError("max_newton_iterations", f"must be an integer >= 1, got {max_newton_iterations!r}")
-        self.max_newton_iterations = int(max_newton_iterations)
+        self.max_newton_iterations = to_count(max_newton_iterations, "max_newton_iterations")
         if newton not in ("auto", "reuse", "full"):
             raise InputError("newton", f"must be 'auto', 'reuse' or 'full', got {newton!r}")
         self.newton = newton  # structures (elastic bodies) only: see emorbit.bodies.coupled.Structure
@@ -174,6 +163,8 @@ class Simulation(ChunkDriver):
         self._steps = 0
         self.scene_text: str | None = None
         self.t_end_requested: float | None = None
+        self.keys = {k: k for k in ("t_end", "dt", "every", "max_output")}
+        self.max_output = MAX_OUTPUT
 
     # -- set-up -----------------------------------------------------------------------
     @property
@@ -239,7 +230,9 @@ class Simulation(ChunkDriver):
                 f"(needed by {key}); use one of {', '.join(system.METHODS)}",
             )
 
-    def add_point(self, name: str, *, mass, position, velocity, strict: bool = False, key: str | None = None) -> None:
+    def add_point(
+        self, name: str, *, mass, position=None, velocity=None, orbit=None, strict: bool = False, key: str | None = None
+    ) -> None:
         """Add a point mass: a test particle that feels the field and nothing else.
 
         Parameters
@@ -252,6 +245,12 @@ class Simulation(ChunkDriver):
             Initial position (3 components), m.
         velocity : Quantity or sequence
             Initial velocity (3 components), m/s.
+        orbit : dict, optional
+            Osculating elements about the field's centre instead of ``position`` and
+            ``velocity``: ``a`` and ``e``, or a periapsis with an apoapsis or ``e``
+            (``periapsis_radius`` / ``_altitude`` ...), ``i``, ``raan``, ``argp``, and ``nu``
+            or ``mean_anomaly``; lengths and angles as Quantities, strings or SI numbers
+            (:func:`emorbit.orbits.orbit_state`).
         strict : bool
             Require units on every value.
         key : str, optional
@@ -260,20 +259,20 @@ class Simulation(ChunkDriver):
         Raises
         ------
         InputError
-            A bad value, a taken name, no field, a position at the centre, or a method
-            without a point-mass kernel.
+            A bad value, a taken name, no field, a position at the centre or inside the
+            central body, a radial fall into a centre without radius (see
+            :meth:`CentralField.check_start`), or a method without a point-mass kernel.
         """
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
         if self.field is None:
             raise InputError("field", f"{key} is a point mass, which needs a central field; this simulation has none")
         m = to_si(mass, "mass", f"{key}.mass", strict=strict, positive=True)
-        x = vector_to_si(position, "length", f"{key}.position", strict=strict)
-        v = vector_to_si(velocity, "speed", f"{key}.velocity", strict=strict)
-        r = float(np.linalg.norm(x - self.field.center))
-        if not r > 0.0:
-            raise InputError(f"{key}.position", f"{x.tolist()} m is at the field's centre, where gravity is singular")
+        position, velocity, xkey, vkey = initial_state(position, velocity, orbit, self.field, strict=strict, key=key)
+        x = vector_to_si(position, "length", xkey, strict=strict)
+        v = vector_to_si(velocity, "speed", vkey, strict=strict)
         self._check_method_supports(self.points, key)
+        self.field.check_start(x, x, v, gravity=True, key=xkey, what=f"{x.tolist()} m", motion_key=vkey)
         self.points.add(name, m, x, v)
 
     def add_rigid(
@@ -281,8 +280,9 @@ class Simulation(ChunkDriver):
         name: str,
         shape: str,
         *,
-        position,
-        velocity,
+        position=None,
+        velocity=None,
+        orbit=None,
         attitude=None,
         rotation_vector=None,
         angular_velocity=(0.0, 0.0, 0.0),
@@ -304,6 +304,9 @@ class Simulation(ChunkDriver):
             Initial position of the centre of mass, m.
         velocity : Quantity or sequence
             Initial velocity of the centre of mass, m/s.
+        orbit : dict, optional
+            The centre of mass's osculating elements instead of ``position`` and
+            ``velocity``, as for :meth:`add_point`.
         attitude : sequence of 4 floats, optional
             Unit quaternion (w, x, y, z) rotating body axes into space axes.
         rotation_vector : Quantity or sequence, optional
@@ -331,13 +334,15 @@ class Simulation(ChunkDriver):
         Raises
         ------
         InputError
-            A bad shape or value, a taken name, adaptive steps, a mass point at the
-            centre, or a method without a rigid-body kernel.
+            A bad shape or value, a taken name, adaptive steps, a mass point at the centre
+            or inside the central body, a radial fall into a centre without radius, or a
+            method without a rigid-body kernel.
         """
         from .bodies.rigid import RigidBodies, build_rigid
 
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
+        position, velocity, xkey, vkey = initial_state(position, velocity, orbit, self.field, strict=strict, key=key)
         spec = build_rigid(
             shape,
             shape_params,
@@ -354,13 +359,19 @@ class Simulation(ChunkDriver):
         )
         if self.adaptive is not None:
             raise InputError("adaptive", f"adaptive steps are for point masses only ({key} is a rigid body)")
-        if spec["gravity"] != "none":
-            x = spec["position"][:, None] + spec["R"] @ spec["points"].X
-            if not np.all(np.linalg.norm(x - self.center[:, None], axis=0) > 0):
-                raise InputError(f"{key}.position", "a mass point of the body is at the field's centre")
         if self.rigid is None:
             self.rigid = RigidBodies()
         self._check_method_supports(self.rigid, key)
+        if self.field is not None:
+            self.field.check_start(
+                np.vstack([spec["position"], (spec["position"][:, None] + spec["R"] @ spec["points"].X).T]),
+                spec["position"],
+                spec["velocity"],
+                gravity=spec["gravity"] != "none",
+                key=xkey,
+                what="the centre of mass or a mass point of the body",
+                motion_key=vkey,
+            )
         self.rigid.add(
             name,
             shape,
@@ -387,10 +398,11 @@ class Simulation(ChunkDriver):
         name: str,
         mesh: str,
         *,
-        position,
-        velocity,
+        position=None,
+        velocity=None,
         young,
         density,
+        orbit=None,
         poisson=None,
         area=None,
         attitude=None,
@@ -417,6 +429,9 @@ class Simulation(ChunkDriver):
             body frame.
         position, velocity, attitude, rotation_vector, angular_velocity, angular_velocity_frame
             The body frame's placement and rigid initial motion, as for :meth:`add_rigid`.
+        orbit : dict, optional
+            The osculating elements of the body frame's origin instead of ``position`` and
+            ``velocity``, as for :meth:`add_point`.
         young : Quantity, str or float
             Young's modulus E, Pa.
         density : Quantity, str or float
@@ -444,12 +459,14 @@ class Simulation(ChunkDriver):
         ------
         InputError
             A bad mesh, material or value, a taken name, adaptive steps, a node at the
-            centre, or a method without an elastic kernel (em and midpoint have one).
+            centre or inside the central body, a radial fall into a centre without radius,
+            or a method without an elastic kernel (em and midpoint have one).
         """
         from .bodies import elastic as el
 
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
+        position, velocity, xkey, vkey = initial_state(position, velocity, orbit, self.field, strict=strict, key=key)
         if self.adaptive is not None:
             raise InputError("adaptive", f"adaptive steps are for point masses only ({key} is an elastic body)")
         if self.method not in ("em", "midpoint"):
@@ -477,10 +494,18 @@ class Simulation(ChunkDriver):
             strict=strict,
             key=key,
         )
-        if spec.gravity:
-            d = np.linalg.norm(spec.nodes - self.center, axis=1)
-            if not np.all(d > 0):
-                raise InputError(f"{key}.position", "a node of the body is at the field's centre")
+        if self.field is not None:
+            m = np.asarray(spec.node_mass.sum(axis=1)).ravel()
+            com = m @ spec.nodes / m.sum()
+            self.field.check_start(
+                np.vstack([com, spec.nodes]),
+                com,
+                m @ spec.velocities / m.sum(),
+                gravity=spec.gravity,
+                key=xkey,
+                what="the centre of mass or a node of the body",
+                motion_key=vkey,
+            )
         self._structure().add_elastic(spec)
 
     def attach(self, elastic: str, nodes, to: str, key: str = "coupling") -> None:
@@ -494,8 +519,11 @@ class Simulation(ChunkDriver):
         ----------
         elastic : str
             The elastic body.
-        nodes : sequence of int
-            Indices into its mesh's nodes (exactly one for a point mass).
+        nodes : sequence of int or str
+            Indices into its mesh's nodes (exactly one for a point mass), or a selector:
+            ``"first"``, ``"last"``, ``"<axis>-min"`` / ``"<axis>-max"`` with axis x, y or z
+            (the nodes on that face of the reference mesh; see
+            :func:`emorbit.bodies.elastic.select_nodes`, which scenes use too).
         to : str
             The rigid body or point mass.
         key : str
@@ -504,50 +532,22 @@ class Simulation(ChunkDriver):
         Raises
         ------
         InputError
-            No such bodies, bad node indices, or a node that does not start on the point
-            mass.
+            No such bodies, bad node indices or selector, or a node that does not start on
+            the point mass.
         """
+        from .bodies.elastic import select_nodes
+
         st = self._structure()
         if elastic not in st.names or st._body(elastic)["kind"] != "elastic":
             raise InputError(f"{key}.elastic", f"no elastic body named {elastic!r}")
         spec = st._body(elastic)["spec"]
-        try:
-            idx = [int(n) for n in nodes]
-        except (TypeError, ValueError):
-            raise InputError(f"{key}.nodes", f"a list of node indices expected, got {nodes!r}") from None
-        if not idx:
-            raise InputError(f"{key}.nodes", "no nodes given")
-        for n in idx:
-            if not 0 <= n < spec.nodes.shape[0]:
-                raise InputError(f"{key}.nodes", f"node {n} is not in 0..{spec.nodes.shape[0] - 1}")
+        idx = select_nodes(spec.ref, nodes, f"{key}.nodes")
         if to == elastic:
             raise InputError(f"{key}.to", "a body cannot be attached to itself")
         if to in self.points:
-            # checked before the point leaves self.points: a refused attachment changes nothing
-            if len(idx) != 1:
-                raise InputError(f"{key}.nodes", f"a point mass takes exactly one node, got {len(idx)}")
-            x = self.points.x[:, self.points.names.index(to)]
-            if np.linalg.norm(spec.nodes[idx[0]] - x) > 1e-9 * max(1.0, np.linalg.norm(x)):
-                raise InputError(
-                    f"{key}.nodes",
-                    f"node {idx[0]} starts at {spec.nodes[idx[0]].tolist()} m, "
-                    f"not at point mass {to!r} ({x.tolist()} m)",
-                )
-            m, x, v = self.points.pop(to)
-            st.add_point(to, m, x, v)
+            st.add_point(to, *self.points.pop_onto(to, idx, spec.nodes[idx], f"{key}.nodes"))
         elif self.rigid is not None and to in self.rigid.names:
-            b = self.rigid.pop(to)
-            st.add_rigid(
-                to,
-                b["points"],
-                b["gravity"],
-                b["position"],
-                b["velocity"],
-                b["R"],
-                b["omega_space"],
-                b["shape"],
-                b["params"],
-            )
+            st.add_rigid(to, **self.rigid.pop(to))
         elif to in st.names and st._body(to)["kind"] in ("point", "rigid"):
             pass  # already in the structure
         else:
@@ -555,11 +555,15 @@ class Simulation(ChunkDriver):
         st.attach(elastic, idx, to)
 
     # -- diagnostics of the current state ----------------------------------------------
-    def _find(self, name: str):
+    def _measured(self) -> list:
+        """The systems now; a structure not yet built is measured on a built copy (it stays open)."""
+        out = []
         for s in self.systems:
-            if name in s.names:
-                return s, s.names.index(name)
-        raise InputError("name", f"no body named {name!r}; bodies: {', '.join(self.names)}")
+            if s is self.structure and not s._built:
+                s = copy.deepcopy(s)
+                s.build()
+            out.append(s)
+        return out
 
     def state(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """The current position and velocity of a body's centre of mass.
@@ -579,12 +583,14 @@ class Simulation(ChunkDriver):
         InputError
             No body of that name.
         """
-        s, i = self._find(name)
+        if name not in self.names:
+            raise InputError("name", f"no body named {name!r}; bodies: {', '.join(self.names)}")
+        s = next(s for s in self._measured() if name in s.names)
         d = s.datasets(s.current(), 1)[name]
         return d["position"][0].copy(), d["velocity"][0].copy()
 
     def _invariants_now(self):
-        parts = [s.invariants(s.current(), 1, self.gm, self.center) for s in self.systems]
+        parts = [s.invariants(s.current(), 1, self.gm, self.center) for s in self._measured()]
         return [sum(p[j] for p in parts)[0] for j in range(3)]
 
     def energy(self) -> float:
@@ -657,9 +663,11 @@ class Simulation(ChunkDriver):
         Raises
         ------
         InputError
-            ``t_end`` is not after the current time.
+            ``t_end`` is not after the current time, or is more than :data:`MAX_STEPS` steps
+            ahead.
         """
-        return _steps_between(self.time, to_si(t_end, "time", "t_end"), self._dt, "t_end")
+        k = self.keys
+        return _steps_between(self.time, to_si(t_end, "time", k["t_end"]), self._dt, k["t_end"], k["dt"])
 
     def run(
         self,
@@ -672,6 +680,7 @@ class Simulation(ChunkDriver):
         progress: bool | None = None,
         keep: bool = True,
         checkpoint_every: int | None = None,
+        max_output=None,
     ) -> Result:
         """Advance to a time, or by a number of steps, recording every ``every`` steps.
 
@@ -698,11 +707,17 @@ class Simulation(ChunkDriver):
             Keep every record in memory; if false the returned Result holds the first and
             the last record only (the file, if any, has them all).
         checkpoint_every : int, optional
-            Steps between checkpoints, rounded up to a multiple of ``every`` (default:
-            about half a second of work, at least ``every``). At each checkpoint the records
+            Steps between checkpoints, rounded up to a multiple of ``every`` (default: by
+            wall time, at most 5 s between checkpoints, on records). At each checkpoint the records
             so far and the complete state are flushed to the file, so a run killed at any
             moment leaves a readable file that ``emorbit resume`` continues bit for bit
             (:mod:`emorbit.io.resume`).
+        max_output : Quantity, str or float, optional
+            The largest output the run may project, bytes (a string such as ``"50 GB"``;
+            default :attr:`max_output`): the records (every dataset of every body, nodal
+            positions included) that go to ``output`` or, with ``keep``, stay in memory. A
+            longer run is refused before anything is created, naming ``t_end``, ``dt``,
+            ``every`` and this limit.
 
         Returns
         -------
@@ -712,27 +727,27 @@ class Simulation(ChunkDriver):
         Raises
         ------
         InputError
-            No bodies, bad arguments, or an output file that exists.
+            No bodies, bad arguments, more than :data:`MAX_STEPS` steps, a projected output
+            above ``max_output``, or an output file that exists.
         IntegrationError
             A step failed even in sub-steps, or a body came inside the central body's
             radius; the simulation and the file hold the state before it.
         KeyboardInterrupt
-            Ctrl-C (SIGINT) stops the run at the end of the chunk in progress: the records
-            so far and the final state are written and the file is marked "interrupted".
+            Ctrl-C (SIGINT) or SIGTERM stops the run at the end of the chunk in progress:
+            the records so far and the final state are written and the file is marked
+            "interrupted" (the exception is a :class:`~emorbit.stepping.RunInterrupted`
+            naming the signal).
         """
         if not self.systems:
             raise InputError("body", "the simulation has no bodies; add one with add_point() or add_rigid()")
         if (t_end is None) == (steps is None):
             raise InputError("t_end", "give exactly one of t_end and steps")
-        if steps is not None:
-            if isinstance(steps, bool) or not isinstance(steps, numbers.Integral) or steps < 1:
-                raise InputError("steps", f"must be an integer >= 1, got {steps!r}")
-            n_steps = int(steps)
-        else:
-            n_steps = self.steps_until(t_end)
-        if isinstance(every, bool) or not isinstance(every, numbers.Integral) or every < 1:
-            raise InputError("output_every", f"must be an integer >= 1, got {every!r}")
-        every = int(every)
+        n_steps = to_count(steps, "steps", 1, MAX_STEPS) if steps is not None else self.steps_until(t_end)
+        every = to_count(every, "output_every")
+        if output is not None or keep:
+            length_key = "steps" if steps is not None else self.keys["t_end"]
+            limit = self.max_output if max_output is None else max_output
+            check_output(self.systems, n_steps, every, self._dt, limit, self.keys, length_key)
         if progress is None:
             progress = sys.stderr.isatty()
 

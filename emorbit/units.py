@@ -2,7 +2,8 @@
 plain SI floats become SI floats, or a clear :class:`~emorbit.errors.InputError` naming the key.
 
 Scenes (TOML) must carry units on every dimensional value (``strict=True``); the Python API
-also accepts plain numbers, read as SI (m, s, kg, m/s, m^3/s^2).
+also accepts plain numbers, read as SI (m, s, kg, m/s, m^3/s^2) and, for sizes of
+information, bytes (``"10 GB"``, ``"2 GiB"``).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["to_si", "vector_to_si", "SI"]
+__all__ = ["to_si", "vector_to_si", "to_count", "information_text", "SI"]
 
 #: the SI unit emorbit uses inside, per kind of value
 SI = {
@@ -33,6 +34,7 @@ SI = {
     "density": u.kg / u.m**3,
     "area": u.m**2,
     "pressure": u.Pa,
+    "information": u.byte,
 }
 
 
@@ -145,3 +147,57 @@ def vector_to_si(value, kind: str, key: str, *, strict: bool = False) -> np.ndar
     if len(value) != 3:
         raise InputError(key, f"expected 3 components, got {len(value)}: {value!r}")
     return np.array([to_si(c, kind, f"{key}[{i}]", strict=strict) for i, c in enumerate(value)])
+
+
+def to_count(value, key: str, minimum: int = 1, maximum: int | None = None) -> int:
+    """Check a count: an integer (not a bool) in [minimum, maximum].
+
+    Parameters
+    ----------
+    value : object
+        The value as given.
+    key : str
+        Where it came from, named in the error.
+    minimum, maximum : int
+        The bounds (``maximum`` None: none).
+
+    Returns
+    -------
+    int
+        ``value`` as an int.
+
+    Raises
+    ------
+    InputError
+        Not an integer, or out of bounds.
+    """
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, numbers.Integral)
+        or value < minimum
+        or (maximum is not None and value > maximum)
+    ):
+        bounds = f">= {minimum}" if maximum is None else f"in {minimum}..{maximum}"
+        raise InputError(key, f"must be an integer {bounds}, got {value!r}")
+    return int(value)
+
+
+def information_text(nbytes: float) -> str:
+    """A size of information with a decimal prefix and 3 significant digits, e.g. ``"24.1 GB"``.
+
+    Parameters
+    ----------
+    nbytes : float
+        Bytes.
+
+    Returns
+    -------
+    str
+        The size in B, kB, MB, GB, TB, PB or EB (beyond: EB in exponent form).
+    """
+    value = float(nbytes)
+    for prefix in ("", "k", "M", "G", "T", "P"):
+        if abs(value) < 999.5:
+            return f"{value:.3g} {prefix}B"
+        value /= 1000.0
+    return f"{value:.3g} EB"

@@ -28,6 +28,7 @@ TITLES = {
     "body.point": '`[[body]]` with `kind = "point"`',
     "body.rigid": '`[[body]]` with `kind = "rigid"`',
     "body.elastic": '`[[body]]` with `kind = "elastic"`',
+    "orbit": "`orbit` of a `[[body]]`",
     "coupling": "`[[coupling]]`",
 }
 #: what the ``applies`` column lists, for the tables that have one

@@ -34,7 +34,7 @@ from ..kernels import coupled as kc
 from ..kernels import elastic as kel
 from ..kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
 from .coupled_output import StructureOutput, StructureRecords
-from .coupled_sparse import EquilibratedLU, jacobian_pattern, slot_pairs
+from .coupled_sparse import EquilibratedLU, KeptFactors, jacobian_pattern, slot_pairs
 from .elastic import ElasticSpec
 
 __all__ = ["Structure", "StructureRecords"]
@@ -63,7 +63,8 @@ class Structure(StructureOutput):
         ``"reuse"`` above. All iterate to round-off; they differ in cost and robustness:
         reusing factors saves most of the work per step on large structures and needs more
         iterations on stiff, ill-conditioned ones (``emorbit bench --only elastic``
-        measures the cost per step against size).
+        measures the cost per step against size). Kept factors are state: checkpoints store
+        them (:meth:`state_arrays`), so results do not depend on where checkpoints fall.
 
     Attributes
     ----------
@@ -91,10 +92,9 @@ class Structure(StructureOutput):
     def __init__(self, newton: str = "auto"):
         self.newton_option = newton
         self.newton = newton
-        self._last_its: dict = {}
         self.retries_step = 0
         self.retries_total = 0  # failed steps that were redone in sub-steps
-        self._lus: dict = {}
+        self._kept = KeptFactors()  # "reuse" mode's factors and iteration counts: state, in checkpoints
         self.factorizations = 0
         self.bodies: list[dict] = []  # name, kind, slot/node ranges, output info
         self._slot_mass_blocks: list[tuple] = []  # (slot indices, scalar mass matrix)
@@ -548,7 +548,7 @@ class Structure(StructureOutput):
         status = STATUS_NO_CONVERGENCE
         it = 0
         n = 3 * ns + 6 * nr
-        lu = None if self.newton == "full" or self._last_its.get(h, 0) > 4 else self._lus.get(h)
+        lu = None if self.newton == "full" or self._kept.its.get(h, 0) > 4 else self._kept.lus.get(h)
         back = None  # (du, nu, residual) before an update made with reused factors
         prev_r = np.inf
         stalls = 0
@@ -587,7 +587,7 @@ class Structure(StructureOutput):
                     break
                 self.factorizations += 1
                 if self.newton == "reuse":
-                    self._lus[h] = lu
+                    self._kept.keep(h, lu, data)
             R = np.concatenate([R1, R2])
             rnorm = lu.norm(R)
             if back is not None and rnorm > back[2]:
@@ -620,9 +620,9 @@ class Structure(StructureOutput):
             if self.newton == "full" or (not fresh and d2 > self.SLOW**2 * prev2):
                 lu = None  # renew the factors at the next iterate
             prev2 = d2
-        self._last_its[h] = it
+        self._kept.its[h] = it
         if status != STATUS_OK:
-            self._lus.pop(h, None)
+            self._kept.drop(h)
             return du, np.zeros_like(du), it, status
         u1 = u0 + du
         u05 = u0 + 0.5 * du
@@ -750,19 +750,41 @@ class Structure(StructureOutput):
         )
 
     def snapshot(self):
-        """Copies of u, v, cu, cv, lam, acc."""
-        return tuple(a.copy() for a in (self.u, self.v, self.cu, self.cv, self.lam, self.acc))
+        """Copies of u, v, cu, cv, lam, acc and of the kept factors (:class:`KeptFactors`)."""
+        return tuple(a.copy() for a in (self.u, self.v, self.cu, self.cv, self.lam, self.acc)) + (self._kept.copy(),)
 
     def restore(self, snap) -> None:
-        """Put back u, v, cu, cv, lam, acc from :meth:`snapshot` and drop the path-dependent caches."""
-        self.u, self.v, self.cu, self.cv, self.lam, self.acc = (a.copy() for a in snap)
-        self.on_checkpoint()
+        """Put back the state of :meth:`snapshot`, kept factors included."""
+        self.u, self.v, self.cu, self.cv, self.lam, self.acc = (a.copy() for a in snap[:6])
+        self._kept = snap[6].copy()
 
-    def on_checkpoint(self) -> None:
-        """Drop the reused LU factors and iteration counts: they depend on the path, so a run
-        restarted from a checkpoint and one that went through it both start afresh there."""
-        self._lus.clear()
-        self._last_its.clear()
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The arrays of :attr:`STATE_FIELDS` and, in "reuse" mode, the kept factors as the
+        Jacobian values they were made from (``lu_steps``, ``lu_jacobians``,
+        ``last_iterations``: see :class:`~emorbit.bodies.coupled_sparse.KeptFactors`), so that
+        a run gives the same bits wherever its checkpoints fall."""
+        out = super().state_arrays()
+        if self.newton == "reuse":
+            out.update(self._kept.arrays(self.J.data.size))
+        return out
+
+    def set_state_arrays(self, arrays: dict) -> None:
+        """Restore :meth:`state_arrays`; kept Jacobians are factored again (missing ones: none kept).
+
+        Raises
+        ------
+        InputError
+            An array is missing or does not match the structure (key ``checkpoint``).
+        """
+        super().set_state_arrays(arrays)
+        self._kept = KeptFactors()
+        if self.newton == "reuse":
+            n = 3 * self.u.shape[0] + 6 * self.rb_slots.shape[0]
+            self._kept.load(
+                arrays,
+                self.J.data.size,
+                lambda d: EquilibratedLU(d, self.J.indices, self.J.indptr, n, self._indices32, self._indptr32),
+            )
 
 
 def _kahan(s, c, d):

@@ -96,9 +96,16 @@ class StructureOutput(BodySystem):
         if b["kind"] == "rigid":
             out.update({"attitude": (4, "1"), "angular_velocity": (3, "rad / s")})
         if b["kind"] == "elastic":
-            n = b["nodes"].size
+            n = b["spec"].nodes.shape[0]
             out.update({"nodes/position": ((n, 3), "m"), "nodes/time": (None, "s")})
         return out
+
+    def dataset_rows(self, i: int, dataset: str, records: int) -> int:
+        """One row per record; an elastic body's ``nodes/...`` one every ``node_output_every``."""
+        b = self.bodies[i]
+        if b["kind"] == "elastic" and dataset.startswith("nodes/"):
+            return -(-records // b["spec"].node_output_every)
+        return records
 
     def datasets(self, rec, nrec, times=None, first_row: int = 0) -> dict:
         """{name: {dataset: rows}}; an elastic body's nodal positions appear only on records whose

@@ -3,7 +3,9 @@
 The Jacobian of a step has 3 unknowns per slot and 6 constraint multipliers per rigid body;
 its sparsity pattern is built once (:func:`jacobian_pattern`) and Numba kernels fill its
 values in place. :class:`EquilibratedLU` scales rows and columns to unit max-norm before
-SuperLU factors the matrix, and measures residuals in that scaling.
+SuperLU factors the matrix, and measures residuals in that scaling. :class:`KeptFactors` holds
+the factorisations that Newton's "reuse" mode keeps across steps, and turns them into arrays
+for checkpoints and back.
 """
 
 from __future__ import annotations
@@ -12,9 +14,10 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ..errors import InputError
 from ..kernels import coupled as kc
 
-__all__ = ["jacobian_pattern", "slot_pairs", "slot_pairs_fast", "EquilibratedLU", "align"]
+__all__ = ["jacobian_pattern", "slot_pairs", "slot_pairs_fast", "EquilibratedLU", "KeptFactors", "align"]
 
 
 def slot_pairs(node_slot, node_coef, a: int, b: int) -> list:
@@ -201,6 +204,105 @@ class EquilibratedLU:
             max |r_i b_i| over the rows.
         """
         return float(np.max(np.abs(self.r * b)))
+
+
+class KeptFactors:
+    """The solver state of Newton's "reuse" mode: kept factorisations and iteration counts.
+
+    One factorisation is kept per sub-step size h, together with the Jacobian values it was
+    made from; the iterations of the last step of each size decide whether a step starts
+    with the kept factors. Factoring the same values again gives the same factors, so the
+    values are the state: :meth:`arrays` writes them for a checkpoint and :meth:`load`
+    factors them again, and a run continues bit for bit wherever its checkpoints fall.
+
+    Attributes
+    ----------
+    lus : dict
+        {h (s): EquilibratedLU}.
+    data : dict
+        {h (s): the Jacobian values (CSC order) that ``lus[h]`` factors}.
+    its : dict
+        {h (s): Newton iterations of the last step of size h}.
+    """
+
+    #: the checkpoint arrays, by name
+    NAMES = ("lu_steps", "lu_jacobians", "last_iterations")
+
+    def __init__(self):
+        self.lus: dict = {}
+        self.data: dict = {}
+        self.its: dict = {}
+
+    def keep(self, h: float, lu: EquilibratedLU, data) -> None:
+        """Keep ``lu``, made from the values ``data``, for steps of size ``h``."""
+        self.lus[h] = lu
+        self.data[h] = data
+
+    def drop(self, h: float) -> None:
+        """Forget the factors for steps of size ``h``."""
+        self.lus.pop(h, None)
+        self.data.pop(h, None)
+
+    def copy(self) -> KeptFactors:
+        """A copy that later changes of this one leave alone (factors are shared, never changed)."""
+        out = KeptFactors()
+        out.lus, out.data, out.its = dict(self.lus), dict(self.data), dict(self.its)
+        return out
+
+    def arrays(self, nnz: int) -> dict[str, np.ndarray]:
+        """The state as float64 arrays: ``lu_steps`` (k,) in s, ``lu_jacobians`` (k, nnz) and
+        ``last_iterations`` (m, 2) of rows (h in s, iterations); h < 0 for the backward sub-steps
+        of compositions."""
+        hs = list(self.lus)
+        return {
+            "lu_steps": np.array(hs, dtype=float),
+            "lu_jacobians": np.array([self.data[h] for h in hs], dtype=float).reshape(len(hs), nnz),
+            "last_iterations": np.array(list(self.its.items()), dtype=float).reshape(-1, 2),
+        }
+
+    def load(self, arrays: dict, nnz: int, factor) -> None:
+        """Restore what :meth:`arrays` wrote, factoring each kept Jacobian again.
+
+        Parameters
+        ----------
+        arrays : dict
+            {name: array}; names missing from it count as empty (no kept factors).
+        nnz : int
+            Nonzeros of the Jacobian's pattern.
+        factor : callable
+            ``factor(data) -> EquilibratedLU``.
+
+        Raises
+        ------
+        InputError
+            Arrays of the wrong shape, or values that are not finite (key ``checkpoint``).
+        """
+        hs = np.asarray(arrays.get("lu_steps", np.zeros(0)), dtype=float)
+        jac = np.asarray(arrays.get("lu_jacobians", np.zeros((0, nnz))), dtype=float)
+        its = np.asarray(arrays.get("last_iterations", np.zeros((0, 2))), dtype=float)
+        if (
+            hs.ndim != 1
+            or jac.shape != (hs.size, nnz)
+            or its.ndim != 2
+            or its.shape[1] != 2
+            or not (np.all(np.isfinite(hs)) and np.all(np.isfinite(jac)) and np.all(np.isfinite(its)))
+            or np.any(hs == 0)
+            or np.any(its[:, 0] == 0)
+            or np.any(its[:, 1] < 0)
+        ):
+            raise InputError(
+                "checkpoint",
+                "the file's Newton state (structure/lu_steps, lu_jacobians, last_iterations) does not match "
+                f"the structure ({nnz} Jacobian values per kept factorisation)",
+            )
+        self.lus, self.data, self.its = {}, {}, {}
+        for h, d in zip(hs.tolist(), jac):
+            d = np.ascontiguousarray(d)
+            try:
+                self.keep(h, factor(d), d)
+            except RuntimeError:
+                raise InputError("checkpoint", f"the kept Jacobian for steps of {h!r} s is singular") from None
+        self.its = {h: int(n) for h, n in its.tolist()}
 
 
 def align(A, pattern):

@@ -9,9 +9,10 @@ Meshes are in the body frame; ``x = position + R X`` places them. Generated mesh
 * ``net``: a grid of bars in the x-y plane, ``size`` = (Lx, Ly), ``elements`` = (nx, ny),
   centred on the origin.
 
-Mesh files (``file``): an HDF5 file with ``/nodes`` (n, 3) (attribute ``unit``, default m)
-and ``/tetrahedra`` (m, 4) and/or ``/bars`` (m, 2) of 0-based node indices; or any format
-meshio reads (points and "tetra"/"line" cells), when meshio is installed.
+Mesh files (``file``): an HDF5 file with ``/nodes`` (n, 3) (attribute ``unit``, or the
+scene's ``mesh_unit``) and ``/tetrahedra`` (m, 4) and/or ``/bars`` (m, 2) of 0-based node
+indices stored as integers; or any format meshio reads (points and "tetra"/"line" cells,
+coordinates in ``mesh_unit``), when meshio is installed.
 
 Materials: Young's modulus E > 0, Poisson's ratio -1 < nu < 0.5 (tetrahedra), density > 0,
 cross-section area > 0 (bars). Mass matrices: consistent (default) or lumped. Gravity acts
@@ -37,6 +38,7 @@ __all__ = [
     "chain_mesh",
     "net_mesh",
     "read_mesh",
+    "select_nodes",
     "elastic_spec",
     "mesh_from_parameters",
     "build_elastic",
@@ -238,11 +240,25 @@ def net_mesh(size, elements, key: str = "body"):
     return X, np.array(bars, dtype=np.int64)
 
 
-def read_mesh(path, key: str = "body"):
+def _length_scale(unit, key: str, what: str) -> float:
+    """Metres per ``unit`` (a string naming a length), or an error naming ``key``."""
+    if isinstance(unit, bytes):
+        unit = unit.decode(errors="replace")
+    if not isinstance(unit, str):
+        raise InputError(key, f"{what} must be a length unit such as 'm', got {unit!r}")
+    try:
+        return to_si(f"1 {unit}", "length", key)
+    except InputError:
+        raise InputError(key, f"{what} {unit!r} is not a length unit") from None
+
+
+def read_mesh(path, key: str = "body", mesh_unit: str | None = None):
     """Read a mesh file: HDF5 in emorbit's layout, or any format meshio reads.
 
-    The HDF5 layout: ``/nodes`` (n, 3) with an optional ``unit`` attribute (default m),
-    ``/tetrahedra`` (m, 4) and/or ``/bars`` (m, 2) of 0-based node indices.
+    The HDF5 layout: ``/nodes`` (n, 3) numbers with a ``unit`` attribute (a length),
+    ``/tetrahedra`` (m, 4) and/or ``/bars`` (m, 2) of 0-based node indices, stored as
+    integers. Without a ``unit`` attribute, and for meshio files (which carry no unit), the
+    unit is ``mesh_unit``; where both are given they must agree.
 
     Parameters
     ----------
@@ -250,11 +266,13 @@ def read_mesh(path, key: str = "body"):
         The file.
     key : str
         Prefix of the keys that error messages name.
+    mesh_unit : str, optional
+        The unit of the coordinates, e.g. ``"mm"``.
 
     Returns
     -------
     nodes : ndarray
-        (n, 3), m (meshio's points as they are).
+        (n, 3), m.
     tetrahedra : ndarray
         (k, 4) node indices.
     bars : ndarray
@@ -263,40 +281,127 @@ def read_mesh(path, key: str = "body"):
     Raises
     ------
     InputError
-        No such file, no ``/nodes``, a unit that is not a length, or a non-HDF5 file without
-        meshio installed.
+        No such file, no ``/nodes``, coordinates that are not numbers, indices that are not
+        integers (float values or a float dtype), no unit anywhere, a unit that is not a
+        length or disagrees with ``mesh_unit``, or a non-HDF5 file without meshio installed.
     """
+    from .shapes import mesh_coordinates, mesh_indices
+
+    where = f"{key}.file"
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(where, f"a path (a string) expected, got {path!r}")
     path = os.fspath(path)
     if not os.path.isfile(path):
-        raise InputError(f"{key}.file", f"mesh file {path!r} does not exist")
+        raise InputError(where, f"mesh file {path!r} does not exist")
+    given = None if mesh_unit is None else _length_scale(mesh_unit, f"{key}.mesh_unit", "mesh_unit")
     if path.endswith((".h5", ".hdf5")):
-        import astropy.units as u
         import h5py
 
-        with h5py.File(path, "r") as f:
-            if "nodes" not in f:
-                raise InputError(f"{key}.file", f"{path!r} has no /nodes dataset")
-            unit = f["nodes"].attrs.get("unit", "m")
-            unit = unit.decode() if isinstance(unit, bytes) else unit
-            try:
-                scale = u.Unit(unit).to(u.m)
-            except (ValueError, u.UnitConversionError):
-                raise InputError(f"{key}.file", f"/nodes has unit {unit!r}, not a length") from None
-            X = f["nodes"][()] * scale
-            T = f["tetrahedra"][()].astype(np.int64) if "tetrahedra" in f else np.zeros((0, 4), np.int64)
-            B = f["bars"][()].astype(np.int64) if "bars" in f else np.zeros((0, 2), np.int64)
+        try:
+            f = h5py.File(path, "r")
+        except OSError as exc:
+            raise InputError(where, f"{path!r} is not a readable HDF5 file ({exc})") from None
+        with f:
+            arrays = {}
+            for name in ("nodes", "tetrahedra", "bars"):
+                if name in f and not isinstance(f[name], h5py.Dataset):
+                    raise InputError(where, f"{path!r}: /{name} is not a dataset")
+                arrays[name] = f[name][()] if name in f else None
+            if arrays["nodes"] is None:
+                raise InputError(where, f"{path!r} has no /nodes dataset")
+            unit = f["nodes"].attrs.get("unit")
+        scale = given
+        if unit is not None:
+            scale = _length_scale(unit, where, f"{path!r}: the unit attribute of /nodes")
+            if given is not None and given != scale:
+                raise InputError(
+                    f"{key}.mesh_unit", f"{mesh_unit!r} disagrees with the unit {unit!r} of /nodes in {path!r}"
+                )
+        elif scale is None:
+            raise InputError(
+                f"{key}.mesh_unit",
+                f"/nodes in {path!r} has no unit attribute: give the unit of its coordinates with mesh_unit "
+                '(e.g. "m"), or write it into the file (/nodes attribute unit)',
+            )
+        X = mesh_coordinates(arrays["nodes"], where, f"/nodes of {path!r}") * scale
+        T, B = (
+            mesh_indices([] if arrays[name] is None else arrays[name], width, where, f"/{name} of {path!r}")
+            for name, width in (("tetrahedra", 4), ("bars", 2))
+        )
         return X, T, B
     try:
         import meshio
     except ImportError:
         raise InputError(
-            f"{key}.file",
+            where,
             f"{path!r} is not HDF5 and meshio is not installed (pip install meshio, or use the HDF5 layout)",
         ) from None
+    if given is None:
+        raise InputError(f"{key}.mesh_unit", f'missing: {path!r} carries no unit; give mesh_unit, e.g. "m"')
     m = meshio.read(path)
-    T = np.concatenate([c.data for c in m.cells if c.type == "tetra"] or [np.zeros((0, 4), np.int64)]).astype(np.int64)
-    B = np.concatenate([c.data for c in m.cells if c.type == "line"] or [np.zeros((0, 2), np.int64)]).astype(np.int64)
-    return np.asarray(m.points, float), T, B
+    T = np.concatenate([c.data for c in m.cells if c.type == "tetra"] or [np.zeros((0, 4), np.int64)])
+    B = np.concatenate([c.data for c in m.cells if c.type == "line"] or [np.zeros((0, 2), np.int64)])
+    return (
+        mesh_coordinates(np.asarray(m.points), where, f"the points of {path!r}") * given,
+        mesh_indices(T, 4, where, f"the tetra cells of {path!r}"),
+        mesh_indices(B, 2, where, f"the line cells of {path!r}"),
+    )
+
+
+def select_nodes(ref, nodes, key: str) -> list[int]:
+    """Node indices of a mesh, from a list or a selector.
+
+    Parameters
+    ----------
+    ref : ndarray
+        (n, 3) reference node coordinates, m.
+    nodes : sequence of int or str
+        0-based indices, or ``"first"``, ``"last"`` (chains), ``"<axis>-min"`` or
+        ``"<axis>-max"`` with axis x, y or z (the nodes on that face of the reference mesh).
+    key : str
+        The key named in errors.
+
+    Returns
+    -------
+    list of int
+        The indices, each in 0..n-1.
+
+    Raises
+    ------
+    InputError
+        An unknown selector, an empty list, a value that is not an integer, or an index out
+        of range.
+    """
+    n = ref.shape[0]
+    if isinstance(nodes, str):
+        if nodes == "first":
+            return [0]
+        if nodes == "last":
+            return [n - 1]
+        axes = {"x": 0, "y": 1, "z": 2}
+        parts = nodes.split("-")
+        if len(parts) == 2 and parts[0] in axes and parts[1] in ("min", "max"):
+            col = ref[:, axes[parts[0]]]
+            target = col.min() if parts[1] == "min" else col.max()
+            tol = 1e-9 * max(float(np.ptp(ref, axis=0).max()), 1e-300)
+            return np.flatnonzero(np.abs(col - target) <= tol).tolist()
+        raise InputError(
+            key,
+            f"unknown node selector {nodes!r}; use a list of indices, 'first', 'last', "
+            "or '<axis>-min' / '<axis>-max' with axis x, y or z",
+        )
+    if isinstance(nodes, (bytes, dict)) or not hasattr(nodes, "__iter__"):
+        raise InputError(key, f"a list of node indices or a selector expected, got {nodes!r}")
+    idx = list(nodes)
+    for i in idx:
+        if isinstance(i, bool) or not isinstance(i, numbers.Integral):
+            raise InputError(key, f"a list of node indices expected (integers), got {nodes!r}")
+    if not idx:
+        raise InputError(key, "no nodes given")
+    for i in idx:
+        if not 0 <= i < n:
+            raise InputError(key, f"node {i} is not in 0..{n - 1}")
+    return [int(i) for i in idx]
 
 
 def elastic_spec(
@@ -364,9 +469,11 @@ def elastic_spec(
         A bad mesh (no elements, an index out of range, a dangling node, an inverted,
         zero-volume or zero-length element) or material.
     """
+    from .shapes import mesh_indices
+
     X = np.asarray(X, float)
-    tets = np.asarray(tets, dtype=np.int64).reshape(-1, 4)
-    bars = np.asarray(bars, dtype=np.int64).reshape(-1, 2)
+    tets = mesh_indices(tets, 4, f"{key}.tetrahedra")
+    bars = mesh_indices(bars, 2, f"{key}.bars")
     nn = X.shape[0]
     if X.ndim != 2 or X.shape[1] != 3 or nn < 2 or not np.all(np.isfinite(X)):
         raise InputError(f"{key}.nodes", f"expected finite (n >= 2, 3) coordinates, got shape {X.shape}")
@@ -565,10 +672,7 @@ def mesh_from_parameters(mesh, params: dict, strict: bool, key: str):
         L = [to_si(s_, "length", f"{key}.size[{i}]", strict=strict, positive=True) for i, s_ in enumerate(size)]
         X, B = net_mesh(L, params["elements"], key)
         return X, empty[0], B
-    X, T, B = read_mesh(params["file"], key)
-    if "mesh_unit" in params:
-        X = X * to_si(f"1 {params['mesh_unit']}", "length", f"{key}.mesh_unit")
-    return X, T, B
+    return read_mesh(params["file"], key, params.get("mesh_unit"))
 
 
 def build_elastic(

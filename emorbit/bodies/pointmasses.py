@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
 from ..integrators import dispatch
 from ..kernels import invariants as inv
 from .system import BodySystem
@@ -163,6 +164,40 @@ class PointMasses(BodySystem):
         self._pending.append(
             (float(mass), np.asarray(position, float).reshape(3).copy(), np.asarray(velocity, float).reshape(3).copy())
         )
+
+    def pop_onto(self, name: str, nodes, positions, key: str):
+        """Remove a point that a node of an elastic body becomes (checked first: a refused
+        attachment changes nothing).
+
+        Parameters
+        ----------
+        name : str
+            The point.
+        nodes : list of int
+            The node indices (exactly one).
+        positions : ndarray
+            (len(nodes), 3) their positions, m.
+        key : str
+            The key named in errors.
+
+        Returns
+        -------
+        tuple
+            As :meth:`pop`.
+
+        Raises
+        ------
+        InputError
+            Not exactly one node, or a node that does not start where the point is.
+        """
+        if len(nodes) != 1:
+            raise InputError(key, f"a point mass takes exactly one node, got {len(nodes)}")
+        x = self.x[:, self.names.index(name)]
+        if np.linalg.norm(positions[0] - x) > 1e-9 * max(1.0, np.linalg.norm(x)):
+            raise InputError(
+                key, f"node {nodes[0]} starts at {positions[0].tolist()} m, not at point mass {name!r} ({x.tolist()} m)"
+            )
+        return self.pop(name)
 
     def pop(self, name: str):
         """Remove a point; the others keep their state and compensation terms.

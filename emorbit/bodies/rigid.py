@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import astropy.units as u
 import numpy as np
 
 from ..errors import InputError
@@ -88,7 +89,9 @@ def body_angular_velocity(E, D, dD):
     L = np.einsum("...kl,...ki,...lj->...ij", E, D, dD)
     L = L[..., [1, 2, 0], [2, 0, 1]] - L[..., [2, 0, 1], [1, 2, 0]]  # the vector of sum E_kl d_k x dd_l
     J = np.trace(E, axis1=-2, axis2=-1)[..., None, None] * np.eye(3) - E
-    body = np.einsum("...ki,...i->...k", D, L)  # R^T L: components along the body axes
+    # R^T L, the components along the body axes, summed in a fixed order: einsum's order depends
+    # on the arrays' strides, which would make the records depend on how a run is chunked
+    body = (D[..., 0] * L[..., None, 0] + D[..., 1] * L[..., None, 1]) + D[..., 2] * L[..., None, 2]
     return np.linalg.solve(np.broadcast_to(J, body.shape[:-1] + (3, 3)), body[..., None])[..., 0]
 
 
@@ -430,15 +433,24 @@ def _shape_points(shape: str, params: dict, strict: bool, key: str) -> MassPoint
         for need in ("nodes", "tetrahedra", "density"):
             if need not in params:
                 raise InputError(f"{key}.{need}", "missing (required for a mesh)")
-        unit = params.get("mesh_unit", None if strict else "m")
-        if unit is None:
-            raise InputError(f"{key}.mesh_unit", "missing: give the unit of the node coordinates, e.g. 'm'")
-        scale = to_si(f"1 {unit}", "length", f"{key}.mesh_unit")
-        try:
-            nodes = np.asarray(params["nodes"], dtype=float) * scale
-            tets = np.asarray(params["tetrahedra"])
-        except (TypeError, ValueError) as exc:
-            raise InputError(f"{key}.nodes", f"not a table of numbers: {exc}") from None
+        nodes = params["nodes"]
+        if isinstance(nodes, u.Quantity):  # the API: coordinates with their unit
+            if "mesh_unit" in params:
+                raise InputError(f"{key}.mesh_unit", "the nodes carry their unit; mesh_unit is for plain numbers")
+            try:
+                nodes = nodes.to_value(u.m)
+            except u.UnitConversionError:
+                raise InputError(f"{key}.nodes", f"coordinates in {nodes.unit}, not a length") from None
+            scale = 1.0
+        else:
+            unit = params.get("mesh_unit", None if strict else "m")
+            if unit is None:
+                raise InputError(f"{key}.mesh_unit", "missing: give the unit of the node coordinates, e.g. 'm'")
+            if not isinstance(unit, str):
+                raise InputError(f"{key}.mesh_unit", f"a length unit (a string such as 'm') expected, got {unit!r}")
+            scale = to_si(f"1 {unit}", "length", f"{key}.mesh_unit")
+        nodes = shapes.mesh_coordinates(nodes, f"{key}.nodes") * scale
+        tets = shapes.mesh_indices(params["tetrahedra"], 4, f"{key}.tetrahedra")
         kw.update(nodes=nodes, tetrahedra=tets)
         return shapes.tetra_mesh(nodes, tets, density=kw["density"], key=key), kw
     required = {

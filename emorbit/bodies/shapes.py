@@ -17,13 +17,25 @@ Units: SI (m, kg, kg/m^3). Bodies are defined in their body frame; x = phi + R X
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["MassPoints", "box", "cylinder", "sphere", "shell", "dumbbell", "tetra_mesh", "SHAPES"]
+__all__ = [
+    "MassPoints",
+    "box",
+    "cylinder",
+    "sphere",
+    "shell",
+    "dumbbell",
+    "tetra_mesh",
+    "mesh_coordinates",
+    "mesh_indices",
+    "SHAPES",
+]
 
 
 @dataclass
@@ -337,6 +349,95 @@ def dumbbell(masses, length, *, end_radius=None, refinement: int = 1, key: str =
     own = 0.4 * rho * rho * M
     red = m1 * m2 / M * L * L
     return _finish(X, m, None, np.diag([own, red + own, red + own]), key)
+
+
+def _mesh_array(values, integral: bool, key: str, what: str) -> np.ndarray:
+    """``values`` as an array of numbers (integers if ``integral``), or an error naming ``key``.
+
+    Lists (as TOML gives them) are scanned value by value, so that booleans, strings and, for
+    indices, floats are refused even where numpy would convert them; arrays by their dtype.
+    """
+    kinds = "iu" if integral else "iuf"
+    if isinstance(values, np.ndarray):
+        if values.size and values.dtype.kind not in kinds:
+            want = "integers" if integral else "numbers"
+            raise InputError(key, f"{what} must be {want}, got an array of {values.dtype}")
+        return values
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+        raise InputError(key, f"{what} expected as rows of numbers, got {values!r}")
+    stack = [values]
+    while stack:
+        for x in stack.pop():
+            if isinstance(x, (list, tuple)):
+                stack.append(x)
+            elif isinstance(x, bool) or not isinstance(x, (numbers.Integral if integral else numbers.Real)):
+                want = "integers (0-based node indices)" if integral else "numbers"
+                raise InputError(key, f"{what} must be {want}, got {x!r}")
+    try:
+        return np.asarray(values, dtype=np.int64 if integral else float)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(key, f"{what} must be rows of equal length, got {values!r}") from None
+
+
+def mesh_coordinates(values, key: str, what: str = "node coordinates") -> np.ndarray:
+    """Node coordinates as plain numbers, (n, 3) float64.
+
+    Parameters
+    ----------
+    values : array_like
+        Rows [x, y, z] of numbers (a nested list or a numeric array).
+    key : str
+        The key named in errors.
+    what : str
+        What the values are, for the message (e.g. the dataset they were read from).
+
+    Returns
+    -------
+    ndarray
+        (n, 3) float64.
+
+    Raises
+    ------
+    InputError
+        Strings, booleans, ragged rows or not three columns.
+    """
+    X = np.asarray(_mesh_array(values, False, key, what), dtype=float)
+    if X.ndim != 2 or X.shape[1] != 3:
+        raise InputError(key, f"{what}: expected rows [x, y, z], got shape {X.shape}")
+    return X
+
+
+def mesh_indices(values, width: int, key: str, what: str = "element indices") -> np.ndarray:
+    """Element node indices as integers, (k, width) int64 (k may be 0).
+
+    Parameters
+    ----------
+    values : array_like
+        Rows of ``width`` 0-based node indices (a nested list or an integer array).
+    width : int
+        Nodes per element: 4 for tetrahedra, 2 for bars.
+    key : str
+        The key named in errors.
+    what : str
+        What the values are, for the message (e.g. the dataset they were read from).
+
+    Returns
+    -------
+    ndarray
+        (k, width) int64.
+
+    Raises
+    ------
+    InputError
+        Floats (integral or not, and a float dtype), strings, booleans, ragged rows or rows of
+        another width.
+    """
+    T = _mesh_array(values, True, key, what)
+    if T.size == 0:
+        return np.zeros((0, width), np.int64)
+    if T.ndim != 2 or T.shape[1] != width:
+        raise InputError(key, f"{what}: expected rows of {width} node indices, got shape {T.shape}")
+    return np.asarray(T, dtype=np.int64)
 
 
 _TET_A = 0.5854101966249685

@@ -23,7 +23,74 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["BodySystem"]
+__all__ = ["BodySystem", "check_body_name", "check_output"]
+
+
+def check_body_name(name, key: str = "name") -> str:
+    """Check a body name: a non-empty string without '/' (it names an HDF5 group).
+
+    Parameters
+    ----------
+    name : object
+        The proposed name.
+    key : str
+        Where it came from, for the error message.
+
+    Returns
+    -------
+    str
+        ``name``, unchanged.
+
+    Raises
+    ------
+    InputError
+        ``name`` is not such a string, or is ``"."`` or ``".."``.
+    """
+    if not isinstance(name, str) or not name.strip() or "/" in name or name in (".", ".."):
+        raise InputError(key, f"a body name must be a non-empty string without '/', got {name!r}")
+    return name
+
+
+def check_output(systems, n_steps: int, every: int, dt: float, max_output, keys: dict, length_key: str) -> None:
+    """Refuse a run whose records would take more than ``max_output`` bytes.
+
+    Parameters
+    ----------
+    systems : list of BodySystem
+        The systems that record.
+    n_steps, every : int
+        Steps of the run and steps between records.
+    dt : float
+        The step, s.
+    max_output : Quantity, str or float
+        The limit, bytes.
+    keys : dict
+        The names of ``dt``, ``every`` and ``max_output`` in errors.
+    length_key : str
+        The key that sets the run's length (``t_end`` or ``steps``), named by the error.
+
+    Raises
+    ------
+    InputError
+        ``max_output`` is not a positive size, or the projected output is above it: the
+        records (``n_steps // every`` and the first and last) times the bytes of every
+        dataset of every body (:meth:`BodySystem.output_bytes`) and of the root datasets
+        (at most 3 values each).
+    """
+    from ..io.hdf5 import LAYOUT_UNITS
+    from ..units import information_text, to_si
+
+    limit = to_si(max_output, "information", keys["max_output"], positive=True)
+    records = n_steps // every + 1 + (1 if n_steps % every else 0)
+    size = 24 * len(LAYOUT_UNITS) * records + sum(s.output_bytes(records) for s in systems)
+    if size > limit:
+        raise InputError(
+            length_key,
+            f"{n_steps} steps of {keys['dt']} = {dt!r} s with a record every {every} ({keys['every']}) make "
+            f"{records} records, about {information_text(size)} of output, above {keys['max_output']} = "
+            f"{information_text(limit)}; shorten the run, raise {keys['dt']} or {keys['every']}, or raise "
+            f"{keys['max_output']}",
+        )
 
 
 class BodySystem:
@@ -176,6 +243,30 @@ class BodySystem:
     def body_datasets(self, i: int) -> dict:
         """The growing datasets of body ``i``'s HDF5 group: {path: (width or shape, unit)}."""
         raise NotImplementedError
+
+    def dataset_rows(self, i: int, dataset: str, records: int) -> int:
+        """The rows dataset ``dataset`` of body ``i`` has after ``records`` records (default: one each)."""
+        return records
+
+    def output_bytes(self, records: int) -> int:
+        """The bytes the bodies' growing datasets take after ``records`` records (float64 values).
+
+        Parameters
+        ----------
+        records : int
+            Records of the run.
+
+        Returns
+        -------
+        int
+            Bytes, over every body and dataset of :meth:`body_datasets`.
+        """
+        total = 0
+        for i in range(len(self)):
+            for name, (width, _) in self.body_datasets(i).items():
+                shape = () if width is None else ((width,) if isinstance(width, int) else tuple(width))
+                total += 8 * int(np.prod(shape, dtype=object)) * self.dataset_rows(i, name, records)
+        return total
 
     def body_attrs(self, i: int) -> dict:
         """The attributes of body ``i``'s HDF5 group: ``kind``, ``mass`` (kg) and the kind's own."""
