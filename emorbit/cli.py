@@ -1,26 +1,30 @@
 """The ``emorbit`` command line. ``main(argv)`` returns the exit code, so tests can call it.
 
-    emorbit run SCENE -o OUT.h5 [--t-end T] [--dt DT] [--method M] [--order N] [--every K]
-    emorbit resume OUT.h5 --t-end T2
+    emorbit run SCENE -o OUT.h5 [--t-end T] [--dt DT] [--method M] [--order N] [--every K] [--overwrite]
+    emorbit resume OUT.h5 --t-end T2 [--truncate]
     emorbit plot OUT.h5 [OUT2.h5 ...] -o FIG.png
     emorbit scenes
     emorbit validate | sweep | bench ...     (plug-ins: see PLUGINS)
 
 SCENE is a shipped scene's name (``emorbit scenes`` lists them) or a TOML file. Values given
 on the command line carry units like those in a scene: ``--t-end "100 s"``, ``--dt "0.1 s"``.
-Exit codes: 0 success, 1 a run failed while stepping, 2 bad input, 130 interrupted (Ctrl-C;
-the file keeps everything up to the interruption and can be resumed).
+Exit codes: 0 success; 1 a run failed while stepping, or its file was removed or replaced
+by another process while it ran; 2 bad input (also an output file that another run is
+writing); 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM: the run stops at the end of the
+chunk in progress, and the file keeps everything up to the interruption, marked
+"interrupted", and can be resumed.
 """
 
 from __future__ import annotations
 
 import argparse
 import gc
+import signal
 import sys
 import time
 
 from ._version import __version__
-from .errors import InputError, IntegrationError
+from .errors import EmorbitError, InputError, IntegrationError
 
 __all__ = ["main", "console_main"]
 
@@ -38,13 +42,29 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--method", help="em | midpoint | leapfrog")
     run.add_argument("--order", type=int, help="2 | 4 | 6 | 8")
     run.add_argument("--every", type=int, help="steps between records (output_every)")
-    run.add_argument("--checkpoint-every", type=int, help="steps between checkpoints (state and records flushed)")
-    run.add_argument("--overwrite", action="store_true", help="replace an existing output file")
+    run.add_argument(
+        "--checkpoint-every",
+        type=int,
+        help="steps between checkpoints (state and records flushed); default: at most 5 s of wall time apart",
+    )
+    run.add_argument(
+        "--overwrite", action="store_true", help="replace an existing output file (never one another run is writing)"
+    )
+    run.add_argument(
+        "--max-output",
+        help='the largest output the run may project, with a unit, e.g. "50 GB" (default: the scene\'s '
+        "integrator.max_output, else 10 GB)",
+    )
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar and no summary")
 
     res = sub.add_parser("resume", help="continue a finished, failed, interrupted or killed run file")
     res.add_argument("file", help="the HDF5 run file (continued in place)")
     res.add_argument("--t-end", required=True, help='new end time with a unit, e.g. "200 s"')
+    res.add_argument(
+        "--truncate",
+        action="store_true",
+        help="allow a --t-end before the file's last record (deletes the records after it)",
+    )
     res.add_argument("-q", "--quiet", action="store_true", help="no progress bar and no summary")
 
     plot = sub.add_parser("plot", help="plot energy error and orbit of run files")
@@ -52,7 +72,7 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("-o", "--output", required=True, help="figure file (png, pdf, svg)")
     plot.add_argument("--title", help="figure title")
 
-    sub.add_parser("scenes", help="list the shipped scenes")
+    sub.add_parser("scenes", help="list the shipped scenes, each with a line that says what it is")
     for name, (module, summary) in PLUGINS.items():
         try:
             mod = _plugin(module)
@@ -84,31 +104,36 @@ def _plugin(module: str):
 
 def _run(args) -> int:
     from .scene import load_scene
+    from .stepping import RunInterrupted, stop_on_signals
 
-    scene = load_scene(args.scene).with_overrides(
-        t_end=args.t_end,
-        dt=args.dt,
-        method=args.method,
-        order=args.order,
-        output_every=args.every,
-        checkpoint_every=args.checkpoint_every,
-    )
-    sim = scene.build()
-    start = time.perf_counter()
-    progress = False if args.quiet else None
-    result = sim.run(
-        t_end=scene.t_end,
-        every=scene.output_every,
-        output=args.output,
-        overwrite=args.overwrite,
-        progress=progress,
-        keep=False,
-        checkpoint_every=scene.checkpoint_every,
-    )
+    with stop_on_signals() as stop:  # a signal while the scene builds stops the run before its file exists
+        scene = load_scene(args.scene).with_overrides(
+            t_end=args.t_end,
+            dt=args.dt,
+            method=args.method,
+            order=args.order,
+            output_every=args.every,
+            checkpoint_every=args.checkpoint_every,
+            max_output=args.max_output,
+        )
+        sim = scene.build()
+        if stop.is_set():
+            raise RunInterrupted(stop.signum)
+        start = time.perf_counter()
+        progress = False if args.quiet else None
+        result = sim.run(
+            t_end=scene.t_end,
+            every=scene.output_every,
+            output=args.output,
+            overwrite=args.overwrite,
+            progress=progress,
+            keep=False,
+            checkpoint_every=scene.checkpoint_every,
+        )
     if not args.quiet:
         err = abs(result.relative_energy_error()[-1])
         print(
-            f"{args.output}: {sim.method} order {sim.order}, dt = {sim.dt!r} s, t = {sim.time:.6g} s, "
+            f"{args.output}: {sim.method} order {sim.order}, dt = {sim.dt:.6g} s, t = {sim.time:.6g} s, "
             f"|dE/E0| at end = {err:.3e}, wall {time.perf_counter() - start:.2f} s"
         )
     return 0
@@ -116,9 +141,11 @@ def _run(args) -> int:
 
 def _resume(args) -> int:
     from .io.resume import resume
+    from .stepping import stop_on_signals
 
     start = time.perf_counter()
-    result = resume(args.file, args.t_end, progress=False if args.quiet else None)
+    with stop_on_signals():
+        result = resume(args.file, args.t_end, progress=False if args.quiet else None, truncate=args.truncate)
     if not args.quiet:
         err = abs(result.energy[-1] / result.energy[0] - 1) if len(result) else 0.0
         print(
@@ -129,22 +156,59 @@ def _resume(args) -> int:
 
 
 def _plot(args) -> int:
-    import os
-
     from .plot import plot_runs
 
-    for f in args.files:
-        if not os.path.isfile(f):
-            raise InputError("files", f"{f!r} does not exist")
     plot_runs(args.files, args.output, title=args.title)
     return 0
+
+
+def scene_description(name: str) -> str:
+    """One line that says what a shipped scene is: the first clause of its leading comment
+    (without what is in parentheses), then its method and order.
+
+    Parameters
+    ----------
+    name : str
+        A shipped scene's name.
+
+    Returns
+    -------
+    str
+        The line (without the name), at most about 120 characters.
+    """
+    import importlib.resources
+    import re
+
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+
+    text = (importlib.resources.files("emorbit") / "scenes" / f"{name}.toml").read_text(encoding="utf-8")
+    lines = []
+    for line in text.splitlines():
+        if not line.startswith("#"):
+            break
+        lines.append(line.lstrip("#").strip())
+    first = " ".join(lines)
+    while (shorter := re.sub(r"\s*\([^()]*\)", "", first)) != first:
+        first = shorter
+    first = re.split(r"[:;]|\.(?:\s|$)", first, maxsplit=1)[0].strip()
+    if len(first) > 100:  # at the last clause that fits, else at a word
+        clause = first[:100].rsplit(", ", 1)[0]
+        first = clause if len(clause) >= 40 else first[:100].rsplit(" ", 1)[0] + " ..."
+    integ = tomllib.loads(text).get("integrator", {})
+    how = f"[{integ.get('method', 'em')}, order {integ.get('order', 2)}]"
+    return f"{first} {how}" if first else how
 
 
 def _scenes(args) -> int:
     from .scene import list_scenes
 
-    for name in list_scenes():
-        print(name)
+    names = list_scenes()
+    width = max(map(len, names), default=0)
+    for name in names:
+        print(f"{name:<{width}}  {scene_description(name)}")
     return 0
 
 
@@ -159,8 +223,9 @@ def main(argv=None) -> int:
     Returns
     -------
     int
-        The exit code: 0 success, 1 a run failed while stepping (or a plug-in's own
-        failure), 2 bad input, 130 interrupted.
+        The exit code: 0 success, 1 a run failed while stepping or lost its file (or a
+        plug-in's own failure), 2 bad input, 128 + the signal when SIGINT (130) or SIGTERM
+        (143) interrupted a run.
     """
     args = _parser().parse_args(argv)
     if getattr(args, "unavailable", None):
@@ -178,9 +243,13 @@ def main(argv=None) -> int:
     except IntegrationError as exc:
         print(f"emorbit: run failed: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print("emorbit: interrupted", file=sys.stderr)
-        return 130
+    except EmorbitError as exc:  # the output file was removed or replaced under the run
+        print(f"emorbit: run failed: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt as exc:
+        signum = getattr(exc, "signum", signal.SIGINT)
+        print(f"emorbit: interrupted by {signal.Signals(signum).name}", file=sys.stderr)
+        return 128 + signum
 
 
 def console_main(argv=None) -> None:

@@ -1,4 +1,13 @@
-"""Figures from run files: the paper's energy figure (several runs on one axes) and the orbit."""
+"""Figures from run files: the paper's energy figure (several runs on one axes), the orbit or
+the angular momentum, attitudes of rigid bodies and deformations of elastic ones.
+
+Legends sit beside the axes, never over the curves. A run in a central field gets an orbit
+panel (x-y projection with the centre marked); a free-space run gets the relative
+angular-momentum error instead. Rigid bodies add their attitude angles and body-frame
+angular velocity; elastic bodies add their deformation: the largest distance of a node from
+the best rigid placement of the mesh's reference nodes (:func:`deformation`), which is the
+tip deflection of a beam relative to its rigid motion and the sag and stretch of a tether.
+"""
 
 from __future__ import annotations
 
@@ -6,9 +15,10 @@ import os
 
 import numpy as np
 
+from .errors import InputError
 from .io.hdf5 import read
 
-__all__ = ["plot_runs", "euler_angles"]
+__all__ = ["plot_runs", "euler_angles", "deformation"]
 
 
 def _label(path, res) -> str:
@@ -35,31 +45,105 @@ def euler_angles(q) -> np.ndarray:
     return np.stack([yaw, pitch, roll], axis=1)
 
 
-def _plot_attitudes(runs, axes) -> None:
-    ax_ang, ax_om, ax_spare = axes
+def deformation(reference, nodes) -> np.ndarray:
+    """How far an elastic body is from a rigid placement of its reference mesh.
+
+    For every row of node positions the reference nodes are placed by the rotation and
+    translation that fit them best in the least-squares sense (Kabsch), and the largest
+    distance of a node from its placed reference position is returned: zero for a rigid
+    motion, the tip deflection relative to the rigid motion for a beam.
+
+    Parameters
+    ----------
+    reference : array_like
+        (N, 3) node positions in the body frame, m.
+    nodes : array_like
+        (k, N, 3) node positions in space, m.
+
+    Returns
+    -------
+    ndarray
+        (k,) the largest node offset from the best rigid placement, m.
+    """
+    X = np.asarray(reference, float)
+    Y = np.asarray(nodes, float)
+    Xc = X - X.mean(axis=0)
+    Yc = Y - Y.mean(axis=1, keepdims=True)
+    H = np.matmul(Xc.T[None], Yc)  # (k, 3, 3)
+    U, _, Vt = np.linalg.svd(H)
+    d = np.sign(np.linalg.det(np.matmul(U, Vt)))
+    S = np.broadcast_to(np.eye(3), H.shape).copy()
+    S[:, 2, 2] = d
+    R = np.matmul(np.matmul(U, S), Vt)  # Xc @ R is the best placement of the reference
+    placed = np.matmul(Xc[None], R)
+    return np.linalg.norm(Yc - placed, axis=-1).max(axis=-1)
+
+
+def _legend(ax, ncol: int = 1) -> None:
+    """A legend under the axes, outside the data."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=ncol, frameon=False)
+
+
+def _who(path, runs) -> str:
+    """The file's name before a curve's label when several files are plotted."""
+    return f"{os.path.basename(path)}: " if len(runs) > 1 else ""
+
+
+def _plot_attitudes(runs, ax_ang, ax_om) -> None:
     for path, res in runs:
         for name, q in res.attitudes.items():
             ang = np.degrees(euler_angles(q))
             for k, label in enumerate(("yaw", "pitch", "roll")):
-                ax_ang.plot(res.time, ang[:, k], lw=0.7, label=f"{os.path.basename(path)}: {name} {label}")
+                ax_ang.plot(res.time, ang[:, k], lw=0.7, label=f"{_who(path, runs)}{name} {label}")
             om = res.angular_velocities[name]
             for k, label in enumerate("xyz"):
-                ax_om.plot(res.time, om[:, k], lw=0.7, label=f"{os.path.basename(path)}: {name} {label}")
+                ax_om.plot(res.time, om[:, k], lw=0.7, label=f"{_who(path, runs)}{name} {label}")
     ax_ang.set(xlabel="time [s]", ylabel="angle [deg]", title="attitude: yaw, pitch, roll (z-y'-x'')")
     ax_om.set(xlabel="time [s]", ylabel="rad/s", title="angular velocity (body frame)")
     for ax in (ax_ang, ax_om):
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7)
-    ax_spare.axis("off")
+        _legend(ax, ncol=3)
+
+
+def _elastic(res) -> dict:
+    """{name: (times, deformation)} of a run's elastic bodies with recorded nodes."""
+    out = {}
+    for name, kind in res.kinds.items():
+        d = res.bodies.get(name, {})
+        if kind == "elastic" and "nodes/position" in d and "mesh/reference_nodes" in d and len(d["nodes/time"]):
+            out[name] = (d["nodes/time"], deformation(d["mesh/reference_nodes"], d["nodes/position"]))
+    return out
+
+
+def _plot_deformation(runs, ax) -> None:
+    for path, res in runs:
+        for name, (t, dev) in _elastic(res).items():
+            ax.plot(t, dev, lw=0.8, label=f"{_who(path, runs)}{name}")
+    ax.set(
+        xlabel="time [s]",
+        ylabel="largest node offset [m]",
+        title="deformation: nodes from the best rigid placement",
+    )
+    ax.grid(True, alpha=0.3)
+    _legend(ax)
+
+
+def _read(path):
+    res = read(path)
+    if len(res) == 0:
+        raise InputError("files", f"{os.fspath(path)!r} holds no records (the run stopped before its first)")
+    return res
 
 
 def plot_runs(paths, output, *, title: str | None = None) -> str:
-    """Plot run files: energy error over time, the orbits, and rigid bodies' attitudes.
+    """Plot run files: energy error, orbits or angular momentum, attitudes and deformations.
 
     The relative energy error of every file goes on shared axes (linear, as in the paper,
-    and its magnitude on a log scale), the orbits in an x-y projection with the centre
-    marked; for rigid bodies a second row shows their attitude angles and body-frame
-    angular velocity.
+    and its magnitude on a log scale). Runs in a central field add their orbits in an x-y
+    projection with the centre marked; free-space runs the relative angular-momentum error.
+    A second row shows rigid bodies' attitude angles and body-frame angular velocity and
+    elastic bodies' :func:`deformation`. Legends sit under their axes.
 
     Parameters
     ----------
@@ -74,37 +158,57 @@ def plot_runs(paths, output, *, title: str | None = None) -> str:
     -------
     str
         The path of the figure.
+
+    Raises
+    ------
+    InputError
+        A file does not exist, is not an HDF5 file, is not an emorbit run file or holds no
+        records.
     """
+    runs = [(p, _read(p)) for p in paths]
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    runs = [(p, read(p)) for p in paths]
     rigid = any(res.attitudes for _, res in runs)
-    fig, axes = plt.subplots(
-        2 if rigid else 1, 3, figsize=(16, 9.6 if rigid else 4.8), constrained_layout=True, squeeze=False
-    )
-    ax_lin, ax_log, ax_orb = axes[0]
+    elastic = any(_elastic(res) for _, res in runs)
+    field = any(res.gm != 0.0 for _, res in runs)
+    rows = 2 if rigid or elastic else 1
+    fig, axes = plt.subplots(rows, 3, figsize=(16, 5.6 * rows), constrained_layout=True, squeeze=False)
+    ax_lin, ax_log, ax_third = axes[0]
+    floor = np.finfo(float).eps / 4
     for path, res in runs:
         err = res.relative_energy_error()
         label = _label(path, res)
         ax_lin.plot(res.time, err, lw=0.8, label=label)
-        floor = np.finfo(float).eps / 4
         ax_log.semilogy(res.time, np.maximum(np.abs(err), floor), lw=0.8, label=label)
-        for name in res.names:
-            x = res.positions[name]
-            ax_orb.plot(x[:, 0], x[:, 1], lw=0.6, label=f"{os.path.basename(path)}: {name}")
-        ax_orb.plot(res.center[0], res.center[1], "k+", ms=10)
+        if field:
+            for name in res.names:
+                x = res.positions[name]
+                ax_third.plot(x[:, 0], x[:, 1], lw=0.6, label=f"{_who(path, runs)}{name}")
+            ax_third.plot(res.center[0], res.center[1], "k+", ms=10)
+        else:
+            dL = res.relative_angular_momentum_error() if np.any(res.angular_momentum[0]) else np.zeros(len(res))
+            ax_third.semilogy(res.time, np.maximum(dL, floor), lw=0.8, label=label)
     ax_lin.set(xlabel="time [s]", ylabel="(E - E0) / |E0|", title="relative energy error")
     ax_log.set(xlabel="time [s]", ylabel="|E - E0| / |E0|", title="relative energy error (log)")
-    ax_orb.set(xlabel="x [m]", ylabel="y [m]", title="orbit (x-y projection, + = centre)")
-    ax_orb.set_aspect("equal", adjustable="datalim")
-    for ax in (ax_lin, ax_log, ax_orb):
+    if field:
+        ax_third.set(xlabel="x [m]", ylabel="y [m]", title="orbit (x-y projection, + = centre)")
+        ax_third.set_aspect("equal", adjustable="datalim")
+    else:
+        ax_third.set(xlabel="time [s]", ylabel="|L - L0| / |L0|", title="relative angular-momentum error (log)")
+    for ax in (ax_lin, ax_log, ax_third):
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7)
-    if rigid:
-        _plot_attitudes(runs, axes[1])
+        _legend(ax)
+    if rows == 2:
+        second = list(axes[1])
+        if rigid:
+            _plot_attitudes(runs, second.pop(0), second.pop(0))
+        if elastic:
+            _plot_deformation(runs, second.pop(0))
+        for ax in second:
+            ax.axis("off")
     if title:
         fig.suptitle(title)
     fig.savefig(output, dpi=120)

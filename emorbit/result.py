@@ -52,6 +52,9 @@ class Result:
         The field's centre (3,), m.
     attrs : dict
         The file's root attributes, for a Result read from a file (empty otherwise).
+    split_steps : ndarray
+        (n,) steps of the interval that ends at each record that were redone in sub-steps
+        because Newton failed on the whole step (0 for the first record).
     """
 
     time: np.ndarray
@@ -68,6 +71,11 @@ class Result:
     gm: float
     center: np.ndarray
     attrs: dict = field(default_factory=dict)
+    split_steps: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.split_steps is None:
+            self.split_steps = np.zeros(len(self.time))
 
     def __len__(self) -> int:
         return len(self.time)

@@ -1,37 +1,158 @@
-"""Taking a simulation's steps: compiled chunks, records, checkpoints, and failed steps.
+"""Taking a simulation's steps: compiled chunks, records, checkpoints, failed steps and signals.
 
 :class:`ChunkDriver` is the part of :class:`emorbit.Simulation` that steps. It advances every
-body system in chunks of steps that end on records and never straddle a checkpoint
-(:data:`CHUNK_WORK` and :data:`CHUNK_BYTES` bound a chunk), hands each chunk's records to
-the :class:`~emorbit.io.recorder.Sink`, and writes the complete state at every checkpoint,
-so that a run restarted from one continues bit for bit (:mod:`emorbit.io.resume`).
+body system in chunks of steps that end on records and never straddle a checkpoint, hands
+each chunk's records to the :class:`~emorbit.io.recorder.Sink`, and writes the complete state
+at every checkpoint, so that a run restarted from one continues bit for bit
+(:mod:`emorbit.io.resume`). Chunks are sized from the measured wall time of the chunks before
+(:data:`CHUNK_SECONDS` each; :data:`CHUNK_BYTES` of records at most). Checkpoints fall every
+``checkpoint_every`` steps when that is given, else by wall time: at most
+:data:`CHECKPOINT_SECONDS` apart (or one record interval, where a single one takes longer).
+Where chunks end and checkpoints fall changes no result.
 
 A step that fails (Newton does not converge) is redone from the chunk's snapshots in 2, 4,
 ... 2**MAX_SPLIT sub-steps; each sub-step is an ordinary step of the method, so energy and
-angular momentum stay conserved. Whatever ends the run (its end, a failure, Ctrl-C), the
-output file is closed with the matching status: "completed", "failed" or "interrupted".
+angular momentum stay conserved, and the record that closes the interval counts it in
+``diagnostics/split_steps``. SIGINT and SIGTERM stop the run at the end of the chunk in
+progress (:func:`stop_on_signals`). Whatever ends the run (its end, a failure, a signal), the
+output file gets the final state, a checkpoint where the state is on the record grid, and
+the matching status: "completed", "failed" or "interrupted".
 """
 
 from __future__ import annotations
 
+import contextlib
 import numbers
 import signal
 import threading
+import time as _time
 
 import numpy as np
 
 from .errors import InputError, IntegrationError
 from .integrators import coefficients
+from .io.hdf5 import FileLostError
 from .io.recorder import Sink, progress_bar
 from .kernels.codes import STATUS_NO_CONVERGENCE
 from .result import Result
 
-__all__ = ["ChunkDriver", "CHUNK_WORK", "CHUNK_BYTES"]
+__all__ = [
+    "ChunkDriver",
+    "CHUNK_SECONDS",
+    "CHECKPOINT_SECONDS",
+    "CHUNK_BYTES",
+    "RunInterrupted",
+    "StopRequest",
+    "stop_on_signals",
+]
 
-#: body-substeps (weighted by system cost) per compiled chunk: about 0.5 s of em work
-CHUNK_WORK = 4_000_000
+#: the wall time a chunk of steps aims at, s (chunks grow at most 4-fold from one to the next)
+CHUNK_SECONDS = 0.5
+#: the most wall time between checkpoints when ``checkpoint_every`` is not given, s
+CHECKPOINT_SECONDS = 5.0
 #: bytes of recorded state per chunk at most
 CHUNK_BYTES = 128 * 2**20
+#: the signals that stop a run cleanly
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """A run stopped by SIGINT or SIGTERM after writing its records, final state and checkpoint.
+
+    Parameters
+    ----------
+    signum : int
+        The signal; ``emorbit`` exits with 128 + signum (130 for SIGINT, 143 for SIGTERM).
+
+    Attributes
+    ----------
+    signum : int
+        As given.
+    """
+
+    def __init__(self, signum: int):
+        self.signum = int(signum)
+        super().__init__(f"interrupted by {signal.Signals(self.signum).name}")
+
+
+class StopRequest:
+    """A signal handler that records the first SIGINT or SIGTERM instead of ending the process.
+
+    Attributes
+    ----------
+    signum : int or None
+        The first signal received, or None.
+    """
+
+    def __init__(self):
+        self.signum: int | None = None
+
+    def __call__(self, signum, frame) -> None:
+        if self.signum is None:
+            self.signum = int(signum)
+
+    def is_set(self) -> bool:
+        """Whether a stop was asked for.
+
+        Returns
+        -------
+        bool
+            True after SIGINT or SIGTERM.
+        """
+        return self.signum is not None
+
+
+@contextlib.contextmanager
+def stop_on_signals():
+    """Within the block, SIGINT and SIGTERM set a :class:`StopRequest` and the process goes on.
+
+    In the main thread the handlers are installed for the block and the previous ones put
+    back after it; where a :class:`StopRequest` is installed already (``emorbit run`` installs
+    one before it builds the scene), that one is used, so a signal that came earlier counts.
+    Outside the main thread no handler can be installed and the request is never set.
+
+    Yields
+    ------
+    StopRequest
+        The request the handlers set.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield StopRequest()
+        return
+    current = signal.getsignal(signal.SIGINT)
+    if isinstance(current, StopRequest) and signal.getsignal(signal.SIGTERM) is current:
+        yield current
+        return
+    request = StopRequest()
+    previous = {sig: signal.signal(sig, request) for sig in STOP_SIGNALS}
+    try:
+        yield request
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
+
+
+class _Pace:
+    """Chunk sizes from the measured wall time of earlier chunks, and when a checkpoint is due."""
+
+    def __init__(self, max_records: int):
+        self.records = 2  # the first chunk is short: it is timed before chunks grow
+        self.max_records = max_records
+        self.per_record = 0.0  # s
+        self.last_checkpoint = _time.monotonic()
+
+    def measured(self, nrec: int, seconds: float) -> None:
+        self.per_record = seconds / nrec
+        target = int(CHUNK_SECONDS / max(self.per_record, 1e-12))
+        self.records = max(1, min(target, 4 * self.records, self.max_records))
+
+    def checkpoint_due(self) -> bool:
+        """A checkpoint now, or the next chunk would end more than CHECKPOINT_SECONDS after the last."""
+        ahead = self.per_record * self.records
+        return _time.monotonic() - self.last_checkpoint + ahead >= CHECKPOINT_SECONDS
+
+    def checkpointed(self) -> None:
+        self.last_checkpoint = _time.monotonic()
 
 
 class ChunkDriver:
@@ -75,6 +196,16 @@ class ChunkDriver:
             s.set_state_arrays({k[len(prefix) :]: a for k, a in arrays.items() if k.startswith(prefix)})
         self._steps = int(steps)
 
+    def state_units(self) -> dict[str, str]:
+        """The units of state arrays that systems declare beyond :data:`emorbit.io.hdf5.STATE_UNITS`.
+
+        Returns
+        -------
+        dict
+            {``"<kind>/<field>"``: unit}, from each system's optional ``STATE_UNITS``.
+        """
+        return {f"{s.kind}/{k}": u for s in self.systems for k, u in getattr(s, "STATE_UNITS", {}).items()}
+
     def _file_attrs(self, every: int, n_steps: int) -> dict:
         """The root attributes that say how the run is made (see :mod:`emorbit.io.hdf5`)."""
         return {
@@ -85,6 +216,7 @@ class ChunkDriver:
             "t_end": self.time + n_steps * self._dt,
             "steps": n_steps,
             "output_every": every,
+            "checkpoint_seconds": CHECKPOINT_SECONDS,
             "gm": self.gm,
             "center": self.center,
             "field_body": (self.field.body or "") if self.field is not None else "none (free space)",
@@ -95,38 +227,66 @@ class ChunkDriver:
         }
 
     def _run_and_close(self, n_steps, every, cp, sink, writer, progress) -> Result:
-        """Step, write, and close the file with the right status whatever happens."""
-        stop = threading.Event()
-        previous = None
-        if threading.current_thread() is threading.main_thread():
-            previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
-        try:
-            self._advance(n_steps, every, sink, progress, cp, stop)
-            if stop.is_set():
-                raise KeyboardInterrupt
-        except KeyboardInterrupt:
+        """Step, write, and close the file with the right status whatever happens.
+
+        SIGINT and SIGTERM stay trapped until the file is closed, so that a second signal
+        cannot cut the final writes short; a run they stop raises :class:`RunInterrupted`
+        after its file is closed.
+        """
+        with stop_on_signals() as stop:
+            signum = None
+            try:
+                try:
+                    done = self._advance(n_steps, every, sink, progress, cp, stop)
+                except KeyboardInterrupt as exc:  # raised by a handler other than ours
+                    done, stop.signum = -1, getattr(exc, "signum", signal.SIGINT)
+                if done < n_steps:
+                    signum = stop.signum or signal.SIGINT
+                if writer is not None:
+                    self._write_end(writer, sink, every)
+            except BaseException as exc:
+                if writer is not None:
+                    note = writer.close("failed", f"{type(exc).__name__}: {exc}")
+                    if note and isinstance(exc, FileLostError):  # say where the records are
+                        exc.args = (f"{exc}{note}",)
+                raise
             if writer is not None:
-                writer.write_final_state(self._steps - self._run_origin, self.time, self.state_arrays())
-                writer.close("interrupted", f"interrupted by the user at t = {self.time!r} s")
-            raise
-        except BaseException as exc:
-            if writer is not None:
-                writer.close("failed", f"{type(exc).__name__}: {exc}")
-            raise
-        finally:
-            if previous is not None:
-                signal.signal(signal.SIGINT, previous)
-        if writer is not None:
-            writer.write_final_state(self._steps - self._run_origin, self.time, self.state_arrays())
-            writer.close("completed")
+                if signum is None:
+                    writer.close("completed")
+                else:
+                    name = signal.Signals(signum).name
+                    writer.close("interrupted", f"interrupted by {name} at t = {self.time!r} s")
+        if signum is not None:
+            raise RunInterrupted(signum)
         return sink.result()
 
+    def _write_end(self, writer, sink, every: int) -> None:
+        """The final state, and a checkpoint where the state is a record on the record grid."""
+        origin = getattr(self, "_run_origin", 0)
+        steps = self._steps - origin
+        if (
+            steps % every == 0
+            and sink.last_step == self._steps
+            and getattr(self, "_checkpointed_at", None) != self._steps
+        ):
+            self._checkpoint(sink)
+        writer.write_final_state(steps, self.time, self.state_arrays(), self.state_units())
+
+    def _checkpoint(self, sink) -> None:
+        """Drop path-dependent caches and write the state with the records so far."""
+        for s in self.systems:
+            s.on_checkpoint()
+        if sink.writer is not None:
+            origin = getattr(self, "_run_origin", 0)
+            sink.writer.write_checkpoint(
+                self._steps - origin, self.time, self.state_arrays(), sink.rows, self.state_units()
+            )
+        self._checkpointed_at = self._steps
+
     def _checkpoint_steps(self, checkpoint_every, every: int) -> int:
-        """Steps between checkpoints: a multiple of ``every`` (given or ~half a second of work)."""
+        """Steps between checkpoints, a multiple of ``every``; 0 (by wall time) when not given."""
         if checkpoint_every is None:
-            gammas = coefficients(self.order).size
-            per_step = max(1, gammas * sum(s.work_per_step() for s in self.systems))
-            checkpoint_every = max(every, CHUNK_WORK // per_step)
+            return 0
         if (
             isinstance(checkpoint_every, bool)
             or not isinstance(checkpoint_every, numbers.Integral)
@@ -148,32 +308,44 @@ class ChunkDriver:
         sink: Sink,
         progress: bool,
         cp: int | None = None,
-        stop: threading.Event | None = None,
-    ) -> None:
-        """Take ``n_steps`` steps in chunks that end on records and never straddle a checkpoint
-        (steps since the run's origin that are multiples of ``cp``); at each checkpoint the
-        state is written with the records and systems drop path-dependent caches, so that a
-        restart from it continues bit for bit."""
+        stop: StopRequest | None = None,
+    ) -> int:
+        """Take up to ``n_steps`` steps in chunks that end on records; return the steps taken.
+
+        With ``cp`` > 0 a checkpoint falls wherever the steps since the run's origin are a
+        multiple of ``cp`` (chunks never straddle one); with ``cp`` 0 or None, and a file, it
+        falls on a record when the next chunk would end more than :data:`CHECKPOINT_SECONDS`
+        after the last checkpoint. Either way the last record on the record grid is one (the
+        end of the run, written by :meth:`_write_end`, or the record before a shorter last
+        interval), so that a run's last checkpoint does not depend on wall time. At each
+        checkpoint the systems drop path-dependent caches and the state is written with the
+        records, so that a restart from it continues bit for bit. A set ``stop`` ends the
+        loop before the next chunk.
+        """
         gammas = coefficients(self.order)
-        per_record = max(1, every * gammas.size * sum(s.work_per_step() for s in self.systems))
-        nbodies = len(self.names)
-        chunk_records = max(1, min(CHUNK_WORK // per_record, CHUNK_BYTES // (128 * nbodies)))
+        pace = _Pace(max(1, CHUNK_BYTES // (128 * len(self.names))))
         origin = getattr(self, "_run_origin", 0)
+        if self._steps == origin:  # the run's start: Simulation.run has written its checkpoint
+            self._checkpointed_at = self._steps
+        by_clock = not cp and sink.writer is not None
         done = 0
         with progress_bar(n_steps, progress) as bar:
             while done < n_steps:
                 if stop is not None and stop.is_set():
-                    return
+                    break
                 left = n_steps - done
                 off = (self._steps - origin) % every
                 if off:  # after a step redone in sub-steps: back onto the record grid
                     k, nrec = min(every - off, left), 1
                 else:
                     k = every if left >= every else left
-                    nrec = min(left // k, chunk_records)
-                if cp:
-                    to_cp = cp - (self._steps - origin) % cp
-                    nrec = max(1, min(nrec, to_cp // k))
+                    most = left // k  # records up to the end, or to the next checkpoint
+                    if cp:
+                        most = min(most, max(1, (cp - (self._steps - origin) % cp) // k))
+                    nrec = min(most, pace.records)
+                    if most - nrec == 1:  # leave no chunk of a lone record
+                        nrec = most
+                start = _time.monotonic()
                 snapshots = [s.snapshot() for s in self.systems]
                 recs = self._advance_all(gammas, k, nrec)
                 failures = [(f, j) for j, (s, r) in enumerate(recs) if (f := r.first_failure()) is not None]
@@ -182,15 +354,23 @@ class ChunkDriver:
                     self._steps += k * nrec
                     done += k * nrec
                     bar.update(k * nrec)
+                    if k == every:
+                        pace.measured(nrec, _time.monotonic() - start)
                 else:
                     taken = self._recover(recs, snapshots, min(failures), k, every, gammas, sink, origin)
                     done += taken
                     bar.update(taken)
-                if cp and (self._steps - origin) % cp == 0:
-                    for s in self.systems:
-                        s.on_checkpoint()
-                    if sink.writer is not None:
-                        sink.writer.write_checkpoint(self._steps - origin, self.time, self.state_arrays(), sink.rows)
+                since = self._steps - origin
+                # the last record on the grid before a shorter last interval: the run's last checkpoint
+                last = since % every == 0 and 0 < n_steps - done < every
+                if cp:
+                    due = since % cp == 0 or last
+                else:
+                    due = by_clock and since % every == 0 and done < n_steps and (last or pace.checkpoint_due())
+                if due:
+                    self._checkpoint(sink)
+                    pace.checkpointed()
+        return done
 
     #: a failing step is retried as 2, 4, ... 2**MAX_SPLIT sub-steps before the run stops
     MAX_SPLIT = 4
@@ -232,6 +412,7 @@ class ChunkDriver:
             ]
             if all(r.first_failure() is None for _, r in sub):
                 self.retried_steps = getattr(self, "retried_steps", 0) + 1
+                sink.split_pending += 1
                 self._steps += 1
                 if (self._steps - origin) % every == 0:
                     sink.emit(sub, np.array([self._steps]), 1, 1)

@@ -102,8 +102,22 @@ def test_plot(tmp_path, paper_file):
 
 
 def test_scenes_command(capsys):
+    """One line per shipped scene: its name, what it is (from its leading comment), its method."""
     assert main(["scenes"]) == 0
-    assert "paper-ellipse" in capsys.readouterr().out
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in lines] == emorbit.list_scenes()
+    paper = next(line for line in lines if line.startswith("paper-ellipse "))
+    assert "The satellite on an ellipse from Goettlicher & Schweizerhof [em, order 2]" in paper
+    midpoint = next(line for line in lines if line.startswith("paper-ellipse-midpoint "))
+    assert midpoint.endswith("[midpoint, order 2]")
+    assert all(len(line) < 160 and len(line.split()) > 3 for line in lines)
+
+
+def test_summary_prints_dt_with_six_significant_digits(tmp_path, capsys):
+    out = tmp_path / "dt.h5"
+    assert main(["run", "paper-ellipse", "-o", str(out), "--t-end", "4.6 s", "--dt", "0.4647581234567891 s"]) == 0
+    summary = capsys.readouterr().out
+    assert "dt = 0.464758 s," in summary and "0.4647581234567891" not in summary
 
 
 def test_quiet_when_stderr_is_not_a_terminal(tmp_path, capsys):
@@ -129,3 +143,19 @@ def test_console_entry_point_in_a_fresh_process(tmp_path, paper_file):
             np.testing.assert_array_equal(f[name][()], g[name][()])
     again = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert again.returncode == 2 and "exists" in again.stderr
+
+
+def test_max_output_limits_the_run_before_a_file_exists(tmp_path, capsys):
+    """--max-output overrides the scene's limit: a run whose records would exceed it is
+    refused (exit 2) naming the keys, and no file is created; a limit above the run's
+    projected size lets it run."""
+    out = tmp_path / "big.h5"
+    assert main(["run", "paper-ellipse", "-o", str(out), "-q", "--max-output", "10 kB"]) == 2
+    err = capsys.readouterr().err
+    assert "max_output" in err and "t_end" in err and "output_every" in err
+    assert not out.exists() and not any(tmp_path.iterdir())
+    assert main(["run", "paper-ellipse", "-o", str(out), "-q", "--max-output", "10 MB"]) == 0
+    with h5py.File(out, "r") as f:
+        assert f.attrs["status"] == "completed"
+    assert main(["run", "paper-ellipse", "-o", str(tmp_path / "x.h5"), "-q", "--max-output", "ten"]) == 2
+    assert "max_output" in capsys.readouterr().err

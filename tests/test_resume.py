@@ -9,6 +9,7 @@ import time
 import h5py
 import numpy as np
 import pytest
+from shared_scenes import reuse_structure
 
 import emorbit
 from emorbit.cli import main
@@ -39,29 +40,7 @@ def _same_files(a, b):
     return diffs
 
 
-REUSE_STRUCTURE = """
-[integrator]
-method = "em"
-order = 4
-dt = "0.01 s"
-t_end = "4 s"
-output_every = 3
-newton = "reuse"
-
-[[body]]
-name = "bar"
-kind = "elastic"
-mesh = "beam"
-size = ["2 m", "0.1 m", "0.1 m"]
-elements = [4, 1, 1]
-young = "10 MPa"
-poisson = 0.3
-density = "1000 kg / m3"
-position = ["0 m", "0 m", "0 m"]
-velocity = ["0 m/s", "0 m/s", "0 m/s"]
-angular_velocity = ["0.3 rad/s", "0.2 rad/s", "3 rad/s"]
-node_output_every = 2
-"""
+REUSE_STRUCTURE = reuse_structure("4 s")
 
 
 @pytest.mark.parametrize(
@@ -125,7 +104,7 @@ def test_resume_errors(tmp_path):
     bare = tmp_path / "bare.h5"
     with h5py.File(bare, "w") as f:
         f.attrs["scene"] = "x"
-    with pytest.raises(emorbit.InputError, match="no checkpoint"):
+    with pytest.raises(emorbit.InputError, match="not an emorbit run file"):
         resume(bare, "1 s")
     out = tmp_path / "r.h5"
     assert main(["run", "paper-ellipse", "-o", str(out), "-q", "--t-end", "46.4758 s", "--checkpoint-every", "10"]) == 0

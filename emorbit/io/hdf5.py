@@ -1,37 +1,34 @@
 """The HDF5 run file: written in chunks while a run runs, read back into a Result.
 
-Layout (every dataset has a ``unit`` attribute; one row per record unless said)::
+Layout (docs/hdf5.md lists every dataset and attribute): ``/time`` (s), ``/invariants/``
+``energy`` (J), ``momentum`` (kg m / s) and ``angular_momentum`` (kg m2 / s, about the field's
+centre), ``/diagnostics/newton_iterations`` and ``split_steps`` (1), one row per record;
+``/bodies/<name>/`` ``position`` (m) and ``velocity`` (m / s) of every body, ``attitude`` and
+``angular_velocity`` (rad / s) of rigid bodies, ``nodes/position`` and ``nodes/time`` of
+elastic ones, and what is written once (``mass_points/...``, ``mesh/...``). Every dataset has
+a ``unit`` attribute.
 
-    /time                              (n,)      s
-    /invariants/energy                 (n,)      J
-    /invariants/momentum               (n, 3)    kg m / s
-    /invariants/angular_momentum       (n, 3)    kg m2 / s   about the field's centre
-    /diagnostics/newton_iterations     (n,)      1           mean per body and sub-step
-    /bodies/<name>/position            (n, 3)    m           centre of mass of extended bodies
-    /bodies/<name>/velocity            (n, 3)    m / s
-    /bodies/<name>/attitude            (n, 4)    1           rigid: unit quaternion (w, x, y, z), body to space
-    /bodies/<name>/angular_velocity    (n, 3)    rad / s     rigid: in the body frame
-    /bodies/<name>/mass_points/...     position (N, 3) m, mass (N,) kg: rigid, body frame, written once
-    /bodies/<name>/nodes/position      (k, N, 3) m           elastic: every node_output_every records
-    /bodies/<name>/nodes/time          (k,)      s
-    /bodies/<name>/mesh/...            reference_nodes (N, 3) m, bars, tetrahedra: elastic, written once
+Body groups carry ``kind``, ``mass`` and the kind's attributes; the root attributes say how
+the run was made (method, order, ``dt``, the field, the scene as TOML text, ``status``, ...),
+each with a unit followed by a ``<name>_unit`` attribute (:data:`ROOT_UNITS`). Datasets are
+chunked and growable and every appended block is flushed, so a run that stops early leaves
+a readable file.
 
-Body groups carry ``kind`` ("point", "rigid", "elastic") and ``mass`` (kg); rigid bodies
-``shape``, ``gravity``, ``mass_points`` and ``inertia`` (kg m2, of the discretisation);
-elastic bodies their element counts and material. Root attributes: ``creator``,
-``emorbit_version``, ``created`` (UTC, ISO 8601), ``versions`` (JSON), the run's ``method``,
-``order``, ``dt`` (s), ``t_start`` and ``t_end`` (s), ``steps``, ``output_every``,
-``checkpoint_every``, ``gm`` (m3 / s2), ``center`` (m), ``field_body``, ``field_radius`` (m),
-``adaptive``, ``roundoff``, ``scene`` (the scene as TOML text), ``status`` ("running",
-"completed", "failed", "interrupted") and ``error``. Datasets are chunked and growable and
-every appended block is flushed, so a run that stops early leaves a readable file.
+A new file is created under a temporary name in the output's folder and renamed into place
+with its first checkpoint, so an existing file is never truncated and a file at the path
+always has a checkpoint. With ``overwrite`` the existing file is first opened for writing,
+which takes its HDF5 file lock: a file that another run is writing (and so holds locked) is
+refused, never replaced. The writer checks at every flush that its path still names the
+file it writes; a file removed or replaced under a run stops that run with
+:class:`FileLostError`, and the file it wrote is copied next to the path if nothing else
+reaches it.
 
 ``/checkpoint`` holds the complete state (every system's arrays, compensation terms and
-warm starts included; attributes ``steps`` since the run's start, ``time`` and ``records``),
-replaced every ``checkpoint_every`` steps: written as ``/checkpoint_next``, flushed, then
-renamed, so that a kill never leaves half a checkpoint. ``/final_state`` holds the state at
-the end of the run, also of an interrupted one. ``emorbit resume`` continues from the
-checkpoint (:mod:`emorbit.io.resume`); hdf5.md lists every dataset and attribute.
+warm starts included, each with its ``unit``; attributes ``steps`` since the run's start,
+``time`` and ``records``), replaced at every checkpoint: written as ``/checkpoint_next``,
+flushed, then renamed, so that a kill never leaves half a checkpoint. ``/final_state`` holds
+the state at the end of the run, also of an interrupted one. ``emorbit resume`` continues
+from the checkpoint (:mod:`emorbit.io.resume`); hdf5.md lists every dataset and attribute.
 """
 
 from __future__ import annotations
@@ -40,15 +37,17 @@ import datetime as _dt
 import json
 import os
 import platform
+import secrets
+import weakref
 
 import h5py
 import numpy as np
 
 from .._version import __version__
-from ..errors import InputError
+from ..errors import EmorbitError, InputError
 from ..result import Result
 
-__all__ = ["Writer", "read", "LAYOUT_UNITS"]
+__all__ = ["Writer", "read", "open_run_file", "FileLostError", "LAYOUT_UNITS", "ROOT_UNITS", "STATE_UNITS"]
 
 #: the unit attribute of each top-level dataset
 LAYOUT_UNITS = {
@@ -57,8 +56,153 @@ LAYOUT_UNITS = {
     "invariants/momentum": "kg m / s",
     "invariants/angular_momentum": "kg m2 / s",
     "diagnostics/newton_iterations": "1",
+    "diagnostics/split_steps": "1",
 }
-_SCALAR = ("time", "invariants/energy", "diagnostics/newton_iterations")
+_SCALAR = ("time", "invariants/energy", "diagnostics/newton_iterations", "diagnostics/split_steps")
+
+#: root attributes that have a unit: each is written with a companion ``<name>_unit``
+ROOT_UNITS = {
+    "dt": "s",
+    "t_start": "s",
+    "t_end": "s",
+    "gm": "m3 / s2",
+    "center": "m",
+    "field_radius": "m",
+    "checkpoint_seconds": "s",
+}
+
+#: the ``unit`` attribute of each state array in /checkpoint and /final_state (a system may
+#: add its own in a ``STATE_UNITS`` class attribute, {field: unit})
+STATE_UNITS = {
+    **dict.fromkeys(("point/x", "point/cx"), "m"),
+    **dict.fromkeys(("point/v", "point/cv"), "m / s"),
+    **dict.fromkeys(("rigid/q", "rigid/cq"), "m (columns 0-2), 1 (columns 3-11)"),
+    **dict.fromkeys(("rigid/v", "rigid/cv"), "m / s (columns 0-2), 1 / s (columns 3-11)"),
+    **dict.fromkeys(("rigid/lam", "structure/lam"), "J"),
+    **dict.fromkeys(("structure/u", "structure/cu"), "m (rigid-body axes: 1)"),
+    **dict.fromkeys(("structure/v", "structure/cv"), "m / s (rigid-body axes: 1 / s)"),
+    "structure/acc": "m / s2 (rigid-body axes: 1 / s2)",
+    "structure/lu_steps": "s",
+    "structure/lu_jacobians": "mixed: the Newton system's Jacobian values, CSC order",
+    "structure/last_iterations": "s (column 0), 1 (column 1)",
+}
+
+#: where a new checkpoint is written before it replaces /checkpoint
+NEXT_CHECKPOINT = "checkpoint_next"
+
+
+class FileLostError(EmorbitError, OSError):
+    """The run file was removed or replaced while a run wrote it; the message says where the
+    records are, if they could be kept (``emorbit run`` exits with code 1)."""
+
+
+def _exists_message(path: str) -> str:
+    """An output file exists: how to replace it from Python and from the command line."""
+    return (
+        f"{path!r} exists; choose another name, or replace it: overwrite=True in Simulation.run, "
+        "--overwrite on the command line"
+    )
+
+
+def _locked(exc: BaseException) -> bool:
+    return "unable to lock file" in str(exc)
+
+
+def _busy_message(path: str) -> str:
+    return (
+        f"{path!r} is being written by another process (it holds the file's HDF5 lock); "
+        "wait for that run to end, stop it, or choose another name"
+    )
+
+
+def open_run_file(path, key: str = "file", *, peek: bool = False) -> h5py.File:
+    """Open an emorbit run file read-only, with errors that say what the file is not.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    key : str
+        The name the errors give the file (``"file"``, ``"files"``).
+    peek : bool
+        If another process is writing the file (and holds its lock), read it without the
+        lock (what the writer has flushed); otherwise that is an error.
+
+    Returns
+    -------
+    h5py.File
+        Open for reading, with the layout of a run file (:func:`check_layout`).
+
+    Raises
+    ------
+    InputError
+        The file does not exist, is not HDF5 or not a run file, or another process writes it
+        (without ``peek``).
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise InputError(key, f"{path!r} does not exist")
+    if os.path.isdir(path):
+        raise InputError(key, f"{path!r} is a folder, not a run file")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        f = None
+        if _locked(exc) and peek:
+            try:
+                f = h5py.File(path, "r", locking=False)
+            except OSError:
+                pass
+        if f is None:
+            if _locked(exc):
+                raise InputError(key, _busy_message(path)) from None
+            if "signature" in str(exc):
+                raise InputError(key, f"{path!r} is not an HDF5 file (an emorbit run file is one)") from None
+            raise InputError(key, f"{path!r} cannot be read as an HDF5 file ({exc})") from None
+    try:
+        check_layout(f, path, key)
+    except BaseException:
+        f.close()
+        raise
+    return f
+
+
+def check_layout(f: h5py.File, path: str, key: str = "file") -> None:
+    """Check that an open HDF5 file has the layout of an emorbit run file.
+
+    Parameters
+    ----------
+    f : h5py.File
+        The open file.
+    path : str
+        Its path, for the messages.
+    key : str
+        The name the errors give the file.
+
+    Raises
+    ------
+    InputError
+        A dataset, group or root attribute of the layout is missing or has the wrong shape,
+        naming it.
+    """
+    what = f"{path!r} is an HDF5 file but not an emorbit run file"
+    if "time" not in f and "bodies" not in f and "method" not in f.attrs:
+        raise InputError(key, f"{what} (it has no /time, no /bodies and no 'method' attribute)")
+    for name in LAYOUT_UNITS:
+        if name == "diagnostics/split_steps":
+            continue  # absent in files of earlier versions: read as zeros
+        if not isinstance(f.get(name), h5py.Dataset):
+            raise InputError(key, f"{what}: dataset /{name} is missing")
+        width = () if name in _SCALAR else (3,)
+        if f[name].ndim != 1 + len(width) or f[name].shape[1:] != width:
+            raise InputError(
+                key, f"{path!r}: dataset /{name} has shape {f[name].shape}, expected (n{', 3' * len(width)})"
+            )
+    if not isinstance(f.get("bodies"), h5py.Group):
+        raise InputError(key, f"{what}: group /bodies is missing")
+    for attr in ("method", "order", "dt", "gm", "center"):
+        if attr not in f.attrs:
+            raise InputError(key, f"{what}: root attribute {attr!r} is missing")
 
 
 def _versions() -> str:
@@ -96,12 +240,53 @@ def _append(ds, block):
     ds[n0:] = block
 
 
-#: where a new checkpoint is written before it replaces /checkpoint
-NEXT_CHECKPOINT = "checkpoint_next"
+def _write_root_attrs(f, attrs: dict) -> None:
+    """Root attributes, each with a unit followed by its ``<name>_unit``."""
+    for key, value in attrs.items():
+        f.attrs[key] = value
+        if key in ROOT_UNITS:
+            f.attrs[f"{key}_unit"] = ROOT_UNITS[key]
+
+
+def _hold(path: str):
+    """Open an existing output file for writing, which takes its HDF5 lock, so that no other run
+    starts writing it while it is replaced; None for a file that is not HDF5 (no run writes it).
+
+    Raises InputError when another process holds the lock, or when the path stops naming
+    the file that was opened."""
+    try:
+        held = h5py.File(path, "r+")
+    except OSError as exc:
+        if _locked(exc):
+            raise InputError("output", _busy_message(path)) from None
+        try:  # a read-only file: a shared lock still excludes a writer
+            held = h5py.File(path, "r")
+        except OSError as exc2:
+            if _locked(exc2):
+                raise InputError("output", _busy_message(path)) from None
+            return None
+    try:
+        same = _identity(os.stat(path)) == _identity(os.fstat(held.id.get_vfd_handle()))
+    except OSError:
+        same = False
+    if not same:
+        held.close()
+        raise InputError("output", f"{path!r} was replaced by another process while this run opened it; try again")
+    return held
+
+
+def _identity(st) -> tuple[int, int]:
+    return (st.st_dev, st.st_ino)
 
 
 class Writer:
     """A run file being written: created with its layout, then appended to record by record.
+
+    The file is created under a temporary name in the same folder and gets its name with its
+    first checkpoint (or when it is closed before one), so nothing at ``path`` is truncated
+    and a file at ``path`` always holds a checkpoint to resume from. With ``overwrite`` an
+    existing file is replaced only while this writer holds its HDF5 lock, so a file another
+    run is writing is refused. Every flush checks that ``path`` still names this file.
 
     Parameters
     ----------
@@ -112,7 +297,7 @@ class Writer:
         ({dataset: (width or shape, unit)}: growable, a row per record or fewer) and
         ``constants`` ({path: (array, unit)}, written once).
     attrs : dict
-        Root attributes to store.
+        Root attributes to store (those in :data:`ROOT_UNITS` get a ``<name>_unit``).
     overwrite : bool
         Replace an existing file; otherwise an existing file is an error, so a finished run
         is never lost by accident.
@@ -122,28 +307,84 @@ class Writer:
     Raises
     ------
     InputError
-        The file exists (without ``overwrite``), its folder does not, or it cannot be created.
+        The file exists (without ``overwrite``), another process is writing it, its folder
+        does not exist, or it cannot be created.
     """
 
     def __init__(self, path, bodies, attrs: dict, *, overwrite: bool = False, chunk_rows: int = 1024):
         path = os.fspath(path)
-        if os.path.exists(path) and not overwrite:
-            raise InputError("output", f"{path!r} exists; choose another name or pass overwrite (--overwrite)")
+        if os.path.lexists(path) and not overwrite:
+            raise InputError("output", _exists_message(path))
         folder = os.path.dirname(os.path.abspath(path))
         if not os.path.isdir(folder):
             raise InputError("output", f"folder {folder!r} does not exist")
-        try:
-            self.file = h5py.File(path, "w")
-        except OSError as exc:
-            raise InputError("output", f"cannot create {path!r}: {exc}") from None
+        if os.path.isdir(path):
+            raise InputError("output", f"{path!r} is a folder")
         self.path = path
+        self.file = None
+        self.rescued = None
+        self._lost = None
+        self._overwrite = overwrite
+        self._held = _hold(path) if overwrite and os.path.lexists(path) else None
+        self._temp = os.path.join(folder, f".{os.path.basename(path)}.{os.getpid()}-{secrets.token_hex(4)}.tmp")
+        try:
+            try:
+                self.file = h5py.File(self._temp, "x")
+            except OSError as exc:
+                raise InputError("output", f"cannot create a file in {folder!r}: {exc}") from None
+            self._identity = _identity(os.fstat(self.file.id.get_vfd_handle()))
+            self._layout(bodies, attrs, chunk_rows)
+            self.file.flush()
+        except BaseException:
+            self._discard()
+            raise
+        # a writer dropped before its file got its name (an error before the first
+        # checkpoint) leaves no temporary file behind
+        self._finalizer = weakref.finalize(self, _discard, self.file, self._temp, self._held)
+
+    def _discard(self) -> None:
+        _discard(self.file, self._temp, self._held)
+        self._held = None
+
+    def _place(self) -> None:
+        """Give the file its name, once it holds a checkpoint: replace what is at the path
+        (overwrite, while holding its lock) or link without replacing."""
+        if self._temp is None:
+            return
+        temp, path = self._temp, self.path
+        try:
+            if self._overwrite:
+                os.replace(temp, path)
+            else:
+                try:
+                    os.link(temp, path)  # fails if a file appeared at path meanwhile
+                except FileExistsError:
+                    raise InputError("output", _exists_message(path)) from None
+                except OSError:  # no hard links on this file system
+                    if os.path.lexists(path):
+                        raise InputError("output", _exists_message(path)) from None
+                    os.replace(temp, path)
+                else:
+                    os.unlink(temp)
+        except BaseException as exc:
+            self._discard()
+            self._finalizer.detach()
+            if isinstance(exc, OSError):
+                raise InputError("output", f"cannot create {path!r}: {exc}") from None
+            raise
+        self._temp = None
+        self._finalizer.detach()
+        if self._held is not None:
+            self._held.close()
+            self._held = None
+
+    def _layout(self, bodies, attrs: dict, chunk_rows: int) -> None:
         f = self.file
         f.attrs["creator"] = f"emorbit {__version__}"
         f.attrs["emorbit_version"] = __version__
         f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
         f.attrs["versions"] = _versions()
-        for key, value in attrs.items():
-            f.attrs[key] = value
+        _write_root_attrs(f, attrs)
         f.attrs["status"] = "running"
         self._ds = {
             name: _growable(f, name, None if name in _SCALAR else 3, unit, chunk_rows)
@@ -161,9 +402,56 @@ class Writer:
             self._body_ds[body["name"]] = {
                 q: _growable(g, q, width, unit, chunk_rows) for q, (width, unit) in body["datasets"].items()
             }
-        f.flush()
 
-    def append(self, time, energy, momentum, angular_momentum, newton_iterations, data):
+    # -- the file's identity --------------------------------------------------------------
+    def lost(self) -> str | None:
+        """Whether the path still names the file this writer writes.
+
+        Returns
+        -------
+        str or None
+            None while it does (or before the file has its name); else what happened to it.
+        """
+        if self._temp is not None:
+            return None
+        try:
+            now = _identity(os.stat(self.path))
+        except FileNotFoundError:
+            return "was removed"
+        except OSError:  # cannot tell (permissions, a file system hiccup): no evidence of a loss
+            return None
+        return None if now == self._identity else "was replaced by another file"
+
+    def _flush(self) -> None:
+        """Flush, then stop the run if the path no longer names this file."""
+        self.file.flush()
+        if self._lost is None and (what := self.lost()):
+            self._lost = what
+            raise FileLostError(
+                f"{self.path!r} {what} while this run was writing it (by another process or by hand); "
+                "the records this run wrote are not at that path"
+            )
+
+    def _rescue(self) -> str:
+        """Copy the file this writer still holds open next to the path, if no other name reaches
+        it; say where the records are."""
+        try:
+            fd = self.file.id.get_vfd_handle()
+            if os.fstat(fd).st_nlink > 0:
+                return "; the file this run wrote was moved elsewhere and holds them"
+            rescue = f"{self.path}.lost-{os.getpid()}"
+            with open(rescue, "xb") as out:
+                offset = 0
+                while block := os.pread(fd, 1 << 22, offset):
+                    out.write(block)
+                    offset += len(block)
+            self.rescued = rescue
+            return f"; they are kept in {rescue!r}"
+        except (OSError, ValueError, AttributeError) as exc:
+            return f", and could not be kept elsewhere ({exc})"
+
+    # -- records and states ---------------------------------------------------------------
+    def append(self, time, energy, momentum, angular_momentum, newton_iterations, data, split_steps=None):
         """Append a block of records and flush.
 
         Parameters
@@ -178,29 +466,39 @@ class Writer:
             (k,) mean Newton iterations per body and sub-step.
         data : dict
             {body: {dataset: block}}, a block of rows for each of the body's datasets.
+        split_steps : array_like, optional
+            (k,) steps of each record interval that were redone in sub-steps (default 0).
+
+        Raises
+        ------
+        FileLostError
+            The path no longer names this file.
         """
+        time = np.asarray(time, float)
+        if split_steps is None:
+            split_steps = np.zeros(time.shape[0])
         for name, block in (
             ("time", time),
             ("invariants/energy", energy),
             ("invariants/momentum", momentum),
             ("invariants/angular_momentum", angular_momentum),
             ("diagnostics/newton_iterations", newton_iterations),
+            ("diagnostics/split_steps", split_steps),
         ):
             _append(self._ds[name], np.asarray(block, float))
         for name, sets in self._body_ds.items():
             for q, ds in sets.items():
                 _append(ds, data[name][q])
-        self.file.flush()
+        self._flush()
 
-    def write_checkpoint(self, steps: int, time: float, arrays: dict, rows: int) -> None:
+    def write_checkpoint(self, steps: int, time: float, arrays: dict, rows: int, units: dict | None = None) -> None:
         """Store the complete state and the number of records that belong to it, then flush.
 
         The new state goes into ``/checkpoint_next`` first, is flushed, and only then
         replaces ``/checkpoint`` (a link operation): a run killed while the arrays are being
-        written keeps the previous, consistent checkpoint (an in-place update could leave
-        some arrays of the new state beside the old step count). If a kill falls between the
-        two link operations, :func:`emorbit.io.resume.load_checkpoint` takes the complete
-        ``/checkpoint_next``.
+        written keeps the previous checkpoint, and one killed between the two link operations
+        leaves the complete ``/checkpoint_next``, which a resume takes. The file gets its name
+        with its first checkpoint.
 
         Parameters
         ----------
@@ -212,20 +510,28 @@ class Writer:
             {``"<kind>/<field>"``: array}, as :meth:`emorbit.Simulation.state_arrays` gives.
         rows : int
             Records written up to and including this state.
+        units : dict, optional
+            {``"<kind>/<field>"``: unit} for arrays not in :data:`STATE_UNITS`.
+
+        Raises
+        ------
+        FileLostError
+            The path no longer names this file.
         """
         f = self.file
         if NEXT_CHECKPOINT in f:
             del f[NEXT_CHECKPOINT]
-        g = self._state_group(NEXT_CHECKPOINT, steps, time, arrays)
+        g = self._state_group(NEXT_CHECKPOINT, steps, time, arrays, units)
         g.attrs["records"] = int(rows)
         g.attrs["complete"] = True
         f.flush()
         if "checkpoint" in f:
             del f["checkpoint"]
         f.move(NEXT_CHECKPOINT, "checkpoint")
-        f.flush()
+        self._flush()
+        self._place()
 
-    def write_final_state(self, steps: int, time: float, arrays: dict) -> None:
+    def write_final_state(self, steps: int, time: float, arrays: dict, units: dict | None = None) -> None:
         """Store the state at the end of the run in ``/final_state`` (resuming uses the checkpoint).
 
         Parameters
@@ -236,12 +542,25 @@ class Writer:
             The time of the state, s.
         arrays : dict
             {``"<kind>/<field>"``: array}.
-        """
-        self._state_group("final_state", steps, time, arrays)
-        self.file.flush()
+        units : dict, optional
+            {``"<kind>/<field>"``: unit} for arrays not in :data:`STATE_UNITS`.
 
-    def _state_group(self, name: str, steps: int, time: float, arrays: dict):
+        Raises
+        ------
+        FileLostError
+            The path no longer names this file.
+        """
+        self._state_group("final_state", steps, time, arrays, units)
+        self._flush()
+
+    def _state_group(self, name: str, steps: int, time: float, arrays: dict, units: dict | None = None):
         g = self.file.require_group(name)
+        stale = []
+        g.visititems(
+            lambda key, obj: stale.append(key) if isinstance(obj, h5py.Dataset) and key not in arrays else None
+        )
+        for key in stale:  # arrays of an earlier state that this one has not (a structure's kept factors)
+            del g[key]
         for key, value in arrays.items():
             value = np.asarray(value, float)
             if key in g and g[key].shape == value.shape:
@@ -250,6 +569,9 @@ class Writer:
                 if key in g:
                     del g[key]
                 g.create_dataset(key, data=value)
+            unit = (units or {}).get(key, STATE_UNITS.get(key))
+            if unit is not None:
+                g[key].attrs["unit"] = unit
         g.attrs["steps"] = int(steps)
         g.attrs["time"] = float(time)
         g.attrs["time_unit"] = "s"
@@ -261,13 +583,14 @@ class Writer:
 
         Every record after the first ``records`` is dropped (nodal outputs after the last
         kept record too), the root attributes are updated and the status is set to running.
+        The caller checks the file first (:func:`emorbit.io.resume.load_checkpoint` does).
 
         Parameters
         ----------
         path : str or os.PathLike
             The run file.
         records : int
-            Records to keep.
+            Records to keep (at least 1, at most the rows of every record dataset).
         attrs : dict
             Root attributes to set.
 
@@ -275,11 +598,26 @@ class Writer:
         -------
         Writer
             Appending after the kept records.
+
+        Raises
+        ------
+        InputError
+            Another process is writing the file, or it cannot be opened for writing.
         """
         self = cls.__new__(cls)
         self.path = os.fspath(path)
-        self.file = h5py.File(self.path, "r+")
+        self._lost, self._temp, self._held, self.rescued = None, None, None, None
+        try:
+            self.file = h5py.File(self.path, "r+")
+        except OSError as exc:
+            if _locked(exc):
+                raise InputError("file", _busy_message(self.path)) from None
+            raise InputError("file", f"cannot open {self.path!r} for writing ({exc})") from None
         f = self.file
+        self._identity = _identity(os.fstat(f.id.get_vfd_handle()))
+        if "diagnostics/split_steps" not in f:  # a file of an earlier version: no split counts
+            ds = _growable(f, "diagnostics/split_steps", None, LAYOUT_UNITS["diagnostics/split_steps"], 1024)
+            ds.resize(f["time"].shape[0], axis=0)
         self._ds = {name: f[name] for name in LAYOUT_UNITS}
         self._body_ds = {}
         for name, g in f["bodies"].items():
@@ -296,16 +634,22 @@ class Writer:
                     ds.resize(keep, axis=0)
                 elif ds.maxshape and ds.maxshape[0] is None:
                     ds.resize(records, axis=0)
-        for key, value in attrs.items():
-            f.attrs[key] = value
+        _write_root_attrs(f, attrs)
+        for key in ROOT_UNITS:
+            if key in f.attrs and f"{key}_unit" not in f.attrs:
+                f.attrs[f"{key}_unit"] = ROOT_UNITS[key]
         f.attrs["status"] = "running"
         if "error" in f.attrs:
             del f.attrs["error"]
-        f.flush()
+        self._flush()
         return self
 
-    def close(self, status: str = "completed", error: str | None = None) -> None:
+    def close(self, status: str = "completed", error: str | None = None) -> str:
         """Mark the run's status, flush and close the file; a second call does nothing.
+
+        A file that has no name yet (no checkpoint was written) gets it now. A file whose
+        path was removed or replaced under the run is copied next to the path
+        (``<path>.lost-<pid>``) when no other name reaches it.
 
         Parameters
         ----------
@@ -313,17 +657,79 @@ class Writer:
             ``"completed"``, ``"failed"`` or ``"interrupted"``.
         error : str, optional
             The message to store in the root attribute ``error``.
+
+        Returns
+        -------
+        str
+            "" or, for a lost file, where its records are (appended to the error's message).
+
+        Raises
+        ------
+        FileLostError
+            The path no longer names this file and that was not reported yet; the file is
+            marked and closed all the same.
+        InputError
+            The file could not get its name (another run's file appeared at the path).
         """
         if not self.file:
-            return
+            return ""
         self.file.attrs["status"] = status
         if error is not None:
             self.file.attrs["error"] = error
+        self.file.flush()
+        if self._temp is not None:
+            try:
+                self._place()
+            except BaseException:
+                self.file.close()
+                raise
+        reported = self._lost is not None
+        if not reported:
+            self._lost = self.lost()
+        note = self._rescue() if self._lost else ""
         self.file.close()
+        if self._lost and not reported:
+            raise FileLostError(
+                f"{self.path!r} {self._lost} while this run was writing it (by another process or by hand); "
+                f"the records this run wrote are not at that path{note}"
+            )
+        return note
+
+
+def _discard(file, temp, held) -> None:
+    """Close and remove a file that never got its name, and let go of the file it was to replace."""
+    if file:
+        file.close()
+    if temp is not None and os.path.lexists(temp):
+        os.unlink(temp)
+    if held:
+        held.close()
+
+
+def _rows(f) -> int:
+    """Records complete in every record dataset (a run killed while appending may leave some
+    datasets a block longer than others)."""
+    n = min(f[name].shape[0] for name in LAYOUT_UNITS if name in f)
+    for g in f["bodies"].values():
+        for ds in g.values():
+            if isinstance(ds, h5py.Dataset) and ds.maxshape and ds.maxshape[0] is None:
+                n = min(n, ds.shape[0])
+    return n
+
+
+def _attr(f, path: str, name: str, kind):
+    value = f.attrs[name]
+    try:
+        return kind(value.item() if isinstance(value, np.generic) else value)
+    except (TypeError, ValueError):
+        raise InputError("file", f"{path!r}: root attribute {name!r} is {value!r}, not a {kind.__name__}") from None
 
 
 def read(path) -> Result:
     """Read a run file.
+
+    A file that another run is writing is read as far as that run has flushed it; records
+    that are complete in every dataset are returned.
 
     Parameters
     ----------
@@ -334,28 +740,47 @@ def read(path) -> Result:
     -------
     Result
         Every record, SI arrays; ``attrs`` holds the root attributes.
+
+    Raises
+    ------
+    InputError
+        The file does not exist, is not HDF5 or is not an emorbit run file.
     """
-    with h5py.File(path, "r") as f:
+    path = os.fspath(path)
+    with open_run_file(path, peek=True) as f:
+        n = _rows(f)
         bodies, masses, kinds = {}, {}, {}
         for name, g in f["bodies"].items():
-            bodies[name] = {q: ds[()] for q, ds in g.items() if isinstance(ds, h5py.Dataset)}
+            bodies[name] = {q: ds[:n] for q, ds in g.items() if isinstance(ds, h5py.Dataset)}
             if "nodes" in g:
-                bodies[name].update({f"nodes/{q}": ds[()] for q, ds in g["nodes"].items()})
+                nodes = {q: ds[()] for q, ds in g["nodes"].items()}
+                k = min(len(a) for a in nodes.values())
+                bodies[name].update({f"nodes/{q}": a[:k] for q, a in nodes.items()})
+            for sub in ("mesh", "mass_points"):
+                if isinstance(g.get(sub), h5py.Group):
+                    bodies[name].update({f"{sub}/{q}": ds[()] for q, ds in g[sub].items()})
+            if "mass" not in g.attrs or "kind" not in g.attrs:
+                raise InputError("file", f"{path!r}: group /bodies/{name} has no 'mass' or 'kind' attribute")
             masses[name] = float(g.attrs["mass"])
             kinds[name] = str(g.attrs["kind"])
+        split = f["diagnostics/split_steps"][:n] if "diagnostics/split_steps" in f else np.zeros(n)
+        center = np.asarray(f.attrs["center"], float)
+        if center.shape != (3,):
+            raise InputError("file", f"{path!r}: root attribute 'center' has shape {center.shape}, expected (3,)")
         return Result(
-            time=f["time"][()],
-            energy=f["invariants/energy"][()],
-            momentum=f["invariants/momentum"][()],
-            angular_momentum=f["invariants/angular_momentum"][()],
-            newton_iterations=f["diagnostics/newton_iterations"][()],
+            time=f["time"][:n],
+            energy=f["invariants/energy"][:n],
+            momentum=f["invariants/momentum"][:n],
+            angular_momentum=f["invariants/angular_momentum"][:n],
+            newton_iterations=f["diagnostics/newton_iterations"][:n],
             bodies=bodies,
             masses=masses,
             kinds=kinds,
-            method=str(f.attrs["method"]),
-            order=int(f.attrs["order"]),
-            dt=float(f.attrs["dt"]),
-            gm=float(f.attrs["gm"]),
-            center=np.asarray(f.attrs["center"], float),
+            method=_attr(f, path, "method", str),
+            order=_attr(f, path, "order", int),
+            dt=_attr(f, path, "dt", float),
+            gm=_attr(f, path, "gm", float),
+            center=center,
             attrs={k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()},
+            split_steps=split,
         )

@@ -2,7 +2,8 @@
 
 A :class:`Sink` receives the states a chunk of steps recorded, computes the invariants of
 every record (energy in J, linear momentum in kg m/s, angular momentum about the field's
-centre in kg m2/s) and the mean Newton iterations per solve, stops the run when a record
+centre in kg m2/s), the mean Newton iterations per solve and the steps redone in sub-steps
+in each record interval, stops the run when a record
 falls inside the central body, appends the records to the output file (a
 :class:`~emorbit.io.hdf5.Writer`) and keeps them in memory (all, or the first and the last).
 :meth:`Sink.result` assembles the kept records into a :class:`~emorbit.result.Result`.
@@ -76,6 +77,9 @@ class Sink:
         Records emitted so far.
     last_step : int or None
         The step count of the last record.
+    split_pending : int
+        Steps redone in sub-steps since the last record: the next record's
+        ``diagnostics/split_steps``.
     """
 
     def __init__(self, sim, writer, keep: bool):
@@ -85,6 +89,7 @@ class Sink:
         self.blocks: list[tuple] = []
         self.rows = 0  # records emitted so far
         self.last_step = None  # the step count of the last record
+        self.split_pending = 0
 
     def emit_rows(self, recs, steps, nrec: int, k: int) -> None:
         """Record the first ``nrec`` rows of a chunk (the ones before a collision).
@@ -160,11 +165,14 @@ class Sink:
                     f"it is inside the central body (r < radius = {radius!r} m); "
                     "records up to the one before are written",
                 )
+        split = np.zeros(nrec)
+        split[0] = self.split_pending
+        self.split_pending = 0
         self.rows += nrec
         self.last_step = int(steps[nrec - 1])
-        block = (times, energy, momentum, angular, its, data)
+        block = (times, energy, momentum, angular, its, data, split)
         if self.writer is not None:
-            self.writer.append(*block)
+            self.writer.append(*block[:6], split_steps=split)
         if self.keep or not self.blocks:
             self.blocks.append(block if self.keep else _row(block, 0))
         if not self.keep:
@@ -202,10 +210,12 @@ class Sink:
             dt=sim.dt,
             gm=sim.gm,
             center=sim.center.copy(),
+            split_steps=cat(6),
         )
 
 
 def _row(block, i):
     sl = slice(i, i + 1) if i >= 0 else slice(i, None)
-    times, e, p, L, its, data = block
-    return (times[sl], e[sl], p[sl], L[sl], its[sl], {n: {q: a[sl] for q, a in d.items()} for n, d in data.items()})
+    times, e, p, L, its, data, split = block
+    rows = {n: {q: a[sl] for q, a in d.items()} for n, d in data.items()}
+    return (times[sl], e[sl], p[sl], L[sl], its[sl], rows, split[sl])

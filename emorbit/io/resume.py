@@ -2,15 +2,20 @@
 
 The file says how it was made (its scene text and the effective method, order, dt and
 output stride in its attributes) and holds the complete state at its last checkpoint. A
-resume rebuilds the simulation from the scene, restores that state bit for bit, drops the
-records written after the checkpoint and runs to T2 (continuing the record grid), so the
-file ends up identical to one written by a single uninterrupted run to T2 - whether the
-first run finished, failed, was interrupted with Ctrl-C or killed.
+resume checks that the file fits together (attributes, checkpoint, datasets, bodies), rebuilds
+the simulation from the scene, restores that state bit for bit, drops the records written
+after the checkpoint and runs to T2 (continuing the record grid), so the file ends up
+identical to one written by a single uninterrupted run to T2 - whether the first run
+finished, failed, was interrupted (SIGINT, SIGTERM) or killed. A T2 before the file's last
+record would delete records: that takes ``truncate=True`` (``--truncate``).
 """
 
 from __future__ import annotations
 
+import math
+import numbers
 import os
+from dataclasses import dataclass
 
 import h5py
 import numpy as np
@@ -19,7 +24,7 @@ from ..errors import InputError
 from ..result import Result
 from ..scene import parse_scene
 from ..units import to_si
-from .hdf5 import NEXT_CHECKPOINT, Writer
+from .hdf5 import LAYOUT_UNITS, NEXT_CHECKPOINT, Writer, open_run_file
 
 __all__ = ["resume", "load_checkpoint"]
 
@@ -28,8 +33,195 @@ def _text(value) -> str:
     return value.decode() if isinstance(value, bytes) else str(value)
 
 
+@dataclass
+class _Loaded:
+    sim: object
+    attrs: dict
+    records: int  # the records that belong to the checkpoint
+    rows: int  # the records complete in every dataset of the file
+    times: np.ndarray  # their times, s
+
+
+def _bad(path: str, what: str, message: str) -> InputError:
+    return InputError("file", f"{path!r}: {what} {message}; the file cannot be continued")
+
+
+def _number(path, attrs, name, *, integer=False, minimum=None, positive=False):
+    """A root or checkpoint attribute that must be a finite number (an integer >= minimum)."""
+    if name not in attrs:
+        raise _bad(path, f"attribute {name!r}", "is missing")
+    value = attrs[name]
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    if ok and integer:
+        ok = isinstance(value, numbers.Integral) or (math.isfinite(value) and float(value).is_integer())
+        value = int(value) if ok else value
+    if ok:
+        ok = math.isfinite(value) and (minimum is None or value >= minimum) and (not positive or value > 0)
+    if not ok:
+        need = "an integer" if integer else "a finite number"
+        need += f" >= {minimum}" if minimum is not None else (" > 0" if positive else "")
+        raise _bad(path, f"attribute {name!r}", f"is {value!r}, not {need}")
+    return int(value) if integer else float(value)
+
+
+def _string(path, attrs, name):
+    if name not in attrs:
+        raise _bad(path, f"attribute {name!r}", "is missing")
+    value = attrs[name]
+    if not isinstance(value, (str, bytes)):
+        raise _bad(path, f"attribute {name!r}", f"is {value!r}, not a string")
+    return _text(value)
+
+
+def _plain(attrs) -> dict:
+    return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in attrs.items()}
+
+
+def _checkpoint_group(f, path):
+    if isinstance(f.get("checkpoint"), h5py.Group):
+        return "checkpoint", f["checkpoint"]
+    nxt = f.get(NEXT_CHECKPOINT)
+    if isinstance(nxt, h5py.Group) and nxt.attrs.get("complete", False):
+        return NEXT_CHECKPOINT, nxt  # killed between replacing the old checkpoint and renaming the new one
+    raise InputError("file", f"{path!r} has no checkpoint to continue from")
+
+
+def _check_bodies(f, path, sim, records: int) -> None:
+    """Every body of the scene has its group with the datasets it writes, long enough; nothing else."""
+    groups = list(f["bodies"])
+    if sorted(groups) != sorted(sim.names):
+        raise _bad(
+            path,
+            "group /bodies",
+            f"holds {groups}, but the file's scene has the bodies {sim.names} (a body renamed, added or removed)",
+        )
+    t_last = f["time"][records - 1]
+    for s in sim.systems:
+        for i, name in enumerate(s.names):
+            g = f["bodies"][name]
+            if not isinstance(g, h5py.Group):
+                raise _bad(path, f"/bodies/{name}", "is not a group")
+            expected = s.body_datasets(i)
+            found = [q for q, ds in g.items() if isinstance(ds, h5py.Dataset)]
+            found += [f"nodes/{q}" for q in g["nodes"]] if isinstance(g.get("nodes"), h5py.Group) else []
+            for q in sorted(set(found) - set(expected)):
+                raise _bad(path, f"dataset /bodies/{name}/{q}", "is not one the file's scene writes")
+            for q, (width, _unit) in expected.items():
+                ds = g.get(q)
+                where = f"dataset /bodies/{name}/{q}"
+                if not isinstance(ds, h5py.Dataset):
+                    raise _bad(path, where, "is missing")
+                tail = () if width is None else ((width,) if isinstance(width, int) else tuple(width))
+                if ds.shape[1:] != tail or not ds.maxshape or ds.maxshape[0] is not None:
+                    raise _bad(path, where, f"has shape {ds.shape}, expected (rows{''.join(f', {w}' for w in tail)})")
+                if not np.issubdtype(ds.dtype, np.floating):
+                    raise _bad(path, where, f"holds {ds.dtype}, not floating-point numbers")
+                need = records
+                if q.startswith("nodes/"):
+                    need = int(np.searchsorted(g["nodes/time"][()], t_last, side="right"))
+                if ds.shape[0] < need:
+                    raise _bad(path, where, f"has {ds.shape[0]} rows, fewer than the checkpoint's {need}")
+
+
+def _check_state(path, where: str, arrays: dict, sim) -> None:
+    """The checkpoint's arrays are state arrays of the scene's systems, finite numbers; each
+    system's fixed fields (its ``STATE_FIELDS``) are there with the shapes of the scene's bodies.
+    Arrays whose size depends on the path (a structure's kept factors) are checked by the
+    system when it restores them."""
+    expected = sim.state_arrays()
+    fixed = {f"{s.kind}/{f}" for s in sim.systems for f in s.STATE_FIELDS}
+    for key in sorted(set(arrays) - set(expected)):
+        raise _bad(path, f"dataset /{where}/{key}", "is not part of the state of the file's scene")
+    for key in sorted(fixed - set(arrays)):
+        raise _bad(path, f"dataset /{where}/{key}", "is missing")
+    for key, got in sorted(arrays.items()):
+        name = f"dataset /{where}/{key}"
+        if not (isinstance(got, np.ndarray) and np.issubdtype(got.dtype, np.number)):
+            raise _bad(path, name, f"holds {getattr(got, 'dtype', type(got).__name__)}, not numbers")
+        if key in fixed and got.shape != np.shape(expected[key]):
+            raise _bad(path, name, f"has shape {got.shape}, expected {np.shape(expected[key])} for the scene's bodies")
+        if not np.all(np.isfinite(got)):
+            raise _bad(path, name, "holds values that are not finite")
+
+
+def _load(path) -> _Loaded:
+    """Check a run file and rebuild its simulation at its last checkpoint."""
+    path = os.fspath(path)
+    with open_run_file(path) as f:
+        raw = f.attrs
+        attrs = _plain(raw)
+        scene_text = _string(path, attrs, "scene")
+        method = _string(path, attrs, "method")
+        order = _number(path, attrs, "order", integer=True, minimum=1)
+        dt = _number(path, attrs, "dt", positive=True)
+        every = _number(path, attrs, "output_every", integer=True, minimum=1)
+        _number(path, attrs, "checkpoint_every", integer=True, minimum=0)
+        t_start = _number(path, attrs, "t_start")
+        where, cp = _checkpoint_group(f, path)
+        cattrs = _plain(cp.attrs)
+        steps = _number(path, cattrs, "steps", integer=True, minimum=0)
+        records = _number(path, cattrs, "records", integer=True, minimum=1)
+        t_cp = _number(path, cattrs, "time")
+        arrays = {}
+        cp.visititems(lambda name, obj: arrays.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
+        rows = min(f[name].shape[0] for name in LAYOUT_UNITS if name in f)
+        if records > rows:
+            raise _bad(
+                path, f"attribute /{where}@records", f"is {records}, but the record datasets hold only {rows} rows"
+            )
+        if steps % every or records != steps // every + 1:
+            raise _bad(
+                path,
+                f"attributes /{where}@steps and @records",
+                f"({steps} steps, {records} records) do not fit output_every = {every}: "
+                f"a checkpoint at step {steps} has {steps // every + 1} records",
+            )
+        if not math.isclose(t_start + steps * dt, t_cp, rel_tol=1e-9, abs_tol=1e-9 * dt):
+            raise _bad(
+                path,
+                f"attribute /{where}@time",
+                f"is {t_cp!r} s, but t_start + steps dt = {t_start + steps * dt!r} s",
+            )
+        times = f["time"][:rows]
+        if times[records - 1] != t_cp:
+            raise _bad(
+                path,
+                f"dataset /time, row {records - 1}",
+                f"is {times[records - 1]!r} s, not the checkpoint's time {t_cp!r} s",
+            )
+        scene = parse_scene(scene_text, path)
+        scene = scene.with_overrides(method=method, order=order, dt=f"{dt!r} s", output_every=every)
+        sim = scene.build()
+        if sim.structure is not None:
+            sim.structure.build()
+        _check_bodies(f, path, sim, records)
+        for s in sim.systems:  # rows complete in every body dataset too
+            for i, name in enumerate(s.names):
+                for q in s.body_datasets(i):
+                    if not q.startswith("nodes/"):
+                        rows = min(rows, f["bodies"][name][q].shape[0])
+        times = f["time"][:rows]
+    _check_state(path, where, arrays, sim)
+    sim._t_base = t_start
+    try:
+        sim.set_state_arrays(arrays, steps)
+    except InputError as exc:
+        raise _bad(path, f"group /{where}", f"does not fit the file's scene ({exc})") from None
+    except (ValueError, TypeError, IndexError, KeyError, ArithmeticError) as exc:
+        raise _bad(path, f"group /{where}", f"holds a state the scene's bodies cannot take ({exc})") from None
+    sim._run_origin = 0
+    sim._checkpointed_at = sim._steps
+    return _Loaded(sim, attrs, records, rows, times)
+
+
 def load_checkpoint(path):
     """Rebuild a run file's simulation at its last checkpoint.
+
+    Every value taken from the file is checked first: the root attributes the rebuild reads
+    (``scene``, ``method``, ``order``, ``dt``, ``output_every``, ``checkpoint_every``,
+    ``t_start``), the checkpoint's ``steps``, ``records`` and ``time`` against each other and
+    against the record datasets, the body groups against the scene's bodies, and the state
+    arrays against the scene's (names, shapes, finite numbers).
 
     Parameters
     ----------
@@ -48,44 +240,15 @@ def load_checkpoint(path):
     Raises
     ------
     InputError
-        The file is missing, unreadable or has no checkpoint.
+        The file is missing, not a run file, being written by another process, has no
+        checkpoint, or has a value that does not fit (the error names the dataset or
+        attribute).
     """
-    path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise InputError("file", f"{path!r} does not exist")
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise InputError("file", f"{path!r} is not a readable HDF5 file ({exc})") from None
-    with f:
-        attrs = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()}
-        if "checkpoint" in f:
-            cp = f["checkpoint"]
-        elif NEXT_CHECKPOINT in f and f[NEXT_CHECKPOINT].attrs.get("complete", False):
-            cp = f[NEXT_CHECKPOINT]  # killed between replacing the old checkpoint and renaming the new one
-        else:
-            raise InputError("file", f"{path!r} has no checkpoint to continue from")
-        arrays = {}
-        cp.visititems(lambda name, obj: arrays.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset) else None)
-        steps = int(cp.attrs["steps"])
-        records = int(cp.attrs["records"])
-    scene = parse_scene(_text(attrs["scene"]), path)
-    scene = scene.with_overrides(
-        method=_text(attrs["method"]),
-        order=int(attrs["order"]),
-        dt=f"{float(attrs['dt'])!r} s",
-        output_every=int(attrs["output_every"]),
-    )
-    sim = scene.build()
-    if sim.structure is not None:
-        sim.structure.build()
-    sim._t_base = float(attrs["t_start"])
-    sim.set_state_arrays(arrays, steps)
-    sim._run_origin = 0
-    return sim, attrs, records
+    loaded = _load(path)
+    return loaded.sim, loaded.attrs, loaded.records
 
 
-def resume(path, t_end, *, progress: bool | None = None) -> Result:
+def resume(path, t_end, *, progress: bool | None = None, truncate: bool = False) -> Result:
     """Continue the run in a file to a later time, in place.
 
     Parameters
@@ -96,6 +259,9 @@ def resume(path, t_end, *, progress: bool | None = None) -> Result:
         The new end time, s.
     progress : bool, optional
         A progress bar on stderr; default: when stderr is a terminal.
+    truncate : bool
+        Allow a ``t_end`` before the file's last record: the records after ``t_end`` are
+        deleted. Without it such a ``t_end`` is an error and the file is left as it is.
 
     Returns
     -------
@@ -105,23 +271,44 @@ def resume(path, t_end, *, progress: bool | None = None) -> Result:
     Raises
     ------
     InputError
-        The file cannot be continued, or ``t_end`` is not after its checkpoint.
+        The file cannot be continued, ``t_end`` is not after its last checkpoint, or
+        ``t_end`` is before its last record without ``truncate``.
     IntegrationError
         A step failed, as in :meth:`emorbit.Simulation.run`.
+    RunInterrupted
+        SIGINT or SIGTERM stopped the run; the file is marked "interrupted".
     """
     import sys
 
     from .recorder import Sink
 
-    sim, attrs, records = load_checkpoint(path)
+    path = os.fspath(path)
+    loaded = _load(path)
+    sim, attrs, records = loaded.sim, loaded.attrs, loaded.records
     t2 = to_si(t_end, "time", "t_end", positive=False)
+    end_time = float(loaded.times[-1])
+    file_end = round((end_time - sim._t_base) / sim.dt)
+    if (t2 - sim._t_base) / sim.dt < file_end - 1e-9 * max(1, file_end) and not truncate:
+        lost = int(np.count_nonzero(loaded.times > t2))
+        raise InputError(
+            "t_end",
+            f"{t2!r} s is before the end of {path!r} (its last record is at t = {end_time!r} s): "
+            f"resuming to it would delete the {lost} records after it; pass truncate=True from Python "
+            "or --truncate on the command line to do that",
+        )
+    if not t2 > sim.time:
+        raise InputError(
+            "t_end",
+            f"{t2!r} s is not after the last checkpoint of {path!r} (t = {sim.time!r} s), where a resume starts",
+        )
     n_steps = sim.steps_until(t2)
     every = int(attrs["output_every"])
-    cp = int(attrs.get("checkpoint_every", every))
-    total = int(round((sim.time - sim._t_base) / sim.dt)) + n_steps
+    cp = int(attrs["checkpoint_every"])
+    total = sim._steps + n_steps
     writer = Writer.reopen(path, records, {"t_end": sim._t_base + total * sim.dt, "steps": total})
     sink = Sink(sim, writer, True)
     sink.rows = records
+    sink.last_step = sim._steps
     if progress is None:
         progress = sys.stderr.isatty()
     return sim._run_and_close(n_steps, every, cp, sink, writer, progress)
