@@ -221,7 +221,13 @@ class ProcessBackend(Backend):
         concurrent.futures.ProcessPoolExecutor
             The new pool.
         """
-        self.executor.shutdown(wait=True, cancel_futures=True)  # a broken pool has stopped its workers
+        # A worker killed while it held the pool's result queue leaves the others blocked on
+        # that queue's lock for ever, and shutdown would wait for them: a broken pool's
+        # workers are ended first (their runs are already failed and retried).
+        for process in list((getattr(self.executor, "_processes", None) or {}).values()):
+            if process.is_alive():
+                process.kill()
+        self.executor.shutdown(wait=True, cancel_futures=True)
         self.executor = self._new()
         return self.executor
 
