@@ -13,7 +13,7 @@ Scenes (TOML) are loaded with :func:`load_scene`; files are read with :func:`rea
 """
 
 from ._version import __version__
-from .errors import EmorbitError, InputError, IntegrationError
+from .errors import EmorbitError, InputError, IntegrationError, RoundoffError, RoundoffWarning
 from .field import BODIES, CentralField
 from .integrators import METHODS, ORDERS
 from .io.hdf5 import read
@@ -32,6 +32,8 @@ __all__ = [
     "METHODS",
     "ORDERS",
     "Result",
+    "RoundoffError",
+    "RoundoffWarning",
     "Scene",
     "Simulation",
     "list_scenes",

@@ -1,6 +1,6 @@
 """The ``emorbit`` command line. ``main(argv)`` returns the exit code, so tests can call it.
 
-    emorbit run SCENE -o OUT.h5 [--t-end T] [--dt DT] [--method M] [--order N] [--every K] [--overwrite]
+    emorbit run SCENE -o OUT.h5 [--t-end T] [--dt DT] [--method M] [--order N] [--every K] [--overwrite] [--strict]
     emorbit resume OUT.h5 --t-end T2 [--truncate]
     emorbit plot OUT.h5 [OUT2.h5 ...] -o FIG.png
     emorbit scenes
@@ -10,21 +10,25 @@ SCENE is a shipped scene's name (``emorbit scenes`` lists them) or a TOML file. 
 on the command line carry units like those in a scene: ``--t-end "100 s"``, ``--dt "0.1 s"``.
 Exit codes: 0 success; 1 a run failed while stepping, or its file was removed or replaced
 by another process while it ran; 2 bad input (also an output file that another run is
-writing); 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM: the run stops at the end of the
-chunk in progress, and the file keeps everything up to the interruption, marked
-"interrupted", and can be resumed.
+writing); 3 (``run --strict`` only) the run completed, but a conserved invariant drifted
+beyond what round-off explains (:mod:`emorbit.io.drift`; the file is complete); 130
+interrupted by SIGINT (Ctrl-C), 143 by SIGTERM: the run stops at the end of the chunk in
+progress, and the file keeps everything up to the interruption, marked "interrupted", and
+can be resumed. Without ``--strict`` that drift is a warning on stderr.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
 import signal
 import sys
 import time
+import warnings
 
 from ._version import __version__
-from .errors import EmorbitError, InputError, IntegrationError
+from .errors import EmorbitError, InputError, IntegrationError, RoundoffError, RoundoffWarning
 
 __all__ = ["main", "console_main"]
 
@@ -54,6 +58,12 @@ def _parser() -> argparse.ArgumentParser:
         "--max-output",
         help='the largest output the run may project, with a unit, e.g. "50 GB" (default: the scene\'s '
         "integrator.max_output, else 10 GB)",
+    )
+    run.add_argument(
+        "--strict",
+        action="store_true",
+        help="exit with code 3 when a conserved invariant drifts beyond what round-off explains "
+        "(the file is complete; without it that is a warning)",
     )
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar and no summary")
 
@@ -102,11 +112,29 @@ def _plugin(module: str):
     return importlib.import_module(module)
 
 
+@contextlib.contextmanager
+def _warnings_on_stderr():
+    """Print each RoundoffWarning of the block as one paragraph, ``emorbit: warning: ...``."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RoundoffWarning)
+        try:
+            yield
+        finally:
+            for w in caught:
+                if issubclass(w.category, RoundoffWarning):
+                    print(f"emorbit: warning: {w.message}", file=sys.stderr)
+                else:
+                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+
+
 def _run(args) -> int:
     from .scene import load_scene
     from .stepping import RunInterrupted, stop_on_signals
 
-    with stop_on_signals() as stop:  # a signal while the scene builds stops the run before its file exists
+    with (
+        stop_on_signals() as stop,
+        _warnings_on_stderr(),
+    ):  # a signal while the scene builds stops the run before its file exists
         scene = load_scene(args.scene).with_overrides(
             t_end=args.t_end,
             dt=args.dt,
@@ -129,6 +157,7 @@ def _run(args) -> int:
             progress=progress,
             keep=False,
             checkpoint_every=scene.checkpoint_every,
+            strict=args.strict,
         )
     if not args.quiet:
         err = abs(result.relative_energy_error()[-1])
@@ -144,7 +173,7 @@ def _resume(args) -> int:
     from .stepping import stop_on_signals
 
     start = time.perf_counter()
-    with stop_on_signals():
+    with stop_on_signals(), _warnings_on_stderr():
         result = resume(args.file, args.t_end, progress=False if args.quiet else None, truncate=args.truncate)
     if not args.quiet:
         err = abs(result.energy[-1] / result.energy[0] - 1) if len(result) else 0.0
@@ -224,8 +253,9 @@ def main(argv=None) -> int:
     -------
     int
         The exit code: 0 success, 1 a run failed while stepping or lost its file (or a
-        plug-in's own failure), 2 bad input, 128 + the signal when SIGINT (130) or SIGTERM
-        (143) interrupted a run.
+        plug-in's own failure), 2 bad input, 3 ``run --strict`` completed with a conserved
+        invariant beyond round-off, 128 + the signal when SIGINT (130) or SIGTERM (143)
+        interrupted a run.
     """
     args = _parser().parse_args(argv)
     if getattr(args, "unavailable", None):
@@ -243,6 +273,9 @@ def main(argv=None) -> int:
     except IntegrationError as exc:
         print(f"emorbit: run failed: {exc}", file=sys.stderr)
         return 1
+    except RoundoffError as exc:  # --strict: the file is complete
+        print(f"emorbit: run completed, but (--strict) {exc}", file=sys.stderr)
+        return 3
     except EmorbitError as exc:  # the output file was removed or replaced under the run
         print(f"emorbit: run failed: {exc}", file=sys.stderr)
         return 1

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["EmorbitError", "InputError", "IntegrationError"]
+__all__ = ["EmorbitError", "InputError", "IntegrationError", "RoundoffError", "RoundoffWarning"]
 
 
 class EmorbitError(Exception):
@@ -64,3 +64,19 @@ class IntegrationError(EmorbitError, RuntimeError):
         self.body = body
         self.reason = reason
         super().__init__(f"step at t = {time!r} s failed for body {body!r}: {reason}")
+
+
+class RoundoffWarning(UserWarning):
+    """A conserved invariant drifted further from its first record than round-off explains.
+
+    Issued once at the end of a run (its file complete and closed); the message names the
+    invariant, its largest drift, where, and what to change. ``emorbit run --strict`` and
+    ``Simulation.run(strict=True)`` raise :class:`RoundoffError` instead.
+    """
+
+
+class RoundoffError(EmorbitError, ArithmeticError):
+    """The strict form of :class:`RoundoffWarning`, raised after the run's file is complete.
+
+    Its message is the warning's text; ``emorbit run --strict`` exits with code 3.
+    """

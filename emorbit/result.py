@@ -55,6 +55,15 @@ class Result:
     split_steps : ndarray
         (n,) steps of the interval that ends at each record that were redone in sub-steps
         because Newton failed on the whole step (0 for the first record).
+    stalled_solves : ndarray
+        (n,) implicit sub-steps of the interval that ends at each record whose Newton
+        iteration was accepted at a stall, above round-off (structures and rigid bodies).
+    invariant_drift : ndarray
+        (n, 3) drift of energy, linear momentum and angular momentum from the first record,
+        relative to their round-off scales; -1 for an invariant the method does not
+        conserve (:mod:`emorbit.io.drift`).
+    drift_bound : ndarray
+        (n,) the drift that round-off explains at each record, C eps sqrt(n), same units.
     """
 
     time: np.ndarray
@@ -72,10 +81,20 @@ class Result:
     center: np.ndarray
     attrs: dict = field(default_factory=dict)
     split_steps: np.ndarray | None = None
+    stalled_solves: np.ndarray | None = None
+    invariant_drift: np.ndarray | None = None
+    drift_bound: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        if self.split_steps is None:
-            self.split_steps = np.zeros(len(self.time))
+        n = len(self.time)
+        for name, shape, fill in (
+            ("split_steps", (n,), 0.0),
+            ("stalled_solves", (n,), 0.0),
+            ("invariant_drift", (n, 3), -1.0),
+            ("drift_bound", (n,), -1.0),
+        ):
+            if getattr(self, name) is None:
+                setattr(self, name, np.full(shape, fill))
 
     def __len__(self) -> int:
         return len(self.time)

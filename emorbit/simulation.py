@@ -27,8 +27,6 @@ from .errors import InputError
 from .field import CentralField
 from .integrators import METHODS, check_device, check_order, check_roundoff, get_method
 from .integrators.dispatch import require_device
-from .io.hdf5 import Writer
-from .io.recorder import Sink
 from .orbits import OrbitalElements, elements, initial_state
 from .result import Result
 from .stepping import ChunkDriver
@@ -115,6 +113,9 @@ class Simulation(ChunkDriver):
     keys : dict
         How errors about the run's length and output name ``t_end``, ``dt``, ``every`` and
         ``max_output`` (as scene keys ``integrator.*`` after :meth:`emorbit.Scene.build`).
+    drift_tolerance : float
+        The default C of :meth:`run`'s drift bound C eps sqrt(n), 1000 (a scene's
+        ``integrator.drift_tolerance`` sets it).
 
     Raises
     ------
@@ -681,6 +682,8 @@ class Simulation(ChunkDriver):
         keep: bool = True,
         checkpoint_every: int | None = None,
         max_output=None,
+        strict: bool = False,
+        drift_tolerance: float | None = None,
     ) -> Result:
         """Advance to a time, or by a number of steps, recording every ``every`` steps.
 
@@ -718,6 +721,13 @@ class Simulation(ChunkDriver):
             positions included) that go to ``output`` or, with ``keep``, stay in memory. A
             longer run is refused before anything is created, naming ``t_end``, ``dt``,
             ``every`` and this limit.
+        strict : bool
+            Raise :class:`~emorbit.errors.RoundoffError` instead of issuing a
+            :class:`~emorbit.errors.RoundoffWarning` when a conserved invariant drifts beyond
+            what round-off explains (after the file is complete).
+        drift_tolerance : float, optional
+            C of that bound, C eps sqrt(n) for n implicit sub-steps (default
+            :attr:`drift_tolerance`, 1000; :mod:`emorbit.io.drift`); ``inf`` switches it off.
 
         Returns
         -------
@@ -728,7 +738,11 @@ class Simulation(ChunkDriver):
         ------
         InputError
             No bodies, bad arguments, more than :data:`MAX_STEPS` steps, a projected output
-            above ``max_output``, or an output file that exists.
+            above ``max_output``, a ``drift_tolerance`` that is not a number > 0, or an
+            output file that exists.
+        RoundoffError
+            With ``strict``: a conserved invariant drifted beyond the bound (the file is
+            complete, its status "completed").
         IntegrationError
             A step failed even in sub-steps, or a body came inside the central body's
             radius; the simulation and the file hold the state before it.
@@ -750,26 +764,8 @@ class Simulation(ChunkDriver):
             check_output(self.systems, n_steps, every, self._dt, limit, self.keys, length_key)
         if progress is None:
             progress = sys.stderr.isatty()
-
-        if self.structure is not None:
-            self.structure.build()
-        cp = self._checkpoint_steps(checkpoint_every, every)
-        writer = None
-        if output is not None:
-            bodies = [
-                {"name": n, "attrs": s.body_attrs(i), "datasets": s.body_datasets(i), "constants": s.body_constants(i)}
-                for s in self.systems
-                for i, n in enumerate(s.names)
-            ]
-            attrs = self._file_attrs(every, n_steps)
-            attrs["checkpoint_every"] = cp
-            writer = Writer(output, bodies, attrs, overwrite=overwrite)
-        self._run_origin = self._steps
-        sink = Sink(self, writer, keep)
-        sink.emit([(s, s.current()) for s in self.systems], np.array([self._steps]), 1, 0)
-        if writer is not None:
-            writer.write_checkpoint(self._steps - self._run_origin, self.time, self.state_arrays(), sink.rows)
-        return self._run_and_close(n_steps, every, cp, sink, writer, progress)
+        self._strict = bool(strict)
+        return self._start_run(n_steps, every, output, overwrite, keep, checkpoint_every, progress, drift_tolerance)
 
     # -- scene text ---------------------------------------------------------------------
     def to_toml(self, t_end: float | None = None, output_every: int = 1) -> str:

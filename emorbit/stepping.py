@@ -13,10 +13,15 @@ Where chunks end and checkpoints fall changes no result.
 A step that fails (Newton does not converge) is redone from the chunk's snapshots in 2, 4,
 ... 2**MAX_SPLIT sub-steps; each sub-step is an ordinary step of the method, so energy and
 angular momentum stay conserved, and the record that closes the interval counts it in
-``diagnostics/split_steps``. SIGINT and SIGTERM stop the run at the end of the chunk in
-progress (:func:`stop_on_signals`). Whatever ends the run (its end, a failure, a signal), the
-output file gets the final state, a checkpoint where the state is on the record grid, and
-the matching status: "completed", "failed" or "interrupted".
+``diagnostics/split_steps``. A step that fails even then stops the run with a message that
+says what failed (:func:`emorbit.bodies.system.newton_failure`). SIGINT and SIGTERM stop the
+run at the end of the chunk in progress (:func:`stop_on_signals`). Whatever ends the run
+(its end, a failure, a signal), the output file gets the final state, a checkpoint where
+the state is on the record grid, and the matching status: "completed", "failed" or
+"interrupted". A completed run whose conserved invariants drifted beyond the bound round-off
+explains (:mod:`emorbit.io.drift`) gets the root attribute ``warning`` and, once its file is
+closed, a :class:`~emorbit.errors.RoundoffWarning`, or with ``strict`` a
+:class:`~emorbit.errors.RoundoffError`.
 """
 
 from __future__ import annotations
@@ -26,14 +31,17 @@ import numbers
 import signal
 import threading
 import time as _time
+import warnings
 
 import numpy as np
 
-from .errors import InputError, IntegrationError
+from .bodies.system import newton_failure
+from .errors import InputError, IntegrationError, RoundoffError, RoundoffWarning
 from .integrators import coefficients
-from .io.hdf5 import FileLostError
+from .io.drift import DRIFT_TOLERANCE, STATE, DriftMonitor, absent_state, check_tolerance, conserved, is_absent
+from .io.hdf5 import FileLostError, Writer
 from .io.recorder import Sink, progress_bar
-from .kernels.codes import STATUS_NO_CONVERGENCE
+from .kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK
 from .result import Result
 
 __all__ = [
@@ -161,7 +169,21 @@ class ChunkDriver:
     It reads the simulation's ``systems``, ``method``, ``order``, ``dt``, field and settings
     and moves its step counter; :meth:`state_arrays` and :meth:`set_state_arrays` are the
     state a checkpoint stores and a restart restores.
+
+    Attributes
+    ----------
+    drift_tolerance : float
+        C of the drift bound C eps sqrt(n) (:mod:`emorbit.io.drift`) for runs that do not
+        give their own; ``inf`` switches the check off.
     """
+
+    drift_tolerance: float = DRIFT_TOLERANCE
+    _drift: DriftMonitor | None = None
+
+    def _start_drift(self, tolerance) -> None:
+        """A new drift monitor for a run whose first record is the reference."""
+        tol = check_tolerance(self.drift_tolerance if tolerance is None else tolerance)
+        self._drift = DriftMonitor(tol, coefficients(self.order).size, conserved(self.method, self.field is None))
 
     # -- state, for checkpoints and restarts -------------------------------------------
     def state_arrays(self) -> dict[str, np.ndarray]:
@@ -172,9 +194,12 @@ class ChunkDriver:
         dict
             {``"<kind>/<name>"``: array}: each system's
             :meth:`~emorbit.bodies.system.BodySystem.state_arrays`, compensation terms and warm
-            starts included.
+            starts included, and the run's drift monitor (``drift/...``,
+            :meth:`~emorbit.io.drift.DriftMonitor.state_arrays`).
         """
-        return {f"{s.kind}/{k}": a for s in self.systems for k, a in s.state_arrays().items()}
+        out = {f"{s.kind}/{k}": a for s in self.systems for k, a in s.state_arrays().items()}
+        drift = self._drift.state_arrays() if self._drift is not None else absent_state()
+        return out | {f"drift/{k}": a for k, a in drift.items()}
 
     def set_state_arrays(self, arrays: dict, steps: int) -> None:
         """Restore a state written by :meth:`state_arrays` and set the step counter.
@@ -194,6 +219,11 @@ class ChunkDriver:
         for s in self.systems:
             prefix = f"{s.kind}/"
             s.set_state_arrays({k[len(prefix) :]: a for k, a in arrays.items() if k.startswith(prefix)})
+        drift = {k[6:]: a for k, a in arrays.items() if k.startswith("drift/")}
+        self._drift = None  # a file of an earlier version: no drift is measured
+        if drift and not is_absent(drift):
+            self._start_drift(None)
+            self._drift.set_state_arrays(drift)
         self._steps = int(steps)
 
     def state_units(self) -> dict[str, str]:
@@ -204,7 +234,8 @@ class ChunkDriver:
         dict
             {``"<kind>/<field>"``: unit}, from each system's optional ``STATE_UNITS``.
         """
-        return {f"{s.kind}/{k}": u for s in self.systems for k, u in getattr(s, "STATE_UNITS", {}).items()}
+        units = {f"{s.kind}/{k}": u for s in self.systems for k, u in getattr(s, "STATE_UNITS", {}).items()}
+        return units | {f"drift/{k}": unit for k, (_, unit) in STATE.items()}
 
     def _file_attrs(self, every: int, n_steps: int) -> dict:
         """The root attributes that say how the run is made (see :mod:`emorbit.io.hdf5`)."""
@@ -226,7 +257,30 @@ class ChunkDriver:
             "scene": self.scene_text if self.scene_text is not None else self.to_toml(),
         }
 
-    def _run_and_close(self, n_steps, every, cp, sink, writer, progress) -> Result:
+    def _start_run(self, n_steps, every, output, overwrite, keep, checkpoint_every, progress, tolerance) -> Result:
+        """Open the file, record the start, write the first checkpoint and run (:meth:`Simulation.run`)."""
+        if self.structure is not None:
+            self.structure.build()
+        cp = self._checkpoint_steps(checkpoint_every, every)
+        self._start_drift(tolerance)
+        writer = None
+        if output is not None:
+            bodies = [
+                {"name": n, "attrs": s.body_attrs(i), "datasets": s.body_datasets(i), "constants": s.body_constants(i)}
+                for s in self.systems
+                for i, n in enumerate(s.names)
+            ]
+            attrs = self._file_attrs(every, n_steps)
+            attrs["checkpoint_every"] = cp
+            writer = Writer(output, bodies, attrs, overwrite=overwrite)
+        self._run_origin = self._steps
+        sink = Sink(self, writer, keep)
+        sink.emit([(s, s.current()) for s in self.systems], np.array([self._steps]), 1, 0)
+        if writer is not None:
+            writer.write_checkpoint(self._steps - self._run_origin, self.time, self.state_arrays(), sink.rows)
+        return self._run_and_close(n_steps, every, cp, sink, writer, progress, stacklevel=4)
+
+    def _run_and_close(self, n_steps, every, cp, sink, writer, progress, stacklevel=3) -> Result:
         """Step, write, and close the file with the right status whatever happens.
 
         SIGINT and SIGTERM stay trapped until the file is closed, so that a second signal
@@ -250,7 +304,12 @@ class ChunkDriver:
                     if note and isinstance(exc, FileLostError):  # say where the records are
                         exc.args = (f"{exc}{note}",)
                 raise
+            report = sink.monitor.report() if sink.monitor is not None and signum is None else None
             if writer is not None:
+                if report is not None:
+                    writer.file.attrs["warning"] = report
+                elif "warning" in writer.file.attrs:  # a resumed file whose drift was cut off
+                    del writer.file.attrs["warning"]
                 if signum is None:
                     writer.close("completed")
                 else:
@@ -258,6 +317,10 @@ class ChunkDriver:
                     writer.close("interrupted", f"interrupted by {name} at t = {self.time!r} s")
         if signum is not None:
             raise RunInterrupted(signum)
+        if report is not None:
+            if getattr(self, "_strict", False):
+                raise RoundoffError(report)
+            warnings.warn(report, RoundoffWarning, stacklevel=stacklevel)
         return sink.result()
 
     def _write_end(self, writer, sink, every: int) -> None:
@@ -390,6 +453,7 @@ class ChunkDriver:
             again = self._advance_all(gammas, step, 1)
             if any(r.first_failure() is not None for _, r in again):  # cannot happen: deterministic
                 raise RuntimeError("re-running the steps before a failure failed again")
+            sink.stalled_pending += _stalled(again)
         self._steps += step
         start = [s.snapshot() for s in self.systems]
         for level in range(1, self.MAX_SPLIT + 1):
@@ -416,6 +480,8 @@ class ChunkDriver:
                 self._steps += 1
                 if (self._steps - origin) % every == 0:
                     sink.emit(sub, np.array([self._steps]), 1, 1)
+                else:
+                    sink.stalled_pending += _stalled(sub)
                 return step + 1
             for s, snap in zip(self.systems, start):
                 s.restore(snap)
@@ -425,9 +491,8 @@ class ChunkDriver:
         name = system.names[index]
         if status == STATUS_NO_CONVERGENCE:
             reason = (
-                f"Newton's iteration did not converge within {self.max_newton_iterations} iterations, "
-                f"even in {2**self.MAX_SPLIT} sub-steps (method {self.method}, order {self.order}, "
-                f"dt = {self._dt!r} s){self._residual_note(system, index, gammas)}; try a smaller dt"
+                f"the step failed as a whole and in 2 to {2**self.MAX_SPLIT} sub-steps (method {self.method}, "
+                f"order {self.order}, dt = {self._dt!r} s): {self._newton_note(system, index, gammas)}"
             )
         else:
             x, _ = self.state(name)
@@ -437,22 +502,26 @@ class ChunkDriver:
             )
         raise IntegrationError(self.time, name, reason)
 
-    def _residual_note(self, system, index, gammas) -> str:
-        """', residual ...' for a point mass's failed step (the implicit equation's misfit after
-        max_newton_iterations iterations), or '' for other bodies."""
-        if system.kind != "point" or self.method == "leapfrog":
-            return ""
-        h = self._dt * gammas[0]
-        x, v = system.x[:, index], system.v[:, index]
-        c = self.center
-        args = (x[0], x[1], x[2], v[0], v[1], v[2], h, self.gm, c[0], c[1], c[2], self.max_newton_iterations)
-        # em: the reference kernel's Newton iteration alone (the accurate finish runs only
-        # after it converged)
-        from .kernels.pointmass import reference
+    def _newton_note(self, system, index, gammas) -> str:
+        """What failed in the Newton iteration of a step that failed even in sub-steps: its
+        behaviour from the step's start at the smallest sub-step tried and, where that one
+        converges, at the whole step (:meth:`~emorbit.bodies.system.BodySystem.newton_facts`)."""
+        n = self.max_newton_iterations
+        generic = f"Newton's iteration did not converge within max_newton_iterations = {n} iterations; try a smaller dt"
+        parts = 2**self.MAX_SPLIT
+        for h, where in (
+            (self._dt * gammas[0] / parts, f"at the smallest sub-step, dt/{parts} = {self._dt / parts:.6g} s,"),
+            (self._dt * gammas[0], f"at the whole step, dt = {self._dt:.6g} s,"),
+        ):
+            facts = system.newton_facts(index, self.method, self.gm, self.center, h, n)
+            if facts is None:
+                return generic
+            status, update, residual = facts
+            if status != STATUS_OK:
+                return newton_failure(n, update, residual, where)
+        return generic + " (from the step's start it converges: a later sub-step failed)"
 
-        step = reference.em_step(*args, False) if self.method == "em" else reference.midpoint_step(*args)
-        dx, dy, dz, a, b, cc, _, _ = step
-        d = np.array([dx, dy, dz])
-        R = d - h * (v + 0.5 * np.array([a, b, cc]))
-        r = np.linalg.norm(R)
-        return f", residual |R| = {r:.3g} m ({r / max(np.linalg.norm(d), 1e-300):.3g} of the step)"
+
+def _stalled(recs) -> int:
+    """Sub-steps accepted at a stall in a list of (system, records) pairs."""
+    return int(sum(np.sum(r.stalled) for _, r in recs if getattr(r, "stalled", None) is not None))

@@ -530,8 +530,10 @@ class Structure(StructureOutput):
         Returns
         -------
         tuple
-            (du, dv, iterations, status): the increments of position and velocity, the
-            iterations taken and a ``STATUS_*`` code of :mod:`emorbit.kernels.codes`.
+            (du, dv, iterations, status, stalled): the increments of position and velocity,
+            the iterations taken, a ``STATUS_*`` code of :mod:`emorbit.kernels.codes`, and
+            whether the iteration was accepted at a stall (its last update above the
+            round-off tolerance, below the floor) rather than at round-off.
         """
         ns = u0.shape[0]
         nr = self.rb_slots.shape[0]
@@ -552,6 +554,7 @@ class Structure(StructureOutput):
         back = None  # (du, nu, residual) before an update made with reused factors
         prev_r = np.inf
         stalls = 0
+        stalled = False
         self.residuals = []  # equilibrated residual norm at each iterate of this step (diagnostics)
         while it < max_iter:
             it += 1
@@ -616,6 +619,7 @@ class Structure(StructureOutput):
             stalls = stalls + 1 if (d2 >= 0.25 * prev2 and rflat) else 0
             if d2 <= _TOL2 or (stalls >= _STALLS and d2 <= _FLOOR2):
                 status = STATUS_OK
+                stalled = d2 > _TOL2
                 break
             if self.newton == "full" or (not fresh and d2 > self.SLOW**2 * prev2):
                 lu = None  # renew the factors at the next iterate
@@ -623,7 +627,7 @@ class Structure(StructureOutput):
         self._kept.its[h] = it
         if status != STATUS_OK:
             self._kept.drop(h)
-            return du, np.zeros_like(du), it, status
+            return du, np.zeros_like(du), it, status, False
         u1 = u0 + du
         u05 = u0 + 0.5 * du
         st, F, _ = self._forces(code, u0, u1, gm, c, h, False)
@@ -638,7 +642,7 @@ class Structure(StructureOutput):
         dv = self._solve_mass(gen)
         lam[:] = nu / h
         acc[:] = dv / h
-        return du, dv, it, status
+        return du, dv, it, status, stalled
 
     def advance(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> StructureRecords:
         """Advance the structure ``nrec * every`` composed steps, recording every ``every``.
@@ -674,18 +678,20 @@ class Structure(StructureOutput):
             np.empty((nrec, ns, 3)),
             np.zeros((nrec, 1), np.int64),
             np.full((1, 2), -1, np.int64),
+            np.zeros((nrec, 1), np.int64),
         )
         code = method_code(method)
         c = np.asarray(center, float)
         for r in range(nrec):
-            its = 0
+            its = stl = 0
             for s in range(every):
                 u, v, cu, cv = self.u.copy(), self.v.copy(), self.cu.copy(), self.cv.copy()
                 lam, acc = self.lam.copy(), self.acc.copy()
                 ok = True
                 for g in gammas:
-                    status, its_g = self._substeps(code, dt * g, (u, v, cu, cv, lam, acc), gm, c, max_iter, 0)
+                    status, its_g, stl_g = self._substeps(code, dt * g, (u, v, cu, cv, lam, acc), gm, c, max_iter, 0)
                     its += its_g
+                    stl += stl_g
                     if status != STATUS_OK:
                         ok = False
                         break
@@ -698,6 +704,7 @@ class Structure(StructureOutput):
             rec.u[r] = self.u
             rec.v[r] = self.v
             rec.iterations[r, 0] = its
+            rec.stalled[r, 0] = stl
         return rec
 
     #: how often a failed step may be halved (2**MAX_SPLIT sub-steps at most)
@@ -707,32 +714,33 @@ class Structure(StructureOutput):
         """Advance ``state`` = (u, v, cu, cv, lam, acc) (arrays updated in place) by one step of
         size h; a step whose Newton iteration fails is retried as two steps of h/2, down to
         2**MAX_SPLIT sub-steps. Every sub-step is an energy-momentum step, so conservation
-        is untouched. Returns (status, iterations)."""
+        is untouched. Returns (status, iterations, sub-steps accepted at a stall)."""
         u, v, cu, cv, lam, acc = state
         saved = tuple(a.copy() for a in state)
         urel, ref = self.relative(u, cu)
-        du, dv, it, status = self.step(code, urel, v, lam, acc, gm, c - ref, h, max_iter)
+        du, dv, it, status, stalled = self.step(code, urel, v, lam, acc, gm, c - ref, h, max_iter)
         if status == STATUS_OK:
             u2, cu2 = _kahan(u, cu, du)
             v2, cv2 = _kahan(v, cv, dv)
             if np.all(np.isfinite(u2)) and np.all(np.isfinite(v2)):
                 u[...], cu[...], v[...], cv[...] = u2, cu2, v2, cv2
-                return status, it
+                return status, it, int(stalled)
             status = STATUS_SINGULAR
         for a, b in zip(state, saved):
             a[...] = b
         if depth >= self.MAX_SPLIT or status == STATUS_SINGULAR:
-            return status, it
+            return status, it, 0
         self.retries_step += 1
-        total = it
+        total, stl = it, 0
         for _ in range(2):
-            status, k = self._substeps(code, 0.5 * h, state, gm, c, max_iter, depth + 1)
+            status, k, n = self._substeps(code, 0.5 * h, state, gm, c, max_iter, depth + 1)
             total += k
+            stl += n
             if status != STATUS_OK:
                 for a, b in zip(state, saved):
                     a[...] = b
-                return status, total
-        return status, total
+                return status, total, 0
+        return status, total, stl
 
     def _scratch(self) -> None:
         nb, nt, ng = self.bar_node.shape[0], self.tet_node.shape[0], self.gp_m.size
@@ -745,9 +753,8 @@ class Structure(StructureOutput):
 
     def current(self) -> StructureRecords:
         """The current state as one record."""
-        return StructureRecords(
-            self.u[None].copy(), self.v[None].copy(), np.zeros((1, 1), np.int64), np.full((1, 2), -1, np.int64)
-        )
+        z = np.zeros((1, 1), np.int64)
+        return StructureRecords(self.u[None].copy(), self.v[None].copy(), z, np.full((1, 2), -1, np.int64), z.copy())
 
     def snapshot(self):
         """Copies of u, v, cu, cv, lam, acc and of the kept factors (:class:`KeptFactors`)."""

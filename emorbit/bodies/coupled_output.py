@@ -19,19 +19,22 @@ import numpy as np
 from ..kernels import elastic as kel
 from .rigid import body_angular_velocity
 from .rotations import matrix_to_quaternion
-from .system import BodySystem
+from .system import BodySystem, roundoff_scales
 
 __all__ = ["StructureRecords", "StructureOutput"]
 
 
 @dataclass
 class StructureRecords:
-    """States recorded by one call: u, v (nrec, n_slots, 3), iterations (nrec, 1), fail (1, 2)."""
+    """States recorded by one call: u, v (nrec, n_slots, 3), iterations (nrec, 1), fail (1, 2), and
+    stalled (nrec, 1): the sub-steps of each interval whose Newton iteration was accepted at a
+    stall, above round-off."""
 
     u: np.ndarray
     v: np.ndarray
     iterations: np.ndarray
     fail: np.ndarray
+    stalled: np.ndarray | None = None
 
     def first_failure(self):
         """The failure, if any: (step index in the chunk, 0, status), or None.
@@ -53,6 +56,32 @@ class StructureOutput(BodySystem):
     """
 
     # -- diagnostics ------------------------------------------------------------------------------
+    def _energies(self, u, v, gm, c):
+        """Kinetic, strain and potential energy (J) of one state, M v, and the node positions
+        relative to the reference point (:meth:`relative`)."""
+        Mv = self.Ms @ v
+        T = 0.5 * float(np.sum(v * Mv))
+        urel, ref = self.relative(u, np.zeros_like(u))
+        xn = np.empty((self.node_slot.shape[0], 3))
+        kel.combine_rows(urel, self.node_slot, self.node_coef, xn)
+        W = kel.strain_energy(
+            xn,
+            self.bar_node,
+            self.bar_EA,
+            self.bar_L,
+            self.tet_node,
+            self.tet_g,
+            self.tet_V,
+            self.tet_lam,
+            self.tet_mu,
+        )
+        V = 0.0
+        if gm != 0.0 and self.gp_m.size:
+            xg = np.empty((self.gp_m.size, 3))
+            kel.combine_rows(xn, self.gp_node, self.gp_w, xg)
+            V = -gm * float(np.sum(self.gp_m / np.linalg.norm(xg - (c - ref), axis=1)))
+        return T, W, V, Mv, xn
+
     def invariants(self, rec, nrec, gm, center):
         """Energy (kinetic, strain and potential), momentum and angular momentum at each record."""
         c = np.asarray(center, float)
@@ -61,13 +90,26 @@ class StructureOutput(BodySystem):
         L = np.empty((nrec, 3))
         pos = self.slot_pos
         for r in range(nrec):
-            u, v = rec.u[r], rec.v[r]
-            Mv = self.Ms @ v
-            T = 0.5 * float(np.sum(v * Mv))
-            urel, ref = self.relative(u, np.zeros_like(u))
-            xn = np.empty((self.node_slot.shape[0], 3))
-            kel.combine_rows(urel, self.node_slot, self.node_coef, xn)
-            W = kel.strain_energy(
+            u = rec.u[r]
+            T, W, V, Mv, _ = self._energies(u, rec.v[r], gm, c)
+            E[r] = T + W + V
+            P[r] = np.sum(pos[:, None] * Mv, axis=0)
+            L[r] = np.sum(np.cross(u, Mv), axis=0) - np.cross(c, P[r])
+        return E, P, L
+
+    def invariant_scales(self, rec, nrec, gm, center):
+        """Round-off scales of the invariants at each record (:func:`~emorbit.bodies.system.roundoff_scales`):
+        the slots' kinetic energy 1/2 v^T M v; the potential's magnitude, the strain energy and
+        the elements' :func:`~emorbit.kernels.elastic.stress_scale` (what a rounding of the
+        strain moves it by, over eps); the mass of the position slots; and u^T M u with the
+        position slots taken from the centre."""
+        c = np.asarray(center, float)
+        out = np.empty((nrec, 3))
+        pos = self.slot_pos
+        mass = float(pos @ (self.Ms @ pos))
+        for r in range(nrec):
+            T, W, V, _, xn = self._energies(rec.u[r], rec.v[r], gm, c)
+            stress = kel.stress_scale(
                 xn,
                 self.bar_node,
                 self.bar_EA,
@@ -78,15 +120,35 @@ class StructureOutput(BodySystem):
                 self.tet_lam,
                 self.tet_mu,
             )
-            V = 0.0
-            if gm != 0.0 and self.gp_m.size:
-                xg = np.empty((self.gp_m.size, 3))
-                kel.combine_rows(xn, self.gp_node, self.gp_w, xg)
-                V = -gm * float(np.sum(self.gp_m / np.linalg.norm(xg - (c - ref), axis=1)))
-            E[r] = T + W + V
-            P[r] = np.sum(pos[:, None] * Mv, axis=0)
-            L[r] = np.sum(np.cross(u, Mv), axis=0) - np.cross(c, P[r])
-        return E, P, L
+            ur = rec.u[r] - pos[:, None] * c[None, :]
+            out[r] = roundoff_scales(T, abs(V) + W + stress, mass, float(np.sum(ur * (self.Ms @ ur))))
+        return out
+
+    def newton_facts(self, index, method, gm, center, h, max_iter):
+        """:meth:`~emorbit.bodies.coupled.Structure.step` on the structure's next step, with
+        ``max_iter`` and ``max_iter - 1`` iterations: status and the last update relative to its
+        round-off scale (as the step's own test measures it; residual: None). The state and
+        the kept factors are put back."""
+        from ..integrators.dispatch import method_code
+
+        snap = self.snapshot()
+        urel, ref = self.relative(self.u, self.cu)
+        c = np.asarray(center, float) - ref
+        steps = [(h * (self.v + 0.5 * h * self.acc), 0)]  # the predictor: the iterate before the first
+        try:
+            for n in range(max(1, max_iter - 1), max_iter + 1):
+                du, _, _, status, _ = self.step(
+                    method_code(method), urel, self.v, self.lam.copy(), self.acc.copy(), gm, c, h, n
+                )
+                steps.append((du, status))
+                self.restore(snap)
+        finally:
+            self.restore(snap)
+        (d0, _), (d1, status) = steps[-2:]
+        size2 = float(np.max(np.sum(urel * urel, axis=1) * self.slot_pos, initial=0.0))
+        base2 = np.sum((h * self.v) ** 2, axis=1) + np.where(self.slot_pos > 0, size2, 1.0)
+        dd = d1 - d0
+        return int(status), float(np.sqrt(np.max(np.sum(dd * dd, axis=1) / (base2 + np.sum(d1 * d1, axis=1))))), None
 
     def body_datasets(self, i: int) -> dict:
         """The datasets of body i's group, by kind; an elastic body's ``nodes/...`` datasets grow

@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import InputError
 from ..integrators import dispatch
 from ..kernels import invariants as inv
-from .system import BodySystem
+from .system import BodySystem, roundoff_scales
 
 __all__ = ["PointMasses", "ChunkRecords", "earliest_failure"]
 
@@ -379,6 +379,47 @@ class PointMasses(BodySystem):
             inv.momentum(self.masses, v),
             inv.angular_momentum(self.masses, x, v, center),
         )
+
+    def invariant_scales(self, rec: ChunkRecords, nrec: int, gm: float, center) -> np.ndarray:
+        """Round-off scales of the invariants at each record (:func:`~emorbit.bodies.system.roundoff_scales`)
+        from the points' kinetic and potential energy, mass and sum m |x - c|^2.
+
+        Records carry no ``stalled``: the packed and adaptive kernels accept a step only at
+        their round-off tests; the rare fallback to the reference kernel's Newton iteration
+        (a point whose update runs off) can stop at its floor, 1024 eps, and is not counted,
+        which would need an output array in every point-mass kernel."""
+        x, v = rec.x[:nrec], rec.v[:nrec]
+        c = np.asarray(center, float)[:, None]
+        r2 = np.einsum("...kn,...kn->...n", x - c, x - c)
+        V = gm * np.einsum("...n,n->...", 1.0 / np.sqrt(r2), self.masses) if gm != 0.0 else 0.0
+        moment = np.einsum("...n,n->...", r2, self.masses)
+        return roundoff_scales(inv.kinetic_energy(self.masses, v), np.abs(V), self.masses.sum(), moment)
+
+    def newton_facts(self, index: int, method: str, gm: float, center, h: float, max_iter: int):
+        """The reference kernel's Newton iteration (:mod:`emorbit.kernels.pointmass.reference`) on
+        the point's next step: status, its last update and the residual ``|dx - h (v + h/2 g)|``
+        of its last iterate (g evaluated there), both relative to ``|dx|``; None for leapfrog."""
+        from ..kernels import gravity
+        from ..kernels.pointmass import reference
+
+        if method == "leapfrog":
+            return None
+        x, v, c = self.x[:, index], self.v[:, index], np.asarray(center, float)
+        args = (x[0], x[1], x[2], v[0], v[1], v[2], h, gm, c[0], c[1], c[2])
+        d = []
+        for n in (max_iter - 1, max_iter):
+            if n == 0:  # the predictor
+                a = c - x
+                d.append((h * (v + 0.5 * h * gm * a / np.linalg.norm(a) ** 3), 0))
+                continue
+            out = reference.em_step(*args, n, False) if method == "em" else reference.midpoint_step(*args, n)
+            d.append((np.array(out[:3]), out[7]))
+        (d0, _), (d1, status) = d
+        field = gravity.em_accel_points if method == "em" else gravity.midpoint_accel_points
+        g = field(x[:, None].copy(), (x + d1)[:, None].copy(), gm, c)[:, 0]
+        size = max(float(np.linalg.norm(d1)), 1e-300)
+        residual = float(np.linalg.norm(d1 - h * (v + 0.5 * h * g))) / size
+        return int(status), float(np.linalg.norm(d1 - d0)) / size, residual
 
     def datasets(self, rec: ChunkRecords, nrec: int, times=None, first_row: int = 0) -> dict:
         """{name: {"position": (nrec, 3) m, "velocity": (nrec, 3) m/s}}."""

@@ -25,7 +25,7 @@ from . import shapes
 from .pointmasses import earliest_failure
 from .rotations import attitude_matrix, matrix_to_quaternion
 from .shapes import MassPoints
-from .system import BodySystem
+from .system import BodySystem, roundoff_scales
 
 __all__ = ["RigidBodies", "RigidRecords", "GRAVITY_MODELS", "body_angular_velocity", "build_rigid"]
 
@@ -45,12 +45,16 @@ class RigidRecords:
         (nrec, nb) Newton iterations summed over each interval.
     fail : ndarray
         (nb, 2) step index within the chunk and status code per body, -1 if none.
+    stalled : ndarray or None
+        (nrec, nb) sub-steps of each interval whose Newton iteration was accepted at its
+        floor, above round-off.
     """
 
     q: np.ndarray
     v: np.ndarray
     iterations: np.ndarray
     fail: np.ndarray
+    stalled: np.ndarray | None = None
 
     def first_failure(self):
         """The earliest failure.
@@ -274,6 +278,7 @@ class RigidBodies(BodySystem):
             np.empty((nrec, nb, 12)),
             np.zeros((nrec, nb), np.int64),
             np.full((nb, 2), -1, np.int64),
+            np.zeros((nrec, nb), np.int64),
         )
         kern.rigid_chunk(
             method_code(method),
@@ -299,6 +304,7 @@ class RigidBodies(BodySystem):
             rec.q,
             rec.v,
             rec.iterations,
+            rec.stalled,
             rec.fail,
         )
         return rec
@@ -345,6 +351,35 @@ class RigidBodies(BodySystem):
                 x = phi[:, b, :, None] + np.einsum("kn,rki->rin", Xb, D[:, b])
                 V[:, b] = -gm * np.einsum("n,rn->r", mb, 1.0 / np.linalg.norm(x - c[None, :, None], axis=1))
         return (T + V).sum(axis=1), P.sum(axis=1), L.sum(axis=1)
+
+    def invariant_scales(self, rec: RigidRecords, nrec: int, gm: float, center) -> np.ndarray:
+        """Round-off scales of the invariants at each record (:func:`~emorbit.bodies.system.roundoff_scales`):
+        kinetic energy (translation and spin), the potential's magnitude, the mass, and
+        m |phi - c|^2 + tr E, each summed over the bodies."""
+        q, v = rec.q[:nrec], rec.v[:nrec]
+        c = np.asarray(center, float)
+        energy, _, _ = self.invariants(rec, nrec, gm, center)
+        dD = v[..., 3:].reshape(v.shape[:-1] + (3, 3))
+        T = 0.5 * np.einsum("b,rbi,rbi->r", self.mass, v[..., 0:3], v[..., 0:3])
+        T = T + 0.5 * np.einsum("bkl,rbki,rbli->r", self.E, dD, dD)
+        moment = np.einsum("b,rbi,rbi->r", self.mass, q[..., 0:3] - c, q[..., 0:3] - c)
+        moment = moment + np.trace(self.E, axis1=1, axis2=2).sum()
+        return roundoff_scales(T, np.abs(energy - T), self.mass.sum(), moment)
+
+    def newton_facts(self, index: int, method: str, gm: float, center, h: float, max_iter: int):
+        """:func:`emorbit.kernels.rigid.rigid_step` on the body's next step: status and its last
+        update relative to the mass-weighted scale of the increments (residual: None)."""
+        b = index
+        sl = slice(self.offsets[b], self.offsets[b + 1])
+        Xb, mb = np.ascontiguousarray(self.X[:, sl]), np.ascontiguousarray(self.mp[sl])
+        work = kern.work_arrays(Xb)
+        q0, v0 = self.q[b].copy(), self.v[b].copy()
+        c = np.asarray(center, float)
+        args = (method_code(method), self.models[b], q0, v0, self.lam[b].copy(), self.mass[b], self.E[b])
+        _, status, _ = kern.rigid_step(*args, self.Einv[b], Xb, mb, float(gm), c, float(h), int(max_iter), work)
+        w, delta, dq = work[15], work[12], work[16]
+        scale = float(np.sum(w * (h * v0) ** 2) + w[3] + w[6] + w[9] + np.sum(w * dq * dq))
+        return int(status), float(np.sqrt(np.sum(w * delta[:12] ** 2) / scale)), None
 
     def datasets(self, rec: RigidRecords, nrec: int, times=None, first_row: int = 0) -> dict:
         """{name: {dataset: (nrec, width)}}: ``position`` (m), ``velocity`` (m/s), ``attitude`` (unit

@@ -23,7 +23,34 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["BodySystem", "check_body_name", "check_output"]
+__all__ = ["BodySystem", "check_body_name", "check_output", "newton_failure", "roundoff_scales"]
+
+
+def roundoff_scales(kinetic, potential, mass, moment):
+    """The magnitudes against which round-off moves the invariants: a bound of each one's terms.
+
+    Parameters
+    ----------
+    kinetic : float or ndarray
+        Kinetic energy T, J.
+    potential : float or ndarray
+        The magnitudes of the other energy terms summed (|V| of the field, strain energy), J.
+    mass : float or ndarray
+        The total mass M whose velocities make the linear momentum, kg.
+    moment : float or ndarray
+        J = sum m |x - c|^2 over the mass (rigid bodies: m |phi - c|^2 + tr E), kg m^2.
+
+    Returns
+    -------
+    ndarray
+        (..., 3): ``T + |V|`` (J), ``sqrt(2 M T)`` (kg m/s, at least ``|sum m v|`` by
+        Cauchy-Schwarz) and ``sqrt(2 T J)`` (kg m^2/s, at least ``|sum m (x - c) x v|``).
+    """
+    kinetic = np.asarray(kinetic, float)
+    return np.stack(
+        [kinetic + potential, np.sqrt(2.0 * mass * kinetic), np.sqrt(2.0 * kinetic * np.asarray(moment, float))],
+        axis=-1,
+    )
 
 
 def check_body_name(name, key: str = "name") -> str:
@@ -151,6 +178,8 @@ class BodySystem:
             The states after each record interval, the Newton iterations per interval and
             ``first_failure()``: (step index in the chunk, body index, status) of the
             earliest failed step, or None. A failed body stops at the start of its failing step.
+            Kinds whose Newton iteration can be accepted at a stall (above round-off) give
+            ``stalled`` too: (nrec, bodies) such sub-steps per interval.
         """
         raise NotImplementedError
 
@@ -218,6 +247,56 @@ class BodySystem:
         """
         raise NotImplementedError
 
+    def invariant_scales(self, rec, nrec: int, gm: float, center) -> np.ndarray:
+        """The magnitudes against which round-off moves the invariants, at each record.
+
+        Parameters
+        ----------
+        rec : records
+            What :meth:`advance` or :meth:`current` returned.
+        nrec : int
+            How many records to evaluate.
+        gm : float
+            GM of the field, m^3/s^2.
+        center : array_like
+            The field's centre, m.
+
+        Returns
+        -------
+        ndarray
+            (nrec, 3): :func:`roundoff_scales` of the bodies' kinetic energy, the magnitudes
+            of their other energy terms, their mass and their second moment about the centre;
+            J, kg m/s and kg m^2/s.
+        """
+        raise NotImplementedError
+
+    def newton_facts(self, index: int, method: str, gm: float, center, h: float, max_iter: int):
+        """How Newton's iteration fares on one body's next step of size ``h`` (for the message
+        of a failed step); the state is left as it was.
+
+        Parameters
+        ----------
+        index : int
+            The body.
+        method : str
+            The method's name.
+        gm : float
+            GM, m^3/s^2.
+        center : ndarray
+            The field's centre (3,), m.
+        h : float
+            The step, s.
+        max_iter : int
+            Newton iterations allowed.
+
+        Returns
+        -------
+        tuple or None
+            (status, last update, residual or None), the last two relative to the step's
+            scale; None where the kind cannot say (default).
+        """
+        return None
+
     def datasets(self, rec, nrec: int, times=None, first_row: int = 0) -> dict:
         """The first ``nrec`` records as per-body datasets.
 
@@ -275,3 +354,45 @@ class BodySystem:
     def body_constants(self, i: int) -> dict:
         """The fixed datasets of body ``i``, written once: {path: (array, unit)}."""
         raise NotImplementedError
+
+
+def newton_failure(max_iter: int, update: float, residual: float | None, where: str) -> str:
+    """Say what failed in a Newton iteration that ran out of iterations, and what to change.
+
+    Parameters
+    ----------
+    max_iter : int
+        The iterations allowed (``max_newton_iterations``).
+    update : float
+        The last update, relative to the step's scale (the size of the step's increment, or
+        the scale the kind's round-off test uses).
+    residual : float or None
+        The residual of the last iterate, relative to the increment (None: not known).
+    where : str
+        Which step, e.g. ``"at the sub-step dt/16 = 0.5 s"``.
+
+    Returns
+    -------
+    str
+        One clause: the iterate at round-off with an update not yet at the test (raise
+        ``max_newton_iterations``), an update still above round-off (more iterations or a
+        smaller ``dt``), or one as large as the step (a smaller ``dt``).
+    """
+    eps = 2.0**-52
+    res = f", residual {residual:.2g} of the step" if residual is not None else ""
+    ran_out = f"when the max_newton_iterations = {max_iter} iterations ran out"
+    if residual is not None and residual <= 64 * eps and update < 1e-3:
+        return (
+            f"{where} the iterate solves the step to round-off (residual {residual:.2g} of the step), but "
+            f"Newton's update, {update:.2g} of the step's scale, had not yet fallen to the round-off test (4 eps) "
+            f"{ran_out}; raise integrator.max_newton_iterations"
+        )
+    if update < 0.5:
+        return (
+            f"{where} Newton's update had not fallen to round-off (4 eps) {ran_out}: the last was {update:.2g} of "
+            f"the step's scale{res}; raise integrator.max_newton_iterations, or take a smaller dt"
+        )
+    return (
+        f"{where} Newton's iteration does not approach a solution: after {max_iter} iterations its update is "
+        f"{update:.2g} of the step's scale{res}; take a smaller dt"
+    )

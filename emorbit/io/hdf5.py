@@ -2,7 +2,8 @@
 
 Layout (docs/hdf5.md lists every dataset and attribute): ``/time`` (s), ``/invariants/``
 ``energy`` (J), ``momentum`` (kg m / s) and ``angular_momentum`` (kg m2 / s, about the field's
-centre), ``/diagnostics/newton_iterations`` and ``split_steps`` (1), one row per record;
+centre), ``/diagnostics/`` ``newton_iterations``, ``split_steps``, ``stalled_solves``,
+``invariant_drift`` and ``drift_bound`` (1, :mod:`emorbit.io.drift`), one row per record;
 ``/bodies/<name>/`` ``position`` (m) and ``velocity`` (m / s) of every body, ``attitude`` and
 ``angular_velocity`` (rad / s) of rigid bodies, ``nodes/position`` and ``nodes/time`` of
 elastic ones, and what is written once (``mass_points/...``, ``mesh/...``). Every dataset has
@@ -57,8 +58,19 @@ LAYOUT_UNITS = {
     "invariants/angular_momentum": "kg m2 / s",
     "diagnostics/newton_iterations": "1",
     "diagnostics/split_steps": "1",
+    "diagnostics/stalled_solves": "1",
+    "diagnostics/invariant_drift": "1",
+    "diagnostics/drift_bound": "1",
 }
 _SCALAR = ("time", "invariants/energy", "diagnostics/newton_iterations", "diagnostics/split_steps")
+_SCALAR += ("diagnostics/stalled_solves", "diagnostics/drift_bound")
+#: record datasets that files of earlier versions lack, and the value their rows read as
+OPTIONAL = {
+    "diagnostics/split_steps": 0.0,
+    "diagnostics/stalled_solves": 0.0,
+    "diagnostics/invariant_drift": -1.0,
+    "diagnostics/drift_bound": -1.0,
+}
 
 #: root attributes that have a unit: each is written with a companion ``<name>_unit``
 ROOT_UNITS = {
@@ -189,8 +201,8 @@ def check_layout(f: h5py.File, path: str, key: str = "file") -> None:
     if "time" not in f and "bodies" not in f and "method" not in f.attrs:
         raise InputError(key, f"{what} (it has no /time, no /bodies and no 'method' attribute)")
     for name in LAYOUT_UNITS:
-        if name == "diagnostics/split_steps":
-            continue  # absent in files of earlier versions: read as zeros
+        if name in OPTIONAL and name not in f:
+            continue  # absent in files of earlier versions: read as OPTIONAL says
         if not isinstance(f.get(name), h5py.Dataset):
             raise InputError(key, f"{what}: dataset /{name} is missing")
         width = () if name in _SCALAR else (3,)
@@ -220,14 +232,14 @@ def _versions() -> str:
     )
 
 
-def _growable(group, name, width, unit, chunk_rows):
+def _growable(group, name, width, unit, chunk_rows, fill=0.0):
     """A dataset growing along its first axis; ``width`` is None (1-D), an int, or a shape."""
     tail = () if width is None else ((width,) if isinstance(width, int) else tuple(width))
     shape = (0,) + tail
     maxshape = (None,) + tail
     rows = max(1, min(chunk_rows, (1 << 20) // (8 * max(1, int(np.prod(tail))))))
     chunks = (rows,) + tail
-    ds = group.create_dataset(name, shape=shape, maxshape=maxshape, chunks=chunks, dtype="f8")
+    ds = group.create_dataset(name, shape=shape, maxshape=maxshape, chunks=chunks, dtype="f8", fillvalue=fill or None)
     ds.attrs["unit"] = unit
     return ds
 
@@ -387,7 +399,7 @@ class Writer:
         _write_root_attrs(f, attrs)
         f.attrs["status"] = "running"
         self._ds = {
-            name: _growable(f, name, None if name in _SCALAR else 3, unit, chunk_rows)
+            name: _growable(f, name, None if name in _SCALAR else 3, unit, chunk_rows, OPTIONAL.get(name, 0.0))
             for name, unit in LAYOUT_UNITS.items()
         }
         self._body_ds = {}
@@ -451,7 +463,7 @@ class Writer:
             return f", and could not be kept elsewhere ({exc})"
 
     # -- records and states ---------------------------------------------------------------
-    def append(self, time, energy, momentum, angular_momentum, newton_iterations, data, split_steps=None):
+    def append(self, time, energy, momentum, angular_momentum, newton_iterations, data, **diagnostics):
         """Append a block of records and flush.
 
         Parameters
@@ -466,8 +478,10 @@ class Writer:
             (k,) mean Newton iterations per body and sub-step.
         data : dict
             {body: {dataset: block}}, a block of rows for each of the body's datasets.
-        split_steps : array_like, optional
-            (k,) steps of each record interval that were redone in sub-steps (default 0).
+        **diagnostics : array_like
+            Blocks of the other ``diagnostics/`` datasets by name (``split_steps``,
+            ``stalled_solves``, ``invariant_drift``, ``drift_bound``); one not given is
+            filled as :data:`OPTIONAL` says.
 
         Raises
         ------
@@ -475,16 +489,11 @@ class Writer:
             The path no longer names this file.
         """
         time = np.asarray(time, float)
-        if split_steps is None:
-            split_steps = np.zeros(time.shape[0])
-        for name, block in (
-            ("time", time),
-            ("invariants/energy", energy),
-            ("invariants/momentum", momentum),
-            ("invariants/angular_momentum", angular_momentum),
-            ("diagnostics/newton_iterations", newton_iterations),
-            ("diagnostics/split_steps", split_steps),
-        ):
+        blocks = dict(zip(list(LAYOUT_UNITS)[:5], (time, energy, momentum, angular_momentum, newton_iterations)))
+        for name, fill in OPTIONAL.items():
+            shape = self._ds[name].shape[1:]
+            blocks[name] = diagnostics.get(name.split("/")[1], np.full((time.shape[0],) + shape, fill))
+        for name, block in blocks.items():
             _append(self._ds[name], np.asarray(block, float))
         for name, sets in self._body_ds.items():
             for q, ds in sets.items():
@@ -615,9 +624,10 @@ class Writer:
             raise InputError("file", f"cannot open {self.path!r} for writing ({exc})") from None
         f = self.file
         self._identity = _identity(os.fstat(f.id.get_vfd_handle()))
-        if "diagnostics/split_steps" not in f:  # a file of an earlier version: no split counts
-            ds = _growable(f, "diagnostics/split_steps", None, LAYOUT_UNITS["diagnostics/split_steps"], 1024)
-            ds.resize(f["time"].shape[0], axis=0)
+        for name, fill in OPTIONAL.items():  # a file of an earlier version: its rows read as `fill`
+            if name not in f:
+                width = None if name in _SCALAR else 3
+                _growable(f, name, width, LAYOUT_UNITS[name], 1024, fill).resize(f["time"].shape[0], axis=0)
         self._ds = {name: f[name] for name in LAYOUT_UNITS}
         self._body_ds = {}
         for name, g in f["bodies"].items():
@@ -763,7 +773,10 @@ def read(path) -> Result:
                 raise InputError("file", f"{path!r}: group /bodies/{name} has no 'mass' or 'kind' attribute")
             masses[name] = float(g.attrs["mass"])
             kinds[name] = str(g.attrs["kind"])
-        split = f["diagnostics/split_steps"][:n] if "diagnostics/split_steps" in f else np.zeros(n)
+        diag = {}
+        for name, fill in OPTIONAL.items():
+            shape = (n,) if name in _SCALAR else (n, 3)
+            diag[name.split("/")[1]] = f[name][:n] if name in f else np.full(shape, fill)
         center = np.asarray(f.attrs["center"], float)
         if center.shape != (3,):
             raise InputError("file", f"{path!r}: root attribute 'center' has shape {center.shape}, expected (3,)")
@@ -782,5 +795,5 @@ def read(path) -> Result:
             gm=_attr(f, path, "gm", float),
             center=center,
             attrs={k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()},
-            split_steps=split,
+            **diag,
         )

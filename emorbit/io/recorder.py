@@ -2,9 +2,11 @@
 
 A :class:`Sink` receives the states a chunk of steps recorded, computes the invariants of
 every record (energy in J, linear momentum in kg m/s, angular momentum about the field's
-centre in kg m2/s), the mean Newton iterations per solve and the steps redone in sub-steps
-in each record interval, stops the run when a record
-falls inside the central body, appends the records to the output file (a
+centre in kg m2/s), the mean Newton iterations per solve, the steps redone in sub-steps and
+the sub-steps whose Newton iteration was accepted at a stall in each record interval, and
+the drift of the conserved invariants against the bound round-off explains (the
+simulation's :class:`~emorbit.io.drift.DriftMonitor`); stops the run when a record falls
+inside the central body, appends the records to the output file (a
 :class:`~emorbit.io.hdf5.Writer`) and keeps them in memory (all, or the first and the last).
 :meth:`Sink.result` assembles the kept records into a :class:`~emorbit.result.Result`.
 """
@@ -80,6 +82,11 @@ class Sink:
     split_pending : int
         Steps redone in sub-steps since the last record: the next record's
         ``diagnostics/split_steps``.
+    stalled_pending : int
+        Sub-steps accepted at a stall since the last record that no emitted chunk holds (in
+        steps redone in sub-steps): added to the next record's ``diagnostics/stalled_solves``.
+    monitor : DriftMonitor or None
+        The simulation's drift monitor (``sim._drift``); None: no drift is measured (-1).
     """
 
     def __init__(self, sim, writer, keep: bool):
@@ -90,6 +97,8 @@ class Sink:
         self.rows = 0  # records emitted so far
         self.last_step = None  # the step count of the last record
         self.split_pending = 0
+        self.stalled_pending = 0
+        self.monitor = getattr(sim, "_drift", None)
 
     def emit_rows(self, recs, steps, nrec: int, k: int) -> None:
         """Record the first ``nrec`` rows of a chunk (the ones before a collision).
@@ -135,6 +144,8 @@ class Sink:
         angular = np.zeros((nrec, 3))
         data = {}
         iters = np.zeros(nrec)
+        stalled = np.zeros(nrec)
+        substeps = None  # counted by an adaptive kernel
         solves = 0
         for system, rec in recs:
             e, p, L = system.invariants(rec, nrec, gm, center)
@@ -143,8 +154,11 @@ class Sink:
             angular += L
             data.update(system.datasets(rec, nrec, times, self.rows))
             iters += rec.iterations[:nrec].sum(axis=1)
+            if getattr(rec, "stalled", None) is not None:
+                stalled += rec.stalled[:nrec].sum(axis=1)
             if getattr(rec, "solves", None) is not None:  # adaptive: solves counted by the kernel
                 solves = solves + rec.solves[:nrec].sum(axis=1) / max(k, 1)
+                substeps = rec.solves[:nrec].max(axis=1, initial=0)
             else:  # solves per step: points, bodies, or 1 per structure
                 solves = solves + rec.iterations.shape[1] * coefficients(sim.order).size
         its = iters / np.maximum(k * solves, 1) if k else np.zeros(nrec)
@@ -167,12 +181,20 @@ class Sink:
                 )
         split = np.zeros(nrec)
         split[0] = self.split_pending
-        self.split_pending = 0
+        stalled[0] += self.stalled_pending
+        self.split_pending = self.stalled_pending = 0
+        drift, bound = np.full((nrec, 3), -1.0), np.full(nrec, -1.0)  # -1: not measured
+        if self.monitor is not None:
+            scales = sum(system.invariant_scales(rec, nrec, gm, center) for system, rec in recs)
+            rel = np.asarray(steps[:nrec]) - getattr(sim, "_run_origin", 0)  # steps since the file's start
+            drift, bound = self.monitor.update(times, rel, energy, momentum, angular, scales, substeps, stalled)
         self.rows += nrec
         self.last_step = int(steps[nrec - 1])
-        block = (times, energy, momentum, angular, its, data, split)
+        block = (times, energy, momentum, angular, its, data, split, stalled, drift, bound)
         if self.writer is not None:
-            self.writer.append(*block[:6], split_steps=split)
+            self.writer.append(
+                *block[:6], split_steps=split, stalled_solves=stalled, invariant_drift=drift, drift_bound=bound
+            )
         if self.keep or not self.blocks:
             self.blocks.append(block if self.keep else _row(block, 0))
         if not self.keep:
@@ -211,11 +233,13 @@ class Sink:
             gm=sim.gm,
             center=sim.center.copy(),
             split_steps=cat(6),
+            stalled_solves=cat(7),
+            invariant_drift=cat(8),
+            drift_bound=cat(9),
         )
 
 
 def _row(block, i):
     sl = slice(i, i + 1) if i >= 0 else slice(i, None)
-    times, e, p, L, its, data, split = block
-    rows = {n: {q: a[sl] for q, a in d.items()} for n, d in data.items()}
-    return (times[sl], e[sl], p[sl], L[sl], its[sl], rows, split[sl])
+    rows = {n: {q: a[sl] for q, a in d.items()} for n, d in block[5].items()}
+    return tuple(rows if j == 5 else a[sl] for j, a in enumerate(block))

@@ -42,6 +42,7 @@ __all__ = [
     "tet_forces",
     "gravity_forces",
     "strain_energy",
+    "stress_scale",
     "csc_find",
 ]
 
@@ -278,6 +279,48 @@ def strain_energy(x, bar_node, bar_EA, bar_L, tet_node, tet_g, tet_V, tet_lam, t
                     tr += Eij
         W += tet_V[e] * (0.5 * tet_lam[e] * tr * tr + tet_mu[e] * ee)
     return W
+
+
+@kernel
+def stress_scale(x, bar_node, bar_EA, bar_L, tet_node, tet_g, tet_V, tet_lam, tet_mu):
+    """sum of EA L |E| over bars and V |S| (Frobenius) over tetrahedra at node positions x, J.
+
+    A rounding of eps in the strain (E = (F^T F - I)/2 of coordinates rounded to eps of their
+    size) moves the strain energy by up to eps times this: the round-off scale of the strain
+    energy, which the energy itself (quadratic in a small strain) can be far below."""
+    total = 0.0
+    for e in range(bar_node.shape[0]):
+        a = bar_node[e, 0]
+        b = bar_node[e, 1]
+        L2 = bar_L[e] * bar_L[e]
+        d2 = 0.0
+        for i in range(3):
+            d2 += (x[b, i] - x[a, i]) ** 2
+        total += bar_EA[e] * bar_L[e] * abs((d2 - L2) / (2.0 * L2))
+    F = np.empty((3, 3))
+    E = np.empty((3, 3))
+    for e in range(tet_node.shape[0]):
+        g = tet_g[e]
+        for i in range(3):
+            for j in range(3):
+                s = 0.0
+                for a in range(4):
+                    s += x[tet_node[e, a], i] * g[j, a]
+                F[i, j] = s
+        for i in range(3):
+            for j in range(3):
+                c = 0.0
+                for k in range(3):
+                    c += F[k, i] * F[k, j]
+                E[i, j] = 0.5 * c - (0.5 if i == j else 0.0)
+        tr = E[0, 0] + E[1, 1] + E[2, 2]
+        ss = 0.0
+        for i in range(3):
+            for j in range(3):
+                sij = 2.0 * tet_mu[e] * E[i, j] + (tet_lam[e] * tr if i == j else 0.0)
+                ss += sij * sij
+        total += tet_V[e] * math.sqrt(ss)
+    return total
 
 
 @kernel

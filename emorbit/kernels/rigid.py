@@ -333,8 +333,10 @@ def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter
     """One step of size ``h`` for one rigid body.
 
     q0, v0 (12,) the state; lam (6,) the multipliers' warm start lambda (updated in place
-    with this step's value); work from :func:`work_arrays`. Returns (iterations, status);
-    the increments dq and dv are ``work[16]`` and ``work[19]``.
+    with this step's value); work from :func:`work_arrays`. Returns (iterations, status,
+    stalled): ``stalled`` is 1 when the floor rule below accepted the iteration with its last
+    update above the round-off tolerance, else 0. The increments dq and dv are ``work[16]``
+    and ``work[19]``.
 
     Stopping rule: the iteration stops when the update falls to the round-off of the
     unknowns (mass-weighted; directors are unit vectors, so their increments are only defined
@@ -353,7 +355,7 @@ def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter
                 a0[d, i] = c[d] - (q0[d] + X[0, i] * q0[3 + d] + X[1, i] * q0[6 + d] + X[2, i] * q0[9 + d])
             r0[i] = math.sqrt(a0[0, i] ** 2 + a0[1, i] ** 2 + a0[2, i] ** 2)
             if not (r0[i] > 0.0):
-                return 0, STATUS_SINGULAR
+                return 0, STATUS_SINGULAR, 0
     es = (E[0, 0] + E[1, 1] + E[2, 2]) / 3.0  # scale of the constraint rows and multipliers
     hf = 0.5 * h
     for d in range(3):
@@ -373,7 +375,7 @@ def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter
     if model != GRAVITY_NONE:
         gx, gy, gz, rr = accel(c[0] - q0[0], c[1] - q0[1], c[2] - q0[2], gm)
         if not (rr > 0.0):
-            return 0, STATUS_SINGULAR
+            return 0, STATUS_SINGULAR, 0
     dq[0] = h * (v0[0] + hf * gx)
     dq[1] = h * (v0[1] + hf * gy)
     dq[2] = h * (v0[2] + hf * gz)
@@ -413,6 +415,7 @@ def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter
         delta[j] = 0.0
     prev2 = math.inf
     status = STATUS_NO_CONVERGENCE
+    stalled = 0
     it = 0
     while it < max_iter:
         it += 1
@@ -473,8 +476,12 @@ def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter
             s2 += wdiag[j] * dq[j] * dq[j]
         for j in range(6):
             nu[j] -= rhs[12 + j]
-        if d2 <= _TOL2 * (floor2 + s2) or (d2 >= prev2 and d2 <= _FLOOR2 * (floor2 + s2)):
-            status = STATUS_OK  # at round-off, or no longer shrinking at its floor
+        if d2 <= _TOL2 * (floor2 + s2):
+            status = STATUS_OK  # at round-off
+            break
+        if d2 >= prev2 and d2 <= _FLOOR2 * (floor2 + s2):
+            status = STATUS_OK  # no longer shrinking at its floor: accepted above round-off
+            stalled = 1
             break
         prev2 = d2
     # velocity: M dv = h F_lin - G(q05)^T nu, F linearised at the final iterate
@@ -506,7 +513,7 @@ def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter
         dv[9 + d] = x2 + (Einv[2, 0] * e0 + Einv[2, 1] * e1 + Einv[2, 2] * e2)
     for j in range(6):
         lam[j] = nu[j] / h
-    return it, status
+    return it, status, stalled
 
 
 @kernel
@@ -534,6 +541,7 @@ def rigid_chunk(
     rec_q,
     rec_v,
     rec_iters,
+    rec_stalled,
     fail,
 ):
     """Advance every rigid body ``nrec * every`` composed steps, recording every ``every``.
@@ -541,7 +549,9 @@ def rigid_chunk(
     models (nb,) gravity model per body; q, v, cq, cv (nb, 12) state and Kahan compensation;
     lam (nb, 6) multiplier warm starts; mass (nb,), E and Einv (nb, 3, 3); body b's mass
     points are X[:, offsets[b]:offsets[b+1]] (3, N) with masses mp. rec_q/rec_v (nrec, nb, 12),
-    rec_iters (nrec, nb), fail (nb, 2) as in :func:`emorbit.kernels.pointmass.reference.implicit_chunk`.
+    rec_iters (nrec, nb), fail (nb, 2) as in :func:`emorbit.kernels.pointmass.reference.implicit_chunk`;
+    rec_stalled (nrec, nb) counts each interval's sub-steps that :func:`rigid_step` accepted at
+    its floor, above round-off.
     """
     nb = q.shape[0]
     ns = gammas.shape[0]
@@ -559,6 +569,7 @@ def rigid_chunk(
         failed = False
         for r in range(nrec):
             its = 0
+            stl = 0
             for s in range(every):
                 tp[:] = q[b]
                 tu[:] = v[b]
@@ -567,10 +578,11 @@ def rigid_chunk(
                 tl[:] = lam[b]
                 for k in range(ns):
                     h = dt * gammas[k]
-                    it, status = rigid_step(
+                    it, status, stalled = rigid_step(
                         method, models[b], tp, tu, tl, mass[b], E[b], Einv[b], Xb, mb, gm, center, h, max_iter, work
                     )
                     its += it
+                    stl += stalled
                     ok = status == STATUS_OK
                     for j in range(12):
                         tp[j], te[j] = kahan_add(tp[j], te[j], dq[j])
@@ -594,3 +606,4 @@ def rigid_chunk(
             rec_q[r, b, :] = q[b]
             rec_v[r, b, :] = v[b]
             rec_iters[r, b] = its
+            rec_stalled[r, b] = stl

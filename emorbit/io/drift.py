@@ -1,0 +1,311 @@
+"""Invariants that leave round-off: each record's drift, the bound round-off explains, the warning.
+
+A method conserves some invariants exactly, up to round-off: em the energy and the angular
+momentum about the field's centre, midpoint and leapfrog the angular momentum; in free space
+every method conserves the linear momentum too (:func:`conserved`). Each record's drift is
+measured from the run file's first record, relative to the invariant's *round-off scale*
+``S``: the largest, over the records so far, of a bound of the invariant's terms
+(:func:`emorbit.bodies.system.roundoff_scales`: ``T + |V| + W`` plus, for elastic bodies,
+the elements' volume times stress (:func:`emorbit.kernels.elastic.stress_scale`) for the
+energy, ``sqrt(2 M T)`` for the momentum, ``sqrt(2 T J)`` for the angular momentum), since
+round-off in a step is a few eps of those terms, not of their sum, which can be small or
+zero. The drift is
+compared with the bound
+
+    B(n) = C eps sqrt(max(n, 1)),
+
+a random walk whose implicit sub-steps each move the invariant by up to C eps of S; ``n`` counts the
+implicit sub-steps since the first record (steps times the composition's stages; adaptive
+runs count the kernel's sub-steps) and ``C`` is the drift tolerance
+(:data:`DRIFT_TOLERANCE` unless the run sets it). The bound's margin is wide: the shipped
+scenes and the long runs of ``tests/test_hardcases.py`` stay below 0.007 B, while a stiff
+structure at a large step (the round-off its step leaves grows like (omega_max dt)^2, with
+omega_max its highest natural frequency) or a Newton iteration accepted far from round-off
+exceeds it. docs/hard-cases.md has the measurements.
+
+A :class:`DriftMonitor` keeps the reference, the running scales, the sub-step count and the
+largest excess; its state is part of a run's checkpoint (:meth:`DriftMonitor.state_arrays`),
+so a resumed run records the same bits as one that never stopped.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = [
+    "DRIFT_TOLERANCE",
+    "INVARIANTS",
+    "STATE",
+    "DriftMonitor",
+    "absent_state",
+    "check_tolerance",
+    "conserved",
+    "is_absent",
+]
+
+_EPS = 2.0**-52
+#: the default drift tolerance C: a record is flagged when its drift exceeds C eps sqrt(n)
+DRIFT_TOLERANCE = 1000.0
+#: the invariants checked, in the column order of ``diagnostics/invariant_drift``
+INVARIANTS = ("energy", "linear momentum", "angular momentum")
+#: the state a checkpoint stores: {name: (length, unit)}
+STATE = {
+    "reference": (7, "J (0), kg m / s (1-3), kg m2 / s (4-6)"),
+    "scale": (3, "J (0), kg m / s (1), kg m2 / s (2)"),
+    "progress": (19, "s (5, 10, 15), 1 (the others)"),
+}
+
+
+def conserved(method: str, free_space: bool) -> np.ndarray:
+    """Which invariants a method conserves up to round-off.
+
+    Parameters
+    ----------
+    method : str
+        ``"em"``, ``"midpoint"`` or ``"leapfrog"``.
+    free_space : bool
+        No central field: the linear momentum is conserved too.
+
+    Returns
+    -------
+    ndarray
+        (3,) bool, in the order of :data:`INVARIANTS`.
+    """
+    return np.array([method == "em", bool(free_space), True])
+
+
+def check_tolerance(value, key: str = "drift_tolerance") -> float:
+    """A drift tolerance: a number > 0, or ``inf`` to switch the check off.
+
+    Parameters
+    ----------
+    value : float
+        The multiple C of eps sqrt(n).
+    key : str
+        Its name in errors.
+
+    Returns
+    -------
+    float
+        ``value``, ``inf`` taken as the largest double (the bound stays finite, as a
+        checkpoint stores it).
+
+    Raises
+    ------
+    InputError
+        Not a number > 0.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) or not value > 0:
+        raise InputError(key, f"must be a number > 0 (the multiple C of eps sqrt(steps)), got {value!r}")
+    return min(float(value), np.finfo(float).max)
+
+
+def absent_state() -> dict[str, np.ndarray]:
+    """The checkpoint state of a run that measures no drift (a file of an earlier version
+    continued): the arrays of :data:`STATE`, zeros, with the tolerance 0.
+
+    Returns
+    -------
+    dict
+        {name: array}.
+    """
+    return {name: np.zeros(n) for name, (n, _) in STATE.items()}
+
+
+def is_absent(arrays: dict) -> bool:
+    """Whether checkpoint arrays say that no drift is measured (:func:`absent_state`).
+
+    Parameters
+    ----------
+    arrays : dict
+        {name: array} as read from a checkpoint's ``drift`` group.
+
+    Returns
+    -------
+    bool
+        True when ``progress`` holds the tolerance 0.
+    """
+    p = np.asarray(arrays.get("progress", ()), float)
+    return p.shape == (STATE["progress"][0],) and p[3] == 0.0
+
+
+class DriftMonitor:
+    """The drift of the conserved invariants from a run file's first record, record by record.
+
+    Parameters
+    ----------
+    tolerance : float
+        C of the bound C eps sqrt(n).
+    stages : int
+        Implicit sub-steps per step (the composition's stages).
+    checked : ndarray
+        (3,) bool: the invariants the method conserves (:func:`conserved`).
+
+    Attributes
+    ----------
+    worst : list
+        Per invariant, None or, for the record that exceeded its bound the most, (drift over
+        bound, time in s, drift relative to the first record's value, implicit sub-steps n,
+        bound).
+    stalled : int
+        Sub-steps accepted at a stall (above round-off) since the first record.
+    """
+
+    def __init__(self, tolerance: float, stages: int, checked):
+        self.tolerance = float(tolerance)
+        self.stages = int(stages)
+        self.checked = np.asarray(checked, bool)
+        self.reference: np.ndarray | None = None  # (7,) E0, P0, L0
+        self.scale = np.zeros(3)
+        self.substeps = 0.0
+        self.last_step = 0
+        self.stalled = 0
+        self.worst: list = [None, None, None]
+
+    # -- checkpoints -------------------------------------------------------------------------
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The monitor's state as float arrays: what a checkpoint stores (:data:`STATE`).
+
+        Returns
+        -------
+        dict
+            ``reference`` (E0, P0, L0; zeros before the first record), ``scale`` (the running
+            scales) and ``progress``: sub-steps, the last record's step, stalled sub-steps,
+            the tolerance C (0: no drift is measured, see :func:`absent_state`), then for each
+            invariant its largest excess (drift over bound, or -1 while none; time; relative
+            drift; sub-steps; bound).
+        """
+        ref = self.reference if self.reference is not None else np.zeros(7)
+        progress = [self.substeps, self.last_step, self.stalled, self.tolerance]
+        for w in self.worst:
+            progress += w or (-1.0, 0.0, 0.0, 0.0, 0.0)
+        return {"reference": ref.copy(), "scale": self.scale.copy(), "progress": np.array(progress, float)}
+
+    def set_state_arrays(self, arrays: dict) -> None:
+        """Restore :meth:`state_arrays` (as read from a checkpoint) of a monitor that has seen
+        its first record.
+
+        Parameters
+        ----------
+        arrays : dict
+            {name: array} with the names and lengths of :data:`STATE`.
+
+        Raises
+        ------
+        InputError
+            An array is missing, has the wrong shape or holds values that cannot be.
+        """
+        for name, (n, _) in STATE.items():
+            a = arrays.get(name)
+            if a is None or np.shape(a) != (n,):
+                raise InputError("checkpoint", f"the drift monitor's state 'drift/{name}' is missing or not ({n},)")
+        ref = np.asarray(arrays["reference"], float)
+        scale = np.asarray(arrays["scale"], float)
+        p = np.asarray(arrays["progress"], float)
+        if not (np.all(p[:3] >= 0) and p[3] > 0 and np.all(scale >= 0)):
+            raise InputError("checkpoint", "the drift monitor's state 'drift/progress' or 'drift/scale' is invalid")
+        self.reference = ref.copy()
+        self.scale = scale.copy()
+        self.substeps, self.last_step, self.stalled, self.tolerance = float(p[0]), int(p[1]), int(p[2]), float(p[3])
+        self.worst = [None if p[j] < 0 else tuple(float(x) for x in p[j : j + 5]) for j in (4, 9, 14)]
+
+    # -- records -----------------------------------------------------------------------------
+    def update(self, times, steps, energy, momentum, angular, scales, substeps, stalled):
+        """Measure a block of records.
+
+        Parameters
+        ----------
+        times : ndarray
+            (k,) record times, s.
+        steps : ndarray
+            (k,) step counts of the records.
+        energy, momentum, angular : ndarray
+            (k,), (k, 3), (k, 3): the invariants, J, kg m/s, kg m^2/s.
+        scales : ndarray
+            (k, 3) the records' round-off scales.
+        substeps : ndarray or None
+            (k,) implicit sub-steps of each record's interval counted by a kernel (adaptive
+            steps), or None: the steps since the last record times :attr:`stages`.
+        stalled : ndarray
+            (k,) sub-steps of each interval accepted at a stall.
+
+        Returns
+        -------
+        drift : ndarray
+            (k, 3) |I - I0| / S for the conserved invariants, -1 for the others.
+        bound : ndarray
+            (k,) C eps sqrt(max(n, 1)).
+        """
+        k = len(times)
+        inv = np.concatenate([np.asarray(energy, float)[:, None], momentum, angular], axis=1)
+        steps = np.asarray(steps, np.int64)
+        if self.reference is None:
+            self.reference = inv[0].copy()
+            self.scale = np.zeros(3)
+            self.last_step = int(steps[0])
+        inc = np.diff(steps, prepend=self.last_step).astype(float) * self.stages
+        if substeps is not None:
+            inc = np.maximum(inc, substeps)
+        n = self.substeps + np.cumsum(inc)
+        scale = np.maximum.accumulate(np.maximum(scales, self.scale[None, :]), axis=0)
+        ref = self.reference
+        change = np.stack(
+            [np.abs(inv[:, 0] - ref[0]), np.linalg.norm(inv[:, 1:4] - ref[1:4], axis=1)]
+            + [np.linalg.norm(inv[:, 4:7] - ref[4:7], axis=1)],
+            axis=1,
+        )
+        drift = change / np.maximum(scale, np.finfo(float).tiny)  # finite: a checkpoint stores it
+        drift[:, ~self.checked] = -1.0
+        bound = self.tolerance * _EPS * np.sqrt(np.maximum(n, 1.0))
+        with np.errstate(over="ignore"):
+            ratio = np.minimum(np.where(self.checked[None, :], drift / bound[:, None], -1.0), np.finfo(float).max)
+        for j in range(3):
+            r = int(np.argmax(ratio[:, j]))
+            if ratio[r, j] > 1.0 and (self.worst[j] is None or ratio[r, j] > self.worst[j][0]):
+                size = abs(ref[0]) if j == 0 else np.linalg.norm(ref[1:4] if j == 1 else ref[4:7])
+                rel = change[r, j] / size if size > 0 else -1.0  # -1: the first value is 0
+                self.worst[j] = (float(ratio[r, j]), float(times[r]), float(rel), float(n[r]), float(bound[r]))
+        self.substeps = float(n[-1])
+        self.scale = scale[-1].copy()
+        self.last_step = int(steps[k - 1])
+        self.stalled += int(np.sum(stalled))
+        return drift, bound
+
+    def report(self) -> str | None:
+        """The end-of-run warning: one paragraph, or None when no record exceeded its bound.
+
+        Returns
+        -------
+        str or None
+            Each invariant that exceeded its bound with its largest excess: the drift
+            relative to the first record's value, when, the multiple of the bound; then what
+            to change.
+        """
+        parts = [
+            f"the {INVARIANTS[j]} drifted from its first record by "
+            + (f"{rel:.3g} of its value" if rel >= 0 else "some (its first value is 0)")
+            + f" at t = {t!r} s, {ratio:.3g} times what round-off explains after n = {n:.0f} implicit sub-steps "
+            f"(C eps sqrt(n) = {bound:.3g} of its round-off scale)"
+            for j, (ratio, t, rel, n, bound) in ((j, w) for j, w in enumerate(self.worst) if w is not None)
+        ]
+        if not parts:
+            return None
+        head = (
+            "; ".join(parts) + f", with drift_tolerance C = {self.tolerance:g}; every record's drift and bound are in "
+            "diagnostics/invariant_drift and diagnostics/drift_bound."
+        )
+        if self.stalled:
+            cause = (
+                f" Newton's iteration was accepted at a stall, above round-off, in {self.stalled} sub-steps "
+                '(diagnostics/stalled_solves): take a smaller dt, or newton = "full" for an elastic structure, '
+                "so that each solve reaches round-off."
+            )
+        else:
+            cause = (
+                " Every Newton iteration ended at round-off, so the step itself amplifies round-off: take a smaller "
+                "dt (the round-off a stiff elastic structure's step leaves grows like (omega_max dt)^2, omega_max "
+                "its highest natural frequency)."
+            )
+        return head + cause + " To accept the drift, raise drift_tolerance (integrator.drift_tolerance)."
