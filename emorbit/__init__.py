@@ -16,7 +16,7 @@ from ._version import __version__
 from .errors import EmorbitError, InputError, IntegrationError, RoundoffError, RoundoffWarning
 from .field import BODIES, CentralField
 from .integrators import METHODS, ORDERS
-from .io.hdf5 import read
+from .io.reader import read
 from .io.resume import resume
 from .result import Result
 from .scene import Scene, list_scenes, load_scene, parse_scene

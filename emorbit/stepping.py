@@ -18,15 +18,27 @@ says what failed (:func:`emorbit.bodies.system.newton_failure`). SIGINT and SIGT
 run at the end of the chunk in progress (:func:`stop_on_signals`). Whatever ends the run
 (its end, a failure, a signal), the output file gets the final state, a checkpoint where
 the state is on the record grid, and the matching status: "completed", "failed" or
-"interrupted". A completed run whose conserved invariants drifted beyond the bound round-off
-explains (:mod:`emorbit.io.drift`) gets the root attribute ``warning`` and, once its file is
-closed, a :class:`~emorbit.errors.RoundoffWarning`, or with ``strict`` a
+"interrupted".
+
+With ``energy_range`` on (by default for the methods that do not conserve energy, where
+``output_every`` > 1), every record also gets the least and the greatest total energy over
+the steps of its interval (``invariants/energy_range``), so that decimated records cannot
+alias an oscillating energy error: the systems record every step into scratch records
+(:data:`RANGE_BYTES` of them per call at most), whose energies give the range, and the
+records are taken from them (:func:`_every_kth`); the steps are the same steps, so the
+records are bit-identical to a run without the range.
+
+A completed run whose conserved invariants drifted beyond the bound round-off explains
+(:mod:`emorbit.io.drift`) gets the root attribute ``warning`` and, once its file is closed,
+a :class:`~emorbit.errors.RoundoffWarning`, or with ``strict`` a
 :class:`~emorbit.errors.RoundoffError`.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import json
 import numbers
 import signal
 import threading
@@ -37,7 +49,7 @@ import numpy as np
 
 from .bodies.system import newton_failure
 from .errors import InputError, IntegrationError, RoundoffError, RoundoffWarning
-from .integrators import coefficients
+from .integrators import coefficients, get_method
 from .io.drift import DRIFT_TOLERANCE, STATE, DriftMonitor, absent_state, check_tolerance, conserved, is_absent
 from .io.hdf5 import FileLostError, Writer
 from .io.recorder import Sink, progress_bar
@@ -60,6 +72,10 @@ CHUNK_SECONDS = 0.5
 CHECKPOINT_SECONDS = 5.0
 #: bytes of recorded state per chunk at most
 CHUNK_BYTES = 128 * 2**20
+#: bytes of step-by-step states that one call records at most to measure energy ranges
+RANGE_BYTES = 32 * 2**20
+#: what ``energy_range`` may be set to
+RANGE_CHOICES = ("auto", True, False)
 #: the signals that stop a run cleanly
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -147,12 +163,20 @@ class _Pace:
         self.records = 2  # the first chunk is short: it is timed before chunks grow
         self.max_records = max_records
         self.per_record = 0.0  # s
+        self.steps = 1024  # steps of one call in a record interval longer than a chunk
         self.last_checkpoint = _time.monotonic()
 
-    def measured(self, nrec: int, seconds: float) -> None:
+    def measured(self, nrec: int, seconds: float, steps: int | None = None) -> None:
         self.per_record = seconds / nrec
         target = int(CHUNK_SECONDS / max(self.per_record, 1e-12))
         self.records = max(1, min(target, 4 * self.records, self.max_records))
+        if steps is not None:
+            self.measured_steps(steps, seconds)
+
+    def measured_steps(self, steps: int, seconds: float) -> None:
+        """Steps per call in a long record interval, from a call of ``steps`` steps."""
+        target = int(CHUNK_SECONDS * steps / max(seconds, 1e-12))
+        self.steps = max(1, min(target, 4 * max(self.steps, steps)))
 
     def checkpoint_due(self) -> bool:
         """A checkpoint now, or the next chunk would end more than CHECKPOINT_SECONDS after the last."""
@@ -175,15 +199,43 @@ class ChunkDriver:
     drift_tolerance : float
         C of the drift bound C eps sqrt(n) (:mod:`emorbit.io.drift`) for runs that do not
         give their own; ``inf`` switches the check off.
+    energy_range : {"auto", True, False}
+        Record the least and greatest total energy between records
+        (``invariants/energy_range``): "auto" does for methods that do not conserve energy
+        (:data:`emorbit.integrators.METHODS`); an em run's energy is the records' to round-off.
     """
 
     drift_tolerance: float = DRIFT_TOLERANCE
     _drift: DriftMonitor | None = None
+    _energy_range = "auto"
+
+    @property
+    def energy_range(self):
+        """Whether records carry the energy's range between them: "auto", True or False."""
+        return self._energy_range
+
+    @energy_range.setter
+    def energy_range(self, value) -> None:
+        if not any(value is c or (isinstance(c, str) and value == c) for c in RANGE_CHOICES):
+            raise InputError("energy_range", f'must be "auto", true or false, got {value!r}')
+        self._energy_range = value
+
+    def _axisymmetric(self) -> bool:
+        """Whether an effect leaves the field symmetric about an axis only (zonal harmonics)."""
+        return any(t.kind == "zonal" for t in getattr(self, "_effects", ()))
+
+    def _ranges_energy(self) -> bool:
+        """Whether this run measures the energy between records."""
+        if self._energy_range == "auto":
+            return "energy" not in get_method(self.method).conserves
+        return bool(self._energy_range)
 
     def _start_drift(self, tolerance) -> None:
         """A new drift monitor for a run whose first record is the reference."""
         tol = check_tolerance(self.drift_tolerance if tolerance is None else tolerance)
-        self._drift = DriftMonitor(tol, coefficients(self.order).size, conserved(self.method, self.field is None))
+        self._drift = DriftMonitor(
+            tol, coefficients(self.order).size, conserved(self.method, self.field is None, self._axisymmetric())
+        )
 
     # -- state, for checkpoints and restarts -------------------------------------------
     def state_arrays(self) -> dict[str, np.ndarray]:
@@ -227,7 +279,7 @@ class ChunkDriver:
         self._steps = int(steps)
 
     def state_units(self) -> dict[str, str]:
-        """The units of state arrays that systems declare beyond :data:`emorbit.io.hdf5.STATE_UNITS`.
+        """The units of state arrays that systems declare beyond :data:`emorbit.io.reader.STATE_UNITS`.
 
         Returns
         -------
@@ -238,7 +290,7 @@ class ChunkDriver:
         return units | {f"drift/{k}": unit for k, (_, unit) in STATE.items()}
 
     def _file_attrs(self, every: int, n_steps: int) -> dict:
-        """The root attributes that say how the run is made (see :mod:`emorbit.io.hdf5`)."""
+        """The root attributes that say how the run is made (see :mod:`emorbit.io.reader`)."""
         return {
             "method": self.method,
             "order": self.order,
@@ -255,6 +307,7 @@ class ChunkDriver:
             "adaptive": self.adaptive if self.adaptive is not None else 0.0,
             "roundoff": self.roundoff,
             "scene": self.scene_text if self.scene_text is not None else self.to_toml(),
+            "effects": json.dumps([{"kind": t.kind, "label": t.label} for t in getattr(self, "effects", ())]),
         }
 
     def _start_run(self, n_steps, every, output, overwrite, keep, checkpoint_every, progress, tolerance) -> Result:
@@ -272,7 +325,10 @@ class ChunkDriver:
             ]
             attrs = self._file_attrs(every, n_steps)
             attrs["checkpoint_every"] = cp
-            writer = Writer(output, bodies, attrs, overwrite=overwrite)
+            labels = [t.label for t in getattr(self, "_effects", ())]
+            if labels and self.field is not None:
+                labels.insert(0, "central")
+            writer = Writer(output, bodies, attrs, overwrite=overwrite, potentials=labels)
         self._run_origin = self._steps
         sink = Sink(self, writer, keep)
         sink.emit([(s, s.current()) for s in self.systems], np.array([self._steps]), 1, 0)
@@ -364,6 +420,78 @@ class ChunkDriver:
             for s in self.systems
         ]
 
+    def _current(self):
+        """Every system's current state as a one-row record: [(system, records)]."""
+        return [(s, s.current()) for s in self.systems]
+
+    def _advance_long(self, gammas, k: int, every: int, sink: Sink, origin: int, pace: _Pace, stop) -> int:
+        """One record interval of ``k`` steps in calls of ``pace.steps`` steps, so that a stop
+        request ends it within about a chunk's time (the state is then inside the interval:
+        the file's last checkpoint stays the one to resume from). A failed step is redone as
+        :meth:`_recover` does, and the rest of the interval is left to the next chunk. Returns
+        the steps taken."""
+        ranging = self._ranges_energy()
+        acc, lo, hi, taken = None, np.inf, -np.inf, 0
+        while taken < k:
+            if stop is not None and stop.is_set():
+                return taken
+            m = min(pace.steps, k - taken)
+            snapshots = [s.snapshot() for s in self.systems]
+            start = _time.monotonic()
+            got = self._advance_ranged(gammas, m, 1, snapshots) if ranging and m > 1 else None
+            recs, span = got if got is not None else (self._advance_all(gammas, m, 1), None)
+            failures = [(f, j) for j, (s, r) in enumerate(recs) if (f := r.first_failure()) is not None]
+            if failures:
+                if acc is not None:  # the parts before: their stalls and energies count in the next record
+                    sink.stalled_pending += _stalled(acc)
+                sink.widen([lo, hi] if lo <= hi else [])
+                return taken + self._recover(recs, snapshots, min(failures), k - taken, every, gammas, sink, origin)
+            pace.measured_steps(m, _time.monotonic() - start)
+            if ranging:
+                e = span[0] if span is not None else self._energies(recs, 1)
+                lo, hi = min(lo, np.min(e)), max(hi, np.max(e))
+            acc = recs if acc is None else [(s, _every_kth(r, 2, 1)) for s, r in _stacked([acc, recs])]
+            taken += m
+            self._steps += m
+        sink.emit(acc, np.array([self._steps]), 1, k, np.array([[lo, hi]]) if ranging else None)
+        return taken
+
+    def _energies(self, recs, rows: int) -> np.ndarray:
+        """The total energy of the first ``rows`` rows of a chunk's records, J."""
+        return sum(s.invariants(r, rows, self.gm, self.center)[0] for s, r in recs)
+
+    def _advance_ranged(self, gammas, k: int, nrec: int, snapshots):
+        """:meth:`_advance_all` for ``nrec`` records ``k`` steps apart, with the least and
+        greatest total energy over each record's ``k`` steps: (records, (nrec, 2) J). The
+        systems record every step, at most :data:`RANGE_BYTES` of states per call, and the
+        records are every ``k``-th of those. A failed step: every system is put back to
+        ``snapshots`` and None returned (the plain chunk then meets the failure)."""
+        row = sum(a.nbytes for _, r in self._current() for a in vars(r).values() if isinstance(a, np.ndarray))
+        per = max(1, RANGE_BYTES // max(1, row))  # steps per call
+        rows, span = [], np.empty((nrec, 2))
+        r = 0
+        while r < nrec:
+            n = min(nrec - r, max(1, per // k))  # records of this call (k > per: one, in parts)
+            acc, lo, hi = None, np.inf, -np.inf
+            for m in (n * k,) if k <= per else (min(per, k - t) for t in range(0, k, per)):
+                recs = self._advance_all(gammas, 1, m)
+                if any(rec.first_failure() is not None for _, rec in recs):
+                    for s, snap in zip(self.systems, snapshots):
+                        s.restore(snap)
+                    return None
+                e = self._energies(recs, m).reshape(-1, min(m, k))
+                piece = [(s, _every_kth(rec, min(m, k), m // min(m, k))) for s, rec in recs]
+                if k <= per:  # whole record intervals
+                    span[r : r + n, 0], span[r : r + n, 1] = e.min(axis=1), e.max(axis=1)
+                    acc = piece
+                else:  # a part of one record interval, joined to the parts before
+                    lo, hi = min(lo, e.min()), max(hi, e.max())
+                    acc = piece if acc is None else [(s, _every_kth(rec, 2, 1)) for s, rec in _stacked([acc, piece])]
+                    span[r] = lo, hi
+            rows.append(acc)
+            r += n
+        return _stacked(rows), span
+
     def _advance(
         self,
         n_steps: int,
@@ -408,21 +536,27 @@ class ChunkDriver:
                     nrec = min(most, pace.records)
                     if most - nrec == 1:  # leave no chunk of a lone record
                         nrec = most
-                start = _time.monotonic()
-                snapshots = [s.snapshot() for s in self.systems]
-                recs = self._advance_all(gammas, k, nrec)
-                failures = [(f, j) for j, (s, r) in enumerate(recs) if (f := r.first_failure()) is not None]
-                if not failures:
-                    sink.emit(recs, self._steps + k * (np.arange(nrec) + 1), nrec, k)
-                    self._steps += k * nrec
-                    done += k * nrec
-                    bar.update(k * nrec)
-                    if k == every:
-                        pace.measured(nrec, _time.monotonic() - start)
-                else:
-                    taken = self._recover(recs, snapshots, min(failures), k, every, gammas, sink, origin)
+                if k > pace.steps:  # a record interval longer than a chunk: in calls that a stop can end
+                    taken = self._advance_long(gammas, k, every, sink, origin, pace, stop)
                     done += taken
                     bar.update(taken)
+                else:
+                    start = _time.monotonic()
+                    snapshots = [s.snapshot() for s in self.systems]
+                    got = self._advance_ranged(gammas, k, nrec, snapshots) if k > 1 and self._ranges_energy() else None
+                    recs, span = got if got is not None else (self._advance_all(gammas, k, nrec), None)
+                    failures = [(f, j) for j, (s, r) in enumerate(recs) if (f := r.first_failure()) is not None]
+                    if not failures:
+                        sink.emit(recs, self._steps + k * (np.arange(nrec) + 1), nrec, k, span)
+                        self._steps += k * nrec
+                        done += k * nrec
+                        bar.update(k * nrec)
+                        if k == every:
+                            pace.measured(nrec, _time.monotonic() - start, k * nrec)
+                    else:
+                        taken = self._recover(recs, snapshots, min(failures), k, every, gammas, sink, origin)
+                        done += taken
+                        bar.update(taken)
                 since = self._steps - origin
                 # the last record on the grid before a shorter last interval: the run's last checkpoint
                 last = since % every == 0 and 0 < n_steps - done < every
@@ -444,16 +578,23 @@ class ChunkDriver:
         2, 4, ... 2**MAX_SPLIT sub-steps (each an ordinary step: exact conservation is kept).
         Returns the steps taken; raises IntegrationError if every split fails."""
         (step, index, status), j = failure
-        good = step // k
-        if good:
-            sink.emit(recs, self._steps + k * (np.arange(good) + 1), good, k)
+        good, rest = divmod(step, k)
         for s, snap in zip(self.systems, snapshots):
             s.restore(snap)
-        if step:
-            again = self._advance_all(gammas, step, 1)
-            if any(r.first_failure() is not None for _, r in again):  # cannot happen: deterministic
-                raise RuntimeError("re-running the steps before a failure failed again")
-            sink.stalled_pending += _stalled(again)
+        ranging = self._ranges_energy()
+        for n, each in ((good, k), (1 if rest else 0, rest)):  # the records before it, then the rest
+            if not n:
+                continue
+            got = self._advance_ranged(gammas, each, n, snapshots) if ranging and each > 1 else None
+            again, span = got if got is not None else (self._advance_all(gammas, each, n), None)
+            if any(r.first_failure() is not None for _, r in again) or (ranging and each > 1 and got is None):
+                raise RuntimeError("re-running the steps before a failure failed again")  # deterministic: cannot
+            if each == k:
+                sink.emit(again, self._steps + k * (np.arange(n) + 1), n, k, span)
+            else:
+                sink.stalled_pending += _stalled(again)
+                if ranging:
+                    sink.widen(span if span is not None else self._energies(again, 1))
         self._steps += step
         start = [s.snapshot() for s in self.systems]
         for level in range(1, self.MAX_SPLIT + 1):
@@ -482,6 +623,8 @@ class ChunkDriver:
                     sink.emit(sub, np.array([self._steps]), 1, 1)
                 else:
                     sink.stalled_pending += _stalled(sub)
+                    if self._ranges_energy():
+                        sink.widen(self._energies(sub, 1))
                 return step + 1
             for s, snap in zip(self.systems, start):
                 s.restore(snap)
@@ -520,6 +663,40 @@ class ChunkDriver:
             if status != STATUS_OK:
                 return newton_failure(n, update, residual, where)
         return generic + " (from the step's start it converges: a later sub-step failed)"
+
+
+def _every_kth(rec, k: int, n: int):
+    """Records of ``n * k`` single steps as ``n`` records ``k`` steps apart: the state of every
+    ``k``-th step, the counts (``iterations``, ``stalled``, ``solves``) summed over each ``k``."""
+    out = {}
+    for f in dataclasses.fields(rec):
+        a = getattr(rec, f.name)
+        if a is None or f.name == "fail":
+            out[f.name] = a
+        elif f.name in _COUNTS:
+            out[f.name] = a[: n * k].reshape((n, k) + a.shape[1:]).sum(axis=1).astype(a.dtype)
+        else:
+            out[f.name] = np.ascontiguousarray(a[k - 1 : n * k : k])
+    return type(rec)(**out)
+
+
+def _stacked(rows):
+    """One chunk's records from consecutive pieces (each a list of (system, records))."""
+    if len(rows) == 1:
+        return rows[0]
+    out = []
+    for j, (s, first) in enumerate(rows[0]):
+        recs = [p[j][1] for p in rows]
+        fields = {}
+        for f in dataclasses.fields(first):
+            arrays = [getattr(r, f.name) for r in recs]
+            fields[f.name] = arrays[0] if arrays[0] is None or f.name == "fail" else np.concatenate(arrays)
+        out.append((s, type(first)(**fields)))
+    return out
+
+
+#: the fields of records that count per record interval (summed when intervals are joined)
+_COUNTS = ("iterations", "stalled", "solves")
 
 
 def _stalled(recs) -> int:

@@ -107,7 +107,7 @@ class RigidBodies(BodySystem):
     """
 
     kind = "rigid"
-    #: per-body datasets and their units (see emorbit.io.hdf5)
+    #: per-body datasets and their units (see emorbit.io.reader)
     DATASETS = {
         "position": (3, "m"),
         "velocity": (3, "m / s"),

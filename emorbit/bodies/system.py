@@ -104,7 +104,7 @@ def check_output(systems, n_steps: int, every: int, dt: float, max_output, keys:
         dataset of every body (:meth:`BodySystem.output_bytes`) and of the root datasets
         (at most 3 values each).
     """
-    from ..io.hdf5 import LAYOUT_UNITS
+    from ..io.reader import LAYOUT_UNITS
     from ..units import information_text, to_si
 
     limit = to_si(max_output, "information", keys["max_output"], positive=True)

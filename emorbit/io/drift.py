@@ -58,7 +58,7 @@ STATE = {
 }
 
 
-def conserved(method: str, free_space: bool) -> np.ndarray:
+def conserved(method: str, free_space: bool, axisymmetric: bool = False) -> np.ndarray:
     """Which invariants a method conserves up to round-off.
 
     Parameters
@@ -67,13 +67,16 @@ def conserved(method: str, free_space: bool) -> np.ndarray:
         ``"em"``, ``"midpoint"`` or ``"leapfrog"``.
     free_space : bool
         No central field: the linear momentum is conserved too.
+    axisymmetric : bool
+        The field is symmetric about an axis only (zonal harmonics): the angular momentum
+        about that axis is conserved, the vector is not, and is not checked.
 
     Returns
     -------
     ndarray
         (3,) bool, in the order of :data:`INVARIANTS`.
     """
-    return np.array([method == "em", bool(free_space), True])
+    return np.array([method == "em", bool(free_space), not axisymmetric])
 
 
 def check_tolerance(value, key: str = "drift_tolerance") -> float:

@@ -1,17 +1,10 @@
-"""The HDF5 run file: written in chunks while a run runs, read back into a Result.
+"""Writing the HDF5 run file, in chunks while a run runs.
 
-Layout (docs/hdf5.md lists every dataset and attribute): ``/time`` (s), ``/invariants/``
-``energy`` (J), ``momentum`` (kg m / s) and ``angular_momentum`` (kg m2 / s, about the field's
-centre), ``/diagnostics/`` ``newton_iterations``, ``split_steps``, ``stalled_solves``,
-``invariant_drift`` and ``drift_bound`` (1, :mod:`emorbit.io.drift`), one row per record;
-``/bodies/<name>/`` ``position`` (m) and ``velocity`` (m / s) of every body, ``attitude`` and
-``angular_velocity`` (rad / s) of rigid bodies, ``nodes/position`` and ``nodes/time`` of
-elastic ones, and what is written once (``mass_points/...``, ``mesh/...``). Every dataset has
-a ``unit`` attribute.
-
-Body groups carry ``kind``, ``mass`` and the kind's attributes; the root attributes say how
-the run was made (method, order, ``dt``, the field, the scene as TOML text, ``status``, ...),
-each with a unit followed by a ``<name>_unit`` attribute (:data:`ROOT_UNITS`). Datasets are
+The layout is :mod:`emorbit.io.reader`'s (docs/hdf5.md lists every dataset and attribute):
+one row per record in ``/time``, ``/invariants/`` and ``/diagnostics/``, the bodies'
+datasets under ``/bodies/<name>/``, every dataset with a ``unit`` attribute, and root
+attributes that say how the run was made (method, order, ``dt``, the field, the scene as
+TOML text, ``status``, ...), each with a unit followed by ``<name>_unit``. Datasets are
 chunked and growable and every appended block is flushed, so a run that stops early leaves
 a readable file.
 
@@ -46,61 +39,20 @@ import numpy as np
 
 from .._version import __version__
 from ..errors import EmorbitError, InputError
-from ..result import Result
+from .reader import (
+    LAYOUT_UNITS,
+    NEXT_CHECKPOINT,
+    OPTIONAL,
+    ROOT_UNITS,
+    STATE_UNITS,
+    WIDTHS,
+    _busy_message,
+    _locked,
+    optional_rows,
+    state_digest,
+)
 
-__all__ = ["Writer", "read", "open_run_file", "FileLostError", "LAYOUT_UNITS", "ROOT_UNITS", "STATE_UNITS"]
-
-#: the unit attribute of each top-level dataset
-LAYOUT_UNITS = {
-    "time": "s",
-    "invariants/energy": "J",
-    "invariants/momentum": "kg m / s",
-    "invariants/angular_momentum": "kg m2 / s",
-    "diagnostics/newton_iterations": "1",
-    "diagnostics/split_steps": "1",
-    "diagnostics/stalled_solves": "1",
-    "diagnostics/invariant_drift": "1",
-    "diagnostics/drift_bound": "1",
-}
-_SCALAR = ("time", "invariants/energy", "diagnostics/newton_iterations", "diagnostics/split_steps")
-_SCALAR += ("diagnostics/stalled_solves", "diagnostics/drift_bound")
-#: record datasets that files of earlier versions lack, and the value their rows read as
-OPTIONAL = {
-    "diagnostics/split_steps": 0.0,
-    "diagnostics/stalled_solves": 0.0,
-    "diagnostics/invariant_drift": -1.0,
-    "diagnostics/drift_bound": -1.0,
-}
-
-#: root attributes that have a unit: each is written with a companion ``<name>_unit``
-ROOT_UNITS = {
-    "dt": "s",
-    "t_start": "s",
-    "t_end": "s",
-    "gm": "m3 / s2",
-    "center": "m",
-    "field_radius": "m",
-    "checkpoint_seconds": "s",
-}
-
-#: the ``unit`` attribute of each state array in /checkpoint and /final_state (a system may
-#: add its own in a ``STATE_UNITS`` class attribute, {field: unit})
-STATE_UNITS = {
-    **dict.fromkeys(("point/x", "point/cx"), "m"),
-    **dict.fromkeys(("point/v", "point/cv"), "m / s"),
-    **dict.fromkeys(("rigid/q", "rigid/cq"), "m (columns 0-2), 1 (columns 3-11)"),
-    **dict.fromkeys(("rigid/v", "rigid/cv"), "m / s (columns 0-2), 1 / s (columns 3-11)"),
-    **dict.fromkeys(("rigid/lam", "structure/lam"), "J"),
-    **dict.fromkeys(("structure/u", "structure/cu"), "m (rigid-body axes: 1)"),
-    **dict.fromkeys(("structure/v", "structure/cv"), "m / s (rigid-body axes: 1 / s)"),
-    "structure/acc": "m / s2 (rigid-body axes: 1 / s2)",
-    "structure/lu_steps": "s",
-    "structure/lu_jacobians": "mixed: the Newton system's Jacobian values, CSC order",
-    "structure/last_iterations": "s (column 0), 1 (column 1)",
-}
-
-#: where a new checkpoint is written before it replaces /checkpoint
-NEXT_CHECKPOINT = "checkpoint_next"
+__all__ = ["Writer", "FileLostError"]
 
 
 class FileLostError(EmorbitError, OSError):
@@ -114,107 +66,6 @@ def _exists_message(path: str) -> str:
         f"{path!r} exists; choose another name, or replace it: overwrite=True in Simulation.run, "
         "--overwrite on the command line"
     )
-
-
-def _locked(exc: BaseException) -> bool:
-    return "unable to lock file" in str(exc)
-
-
-def _busy_message(path: str) -> str:
-    return (
-        f"{path!r} is being written by another process (it holds the file's HDF5 lock); "
-        "wait for that run to end, stop it, or choose another name"
-    )
-
-
-def open_run_file(path, key: str = "file", *, peek: bool = False) -> h5py.File:
-    """Open an emorbit run file read-only, with errors that say what the file is not.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The file.
-    key : str
-        The name the errors give the file (``"file"``, ``"files"``).
-    peek : bool
-        If another process is writing the file (and holds its lock), read it without the
-        lock (what the writer has flushed); otherwise that is an error.
-
-    Returns
-    -------
-    h5py.File
-        Open for reading, with the layout of a run file (:func:`check_layout`).
-
-    Raises
-    ------
-    InputError
-        The file does not exist, is not HDF5 or not a run file, or another process writes it
-        (without ``peek``).
-    """
-    path = os.fspath(path)
-    if not os.path.exists(path):
-        raise InputError(key, f"{path!r} does not exist")
-    if os.path.isdir(path):
-        raise InputError(key, f"{path!r} is a folder, not a run file")
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        f = None
-        if _locked(exc) and peek:
-            try:
-                f = h5py.File(path, "r", locking=False)
-            except OSError:
-                pass
-        if f is None:
-            if _locked(exc):
-                raise InputError(key, _busy_message(path)) from None
-            if "signature" in str(exc):
-                raise InputError(key, f"{path!r} is not an HDF5 file (an emorbit run file is one)") from None
-            raise InputError(key, f"{path!r} cannot be read as an HDF5 file ({exc})") from None
-    try:
-        check_layout(f, path, key)
-    except BaseException:
-        f.close()
-        raise
-    return f
-
-
-def check_layout(f: h5py.File, path: str, key: str = "file") -> None:
-    """Check that an open HDF5 file has the layout of an emorbit run file.
-
-    Parameters
-    ----------
-    f : h5py.File
-        The open file.
-    path : str
-        Its path, for the messages.
-    key : str
-        The name the errors give the file.
-
-    Raises
-    ------
-    InputError
-        A dataset, group or root attribute of the layout is missing or has the wrong shape,
-        naming it.
-    """
-    what = f"{path!r} is an HDF5 file but not an emorbit run file"
-    if "time" not in f and "bodies" not in f and "method" not in f.attrs:
-        raise InputError(key, f"{what} (it has no /time, no /bodies and no 'method' attribute)")
-    for name in LAYOUT_UNITS:
-        if name in OPTIONAL and name not in f:
-            continue  # absent in files of earlier versions: read as OPTIONAL says
-        if not isinstance(f.get(name), h5py.Dataset):
-            raise InputError(key, f"{what}: dataset /{name} is missing")
-        width = () if name in _SCALAR else (3,)
-        if f[name].ndim != 1 + len(width) or f[name].shape[1:] != width:
-            raise InputError(
-                key, f"{path!r}: dataset /{name} has shape {f[name].shape}, expected (n{', 3' * len(width)})"
-            )
-    if not isinstance(f.get("bodies"), h5py.Group):
-        raise InputError(key, f"{what}: group /bodies is missing")
-    for attr in ("method", "order", "dt", "gm", "center"):
-        if attr not in f.attrs:
-            raise InputError(key, f"{what}: root attribute {attr!r} is missing")
 
 
 def _versions() -> str:
@@ -315,6 +166,10 @@ class Writer:
         is never lost by accident.
     chunk_rows : int
         Rows per HDF5 chunk (at most 1 MiB per chunk).
+    potentials : sequence of str
+        Labels of the effects whose potential energy each record holds, in
+        ``invariants/potential_<label>`` (J); :meth:`append` takes them by
+        ``potential_<label>``.
 
     Raises
     ------
@@ -323,7 +178,7 @@ class Writer:
         does not exist, or it cannot be created.
     """
 
-    def __init__(self, path, bodies, attrs: dict, *, overwrite: bool = False, chunk_rows: int = 1024):
+    def __init__(self, path, bodies, attrs: dict, *, overwrite: bool = False, chunk_rows: int = 1024, potentials=()):
         path = os.fspath(path)
         if os.path.lexists(path) and not overwrite:
             raise InputError("output", _exists_message(path))
@@ -345,7 +200,7 @@ class Writer:
             except OSError as exc:
                 raise InputError("output", f"cannot create a file in {folder!r}: {exc}") from None
             self._identity = _identity(os.fstat(self.file.id.get_vfd_handle()))
-            self._layout(bodies, attrs, chunk_rows)
+            self._layout(bodies, attrs, chunk_rows, potentials)
             self.file.flush()
         except BaseException:
             self._discard()
@@ -390,7 +245,7 @@ class Writer:
             self._held.close()
             self._held = None
 
-    def _layout(self, bodies, attrs: dict, chunk_rows: int) -> None:
+    def _layout(self, bodies, attrs: dict, chunk_rows: int, potentials=()) -> None:
         f = self.file
         f.attrs["creator"] = f"emorbit {__version__}"
         f.attrs["emorbit_version"] = __version__
@@ -399,9 +254,12 @@ class Writer:
         _write_root_attrs(f, attrs)
         f.attrs["status"] = "running"
         self._ds = {
-            name: _growable(f, name, None if name in _SCALAR else 3, unit, chunk_rows, OPTIONAL.get(name, 0.0))
+            name: _growable(f, name, WIDTHS[name], unit, chunk_rows, OPTIONAL.get(name) or 0.0)
             for name, unit in LAYOUT_UNITS.items()
         }
+        for label in potentials:  # each effect's potential energy (emorbit.effects)
+            name = f"invariants/potential_{label}"
+            self._ds[name] = _growable(f, name, None, "J", chunk_rows)
         self._body_ds = {}
         group = f.create_group("bodies", track_order=True)
         for body in bodies:
@@ -479,9 +337,9 @@ class Writer:
         data : dict
             {body: {dataset: block}}, a block of rows for each of the body's datasets.
         **diagnostics : array_like
-            Blocks of the other ``diagnostics/`` datasets by name (``split_steps``,
-            ``stalled_solves``, ``invariant_drift``, ``drift_bound``); one not given is
-            filled as :data:`OPTIONAL` says.
+            Blocks of the other record datasets by name (``split_steps``,
+            ``stalled_solves``, ``invariant_drift``, ``drift_bound``, ``energy_range``); one
+            not given is filled as :data:`~emorbit.io.reader.OPTIONAL` says.
 
         Raises
         ------
@@ -491,8 +349,13 @@ class Writer:
         time = np.asarray(time, float)
         blocks = dict(zip(list(LAYOUT_UNITS)[:5], (time, energy, momentum, angular_momentum, newton_iterations)))
         for name, fill in OPTIONAL.items():
-            shape = self._ds[name].shape[1:]
-            blocks[name] = diagnostics.get(name.split("/")[1], np.full((time.shape[0],) + shape, fill))
+            shape = (time.shape[0],) + self._ds[name].shape[1:]
+            if fill is None:  # energy_range: the record's energy, as least and greatest
+                fill = np.asarray(energy, float)[:, None]
+            blocks[name] = diagnostics.get(name.split("/")[1], np.broadcast_to(fill, shape))
+        for name in self._ds:
+            if name.startswith("invariants/potential_"):
+                blocks[name] = diagnostics[name.split("/")[1]]
         for name, block in blocks.items():
             _append(self._ds[name], np.asarray(block, float))
         for name, sets in self._body_ds.items():
@@ -584,6 +447,7 @@ class Writer:
         g.attrs["steps"] = int(steps)
         g.attrs["time"] = float(time)
         g.attrs["time_unit"] = "s"
+        g.attrs["digest"] = state_digest(arrays, steps, time)
         return g
 
     @classmethod
@@ -624,11 +488,16 @@ class Writer:
             raise InputError("file", f"cannot open {self.path!r} for writing ({exc})") from None
         f = self.file
         self._identity = _identity(os.fstat(f.id.get_vfd_handle()))
-        for name, fill in OPTIONAL.items():  # a file of an earlier version: its rows read as `fill`
+        for name, fill in OPTIONAL.items():  # a file of an earlier version: its rows read as OPTIONAL says
             if name not in f:
-                width = None if name in _SCALAR else 3
-                _growable(f, name, width, LAYOUT_UNITS[name], 1024, fill).resize(f["time"].shape[0], axis=0)
+                rows = optional_rows(f, name, f["time"].shape[0])
+                ds = _growable(f, name, WIDTHS[name], LAYOUT_UNITS[name], 1024, fill or 0.0)
+                ds.resize(rows.shape[0], axis=0)
+                ds[:] = rows
         self._ds = {name: f[name] for name in LAYOUT_UNITS}
+        for label in f["invariants"]:  # each effect's potential energy
+            if label.startswith("potential_"):
+                self._ds[f"invariants/{label}"] = f[f"invariants/{label}"]
         self._body_ds = {}
         for name, g in f["bodies"].items():
             self._body_ds[name] = {q: ds for q, ds in g.items() if isinstance(ds, h5py.Dataset)}
@@ -714,86 +583,3 @@ def _discard(file, temp, held) -> None:
         os.unlink(temp)
     if held:
         held.close()
-
-
-def _rows(f) -> int:
-    """Records complete in every record dataset (a run killed while appending may leave some
-    datasets a block longer than others)."""
-    n = min(f[name].shape[0] for name in LAYOUT_UNITS if name in f)
-    for g in f["bodies"].values():
-        for ds in g.values():
-            if isinstance(ds, h5py.Dataset) and ds.maxshape and ds.maxshape[0] is None:
-                n = min(n, ds.shape[0])
-    return n
-
-
-def _attr(f, path: str, name: str, kind):
-    value = f.attrs[name]
-    try:
-        return kind(value.item() if isinstance(value, np.generic) else value)
-    except (TypeError, ValueError):
-        raise InputError("file", f"{path!r}: root attribute {name!r} is {value!r}, not a {kind.__name__}") from None
-
-
-def read(path) -> Result:
-    """Read a run file.
-
-    A file that another run is writing is read as far as that run has flushed it; records
-    that are complete in every dataset are returned.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        An HDF5 file written by emorbit.
-
-    Returns
-    -------
-    Result
-        Every record, SI arrays; ``attrs`` holds the root attributes.
-
-    Raises
-    ------
-    InputError
-        The file does not exist, is not HDF5 or is not an emorbit run file.
-    """
-    path = os.fspath(path)
-    with open_run_file(path, peek=True) as f:
-        n = _rows(f)
-        bodies, masses, kinds = {}, {}, {}
-        for name, g in f["bodies"].items():
-            bodies[name] = {q: ds[:n] for q, ds in g.items() if isinstance(ds, h5py.Dataset)}
-            if "nodes" in g:
-                nodes = {q: ds[()] for q, ds in g["nodes"].items()}
-                k = min(len(a) for a in nodes.values())
-                bodies[name].update({f"nodes/{q}": a[:k] for q, a in nodes.items()})
-            for sub in ("mesh", "mass_points"):
-                if isinstance(g.get(sub), h5py.Group):
-                    bodies[name].update({f"{sub}/{q}": ds[()] for q, ds in g[sub].items()})
-            if "mass" not in g.attrs or "kind" not in g.attrs:
-                raise InputError("file", f"{path!r}: group /bodies/{name} has no 'mass' or 'kind' attribute")
-            masses[name] = float(g.attrs["mass"])
-            kinds[name] = str(g.attrs["kind"])
-        diag = {}
-        for name, fill in OPTIONAL.items():
-            shape = (n,) if name in _SCALAR else (n, 3)
-            diag[name.split("/")[1]] = f[name][:n] if name in f else np.full(shape, fill)
-        center = np.asarray(f.attrs["center"], float)
-        if center.shape != (3,):
-            raise InputError("file", f"{path!r}: root attribute 'center' has shape {center.shape}, expected (3,)")
-        return Result(
-            time=f["time"][:n],
-            energy=f["invariants/energy"][:n],
-            momentum=f["invariants/momentum"][:n],
-            angular_momentum=f["invariants/angular_momentum"][:n],
-            newton_iterations=f["diagnostics/newton_iterations"][:n],
-            bodies=bodies,
-            masses=masses,
-            kinds=kinds,
-            method=_attr(f, path, "method", str),
-            order=_attr(f, path, "order", int),
-            dt=_attr(f, path, "dt", float),
-            gm=_attr(f, path, "gm", float),
-            center=center,
-            attrs={k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()},
-            **diag,
-        )

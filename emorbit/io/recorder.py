@@ -87,6 +87,10 @@ class Sink:
         steps redone in sub-steps): added to the next record's ``diagnostics/stalled_solves``.
     monitor : DriftMonitor or None
         The simulation's drift monitor (``sim._drift``); None: no drift is measured (-1).
+    range_pending : ndarray
+        (2,) the least and greatest total energy, J, of the steps since the last record that
+        no emitted chunk holds (steps redone in sub-steps); widens the next record's
+        ``invariants/energy_range``.
     """
 
     def __init__(self, sim, writer, keep: bool):
@@ -99,8 +103,23 @@ class Sink:
         self.split_pending = 0
         self.stalled_pending = 0
         self.monitor = getattr(sim, "_drift", None)
+        self.range_pending = np.array([np.inf, -np.inf])
 
-    def emit_rows(self, recs, steps, nrec: int, k: int) -> None:
+    def widen(self, energy) -> None:
+        """Widen the next record's energy range by energies (J) of steps between records.
+
+        Parameters
+        ----------
+        energy : array_like
+            Total energies, J, any shape.
+        """
+        energy = np.asarray(energy, float)
+        if energy.size:
+            self.range_pending = np.array(
+                [min(self.range_pending[0], energy.min()), max(self.range_pending[1], energy.max())]
+            )
+
+    def emit_rows(self, recs, steps, nrec: int, k: int, span=None) -> None:
         """Record the first ``nrec`` rows of a chunk (the ones before a collision).
 
         Parameters
@@ -113,10 +132,12 @@ class Sink:
             Rows to record.
         k : int
             Steps in each record interval.
+        span : ndarray, optional
+            (rows, 2) the least and greatest total energy over each record's interval, J.
         """
-        self.emit(recs, steps[:nrec], nrec, k)
+        self.emit(recs, steps[:nrec], nrec, k, None if span is None else span[:nrec])
 
-    def emit(self, recs, steps, nrec: int, k: int) -> None:
+    def emit(self, recs, steps, nrec: int, k: int, span=None) -> None:
         """Record rows of each system's chunk: invariants, datasets, file, memory.
 
         Parameters
@@ -130,6 +151,9 @@ class Sink:
         k : int
             Steps in each record interval, for the mean Newton iterations (0 for the start
             record, which closes no interval).
+        span : ndarray, optional
+            (nrec, 2) the least and greatest total energy over the steps of each record's
+            interval, J (None: the interval's range is the record's own energy).
 
         Raises
         ------
@@ -147,7 +171,10 @@ class Sink:
         stalled = np.zeros(nrec)
         substeps = None  # counted by an adaptive kernel
         solves = 0
+        potentials = {}  # each effect's potential energy (systems under effects)
         for system, rec in recs:
+            if hasattr(system, "effect_energies") and self.writer is not None:
+                potentials.update(system.effect_energies(rec, nrec))
             e, p, L = system.invariants(rec, nrec, gm, center)
             energy += e
             momentum += p
@@ -172,13 +199,19 @@ class Sink:
                 first = int(np.argmax(inside))
                 who = names[int(np.argmax(below[:, first]))]
                 if first:
-                    self.emit_rows(recs, steps, first, k)
+                    self.emit_rows(recs, steps, first, k, span)
                 raise IntegrationError(
                     float(times[first]),
                     who,
                     f"it is inside the central body (r < radius = {radius!r} m); "
                     "records up to the one before are written",
                 )
+        erange = np.repeat(energy[:, None], 2, axis=1)
+        if span is not None:  # the record's own energy too: it is one of the interval's steps
+            erange[:, 0] = np.minimum(erange[:, 0], span[:nrec, 0])
+            erange[:, 1] = np.maximum(erange[:, 1], span[:nrec, 1])
+        erange[0] = min(erange[0, 0], self.range_pending[0]), max(erange[0, 1], self.range_pending[1])
+        self.range_pending = np.array([np.inf, -np.inf])
         split = np.zeros(nrec)
         split[0] = self.split_pending
         stalled[0] += self.stalled_pending
@@ -190,10 +223,16 @@ class Sink:
             drift, bound = self.monitor.update(times, rel, energy, momentum, angular, scales, substeps, stalled)
         self.rows += nrec
         self.last_step = int(steps[nrec - 1])
-        block = (times, energy, momentum, angular, its, data, split, stalled, drift, bound)
+        block = (times, energy, momentum, angular, its, data, split, stalled, drift, bound, erange)
         if self.writer is not None:
             self.writer.append(
-                *block[:6], split_steps=split, stalled_solves=stalled, invariant_drift=drift, drift_bound=bound
+                *block[:6],
+                split_steps=split,
+                stalled_solves=stalled,
+                invariant_drift=drift,
+                drift_bound=bound,
+                energy_range=erange,
+                **potentials,
             )
         if self.keep or not self.blocks:
             self.blocks.append(block if self.keep else _row(block, 0))
@@ -236,6 +275,7 @@ class Sink:
             stalled_solves=cat(7),
             invariant_drift=cat(8),
             drift_bound=cat(9),
+            energy_range=cat(10),
         )
 
 

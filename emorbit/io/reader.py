@@ -1,0 +1,391 @@
+"""The run file's layout, and reading a run file back into a :class:`~emorbit.result.Result`.
+
+Layout (docs/hdf5.md lists every dataset and attribute): ``/time`` (s), ``/invariants/``
+``energy`` (J), ``energy_range`` (J: the least and the greatest total energy over the steps
+of the record interval that ends at each record), ``momentum`` (kg m / s) and
+``angular_momentum`` (kg m2 / s, about the field's centre), ``/diagnostics/``
+``newton_iterations``, ``split_steps``, ``stalled_solves``, ``invariant_drift`` and
+``drift_bound`` (1, :mod:`emorbit.io.drift`), one row per record; ``/bodies/<name>/``
+``position`` (m) and ``velocity`` (m / s) of every body, ``attitude`` and
+``angular_velocity`` (rad / s) of rigid bodies, ``nodes/position`` and ``nodes/time`` of
+elastic ones, and what is written once (``mass_points/...``, ``mesh/...``). Every dataset has
+a ``unit`` attribute. Root attributes with a unit are followed by ``<name>_unit``
+(:data:`ROOT_UNITS`); checkpoint arrays carry theirs (:data:`STATE_UNITS`).
+
+:func:`open_run_file` opens a file read-only and checks this layout (:func:`check_layout`),
+with errors that say what a file is not; :func:`read` returns its records, as far as they
+are complete in every dataset (a run killed while appending may leave some datasets a block
+longer than others). Files of earlier versions lack the datasets of :data:`OPTIONAL`; their
+rows read as it says (``energy_range``: the record's energy twice).
+:mod:`emorbit.io.hdf5` writes the files.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+
+import h5py
+import numpy as np
+
+from ..errors import InputError
+from ..result import Result
+
+__all__ = [
+    "read",
+    "open_run_file",
+    "check_layout",
+    "LAYOUT_UNITS",
+    "WIDTHS",
+    "OPTIONAL",
+    "ROOT_UNITS",
+    "STATE_UNITS",
+    "NEXT_CHECKPOINT",
+    "optional_rows",
+    "state_digest",
+    "probe",
+]
+
+#: the unit attribute of each top-level dataset
+LAYOUT_UNITS = {
+    "time": "s",
+    "invariants/energy": "J",
+    "invariants/momentum": "kg m / s",
+    "invariants/angular_momentum": "kg m2 / s",
+    "diagnostics/newton_iterations": "1",
+    "diagnostics/split_steps": "1",
+    "diagnostics/stalled_solves": "1",
+    "diagnostics/invariant_drift": "1",
+    "diagnostics/drift_bound": "1",
+    "invariants/energy_range": "J",
+}
+#: the width of each top-level dataset's rows (None: one value per record)
+WIDTHS = {name: None for name in LAYOUT_UNITS} | {
+    "invariants/momentum": 3,
+    "invariants/angular_momentum": 3,
+    "diagnostics/invariant_drift": 3,
+    "invariants/energy_range": 2,
+}
+#: record datasets that files of earlier versions lack, and the value their rows read as
+#: (None: ``invariants/energy_range`` reads as the record's energy, twice)
+OPTIONAL = {
+    "diagnostics/split_steps": 0.0,
+    "diagnostics/stalled_solves": 0.0,
+    "diagnostics/invariant_drift": -1.0,
+    "diagnostics/drift_bound": -1.0,
+    "invariants/energy_range": None,
+}
+
+
+def state_digest(arrays: dict, steps: int, time: float) -> str:
+    """A SHA-256 digest of a stored state: its arrays (names, shapes, float64 bytes), its step
+    count and time. ``/checkpoint`` and ``/final_state`` carry it as the attribute ``digest``,
+    so that a resume refuses a state changed by a single byte since it was written.
+
+    Parameters
+    ----------
+    arrays : dict
+        {``"<kind>/<field>"``: array}.
+    steps : int
+        Steps since the run's start.
+    time : float
+        The state's time, s.
+
+    Returns
+    -------
+    str
+        64 hex digits.
+    """
+    h = hashlib.sha256(f"{int(steps)} {float(time)!r}".encode())
+    for key in sorted(arrays):
+        a = np.ascontiguousarray(np.asarray(arrays[key], float))
+        h.update(f"{key} {a.shape}".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def optional_rows(f, name: str, n: int) -> np.ndarray:
+    """The first ``n`` rows of the optional record dataset ``name`` of an open run file, or
+    what they read as in a file of an earlier version that lacks it (:data:`OPTIONAL`)."""
+    if name in f:
+        return f[name][:n]
+    width = WIDTHS[name]
+    if OPTIONAL[name] is None:  # energy_range: the record's energy, as least and greatest
+        return np.repeat(f["invariants/energy"][:n][:, None], 2, axis=1)
+    return np.full((n,) if width is None else (n, width), OPTIONAL[name])
+
+
+#: root attributes that have a unit: each is written with a companion ``<name>_unit``
+ROOT_UNITS = {
+    "dt": "s",
+    "t_start": "s",
+    "t_end": "s",
+    "gm": "m3 / s2",
+    "center": "m",
+    "field_radius": "m",
+    "checkpoint_seconds": "s",
+}
+
+#: the ``unit`` attribute of each state array in /checkpoint and /final_state (a system may
+#: add its own in a ``STATE_UNITS`` class attribute, {field: unit})
+STATE_UNITS = {
+    **dict.fromkeys(("point/x", "point/cx"), "m"),
+    **dict.fromkeys(("point/v", "point/cv"), "m / s"),
+    **dict.fromkeys(("rigid/q", "rigid/cq"), "m (columns 0-2), 1 (columns 3-11)"),
+    **dict.fromkeys(("rigid/v", "rigid/cv"), "m / s (columns 0-2), 1 / s (columns 3-11)"),
+    **dict.fromkeys(("rigid/lam", "structure/lam"), "J"),
+    **dict.fromkeys(("structure/u", "structure/cu"), "m (rigid-body axes: 1)"),
+    **dict.fromkeys(("structure/v", "structure/cv"), "m / s (rigid-body axes: 1 / s)"),
+    "structure/acc": "m / s2 (rigid-body axes: 1 / s2)",
+    "structure/lu_steps": "s",
+    "structure/lu_jacobians": "mixed: the Newton system's Jacobian values, CSC order",
+    "structure/last_iterations": "s (column 0), 1 (column 1)",
+}
+
+#: where a new checkpoint is written before it replaces /checkpoint
+NEXT_CHECKPOINT = "checkpoint_next"
+
+
+def _locked(exc: BaseException) -> bool:
+    return "unable to lock file" in str(exc)
+
+
+def _busy_message(path: str) -> str:
+    return (
+        f"{path!r} is being written by another process (it holds the file's HDF5 lock); "
+        "wait for that run to end, stop it, or choose another name"
+    )
+
+
+def open_run_file(path, key: str = "file", *, peek: bool = False) -> h5py.File:
+    """Open an emorbit run file read-only, with errors that say what the file is not.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    key : str
+        The name the errors give the file (``"file"``, ``"files"``).
+    peek : bool
+        If another process is writing the file (and holds its lock), read it without the
+        lock (what the writer has flushed); otherwise that is an error.
+
+    Returns
+    -------
+    h5py.File
+        Open for reading, with the layout of a run file (:func:`check_layout`).
+
+    Raises
+    ------
+    InputError
+        The file does not exist, is not HDF5 or not a run file, or another process writes it
+        (without ``peek``).
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise InputError(key, f"{path!r} does not exist")
+    if os.path.isdir(path):
+        raise InputError(key, f"{path!r} is a folder, not a run file")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        f = None
+        if _locked(exc) and peek:
+            try:
+                f = h5py.File(path, "r", locking=False)
+            except OSError:
+                pass
+        if f is None:
+            if _locked(exc):
+                raise InputError(key, _busy_message(path)) from None
+            if "signature" in str(exc):
+                raise InputError(key, f"{path!r} is not an HDF5 file (an emorbit run file is one)") from None
+            raise InputError(key, f"{path!r} cannot be read as an HDF5 file ({exc})") from None
+    try:
+        check_layout(f, path, key)
+    except (RuntimeError, KeyError, ValueError, TypeError) as exc:  # h5py on a damaged file
+        f.close()
+        raise InputError(
+            key, f"{path!r} is damaged: its layout cannot be read ({' '.join(str(exc).split())})"
+        ) from None
+    except BaseException:
+        f.close()
+        raise
+    return f
+
+
+#: what :func:`probe` runs in a child process: every attribute of every object, every dataset
+#: (up to 64 MiB each, else its last rows), each read on its own so that one error does not
+#: end the probe
+_PROBE = r"""
+import sys, h5py
+def read(get):
+    try:
+        get()
+    except Exception:
+        pass
+def attrs(obj):
+    names = []
+    read(lambda: names.extend(obj.attrs))
+    for k in names:
+        read(lambda: obj.attrs[k])
+def visit(name, obj):
+    attrs(obj)
+    if isinstance(obj, h5py.Dataset):
+        read(lambda: obj[()] if obj.size * obj.dtype.itemsize <= 1 << 26 else obj[-2:])
+with h5py.File(sys.argv[1], "r", locking=False) as f:
+    attrs(f)
+    read(lambda: f.visititems(visit))
+"""
+
+
+def probe(path, seconds: float | None = None) -> str | None:
+    """Read a file in a child process first: the HDF5 library can loop forever or crash on a
+    damaged file (a byte of an attribute's heap overwritten), where no error reaches Python.
+
+    Parameters
+    ----------
+    path : str
+        The file.
+    seconds : float, optional
+        How long the child may read (default: 10 s plus 1 s per 100 MB).
+
+    Returns
+    -------
+    str or None
+        None where the child's reading ends (errors it met are left to the caller's own
+        reading, which raises them); otherwise what went wrong.
+    """
+    import subprocess
+    import sys
+
+    if seconds is None:
+        seconds = 10.0 + os.path.getsize(path) / 1e8
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", _PROBE, os.fspath(path)], capture_output=True, timeout=seconds, check=False
+        )
+    except subprocess.TimeoutExpired:
+        return f"reading it does not end within {seconds:.0f} s (the HDF5 library loops on a damaged part)"
+    if done.returncode < 0:
+        return f"reading it crashes the HDF5 library (signal {-done.returncode}): the file is damaged"
+    return None
+
+
+def check_layout(f: h5py.File, path: str, key: str = "file") -> None:
+    """Check that an open HDF5 file has the layout of an emorbit run file.
+
+    Parameters
+    ----------
+    f : h5py.File
+        The open file.
+    path : str
+        Its path, for the messages.
+    key : str
+        The name the errors give the file.
+
+    Raises
+    ------
+    InputError
+        A dataset, group or root attribute of the layout is missing or has the wrong shape,
+        naming it.
+    """
+    what = f"{path!r} is an HDF5 file but not an emorbit run file"
+    if "time" not in f and "bodies" not in f and "method" not in f.attrs:
+        raise InputError(key, f"{what} (it has no /time, no /bodies and no 'method' attribute)")
+    for name in LAYOUT_UNITS:
+        if name in OPTIONAL and name not in f:
+            continue  # absent in files of earlier versions: read as OPTIONAL says
+        if not isinstance(f.get(name), h5py.Dataset):
+            raise InputError(key, f"{what}: dataset /{name} is missing")
+        width = () if WIDTHS[name] is None else (WIDTHS[name],)
+        if f[name].ndim != 1 + len(width) or f[name].shape[1:] != width:
+            raise InputError(
+                key,
+                f"{path!r}: dataset /{name} has shape {f[name].shape}, expected (n{''.join(f', {w}' for w in width)})",
+            )
+    if not isinstance(f.get("bodies"), h5py.Group):
+        raise InputError(key, f"{what}: group /bodies is missing")
+    for attr in ("method", "order", "dt", "gm", "center"):
+        if attr not in f.attrs:
+            raise InputError(key, f"{what}: root attribute {attr!r} is missing")
+
+
+def _rows(f) -> int:
+    """Records complete in every record dataset (a run killed while appending may leave some
+    datasets a block longer than others)."""
+    n = min(f[name].shape[0] for name in LAYOUT_UNITS if name in f)
+    for g in f["bodies"].values():
+        for ds in g.values():
+            if isinstance(ds, h5py.Dataset) and ds.maxshape and ds.maxshape[0] is None:
+                n = min(n, ds.shape[0])
+    return n
+
+
+def _attr(f, path: str, name: str, kind):
+    value = f.attrs[name]
+    try:
+        return kind(value.item() if isinstance(value, np.generic) else value)
+    except (TypeError, ValueError):
+        raise InputError("file", f"{path!r}: root attribute {name!r} is {value!r}, not a {kind.__name__}") from None
+
+
+def read(path) -> Result:
+    """Read a run file.
+
+    A file that another run is writing is read as far as that run has flushed it; records
+    that are complete in every dataset are returned.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An HDF5 file written by emorbit.
+
+    Returns
+    -------
+    Result
+        Every record, SI arrays; ``attrs`` holds the root attributes.
+
+    Raises
+    ------
+    InputError
+        The file does not exist, is not HDF5 or is not an emorbit run file.
+    """
+    path = os.fspath(path)
+    with open_run_file(path, peek=True) as f:
+        n = _rows(f)
+        bodies, masses, kinds = {}, {}, {}
+        for name, g in f["bodies"].items():
+            bodies[name] = {q: ds[:n] for q, ds in g.items() if isinstance(ds, h5py.Dataset)}
+            if "nodes" in g:
+                nodes = {q: ds[()] for q, ds in g["nodes"].items()}
+                k = min(len(a) for a in nodes.values())
+                bodies[name].update({f"nodes/{q}": a[:k] for q, a in nodes.items()})
+            for sub in ("mesh", "mass_points"):
+                if isinstance(g.get(sub), h5py.Group):
+                    bodies[name].update({f"{sub}/{q}": ds[()] for q, ds in g[sub].items()})
+            if "mass" not in g.attrs or "kind" not in g.attrs:
+                raise InputError("file", f"{path!r}: group /bodies/{name} has no 'mass' or 'kind' attribute")
+            masses[name] = float(g.attrs["mass"])
+            kinds[name] = str(g.attrs["kind"])
+        diag = {name.split("/")[1]: optional_rows(f, name, n) for name in OPTIONAL}
+        center = np.asarray(f.attrs["center"], float)
+        if center.shape != (3,):
+            raise InputError("file", f"{path!r}: root attribute 'center' has shape {center.shape}, expected (3,)")
+        return Result(
+            time=f["time"][:n],
+            energy=f["invariants/energy"][:n],
+            momentum=f["invariants/momentum"][:n],
+            angular_momentum=f["invariants/angular_momentum"][:n],
+            newton_iterations=f["diagnostics/newton_iterations"][:n],
+            bodies=bodies,
+            masses=masses,
+            kinds=kinds,
+            method=_attr(f, path, "method", str),
+            order=_attr(f, path, "order", int),
+            dt=_attr(f, path, "dt", float),
+            gm=_attr(f, path, "gm", float),
+            center=center,
+            attrs={k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()},
+            **diag,
+        )
