@@ -4,12 +4,18 @@ they give, and a point's energy change evaluated exactly.
 Event times are roots of a function f(t) known at the records together with its exact
 time derivative, located on the cubic Hermite interpolant between two records (error
 O(h^4) for records ``h`` apart), so they resolve a second-order method's phase error cleanly.
+
+Inputs are astropy Quantities, as a :class:`~emorbit.result.Result` gives them
+(``res.time``, ``res.positions[name]``, ``res.velocities[name]``, ``res.gm``, ``res.center``),
+converted to SI, or plain arrays read as SI (``res.si``); times, periods and ratios come back
+as plain SI numbers (s).
 """
 
 from __future__ import annotations
 
 import decimal
 
+import astropy.units as u
 import numpy as np
 
 __all__ = [
@@ -22,17 +28,32 @@ __all__ = [
 ]
 
 
+_M, _MS, _GM = u.m, u.m / u.s, u.m**3 / u.s**2
+
+
+def _si(value, unit) -> np.ndarray:
+    """``value`` as a plain float array in ``unit``: a Quantity converted, anything else as given."""
+    if isinstance(value, u.Quantity):
+        return np.asarray(value.to_value(unit), float)
+    return np.asarray(value, float)
+
+
+def _direction(value) -> np.ndarray:
+    """A direction: its numbers, whatever unit it carries."""
+    return np.asarray(value.value if isinstance(value, u.Quantity) else value, float)
+
+
 def event_times(t, f, fdot, rising: bool = True) -> np.ndarray:
     """Times where a sampled function crosses zero, located on its cubic Hermite interpolant.
 
     Parameters
     ----------
-    t : array_like
+    t : Quantity or array_like
         Sample times (n,), s.
-    f : array_like
+    f : Quantity or array_like
         Samples of the function (n,).
-    fdot : array_like
-        Its exact time derivative at the samples (n,), per s.
+    fdot : Quantity or array_like
+        Its exact time derivative at the samples (n,): the unit of ``f`` per s.
     rising : bool
         Upward crossings (f goes from < 0 to >= 0) if true, else downward ones.
 
@@ -41,9 +62,11 @@ def event_times(t, f, fdot, rising: bool = True) -> np.ndarray:
     ndarray
         The crossing times, s, in order.
     """
-    t = np.asarray(t, float)
+    t = _si(t, u.s)
+    if isinstance(f, u.Quantity):
+        f, fdot = f.value, _si(fdot, f.unit / u.s)
     f = np.asarray(f, float)
-    fdot = np.asarray(fdot, float)
+    fdot = _si(fdot, 1 / u.s)
     sign = 1.0 if rising else -1.0
     g = sign * f
     idx = np.flatnonzero((g[:-1] < 0.0) & (g[1:] >= 0.0))
@@ -73,13 +96,13 @@ def crossing_times(t, x, v, normal, center=(0.0, 0.0, 0.0), side=None) -> np.nda
 
     Parameters
     ----------
-    t : array_like
+    t : Quantity or array_like
         Record times (n,), s, close enough that the cubic through two records is accurate.
-    x, v : array_like
+    x, v : Quantity or array_like
         Positions and velocities (n, 3), m and m/s.
     normal : array_like
         Normal of the plane (3,); crossings in the +normal direction count.
-    center : array_like
+    center : Quantity or array_like
         A point of the plane (the field's centre), m.
     side : array_like, optional
         Keep only crossings where (x - center) . side > 0 (a half-plane).
@@ -89,12 +112,13 @@ def crossing_times(t, x, v, normal, center=(0.0, 0.0, 0.0), side=None) -> np.nda
     ndarray
         The crossing times, s.
     """
-    x = np.asarray(x, float) - np.asarray(center, float)
-    nrm = np.asarray(normal, float)
-    times = event_times(t, x @ nrm, np.asarray(v, float) @ nrm)
+    t = _si(t, u.s)
+    x = _si(x, _M) - _si(center, _M)
+    nrm = _direction(normal)
+    times = event_times(t, x @ nrm, _si(v, _MS) @ nrm)
     if side is None:
         return times
-    keep = np.interp(times, t, x @ np.asarray(side, float)) > 0.0
+    keep = np.interp(times, t, x @ _direction(side)) > 0.0
     return times[keep]
 
 
@@ -105,13 +129,13 @@ def apse_times(t, x, v, gm, center=(0.0, 0.0, 0.0), apse: str = "apoapsis") -> n
 
     Parameters
     ----------
-    t : array_like
+    t : Quantity or array_like
         Record times (n,), s.
-    x, v : array_like
+    x, v : Quantity or array_like
         Positions and velocities (n, 3), m and m/s.
-    gm : float
+    gm : Quantity or float
         GM of the centre, m^3/s^2.
-    center : array_like
+    center : Quantity or array_like
         The centre, m.
     apse : str
         ``"apoapsis"`` or ``"periapsis"``.
@@ -126,10 +150,10 @@ def apse_times(t, x, v, gm, center=(0.0, 0.0, 0.0), apse: str = "apoapsis") -> n
     ValueError
         ``apse`` is neither.
     """
-    r = np.asarray(x, float) - np.asarray(center, float)
-    v = np.asarray(v, float)
+    r = _si(x, _M) - _si(center, _M)
+    v = _si(v, _MS)
     f = np.einsum("ij,ij->i", r, v)
-    fdot = np.einsum("ij,ij->i", v, v) - gm / np.linalg.norm(r, axis=1)
+    fdot = np.einsum("ij,ij->i", v, v) - float(_si(gm, _GM)) / np.linalg.norm(r, axis=1)
     if apse not in ("apoapsis", "periapsis"):
         raise ValueError(f"apse must be 'apoapsis' or 'periapsis', got {apse!r}")
     return event_times(t, f, fdot, rising=(apse == "periapsis"))
@@ -148,13 +172,13 @@ def period_from_apses(t, x, v, gm, center=(0.0, 0.0, 0.0), apse: str = "apoapsis
 
     Parameters
     ----------
-    t : array_like
+    t : Quantity or array_like
         Record times (n,), s.
-    x, v : array_like
+    x, v : Quantity or array_like
         Positions and velocities (n, 3), m and m/s.
-    gm : float
+    gm : Quantity or float
         GM of the centre, m^3/s^2.
-    center : array_like
+    center : Quantity or array_like
         The centre, m.
     apse : str
         ``"apoapsis"`` or ``"periapsis"``: which passages to time.
@@ -183,11 +207,11 @@ def period_from_crossings(t, x, v, center=(0.0, 0.0, 0.0)) -> tuple[float, int]:
 
     Parameters
     ----------
-    t : array_like
+    t : Quantity or array_like
         Record times (n,), s.
-    x, v : array_like
+    x, v : Quantity or array_like
         Positions and velocities (n, 3), m and m/s.
-    center : array_like
+    center : Quantity or array_like
         The centre, m.
 
     Returns
@@ -202,9 +226,10 @@ def period_from_crossings(t, x, v, center=(0.0, 0.0, 0.0)) -> tuple[float, int]:
     ValueError
         Fewer than two crossings were recorded.
     """
-    x = np.asarray(x, float)
-    r0 = x[0] - np.asarray(center, float)
-    normal = np.cross(np.cross(r0, np.asarray(v, float)[0]), r0)  # in the orbital plane, along the motion
+    x = _si(x, _M)
+    v = _si(v, _MS)
+    r0 = x[0] - _si(center, _M)
+    normal = np.cross(np.cross(r0, v[0]), r0)  # in the orbital plane, along the motion
     times = crossing_times(t, x, v, normal, center, side=r0)
     return _slope(times), int(times.size)
 
@@ -221,13 +246,13 @@ def relative_energy_change_exact(x0, v0, x1, v1, gm, cx1=None, cv1=None) -> np.n
 
     Parameters
     ----------
-    x0, v0 : array_like
+    x0, v0 : Quantity or array_like
         Initial positions and velocities (3, n), the kernels' layout, m and m/s.
-    x1, v1 : array_like
+    x1, v1 : Quantity or array_like
         Final positions and velocities (3, n).
-    gm : float
+    gm : Quantity or float
         GM, m^3/s^2.
-    cx1, cv1 : array_like, optional
+    cx1, cv1 : Quantity or array_like, optional
         Compensation terms of the final state (3, n): the state is then ``x1 - cx1``,
         ``v1 - cv1`` (see :func:`emorbit.kernels.eft.kahan_add`).
 
@@ -241,12 +266,12 @@ def relative_energy_change_exact(x0, v0, x1, v1, gm, cx1=None, cv1=None) -> np.n
     ValueError
         Shapes differ from (3, n), a state is not finite, or a point is at the centre.
     """
-    arrays = [np.asarray(a, float) for a in (x0, v0, x1, v1)]
+    arrays = [_si(a, unit) for a, unit in ((x0, _M), (v0, _MS), (x1, _M), (v1, _MS))]
     if any(a.ndim != 2 or a.shape[0] != 3 or a.shape != arrays[0].shape for a in arrays):
         raise ValueError(f"x0, v0, x1, v1 must all be (3, n) arrays, got shapes {[a.shape for a in arrays]}")
     x0, v0, x1, v1 = arrays
-    cx1 = np.zeros_like(x1) if cx1 is None else np.asarray(cx1, float)
-    cv1 = np.zeros_like(v1) if cv1 is None else np.asarray(cv1, float)
+    cx1 = np.zeros_like(x1) if cx1 is None else _si(cx1, _M)
+    cv1 = np.zeros_like(v1) if cv1 is None else _si(cv1, _MS)
     if cx1.shape != x1.shape or cv1.shape != v1.shape:
         raise ValueError(f"cx1, cv1 must have the shape of x1, {x1.shape}, got {cx1.shape} and {cv1.shape}")
     if not (np.isfinite(arrays).all() and np.isfinite(cx1).all() and np.isfinite(cv1).all()):
@@ -255,7 +280,7 @@ def relative_energy_change_exact(x0, v0, x1, v1, gm, cx1=None, cv1=None) -> np.n
     out = np.empty(x0.shape[1])
     with decimal.localcontext() as ctx:
         ctx.prec = 60
-        g = D(float(gm))
+        g = D(float(_si(gm, _GM)))
 
         def energy(x, v):
             r = sum(D(c) * D(c) for c in x).sqrt()

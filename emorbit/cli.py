@@ -176,9 +176,10 @@ def _resume(args) -> int:
     with stop_on_signals(), _warnings_on_stderr():
         result = resume(args.file, args.t_end, progress=False if args.quiet else None, truncate=args.truncate)
     if not args.quiet:
-        err = abs(result.energy[-1] / result.energy[0] - 1) if len(result) else 0.0
+        si = result.si
+        err = abs(si.energy[-1] / si.energy[0] - 1) if len(si) else 0.0
         print(
-            f"{args.file}: continued to t = {result.time[-1]:.6g} s, |dE/E| over the continuation = {err:.3e}, "
+            f"{args.file}: continued to t = {si.time[-1]:.6g} s, |dE/E| over the continuation = {err:.3e}, "
             f"wall {time.perf_counter() - start:.2f} s"
         )
     return 0

@@ -1,8 +1,12 @@
 """Figures from run files: the paper's energy figure (several runs on one axes), the orbit or
 the angular momentum, attitudes of rigid bodies and deformations of elastic ones.
 
-Legends sit beside the axes, never over the curves. A run in a central field gets an orbit
-panel (x-y projection with the centre marked); a free-space run gets the relative
+The energy error of each run is its recorded points joined by a line over a shaded band: the
+least and greatest error over the steps between records
+(:meth:`emorbit.Result.relative_energy_error_range`), so a run recorded every k-th step shows
+where it went between records, and a decimated record never looks like a dip the run did not
+have. Legends sit beside the axes, never over the curves. A run in a central field gets an
+orbit panel (x-y projection with the centre marked); a free-space run gets the relative
 angular-momentum error instead. Rigid bodies add their attitude angles and body-frame
 angular velocity; elastic bodies add their deformation: the largest distance of a node from
 the best rigid placement of the mesh's reference nodes (:func:`deformation`), which is the
@@ -13,16 +17,60 @@ from __future__ import annotations
 
 import os
 
+import astropy.units as u
 import numpy as np
 
 from .errors import InputError
-from .io.hdf5 import read
+from .io.reader import read
 
 __all__ = ["plot_runs", "euler_angles", "deformation"]
 
 
 def _label(path, res) -> str:
     return f"{os.path.basename(path)}: {res.method}, order {res.order}, dt = {res.dt:.6g} s"
+
+
+#: the legend entry of the shaded bands of the energy error
+BAND_LABEL = "extremes between records"
+
+
+def _band(res) -> np.ndarray | None:
+    """(n, 2) the least and greatest relative energy error over each record interval, or None
+    where the run has no extremes beyond its records (every step recorded, or a file
+    without them)."""
+    band = res.relative_energy_error_range()
+    err = res.relative_energy_error()
+    if len(err) < 2 or (np.array_equal(band[:, 0], err) and np.array_equal(band[:, 1], err)):
+        return None
+    return band
+
+
+def _plot_energy(runs, ax_lin, ax_log, floor: float) -> None:
+    """Each run's relative energy error, linear and in magnitude on a log scale: the records
+    as a line over a band of the extremes between records, in the line's colour. Each band
+    spans the interval that ends at its record (a step drawn before the record)."""
+    banded = False
+    for path, res in runs:
+        err = res.relative_energy_error()
+        label = _label(path, res)
+        (line,) = ax_lin.plot(res.time, err, lw=0.8, label=label, zorder=3)
+        (log_line,) = ax_log.semilogy(res.time, np.maximum(np.abs(err), floor), lw=0.8, label=label, zorder=3)
+        band = _band(res)
+        if band is None:
+            continue
+        lo, hi = band[:, 0], band[:, 1]
+        style = {"step": "pre", "alpha": 0.3, "lw": 0.5, "zorder": 2}  # edges: a band narrower than a pixel shows
+        ax_lin.fill_between(res.time, lo, hi, color=line.get_color(), **style)
+        straddles = (lo <= 0.0) & (hi >= 0.0)
+        least = np.where(straddles, 0.0, np.minimum(np.abs(lo), np.abs(hi)))
+        most = np.maximum(np.abs(lo), np.abs(hi))
+        ax_log.fill_between(
+            res.time, np.maximum(least, floor), np.maximum(most, floor), color=log_line.get_color(), **style
+        )
+        banded = True
+    if banded:  # one legend entry for the bands of every run, in a neutral grey
+        for ax in (ax_lin, ax_log):
+            ax.fill_between([], [], [], color="0.5", alpha=0.3, lw=0, label=BAND_LABEL)
 
 
 def euler_angles(q) -> np.ndarray:
@@ -45,6 +93,13 @@ def euler_angles(q) -> np.ndarray:
     return np.stack([yaw, pitch, roll], axis=1)
 
 
+def _metres(value) -> np.ndarray:
+    """Lengths as a plain array in m: a Quantity converted, anything else read as m."""
+    if isinstance(value, u.Quantity):
+        return value.to_value(u.m)
+    return np.asarray(value, float)
+
+
 def deformation(reference, nodes) -> np.ndarray:
     """How far an elastic body is from a rigid placement of its reference mesh.
 
@@ -55,18 +110,18 @@ def deformation(reference, nodes) -> np.ndarray:
 
     Parameters
     ----------
-    reference : array_like
-        (N, 3) node positions in the body frame, m.
-    nodes : array_like
-        (k, N, 3) node positions in space, m.
+    reference : Quantity or array_like
+        (N, 3) node positions in the body frame (a Quantity of length, or plain m).
+    nodes : Quantity or array_like
+        (k, N, 3) node positions in space (a Quantity of length, or plain m).
 
     Returns
     -------
     ndarray
         (k,) the largest node offset from the best rigid placement, m.
     """
-    X = np.asarray(reference, float)
-    Y = np.asarray(nodes, float)
+    X = _metres(reference)
+    Y = _metres(nodes)
     Xc = X - X.mean(axis=0)
     Yc = Y - Y.mean(axis=1, keepdims=True)
     H = np.matmul(Xc.T[None], Yc)  # (k, 3, 3)
@@ -140,8 +195,11 @@ def plot_runs(paths, output, *, title: str | None = None) -> str:
     """Plot run files: energy error, orbits or angular momentum, attitudes and deformations.
 
     The relative energy error of every file goes on shared axes (linear, as in the paper,
-    and its magnitude on a log scale). Runs in a central field add their orbits in an x-y
-    projection with the centre marked; free-space runs the relative angular-momentum error.
+    and its magnitude on a log scale), its records as a line over a shaded band of the
+    extremes between records (:meth:`emorbit.Result.relative_energy_error_range`; absent
+    where it adds nothing: every step recorded, or a file that holds no extremes). Runs in a
+    central field add their orbits in an x-y projection with the centre marked; free-space
+    runs the relative angular-momentum error.
     A second row shows rigid bodies' attitude angles and body-frame angular velocity and
     elastic bodies' :func:`deformation`. Legends sit under their axes.
 
@@ -165,7 +223,7 @@ def plot_runs(paths, output, *, title: str | None = None) -> str:
         A file does not exist, is not an HDF5 file, is not an emorbit run file or holds no
         records.
     """
-    runs = [(p, _read(p)) for p in paths]
+    runs = [(p, _read(p).si) for p in paths]  # plain SI arrays
     import matplotlib
 
     matplotlib.use("Agg")
@@ -178,11 +236,9 @@ def plot_runs(paths, output, *, title: str | None = None) -> str:
     fig, axes = plt.subplots(rows, 3, figsize=(16, 5.6 * rows), constrained_layout=True, squeeze=False)
     ax_lin, ax_log, ax_third = axes[0]
     floor = np.finfo(float).eps / 4
+    _plot_energy(runs, ax_lin, ax_log, floor)
     for path, res in runs:
-        err = res.relative_energy_error()
         label = _label(path, res)
-        ax_lin.plot(res.time, err, lw=0.8, label=label)
-        ax_log.semilogy(res.time, np.maximum(np.abs(err), floor), lw=0.8, label=label)
         if field:
             for name in res.names:
                 x = res.positions[name]

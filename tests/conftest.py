@@ -36,8 +36,8 @@ def energy_drift_z(roundoff, dt=PAPER_T / 100, steps=1_000_000, members=64, seed
 
         use_device(sim, device)
     res = sim.run(steps=steps, every=steps, keep=False)
-    x = np.stack([res.positions[n] for n in res.names])
-    v = np.stack([res.velocities[n] for n in res.names])
+    x = np.stack([res.si.positions[n] for n in res.names])
+    v = np.stack([res.si.velocities[n] for n in res.names])
     # exact: E0 evaluated in float64 carries the same rounding of GM / |x0| in every copy
     rel = relative_energy_change_exact(x[:, 0].T, v[:, 0].T, x[:, -1].T, v[:, -1].T, PAPER_GM)
     return rel.mean() / (rel.std() / np.sqrt(members)), rel.mean() / steps

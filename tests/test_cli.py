@@ -49,7 +49,7 @@ def test_file_reads_back_and_scene_reruns(paper_file, tmp_path):
     assert res.names == ["satellite"] and res.method == "em"
     again = emorbit.parse_scene(res.attrs["scene"]).build()
     r2 = again.run(steps=10, every=10)
-    np.testing.assert_array_equal(r2.positions["satellite"][-1], res.positions["satellite"][1])
+    np.testing.assert_array_equal(r2.si.positions["satellite"][-1], res.si.positions["satellite"][1])
 
 
 def test_overrides_and_no_overwrite(tmp_path, paper_file, capsys):

@@ -132,8 +132,8 @@ CHILD = (
         return sim
     cpu, gpu = cloud(), cloud()
     use_device(gpu, "gpu")
-    rc = cpu.run(steps=200, every=50, progress=False)
-    rg = gpu.run(steps=200, every=50, progress=False)
+    rc = cpu.run(steps=200, every=50, progress=False).si
+    rg = gpu.run(steps=200, every=50, progress=False).si
     rel = max(float(np.max(np.abs(rc.positions[k] - rg.positions[k]) / np.abs(rc.positions[k]).max()))
               for k in rc.names)
     out["simulation"] = {"rel": rel, "energy_error": float(np.abs(rg.relative_energy_error()).max()),

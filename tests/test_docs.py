@@ -142,11 +142,11 @@ def test_readme_script_runs(tmp_path, monkeypatch, capsys):
     assert len(code.strip().splitlines()) <= 15
     monkeypatch.chdir(tmp_path)
     exec(compile(code, "README.md", "exec"), {})
-    energy, a, newton, t_end = capsys.readouterr().out.split()
+    energy, a, a_unit, newton, t_end, t_unit = capsys.readouterr().out.split()  # Quantities print their unit
     assert float(energy) < 1e-12
-    assert abs(float(a) - 6.0000135) < 1e-4
+    assert abs(float(a) - 6.0000135) < 1e-4 and a_unit == "m"
     assert float(newton) > 0
-    assert abs(float(t_end) - 100 * 46.4758) < 1e-6
+    assert abs(float(t_end) - 100 * 46.4758) < 1e-6 and t_unit == "s"
 
 
 def test_readme_scene_runs(tmp_path):

@@ -182,7 +182,7 @@ def test_torque_free_against_dop853(case, size, omega0, tol):
         sim.add_rigid(
             "b", "box", size=size, density=1.0, position=[0, 0, 0], velocity=[0, 0, 0], angular_velocity=omega0
         )
-        res = sim.run(steps=int(round(20.0 / dt)), every=int(round(0.5 / dt)))
+        res = sim.run(steps=int(round(20.0 / dt)), every=int(round(0.5 / dt))).si
         om, q = _euler_reference(sim.rigid.points[0].inertia, np.array(omega0), res.time)
         errs.append((np.abs(res.angular_velocities["b"] - om).max(), _attitude_error(res.attitudes["b"], q).max()))
         assert np.abs(res.relative_energy_error()).max() < 1e-14
@@ -204,7 +204,7 @@ def test_angular_velocity_follows_the_composition_order():
         sim.add_rigid(
             "b", "box", size=[3.0, 2.0, 1.0], density=1.0, position=[0, 0, 0], velocity=[0, 0, 0], angular_velocity=om0
         )
-        res = sim.run(steps=int(round(2.0 / dt)), every=int(round(2.0 / dt)))
+        res = sim.run(steps=int(round(2.0 / dt)), every=int(round(2.0 / dt))).si
         om, q = _euler_reference(sim.rigid.points[0].inertia, om0, res.time)
         errs.append(
             (
@@ -311,7 +311,7 @@ def _orbiting_box(angle, orbits, div=2000):
         angular_velocity=[0, 0, N_ORBIT],
         angular_velocity_frame="space",
     )
-    return sim, sim.run(steps=orbits * div, every=1)
+    return sim, sim.run(steps=orbits * div, every=1).si
 
 
 def test_pitch_libration_frequency():
@@ -409,7 +409,7 @@ def test_gravity_models():
             rotation_vector=[0, 0, 0.4],
             gravity=model,
         )
-        res = sim.run(steps=500, every=500)
+        res = sim.run(steps=500, every=500).si
         spins[model] = np.abs(res.angular_velocities["b"][-1]).max()
         assert np.abs(res.relative_energy_error()).max() < 1e-13
     assert spins["point"] < 1e-15
@@ -468,7 +468,7 @@ def test_dumbbell_scene_librates_at_sqrt3_n(tmp_path):
     """The shipped dumbbell: pitch libration at n sqrt(3) for a body with I_radial ~ 0
     (end spheres give I_radial / I_normal = 8e-4, included in the theory below)."""
     sim = emorbit.load_scene("rigid-dumbbell-libration").build()
-    res = sim.run(t_end=sim.t_end_requested, every=1)
+    res = sim.run(t_end=sim.t_end_requested, every=1).si
     d1 = quaternion_to_matrix(res.attitudes["dumbbell"])[:, :, 0]
     p = res.positions["dumbbell"]
     radial = p / np.linalg.norm(p, axis=1)[:, None]

@@ -309,7 +309,7 @@ def test_plot_of_a_free_space_run_and_a_flexible_body(tmp_path):
     path = tmp_path / "bar.h5"
     assert main(["run", "elastic-bar-tumbling", "-o", str(path), "-q", "--t-end", "1 s"]) == 0
     assert main(["plot", str(path), "-o", str(tmp_path / "bar.png")]) == 0
-    res = emorbit.read(path)
+    res = emorbit.read(path).si
     ref = res.bodies["bar"]["mesh/reference_nodes"]
     nodes = res.bodies["bar"]["nodes/position"]
     dev = deformation(ref, nodes)
@@ -442,7 +442,7 @@ def test_where_checkpoints_fall_changes_no_result(tmp_path, kind):
         sc = emorbit.load_scene(scene)
         sim = sc.build()
         every = sc.output_every
-        res = sim.run(t_end=t_end, every=every, checkpoint_every=None if cp is None else cp * every)
+        res = sim.run(t_end=t_end, every=every, checkpoint_every=None if cp is None else cp * every).si
         results.append(np.concatenate([res.energy, *[np.ravel(a) for d in res.bodies.values() for a in d.values()]]))
     for other in results[1:]:
         np.testing.assert_array_equal(other, results[0])

@@ -96,7 +96,7 @@ def _one_by_one(speeds, dts, t_end):
                     "integrator.dt": dt,
                     "body[satellite].velocity[1]": float(v),
                     "status": "completed",
-                    "t_final": float(res.time[-1]),
+                    "t_final": float(res.si.time[-1]),
                     "records": len(res),
                     "energy_error": float(np.abs(res.relative_energy_error()).max()),
                     "angular_momentum_error": float(res.relative_angular_momentum_error().max()),

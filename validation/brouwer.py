@@ -37,7 +37,7 @@ def _ensemble(div: int, steps: int, records: int, members: int, seed: int = 2026
     for i in range(members):
         sim.add_point(f"p{i}", mass=1.0, position=PAPER_X0, velocity=v0 * (1.0 + 1e-9 * rng.normal()))
     t0 = time.process_time()
-    res = sim.run(steps=steps, every=steps // records)
+    res = sim.run(steps=steps, every=steps // records).si  # plain SI arrays
     cpu = time.process_time() - t0
     x = np.stack([res.positions[n] for n in res.names])  # (members, records + 1, 3)
     v = np.stack([res.velocities[n] for n in res.names])

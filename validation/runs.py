@@ -256,7 +256,7 @@ def run_emorbit(
         sim.add_point(name, mass=1.0 * u.kg, position=x * u.m, velocity=v * u.m / u.s)
     steps = steps_per_period * periods
     start = time.perf_counter()
-    res = sim.run(steps=steps, every=every, output=output, overwrite=True, progress=False)
+    res = sim.run(steps=steps, every=every, output=output, overwrite=True, progress=False).si  # plain SI arrays
     wall = time.perf_counter() - start
     x = np.stack([res.positions[n] for n in case.names], axis=1)
     v = np.stack([res.velocities[n] for n in case.names], axis=1)

@@ -138,7 +138,7 @@ def _field_accuracy(order: int, dt: float, cfg: Config) -> dict:
     sim = leo_sim(1, dt, order=order)
     n = orbit_rate(sim.gm)
     steps = max(1, int(round(cfg.orbits * 2 * math.pi / n / dt)))
-    res = sim.run(steps=steps, every=1)
+    res = sim.run(steps=steps, every=1).si
     Rt = np.swapaxes(quaternion_to_matrix(res.attitudes["box"]), -1, -2)
     J = jacobi(sim.rigid.points[0].inertia, n, res.positions["box"], Rt, res.angular_velocities["box"])
     return {
@@ -150,7 +150,7 @@ def _field_accuracy(order: int, dt: float, cfg: Config) -> dict:
 
 
 def _free_accuracy(dt: float, omega, cfg: Config) -> dict:
-    res = free_sim(dt, omega).run(steps=int(round(cfg.t_free / dt)), every=1)
+    res = free_sim(dt, omega).run(steps=int(round(cfg.t_free / dt)), every=1).si
     ref = omega_reference(box_inertia(**FREE_BOX), omega, cfg.t_free)
     return {
         "energy_error": float(np.abs(res.relative_energy_error()).max()),
