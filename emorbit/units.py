@@ -3,7 +3,8 @@ plain SI floats become SI floats, or a clear :class:`~emorbit.errors.InputError`
 
 Scenes (TOML) must carry units on every dimensional value (``strict=True``); the Python API
 also accepts plain numbers, read as SI (m, s, kg, m/s, m^3/s^2) and, for sizes of
-information, bytes (``"10 GB"``, ``"2 GiB"``).
+information, bytes (``"10 GB"``, ``"2 GiB"``). A value is finite and at most
+:data:`MAX_MAGNITUDE` in magnitude in SI units, so that its square is finite too.
 """
 
 from __future__ import annotations
@@ -16,7 +17,11 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["to_si", "vector_to_si", "to_count", "information_text", "SI"]
+__all__ = ["to_si", "vector_to_si", "to_count", "information_text", "SI", "MAX_MAGNITUDE"]
+
+#: the largest magnitude of a value in SI units: a square of it stays finite in float64
+#: (1e150 m is 1e123 times the size of the observable universe)
+MAX_MAGNITUDE = 1e150
 
 #: the SI unit emorbit uses inside, per kind of value
 SI = {
@@ -35,6 +40,7 @@ SI = {
     "area": u.m**2,
     "pressure": u.Pa,
     "information": u.byte,
+    "dimensionless": u.dimensionless_unscaled,
 }
 
 
@@ -75,7 +81,8 @@ def to_si(
     ------
     InputError
         The value has no unit (``strict``), a unit of another kind, is not a scalar, is not
-        finite, or breaks ``positive`` / ``nonnegative``.
+        finite, is larger than :data:`MAX_MAGNITUDE` in magnitude (in SI units), or breaks
+        ``positive`` / ``nonnegative``.
     """
     unit = SI[kind]
     shown = repr(value) if not isinstance(value, u.Quantity) else f"'{value}'"  # the value as given
@@ -103,6 +110,8 @@ def to_si(
         )
     if not math.isfinite(number):
         raise InputError(key, f"{shown} is not finite")
+    if abs(number) > MAX_MAGNITUDE:
+        raise InputError(key, f"{shown} is out of range: values are at most {MAX_MAGNITUDE:g} {unit} in magnitude")
     if positive and not number > 0.0:
         raise InputError(key, f"must be > 0, got {shown}")
     if nonnegative and not number >= 0.0:

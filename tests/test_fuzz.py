@@ -2,53 +2,16 @@
 InputErrors naming a key, before anything runs, and the CLI leaves no file behind."""
 
 import copy
-import json
 import string
 
 import pytest
+from fuzz_support import BASE, to_toml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from emorbit.cli import main
 from emorbit.errors import InputError
 from emorbit.scene import SCHEMA, parse_scene
-
-BASE = {
-    "field": {"gm": "3.9478 m3 / s2", "center": ["0 m", "0 m", "0 m"]},
-    "integrator": {"method": "em", "order": 2, "dt": "0.464758 s", "t_end": "4.64758 s", "output_every": 2},
-    "body": [
-        {
-            "name": "sat",
-            "kind": "point",
-            "mass": "1 kg",
-            "position": ["10 m", "0 m", "0 m"],
-            "velocity": ["0 m/s", "0.36276 m/s", "0 m/s"],
-        },
-        {
-            "name": "box",
-            "kind": "rigid",
-            "shape": "box",
-            "size": ["0.3 m", "0.2 m", "0.1 m"],
-            "density": "1000 kg / m3",
-            "position": ["-10 m", "0 m", "0 m"],
-            "velocity": ["0 m/s", "-0.36276 m/s", "0 m/s"],
-            "angular_velocity": ["0 rad/s", "0 rad/s", "0.1 rad/s"],
-        },
-        {
-            "name": "bar",
-            "kind": "elastic",
-            "mesh": "chain",
-            "start": ["0 m", "10 m", "0 m"],
-            "end": ["0 m", "11 m", "0 m"],
-            "elements": 2,
-            "area": "1 mm2",
-            "young": "1 GPa",
-            "density": "1000 kg / m3",
-            "position": ["0 m", "0 m", "0 m"],
-            "velocity": ["-0.36276 m/s", "0 m/s", "0 m/s"],
-        },
-    ],
-}
 
 # the value kind of every dimensional key (a wrong unit for it is one of another kind)
 LENGTH_KEYS = {"position", "center", "size", "start", "end", "r_ref", "radius", "length", "end_radius", "height"}
@@ -80,35 +43,6 @@ WRONG_UNIT = {
     "m2": "m",
     "rad / s": "m / s",
 }
-
-
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, float)):
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, list):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{json.dumps(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
-    raise TypeError(v)
-
-
-def to_toml(d: dict) -> str:
-    out = []
-    for key, value in d.items():
-        if isinstance(value, dict):
-            out.append(f"[{key}]")
-            out += [f"{json.dumps(k)} = {_toml_value(v)}" for k, v in value.items()]
-        elif isinstance(value, list) and value and all(isinstance(x, dict) for x in value):
-            for item in value:
-                out.append(f"[[{key}]]")
-                out += [f"{json.dumps(k)} = {_toml_value(v)}" for k, v in item.items()]
-        else:
-            out.insert(0, f"{json.dumps(key)} = {_toml_value(value)}")
-    return "\n".join(out) + "\n"
 
 
 def _tables(d):

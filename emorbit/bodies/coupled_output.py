@@ -145,10 +145,12 @@ class StructureOutput(BodySystem):
         finally:
             self.restore(snap)
         (d0, _), (d1, status) = steps[-2:]
-        size2 = float(np.max(np.sum(urel * urel, axis=1) * self.slot_pos, initial=0.0))
-        base2 = np.sum((h * self.v) ** 2, axis=1) + np.where(self.slot_pos > 0, size2, 1.0)
-        dd = d1 - d0
-        return int(status), float(np.sqrt(np.max(np.sum(dd * dd, axis=1) / (base2 + np.sum(d1 * d1, axis=1))))), None
+        with np.errstate(over="ignore", invalid="ignore"):  # an iterate far off (a warm start of 1e300): inf
+            size2 = float(np.max(np.sum(urel * urel, axis=1) * self.slot_pos, initial=0.0))
+            base2 = np.sum((h * self.v) ** 2, axis=1) + np.where(self.slot_pos > 0, size2, 1.0)
+            dd = d1 - d0
+            update = float(np.sqrt(np.max(np.sum(dd * dd, axis=1) / (base2 + np.sum(d1 * d1, axis=1)))))
+        return int(status), update if np.isfinite(update) else float("inf"), None
 
     def body_datasets(self, i: int) -> dict:
         """The datasets of body i's group, by kind; an elastic body's ``nodes/...`` datasets grow

@@ -21,6 +21,7 @@ at the elements' quadrature points (tetrahedra: the 4-point degree-2 rule; bars:
 
 from __future__ import annotations
 
+import math
 import numbers
 import os
 from dataclasses import dataclass
@@ -47,6 +48,8 @@ __all__ = [
 
 #: the meshes an elastic body can be given
 MESH_KINDS = ("beam", "chain", "net", "file")
+#: the most nodes or elements a generated mesh may have
+MAX_MESH = 1_000_000
 _TET_A = 0.5854101966249685
 _TET_B = 0.1381966011250105
 
@@ -119,7 +122,16 @@ def _grid(size, elements, dim: int, key: str):
         raise InputError(f"{key}.size", f"{word} lengths > 0 expected, got {size!r}")
     if n.shape != (dim,) or not np.issubdtype(n.dtype, np.integer) or not np.all(n >= 1):
         raise InputError(f"{key}.elements", f"{word} integers >= 1 expected, got {elements!r}")
+    k = [int(c) for c in n]
+    _mesh_size(math.prod(c + 1 for c in k), 6 * math.prod(k) if dim == 3 else 2 * k[0] * k[1] + k[0] + k[1], key)
     return L, n
+
+
+def _mesh_size(nodes: int, elements: int, key: str) -> None:
+    if max(nodes, elements) > MAX_MESH:
+        raise InputError(
+            f"{key}.elements", f"{nodes:,} nodes and {elements:,} elements, more than a mesh may have ({MAX_MESH:,})"
+        )
 
 
 def beam_mesh(size, elements, key: str = "body"):
@@ -200,6 +212,7 @@ def chain_mesh(start, end, elements, key: str = "body"):
     b = np.asarray(end, float)
     if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) or elements < 1:
         raise InputError(f"{key}.elements", f"an integer >= 1 expected, got {elements!r}")
+    _mesh_size(int(elements) + 1, int(elements), key)
     t = np.linspace(0.0, 1.0, int(elements) + 1)
     X = a[None] + t[:, None] * (b - a)[None]
     bars = np.stack([np.arange(elements), np.arange(1, elements + 1)], 1)
@@ -295,21 +308,7 @@ def read_mesh(path, key: str = "body", mesh_unit: str | None = None):
         raise InputError(where, f"mesh file {path!r} does not exist")
     given = None if mesh_unit is None else _length_scale(mesh_unit, f"{key}.mesh_unit", "mesh_unit")
     if path.endswith((".h5", ".hdf5")):
-        import h5py
-
-        try:
-            f = h5py.File(path, "r")
-        except OSError as exc:
-            raise InputError(where, f"{path!r} is not a readable HDF5 file ({exc})") from None
-        with f:
-            arrays = {}
-            for name in ("nodes", "tetrahedra", "bars"):
-                if name in f and not isinstance(f[name], h5py.Dataset):
-                    raise InputError(where, f"{path!r}: /{name} is not a dataset")
-                arrays[name] = f[name][()] if name in f else None
-            if arrays["nodes"] is None:
-                raise InputError(where, f"{path!r} has no /nodes dataset")
-            unit = f["nodes"].attrs.get("unit")
+        arrays, unit = _read_hdf5(path, where)
         scale = given
         if unit is not None:
             scale = _length_scale(unit, where, f"{path!r}: the unit attribute of /nodes")
@@ -323,7 +322,7 @@ def read_mesh(path, key: str = "body", mesh_unit: str | None = None):
                 f"/nodes in {path!r} has no unit attribute: give the unit of its coordinates with mesh_unit "
                 '(e.g. "m"), or write it into the file (/nodes attribute unit)',
             )
-        X = mesh_coordinates(arrays["nodes"], where, f"/nodes of {path!r}") * scale
+        X = mesh_coordinates(arrays["nodes"], where, f"/nodes of {path!r}", scale)
         T, B = (
             mesh_indices([] if arrays[name] is None else arrays[name], width, where, f"/{name} of {path!r}")
             for name, width in (("tetrahedra", 4), ("bars", 2))
@@ -342,10 +341,31 @@ def read_mesh(path, key: str = "body", mesh_unit: str | None = None):
     T = np.concatenate([c.data for c in m.cells if c.type == "tetra"] or [np.zeros((0, 4), np.int64)])
     B = np.concatenate([c.data for c in m.cells if c.type == "line"] or [np.zeros((0, 2), np.int64)])
     return (
-        mesh_coordinates(np.asarray(m.points), where, f"the points of {path!r}") * given,
+        mesh_coordinates(np.asarray(m.points), where, f"the points of {path!r}", given),
         mesh_indices(T, 4, where, f"the tetra cells of {path!r}"),
         mesh_indices(B, 2, where, f"the line cells of {path!r}"),
     )
+
+
+def _read_hdf5(path: str, where: str):
+    """The arrays /nodes, /tetrahedra, /bars (None where absent) of an HDF5 mesh file and the
+    unit attribute of /nodes; a file that HDF5 cannot read (damaged, truncated) is an error."""
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            arrays = {}
+            for name in ("nodes", "tetrahedra", "bars"):
+                if name in f and not isinstance(f[name], h5py.Dataset):
+                    raise InputError(where, f"{path!r}: /{name} is not a dataset")
+                arrays[name] = f[name][()] if name in f else None
+            if arrays["nodes"] is None:
+                raise InputError(where, f"{path!r} has no /nodes dataset")
+            return arrays, f["nodes"].attrs.get("unit")
+    except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:  # h5py's errors on a damaged file
+        if isinstance(exc, InputError):
+            raise
+        raise InputError(where, f"{path!r} is not a readable HDF5 file ({' '.join(str(exc).split())})") from None
 
 
 def select_nodes(ref, nodes, key: str) -> list[int]:

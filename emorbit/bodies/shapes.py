@@ -17,12 +17,14 @@ Units: SI (m, kg, kg/m^3). Bodies are defined in their body frame; x = phi + R X
 
 from __future__ import annotations
 
+import functools
 import numbers
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import InputError
+from ..units import MAX_MAGNITUDE
 
 __all__ = [
     "MassPoints",
@@ -35,7 +37,23 @@ __all__ = [
     "mesh_coordinates",
     "mesh_indices",
     "SHAPES",
+    "MAX_POINTS",
 ]
+
+#: the most mass points a rigid body may have (its refinement sets how many its shape has)
+MAX_POINTS = 10_000_000
+
+
+def _quiet(shape):
+    """A shape function whose arithmetic gives no overflow warnings: a value that overflows
+    is not finite, and :func:`_finish` refuses it with an error naming the body."""
+
+    @functools.wraps(shape)
+    def wrapper(*args, **kwargs):
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
+            return shape(*args, **kwargs)
+
+    return wrapper
 
 
 @dataclass
@@ -85,7 +103,11 @@ def _finish(X, m, volume, analytic, key) -> MassPoints:
     com = (X * m).sum(axis=1) / m.sum()
     X = np.ascontiguousarray(X - com[:, None])
     pts = MassPoints(X, m, volume, analytic)
-    ev = np.linalg.eigvalsh(pts.second_moment)
+    with np.errstate(over="ignore", invalid="ignore"):
+        E = pts.second_moment
+    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(m)) and np.all(np.isfinite(E))):
+        raise InputError(key, "the body's size and mass overflow: its second moment of mass is not finite")
+    ev = np.linalg.eigvalsh(E)
     if not ev[0] > 1e-12 * ev[-1]:
         raise InputError(key, "the mass points lie in a plane or on a line: the body has no inertia about some axis")
     return pts
@@ -96,9 +118,17 @@ def _gauss(n):
     return x, w
 
 
-def _refinement(refinement, key) -> int:
+def _refinement(refinement, key, points) -> int:
+    """``refinement`` as an int >= 1 whose shape has at most :data:`MAX_POINTS` mass points
+    (``points(refinement)``)."""
     if isinstance(refinement, bool) or not isinstance(refinement, (int, np.integer)) or refinement < 1:
         raise InputError(key, f"refinement must be an integer >= 1, got {refinement!r}")
+    if points(int(refinement)) > MAX_POINTS:
+        raise InputError(
+            key,
+            f"refinement {refinement!r} gives {points(int(refinement)):,} mass points, more than a body may have "
+            f"({MAX_POINTS:,})",
+        )
     return int(refinement)
 
 
@@ -109,9 +139,12 @@ def _mass_from(density, mass, volume, key) -> float:
     total = mass if mass is not None else density * volume
     if not total > 0:
         raise InputError(key, f"mass must be > 0, got {total!r} kg")
+    if not np.isfinite(total):
+        raise InputError(key, f"the mass (density times volume {volume!r} m3) overflows: {total!r} kg")
     return float(total)
 
 
+@_quiet
 def box(size, *, density=None, mass=None, refinement: int = 1, key: str = "body") -> MassPoints:
     """A homogeneous box: 2 x 2 x 2 Gauss points in each of refinement^3 cells.
 
@@ -138,7 +171,7 @@ def box(size, *, density=None, mass=None, refinement: int = 1, key: str = "body"
     InputError
         A size that is not positive, not exactly one of density and mass, or a bad refinement.
     """
-    n = _refinement(refinement, f"{key}.refinement")
+    n = _refinement(refinement, f"{key}.refinement", lambda n: 8 * n**3)
     a = np.asarray(size, float)
     if a.shape != (3,) or not np.all(a > 0):
         raise InputError(f"{key}.size", f"three edge lengths > 0 expected, got {size!r}")
@@ -159,6 +192,7 @@ def box(size, *, density=None, mass=None, refinement: int = 1, key: str = "body"
     return _finish(X, m, vol, I, key)
 
 
+@_quiet
 def cylinder(radius, height, *, density=None, mass=None, refinement: int = 1, key: str = "body") -> MassPoints:
     """A solid homogeneous cylinder along the body z axis.
 
@@ -188,7 +222,7 @@ def cylinder(radius, height, *, density=None, mass=None, refinement: int = 1, ke
     InputError
         A size that is not positive, not exactly one of density and mass, or a bad refinement.
     """
-    n = _refinement(refinement, f"{key}.refinement")
+    n = _refinement(refinement, f"{key}.refinement", lambda n: 4 * n * n * max(4, 4 * n))
     R, H = float(radius), float(height)
     if not (R > 0 and H > 0):
         raise InputError(key, f"radius and height must be > 0, got {radius!r}, {height!r}")
@@ -224,6 +258,7 @@ def _sphere_directions(n):
     return U, W / W.sum()
 
 
+@_quiet
 def sphere(radius, *, density=None, mass=None, refinement: int = 1, key: str = "body") -> MassPoints:
     """A solid homogeneous sphere: 24 refinement^3 mass points.
 
@@ -253,7 +288,7 @@ def sphere(radius, *, density=None, mass=None, refinement: int = 1, key: str = "
     InputError
         A size that is not positive, not exactly one of density and mass, or a bad refinement.
     """
-    n = _refinement(refinement, f"{key}.refinement")
+    n = _refinement(refinement, f"{key}.refinement", lambda n: 24 * n**3)
     R = float(radius)
     if not R > 0:
         raise InputError(f"{key}.radius", f"must be > 0, got {radius!r}")
@@ -270,6 +305,7 @@ def sphere(radius, *, density=None, mass=None, refinement: int = 1, key: str = "
     return _finish(X, m, vol, total * 0.4 * R * R * np.eye(3), key)
 
 
+@_quiet
 def shell(radius, *, mass, refinement: int = 1, key: str = "body") -> MassPoints:
     """A thin spherical shell, all mass on the surface: 8 refinement^2 mass points.
 
@@ -294,7 +330,7 @@ def shell(radius, *, mass, refinement: int = 1, key: str = "body") -> MassPoints
     InputError
         A radius or mass that is not positive, or a bad refinement.
     """
-    n = _refinement(refinement, f"{key}.refinement")
+    n = _refinement(refinement, f"{key}.refinement", lambda n: 8 * n * n)
     R = float(radius)
     if not R > 0:
         raise InputError(f"{key}.radius", f"must be > 0, got {radius!r}")
@@ -303,6 +339,7 @@ def shell(radius, *, mass, refinement: int = 1, key: str = "body") -> MassPoints
     return _finish(R * U, total * wu, None, total * 2.0 / 3.0 * R * R * np.eye(3), key)
 
 
+@_quiet
 def dumbbell(masses, length, *, end_radius=None, refinement: int = 1, key: str = "body") -> MassPoints:
     """Two masses on a massless rod along the body x axis.
 
@@ -359,7 +396,7 @@ def _mesh_array(values, integral: bool, key: str, what: str) -> np.ndarray:
     """
     kinds = "iu" if integral else "iuf"
     if isinstance(values, np.ndarray):
-        if values.size and values.dtype.kind not in kinds:
+        if values.dtype.kind not in kinds and (values.size or values.dtype.kind not in "iuf"):
             want = "integers" if integral else "numbers"
             raise InputError(key, f"{what} must be {want}, got an array of {values.dtype}")
         return values
@@ -379,8 +416,8 @@ def _mesh_array(values, integral: bool, key: str, what: str) -> np.ndarray:
         raise InputError(key, f"{what} must be rows of equal length, got {values!r}") from None
 
 
-def mesh_coordinates(values, key: str, what: str = "node coordinates") -> np.ndarray:
-    """Node coordinates as plain numbers, (n, 3) float64.
+def mesh_coordinates(values, key: str, what: str = "node coordinates", scale: float = 1.0) -> np.ndarray:
+    """Node coordinates as plain numbers, (n, 3) float64, times ``scale``.
 
     Parameters
     ----------
@@ -390,20 +427,30 @@ def mesh_coordinates(values, key: str, what: str = "node coordinates") -> np.nda
         The key named in errors.
     what : str
         What the values are, for the message (e.g. the dataset they were read from).
+    scale : float
+        Metres per unit of the values.
 
     Returns
     -------
     ndarray
-        (n, 3) float64.
+        (n, 3) float64, m.
 
     Raises
     ------
     InputError
-        Strings, booleans, ragged rows or not three columns.
+        Strings, booleans, ragged rows, not three columns, or coordinates that are not finite
+        or beyond :data:`~emorbit.units.MAX_MAGNITUDE` metres.
     """
     X = np.asarray(_mesh_array(values, False, key, what), dtype=float)
     if X.ndim != 2 or X.shape[1] != 3:
         raise InputError(key, f"{what}: expected rows [x, y, z], got shape {X.shape}")
+    with np.errstate(over="ignore", invalid="ignore"):
+        X = X * scale
+    if X.size and not np.max(np.abs(X)) <= MAX_MAGNITUDE:  # nan and inf fail too
+        bad = np.unravel_index(np.argmax(~(np.abs(X) <= MAX_MAGNITUDE)), X.shape)
+        raise InputError(
+            key, f"{what}: node {bad[0]} has coordinate {X[bad]!r} m, not finite or beyond {MAX_MAGNITUDE:g} m"
+        )
     return X
 
 
@@ -444,6 +491,7 @@ _TET_A = 0.5854101966249685
 _TET_B = 0.1381966011250105
 
 
+@_quiet
 def tetra_mesh(nodes, tetrahedra, *, density, key: str = "body") -> MassPoints:
     """A homogeneous body meshed with 4-node tetrahedra.
 
@@ -476,8 +524,8 @@ def tetra_mesh(nodes, tetrahedra, *, density, key: str = "body") -> MassPoints:
     T = np.asarray(tetrahedra)
     if P.ndim != 2 or P.shape[1] != 3 or P.shape[0] < 4:
         raise InputError(f"{key}.nodes", f"expected (n >= 4, 3) coordinates, got shape {P.shape}")
-    if not np.all(np.isfinite(P)):
-        raise InputError(f"{key}.nodes", "coordinates must be finite")
+    if not np.all(np.abs(P) <= MAX_MAGNITUDE):
+        raise InputError(f"{key}.nodes", f"coordinates must be finite and at most {MAX_MAGNITUDE:g} m in magnitude")
     if T.ndim != 2 or T.shape[1] != 4 or T.shape[0] < 1 or not np.issubdtype(T.dtype, np.integer):
         raise InputError(f"{key}.tetrahedra", f"expected (n >= 1, 4) node indices, got {T.shape} {T.dtype}")
     if T.min() < 0 or T.max() >= P.shape[0]:

@@ -100,7 +100,7 @@ def _check_size(sweep: Sweep, max_runs) -> None:
 
 
 def _task_dicts(sweep: Sweep, runs_dir: str, threads, device: str) -> list[dict]:
-    base = {"data": sweep.scene.data, "text": sweep.scene.text, "source": sweep.scene.source}
+    base = {"data": sweep.scene.data, "source": sweep.scene.source}
     params = [(p.key, p.path, p.unit) for p in sweep.parameters]
     bodies = sweep.body_names()
     out = []

@@ -52,6 +52,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..scene import SCHEMA, Scene, check_table, load_scene, read_text
+from .scene_text import scene_toml
 
 __all__ = ["Sweep", "Parameter", "Task", "MAX_RUNS", "load_sweep", "parse_sweep", "parse_key", "set_value", "run_scene"]
 
@@ -574,7 +575,6 @@ class Sweep:
         """
         return run_scene(
             self.scene.data,
-            self.scene.text,
             self.scene.source,
             self.fixed,
             [(p.key, p.path, p.unit) for p in self.parameters],
@@ -595,18 +595,17 @@ class Sweep:
         return [b["name"] for b in self.scene.data.get("body", []) if isinstance(b, dict) and "name" in b]
 
 
-def run_scene(data: dict, text: str, source: str, fixed: dict, params, index: int, values: dict) -> Scene:
+def run_scene(data: dict, source: str, fixed: dict, params, index: int, values: dict) -> Scene:
     """One run's scene: the base scene with the fixed values and the run's values set.
 
-    Its text is the base text after comments naming what was set. Unchecked: building it
-    checks it.
+    Its text is the run's scene as TOML (:func:`~emorbit.sweep.scene_text.scene_toml`) after
+    comments naming what was set: a run file stores it, and ``emorbit resume`` rebuilds the
+    run from it. Unchecked: building it checks it.
 
     Parameters
     ----------
     data : dict
         The base scene.
-    text : str
-        The base scene's text.
     source : str
         Where the base scene came from.
     fixed : dict
@@ -632,7 +631,7 @@ def run_scene(data: dict, text: str, source: str, fixed: dict, params, index: in
         value = _with_unit(values[key], unit, key)
         set_value(data, path, value)
         notes.append(f"# sweep run {index}: {key} = {json.dumps(value)}\n")
-    return Scene(data, "".join(notes) + text, source)
+    return Scene(data, "".join(notes) + scene_toml(data), source)
 
 
 def _flatten(table: dict, prefix: str = "") -> dict:

@@ -271,9 +271,7 @@ def run_task(task: dict) -> dict:
     status, error = "completed", ""
     try:
         base = task["scene"]
-        scene = run_scene(
-            base["data"], base["text"], base["source"], task["fixed"], task["params"], task["index"], task["values"]
-        )
+        scene = run_scene(base["data"], base["source"], task["fixed"], task["params"], task["index"], task["values"])
         sim = scene.build()
         if task.get("device", "cpu") != "cpu":
             from .device import use_device

@@ -1,0 +1,180 @@
+"""What the fuzz tests share: a small valid scene with a point, a rigid and an elastic body,
+TOML text from a dict, the command line run in this process with its output captured and a
+watchdog on its time, and the checks of a clean error and of a correct run."""
+
+from __future__ import annotations
+
+import contextlib
+import faulthandler
+import io
+import json
+import os
+import re
+import sys
+
+import numpy as np
+
+import emorbit
+from emorbit.cli import main
+
+#: a valid scene of three bodies and 10 steps (one of each kind: point, rigid, elastic)
+BASE = {
+    "field": {"gm": "3.9478 m3 / s2", "center": ["0 m", "0 m", "0 m"]},
+    "integrator": {"method": "em", "order": 2, "dt": "0.464758 s", "t_end": "4.64758 s", "output_every": 2},
+    "body": [
+        {
+            "name": "sat",
+            "kind": "point",
+            "mass": "1 kg",
+            "position": ["10 m", "0 m", "0 m"],
+            "velocity": ["0 m/s", "0.36276 m/s", "0 m/s"],
+        },
+        {
+            "name": "box",
+            "kind": "rigid",
+            "shape": "box",
+            "size": ["0.3 m", "0.2 m", "0.1 m"],
+            "density": "1000 kg / m3",
+            "position": ["-10 m", "0 m", "0 m"],
+            "velocity": ["0 m/s", "-0.36276 m/s", "0 m/s"],
+            "angular_velocity": ["0 rad/s", "0 rad/s", "0.1 rad/s"],
+        },
+        {
+            "name": "bar",
+            "kind": "elastic",
+            "mesh": "chain",
+            "start": ["0 m", "10 m", "0 m"],
+            "end": ["0 m", "11 m", "0 m"],
+            "elements": 2,
+            "area": "1 mm2",
+            "young": "1 GPa",
+            "density": "1000 kg / m3",
+            "position": ["0 m", "0 m", "0 m"],
+            "velocity": ["-0.36276 m/s", "0 m/s", "0 m/s"],
+        },
+    ],
+}
+
+#: the longest one fuzz case may take in this process before the watchdog ends the test run
+#: (with every thread's traceback on stderr): a hang fails loudly instead of stalling CI
+CASE_SECONDS = 120
+
+
+def _string(text: str) -> str:
+    """A TOML basic string: JSON's escapes, except that characters beyond U+FFFF stay as they
+    are (TOML has no surrogate pairs) and DEL is escaped (TOML refuses it raw)."""
+    return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float) and not np.isfinite(v):
+        return "nan" if np.isnan(v) else ("inf" if v > 0 else "-inf")
+    if isinstance(v, (int, float)):
+        return repr(v)
+    if isinstance(v, str):
+        return _string(v)
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_string(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
+    raise TypeError(v)
+
+
+def to_toml(d: dict) -> str:
+    """TOML text of a scene or sweep dict: tables, arrays of tables, inline tables below them."""
+    head, out = [], []
+    for key, value in d.items():
+        if isinstance(value, dict):
+            out.append(f"[{_string(key)}]")
+            out += [f"{_string(k)} = {_toml_value(v)}" for k, v in value.items()]
+        elif isinstance(value, list) and value and all(isinstance(x, dict) for x in value):
+            for item in value:
+                out.append(f"[[{_string(key)}]]")
+                out += [f"{_string(k)} = {_toml_value(v)}" for k, v in item.items()]
+        else:
+            head.append(f"{_string(key)} = {_toml_value(value)}")
+    return "\n".join(head + out) + "\n"
+
+
+@contextlib.contextmanager
+def watchdog(seconds: float = CASE_SECONDS):
+    """Bound one case in time: past ``seconds`` the process prints every thread's stack and
+    exits (faulthandler's timer runs in its own C thread, so it fires inside a stuck C call too)."""
+    faulthandler.dump_traceback_later(seconds, exit=True, file=sys.__stderr__)
+    try:
+        yield
+    finally:
+        faulthandler.cancel_dump_traceback_later()
+
+
+def cli(argv: list[str], seconds: float = CASE_SECONDS) -> tuple[int, str, str]:
+    """``emorbit ARGV`` in this process: (exit code, stdout, stderr). An exception that
+    escapes :func:`emorbit.cli.main` (a traceback for a user) fails the test as it is."""
+    out, err = io.StringIO(), io.StringIO()
+    with watchdog(seconds), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([str(a) for a in argv])
+    return code, out.getvalue(), err.getvalue()
+
+
+def listing(folder) -> set[str]:
+    """Every file and folder under ``folder``, relative to it (hidden ones included)."""
+    found = set()
+    for root, dirs, files in os.walk(folder):
+        for name in dirs + files:
+            found.add(os.path.relpath(os.path.join(root, name), folder))
+    return found
+
+
+_ERROR = re.compile(r"emorbit: error: (?P<key>[^\s:][^:]*?): .+")
+
+
+def clean_error(code: int, err: str) -> str:
+    """Check the form of a clean error (exit 2, one line on stderr that starts with
+    "emorbit: error: <key>: ", no traceback) and return the key it names."""
+    assert code == 2, f"exit {code}, stderr: {err[-3000:]}"
+    assert "Traceback" not in err, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, f"{len(lines)} lines on stderr: {err[-3000:]}"
+    m = _ERROR.fullmatch(lines[0])
+    assert m, f"not a clean error naming a key: {lines[0]!r}"
+    return m.group("key")
+
+
+def run_failed(code: int, err: str, path) -> None:
+    """A run that failed while stepping (exit 1): one line that says so, and a file whose
+    status is "failed" with the records before the failure."""
+    assert code == 1, f"exit {code}, stderr: {err[-3000:]}"
+    lines = err.strip().splitlines()
+    assert lines and lines[-1].startswith("emorbit: run failed: step at t = "), err
+    assert "Traceback" not in err, err
+    res = emorbit.read(path).si
+    assert res.attrs["status"] == "failed" and len(res) >= 1
+
+
+def correct_run(path, t_end: float | None = None, err: str = "", energy_tol: float = 1e-10) -> emorbit.result.ResultSI:
+    """A completed run file: it reads back, its status is completed, every record is finite,
+    its times are a grid that reaches ``t_end``, and an em run keeps its energy to
+    ``energy_tol`` or says on stderr (``err``) that an invariant left round-off (a stiff
+    structure at a large step amplifies round-off: docs/hard-cases.md). Returns what it read,
+    in plain SI (``Result.si``)."""
+    res = emorbit.read(path).si
+    assert res.attrs["status"] == "completed", res.attrs.get("status")
+    assert len(res) >= 2
+    assert np.all(np.isfinite(res.time)) and np.all(np.diff(res.time) > 0)
+    if t_end is not None:
+        assert res.time[-1] >= t_end * (1 - 1e-9) - 1e-300, (res.time[-1], t_end)
+        assert res.time[-1] < t_end + res.dt * (1 + 1e-9) + abs(t_end) * 1e-9, (res.time[-1], t_end, res.dt)
+    for name in ("energy", "momentum", "angular_momentum"):
+        assert np.all(np.isfinite(getattr(res, name))), name
+    for name, sets in res.bodies.items():
+        for q, a in sets.items():
+            assert np.all(np.isfinite(a)), f"{name}/{q}"
+    steps = round((res.time[-1] - res.time[0]) / res.dt)
+    every = int(res.attrs["output_every"])
+    assert len(res) == -(-steps // every) + 1, (len(res), steps, every)
+    if res.method == "em" and abs(res.energy[0]) > 0 and "emorbit: warning:" not in err:
+        drift = np.abs(res.relative_energy_error()).max()
+        assert drift < energy_tol, f"em energy error {drift:.3e} and no warning on stderr: {err}"
+    return res
