@@ -30,6 +30,7 @@ import copy
 import importlib.resources
 import numbers
 import os
+import re
 import sys
 from dataclasses import dataclass
 
@@ -38,49 +39,31 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
+from .effects import EFFECTS, effect_kinds
 from .errors import InputError
 from .field import BODIES, CentralField
 from .integrators import METHODS, ORDERS, ROUNDOFF, check_order, check_roundoff, get_method
+from .io.drift import check_tolerance
 from .io.scene_toml import simulation_to_toml
+from .keys import Key
 from .simulation import MAX_OUTPUT, Simulation, check_body_name
 from .units import to_si
 
-__all__ = ["Scene", "Key", "KEYS", "SCHEMA", "load_scene", "list_scenes", "parse_scene", "simulation_to_toml"]
+__all__ = [
+    "Scene",
+    "Key",
+    "KEYS",
+    "SCHEMA",
+    "load_scene",
+    "list_scenes",
+    "parse_scene",
+    "scene_overrides",
+    "simulation_to_toml",
+]
 
 
-@dataclass(frozen=True)
-class Key:
-    """One key of a scene table and what the documentation says about it.
-
-    Attributes
-    ----------
-    name : str
-        The key as written in the TOML table.
-    required : bool
-        Whether every table of its kind must have it.
-    unit : str
-        The kind of quantity and its SI unit (a string with any unit of that kind is
-        accepted), or the TOML type of a value without a unit.
-    default : str
-        The value taken when the key is absent ("" for a key without a default).
-    allowed : str
-        The values it may take.
-    meaning : str
-        What it does, in one line.
-    applies : tuple of str
-        For shape and mesh parameters: the shapes or meshes that take it (empty: every body
-        of the table's kind).
-    """
-
-    name: str
-    required: bool
-    unit: str
-    default: str
-    allowed: str
-    meaning: str
-    applies: tuple[str, ...] = ()
-
-
+#: the most Newton iterations a sub-step may take
+MAX_NEWTON_ITERATIONS = 1_000_000
 #: the kinds of [[body]] and [[coupling]] tables
 BODY_KINDS = ("point", "rigid", "elastic")
 COUPLING_KINDS = ("attach",)
@@ -132,6 +115,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("body", True, "array of tables", "", "one or more [[body]] tables", "the bodies"),
         Key("coupling", False, "array of tables", "none", "[[coupling]] tables",
             "nodes of elastic bodies attached to other bodies"),
+        Key("effect", False, "array of tables", "none: the central field alone", "[[effect]] tables",
+            "effects beyond the central field (docs/effects.md)"),
     ),
     "field": (
         Key("gm", False, "gravitational parameter (m3 / s2)", "", "> 0",
@@ -153,7 +138,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("t_end", True, "time (s)", "", "> 0, at least one step",
             "the end time, rounded up to a whole step unless within 1e-9 (relative) of one"),
         Key("output_every", False, "integer", "1", ">= 1", "steps between records"),
-        Key("max_newton_iterations", False, "integer", "50", ">= 1", "Newton iterations per implicit sub-step"),
+        Key("max_newton_iterations", False, "integer", "50", f"1 to {MAX_NEWTON_ITERATIONS:,}",
+            "Newton iterations per implicit sub-step"),
         Key("newton", False, "string", '"auto"', _choices(("auto", "reuse", "full")),
             'elastic structures: refactor the Jacobian every iteration ("full"), keep the factors while they '
             'converge fast ("reuse"), or choose by size ("auto")'),
@@ -164,6 +150,13 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("roundoff", False, "string", '"brouwer"', _choices(ROUNDOFF),
             'em steps of point masses: "brouwer" keeps the energy error a random walk; "fast" is cheaper and '
             "drifts at round-off level"),
+        Key("energy_range", False, "boolean or string", '"auto"', '"auto", true, false',
+            "record the least and greatest total energy over the steps between records "
+            '(invariants/energy_range), so decimated records cannot alias the energy error; "auto": for methods '
+            "that do not conserve energy, when output_every > 1"),
+        Key("drift_tolerance", False, "number", "1000", "> 0 (inf: no check)",
+            "C of the drift bound C eps sqrt(n): a conserved invariant that drifts further from the first "
+            "record, in units of its round-off scale, makes the run warn (exit 3 with emorbit run --strict)"),
         Key("max_output", False, "information (B)", f'"{MAX_OUTPUT}"', "> 0",
             "the largest output the run may project (its records, nodal positions included, in the file and in "
             "memory); a longer run is refused before anything is created"),
@@ -262,9 +255,17 @@ KEYS: dict[str, tuple[Key, ...]] = {
     ),
 }
 # fmt: on
+for _kind in effect_kinds():
+    KEYS[f"effect.{_kind}"] = (
+        Key("kind", True, "string", "", _choices(effect_kinds()), "the effect"),
+        *EFFECTS[_kind].KEYS,
+    )
 
 #: allowed keys per table: {table: {key: required?}}, derived from :data:`KEYS`
 SCHEMA: dict[str, dict[str, bool]] = {table: {k.name: k.required for k in keys} for table, keys in KEYS.items()}
+#: [integrator] keys that :class:`Simulation` names as its arguments in errors
+_SIMULATION_ARGUMENTS = ("method", "order", "adaptive", "newton", "roundoff", "max_newton_iterations")
+_SIMULATION_ARGUMENTS += ("checkpoint_every",)
 #: the keys of a rigid or elastic body that are not parameters of its shape or mesh
 _RIGID_COMMON = tuple(k.name for k in KEYS["body.rigid"] if not k.applies)
 _ELASTIC_COMMON = tuple(k.name for k in KEYS["body.elastic"] if not k.applies)
@@ -313,9 +314,12 @@ def _check_keys(table, schema_name: str, where: str) -> None:
     check_table(table, SCHEMA[schema_name], where)
 
 
-def _int(value, key: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise InputError(key, f"must be an integer >= {minimum}, got {value!r}")
+def _int(value, key: str, minimum: int, maximum: int = 2**63 - 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not minimum <= value <= maximum:
+        bounds = f">= {minimum}" if maximum == 2**63 - 1 else f"in {minimum}..{maximum:,}"
+        if isinstance(value, numbers.Integral) and not isinstance(value, bool) and value > maximum:
+            bounds = f"<= {maximum:,}"
+        raise InputError(key, f"must be an integer {bounds}, got {value!r}")
     return int(value)
 
 
@@ -443,6 +447,14 @@ class Scene:
         InputError
             Naming the first key that is wrong.
         """
+        try:
+            return self._build()
+        except InputError as exc:
+            if exc.key in _SIMULATION_ARGUMENTS:  # named by the Simulation as its argument
+                raise InputError(f"integrator.{exc.key}", exc.message) from None
+            raise
+
+    def _build(self) -> Simulation:
         d = self.data
         _check_keys(d, "", "")
         field = None  # no [field]: free space
@@ -465,7 +477,9 @@ class Scene:
         _int(integ.get("output_every", 1), "integrator.output_every", 1)
         if "checkpoint_every" in integ:
             _int(integ["checkpoint_every"], "integrator.checkpoint_every", 1)
-        max_iter = _int(integ.get("max_newton_iterations", 50), "integrator.max_newton_iterations", 1)
+        max_iter = _int(
+            integ.get("max_newton_iterations", 50), "integrator.max_newton_iterations", 1, MAX_NEWTON_ITERATIONS
+        )
         dt = self.dt
         t_end = self.t_end
         max_output = self.max_output
@@ -491,6 +505,7 @@ class Scene:
         bodies = d["body"]
         if not isinstance(bodies, list) or not bodies:
             raise InputError("body", "a scene needs at least one [[body]] table")
+        _add_effects(sim, d.get("effect", []), bodies)
         for i, b in enumerate(bodies):
             where = f"body[{i}]"
             if not isinstance(b, dict):
@@ -555,10 +570,80 @@ class Scene:
                     f"{where}.kind", f"unknown coupling kind {cpl['kind']!r}; known: {', '.join(COUPLING_KINDS)}"
                 )
             sim.attach(cpl["elastic"], cpl["nodes"], cpl["to"], key=where)
+        _check_couplings(sim, couplings)
+        if "energy_range" in integ:
+            try:
+                sim.energy_range = integ["energy_range"]
+            except InputError as exc:
+                raise InputError("integrator.energy_range", exc.message) from None
+        if "drift_tolerance" in integ:
+            sim.drift_tolerance = check_tolerance(integ["drift_tolerance"], "integrator.drift_tolerance")
         sim.steps_until(t_end)  # t_end must lie at least one step ahead
         sim.scene_text = self.text
         sim.t_end_requested = t_end
         return sim
+
+
+#: the comment line :meth:`Scene.with_overrides` writes for each key it sets
+_OVERRIDE = re.compile(
+    r"# override: integrator\.(t_end|dt|method|order|output_every|checkpoint_every|max_output) = (.+)"
+)
+
+
+def scene_overrides(text: str) -> dict:
+    """The ``[integrator]`` values that :meth:`Scene.with_overrides` set on a scene, read back
+    from the comments it writes into the scene's text (the last of each key wins).
+
+    Parameters
+    ----------
+    text : str
+        A scene's text, as a run file stores it.
+
+    Returns
+    -------
+    dict
+        {key: value}, as passed to :meth:`Scene.with_overrides`.
+    """
+    import ast
+
+    found = {}
+    for line in text.splitlines():
+        m = _OVERRIDE.fullmatch(line.strip())
+        if m:
+            try:
+                found[m.group(1)] = ast.literal_eval(m.group(2))
+            except (ValueError, SyntaxError):
+                continue
+    return found
+
+
+def _add_effects(sim: Simulation, tables, bodies: list) -> None:
+    """The scene's [[effect]] tables, added before its bodies (mutual gravity lets point masses
+    move in free space); names of bodies are checked against the scene's [[body]] tables."""
+    from .effects import build
+
+    if not isinstance(tables, list) or not all(isinstance(t, dict) for t in tables):
+        raise InputError("effect", f"[[effect]] tables expected, got {tables!r}")
+    names = [b.get("name") for b in bodies if isinstance(b, dict)]
+    for i, table in enumerate(tables):
+        where = f"effect[{i}]"
+        build(table, sim.field, where, names, strict=True)  # checks the kind, keys and values first
+        sim.add_effect(table["kind"], key=where, strict=True, **{k: v for k, v in table.items() if k != "kind"})
+
+
+def _check_couplings(sim: Simulation, couplings: list) -> None:
+    """Lay out a copy of the structure, so that an attached node that does not move with the
+    point it rides on is an error naming its [[coupling]] table, before anything runs."""
+    if sim.structure is None or not couplings:
+        return
+    try:
+        copy.deepcopy(sim.structure).build()
+    except InputError as exc:  # the structure names a coupling by its bodies
+        pair = re.fullmatch(r"coupling \((.*) -> (.*)\)", exc.key)
+        for i, cpl in enumerate(couplings):
+            if pair and (cpl["elastic"], cpl["to"]) == pair.groups():
+                raise InputError(f"coupling[{i}]", exc.message) from None
+        raise
 
 
 def _placement(body: dict) -> dict:

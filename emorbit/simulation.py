@@ -14,7 +14,6 @@ interface of :class:`emorbit.bodies.system.BodySystem`.
 
 from __future__ import annotations
 
-import copy
 import math
 import numbers
 import sys
@@ -27,8 +26,9 @@ from .errors import InputError
 from .field import CentralField
 from .integrators import METHODS, check_device, check_order, check_roundoff, get_method
 from .integrators.dispatch import require_device
-from .orbits import OrbitalElements, elements, initial_state
+from .orbits import initial_state
 from .result import Result
+from .state import StateQueries
 from .stepping import ChunkDriver
 from .units import to_count, to_si, vector_to_si
 
@@ -57,7 +57,7 @@ def _steps_between(t_start: float, t_end: float, dt: float, key: str, dt_key: st
     return int(n)
 
 
-class Simulation(ChunkDriver):
+class Simulation(StateQueries, ChunkDriver):
     """Bodies in a central field (or in free space), advanced by one method at a fixed step.
 
     Bodies are added with :meth:`add_point`, :meth:`add_rigid` and :meth:`add_elastic`,
@@ -166,6 +166,7 @@ class Simulation(ChunkDriver):
         self.t_end_requested: float | None = None
         self.keys = {k: k for k in ("t_end", "dt", "every", "max_output")}
         self.max_output = MAX_OUTPUT
+        self._effects: list = []  # the effects beyond the central field, in the order added
 
     # -- set-up -----------------------------------------------------------------------
     @property
@@ -207,6 +208,64 @@ class Simulation(ChunkDriver):
             if self.adaptive is not None:
                 raise InputError("device", "adaptive steps run on the CPU only; use device 'cpu'")
         self.points.device = device
+
+    @property
+    def effects(self) -> tuple:
+        """The effects the bodies feel: the central field (where there is one), then those of
+        :meth:`add_effect`, as :class:`~emorbit.effects.base.EffectTerm` (``.kind``, ``.table``)."""
+        from .effects import central
+
+        return ((central.build({}, self.field, "field", None),) if self.field is not None else ()) + tuple(
+            self._effects
+        )
+
+    def add_effect(self, kind: str, *, key: str | None = None, strict: bool = False, **keys) -> None:
+        """Add an effect beyond the central field: ``"zonal"`` or ``"mutual"``
+        (:mod:`emorbit.effects` lists them and their keys).
+
+        Point masses then run the em step compiled for the simulation's effects
+        (:mod:`emorbit.effects.compose`); each effect's potential energy is recorded as
+        ``invariants/potential_<kind>``.
+
+        Parameters
+        ----------
+        kind : str
+            The effect.
+        key : str, optional
+            The name errors give the effect (default ``effect[<i>]``).
+        strict : bool
+            Require units on every dimensional value (scenes do).
+        **keys
+            The effect's keys, e.g. ``model="earth", degree=2`` or ``bodies=["a", "b"]``
+            (Quantities, strings with units or SI numbers).
+
+        Raises
+        ------
+        InputError
+            An unknown effect or key, a value the effect refuses, a method other than em,
+            rigid or elastic bodies (effects act on point masses), or an effect that needs
+            a central field in free space.
+        """
+        from .bodies.effectpoints import EffectPoints
+        from .effects import build
+
+        key = key or f"effect[{len(self._effects)}]"
+        term = build({"kind": kind, **keys}, self.field, key, strict=strict)
+        if self.method != "em":
+            raise InputError(
+                "method", f"effects other than the central field run with method 'em', got {self.method!r}"
+            )
+        if self.rigid is not None or self.structure is not None or self.adaptive is not None:
+            raise InputError(key, f"{kind!r} acts on point masses with fixed steps; this simulation has other bodies")
+        same = sum(t.kind == kind for t in self._effects)
+        if same:
+            term.label = f"{kind}_{same + 1}"
+        self._effects.append(term)
+        if isinstance(self.points, EffectPoints):
+            self.points.terms = list(self.effects)
+            self.points._kernel = None
+        else:
+            self.points = EffectPoints.taking_over(self.points, self.effects)
 
     @property
     def systems(self) -> list:
@@ -266,14 +325,19 @@ class Simulation(ChunkDriver):
         """
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
-        if self.field is None:
-            raise InputError("field", f"{key} is a point mass, which needs a central field; this simulation has none")
+        if self.field is None and not any(t.kind == "mutual" for t in self._effects):
+            raise InputError(
+                "field",
+                f"{key} is a point mass, which needs a central field or mutual gravity (add_effect('mutual')); "
+                "this simulation has neither",
+            )
         m = to_si(mass, "mass", f"{key}.mass", strict=strict, positive=True)
         position, velocity, xkey, vkey = initial_state(position, velocity, orbit, self.field, strict=strict, key=key)
         x = vector_to_si(position, "length", xkey, strict=strict)
         v = vector_to_si(velocity, "speed", vkey, strict=strict)
         self._check_method_supports(self.points, key)
-        self.field.check_start(x, x, v, gravity=True, key=xkey, what=f"{x.tolist()} m", motion_key=vkey)
+        if self.field is not None:
+            self.field.check_start(x, x, v, gravity=True, key=xkey, what=f"{x.tolist()} m", motion_key=vkey)
         self.points.add(name, m, x, v)
 
     def add_rigid(
@@ -360,6 +424,7 @@ class Simulation(ChunkDriver):
         )
         if self.adaptive is not None:
             raise InputError("adaptive", f"adaptive steps are for point masses only ({key} is a rigid body)")
+        self._no_effects(key)
         if self.rigid is None:
             self.rigid = RigidBodies()
         self._check_method_supports(self.rigid, key)
@@ -385,7 +450,14 @@ class Simulation(ChunkDriver):
             spec["params"],
         )
 
+    def _no_effects(self, key: str) -> None:
+        """Rigid and elastic bodies feel the central field only (so far)."""
+        if self._effects:
+            kinds = ", ".join(sorted({t.kind for t in self._effects}))
+            raise InputError(key, f"the effects {kinds} act on point masses only; this body is not one")
+
     def _structure(self):
+        self._no_effects("body")
         if self.structure is None:
             from .bodies.coupled import Structure
 
@@ -555,98 +627,6 @@ class Simulation(ChunkDriver):
             raise InputError(f"{key}.to", f"no point mass or rigid body named {to!r}")
         st.attach(elastic, idx, to)
 
-    # -- diagnostics of the current state ----------------------------------------------
-    def _measured(self) -> list:
-        """The systems now; a structure not yet built is measured on a built copy (it stays open)."""
-        out = []
-        for s in self.systems:
-            if s is self.structure and not s._built:
-                s = copy.deepcopy(s)
-                s.build()
-            out.append(s)
-        return out
-
-    def state(self, name: str) -> tuple[np.ndarray, np.ndarray]:
-        """The current position and velocity of a body's centre of mass.
-
-        Parameters
-        ----------
-        name : str
-            The body.
-
-        Returns
-        -------
-        position, velocity : ndarray
-            (3,) arrays, m and m/s.
-
-        Raises
-        ------
-        InputError
-            No body of that name.
-        """
-        if name not in self.names:
-            raise InputError("name", f"no body named {name!r}; bodies: {', '.join(self.names)}")
-        s = next(s for s in self._measured() if name in s.names)
-        d = s.datasets(s.current(), 1)[name]
-        return d["position"][0].copy(), d["velocity"][0].copy()
-
-    def _invariants_now(self):
-        parts = [s.invariants(s.current(), 1, self.gm, self.center) for s in self._measured()]
-        return [sum(p[j] for p in parts)[0] for j in range(3)]
-
-    def energy(self) -> float:
-        """Total energy of all bodies now.
-
-        Returns
-        -------
-        float
-            J.
-        """
-        return float(self._invariants_now()[0])
-
-    def momentum(self) -> np.ndarray:
-        """Total linear momentum now.
-
-        Returns
-        -------
-        ndarray
-            (3,) kg m/s.
-        """
-        return self._invariants_now()[1]
-
-    def angular_momentum(self) -> np.ndarray:
-        """Total angular momentum about the field's centre now.
-
-        Returns
-        -------
-        ndarray
-            (3,) kg m^2/s.
-        """
-        return self._invariants_now()[2]
-
-    def elements(self, name: str) -> OrbitalElements:
-        """Osculating elements of a body's centre of mass now.
-
-        Parameters
-        ----------
-        name : str
-            The body.
-
-        Returns
-        -------
-        OrbitalElements
-            Scalars in m and rad (see :mod:`emorbit.orbits`).
-
-        Raises
-        ------
-        InputError
-            No field, or no body of that name.
-        """
-        if self.field is None:
-            raise InputError("field", "orbital elements need a central field")
-        x, v = self.state(name)
-        return elements(x, v, self.field.gm, self.field.center)
-
     # -- running ----------------------------------------------------------------------
     def steps_until(self, t_end) -> int:
         """Number of steps from now to a time.
@@ -701,7 +681,7 @@ class Simulation(ChunkDriver):
         every : int
             Steps between records.
         output : str or os.PathLike, optional
-            An HDF5 file to write while running (layout: :mod:`emorbit.io.hdf5`).
+            An HDF5 file to write while running (layout: :mod:`emorbit.io.reader`).
         overwrite : bool
             Replace an existing ``output`` (otherwise an existing file is an error).
         progress : bool, optional
@@ -754,6 +734,8 @@ class Simulation(ChunkDriver):
         """
         if not self.systems:
             raise InputError("body", "the simulation has no bodies; add one with add_point() or add_rigid()")
+        if self._effects:
+            self.points.check(self.method)
         if (t_end is None) == (steps is None):
             raise InputError("t_end", "give exactly one of t_end and steps")
         n_steps = to_count(steps, "steps", 1, MAX_STEPS) if steps is not None else self.steps_until(t_end)

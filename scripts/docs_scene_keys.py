@@ -31,6 +31,7 @@ TITLES = {
     "orbit": "`orbit` of a `[[body]]`",
     "coupling": "`[[coupling]]`",
 }
+TITLES.update({t: f'`[[effect]]` with `kind = "{t.split(".", 1)[1]}"`' for t in KEYS if t.startswith("effect.")})
 #: what the ``applies`` column lists, for the tables that have one
 APPLIES = {"body.rigid": "shapes", "body.elastic": "meshes"}
 

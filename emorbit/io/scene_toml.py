@@ -10,11 +10,28 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+
+from .drift import DRIFT_TOLERANCE
+
 __all__ = ["simulation_to_toml"]
 
 
 def _q(value: float, unit: str) -> str:
     return f'"{float(value)!r} {unit}"'
+
+
+def _value(v) -> str:
+    """A TOML value of an effect's key as given: Quantities become strings with units."""
+    if hasattr(v, "unit") and hasattr(v, "value"):
+        return json.dumps(f"{float(v.value)!r} {v.unit}") if np.isscalar(v.value) else _value(list(v))
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    return repr(float(v)) if isinstance(v, (float, np.floating)) else str(int(v))
 
 
 def _v(vec, unit: str) -> str:
@@ -66,6 +83,13 @@ def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -
         lines.append(f'roundoff = "{sim.roundoff}"')
     if sim.newton != "auto":
         lines.append(f'newton = "{sim.newton}"')
+    if sim.energy_range != "auto":
+        lines.append(f"energy_range = {'true' if sim.energy_range else 'false'}")
+    if sim.drift_tolerance != DRIFT_TOLERANCE:
+        lines.append(f"drift_tolerance = {float(sim.drift_tolerance)!r}")
+    for term in getattr(sim, "_effects", ()):
+        lines += ["", "[[effect]]", f'kind = "{term.kind}"']
+        lines += [f"{k} = {_value(v)}" for k, v in term.table.items() if k != "kind"]
     pts = sim.points
     for i, name in enumerate(pts.names):
         lines += [

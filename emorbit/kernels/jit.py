@@ -42,7 +42,7 @@ __all__ = ["JIT_OPTIONS", "kernel", "cache_enabled", "cache_dir", "user_cache_di
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: the sources whose compiled code is cached: a kernel inlines its callees, and Numba
 #: re-validates a cached kernel only against its own file
-_CACHED_SOURCES = ("kernels/*.py", "kernels/pointmass/*.py", "bench/limits.py")
+_CACHED_SOURCES = ("kernels/*.py", "kernels/pointmass/*.py", "kernels/effects/*.py", "bench/limits.py")
 _STAMP = "emorbit-kernel-sources.sha1"
 
 

@@ -1,0 +1,156 @@
+"""Point masses under a set of effects: the point-mass system of a scene with ``[[effect]]`` tables.
+
+The state and records are those of :class:`~emorbit.bodies.pointmasses.PointMasses` ((3, n)
+arrays ``x``, ``v`` with Kahan compensation terms; SI). The step is the em step compiled for
+the simulation's effects (:func:`emorbit.effects.compose.compile_step`): the central field
+when there is one, then each ``[[effect]]`` in the order the scene names them. Mutual gravity
+couples the points, so all of them are one system and advance together. The energy a record
+holds is the kinetic energy plus every effect's potential energy; each effect's own is in
+:meth:`EffectPoints.effect_energies`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from ..integrators import coefficients
+from ..kernels import invariants as inv
+from .pointmasses import ChunkRecords, PointMasses
+from .system import roundoff_scales
+
+__all__ = ["EffectPoints"]
+
+
+class EffectPoints(PointMasses):
+    """Point masses moved by the em step of a set of effects.
+
+    Parameters
+    ----------
+    terms : list of EffectTerm
+        The effects, the central field first where there is one.
+    """
+
+    def __init__(self, terms):
+        super().__init__()
+        self.terms = list(terms)
+        self._kernel = None
+
+    @classmethod
+    def taking_over(cls, points: PointMasses, terms) -> EffectPoints:
+        """An effect system with the points (state and compensation terms) of ``points``."""
+        out = cls(terms)
+        out.names = list(points.names)
+        out.masses, out.x, out.v = points.masses.copy(), points.x.copy(), points.v.copy()
+        out.cx, out.cv = points.cx.copy(), points.cv.copy()
+        out.device = getattr(points, "device", "cpu")
+        return out
+
+    def _active(self, term) -> np.ndarray:
+        """(n,) bool: the points the term acts on."""
+        if term.bodies is None:
+            return np.ones(len(self), bool)
+        return np.isin(np.array(self.names, dtype=object), term.bodies)
+
+    def _params(self) -> list:
+        out = []
+        for term in self.terms:
+            out.extend(term.params.values())
+            if term.kind == "mutual":
+                out.append(self._active(term).astype(float))
+        return out
+
+    def check(self, method: str, key: str = "method") -> None:
+        """Refuse what the effect step cannot do yet.
+
+        Raises
+        ------
+        InputError
+            A method other than em, or a mutual term that names a body that is not a point.
+        """
+        if method != "em":
+            raise InputError(key, f"effects other than the central field run with method 'em', got {method!r}")
+        for term in self.terms:
+            if term.bodies is not None:
+                for name in term.bodies:
+                    if name not in self.names:
+                        raise InputError(
+                            f"{term.key}.bodies", f"{name!r} is not a point mass: {term.kind} acts on point masses"
+                        )
+
+    def advance(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> ChunkRecords:
+        """Advance all points ``nrec * every`` composed em steps, recording every ``every``.
+
+        Parameters
+        ----------
+        method : str
+            ``"em"``.
+        gm, center
+            Unused: the effects carry the field.
+        dt : float
+            The step, s.
+        gammas : ndarray
+            The composition's sub-step fractions.
+        every, nrec : int
+            Steps per record, records.
+        max_iter : int
+            Newton sweeps per sub-step at most.
+
+        Returns
+        -------
+        ChunkRecords
+            The records; on a failure every point stops before the failing step.
+        """
+        from ..effects.compose import compile_step
+
+        if self._kernel is None:
+            self._kernel = compile_step([t.kind for t in self.terms])
+        n = len(self)
+        rec = ChunkRecords(
+            x=np.empty((nrec, 3, n)),
+            v=np.empty((nrec, 3, n)),
+            iterations=np.zeros((nrec, n), dtype=np.int64),
+            fail=np.full((n, 2), -1, dtype=np.int64),
+        )
+        self._kernel(
+            self.x, self.v, self.cx, self.cv, self.masses, *self._params(), float(dt),
+            np.asarray(gammas, float), int(every), int(nrec), int(max_iter), rec.x, rec.v, rec.iterations, rec.fail,
+        )  # fmt: skip
+        return rec
+
+    def effect_energies(self, rec: ChunkRecords, nrec: int) -> dict:
+        """Each effect's potential energy at each record.
+
+        Returns
+        -------
+        dict
+            {``potential_<label>``: (nrec,) J}.
+        """
+        x = rec.x[:nrec]
+        return {f"potential_{t.label}": t.potential(x, self.masses, self._active(t)) for t in self.terms}
+
+    def invariants(self, rec: ChunkRecords, nrec: int, gm: float, center):
+        """Energy (kinetic plus every effect's potential), momentum and angular momentum about
+        the field's centre at each record."""
+        x, v = rec.x[:nrec], rec.v[:nrec]
+        energy = inv.kinetic_energy(self.masses, v) + sum(self.effect_energies(rec, nrec).values())
+        return energy, inv.momentum(self.masses, v), inv.angular_momentum(self.masses, x, v, center)
+
+    def invariant_scales(self, rec: ChunkRecords, nrec: int, gm: float, center) -> np.ndarray:
+        """Round-off scales of the invariants (:func:`~emorbit.bodies.system.roundoff_scales`):
+        the kinetic energy plus the magnitudes of the effects' potentials, the mass, and
+        sum m |x - c|^2."""
+        x, v = rec.x[:nrec], rec.v[:nrec]
+        c = np.asarray(center, float)[:, None]
+        moment = np.einsum("...kn,...kn,n->...", x - c, x - c, self.masses)
+        V = sum(np.abs(e) for e in self.effect_energies(rec, nrec).values())
+        return roundoff_scales(inv.kinetic_energy(self.masses, v), V, self.masses.sum(), moment)
+
+    def newton_facts(self, index, method, gm, center, h, max_iter):
+        """None: the coupled sweeps have no per-point account of a failure."""
+        return None
+
+    def work_per_step(self) -> int:
+        """Point updates per step, per Newton sweep: n, or n^2 with mutual gravity."""
+        n = len(self)
+        return n * n if any(t.kind == "mutual" for t in self.terms) else n * coefficients(2).size

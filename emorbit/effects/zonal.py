@@ -1,0 +1,150 @@
+"""Zonal harmonics J2..J6 of the central body (``[[effect]] kind = "zonal"``).
+
+Potential energy of a body of mass m, with ``d = x - c``, ``r = |d|``, ``z = d . p`` about
+the pole p (a unit vector) and the model's reference radius R::
+
+    V = (GM m / r) sum_{n=2}^{N} J_n (R / r)^n P_n(z / r)
+
+(the -GM m / r part is the central field). Every term is a product f(r) g(z), so its
+discrete gradient in the invariants r and z (the averaged split of each product) gives a
+force over the step whose work is exactly the potential drop, and which lies in the plane
+of ``d0 + d1`` and p: an em step keeps the energy and the angular momentum about the pole
+(:mod:`emorbit.kernels.effects.zonal` has the equations). A coordinate discrete gradient
+(Gonzalez's midpoint form) would keep the energy but not that angular momentum.
+
+GM and the centre are the field's; R and J_n are the model's: "earth" is EGM2008's zonal
+part (tide-free; :data:`emorbit.kernels.effects.zonal.MODELS`), or ``j`` and ``radius``
+give them. References: N. K. Pavlis et al., J. Geophys. Res. 117 (2012) B04406 (EGM2008);
+T. Itoh, K. Abe, J. Comput. Phys. 76 (1988) 85-102.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+from ..errors import InputError
+from ..kernels.effects.zonal import MODELS, NMAX
+from ..keys import Key
+from ..units import to_si, vector_to_si
+from .base import EffectTerm
+
+__all__ = ["NAME", "SUMMARY", "KEYS", "CONSERVES", "BODY_KINDS", "KERNEL", "build", "Zonal"]
+
+NAME = "zonal"
+SUMMARY = "zonal harmonics J2..J6 of the central body, about its pole"
+KEYS = (
+    Key("model", False, "string", "", '"earth" (EGM2008); or give j and radius',
+        "the shipped zonal coefficients and reference radius"),
+    Key("j", False, "array of numbers", "", "1 to 5 finite numbers: J2, J3, ... J6",
+        "the zonal coefficients J_n (unnormalized), instead of model"),
+    Key("radius", False, "length (m)", "the model's", "> 0", "the reference radius R of the coefficients"),
+    Key("degree", False, "integer", "every degree given", f"2 to {NMAX}", "use J2..J<degree>"),
+    Key("pole", False, "3 numbers", "[0, 0, 1]", "a vector other than 0 (normalised)",
+        "the body's axis of symmetry, in the scene's axes"),
+)  # fmt: skip
+POTENTIAL = "V = (GM m / r) sum_n J_n (R / r)^n P_n(z / r), z = (x - c) . p"
+DISCRETE_FORCE = "F = -m (A (d0 + d1) / (r0 + r1) + B p): A, B the averaged discrete derivatives in r and z"
+JACOBIAN = "dF/dx1 = -m (u dA/dx1^T + A du/dx1 + p dB/dx1^T), u = (d0 + d1) / (r0 + r1)"
+CONSERVES = ("energy", "angular momentum about the pole")
+BODY_KINDS = ("point",)
+
+KERNEL = {
+    "imports": "from emorbit.kernels.effects.zonal import zonal_force, zonal_jacobian",
+    "own": """
+gx, gy, gz = zonal_force(
+    x0, y0, z0, x1, y1, z1, zonal_p[0], zonal_p[1], zonal_p[2], zonal_p[3], zonal_p[4], zonal_p[5],
+    zonal_p[6], zonal_p[7], zonal_j,
+)
+fx += gx
+fy += gy
+fz += gz
+zonal_jacobian(
+    x0, y0, z0, x1, y1, z1, zonal_p[0], zonal_p[1], zonal_p[2], zonal_p[3], zonal_p[4], zonal_p[5],
+    zonal_p[6], zonal_p[7], zonal_j, J,
+)
+""",
+    "pair": "",
+}
+
+#: coefficients of the Legendre polynomials P_0..P_6 in powers of s (records' potential)
+_LEGENDRE = [np.polynomial.legendre.leg2poly([0] * n + [1]) for n in range(NMAX + 1)]
+
+
+class Zonal(EffectTerm):
+    """Zonal harmonics as an effect term: ``params["zonal_p"] = [c0, c1, c2, p0, p1, p2, GM, R]``,
+    ``params["zonal_j"] = [J2, ..., J_degree]``."""
+
+    def potential(self, x, masses, active):
+        c, p, (gm, R) = self.params["zonal_p"][:3], self.params["zonal_p"][3:6], self.params["zonal_p"][6:]
+        d = x - c[None, :, None]
+        r = np.sqrt(np.einsum("rkn,rkn->rn", d, d))
+        s = np.einsum("rkn,k->rn", d, p) / r
+        total = np.zeros_like(r)
+        for n, jn in enumerate(self.params["zonal_j"], start=2):
+            total += jn * (R / r) ** n * np.polynomial.polynomial.polyval(s, _LEGENDRE[n])
+        return np.einsum("rn,n->r", gm / r * total, np.where(active, masses, 0.0))
+
+
+def build(table, field, key: str, bodies, strict: bool = False) -> Zonal:
+    """Zonal harmonics from their table.
+
+    Parameters
+    ----------
+    table : dict
+        ``model`` or ``j`` with ``radius``; ``degree``, ``pole`` (see :data:`KEYS`).
+    field : CentralField or None
+        The central field: its GM and centre.
+    key : str
+        The table's name in errors.
+    bodies : list of str or None
+        Unused.
+    strict : bool
+        Require a unit on ``radius``.
+
+    Returns
+    -------
+    Zonal
+
+    Raises
+    ------
+    InputError
+        No field, neither or both of ``model`` and ``j``, an unknown model, coefficients
+        or a radius that are not finite, a degree out of range, a pole of length 0.
+    """
+    if field is None:
+        raise InputError(key, "zonal harmonics belong to a central body: the scene needs a [field]")
+    model, given = table.get("model"), table.get("j")
+    if (model is None) == (given is None):
+        raise InputError(key, 'give exactly one of model (e.g. "earth") and j (with radius)')
+    if model is not None:
+        if not isinstance(model, str) or model.lower() not in MODELS:
+            raise InputError(f"{key}.model", f"unknown zonal model {model!r}; known: {', '.join(MODELS)}")
+        jn = list(MODELS[model.lower()]["jn"])
+        radius = MODELS[model.lower()]["radius"]
+    else:
+        if (
+            not isinstance(given, (list, tuple))
+            or not 1 <= len(given) <= NMAX - 1
+            or not all(isinstance(v, numbers.Real) and not isinstance(v, bool) and np.isfinite(v) for v in given)
+        ):
+            raise InputError(f"{key}.j", f"1 to {NMAX - 1} finite numbers (J2, J3, ...) expected, got {given!r}")
+        jn = [float(v) for v in given]
+        if "radius" not in table:
+            raise InputError(f"{key}.radius", "j needs the reference radius of its coefficients")
+        radius = None
+    if "radius" in table:
+        radius = to_si(table["radius"], "length", f"{key}.radius", strict=strict, positive=True)
+    degree = table.get("degree", len(jn) + 1)
+    if isinstance(degree, bool) or not isinstance(degree, numbers.Integral) or not 2 <= degree <= len(jn) + 1:
+        raise InputError(f"{key}.degree", f"an integer from 2 to {len(jn) + 1} expected, got {degree!r}")
+    pole = np.asarray(vector_to_si(table.get("pole", [0.0, 0.0, 1.0]), "dimensionless", f"{key}.pole"), float)
+    norm = float(np.linalg.norm(pole))
+    if not norm > 0.0:
+        raise InputError(f"{key}.pole", f"a vector other than 0 expected, got {table.get('pole')!r}")
+    params = {
+        "zonal_p": np.array([*field.center, *(pole / norm), field.gm, radius], float),
+        "zonal_j": np.array(jn[: degree - 1], float),
+    }
+    return Zonal("zonal", "zonal", dict(table), params)

@@ -1,0 +1,316 @@
+"""Zonal harmonics J2..J6 of the central body: potential, conserving discrete force, Jacobian.
+
+Per unit mass, with ``d = x - c``, ``r = |d|``, ``z = d . p`` (``p`` the unit pole)::
+
+    V(x) = (gm / r) sum_{n=2}^{N} J_n (R / r)^n P_n(z / r)        (the -gm/r part: .central)
+
+(with J2 > 0 an oblate body attracts more at its equator). With ``P_n(s) = sum_k a_nk s^k``
+(``_LEGENDRE``) and the scaled ``rho = r / R``, ``zeta = z / R`` every term is a product
+``(gm / R) J_n a_nk f(rho) g(zeta)`` with ``f = rho^-m``, ``g = zeta^k``, ``m = n + 1 + k``
+(odd). The averaged split of each product (an Itoh-Abe discrete gradient in rho, zeta)::
+
+    A = 1/2 (g0 + g1) df,  df = -sum_{i<m} rho0^-(i+1) rho1^-(m-i)   (= (f1 - f0) / (rho1 - rho0))
+    B = 1/2 (f0 + f1) dg,  dg = sum_{i<k} zeta0^i zeta1^(k-1-i)      (= (g1 - g0) / (zeta1 - zeta0))
+
+gives ``A (rho1 - rho0) + B (zeta1 - zeta0) = f1 g1 - f0 g0`` exactly, with no division by
+a difference (``r1 = r0`` and ``z1 = z0`` need no special case) and no cancellation in df.
+Summed over the terms (A, B then in J/kg per m, after the factor 1/R), the force is::
+
+    F = -(A (d0 + d1) / (r0 + r1) + B p)
+
+Since ``(d0 + d1) . (d1 - d0) / (r0 + r1) = r1 - r0`` and ``p . (d1 - d0) = z1 - z0``,
+``F . (x1 - x0) = -(V(x1) - V(x0))``, and F lies in the plane of ``d0 + d1`` and ``p``, so
+``p . ((d0 + d1) / 2 x F) = 0``: an em step keeps the angular momentum about the pole. As
+x1 -> x0, A -> dV/dr and B -> dV/dz, and F -> -grad V. Jacobian (dr1/dx1 = d1/r1,
+dz1/dx1 = p, u = (d0 + d1) / (r0 + r1))::
+
+    dF/dx1 = -(u dA/dx1^T + A du/dx1 + p dB/dx1^T),
+    du/dx1 = I / (r0 + r1) - (d0 + d1) d1^T / (r1 (r0 + r1)^2)
+
+with the r1- and z1-derivatives of df and dg from the same recurrences as the sums.
+
+Data layout: components as float64 scalars, ``jn`` a float64 array (J2, J3, ... up to J6;
+length 1..5), ``J`` a (3, 3) float64 array the Jacobian is added into. :data:`MODELS`
+holds shipped coefficients (plain Python). References: T. Itoh, K. Abe, J. Comput. Phys.
+76 (1988) 85-102; O. Gonzalez, J. Nonlinear Sci. 6 (1996) 449-467; N. K. Pavlis et al.,
+J. Geophys. Res. 117 (2012) B04406 (EGM2008).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..jit import kernel
+
+__all__ = ["zonal_potential", "zonal_force", "zonal_jacobian", "MODELS", "NMAX"]
+
+_inline = kernel(inline="always")
+
+#: the highest degree the kernels take (``jn`` holds J2..J_NMAX)
+NMAX = 6
+
+#: _LEGENDRE[n, k]: the coefficient of s^k in the Legendre polynomial P_n(s), n = 0..6
+_LEGENDRE = np.array(
+    [
+        [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [-0.5, 0.0, 1.5, 0.0, 0.0, 0.0, 0.0],
+        [0.0, -1.5, 0.0, 2.5, 0.0, 0.0, 0.0],
+        [3.0 / 8.0, 0.0, -30.0 / 8.0, 0.0, 35.0 / 8.0, 0.0, 0.0],
+        [0.0, 15.0 / 8.0, 0.0, -70.0 / 8.0, 0.0, 63.0 / 8.0, 0.0],
+        [-5.0 / 16.0, 0.0, 105.0 / 16.0, 0.0, -315.0 / 16.0, 0.0, 231.0 / 16.0],
+    ]
+)
+
+
+def _earth() -> dict:
+    """EGM2008 (tide-free), NGA; Pavlis et al. 2012: normalized C_n0 -> J_n = -C_n0 sqrt(2n+1)."""
+    cbar = (-0.484165143790815e-3, 9.57161207093473e-7, 5.39965866638991e-7, 6.86702913736681e-8, -1.49953927978527e-7)
+    jn = tuple(-c * math.sqrt(2 * n + 1) for n, c in enumerate(cbar, start=2))
+    return {
+        "gm": 3.986004415e14,
+        "radius": 6378136.3,
+        "cbar": cbar,
+        "jn": jn,
+        "tide_system": "tide-free",
+        "source": "EGM2008 (NGA; N. K. Pavlis et al., J. Geophys. Res. 117 (2012) B04406)",
+    }
+
+
+#: shipped zonal models: ``gm`` (m^3/s^2), reference ``radius`` (m), ``cbar`` the fully
+#: normalized coefficients C_20..C_60, ``jn`` = (J2, ..., J6) with J_n = -C_n0 sqrt(2n + 1)
+#: (unnormalized zonal coefficients), ``tide_system`` and ``source``
+MODELS = {"earth": _earth()}
+
+
+@_inline
+def zonal_potential(x, y, z, c0, c1, c2, p0, p1, p2, gm, R, jn):
+    """The zonal part of the central body's potential per unit mass of the moving point.
+
+    Parameters
+    ----------
+    x, y, z : float
+        Position of the point (m).
+    c0, c1, c2 : float
+        Position of the centre (m).
+    p0, p1, p2 : float
+        The pole, a unit vector.
+    gm : float
+        Gravitational parameter of the body (m^3/s^2).
+    R : float
+        Reference radius of the coefficients (m).
+    jn : numpy.ndarray
+        float64 (J2, J3, ...), at most up to J6 (length 1..5).
+
+    Returns
+    -------
+    float
+        ``V = (gm / r) sum_n J_n (R / r)^n P_n(z / r)`` (J/kg), ``z = (x - c) . p``.
+    """
+    d0 = x - c0
+    d1 = y - c1
+    d2 = z - c2
+    rho = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) / R
+    zeta = (d0 * p0 + d1 * p1 + d2 * p2) / R
+    q = 1.0 / rho
+    nmax = jn.shape[0] + 1
+    v = 0.0
+    f = q
+    for m in range(2, 2 * nmax + 2):
+        f *= q
+        if m % 2 == 0:
+            continue
+        # the polynomial in zeta multiplying rho^-m: k = m - 1 - n for n = 2..nmax, k <= n
+        kmin = max(0, m - 1 - nmax)
+        kmax = min((m - 1) // 2, m - 3)
+        g = 0.0
+        zp = 1.0
+        for k in range(kmax + 1):
+            if k >= kmin:
+                n = m - 1 - k
+                g += jn[n - 2] * _LEGENDRE[n, k] * zp
+            zp *= zeta
+        v += f * g
+    return (gm / R) * v
+
+
+@_inline
+def _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, jac):
+    """The discrete partials of :func:`zonal_potential` / (gm / R) in rho = r/R, zeta = z/R.
+
+    ``a = x0 - c``, ``b = x1 - c``. Returns (A, B, dA/drho1, dA/dzeta1, dB/drho1,
+    dB/dzeta1, r0, r1); the four derivatives are zero unless ``jac``."""
+    r0 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    r1 = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+    z0 = (a0 * p0 + a1 * p1 + a2 * p2) / R
+    z1 = (b0 * p0 + b1 * p1 + b2 * p2) / R
+    q0 = 1.0 / (r0 / R)
+    q1 = 1.0 / (r1 / R)
+    nmax = jn.shape[0] + 1
+    A = 0.0
+    B = 0.0
+    dAr = 0.0
+    dAz = 0.0
+    dBr = 0.0
+    dBz = 0.0
+    # q = 1/rho; f = q^m at both ends; S = -df = sum_{i<m} q0^(i+1) q1^(m-i) and
+    # T = sum_{i<m} (m-i) q0^(i+1) q1^(m-i), so that dS/drho1 = -q1 T; from m = 1 up:
+    # S' = q1 S + q0^(m+1) q1, T' = q1 (T + S) + q0^(m+1) q1 (all terms positive)
+    f0 = q0
+    f1 = q1
+    S = q0 * q1
+    T = S
+    for m in range(1, 2 * nmax + 2):
+        if m >= 3 and m % 2 == 1:
+            kmin = max(0, m - 1 - nmax)
+            kmax = min((m - 1) // 2, m - 3)
+            g0 = 0.0
+            g1 = 0.0
+            gd = 0.0  # sum c dg, dg = (g1 - g0) / (zeta1 - zeta0)
+            gdd = 0.0  # sum c d(dg)/dzeta1
+            g1d = 0.0  # sum c dg/dzeta at zeta1
+            zp0 = 1.0
+            zp1 = 1.0
+            zp1m = 0.0
+            G = 0.0  # dg of zeta^k: sum_{i<k} zeta0^i zeta1^(k-1-i); G' = zeta1 G + zeta0^k
+            H = 0.0  # dG/dzeta1; H' = G + zeta1 H
+            for k in range(kmax + 1):
+                if k >= kmin:
+                    n = m - 1 - k
+                    c = jn[n - 2] * _LEGENDRE[n, k]
+                    g0 += c * zp0
+                    g1 += c * zp1
+                    gd += c * G
+                    if jac:
+                        gdd += c * H
+                        g1d += c * k * zp1m
+                H = G + z1 * H
+                G = z1 * G + zp0
+                zp1m = zp1
+                zp0 *= z0
+                zp1 *= z1
+            gs = 0.5 * (g0 + g1)
+            fs = 0.5 * (f0 + f1)
+            A -= gs * S
+            B += fs * gd
+            if jac:
+                dAr += gs * q1 * T
+                dAz -= 0.5 * g1d * S
+                dBr -= 0.5 * m * f1 * q1 * gd
+                dBz += fs * gdd
+        f0n = f0 * q0
+        T = q1 * (T + S) + f0n * q1
+        S = q1 * S + f0n * q1
+        f0 = f0n
+        f1 *= q1
+    return A, B, dAr, dAz, dBr, dBz, r0, r1
+
+
+@_inline
+def zonal_force(x0, y0, z0, x1, y1, z1, c0, c1, c2, p0, p1, p2, gm, R, jn):
+    """The conserving discrete force of the zonal harmonics over the step x0 -> x1.
+
+    Parameters
+    ----------
+    x0, y0, z0 : float
+        Position at the start of the step (m).
+    x1, y1, z1 : float
+        Position at the end of the step (m).
+    c0, c1, c2 : float
+        Position of the centre (m).
+    p0, p1, p2 : float
+        The pole, a unit vector.
+    gm : float
+        Gravitational parameter of the body (m^3/s^2).
+    R : float
+        Reference radius of the coefficients (m).
+    jn : numpy.ndarray
+        float64 (J2, J3, ...), at most up to J6 (length 1..5).
+
+    Returns
+    -------
+    tuple of float
+        ``(fx, fy, fz)``, ``F = -(A (d0 + d1) / (r0 + r1) + B p)`` per unit mass (m/s^2);
+        ``F . (x1 - x0) = -(V(x1) - V(x0))`` (:func:`zonal_potential`) and
+        ``p . ((d0 + d1) x F) = 0``.
+    """
+    a0 = x0 - c0
+    a1 = y0 - c1
+    a2 = z0 - c2
+    b0 = x1 - c0
+    b1 = y1 - c1
+    b2 = z1 - c2
+    A, B, _, _, _, _, r0, r1 = _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, False)
+    k = gm / (R * R)
+    ku = -k * A / (r0 + r1)
+    kp = -k * B
+    return ku * (a0 + b0) + kp * p0, ku * (a1 + b1) + kp * p1, ku * (a2 + b2) + kp * p2
+
+
+@_inline
+def zonal_jacobian(x0, y0, z0, x1, y1, z1, c0, c1, c2, p0, p1, p2, gm, R, jn, J):
+    """Add the derivative of :func:`zonal_force` with respect to the end point into ``J``.
+
+    Parameters
+    ----------
+    x0, y0, z0 : float
+        Position at the start of the step (m).
+    x1, y1, z1 : float
+        Position at the end of the step (m).
+    c0, c1, c2 : float
+        Position of the centre (m).
+    p0, p1, p2 : float
+        The pole, a unit vector.
+    gm : float
+        Gravitational parameter of the body (m^3/s^2).
+    R : float
+        Reference radius of the coefficients (m).
+    jn : numpy.ndarray
+        float64 (J2, J3, ...), at most up to J6 (length 1..5).
+    J : numpy.ndarray
+        (3, 3) float64, updated in place: ``J[i, j] += dF_i / dx1_j`` (1/s^2).
+    """
+    a0 = x0 - c0
+    a1 = y0 - c1
+    a2 = z0 - c2
+    b0 = x1 - c0
+    b1 = y1 - c1
+    b2 = z1 - c2
+    A, B, dAr, dAz, dBr, dBz, r0, r1 = _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, True)
+    # physical units: A, B carry gm / R^2; their x1-derivatives one more 1/R
+    k = gm / (R * R)
+    A *= k
+    kd = k / R
+    # dA/dx1 = ar b + az p, dB/dx1 = br b + bz p  (b = d1; dr1/dx1 = b / r1)
+    ar = kd * dAr / r1
+    az = kd * dAz
+    br = kd * dBr / r1
+    bz = kd * dBz
+    rs = r0 + r1
+    s0 = a0 + b0
+    s1 = a1 + b1
+    s2 = a2 + b2
+    u0 = s0 / rs
+    u1 = s1 / rs
+    u2 = s2 / rs
+    # A du/dx1 = (A / rs) I - (A / (r1 rs^2)) s b^T
+    ai = A / rs
+    w = A / (r1 * rs * rs)
+    # dF/dx1 = -(u (ar b + az p)^T + A du/dx1 + p (br b + bz p)^T)
+    e0 = u0 * ar - w * s0 + p0 * br
+    e1 = u1 * ar - w * s1 + p1 * br
+    e2 = u2 * ar - w * s2 + p2 * br
+    h0 = u0 * az + p0 * bz
+    h1 = u1 * az + p1 * bz
+    h2 = u2 * az + p2 * bz
+    J[0, 0] -= e0 * b0 + h0 * p0 + ai
+    J[0, 1] -= e0 * b1 + h0 * p1
+    J[0, 2] -= e0 * b2 + h0 * p2
+    J[1, 0] -= e1 * b0 + h1 * p0
+    J[1, 1] -= e1 * b1 + h1 * p1 + ai
+    J[1, 2] -= e1 * b2 + h1 * p2
+    J[2, 0] -= e2 * b0 + h2 * p0
+    J[2, 1] -= e2 * b1 + h2 * p1
+    J[2, 2] -= e2 * b2 + h2 * p2 + ai

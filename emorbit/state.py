@@ -1,0 +1,113 @@
+"""What a simulation's bodies are now: a body's state, the total invariants and osculating
+elements, measured on the current state of every system (a structure not yet built is
+measured on a built copy). :class:`StateQueries` is a base class of
+:class:`emorbit.Simulation`; it reads the simulation's ``systems``, ``names``, ``field``,
+``gm`` and ``center``.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from .errors import InputError
+from .orbits import OrbitalElements, elements
+
+__all__ = ["StateQueries"]
+
+
+class StateQueries:
+    """The current state of a simulation's bodies: :meth:`state`, :meth:`energy`,
+    :meth:`momentum`, :meth:`angular_momentum` and :meth:`elements`."""
+
+    def _measured(self) -> list:
+        """The systems now; a structure not yet built is measured on a built copy (it stays open)."""
+        out = []
+        for s in self.systems:
+            if s is self.structure and not s._built:
+                s = copy.deepcopy(s)
+                s.build()
+            out.append(s)
+        return out
+
+    def state(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """The current position and velocity of a body's centre of mass.
+
+        Parameters
+        ----------
+        name : str
+            The body.
+
+        Returns
+        -------
+        position, velocity : ndarray
+            (3,) arrays, m and m/s.
+
+        Raises
+        ------
+        InputError
+            No body of that name.
+        """
+        if name not in self.names:
+            raise InputError("name", f"no body named {name!r}; bodies: {', '.join(self.names)}")
+        s = next(s for s in self._measured() if name in s.names)
+        d = s.datasets(s.current(), 1)[name]
+        return d["position"][0].copy(), d["velocity"][0].copy()
+
+    def _invariants_now(self):
+        parts = [s.invariants(s.current(), 1, self.gm, self.center) for s in self._measured()]
+        return [sum(p[j] for p in parts)[0] for j in range(3)]
+
+    def energy(self) -> float:
+        """Total energy of all bodies now.
+
+        Returns
+        -------
+        float
+            J.
+        """
+        return float(self._invariants_now()[0])
+
+    def momentum(self) -> np.ndarray:
+        """Total linear momentum now.
+
+        Returns
+        -------
+        ndarray
+            (3,) kg m/s.
+        """
+        return self._invariants_now()[1]
+
+    def angular_momentum(self) -> np.ndarray:
+        """Total angular momentum about the field's centre now.
+
+        Returns
+        -------
+        ndarray
+            (3,) kg m^2/s.
+        """
+        return self._invariants_now()[2]
+
+    def elements(self, name: str) -> OrbitalElements:
+        """Osculating elements of a body's centre of mass now.
+
+        Parameters
+        ----------
+        name : str
+            The body.
+
+        Returns
+        -------
+        OrbitalElements
+            Scalars in m and rad (see :mod:`emorbit.orbits`).
+
+        Raises
+        ------
+        InputError
+            No field, or no body of that name.
+        """
+        if self.field is None:
+            raise InputError("field", "orbital elements need a central field")
+        x, v = self.state(name)
+        return elements(x, v, self.field.gm, self.field.center)

@@ -1,0 +1,256 @@
+"""Effects beyond the central field: zonal harmonics and mutual gravity on point masses, run by
+the em step compiled for each scene's set of effects (emorbit.effects).
+
+Conservation is checked over 1e5 steps at large steps (a fiftieth of the orbit or less), as
+REBOUNDx's test_conservation does for each of its effects; convergence orders with J2 on; the
+nodal regression of a sun-synchronous orbit against first-order secular theory; and that a
+scene's compiled step holds the code of its own effects only.
+"""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+
+import emorbit
+import emorbit.effects.mutual
+from emorbit.effects.compose import step_source
+from emorbit.errors import InputError
+
+EARTH = emorbit.CentralField(body="earth")
+R_SSO = 7000e3
+V_SSO = float(np.sqrt(EARTH.gm / R_SSO))
+T_SSO = 2 * np.pi * float(np.sqrt(R_SSO**3 / EARTH.gm))
+
+
+def _j2_sim(
+    dt: float, order: int = 2, inclination: float = 98.0, degree: int = 2, e: float = 0.0
+) -> emorbit.Simulation:
+    sim = emorbit.Simulation(EARTH, method="em", dt=dt, order=order)
+    sim.add_effect("zonal", model="earth", degree=degree)
+    inc = np.radians(inclination)
+    v = V_SSO * np.sqrt(1 + e)
+    sim.add_point("sat", mass=1.0, position=[R_SSO * (1 - e), 0, 0], velocity=[0, v * np.cos(inc), v * np.sin(inc)])
+    return sim
+
+
+def _figure_eight(steps_per_period: int = 100) -> tuple[emorbit.Simulation, float]:
+    """The three-body figure-eight (Chenciner & Montgomery) of 1e12 kg bodies, 100 m across:
+    (the simulation, the period in s)."""
+    L, M = 100.0, 1e12
+    tau = float(np.sqrt(L**3 / (emorbit.effects.mutual.G * M)))  # the time unit of G = M = L = 1
+    period = 6.32591398 * tau
+    sim = emorbit.Simulation(None, method="em", dt=period / steps_per_period)
+    sim.add_effect("mutual")
+    x1, v3 = np.array([0.97000436, -0.24308753, 0.0]), np.array([-0.93240737, -0.86473146, 0.0])
+    for name, x, v in (("a", x1, -v3 / 2), ("b", -x1, -v3 / 2), ("c", np.zeros(3), v3)):
+        sim.add_point(name, mass=M, position=x * L, velocity=v * L / tau)
+    return sim, period
+
+
+def test_zonal_keeps_energy_and_the_pole_angular_momentum_over_1e5_steps():
+    """J2..J6 of the Earth, an eccentric inclined orbit, T/95 per step, 1e5 steps."""
+    sim = _j2_sim(T_SSO / 95, inclination=63.0, degree=6, e=0.05)
+    res = sim.run(steps=100_000, every=1000, progress=False).si
+    E, L = res.energy, res.angular_momentum
+    assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 1e-12
+    assert np.max(np.abs(L[:, 2] - L[0, 2])) / np.linalg.norm(L[0]) <= 1e-12
+    # the other components are not conserved: the node regresses
+    assert np.max(np.abs(L[:, 0] - L[0, 0])) / np.linalg.norm(L[0]) > 1e-3
+
+
+def test_mutual_gravity_keeps_energy_momentum_and_angular_momentum_over_1e5_steps():
+    """The figure-eight at a hundredth of its period per step, 1000 periods."""
+    sim, _ = _figure_eight()
+    res = sim.run(steps=100_000, every=1000, progress=False).si
+    E, P, L = res.energy, res.momentum, res.angular_momentum
+    assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 1e-12
+    scale_p = sum(m * np.linalg.norm(v[0]) for m, v in zip(res.masses.values(), res.velocities.values()))
+    assert np.max(np.abs(P - P[0])) / scale_p <= 1e-12
+    scale_l = sum(  # the figure's total angular momentum is 0: relative to the bodies' own
+        m * np.linalg.norm(x[0]) * np.linalg.norm(v[0])
+        for m, x, v in zip(res.masses.values(), res.positions.values(), res.velocities.values())
+    )
+    assert np.max(np.linalg.norm(L - L[0], axis=1)) / scale_l <= 1e-12
+    x = res.positions["a"]
+    assert np.ptp(x[:, 0]) > 100.0  # they moved along the figure
+
+
+def test_mutual_gravity_inside_the_central_field():
+    """Two satellites attracting each other in the Earth's field: energy and the angular
+    momentum about the centre are kept; each effect's potential is recorded."""
+    sim = emorbit.Simulation(EARTH, method="em", dt=30.0)
+    sim.add_effect("mutual")
+    sim.add_point("a", mass=1e10, position=[R_SSO, 0, 0], velocity=[0, V_SSO, 0])
+    sim.add_point("b", mass=1e10, position=[R_SSO, 50.0, 0], velocity=[0, V_SSO, 0.01])
+    res = sim.run(steps=20_000, every=100, progress=False).si
+    E, L = res.energy, res.angular_momentum
+    assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 1e-12
+    assert np.max(np.linalg.norm(L - L[0], axis=1)) / np.linalg.norm(L[0]) <= 1e-12
+
+
+def _final_position(dt: float, order: int, t_end: float) -> np.ndarray:
+    sim = _j2_sim(dt, order=order, inclination=50.0, e=0.05)
+    return sim.run(t_end, every=10**9, progress=False).si.positions["sat"][-1]
+
+
+@pytest.mark.parametrize("order", [2, 4, 6, 8])
+def test_convergence_orders_with_j2(order):
+    t_end = 2 * T_SSO
+    coarse = {2: 100, 4: 60, 6: 40, 8: 30}[order]  # steps per orbit at the coarse step
+    ref = _final_position(T_SSO / 800, 8, t_end)
+    errors = [np.linalg.norm(_final_position(T_SSO / n, order, t_end) - ref) for n in (coarse, 2 * coarse)]
+    rate = np.log2(errors[0] / errors[1])
+    assert abs(rate - order) <= 0.5, (order, errors, rate)
+
+
+def test_sun_synchronous_node_advances_as_first_order_theory_says():
+    """At 7000 km and 98 deg the node advances by -3/2 n J2 (R/a)^2 cos i per unit time
+    (about 1.00 deg/day); first-order theory's own error is O(J2^2), about 1e-3 relative."""
+    sim = _j2_sim(60.0)
+    res = sim.run("2 d", every=10, progress=False)
+    el = res.elements("sat", si=True)
+    # the mean node: fit a line through the osculating node over whole orbits
+    t = res.si.time
+    slope = np.polyfit(t, np.unwrap(el.raan), 1)[0]
+    jn, radius = 1.0826261738e-3, 6378136.3
+    a = np.mean(el.a)
+    n = np.sqrt(EARTH.gm / a**3)
+    theory = -1.5 * n * jn * (radius / a) ** 2 * np.cos(np.radians(98.0))
+    assert abs(slope / theory - 1) < 5e-3, (np.degrees(slope) * 86400, np.degrees(theory) * 86400)
+
+
+def test_a_scene_compiles_only_the_effects_it_names():
+    central_only, _ = step_source(["central"])
+    with_mutual, names = step_source(["central", "mutual"])
+    with_zonal, _ = step_source(["central", "zonal"])
+    assert "zonal" not in with_mutual.split('"""', 2)[2] and "mutual_p" not in with_zonal
+    assert "zonal_force" in with_zonal and "mutual_p" in with_mutual
+    assert "zonal" not in central_only.split('"""', 2)[2]
+    assert names == ["central_p", "mutual_p", "mutual_on"]
+
+
+SCENE = """
+[field]
+body = "earth"
+
+[integrator]
+dt = "60 s"
+t_end = "6000 s"
+output_every = 10
+
+[[effect]]
+kind = "zonal"
+model = "earth"
+degree = 2
+
+[[effect]]
+kind = "mutual"
+bodies = ["a", "b"]
+
+[[body]]
+name = "a"
+kind = "point"
+mass = "1e10 kg"
+orbit = {a = "7000 km", e = 0.001, i = "98 deg"}
+
+[[body]]
+name = "b"
+kind = "point"
+mass = "1e10 kg"
+orbit = {a = "7000 km", e = 0.001, i = "98 deg", nu = "0.0001 rad"}
+"""
+
+
+def test_a_scene_with_effects_runs_records_each_potential_and_resumes(tmp_path):
+    path = tmp_path / "run.h5"
+    (tmp_path / "scene.toml").write_text(SCENE)
+    from emorbit.cli import main
+
+    assert main(["run", str(tmp_path / "scene.toml"), "-o", str(path), "-q"]) == 0
+    with h5py.File(path, "r") as f:
+        assert "zonal" in f.attrs["effects"] and "mutual" in f.attrs["effects"]
+        parts = {k: f[f"invariants/{k}"][()] for k in f["invariants"] if k.startswith("potential_")}
+        assert set(parts) == {"potential_central", "potential_zonal", "potential_mutual"}
+        assert all(f[f"invariants/{k}"].attrs["unit"] == "J" for k in parts)
+        energy = f["invariants/energy"][()]
+        kinetic = sum(
+            0.5 * f[f"bodies/{b}"].attrs["mass"] * np.sum(f[f"bodies/{b}/velocity"][()] ** 2, axis=1) for b in "ab"
+        )
+        np.testing.assert_allclose(kinetic + sum(parts.values()), energy, rtol=1e-14)
+        assert np.max(np.abs(energy - energy[0])) / abs(energy[0]) < 1e-13
+        unbroken = {k: f[k][()] for k in ("time", "invariants/energy", "bodies/a/position")}
+    again = tmp_path / "half.h5"
+    sim = emorbit.load_scene(str(tmp_path / "scene.toml")).build()
+    sim.run("3000 s", every=10, output=again, progress=False)
+    emorbit.resume(again, "6000 s")
+    with h5py.File(again, "r") as f:
+        for k, a in unbroken.items():
+            np.testing.assert_array_equal(f[k][()], a, err_msg=k)
+
+
+def test_to_toml_writes_the_effects_back():
+    sim = emorbit.parse_scene(SCENE, "test").build()
+    again = emorbit.parse_scene(sim.to_toml(), "again").build()
+    assert [(t.kind, t.table) for t in again._effects] == [(t.kind, t.table) for t in sim._effects]
+
+
+def test_python_quantities_are_written_as_strings_with_units():
+    import astropy.units as u
+
+    sim = emorbit.Simulation(EARTH, dt=60.0)
+    sim.add_effect("zonal", j=[1.08e-3], radius=6378 * u.km)
+    sim.add_point("s", mass=1.0, position=[R_SSO, 0, 0], velocity=[0, V_SSO, 0])
+    again = emorbit.parse_scene(sim.to_toml(), "again").build()
+    np.testing.assert_array_equal(again._effects[0].params["zonal_p"], sim._effects[0].params["zonal_p"])
+
+
+@pytest.mark.parametrize(
+    "table, key, message",
+    [
+        ('kind = "drag"', "effect[0].kind", "unknown effect"),
+        ('kind = "zonal"\nmodel = "earth"\ncolour = 1', "effect[0].colour", "unknown key"),
+        ('kind = "zonal"\nmodel = "mars"', "effect[0].model", "unknown zonal model"),
+        ('kind = "zonal"\nj = [1e-3]', "effect[0].radius", "reference radius"),
+        ('kind = "zonal"\nj = [1e-3]\nradius = 6000', "effect[0].radius", "no unit"),
+        ('kind = "zonal"\nmodel = "earth"\nj = [1e-3]', "effect[0]", "exactly one of model"),
+        ('kind = "zonal"\nmodel = "earth"\ndegree = 7', "effect[0].degree", "from 2 to 6"),
+        ('kind = "zonal"\nj = [1e-3, "x"]\nradius = "1 km"', "effect[0].j", "finite numbers"),
+        ('kind = "zonal"\nmodel = "earth"\npole = [0, 0, 0]', "effect[0].pole", "other than 0"),
+        ('kind = "mutual"\nbodies = ["a", "z"]', "effect[0].bodies", "no body named 'z'"),
+        ('kind = "mutual"\nbodies = ["a"]', "effect[0].bodies", "at least two"),
+    ],
+)
+def test_bad_effect_tables_name_their_key(table, key, message):
+    text = SCENE.split("[[effect]]")[0] + "[[effect]]\n" + table + "\n" + "[[body]]" + SCENE.split("[[body]]", 1)[1]
+    with pytest.raises(InputError) as exc:
+        emorbit.parse_scene(text, "test").build()
+    assert exc.value.key == key and message in exc.value.message, str(exc.value)
+
+
+def test_zonal_needs_a_field_and_point_masses_with_em():
+    with pytest.raises(InputError, match="needs a \\[field\\]"):
+        emorbit.Simulation(None, dt=1.0).add_effect("zonal", model="earth")
+    with pytest.raises(InputError, match="method 'em'"):
+        emorbit.Simulation(EARTH, dt=1.0, method="midpoint").add_effect("zonal", model="earth")
+    sim = emorbit.Simulation(EARTH, dt=1.0)
+    sim.add_effect("zonal", model="earth")
+    with pytest.raises(InputError, match="point masses only"):
+        sim.add_rigid("box", "box", size=[1, 1, 1], density=1.0, position=[R_SSO, 0, 0], velocity=[0, V_SSO, 0])
+    with pytest.raises(InputError, match="central field or mutual gravity"):
+        emorbit.Simulation(None, dt=1.0).add_point("p", mass=1.0, position=[1, 0, 0], velocity=[0, 0, 0])
+
+
+def test_the_effects_page_is_generated_from_the_declarations():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parent.parent / "scripts" / "docs_effects.py"
+    done = subprocess.run([sys.executable, str(script), "--check"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    page = (script.parent.parent / "docs" / "effects.md").read_text()
+    for name, module in emorbit.effects.EFFECTS.items():
+        assert f"## `{name}`" in page
+        assert all(f"| `{k.name}` |" in page for k in module.KEYS)
