@@ -23,6 +23,12 @@ startup         wall time of ``emorbit run paper-ellipse`` with an empty Numba c
 rigid           the rigid-body rows of :mod:`emorbit.bench.rigid`
 elastic         the elastic-body rows of :mod:`emorbit.bench.elastic` (cost per step against
                 degrees of freedom, up to a 10,000-DOF beam)
+effects         effects beyond the central field (:mod:`.effects`): central + J2 against
+                central only per particle-step (1000 Earth orbits), 1000 mutually attracting
+                point masses against REBOUND's leapfrog with direct summation (time per step,
+                energy errors), the compile time of each effect set and the warm start-up of
+                ``emorbit run`` (fresh processes, an empty cache, then a filled one), and the
+                central-only path against the bare kernel
 
 Ratios are always taken within the run, and the targets are ratios (:mod:`.runner`). The
 JSON (``--json``) records the CPU model, the core count, the load average and package
@@ -34,7 +40,7 @@ imported to build the command line; the sections import what they need when they
 from __future__ import annotations
 
 #: the sections, in the order they run
-SECTIONS = ("single", "ensemble", "work-precision", "startup", "rigid", "elastic")
+SECTIONS = ("single", "ensemble", "work-precision", "startup", "rigid", "elastic", "effects")
 
 __all__ = ["SECTIONS", "add_arguments", "run"]
 

@@ -100,13 +100,23 @@ def targets(result: dict) -> list[dict]:
                 "met": w <= TARGETS["warm_startup_s"],
             }
         )
+    if result.get("effects"):
+        from .effects import targets as effects_targets
+
+        out += effects_targets(result["effects"])
     return out
 
 
 def _sections():
-    from . import ensemble, single, startup, workprecision
+    from . import effects, ensemble, single, startup, workprecision
 
-    return {"single": single, "ensemble": ensemble, "work-precision": workprecision, "startup": startup}
+    return {
+        "single": single,
+        "ensemble": ensemble,
+        "work-precision": workprecision,
+        "startup": startup,
+        "effects": effects,
+    }
 
 
 def run_bench(sections, quick: bool = False, json_path=None, plots_dir=None, config: str | None = None) -> int:

@@ -1,0 +1,688 @@
+"""Effects beyond the central field: what the em step of :mod:`emorbit.effects.compose` costs.
+
+Four rows, each a ratio within the run (the engines of a comparison interleaved repeat by
+repeat, medians of the per-repeat ratios in CPU time, :mod:`.timing`):
+
+central + J2 against central only
+    1000 point masses in Earth orbits (a uniform from 500 km altitude to 26,560 km, e in
+    [0, 0.02], isotropic planes, time-uniform phases; GM and J2 of the Earth, dt = T/1000 of
+    the lowest orbit), em order 2, through the scene's body systems: the point masses of a
+    central-only simulation (:class:`~emorbit.bodies.pointmasses.PointMasses`, the packed
+    kernels; one thread below ``PARALLEL_MIN`` points) and the same points after
+    ``add_effect("zonal", model="earth", degree=2)``
+    (:class:`~emorbit.bodies.effectpoints.EffectPoints`, the compiled effect step, serial).
+    ns per particle-step of each and their ratio; the same for one point (the lowest orbit);
+    each run's largest relative energy error over the particles (kinetic plus every
+    effect's potential energy) after the steps it took.
+1000 mutually attracting point masses
+    a Plummer sphere (1000 stars of one solar mass, scale radius 1 pc, velocities scaled to
+    virial equilibrium 2K = |W|, no softening; G of astropy, SI) in free space, dt =
+    1e-4 sqrt(a^3 / (G M)): em time per step (``add_effect("mutual")``, the serial effect
+    step) against REBOUND's leapfrog with direct summation (``gravity = "basic"``, the
+    same G and initial conditions), and each one's relative energy error over the steps it
+    took (em's at round-off; REBOUND's about 1e-9 at this dt, while at 1e-3 a close
+    encounter in other draws of the cluster costs it up to 1e-3).
+compile time per effect set, and the warm start-up
+    ``emorbit run`` of a short scene (two points in LEO, 100 em steps) in a fresh process:
+    central only, central + zonal, central + mutual, central + zonal + mutual. Each set
+    first with an empty cache (``XDG_CACHE_HOME``, ``LOCALAPPDATA`` and, on macOS,
+    ``HOME`` point into a new temporary folder and ``NUMBA_CACHE_DIR`` is unset, so the
+    kernel cache of :func:`emorbit.kernels.jit.cache_dir` and the effect steps of
+    :func:`~emorbit.effects.compose.compile_step` go there; the user's own cache is neither
+    used nor touched), then warm; compile time = cold - warm (median of the warm runs).
+the central-only path
+    a central-only scene does not go through the effect step: its point masses stay
+    :class:`~emorbit.bodies.pointmasses.PointMasses`, and the first row times them against
+    the bare packed kernel on one thread. The ``ensemble`` section's "scene / bare kernel"
+    row measures the same at 1e5 particles on all threads (``ensemble.scene_over_bare``).
+
+The targets: central + J2 <= 1.5x central only per particle-step, and em <= 3x REBOUND
+leapfrog's time per step for 1000 mutually attracting bodies (:func:`targets`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .common import CONFIGS, point_masses
+from .timing import calibrate, clock, paired_ratio, since, timed
+
+__all__ = [
+    "Size",
+    "SIZES",
+    "SETS",
+    "earth_orbits",
+    "plummer",
+    "zonal_rows",
+    "mutual_rows",
+    "compile_rows",
+    "run",
+    "table",
+    "targets",
+]
+
+#: the samples ratios use: CPU time (every engine here runs on one thread)
+CPU = "cpu_samples_us"
+#: the effect sets of the start-up rows, each with the central field
+SETS = (("central",), ("central", "zonal"), ("central", "mutual"), ("central", "zonal", "mutual"))
+#: the targets of this section, as ratios within one run
+TARGET_J2 = 1.5  # central + J2 <= 1.5x central only, per particle-step
+TARGET_MUTUAL = 3.0  # em <= 3x REBOUND leapfrog's time per step, 1000 mutually attracting bodies
+#: the semi-major axes of the Earth orbits, m: from 500 km altitude to GPS's
+_R_LOW, _R_HIGH = 6878.1366e3, 26_560e3
+_MAX_ITER = 50
+
+
+@dataclass(frozen=True)
+class Size:
+    """How big the section's cases are (see :data:`SIZES`)."""
+
+    n_orbits: int  # point masses in Earth orbits (central + J2 row)
+    n_mutual: int  # mutually attracting point masses
+    warm_runs: int  # warm runs per effect set (start-up rows)
+    sets: tuple  # effect sets of the start-up rows
+
+
+#: by the name of the configuration in :data:`emorbit.bench.common.CONFIGS`
+SIZES = {
+    "full": Size(1000, 1000, 5, SETS),
+    "quick": Size(1000, 1000, 2, SETS),
+    # a smoke run for the tests: its timings mean nothing
+    "tiny": Size(20, 20, 1, SETS[:2]),
+}
+
+
+def _size(cfg) -> Size:
+    return SIZES[next((name for name, c in CONFIGS.items() if c == cfg), "full")]
+
+
+class _SystemRunner:
+    """``n`` em steps of a body system (its ``advance``) per call: (wall, CPU) seconds."""
+
+    def __init__(self, points, gm: float, center, dt: float):
+        from ..integrators import coefficients
+
+        self.points, self.gm, self.center, self.dt = points, gm, np.asarray(center, float), dt
+        self.gammas = coefficients(2)
+        self.steps = 0
+        self.sweeps = []
+
+    def __call__(self, n: int) -> tuple:
+        start = clock()
+        rec = self.points.advance("em", self.gm, self.center, self.dt, self.gammas, n, 1, _MAX_ITER)
+        elapsed = since(start)
+        if rec.first_failure() is not None:
+            raise RuntimeError(f"emorbit {type(self.points).__name__}: a step failed {rec.first_failure()}")
+        self.steps += n
+        self.sweeps.append(float(rec.iterations.mean()) / (n * self.gammas.size))
+        return elapsed
+
+
+class _BareRunner:
+    """``n`` steps of the bare packed em kernel on one thread per call: (wall, CPU) seconds."""
+
+    def __init__(self, x, v, gm: float, center, dt: float):
+        from ..integrators import coefficients, dispatch
+
+        self.x, self.v = np.array(x, float, order="C"), np.array(v, float, order="C")
+        self.cx, self.cv = np.zeros_like(self.x), np.zeros_like(self.v)
+        self.gm, self.center, self.dt = gm, np.asarray(center, float), dt
+        self.gammas = coefficients(2)
+        self.code, self.kernel = dispatch.point_chunk("em", "brouwer", "cpu", parallel=False)
+        self.steps = 0
+
+    def __call__(self, n: int) -> tuple:
+        m = self.x.shape[1]
+        rx, rv = np.empty((1, 3, m)), np.empty((1, 3, m))
+        its, fail = np.zeros((1, m), np.int64), np.full((m, 2), -1, np.int64)
+        start = clock()
+        self.kernel(
+            self.code, self.x, self.v, self.cx, self.cv, self.gm, self.center, self.dt, self.gammas, n, 1,
+            _MAX_ITER, rx, rv, its, fail,
+        )  # fmt: skip
+        elapsed = since(start)
+        if np.any(fail[:, 0] >= 0):
+            raise RuntimeError("emorbit kernel: a step failed")
+        self.steps += n
+        return elapsed
+
+
+def earth_orbits(n: int, gm: float, seed: int = 3):
+    """The ensemble of the J2 row: point masses in Earth orbits from LEO to MEO.
+
+    a uniform in [6878.1366, 26560] km, e uniform in [0, 0.02] (every perigee above 6740 km),
+    isotropic planes, time-uniform phases.
+
+    Parameters
+    ----------
+    n : int
+        Number of points.
+    gm : float
+        GM of the Earth, m^3/s^2.
+    seed : int
+        Seed of numpy's default generator.
+
+    Returns
+    -------
+    x, v : ndarray
+        (3, n) positions (m) and velocities (m/s), C-contiguous.
+    """
+    from ..orbits import solve_kepler, state_from_elements
+
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(_R_LOW, _R_HIGH, n)
+    e = rng.uniform(0.0, 0.02, n)
+    inc = np.arccos(rng.uniform(-1.0, 1.0, n))
+    raan, argp, M = (rng.uniform(0.0, 2 * np.pi, n) for _ in range(3))
+    E = solve_kepler(M, e)
+    nu = 2 * np.arctan2(np.sqrt(1 + e) * np.sin(E / 2), np.sqrt(1 - e) * np.cos(E / 2))
+    x, v = state_from_elements((a, e, inc, raan, argp, nu), gm)
+    return np.ascontiguousarray(x.T), np.ascontiguousarray(v.T)
+
+
+def _point_energies(terms, x, v) -> np.ndarray:
+    """Each point's specific energy: v^2/2 plus every effect's potential, (n,) J/kg."""
+    rows = np.ascontiguousarray(x.T)[:, :, None]  # one point per row: each term's potential per point
+    one, on = np.ones(1), np.ones(1, bool)
+    return 0.5 * np.einsum("kn,kn->n", v, v) + sum(t.potential(rows, one, on) for t in terms)
+
+
+def zonal_rows(cfg, n: int) -> dict:
+    """Central + J2 against central only, per particle-step, and the scene against the bare kernel.
+
+    Parameters
+    ----------
+    cfg : Config
+        ``repeat_s`` and ``repeats`` (:data:`emorbit.bench.common.CONFIGS`).
+    n : int
+        Point masses.
+
+    Returns
+    -------
+    dict
+        ``rows`` ({engine: ns per particle-step in CPU and wall time, steps, Newton sweeps
+        per sub-step, max relative energy error}), ``j2_over_central`` (the ratio of the
+        times per particle-step), ``j2_over_central_one_point``, ``scene_over_bare`` (the
+        central-only scene's throughput over the bare kernel's) and the case.
+    """
+    import emorbit
+
+    field = emorbit.CentralField(body="earth")
+    gm, center = field.gm, field.center
+    x, v = earth_orbits(n, gm)
+    dt = 2 * math.pi * math.sqrt(_R_LOW**3 / gm) / 1000
+    systems, ensembles = {}, {"": (x, v), " one point": (x[:, :1].copy(), v[:, :1].copy())}
+    for suffix, (xs, vs) in ensembles.items():
+        for label, zonal in (("central", False), ("central + J2", True)):
+            sim = emorbit.Simulation(field, method="em", dt=dt)
+            sim.points = point_masses(xs, vs)
+            if zonal:
+                sim.add_effect("zonal", model="earth", degree=2)
+            systems[label + suffix] = sim
+    runners = {name: _SystemRunner(sim.points, gm, center, dt) for name, sim in systems.items()}
+    runners["central, bare kernel"] = _BareRunner(x, v, gm, center, dt)
+    e0 = {name: _point_energies(sim.effects, sim.points.x, sim.points.v) for name, sim in systems.items()}
+    e0["central, bare kernel"] = e0["central"]
+    times = timed(runners, cfg)
+    rows = {}
+    for name, r in runners.items():
+        stats, bare = times[name], isinstance(r, _BareRunner)
+        xs, vs = (r.x, r.v) if bare else (r.points.x, r.points.v)
+        m = xs.shape[1]
+        terms = systems.get(name, systems["central"]).effects  # the bare kernel: the central field's
+        rows[name] = {
+            "system": "packed kernel" if bare else type(r.points).__name__,
+            "n": m,
+            "ns_per_particle_step": 1e3 * stats["cpu_us_per_step"] / m,
+            "ns_per_particle_step_wall": 1e3 * stats["us_per_step"] / m,
+            "steps": r.steps,
+            "newton_per_substep": float(np.median(r.sweeps)) if getattr(r, "sweeps", None) else None,
+            "max_energy_error": float(np.abs(_point_energies(terms, xs, vs) / e0[name] - 1.0).max()),
+            "samples_cpu_us": stats[CPU],
+            "steps_per_call": stats["steps"],
+        }
+    return {
+        "case": (
+            f"{n} point masses in Earth orbits (a in [{_R_LOW / 1e3:.0f}, {_R_HIGH / 1e3:.0f}] km, e in [0, 0.02], "
+            f"isotropic planes, time-uniform phases), dt = {dt:.4g} s (T/1000 of the lowest orbit), em order 2; "
+            'J2: add_effect("zonal", model="earth", degree=2)'
+        ),
+        "n": n,
+        "dt": dt,
+        "rows": rows,
+        "j2_over_central": paired_ratio(times["central + J2"], times["central"]),
+        "j2_over_central_one_point": paired_ratio(times["central + J2 one point"], times["central one point"]),
+        "scene_over_bare": 1.0 / paired_ratio(times["central"], times["central, bare kernel"]),
+        "central_system": type(systems["central"].points).__name__,
+        "j2_system": type(systems["central + J2"].points).__name__,
+    }
+
+
+def plummer(n: int, seed: int = 8):
+    """A Plummer sphere of n stars of one solar mass, scale radius 1 pc, in virial equilibrium.
+
+    Positions and speeds are drawn from Plummer's distribution function (Aarseth, Henon and
+    Wielen 1974; radii out to the one enclosing 99 % of the mass), isotropic directions,
+    moved to the centre of mass at rest; the velocities are then scaled so that 2K = |W|.
+
+    Parameters
+    ----------
+    n : int
+        Number of stars (at least 2).
+    seed : int
+        Seed of numpy's default generator.
+
+    Returns
+    -------
+    m : ndarray
+        (n,) masses, kg.
+    x, v : ndarray
+        (3, n) positions (m) and velocities (m/s).
+    a, total : float
+        The scale radius (m) and the total mass (kg).
+    """
+    import astropy.constants as const
+    import astropy.units as u
+
+    from ..effects.mutual import G
+
+    rng = np.random.default_rng(seed)
+    msun, a = float(const.M_sun.si.value), float((1 * u.pc).si.value)
+    m = np.full(n, msun)
+    total = float(m.sum())
+    r = a / np.sqrt(rng.uniform(0.0, 0.99, n) ** (-2.0 / 3.0) - 1.0)
+    q = np.empty(n)
+    k = 0
+    while k < n:  # von Neumann rejection for q = v / v_escape: g(q) = q^2 (1 - q^2)^3.5
+        s, y = rng.uniform(0.0, 1.0), rng.uniform(0.0, 0.1)
+        if y < s * s * (1.0 - s * s) ** 3.5:
+            q[k] = s
+            k += 1
+    speed = q * np.sqrt(2.0 * G * total / np.sqrt(r * r + a * a))
+
+    def directions():
+        c, phi = rng.uniform(-1.0, 1.0, n), rng.uniform(0.0, 2 * np.pi, n)
+        s = np.sqrt(1.0 - c * c)
+        return np.array([s * np.cos(phi), s * np.sin(phi), c])
+
+    x, v = r * directions(), speed * directions()
+    x -= (x @ m / total)[:, None]
+    v -= (v @ m / total)[:, None]
+    kinetic, potential = _nbody_energy(m, x, v)
+    v *= math.sqrt(-potential / (2.0 * kinetic))
+    return m, np.ascontiguousarray(x), np.ascontiguousarray(v), a, total
+
+
+def _nbody_energy(m, x, v) -> tuple:
+    """Kinetic and mutual potential energy of point masses, J (the mutual effect's own potential)."""
+    from ..effects.mutual import G, Mutual
+
+    term = Mutual("mutual", "mutual", {"kind": "mutual"}, {"mutual_p": np.array([G])})
+    kinetic = 0.5 * float(np.einsum("kn,kn,n->", v, v, m))
+    return kinetic, float(term.potential(x[None], m, np.ones(m.size, bool))[0])
+
+
+def _timed_slow(runners: dict, cfg) -> dict:
+    """:func:`.timing.timed` for engines whose step may take longer than a call should: calls
+    of at least one step (not twenty)."""
+    steps = {name: calibrate(fn, cfg.repeat_s, min_steps=1) for name, fn in runners.items()}
+    samples = {name: [] for name in runners}
+    for _ in range(cfg.repeats):
+        for name, fn in runners.items():
+            samples[name].append(np.array(fn(steps[name])) / steps[name] * 1e6)
+    out = {}
+    for name, us in samples.items():
+        wall, cpu = np.array(us).T
+        out[name] = {
+            "us_per_step": float(np.median(wall)),
+            "cpu_us_per_step": float(np.median(cpu)),
+            "steps": steps[name],
+            "repeats": len(us),
+            "samples_us": [round(float(s), 4) for s in wall],
+            CPU: [round(float(s), 4) for s in cpu],
+        }
+    return out
+
+
+class _ReboundRunner:
+    def __init__(self, sim):
+        self.sim, self.steps = sim, 0
+
+    def __call__(self, n: int) -> tuple:
+        start = clock()
+        self.sim.steps(n)
+        elapsed = since(start)
+        self.steps += n
+        return elapsed
+
+
+def _rebound_nbody(m, x, v, dt: float):
+    """REBOUND's leapfrog with direct summation (no softening) of the same bodies, G of astropy."""
+    import rebound
+
+    from ..effects.mutual import G
+
+    sim = rebound.Simulation()
+    sim.G = G
+    for i in range(m.size):
+        sim.add(m=float(m[i]), x=x[0, i], y=x[1, i], z=x[2, i], vx=v[0, i], vy=v[1, i], vz=v[2, i])
+    sim.integrator = "leapfrog"
+    sim.gravity = "basic"
+    sim.softening = 0.0
+    sim.dt = dt
+    return sim
+
+
+def _rebound_xv(sim):
+    n = sim.N
+    xyz, vel = np.empty((n, 3)), np.empty((n, 3))
+    sim.serialize_particle_data(xyz=xyz, vxvyvz=vel)
+    return np.ascontiguousarray(xyz.T), np.ascontiguousarray(vel.T)
+
+
+def mutual_rows(cfg, n: int) -> dict:
+    """em against REBOUND's leapfrog (direct summation) for n mutually attracting point masses.
+
+    Parameters
+    ----------
+    cfg : Config
+        ``repeat_s`` and ``repeats`` (:data:`emorbit.bench.common.CONFIGS`).
+    n : int
+        Bodies.
+
+    Returns
+    -------
+    dict
+        ``rows`` ({"em", "rebound leapfrog"}: ms per step in CPU and wall time, steps,
+        relative energy error over those steps; REBOUND's ``{"status": "skipped: ..."}``
+        where it is not installed), ``em_over_rebound_leapfrog`` (None without REBOUND),
+        the virial ratio and the case.
+    """
+    import emorbit
+
+    from ..bodies.effectpoints import EffectPoints
+    from ..effects.mutual import G
+
+    m, x, v, a, total = plummer(n)
+    t_dyn = math.sqrt(a**3 / (G * total))
+    dt = 1e-4 * t_dyn
+    sim = emorbit.Simulation(None, method="em", dt=dt)
+    sim.add_effect("mutual")
+    pm = point_masses(x, v)
+    pm.masses = m.copy()
+    points = EffectPoints.taking_over(pm, sim.effects)
+    runners = {"em": _SystemRunner(points, 0.0, np.zeros(3), dt)}
+    rows = {}
+    try:
+        runners["rebound leapfrog"] = _ReboundRunner(_rebound_nbody(m, x, v, dt))
+    except ImportError as exc:
+        rows["rebound leapfrog"] = {"status": f"skipped: {type(exc).__name__}: {exc}"}
+    kinetic, potential = _nbody_energy(m, x, v)
+    e0 = kinetic + potential
+    times = _timed_slow(runners, cfg)
+    for name, r in runners.items():
+        xs, vs = (points.x, points.v) if name == "em" else _rebound_xv(r.sim)
+        stats = times[name]
+        rows[name] = {
+            "ms_per_step": 1e-3 * stats["cpu_us_per_step"],
+            "ms_per_step_wall": 1e-3 * stats["us_per_step"],
+            "steps": r.steps,
+            "energy_error": abs(sum(_nbody_energy(m, xs, vs)) / e0 - 1.0),
+            "samples_cpu_us": stats[CPU],
+            "steps_per_call": stats["steps"],
+        }
+    rows["em"]["newton_sweeps_per_substep"] = float(np.median(runners["em"].sweeps))
+    ratio = paired_ratio(times["em"], times["rebound leapfrog"]) if "rebound leapfrog" in times else None
+    return {
+        "case": (
+            f"{n} stars of 1 solar mass in a Plummer sphere (a = 1 pc, 2K/|W| = 1, no softening), free space, "
+            f"G = {G:.5e} m^3/(kg s^2), dt = 1e-4 sqrt(a^3/(G M)) = {dt:.4g} s; "
+            'em: add_effect("mutual"); REBOUND: leapfrog, gravity = "basic"'
+        ),
+        "n": n,
+        "dt": dt,
+        "virial_ratio": 2 * kinetic / abs(potential),
+        "rows": rows,
+        "em_over_rebound_leapfrog": ratio,
+    }
+
+
+_SCENE = """[field]
+body = "earth"
+
+[integrator]
+method = "em"
+dt = "10 s"
+t_end = "1000 s"
+output_every = 10
+{effects}
+[[body]]
+name = "a"
+kind = "point"
+mass = "1000 kg"
+orbit = {{a = "7000 km", e = 0.001, i = "98 deg"}}
+
+[[body]]
+name = "b"
+kind = "point"
+mass = "1000 kg"
+orbit = {{a = "7000 km", e = 0.001, i = "98 deg", nu = "0.01 rad"}}
+"""
+_TABLES = {
+    "zonal": '\n[[effect]]\nkind = "zonal"\nmodel = "earth"\ndegree = 2\n',
+    "mutual": '\n[[effect]]\nkind = "mutual"\n',
+}
+
+
+def _environment(home: str) -> dict:
+    """The environment of a run whose every cache lies under ``home``."""
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "EMORBIT_JIT_CACHE")}
+    env["XDG_CACHE_HOME"] = os.path.join(home, "cache")
+    env["LOCALAPPDATA"] = os.path.join(home, "local")
+    if sys.platform == "darwin":
+        env["HOME"] = home
+    return env
+
+
+def _run_scene(scene: str, out: str, env: dict) -> float:
+    cmd = [sys.executable, "-m", "emorbit.cli", "run", scene, "-o", out, "--overwrite", "-q"]
+    start = time.perf_counter()
+    subprocess.run(cmd, env=env, check=True, capture_output=True)
+    return time.perf_counter() - start
+
+
+def compile_rows(sets=SETS, warm_runs: int = 2) -> dict:
+    """Cold and warm ``emorbit run`` of a short scene per effect set, each in fresh processes.
+
+    Parameters
+    ----------
+    sets : sequence of tuple of str
+        Effect sets, each starting with ``"central"``.
+    warm_runs : int
+        Warm runs per set (their median is the warm time).
+
+    Returns
+    -------
+    dict
+        ``sets`` (one per set: ``effects``, ``cold_s``, ``warm_s``, ``warm_samples_s``,
+        ``compile_s`` = cold - warm, ``compile_over_central_s`` where the central-only set
+        ran, ``cache_files``: the files the cold run left in the temporary cache) and the case.
+    """
+    out = []
+    with tempfile.TemporaryDirectory(prefix="emorbit-bench-effects-") as tmp:
+        for kinds in sets:
+            name = "_".join(kinds)
+            scene = os.path.join(tmp, f"{name}.toml")
+            with open(scene, "w") as f:
+                f.write(_SCENE.format(effects="".join(_TABLES[k] for k in kinds if k != "central")))
+            home = os.path.join(tmp, name)
+            os.makedirs(home)
+            env, h5 = _environment(home), os.path.join(tmp, f"{name}.h5")
+            cold = _run_scene(scene, h5, env)
+            files = sum(len(f) for _, _, f in os.walk(home))
+            warm = [_run_scene(scene, h5, env) for _ in range(warm_runs)]
+            w = float(np.median(warm))
+            out.append(
+                {"effects": list(kinds), "cold_s": cold, "warm_s": w, "warm_samples_s": warm, "compile_s": cold - w,
+                 "cache_files": files}
+            )  # fmt: skip
+    central = next((s["compile_s"] for s in out if s["effects"] == ["central"]), None)
+    for s in out:
+        if central is not None:
+            s["compile_over_central_s"] = s["compile_s"] - central
+    return {
+        "case": "emorbit run SCENE -o OUT.h5 --overwrite -q: two points in LEO, 100 em steps, fresh process; "
+        "cold: empty kernel cache (a new temporary folder), warm: the same cache filled",
+        "sets": out,
+    }
+
+
+def run(cfg, size: Size | None = None) -> dict:
+    """Measure the section.
+
+    Parameters
+    ----------
+    cfg : Config
+        A configuration of :data:`emorbit.bench.common.CONFIGS`.
+    size : Size, optional
+        The cases' sizes; default: the one of :data:`SIZES` named like ``cfg``.
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``zonal`` (:func:`zonal_rows`), ``mutual`` (:func:`mutual_rows`),
+        ``compile`` (:func:`compile_rows`), ``central_path`` (which system a central-only
+        scene runs, and where the ``ensemble`` section measures it), and the headline
+        figures ``j2_over_central``, ``mutual_em_over_rebound_leapfrog``, ``compile_s``
+        and ``warm_startup_s`` ({effect set: s}).
+    """
+    size = size or _size(cfg)
+    zonal = zonal_rows(cfg, size.n_orbits)
+    mutual = mutual_rows(cfg, size.n_mutual)
+    compiled = compile_rows(size.sets, size.warm_runs)
+    sets = {" + ".join(s["effects"]): s for s in compiled["sets"]}
+    return {
+        "zonal": zonal,
+        "mutual": mutual,
+        "compile": compiled,
+        "central_path": {
+            "system": zonal["central_system"],
+            "scene_over_bare_1thread": zonal["scene_over_bare"],
+            "reference": "ensemble.scene_over_bare",
+            "note": "the ensemble section times a point-mass scene against the bare kernel at 1e5 particles "
+            "on all threads, with the effects registry imported (import emorbit imports it)",
+        },
+        "j2_over_central": zonal["j2_over_central"],
+        "mutual_em_over_rebound_leapfrog": mutual["em_over_rebound_leapfrog"],
+        "compile_s": {k: s["compile_s"] for k, s in sets.items()},
+        "warm_startup_s": {k: s["warm_s"] for k, s in sets.items()},
+    }
+
+
+def table(section: dict) -> list[str]:
+    """The section as printable lines.
+
+    Parameters
+    ----------
+    section : dict
+        What :func:`run` returned.
+
+    Returns
+    -------
+    list of str
+        The lines of the tables.
+    """
+    z, mu, co = section["zonal"], section["mutual"], section["compile"]
+    lines = [
+        f"effects, central + J2: {z['case']}; CPU time per step (median of interleaved repeats), wall beside it",
+        f"  {'':<26} {'system':<14} {'ns/particle-step':>17} {'wall':>9} {'Newton/sub-step':>16} {'max |dE/E|':>11}",
+    ]
+    for name, r in z["rows"].items():
+        newton = f"{r['newton_per_substep']:.2f}" if r["newton_per_substep"] is not None else ""
+        lines.append(
+            f"  {name:<26} {r['system']:<14} {r['ns_per_particle_step']:>17.2f} {r['ns_per_particle_step_wall']:>9.2f} "
+            f"{newton:>16} {r['max_energy_error']:>11.1e}"
+        )
+    lines += [
+        f"  central + J2 / central only per particle-step: {z['j2_over_central']:.2f}x ({z['n']} points), "
+        f"{z['j2_over_central_one_point']:.2f}x (one point); target <= {TARGET_J2:g}x",
+        f"  central-only path: the scene's points are {section['central_path']['system']} (the packed kernels, no "
+        f"effect step): scene / bare kernel on one thread {z['scene_over_bare']:.3f}; at 1e5 particles on all "
+        "threads see the ensemble section's scene / bare kernel row (JSON ensemble.scene_over_bare)",
+        "",
+        f"effects, mutual gravity: {mu['case']}; virial ratio 2K/|W| = {mu['virial_ratio']:.3f}",
+        f"  {'':<18} {'ms/step':>10} {'wall':>10} {'steps':>7} {'|dE/E| over them':>17}",
+    ]
+    for name, r in mu["rows"].items():
+        if "status" in r:
+            lines.append(f"  {name:<18} {r['status']}")
+            continue
+        lines.append(
+            f"  {name:<18} {r['ms_per_step']:>10.3f} {r['ms_per_step_wall']:>10.3f} {r['steps']:>7} "
+            f"{r['energy_error']:>17.1e}"
+        )
+    ratio = mu["em_over_rebound_leapfrog"]
+    lines.append(
+        f"  em / REBOUND leapfrog per step: {f'{ratio:.2f}x' if ratio is not None else 'n/a'}; target <= "
+        f"{TARGET_MUTUAL:g}x (em: {mu['rows']['em']['newton_sweeps_per_substep']:.1f} Newton sweeps per sub-step)"
+    )
+    lines += [
+        "",
+        f"effects, compile time and start-up: {co['case']}",
+        f"  {'effects':<26} {'cold s':>8} {'warm s':>8} {'compile s':>10} {'vs central s':>13}",
+    ]
+    for s in co["sets"]:
+        extra = f"{s['compile_over_central_s']:+.2f}" if "compile_over_central_s" in s else ""
+        lines.append(
+            f"  {' + '.join(s['effects']):<26} {s['cold_s']:>8.2f} {s['warm_s']:>8.2f} {s['compile_s']:>10.2f} "
+            f"{extra:>13}"
+        )
+    lines.append(
+        "  (a central-only scene compiles the packed point-mass kernels, a scene with effects the effect step "
+        "instead: 'vs central' is the difference of the two compile times)"
+    )
+    return lines
+
+
+def targets(section: dict) -> list[dict]:
+    """The section's targets, evaluated on what :func:`run` returned.
+
+    Parameters
+    ----------
+    section : dict
+        What :func:`run` returned.
+
+    Returns
+    -------
+    list of dict
+        As :func:`emorbit.bench.runner.targets`: ``target``, ``measured``, ``limit``, ``met``.
+    """
+    out = []
+    r = section["j2_over_central"]
+    out.append(
+        {
+            "target": "central + J2 <= 1.5x central only per particle-step",
+            "measured": r,
+            "limit": TARGET_J2,
+            "met": r <= TARGET_J2,
+        }
+    )
+    r = section["mutual_em_over_rebound_leapfrog"]
+    if r is not None:
+        out.append(
+            {
+                "target": f"em <= 3x REBOUND leapfrog per step, {section['mutual']['n']} mutually attracting bodies",
+                "measured": r,
+                "limit": TARGET_MUTUAL,
+                "met": r <= TARGET_MUTUAL,
+            }
+        )
+    return out
