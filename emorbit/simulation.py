@@ -224,8 +224,8 @@ class Simulation(StateQueries, ChunkDriver):
         (:mod:`emorbit.effects` lists them and their keys).
 
         Point masses then run the em step compiled for the simulation's effects
-        (:mod:`emorbit.effects.compose`); each effect's potential energy is recorded as
-        ``invariants/potential_<kind>``.
+        (:mod:`emorbit.effects.compose`), rigid bodies feel zonal harmonics on their mass
+        points; each effect's potential energy is recorded as ``invariants/potential_<kind>``.
 
         Parameters
         ----------
@@ -243,8 +243,9 @@ class Simulation(StateQueries, ChunkDriver):
         ------
         InputError
             An unknown effect or key, a value the effect refuses, a method other than em,
-            rigid or elastic bodies (effects act on point masses), or an effect that needs
-            a central field in free space.
+            bodies of a kind the effect does not act on (zonal: point masses and rigid
+            bodies; mutual: point masses), a second set of zonal harmonics, or an effect
+            that needs a central field in free space.
         """
         from .bodies.effectpoints import EffectPoints
         from .effects import build
@@ -255,12 +256,19 @@ class Simulation(StateQueries, ChunkDriver):
             raise InputError(
                 "method", f"effects other than the central field run with method 'em', got {self.method!r}"
             )
-        if self.rigid is not None or self.structure is not None or self.adaptive is not None:
-            raise InputError(key, f"{kind!r} acts on point masses with fixed steps; this simulation has other bodies")
+        if self.adaptive is not None:
+            raise InputError(key, f"{kind!r} runs with fixed steps; this simulation has adaptive steps")
+        if self.structure is not None or (kind == "mutual" and self.rigid is not None):
+            kinds = "point masses and rigid bodies" if kind == "zonal" else "point masses"
+            raise InputError(key, f"{kind!r} acts on {kinds}; this simulation has other bodies")
+        if kind == "zonal" and any(t.kind == "zonal" for t in self._effects):
+            raise InputError(key, "the central body has one set of zonal harmonics; this simulation has it already")
         same = sum(t.kind == kind for t in self._effects)
         if same:
             term.label = f"{kind}_{same + 1}"
         self._effects.append(term)
+        if kind == "zonal" and self.rigid is not None:
+            self.rigid.zonal = term
         if isinstance(self.points, EffectPoints):
             self.points.terms = list(self.effects)
             self.points._kernel = None
@@ -424,9 +432,10 @@ class Simulation(StateQueries, ChunkDriver):
         )
         if self.adaptive is not None:
             raise InputError("adaptive", f"adaptive steps are for point masses only ({key} is a rigid body)")
-        self._no_effects(key)
+        self._no_effects(key, allowed=("zonal",))
         if self.rigid is None:
             self.rigid = RigidBodies()
+            self.rigid.zonal = next((t for t in self._effects if t.kind == "zonal"), None)
         self._check_method_supports(self.rigid, key)
         if self.field is not None:
             self.field.check_start(
@@ -450,11 +459,12 @@ class Simulation(StateQueries, ChunkDriver):
             spec["params"],
         )
 
-    def _no_effects(self, key: str) -> None:
-        """Rigid and elastic bodies feel the central field only (so far)."""
-        if self._effects:
-            kinds = ", ".join(sorted({t.kind for t in self._effects}))
-            raise InputError(key, f"the effects {kinds} act on point masses only; this body is not one")
+    def _no_effects(self, key: str, allowed=()) -> None:
+        """Rigid bodies feel the central field and zonal harmonics, elastic ones the central
+        field only (so far)."""
+        kinds = sorted({t.kind for t in self._effects} - set(allowed))
+        if kinds:
+            raise InputError(key, f"the effects {', '.join(kinds)} act on point masses only; this body is not one")
 
     def _structure(self):
         self._no_effects("body")

@@ -276,6 +276,8 @@ def test_newton_converges_quadratically():
             sim.dt,
             k,
             w,
+            None,  # no zonal harmonics
+            None,
         )
         iterates.append(w[16].copy())
     err = [np.abs(x - iterates[-1]).max() for x in iterates[:-1]]

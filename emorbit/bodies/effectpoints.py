@@ -118,7 +118,7 @@ class EffectPoints(PointMasses):
         )  # fmt: skip
         return rec
 
-    def effect_energies(self, rec: ChunkRecords, nrec: int) -> dict:
+    def effect_energies(self, rec: ChunkRecords, nrec: int, gm: float = 0.0, center=None) -> dict:
         """Each effect's potential energy at each record.
 
         Returns

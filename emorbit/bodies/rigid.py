@@ -132,6 +132,7 @@ class RigidBodies(BodySystem):
         self.cq = np.zeros((0, 12))
         self.cv = np.zeros((0, 12))
         self.lam = np.zeros((0, 6))
+        self.zonal = None  # an EffectTerm of kind "zonal" (emorbit.effects.zonal), or None
         self._pack()
 
     def _pack(self) -> None:
@@ -306,8 +307,33 @@ class RigidBodies(BodySystem):
             rec.iterations,
             rec.stalled,
             rec.fail,
+            *self._zonal_args(),
         )
         return rec
+
+    def _zonal_args(self) -> tuple:
+        """(zonal_p, zonal_j) of the zonal harmonics the bodies feel, or (None, None)."""
+        if self.zonal is None:
+            return None, None
+        return self.zonal.params["zonal_p"], self.zonal.params["zonal_j"]
+
+    def zonal_energy(self, q: np.ndarray) -> np.ndarray:
+        """The zonal harmonics' potential energy of the bodies' mass points (their centres of
+        mass for the point model) at recorded states q (rows, nb, 12): (rows,) J."""
+        out = np.zeros(q.shape[0])
+        if self.zonal is None:
+            return out
+        D = q[..., 3:].reshape(q.shape[:-1] + (3, 3))
+        for b in range(len(self)):
+            if self.models[b] == kern.GRAVITY_NONE:
+                continue
+            if self.models[b] == kern.GRAVITY_POINT:
+                x, mb = q[:, b, 0:3, None], np.array([self.mass[b]])
+            else:
+                Xb, mb = self.points[b].X, self.points[b].m
+                x = q[:, b, 0:3, None] + np.einsum("kn,rki->rin", Xb, D[:, b])
+            out += self.zonal.potential(x, mb, np.ones(mb.shape[0], bool))
+        return out
 
     def current(self) -> RigidRecords:
         """The current state as one record."""
@@ -342,7 +368,17 @@ class RigidBodies(BodySystem):
         L = np.cross(phi - c, P) + np.einsum(
             "bkl,rbklj->rbj", self.E, np.cross(D[:, :, :, None, :], dD[:, :, None, :, :])
         )
-        V = np.zeros(T.shape)
+        energy = (T + self._central_energy(q, gm, c)).sum(axis=1)
+        if self.zonal is not None:
+            energy = energy + self.zonal_energy(q)
+        return energy, P.sum(axis=1), L.sum(axis=1)
+
+    def _central_energy(self, q: np.ndarray, gm: float, c: np.ndarray) -> np.ndarray:
+        """The central field's potential energy of each body at recorded states q: (rows, nb) J."""
+        m = self.mass
+        phi = q[..., 0:3]
+        D = q[..., 3:].reshape(q.shape[:-1] + (3, 3))
+        V = np.zeros(q.shape[:2])
         for b in range(len(self)):
             if self.models[b] == kern.GRAVITY_POINT:
                 V[:, b] = -gm * m[b] / np.linalg.norm(phi[:, b] - c, axis=-1)
@@ -350,7 +386,18 @@ class RigidBodies(BodySystem):
                 Xb, mb = self.points[b].X, self.points[b].m
                 x = phi[:, b, :, None] + np.einsum("kn,rki->rin", Xb, D[:, b])
                 V[:, b] = -gm * np.einsum("n,rn->r", mb, 1.0 / np.linalg.norm(x - c[None, :, None], axis=1))
-        return (T + V).sum(axis=1), P.sum(axis=1), L.sum(axis=1)
+        return V
+
+    def effect_energies(self, rec: RigidRecords, nrec: int, gm: float, center) -> dict:
+        """Each effect's potential energy at each record, where the bodies feel zonal harmonics:
+        {``potential_central``, ``potential_zonal``: (nrec,) J}; else {}."""
+        if self.zonal is None:
+            return {}
+        q = rec.q[:nrec]
+        return {
+            "potential_central": self._central_energy(q, gm, np.asarray(center, float)).sum(axis=1),
+            f"potential_{self.zonal.label}": self.zonal_energy(q),
+        }
 
     def invariant_scales(self, rec: RigidRecords, nrec: int, gm: float, center) -> np.ndarray:
         """Round-off scales of the invariants at each record (:func:`~emorbit.bodies.system.roundoff_scales`):
@@ -376,7 +423,9 @@ class RigidBodies(BodySystem):
         q0, v0 = self.q[b].copy(), self.v[b].copy()
         c = np.asarray(center, float)
         args = (method_code(method), self.models[b], q0, v0, self.lam[b].copy(), self.mass[b], self.E[b])
-        _, status, _ = kern.rigid_step(*args, self.Einv[b], Xb, mb, float(gm), c, float(h), int(max_iter), work)
+        _, status, _ = kern.rigid_step(
+            *args, self.Einv[b], Xb, mb, float(gm), c, float(h), int(max_iter), work, *self._zonal_args()
+        )
         w, delta, dq = work[15], work[12], work[16]
         scale = float(np.sum(w * (h * v0) ** 2) + w[3] + w[6] + w[9] + np.sum(w * dq * dq))
         return int(status), float(np.sqrt(np.sum(w * delta[:12] ** 2) / scale)), None

@@ -10,7 +10,10 @@ discrete gradient in the invariants r and z (the averaged split of each product)
 force over the step whose work is exactly the potential drop, and which lies in the plane
 of ``d0 + d1`` and p: an em step keeps the energy and the angular momentum about the pole
 (:mod:`emorbit.kernels.effects.zonal` has the equations). A coordinate discrete gradient
-(Gonzalez's midpoint form) would keep the energy but not that angular momentum.
+(Gonzalez's midpoint form) would keep the energy but not that angular momentum. Rigid bodies
+feel it on their mass points, in the rigid step's own force sum
+(:func:`emorbit.kernels.rigid.rigid_forces`), so its torque arises as the gravity gradient's
+does.
 
 GM and the centre are the field's; R and J_n are the model's: "earth" is EGM2008's zonal
 part (tide-free; :data:`emorbit.kernels.effects.zonal.MODELS`), or ``j`` and ``radius``
@@ -48,7 +51,7 @@ POTENTIAL = "V = (GM m / r) sum_n J_n (R / r)^n P_n(z / r), z = (x - c) . p"
 DISCRETE_FORCE = "F = -m (A (d0 + d1) / (r0 + r1) + B p): A, B the averaged discrete derivatives in r and z"
 JACOBIAN = "dF/dx1 = -m (u dA/dx1^T + A du/dx1 + p dB/dx1^T), u = (d0 + d1) / (r0 + r1)"
 CONSERVES = ("energy", "angular momentum about the pole")
-BODY_KINDS = ("point",)
+BODY_KINDS = ("point", "rigid")
 
 KERNEL = {
     "imports": "from emorbit.kernels.effects.zonal import zonal_force, zonal_jacobian",

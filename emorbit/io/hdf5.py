@@ -355,7 +355,7 @@ class Writer:
             blocks[name] = diagnostics.get(name.split("/")[1], np.broadcast_to(fill, shape))
         for name in self._ds:
             if name.startswith("invariants/potential_"):
-                blocks[name] = diagnostics[name.split("/")[1]]
+                blocks[name] = diagnostics.get(name.split("/")[1], np.zeros(time.shape[0]))
         for name, block in blocks.items():
             _append(self._ds[name], np.asarray(block, float))
         for name, sets in self._body_ds.items():

@@ -174,7 +174,8 @@ class Sink:
         potentials = {}  # each effect's potential energy (systems under effects)
         for system, rec in recs:
             if hasattr(system, "effect_energies") and self.writer is not None:
-                potentials.update(system.effect_energies(rec, nrec))
+                for name, e in system.effect_energies(rec, nrec, gm, center).items():
+                    potentials[name] = potentials.get(name, 0.0) + e
             e, p, L = system.invariants(rec, nrec, gm, center)
             energy += e
             momentum += p

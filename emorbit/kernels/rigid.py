@@ -35,7 +35,8 @@ leave a drift of the energy above the point-mass step's.
 
 Gravity models (per body): ``GRAVITY_VOLUME`` sums over the mass points (gravity-gradient
 torque included), ``GRAVITY_POINT`` puts all mass at the centre of mass (no torque),
-``GRAVITY_NONE`` is free motion. Methods: ``METHOD_EM`` (g_em) and ``METHOD_MIDPOINT``
+``GRAVITY_NONE`` is free motion. Zonal harmonics (``zonal_p``, ``zonal_j``; None: none) add
+their discrete force (:mod:`.effects.zonal`) on the same points. Methods: ``METHOD_EM`` (g_em) and ``METHOD_MIDPOINT``
 (g at the midpoint configuration; energy then oscillates in a field).
 """
 
@@ -55,6 +56,7 @@ from .codes import (
     STATUS_OK,
     STATUS_SINGULAR,
 )
+from .effects.zonal import zonal_force, zonal_jacobian
 from .eft import kahan_add
 from .gravity import accel, accel_jacobian_coeffs, em_accel, em_jacobian_coeffs
 from .jit import kernel
@@ -76,8 +78,15 @@ _FLOOR2 = (1024.0 * _EPS) ** 2  # a stalled update is accepted as round-off belo
 
 
 @kernel
-def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, G, want_K):
+def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, G, want_K, zonal_p, zonal_j):
     """Generalised gravity force F (12) and, if ``want_K``, its derivative K = dF/dq1 (12, 12).
+
+    ``zonal_p`` and ``zonal_j`` are the zonal harmonics' parameters (:mod:`.effects.zonal`:
+    centre, pole, GM, R; J2...), or None: Numba prunes the zonal code where they are None, so
+    a body without zonal harmonics runs no zonal code. With them (em only), each mass point
+    (the centre of mass, for ``GRAVITY_POINT``) adds the zonal force over the step and its
+    Jacobian to g_em's: the torque of the zonal field comes from the mass points, as the
+    gravity gradient's does.
 
     X (3, N) body coordinates and mp (N,) masses of the mass points; a0 (3, N) and r0 (N,)
     hold ``c - x_i0`` and its length (computed once per step by the caller); P (10, N) holds
@@ -129,12 +138,31 @@ def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, G, 
                 for e in range(3):
                     K[d, e] = m * w * uu[d] * bb[e]
                 K[d, d] += m * cc
+        if zonal_p is not None:
+            zx, zy, zz = zonal_force(
+                q0[0], q0[1], q0[2], q1[0], q1[1], q1[2], zonal_p[0], zonal_p[1], zonal_p[2], zonal_p[3],
+                zonal_p[4], zonal_p[5], zonal_p[6], zonal_p[7], zonal_j,
+            )  # fmt: skip
+            F[0] += m * zx
+            F[1] += m * zy
+            F[2] += m * zz
+            if want_K:
+                Jz = np.zeros((3, 3))
+                zonal_jacobian(
+                    q0[0], q0[1], q0[2], q1[0], q1[1], q1[2], zonal_p[0], zonal_p[1], zonal_p[2], zonal_p[3],
+                    zonal_p[4], zonal_p[5], zonal_p[6], zonal_p[7], zonal_j, Jz,
+                )  # fmt: skip
+                for d in range(3):
+                    for e in range(3):
+                        K[d, e] += m * Jz[d, e]
         return STATUS_OK
     n = mp.shape[0]
     d1x, d1y, d1z = q1[3], q1[4], q1[5]
     d2x, d2y, d2z = q1[6], q1[7], q1[8]
     d3x, d3y, d3z = q1[9], q1[10], q1[11]
     nbad = 0
+    if zonal_p is not None:
+        Jz = np.zeros((3, 3))
     # one pass without floating-point reductions (so LLVM can vectorise the square roots and
     # divisions): the force m_i g_i of every point, and the rows of W; the sums come after
     for i in range(n):
@@ -144,6 +172,7 @@ def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, G, 
         bx = c[0] - (q1[0] + X1 * d1x + X2 * d2x + X3 * d3x)
         by = c[1] - (q1[1] + X1 * d1y + X2 * d2y + X3 * d3y)
         bz = c[2] - (q1[2] + X1 * d1z + X2 * d2z + X3 * d3z)
+        bx1, by1, bz1 = bx, by, bz
         ax = a0[0, i]
         ay = a0[1, i]
         az = a0[2, i]
@@ -181,6 +210,27 @@ def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, G, 
             W[7, i] = w * uz * by
             W[8, i] = w * uz * bz
             W[9, i] = mi * cc
+        if zonal_p is not None:
+            x0x, x0y, x0z = c[0] - ax, c[1] - ay, c[2] - az
+            x1x, x1y, x1z = c[0] - bx1, c[1] - by1, c[2] - bz1
+            zx, zy, zz = zonal_force(
+                x0x, x0y, x0z, x1x, x1y, x1z, zonal_p[0], zonal_p[1], zonal_p[2], zonal_p[3], zonal_p[4],
+                zonal_p[5], zonal_p[6], zonal_p[7], zonal_j,
+            )  # fmt: skip
+            G[0, i] += mi * zx
+            G[1, i] += mi * zy
+            G[2, i] += mi * zz
+            if want_K:
+                for d in range(3):
+                    for e in range(3):
+                        Jz[d, e] = 0.0
+                zonal_jacobian(
+                    x0x, x0y, x0z, x1x, x1y, x1z, zonal_p[0], zonal_p[1], zonal_p[2], zonal_p[3], zonal_p[4],
+                    zonal_p[5], zonal_p[6], zonal_p[7], zonal_j, Jz,
+                )  # fmt: skip
+                for d in range(3):
+                    for e in range(3):
+                        W[3 * d + e, i] += mi * Jz[d, e]
     if nbad:
         return STATUS_SINGULAR
     # F_(A, d) = sum_i c_iA m_i g_id: rows 0..3 of P are c_A = (1, X1, X2, X3)
@@ -329,7 +379,7 @@ _work_arrays = kernel(work_arrays)
 
 
 @kernel
-def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter, work):
+def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter, work, zonal_p, zonal_j):
     """One step of size ``h`` for one rigid body.
 
     q0, v0 (12,) the state; lam (6,) the multipliers' warm start lambda (updated in place
@@ -424,7 +474,7 @@ def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter
             q05[j] = q0[j] + 0.5 * dq[j]
         # the load stiffness is assembled at the first iterate and kept for the step: it changes
         # by O(error) between iterates, so convergence stays quadratic to round-off
-        st = rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, G, it == 1)
+        st = rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, G, it == 1, zonal_p, zonal_j)
         if st != STATUS_OK:
             status = st
             break
@@ -543,6 +593,8 @@ def rigid_chunk(
     rec_iters,
     rec_stalled,
     fail,
+    zonal_p,
+    zonal_j,
 ):
     """Advance every rigid body ``nrec * every`` composed steps, recording every ``every``.
 
@@ -579,8 +631,9 @@ def rigid_chunk(
                 for k in range(ns):
                     h = dt * gammas[k]
                     it, status, stalled = rigid_step(
-                        method, models[b], tp, tu, tl, mass[b], E[b], Einv[b], Xb, mb, gm, center, h, max_iter, work
-                    )
+                        method, models[b], tp, tu, tl, mass[b], E[b], Einv[b], Xb, mb, gm, center, h, max_iter, work,
+                        zonal_p, zonal_j,
+                    )  # fmt: skip
                     its += it
                     stl += stalled
                     ok = status == STATUS_OK
