@@ -1,7 +1,8 @@
 """Point masses under a set of effects: the point-mass system of a scene with ``[[effect]]`` tables.
 
 The state and records are those of :class:`~emorbit.bodies.pointmasses.PointMasses` ((3, n)
-arrays ``x``, ``v`` with Kahan compensation terms; SI). The step is the em step compiled for
+arrays ``x``, ``v`` with Kahan compensation terms; SI), plus the Newton iteration's warm
+start (``wp`` (3, n), ``hp`` (1,)), which checkpoints store. The step is the em step compiled for
 the simulation's effects (:func:`emorbit.effects.compose.compile_step`): the central field
 when there is one, then each ``[[effect]]`` in the order the scene names them. Mutual gravity
 couples the points, so all of them are one system and advance together. The energy a record
@@ -31,10 +32,39 @@ class EffectPoints(PointMasses):
         The effects, the central field first where there is one.
     """
 
+    #: the whole state: the points' and the warm start of the next Newton iteration
+    STATE_FIELDS = ("x", "v", "cx", "cv", "wp", "hp")
+    #: units of the state arrays beyond emorbit.io.reader.STATE_UNITS
+    STATE_UNITS = {"wp": "m", "hp": "s"}
+
     def __init__(self, terms):
         super().__init__()
         self.terms = list(terms)
         self._kernel = None
+        self._wp = np.zeros((3, 0))
+        self.hp = np.zeros(1)
+
+    @property
+    def wp(self) -> np.ndarray:
+        """(3, n) the second-order part w of each point's last sub-step increment, m (the next
+        iteration starts from it, scaled by (h / :attr:`hp`)^2); zeros for new points."""
+        if self._wp.shape != self.x.shape:
+            self._wp, self.hp = np.zeros_like(self.x), np.zeros(1)
+        return self._wp
+
+    @wp.setter
+    def wp(self, value) -> None:
+        self._wp = np.ascontiguousarray(value, dtype=float)
+
+    def snapshot(self):
+        """Copies of x, v, cx, cv and the warm start."""
+        return super().snapshot() + (self.wp.copy(), self.hp.copy())
+
+    def restore(self, snap) -> None:
+        """Put back what :meth:`snapshot` copied."""
+        super().restore(snap[:4])
+        self.wp[...] = snap[4]
+        self.hp[...] = snap[5]
 
     @classmethod
     def taking_over(cls, points: PointMasses, terms) -> EffectPoints:
@@ -112,8 +142,9 @@ class EffectPoints(PointMasses):
             iterations=np.zeros((nrec, n), dtype=np.int64),
             fail=np.full((n, 2), -1, dtype=np.int64),
         )
+        wp = self.wp
         self._kernel(
-            self.x, self.v, self.cx, self.cv, self.masses, *self._params(), float(dt),
+            self.x, self.v, self.cx, self.cv, wp, self.hp, self.masses, *self._params(), float(dt),
             np.asarray(gammas, float), int(every), int(nrec), int(max_iter), rec.x, rec.v, rec.iterations, rec.fail,
         )  # fmt: skip
         return rec

@@ -14,14 +14,18 @@ sub-step ``h = gamma_k dt`` of the composition: the unknowns are the second-orde
     w_i = (h^2 / 2) F_i(x0, x1),    v1_i = v0_i + 2 w_i / h
 
 with F_i the sum of the effects' discrete forces per unit mass on point i (its own terms and,
-for mutual gravity, the pair terms with every other point). Each sweep updates every point in
-turn by one Newton step on its own 3 x 3 block (:func:`emorbit.kernels.effects.newton.newton_update`),
-using the other points' latest iterates (block Gauss-Seidel); sweeps stop when every update is
-below 4 eps of its increment, or has stalled at round-off (below 1e-12 of it and no longer
-halving). Positions and velocities are updated with Kahan compensation, so the energy error
-of a long run is a random walk (Brouwer's law). Data layout: x, v, cx, cv (3, n); m (n,);
-the effects' parameter arrays; records as the point-mass kernels' (rec_x, rec_v
-(nrec, 3, n), rec_iters (nrec, n), fail (n, 2)).
+for mutual gravity, the pair terms with every other point). The iteration starts from the last
+sub-step's w scaled by (h / h_last)^2 (``wp``, ``hp``: state, checkpointed). Each sweep updates
+every point in turn by one Newton step on its own 3 x 3 block
+(:func:`emorbit.kernels.effects.newton.newton_update`), using the other points' latest
+iterates (block Gauss-Seidel); sweeps stop when every update is below 4 eps of its increment,
+or has stalled at round-off (below 128 eps and no longer halving), or, without pair forces
+(Newton converges quadratically), is below 1e-8: the next update, about
+1.5 (h omega)^3 1e-16, would be below round-off. Positions and velocities are updated with
+Kahan compensation, so the energy error of a long run is a random walk (Brouwer's law).
+Data layout: x, v, cx, cv, wp (3, n); hp (1,); m (n,); the effects' parameter arrays;
+records as the point-mass kernels' (rec_x, rec_v (nrec, 3, n), rec_iters (nrec, n),
+fail (n, 2)).
 """
 
 from __future__ import annotations
@@ -53,15 +57,17 @@ from emorbit.kernels.effects.newton import newton_update
 {imports}
 
 _EPS = 2.0**-52
+_QUADRATIC = {quadratic}
 
 
 @numba.njit(**{options})
-def chunk(x, v, cx, cv, m, {params}, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+def chunk(x, v, cx, cv, wp, hp, m, {params}, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
     n = x.shape[1]
     dx = np.empty((3, n))
     w = np.empty((3, n))
     J = np.empty((3, 3))
-    sx = np.empty((4, 3, n))  # the state at the start of a composed step: x, v, cx, cv
+    sx = np.empty((5, 3, n))  # the state at the start of a composed step: x, v, cx, cv, wp
+    hp0 = hp[0]
     for r in range(nrec):
         for i in range(n):
             rec_iters[r, i] = 0
@@ -70,13 +76,16 @@ def chunk(x, v, cx, cv, m, {params}, dt, gammas, every, nrec, max_iter, rec_x, r
             sx[1, :, :] = v
             sx[2, :, :] = cx
             sx[3, :, :] = cv
+            sx[4, :, :] = wp
+            hp0 = hp[0]
             for k in range(gammas.shape[0]):
                 h = dt * gammas[k]
                 hh = 0.5 * h * h
+                scale = (h / hp[0]) ** 2 if hp[0] != 0.0 else 0.0  # the last sub-step's w, rescaled
                 for i in range(n):
                     for c in range(3):
-                        w[c, i] = 0.0
-                        dx[c, i] = h * v[c, i]
+                        w[c, i] = wp[c, i] * scale
+                        dx[c, i] = h * v[c, i] + w[c, i]
                 prev = math.inf
                 status = STATUS_NO_CONVERGENCE
                 for it in range(max_iter):
@@ -115,7 +124,7 @@ def chunk(x, v, cx, cv, m, {params}, dt, gammas, every, nrec, max_iter, rec_x, r
                     if not worst < math.inf:
                         status = STATUS_SINGULAR
                         break
-                    if worst <= 4.0 * _EPS or (worst <= 128.0 * _EPS and worst > 0.5 * prev):
+                    if worst <= 4.0 * _EPS or (worst <= 128.0 * _EPS and worst > 0.5 * prev) or worst <= _QUADRATIC:
                         status = 0
                         break
                     prev = worst
@@ -124,6 +133,8 @@ def chunk(x, v, cx, cv, m, {params}, dt, gammas, every, nrec, max_iter, rec_x, r
                     v[:, :] = sx[1]
                     cx[:, :] = sx[2]
                     cv[:, :] = sx[3]
+                    wp[:, :] = sx[4]
+                    hp[0] = hp0
                     for i in range(n):
                         fail[i, 0] = r * every + s
                         fail[i, 1] = status
@@ -141,6 +152,8 @@ def chunk(x, v, cx, cv, m, {params}, dt, gammas, every, nrec, max_iter, rec_x, r
                         t = v[c, i] + y
                         cv[c, i] = y - (t - v[c, i])
                         v[c, i] = t
+                        wp[c, i] = w[c, i]
+                hp[0] = h
         rec_x[r, :, :] = x
         rec_v[r, :, :] = v
 '''
@@ -194,8 +207,10 @@ def step_source(kinds) -> tuple[str, list[str]]:
     options["cache"] = cache_enabled()
     pair = "\n".join(m.KERNEL["pair"] for m in modules if m.KERNEL["pair"].strip()) or "pass"
     own = "\n".join(m.KERNEL["own"] for m in modules if m.KERNEL["own"].strip()) or "pass"
+    quadratic = "0.0  # pair forces: Gauss-Seidel converges linearly, no early stop"
     if all(not m.KERNEL["pair"].strip() for m in modules):
         pair = "break  # no pair forces: the loop over other points ends at once"
+        quadratic = "1e-8  # Newton's next update, about 1.5 (h omega)^3 1e-16, is below round-off"
     source = _TEMPLATE.format(
         names=", ".join(kinds),
         digest=_kernel_digest(modules),
@@ -204,6 +219,7 @@ def step_source(kinds) -> tuple[str, list[str]]:
         params=", ".join(names),
         own=_indent(own, 24),
         pair=_indent(pair, 28),
+        quadratic=quadratic,
     )
     return source, names
 
