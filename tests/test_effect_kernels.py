@@ -365,3 +365,24 @@ def test_pair_gravity_work_is_the_pair_potential_drop():
         v0 = -G * mi * mj / np.linalg.norm(xi0 - xj0)
         v1 = -G * mi * mj / np.linalg.norm(xi1 - xj1)
         assert abs(work + (v1 - v0)) <= 1e-10 * abs(v1 - v0)
+
+
+def test_pair_unit_and_pair_force_are_central_force_with_unit_gm():
+    """The mutual-gravity pair kernels: the same force as central_force (gm = 1, centre 0), the
+    Jacobian central_jacobian's, and a bound above every entry of it."""
+    from emorbit.kernels.effects.central import central_force, central_jacobian, pair_force, pair_unit
+
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        a = rng.normal(size=3) * 10.0 ** rng.uniform(-1, 2)
+        b = a + rng.normal(size=3) * np.linalg.norm(a) * 10.0 ** rng.uniform(-8, -0.5)
+        J = np.zeros((3, 3))
+        ref_J = np.zeros((3, 3))
+        s_u = pair_unit(*a, *b, J)
+        s_f = pair_force(*a, *b)
+        ref = central_force(*a, *b, 0.0, 0.0, 0.0, 1.0)
+        central_jacobian(*a, *b, 0.0, 0.0, 0.0, 1.0, ref_J)
+        np.testing.assert_allclose(s_u[:3], ref, rtol=4e-16 * 8)
+        np.testing.assert_allclose(s_f[:3], ref, rtol=4e-16 * 8)
+        np.testing.assert_allclose(J, ref_J, rtol=1e-13, atol=1e-13 * np.abs(ref_J).max())
+        assert np.abs(J).max() <= s_u[3] and np.isclose(s_u[3], s_f[3], rtol=1e-14)

@@ -39,7 +39,7 @@ fy += gy
 fz += gz
 central_jacobian(x0, y0, z0, x1, y1, z1, central_p[0], central_p[1], central_p[2], central_p[3], J)
 """,
-    "pair": "",
+    "pairs": "",
 }
 
 

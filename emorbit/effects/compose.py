@@ -15,13 +15,15 @@ sub-step ``h = gamma_k dt`` of the composition: the unknowns are the second-orde
 
 with F_i the sum of the effects' discrete forces per unit mass on point i (its own terms and,
 for mutual gravity, the pair terms with every other point). The iteration starts from the last
-sub-step's w scaled by (h / h_last)^2 (``wp``, ``hp``: state, checkpointed). Each sweep updates
-every point in turn by one Newton step on its own 3 x 3 block
-(:func:`emorbit.kernels.effects.newton.newton_update`), using the other points' latest
-iterates (block Gauss-Seidel); sweeps stop when every update is below 4 eps of its increment,
-or has stalled at round-off (below 128 eps and no longer halving), or, without pair forces
-(Newton converges quadratically), is below 1e-8: the next update, about
-1.5 (h omega)^3 1e-16, would be below round-off. Positions and velocities are updated with
+sub-step's w scaled by (h / h_last)^2 (``wp``, ``hp``: state, checkpointed). Each sweep first
+evaluates the pair forces at the current iterates, each pair once for both of its points
+(the effects' ``pairs`` code), then updates every point by one Newton step on its own 3 x 3
+block (the effects' ``own`` code and the pair forces' diagonal blocks;
+:func:`emorbit.kernels.effects.newton.newton_update`): block Jacobi. Sweeps stop when every
+update is below 4 eps of its increment, or has stalled at round-off (below 128 eps and no
+longer halving), or is below 1e-8 with the next update bounded below round-off: Newton's
+quadratic term, about 1.5 (h omega)^3 1e-16, plus the pair coupling ``rho`` (h^2 / 2 times
+the norms of d F_i / d x_j summed over j) times the update. Positions and velocities are updated with
 Kahan compensation, so the energy error of a long run is a random walk (Brouwer's law).
 Data layout: x, v, cx, cv, wp (3, n); hp (1,); m (n,); the effects' parameter arrays;
 records as the point-mass kernels' (rec_x, rec_v (nrec, 3, n), rec_iters (nrec, n),
@@ -57,7 +59,6 @@ from emorbit.kernels.effects.newton import newton_update
 {imports}
 
 _EPS = 2.0**-52
-_QUADRATIC = {quadratic}
 
 
 @numba.njit(**{options})
@@ -66,6 +67,10 @@ def chunk(x, v, cx, cv, wp, hp, m, {params}, dt, gammas, every, nrec, max_iter, 
     dx = np.empty((3, n))
     w = np.empty((3, n))
     J = np.empty((3, 3))
+    Ju = np.empty((3, 3))
+    fp = np.zeros((n, 3))  # pair forces per unit mass on each point, at the current iterates
+    jp = np.zeros((n, 3, 3))  # their Jacobian blocks d fp_i / d x1_i
+    rho = np.zeros(n)  # h^2/2 sum_j |d fp_i / d x1_j|: how much point i's update moves with the others'
     sx = np.empty((5, 3, n))  # the state at the start of a composed step: x, v, cx, cv, wp
     hp0 = hp[0]
     for r in range(nrec):
@@ -88,8 +93,17 @@ def chunk(x, v, cx, cv, wp, hp, m, {params}, dt, gammas, every, nrec, max_iter, 
                         dx[c, i] = h * v[c, i] + w[c, i]
                 prev = math.inf
                 status = STATUS_NO_CONVERGENCE
+                coupling = math.inf  # unknown before the first sweep
                 for it in range(max_iter):
+                    for i in range(n):
+                        rho[i] = 0.0
+                        for a in range(3):
+                            fp[i, a] = 0.0
+                            for b in range(3):
+                                jp[i, a, b] = 0.0
+{pairs}
                     worst = 0.0
+                    coupling_now = 0.0
                     for i in range(n):
                         x0 = x[0, i]
                         y0 = x[1, i]
@@ -97,34 +111,41 @@ def chunk(x, v, cx, cv, wp, hp, m, {params}, dt, gammas, every, nrec, max_iter, 
                         x1 = x0 + dx[0, i]
                         y1 = y0 + dx[1, i]
                         z1 = z0 + dx[2, i]
-                        fx = 0.0
-                        fy = 0.0
-                        fz = 0.0
+                        fx = fp[i, 0]
+                        fy = fp[i, 1]
+                        fz = fp[i, 2]
                         for a in range(3):
                             for b in range(3):
-                                J[a, b] = 0.0
+                                J[a, b] = jp[i, a, b]
 {own}
-                        for j in range(n):
-                            if j == i:
-                                continue
-{pair}
                         d0, d1, d2 = newton_update(J, hh, w[0, i] - hh * fx, w[1, i] - hh * fy, w[2, i] - hh * fz)
                         w[0, i] -= d0
                         w[1, i] -= d1
                         w[2, i] -= d2
-                        dx[0, i] = h * v[0, i] + w[0, i]
-                        dx[1, i] = h * v[1, i] + w[1, i]
-                        dx[2, i] = h * v[2, i] + w[2, i]
-                        size = math.sqrt(dx[0, i] ** 2 + dx[1, i] ** 2 + dx[2, i] ** 2)
+                        size = math.sqrt(
+                            (h * v[0, i] + w[0, i]) ** 2 + (h * v[1, i] + w[1, i]) ** 2 + (h * v[2, i] + w[2, i]) ** 2
+                        )
                         upd = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) / max(size, 1e-300)
                         if not upd < math.inf:
                             upd = math.inf
                         worst = max(worst, upd)
+                        coupling_now = max(coupling_now, 6.0 * hh * rho[i])
                         rec_iters[r, i] += 1
+                    coupling = coupling_now
+                    for i in range(n):  # Jacobi: the pair pass of the next sweep sees every update
+                        for c in range(3):
+                            dx[c, i] = h * v[c, i] + w[c, i]
                     if not worst < math.inf:
                         status = STATUS_SINGULAR
                         break
-                    if worst <= 4.0 * _EPS or (worst <= 128.0 * _EPS and worst > 0.5 * prev) or worst <= _QUADRATIC:
+                    # at round-off; or stalled there; or small enough that the next update, Newton's
+                    # quadratic term (about 1.5 (h omega)^3 worst^2) plus the others' updates
+                    # through the pair forces (coupling worst), is below round-off
+                    if (
+                        worst <= 4.0 * _EPS
+                        or (worst <= 128.0 * _EPS and worst > 0.5 * prev)
+                        or (worst <= 1e-8 and coupling * worst <= _EPS)
+                    ):
                         status = 0
                         break
                     prev = worst
@@ -205,12 +226,8 @@ def step_source(kinds) -> tuple[str, list[str]]:
     imports = sorted({m.KERNEL["imports"] for m in modules})
     options = {k: v for k, v in JIT_OPTIONS.items() if k != "cache"}
     options["cache"] = cache_enabled()
-    pair = "\n".join(m.KERNEL["pair"] for m in modules if m.KERNEL["pair"].strip()) or "pass"
+    pairs = "\n".join(m.KERNEL["pairs"] for m in modules if m.KERNEL["pairs"].strip()) or "pass"
     own = "\n".join(m.KERNEL["own"] for m in modules if m.KERNEL["own"].strip()) or "pass"
-    quadratic = "0.0  # pair forces: Gauss-Seidel converges linearly, no early stop"
-    if all(not m.KERNEL["pair"].strip() for m in modules):
-        pair = "break  # no pair forces: the loop over other points ends at once"
-        quadratic = "1e-8  # Newton's next update, about 1.5 (h omega)^3 1e-16, is below round-off"
     source = _TEMPLATE.format(
         names=", ".join(kinds),
         digest=_kernel_digest(modules),
@@ -218,8 +235,7 @@ def step_source(kinds) -> tuple[str, list[str]]:
         options=repr(options),
         params=", ".join(names),
         own=_indent(own, 24),
-        pair=_indent(pair, 28),
-        quadratic=quadratic,
+        pairs=_indent(pairs, 20),
     )
     return source, names
 

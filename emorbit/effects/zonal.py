@@ -68,7 +68,7 @@ zonal_jacobian(
     zonal_p[6], zonal_p[7], zonal_j, J,
 )
 """,
-    "pair": "",
+    "pairs": "",
 }
 
 #: coefficients of the Legendre polynomials P_0..P_6 in powers of s (records' potential)

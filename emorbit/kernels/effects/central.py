@@ -32,7 +32,7 @@ import math
 
 from ..jit import kernel
 
-__all__ = ["central_potential", "central_force", "central_jacobian"]
+__all__ = ["central_potential", "central_force", "central_jacobian", "pair_unit", "pair_force"]
 
 _inline = kernel(inline="always")
 
@@ -134,3 +134,73 @@ def central_jacobian(x0, y0, z0, x1, y1, z1, c0, c1, c2, gm, J):
     J[2, 0] += s2 * b0
     J[2, 1] += s2 * b1
     J[2, 2] += s2 * b2 - k
+
+
+@_inline
+def pair_unit(a0, a1, a2, b0, b1, b2, J):
+    """A pair's force over the step per unit G m_j, and its Jacobian, in one pass (mutual gravity).
+
+    With the pair's separation ``d = x_i - x_j`` at the start (``a``) and at the end (``b``)
+    of the step: ``S = -(a + b) k``, ``k = 1 / (r0 r1 (r0 + r1))`` (:func:`central_force`
+    with ``gm = 1`` and the centre at 0), and ``J = dS/db = -k I + w (a + b) b^T``,
+    ``w = k (1/r1 + 1/(r0 + r1)) / r1`` (:func:`central_jacobian`). Two square roots and two
+    divisions for both.
+
+    Parameters
+    ----------
+    a0, a1, a2 : float
+        The separation at the start of the step (m).
+    b0, b1, b2 : float
+        The separation at the end of the step (m).
+    J : numpy.ndarray
+        (3, 3) float64, overwritten with ``dS_i / db_j`` (1/m^3).
+
+    Returns
+    -------
+    tuple of float
+        ``S`` (3 components, 1/m^2) and a bound of the entries of ``J``, ``k (3 + r0 / r1)``.
+    """
+    r0 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    r1 = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+    rs = r0 + r1
+    k = 1.0 / (r0 * r1 * rs)
+    w = k * k * r0 * (r0 + 2.0 * r1) / r1
+    u0 = a0 + b0
+    u1 = a1 + b1
+    u2 = a2 + b2
+    s0 = w * u0
+    s1 = w * u1
+    s2 = w * u2
+    J[0, 0] = s0 * b0 - k
+    J[0, 1] = s0 * b1
+    J[0, 2] = s0 * b2
+    J[1, 0] = s1 * b0
+    J[1, 1] = s1 * b1 - k
+    J[1, 2] = s1 * b2
+    J[2, 0] = s2 * b0
+    J[2, 1] = s2 * b1
+    J[2, 2] = s2 * b2 - k
+    return -k * u0, -k * u1, -k * u2, k * (3.0 + r0 / r1)
+
+
+@_inline
+def pair_force(a0, a1, a2, b0, b1, b2):
+    """:func:`pair_unit` without the Jacobian: the force per unit G m_j and the bound.
+
+    Parameters
+    ----------
+    a0, a1, a2 : float
+        The separation at the start of the step (m).
+    b0, b1, b2 : float
+        The separation at the end of the step (m).
+
+    Returns
+    -------
+    tuple of float
+        ``S`` (3 components, 1/m^2) and ``k (3 + r0 / r1)``, a bound of the entries of dS/db.
+    """
+    r0 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    r1 = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+    rs = r0 + r1
+    k = 1.0 / (r0 * r1 * rs)
+    return -k * (a0 + b0), -k * (a1 + b1), -k * (a2 + b2), k * (3.0 + k * r0 * r0 * rs)
