@@ -1,5 +1,6 @@
-"""emorbit's validation suite: emorbit against REBOUND (IAS15, WHFast), astropy's constants
-and units, and the analytic Kepler solution, with a report a reviewer can read.
+"""emorbit's validation suite: emorbit against REBOUND (IAS15, WHFast), REBOUNDx, astropy's
+constants and units, first-order secular theory and the analytic Kepler solution, with a
+report a reviewer can read.
 
 The repository's ``validation/`` folder is installed as ``emorbit.validation`` (never as a
 top-level module ``validation``, which any file of that name in the working folder would
@@ -14,6 +15,9 @@ REBOUND and Kepler trajectories on shared record times), :mod:`.checks` (toleran
 units and reasons), :mod:`.runner` (one case: runs, checks, convergence study),
 :mod:`.brouwer` (round-off over many steps, full suite), :mod:`.figures`, :mod:`.report`
 (Markdown and JSON), :mod:`.suite` (the whole suite), :mod:`.cli` (``emorbit validate``).
+The cases of the effects (zonal harmonics, mutual gravity): :mod:`.effect_cases`,
+:mod:`.effect_runs`, :mod:`.effect_runner`, :mod:`.effect_checks`, :mod:`.secular`,
+:mod:`.effect_figures`.
 """
 
 from .cases import case_names, get_cases

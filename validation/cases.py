@@ -1,10 +1,13 @@
 """The validation cases: initial states, field, step sizes and run lengths.
 
-Every case is a set of test particles around one fixed point mass (GM, centre). Steps are
+Every orbit case is a set of test particles around one fixed point mass (GM, centre). Steps are
 chosen by one resolution rule, the paper's: its orbit (e = 2/3) runs at dt = T/100, which is
 0.42 of its periapsis time-scale tau_p = r_p / v_p. Every other orbit gets the same number of
 steps per tau_p (and at least 100 per orbit), so that errors are comparable across
 eccentricities; orders 4-8 run at a quarter of that step (the paper's T/400).
+
+The cases of the effects beyond the central field (zonal harmonics, mutual gravity) are
+:mod:`.effect_cases`; :data:`CASES` lists them after the orbit cases.
 """
 
 from __future__ import annotations
@@ -17,6 +20,8 @@ import astropy.units as u
 import numpy as np
 
 from emorbit import orbits
+
+from .effect_cases import EFFECT_CASES, EffectCase, effect_cases
 
 __all__ = ["Case", "CASES", "case_names", "get_cases", "periapsis_timescale", "steps_per_orbit"]
 
@@ -452,12 +457,12 @@ def _cloud(n_quick: int = 200, n_full: int = 1000, seed: int = 20240607) -> dict
     return out
 
 
-def _all_cases(mode: str) -> dict[str, Case]:
+def _all_cases(mode: str) -> dict[str, Case | EffectCase]:
     cases = [_paper(), *_family(), *_earth(), _cloud()[mode]]
-    return {c.name: c for c in cases}
+    return {**{c.name: c for c in cases}, **effect_cases(mode)}
 
 
-CASES = ("paper", *(f[0] for f in _FAMILY), "earth-leo", "earth-molniya", "earth-geo", "cloud")
+CASES = ("paper", *(f[0] for f in _FAMILY), "earth-leo", "earth-molniya", "earth-geo", "cloud", *EFFECT_CASES)
 
 
 def case_names() -> tuple[str, ...]:
@@ -471,8 +476,8 @@ def case_names() -> tuple[str, ...]:
     return CASES
 
 
-def get_cases(mode: str, names=None) -> list[Case]:
-    """The cases of a mode, all or some.
+def get_cases(mode: str, names=None) -> list[Case | EffectCase]:
+    """The cases of a mode, all or some (orbit cases and effect cases).
 
     Parameters
     ----------
@@ -483,7 +488,7 @@ def get_cases(mode: str, names=None) -> list[Case]:
 
     Returns
     -------
-    list of Case
+    list of Case or EffectCase
         The cases.
     """
     table = _all_cases(mode)

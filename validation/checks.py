@@ -27,6 +27,12 @@ __all__ = [
     "PERIOD_ALLOWANCE",
     "SIGMAS",
     "CIRCULAR",
+    "MOMENTUM",
+    "RECORDED_ENERGY",
+    "POTENTIAL_CONVENTION",
+    "SECULAR_NODE",
+    "SECULAR_PERIGEE",
+    "RETURN_AFTER_PERIOD",
     "Period",
     "measure_period",
     "richardson",
@@ -66,6 +72,34 @@ PERIOD_ALLOWANCE = 1.5
 SIGMAS = 4.0
 #: below this e an orbit has no apses to time: the period is taken from plane crossings
 CIRCULAR = 0.01
+
+# -- the effect cases (validation/effect_runner.py) ---------------------------------------
+#: |P - P0| relative to sum m |v| (the size of the terms that cancel in P), bodies under
+#: mutual gravity in free space: the pair forces are equal and opposite, so P is exact up to
+#: round-off; 1e-12 leaves Brouwer's walk a margin, as ANGULAR_MOMENTUM
+MOMENTUM = 1e-12
+#: emorbit's recorded energy against the energy computed here from its recorded states with
+#: the zonal potential in REBOUNDx's convention, relative to |E|: the same sum evaluated
+#: twice, of terms up to 2 |E| (GM / r) each rounded at eps: ~45 eps
+RECORDED_ENERGY = 1e-14
+#: the zonal potential computed here against REBOUNDx's gravitational_harmonics_potential
+#: at one state, relative, per unit condition number of the Legendre sum there: one
+#: expression evaluated in two orders of operations, a few eps
+POTENTIAL_CONVENTION = 16 * EPS
+#: the node rate against first-order secular theory, relative, in units of J2 (R/p)^2: the
+#: node's neglected J2^2 terms are proportional to cos i like its first-order term (no order
+#: moves the node of a polar orbit), so theory's own error is relative, J2 (R/p)^2 times a
+#: coefficient of a few (Brouwer's second-order bracket, up to ~3, and the choice of n,
+#: Kozai's mean motion or sqrt(GM / a^3), up to 1.5 more)
+SECULAR_NODE = 5.0
+#: the perigee rate against first-order secular theory, absolute, in units of
+#: n (J2 (R/p)^2)^2: its neglected J2^2 terms do not vanish where the first-order rate does
+#: (the critical inclination), and their coefficient grows to ~15 towards i = 0 (Brouwer)
+SECULAR_PERIGEE = 15.0
+#: the figure-eight's state after one period against its start, in units of its size L: the
+#: published initial conditions and period carry 8 and 9 digits (rounding ~5e-9); 1e-6
+#: allows 200 times that for its growth over one period, and is 1e-7 of the motion
+RETURN_AFTER_PERIOD = 1e-6
 
 
 @dataclass

@@ -7,6 +7,8 @@ import json
 import math
 import os
 
+from .effect_cases import EFFECT_CASES, RIGID_BINARY_NOTE
+
 __all__ = ["write_json", "write_markdown"]
 
 
@@ -111,6 +113,14 @@ def write_markdown(suite: dict, outdir: str) -> str:
             f"{'PASS' if case['passed'] else '**FAIL**'} | {case['wall_s']:.1f} |"
         )
     lines.append("")
+    if any(c["name"] in EFFECT_CASES for c in suite["cases"]):
+        lines += [
+            "The effect cases (" + ", ".join(f"`{n}`" for n in EFFECT_CASES) + ") run point masses under the "
+            "effects beyond the central field: zonal harmonics against REBOUND IAS15 with REBOUNDx's "
+            "`gravitational_harmonics` and against first-order secular theory, mutual gravity against the "
+            "analytic two-body solution and against IAS15. " + RIGID_BINARY_NOTE,
+            "",
+        ]
     for case in suite["cases"]:
         lines += _case_section(case)
     path = os.path.join(outdir, "report.md")
@@ -128,7 +138,9 @@ def _case_section(case: dict) -> list[str]:
         case["description"],
         "",
         "Parameters: " + "; ".join(f"{k} = {v}" for k, v in case["params"].items()) + ".",
-        (
+        case["summary"]
+        if case.get("summary")
+        else (
             f"Order 2 runs {case['orbits']} periods of {case['period_s']:.10g} s at {case['steps_per_period']} "
             f"steps per period; orders 4-8 run {case['orbits_high']} periods at 4x the steps."
             if case.get("orbits") is not None

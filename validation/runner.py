@@ -567,7 +567,7 @@ def run_case(case: Case, mode: str, outdir: str, *, scale: float = 1.0, figures:
     Parameters
     ----------
     case : Case
-        The case.
+        The case (the effect cases run :func:`.effect_runner.run_effect_case`).
     mode : str
         ``"quick"`` or ``"full"``.
     outdir : str

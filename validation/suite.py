@@ -8,6 +8,8 @@ import platform
 import time
 
 from .cases import case_names, get_cases
+from .effect_cases import EffectCase
+from .effect_runner import run_effect_case
 from .report import write_json, write_markdown
 from .runner import run_case
 
@@ -41,6 +43,12 @@ def environment() -> dict:
 
     import emorbit
 
+    try:
+        import reboundx
+
+        rebx = reboundx.__version__
+    except ImportError:
+        rebx = "not installed"
     return {
         "machine": f"{_cpu()}, {os.cpu_count()} cores, {platform.system()} {platform.release()}",
         "versions": {
@@ -49,6 +57,7 @@ def environment() -> dict:
             "numpy": numpy.__version__,
             "numba": numba.__version__,
             "rebound": rebound.__version__,
+            "reboundx": rebx,
             "astropy": astropy.__version__,
             "matplotlib": matplotlib.__version__,
         },
@@ -85,7 +94,10 @@ def run_suite(outdir: str, *, quick: bool = False, names=None, scale: float = 1.
     start = time.perf_counter()
     results = []
     jobs = [
-        (case.name, lambda c=case: run_case(c, mode, outdir, scale=scale))
+        (
+            case.name,
+            lambda c=case: (run_effect_case if isinstance(c, EffectCase) else run_case)(c, mode, outdir, scale=scale),
+        )
         for case in get_cases(mode, [n for n in names if n in case_names()] if names else None)
     ]
     if mode == "full" and (names is None or "brouwer" in names):  # a study, not an orbit case

@@ -1,0 +1,175 @@
+"""The validation cases of the effects (issue 23): J2 against REBOUNDx and against first-order
+secular theory, mutual gravity against the two-body Kepler solution and the figure-eight
+against IAS15. Their quick forms must pass every check; deliberately wrong inputs (J2's sign,
+J2's size, a mass, the period) must make the checks that referee them fail."""
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+from emorbit.cli import main
+from emorbit.validation.cases import case_names, get_cases
+from emorbit.validation.effect_cases import EFFECT_CASES, J2, J4, R_EARTH, RIGID_BINARY_NOTE
+from emorbit.validation.effect_runner import run_effect_case
+
+PNG = b"\x89PNG\r\n\x1a\n"
+try:
+    import reboundx  # noqa: F401
+
+    HAVE_REBOUNDX = True
+except ImportError:
+    HAVE_REBOUNDX = False
+needs_reboundx = pytest.mark.skipif(not HAVE_REBOUNDX, reason="reboundx is not installed (pip install reboundx)")
+#: the cases that run without REBOUNDx
+MUTUAL = ("mutual-two-body", "figure-eight")
+RUNNABLE = EFFECT_CASES if HAVE_REBOUNDX else MUTUAL
+
+
+def _case(name):
+    return next(c for c in get_cases("quick", [name]))
+
+
+def _failed(outcome):
+    return {ch["id"] for ch in outcome["checks"] if not ch["passed"]}
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    out = tmp_path_factory.mktemp("effects")
+    code = main(["validate", "--quick", "--cases", ",".join(RUNNABLE), "--report", str(out), "-q"])
+    return code, out, json.loads((out / "results.json").read_text())
+
+
+def test_the_effect_cases_pass_in_their_quick_form(quick):
+    code, _, suite = quick
+    failed = [
+        f"{c['name']}: {ch['id']} = {ch['value']:.3g} > {ch['tolerance']:.3g} {ch['unit']} ({ch['what']})"
+        for c in suite["cases"]
+        for ch in c["checks"]
+        if not ch["passed"]
+    ]
+    assert not failed, "\n".join(failed)
+    assert code == 0 and suite["passed"]
+    assert [c["name"] for c in suite["cases"]] == list(RUNNABLE)
+
+
+def test_report_figures_and_the_case_not_yet_run(quick):
+    _, out, suite = quick
+    report = (out / "report.md").read_text()
+    assert RIGID_BINARY_NOTE in report and "not yet run: rigid bodies under mutual gravity are not built" in report
+    for case in suite["cases"]:
+        assert case["figures"] == [f"{case['name']}.png"]
+        assert (out / case["figures"][0]).read_bytes()[:8] == PNG
+        assert f"]({case['name']}.png)" in report
+        assert case["summary"] in report
+        for ch in case["checks"]:
+            assert ch["reason"] and ch["unit"] is not None and ch["tolerance"] > 0
+    if HAVE_REBOUNDX:
+        assert suite["environment"]["versions"]["reboundx"] != "not installed"
+
+
+def test_each_case_checks_what_it_is_for(quick):
+    _, _, suite = quick
+    ids = {c["name"]: {ch["id"] for ch in c["checks"]} for c in suite["cases"]}
+    common = {f"energy-em{p}" for p in (2, 4, 6, 8)} | {f"order-em{p}" for p in (2, 4, 6, 8)}
+    assert (
+        common | {"momentum", "angular-momentum", "position-em8-vs-kepler", "centre-of-mass"} <= ids["mutual-two-body"]
+    )
+    assert (
+        common | {"momentum", "angular-momentum", "position-em8-vs-ias15", "return-after-one-period"}
+        <= ids["figure-eight"]
+    )
+    if HAVE_REBOUNDX:
+        assert (
+            common
+            | {
+                "position-em8-vs-reboundx",
+                "position-em8-j4-vs-reboundx",
+                "zonal-potential-convention",
+                "recorded-energy",
+                "angular-momentum-pole",
+            }
+            <= ids["j2-reboundx"]
+        )
+        secular = ids["j2-secular"]
+        assert {"sun-synchronous-node", "secular-residual-order", "rates-em8-vs-reboundx"} <= secular
+        assert sum(i.startswith("node-rate-") for i in secular) == 5
+        assert sum(i.startswith("perigee-rate-") for i in secular) == 4
+
+
+def test_list_names_the_effect_cases(capsys):
+    assert main(["validate", "--list"]) == 0
+    listed = capsys.readouterr().out.split()
+    assert listed == list(case_names()) and listed[-len(EFFECT_CASES) :] == list(EFFECT_CASES)
+
+
+@needs_reboundx
+def test_a_wrong_j2_sign_fails_the_reboundx_comparison(tmp_path):
+    case = dataclasses.replace(_case("j2-reboundx"), zonal={"j": [-J2], "radius": R_EARTH})
+    out = run_effect_case(case, "quick", str(tmp_path), figures=False)
+    assert {"position-em8-vs-reboundx", "recorded-energy"} <= _failed(out)
+    # em conserves its own (wrong) energy all the same
+    assert "energy-em8" not in _failed(out)
+
+
+@needs_reboundx
+def test_a_wrong_j2_fails_secular_theory(tmp_path):
+    """J2 five per cent too large in emorbit: every node rate leaves theory's error band, the
+    residual becomes first order in J2, and IAS15 + REBOUNDx disagrees."""
+    case = dataclasses.replace(_case("j2-secular"), zonal={"j": [1.05 * J2], "radius": R_EARTH})
+    failed = _failed(run_effect_case(case, "quick", str(tmp_path), figures=False))
+    assert {f"node-rate-{n}" for n in case.names} <= failed
+    assert {"sun-synchronous-node", "rates-em8-vs-reboundx", "secular-residual-order"} <= failed
+
+
+def test_a_wrong_mass_fails_the_two_body_solution(tmp_path):
+    case = _case("mutual-two-body")
+    bodies = [(n, m * (1 + 1e-6) if n == "m1" else m, x, v) for n, m, x, v in case.bodies]
+    failed = _failed(run_effect_case(dataclasses.replace(case, bodies=bodies), "quick", str(tmp_path), figures=False))
+    assert "position-em8-vs-kepler" in failed
+    assert "momentum" not in failed and "energy-em2" not in failed
+
+
+def test_a_wrong_period_fails_the_figure_eight_return(tmp_path):
+    case = _case("figure-eight")
+    failed = _failed(
+        run_effect_case(
+            dataclasses.replace(case, period=case.period * (1 + 1e-5)), "quick", str(tmp_path), figures=False
+        )
+    )
+    assert failed == {"return-after-one-period"}
+
+
+def test_without_reboundx_the_j2_cases_say_how_to_install_it(tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "reboundx", None)  # import reboundx raises ImportError
+    out = run_effect_case(_case("j2-reboundx"), "quick", str(tmp_path), figures=False)
+    assert not out["passed"] and "case-error" in _failed(out)
+    assert "pip install" in out["error"] and "reboundx" in out["error"]
+
+
+def test_the_sun_synchronous_inclination_gives_the_tropical_year():
+    from emorbit import CentralField
+    from emorbit.validation.secular import DEG_PER_DAY, SUN_SYNCHRONOUS_RATE, node_rate, sun_synchronous_inclination
+
+    gm = CentralField(body="earth").gm
+    i = sun_synchronous_inclination(7000e3, 0.001, gm, J2, R_EARTH)
+    assert math.degrees(i) == pytest.approx(97.874, abs=1e-3)
+    assert node_rate(7000e3, 0.001, i, gm, J2, R_EARTH) == pytest.approx(SUN_SYNCHRONOUS_RATE, rel=1e-14)
+    assert SUN_SYNCHRONOUS_RATE * DEG_PER_DAY == pytest.approx(0.98565, abs=1e-5)
+
+
+@needs_reboundx
+def test_the_zonal_potential_matches_reboundx_with_j4():
+    from emorbit.validation.effect_runs import reboundx_potential, zonal_potential
+
+    rng = np.random.default_rng(5)
+    h = {"J2": J2, "J4": J4, "R_eq": R_EARTH}
+    for x in rng.normal(size=(5, 3)) * 7e6:
+        ours, theirs = float(zonal_potential(x, 3.986e14, h)), reboundx_potential(x, 3.986e14, h)
+        scale = 3.986e14 / np.linalg.norm(x) * J2 * (R_EARTH / np.linalg.norm(x)) ** 2  # |J2 term| at most
+        assert abs(ours - theirs) <= 1e-14 * scale
