@@ -225,7 +225,8 @@ class Simulation(StateQueries, ChunkDriver):
 
         Point masses then run the em step compiled for the simulation's effects
         (:mod:`emorbit.effects.compose`), rigid bodies feel zonal harmonics on their mass
-        points; each effect's potential energy is recorded as ``invariants/potential_<kind>``.
+        points and elastic ones at their gravity points; each effect's potential energy is
+        recorded as ``invariants/potential_<kind>``.
 
         Parameters
         ----------
@@ -243,8 +244,8 @@ class Simulation(StateQueries, ChunkDriver):
         ------
         InputError
             An unknown effect or key, a value the effect refuses, a method other than em,
-            bodies of a kind the effect does not act on (zonal: point masses and rigid
-            bodies; mutual: point masses), a second set of zonal harmonics, or an effect
+            bodies of a kind the effect does not act on (zonal: every kind; mutual: point
+            masses), a second set of zonal harmonics, or an effect
             that needs a central field in free space.
         """
         from .bodies.effectpoints import EffectPoints
@@ -258,17 +259,17 @@ class Simulation(StateQueries, ChunkDriver):
             )
         if self.adaptive is not None:
             raise InputError(key, f"{kind!r} runs with fixed steps; this simulation has adaptive steps")
-        if self.structure is not None or (kind == "mutual" and self.rigid is not None):
-            kinds = "point masses and rigid bodies" if kind == "zonal" else "point masses"
-            raise InputError(key, f"{kind!r} acts on {kinds}; this simulation has other bodies")
+        if kind == "mutual" and (self.rigid is not None or self.structure is not None):
+            raise InputError(key, f"{kind!r} acts on point masses; this simulation has other bodies")
         if kind == "zonal" and any(t.kind == "zonal" for t in self._effects):
             raise InputError(key, "the central body has one set of zonal harmonics; this simulation has it already")
         same = sum(t.kind == kind for t in self._effects)
         if same:
             term.label = f"{kind}_{same + 1}"
         self._effects.append(term)
-        if kind == "zonal" and self.rigid is not None:
-            self.rigid.zonal = term
+        for system in (self.rigid, self.structure) if kind == "zonal" else ():
+            if system is not None:
+                system.zonal = term
         if isinstance(self.points, EffectPoints):
             self.points.terms = list(self.effects)
             self.points._kernel = None
@@ -460,18 +461,19 @@ class Simulation(StateQueries, ChunkDriver):
         )
 
     def _no_effects(self, key: str, allowed=()) -> None:
-        """Rigid bodies feel the central field and zonal harmonics, elastic ones the central
-        field only (so far)."""
+        """Rigid and elastic bodies feel the central field and zonal harmonics (mutual gravity
+        acts on point masses only, so far)."""
         kinds = sorted({t.kind for t in self._effects} - set(allowed))
         if kinds:
             raise InputError(key, f"the effects {', '.join(kinds)} act on point masses only; this body is not one")
 
     def _structure(self):
-        self._no_effects("body")
+        self._no_effects("body", allowed=("zonal",))
         if self.structure is None:
             from .bodies.coupled import Structure
 
             self.structure = Structure(newton=self.newton)
+            self.structure.zonal = next((t for t in self._effects if t.kind == "zonal"), None)
         if self.structure._built:
             raise InputError("body", "bodies and couplings cannot be added after the structure has started running")
         return self.structure

@@ -110,6 +110,7 @@ class Structure(StructureOutput):
         self._rb_es: list[float] = []
         self._rb_omega: list[np.ndarray] = []
         self._built = False
+        self.zonal = None  # an EffectTerm of kind "zonal" at the gravity points, or None
 
     # -- building ---------------------------------------------------------------------------
     @property
@@ -439,41 +440,15 @@ class Structure(StructureOutput):
         data = self.J_mass.data.copy() if with_jacobian else self._nodata
         F = np.empty_like(u0)
         hf = 0.5 * h
+        zonal = (None, None)  # zonal harmonics at the gravity points, centred like them
+        if self.zonal is not None:
+            zonal = (np.concatenate([c, self.zonal.params["zonal_p"][3:]]), self.zonal.params["zonal_j"])
+        elements = (self.bar_node, self.bar_EA, self.bar_L, self.tet_node, self.tet_g, self.tet_V, self.tet_lam)
         status = kc.fill_forces(
-            code,
-            hf * h,
-            hf,
-            x0n,
-            x1n,
-            self.node_slot,
-            self.node_coef,
-            self.bar_node,
-            self.bar_EA,
-            self.bar_L,
-            self.tet_node,
-            self.tet_g,
-            self.tet_V,
-            self.tet_lam,
-            self.tet_mu,
-            self.gp_node,
-            self.gp_w,
-            self.gp_m,
-            xg0,
-            xg1,
-            gm,
-            c,
-            gm != 0.0,
-            with_jacobian,
-            self.J.indptr,
-            self.J.indices,
-            data,
-            F,
-            self._fn,
-            self._kb,
-            self._kt,
-            self._fg,
-            self._kg,
-        )
+            code, hf * h, hf, x0n, x1n, self.node_slot, self.node_coef, *elements, self.tet_mu, self.gp_node,
+            self.gp_w, self.gp_m, xg0, xg1, gm, c, gm != 0.0, with_jacobian, self.J.indptr, self.J.indices, data,
+            F, self._fn, self._kb, self._kt, self._fg, self._kg, *zonal,
+        )  # fmt: skip
         return status, F, data
 
     def _solve_mass(self, b):

@@ -80,7 +80,31 @@ class StructureOutput(BodySystem):
             xg = np.empty((self.gp_m.size, 3))
             kel.combine_rows(xn, self.gp_node, self.gp_w, xg)
             V = -gm * float(np.sum(self.gp_m / np.linalg.norm(xg - (c - ref), axis=1)))
+            if getattr(self, "zonal", None) is not None:
+                V += self._zonal_energy(xg + ref)
         return T, W, V, Mv, xn
+
+    def _zonal_energy(self, xg) -> float:
+        """The zonal harmonics' potential energy of the gravity points at positions xg, J."""
+        active = np.ones(self.gp_m.size, bool)
+        return float(self.zonal.potential(xg.T[None], self.gp_m, active)[0])
+
+    def effect_energies(self, rec, nrec, gm, center) -> dict:
+        """Each effect's potential energy at each record where the structure feels zonal
+        harmonics: {``potential_central``, ``potential_zonal``: (nrec,) J}; else {}."""
+        if getattr(self, "zonal", None) is None or gm == 0.0 or not self.gp_m.size:
+            return {}
+        c = np.asarray(center, float)
+        central, zonal = np.empty(nrec), np.empty(nrec)
+        for r in range(nrec):
+            urel, ref = self.relative(rec.u[r], np.zeros_like(rec.u[r]))
+            xn = np.empty((self.node_slot.shape[0], 3))
+            kel.combine_rows(urel, self.node_slot, self.node_coef, xn)
+            xg = np.empty((self.gp_m.size, 3))
+            kel.combine_rows(xn, self.gp_node, self.gp_w, xg)
+            central[r] = -gm * float(np.sum(self.gp_m / np.linalg.norm(xg - (c - ref), axis=1)))
+            zonal[r] = self._zonal_energy(xg + ref)
+        return {"potential_central": central, f"potential_{self.zonal.label}": zonal}
 
     def invariants(self, rec, nrec, gm, center):
         """Energy (kinetic, strain and potential), momentum and angular momentum at each record."""

@@ -13,7 +13,8 @@ of ``d0 + d1`` and p: an em step keeps the energy and the angular momentum about
 (Gonzalez's midpoint form) would keep the energy but not that angular momentum. Rigid bodies
 feel it on their mass points, in the rigid step's own force sum
 (:func:`emorbit.kernels.rigid.rigid_forces`), so its torque arises as the gravity gradient's
-does.
+does; elastic bodies and coupled structures at their gravity points
+(:func:`emorbit.kernels.elastic.gravity_forces`).
 
 GM and the centre are the field's; R and J_n are the model's: "earth" is EGM2008's zonal
 part (tide-free; :data:`emorbit.kernels.effects.zonal.MODELS`), or ``j`` and ``radius``
@@ -51,7 +52,7 @@ POTENTIAL = "V = (GM m / r) sum_n J_n (R / r)^n P_n(z / r), z = (x - c) . p"
 DISCRETE_FORCE = "F = -m (A (d0 + d1) / (r0 + r1) + B p): A, B the averaged discrete derivatives in r and z"
 JACOBIAN = "dF/dx1 = -m (u dA/dx1^T + A du/dx1 + p dB/dx1^T), u = (d0 + d1) / (r0 + r1)"
 CONSERVES = ("energy", "angular momentum about the pole")
-BODY_KINDS = ("point", "rigid")
+BODY_KINDS = ("point", "rigid", "elastic")
 
 KERNEL = {
     "imports": "from emorbit.kernels.effects.zonal import zonal_force, zonal_jacobian",

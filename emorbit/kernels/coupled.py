@@ -66,15 +66,18 @@ def fill_forces(
     kt,
     fg,
     kg,
+    zonal_p,
+    zonal_j,
 ):
     """The generalised forces into Fslot (n_slots, 3) and, if ``want_K``, -hh K (elements and
-    gravity) added into the Jacobian values ``data``. Returns a status."""
+    gravity) added into the Jacobian values ``data``. Returns a status. ``zonal_p``,
+    ``zonal_j``: zonal harmonics at the gravity points (None: none, pruned)."""
     fn[:, :] = 0.0
     bar_forces(method, x0n, x1n, bar_node, bar_EA, bar_L, fn, kb)
     tet_forces(method, x0n, x1n, tet_node, tet_g, tet_V, tet_lam, tet_mu, fn, kt)
     status = STATUS_OK
     if want_gravity and gp_m.shape[0] > 0:
-        status = gravity_forces(method, gm, c, xg0, xg1, gp_m, fg, kg)
+        status = gravity_forces(method, gm, c, xg0, xg1, gp_m, fg, kg, zonal_p, zonal_j)
         spread_rows(fg, gp_node, gp_w, fn)
     # node forces -> slot forces
     Fslot[:, :] = 0.0

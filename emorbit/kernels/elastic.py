@@ -32,6 +32,7 @@ import math
 import numpy as np
 
 from .codes import METHOD_EM, STATUS_OK, STATUS_SINGULAR
+from .effects.zonal import zonal_force, zonal_jacobian
 from .gravity import accel, accel_jacobian_coeffs, em_accel, em_jacobian_coeffs
 from .jit import kernel
 
@@ -202,10 +203,15 @@ def tet_forces(method, x0, x1, tet_node, tet_g, tet_V, tet_lam, tet_mu, fn, kt):
 
 
 @kernel
-def gravity_forces(method, gm, c, xg0, xg1, gp_m, fg, kg):
+def gravity_forces(method, gm, c, xg0, xg1, gp_m, fg, kg, zonal_p, zonal_j):
     """Gravity at the gravity points: fg (n_gp, 3) = m g_* and kg (n_gp, 3, 3) = d fg / d x1.
-    Returns STATUS_SINGULAR if a point reached the centre."""
+    Returns STATUS_SINGULAR if a point reached the centre. ``zonal_p``, ``zonal_j``: the zonal
+    harmonics' parameters (:mod:`.effects.zonal`, centre in the frame of ``xg``) or None, where
+    Numba prunes the zonal code; with them (em only) each point adds the zonal force over the
+    step and its Jacobian."""
     check = 0.0
+    if zonal_p is not None:
+        Jz = np.zeros((3, 3))
     for q in range(gp_m.shape[0]):
         ax = c[0] - xg0[q, 0]
         ay = c[1] - xg0[q, 1]
@@ -239,6 +245,24 @@ def gravity_forces(method, gm, c, xg0, xg1, gp_m, fg, kg):
             for j in range(3):
                 kg[q, i, j] = m * w * u3[i] * b3[j]
             kg[q, i, i] += m * cc
+        if zonal_p is not None:
+            zx, zy, zz = zonal_force(
+                xg0[q, 0], xg0[q, 1], xg0[q, 2], xg1[q, 0], xg1[q, 1], xg1[q, 2], zonal_p[0], zonal_p[1],
+                zonal_p[2], zonal_p[3], zonal_p[4], zonal_p[5], zonal_p[6], zonal_p[7], zonal_j,
+            )  # fmt: skip
+            fg[q, 0] += m * zx
+            fg[q, 1] += m * zy
+            fg[q, 2] += m * zz
+            for i in range(3):
+                for j in range(3):
+                    Jz[i, j] = 0.0
+            zonal_jacobian(
+                xg0[q, 0], xg0[q, 1], xg0[q, 2], xg1[q, 0], xg1[q, 1], xg1[q, 2], zonal_p[0], zonal_p[1],
+                zonal_p[2], zonal_p[3], zonal_p[4], zonal_p[5], zonal_p[6], zonal_p[7], zonal_j, Jz,
+            )  # fmt: skip
+            for i in range(3):
+                for j in range(3):
+                    kg[q, i, j] += m * Jz[i, j]
     if not (abs(check) < math.inf):
         return STATUS_SINGULAR
     return STATUS_OK
