@@ -1,7 +1,6 @@
-"""Record intervals longer than a chunk: a run records every 10 million steps, yet SIGTERM
-stops it within a chunk's time, its file says "interrupted", and resume reaches the records of
-a run that was never stopped, bit for bit (the steps of the unfinished interval are redone
-from the last checkpoint)."""
+"""Record intervals longer than a chunk: a run recording every 1e9 steps (minutes of work per
+interval) stops within seconds of SIGTERM, its file says "interrupted", and resume from its
+checkpoint reaches the records of a run that was never stopped, bit for bit."""
 
 from __future__ import annotations
 
@@ -14,8 +13,9 @@ import time
 import h5py
 import numpy as np
 
-#: the paper's ellipse, 2e7 steps recorded every 1e7: two record intervals of a few seconds each
-ARGS = ["paper-ellipse", "--t-end", "9295160 s", "--every", "10000000", "-q"]
+CLI = [sys.executable, "-m", "emorbit.cli"]
+#: the paper's ellipse (dt = 0.464758 s) recording every 1e9 steps
+EVERY = ["--every", "1000000000", "-q"]
 
 
 def _records(path) -> dict:
@@ -25,16 +25,14 @@ def _records(path) -> dict:
 
 
 def test_sigterm_inside_a_long_record_interval_stops_and_resumes(tmp_path):
-    cli = [sys.executable, "-m", "emorbit.cli"]
-    unbroken = tmp_path / "unbroken.h5"
-    subprocess.run(cli + ["run", *ARGS[:1], "-o", str(unbroken), *ARGS[1:]], check=True, timeout=300)
     path = tmp_path / "stopped.h5"
-    proc = subprocess.Popen(cli + ["run", ARGS[0], "-o", str(path), *ARGS[1:]], stderr=subprocess.PIPE, text=True)
+    run = CLI + ["run", "paper-ellipse", "-o", str(path), "--t-end", "464758000 s", *EVERY]  # 1e9 steps
+    proc = subprocess.Popen(run, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 60
         while not os.path.exists(path) and time.monotonic() < deadline:
             time.sleep(0.02)
-        time.sleep(0.5)  # inside the first interval of 1e7 steps
+        time.sleep(1.0)  # well inside the first interval, about 100 s of work
         sent = time.monotonic()
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=30)
@@ -48,7 +46,10 @@ def test_sigterm_inside_a_long_record_interval_stops_and_resumes(tmp_path):
     with h5py.File(path, "r") as f:
         assert f.attrs["status"] == "interrupted"
         assert f["time"].shape[0] == 1  # the start only: the interval was not finished
-    subprocess.run(cli + ["resume", str(path), "--t-end", "9295160 s", "-q"], check=True, timeout=300)
+    # resumed to 2e7 steps, against a run to the same time that was never stopped
+    subprocess.run(CLI + ["resume", str(path), "--t-end", "9295160 s", "-q"], check=True, timeout=300)
+    unbroken = tmp_path / "unbroken.h5"
+    subprocess.run(CLI + ["run", "paper-ellipse", "-o", str(unbroken), "--t-end", "9295160 s", *EVERY], check=True)
     got, want = _records(path), _records(unbroken)
     for name, a in want.items():
         np.testing.assert_array_equal(got[name], a, err_msg=name)
