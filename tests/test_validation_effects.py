@@ -173,3 +173,42 @@ def test_the_zonal_potential_matches_reboundx_with_j4():
         ours, theirs = float(zonal_potential(x, 3.986e14, h)), reboundx_potential(x, 3.986e14, h)
         scale = 3.986e14 / np.linalg.norm(x) * J2 * (R_EARTH / np.linalg.norm(x)) ** 2  # |J2 term| at most
         assert abs(ours - theirs) <= 1e-14 * scale
+
+
+def test_brouwer_with_j2_passes_in_its_quick_form(tmp_path, capsys):
+    """Brouwer's law with J2..J6 on, a case of the suite: listed, and its quick form (32
+    copies of an eccentric inclined LEO orbit, 2e5 steps at T/100) passes: the RMS energy
+    error, the zonal potential included, grows with slope 0.5 +- 0.1 and the mean stays
+    below half of it."""
+    assert main(["validate", "--list"]) == 0
+    assert "brouwer-j2" in capsys.readouterr().out.split()
+    assert main(["validate", "--quick", "--cases", "brouwer-j2", "--report", str(tmp_path), "-q"]) == 0
+    (case,) = json.loads((tmp_path / "results.json").read_text())["cases"]
+    assert case["name"] == "brouwer-j2" and case["passed"], _failed(case)
+    checks = {ch["id"]: ch for ch in case["checks"]}
+    assert set(checks) == {"brouwer-j2-slope-100", "brouwer-j2-mean-100"}
+    assert checks["brouwer-j2-slope-100"]["value"] <= 0.1 and checks["brouwer-j2-mean-100"]["value"] <= 0.5
+    assert 0 < case["metrics"]["rms_final_100"]["value"] < 1e-13 and case["metrics"]["cpu_s_100"]["value"] > 0
+    assert case["figures"] == ["brouwer-j2.png"] and (tmp_path / "brouwer-j2.png").read_bytes()[:8] == PNG
+
+
+def test_a_drifting_energy_fails_brouwer_with_j2(tmp_path, monkeypatch):
+    """A linear drift of the recorded energy (1e-13 of E over the run, 20 times the walk's
+    RMS) makes the RMS grow with slope near 1 and the mean as large as the RMS: both checks
+    fail."""
+    from emorbit.validation import brouwer
+
+    honest = brouwer._relative_zonal
+
+    def drifting(sim, x, v):
+        rel = honest(sim, x, v)
+        return rel + 1e-13 * np.linspace(0.0, 1.0, rel.shape[1])
+
+    monkeypatch.setattr(brouwer, "_relative_zonal", drifting)
+    out = brouwer.run_study("brouwer-j2", "quick", str(tmp_path), figures=False)
+    checks = {ch["id"]: ch for ch in out["checks"]}
+    assert not out["passed"] and _failed(out) == set(checks)
+    slope = 0.5 + checks["brouwer-j2-slope-100"]["value"]  # above 0.5: the value is |slope - 0.5|
+    assert slope == pytest.approx(1.0, abs=0.15), checks["brouwer-j2-slope-100"]["detail"]
+    assert f"slope {slope:.3f}" in checks["brouwer-j2-slope-100"]["detail"]
+    assert checks["brouwer-j2-mean-100"]["value"] > 0.9

@@ -13,7 +13,8 @@ shadow). Run it with ``emorbit validate [--quick] --report DIR`` or from Python:
 Modules: :mod:`.cases` (initial conditions, steps, run lengths), :mod:`.runs` (emorbit,
 REBOUND and Kepler trajectories on shared record times), :mod:`.checks` (tolerances with
 units and reasons), :mod:`.runner` (one case: runs, checks, convergence study),
-:mod:`.brouwer` (round-off over many steps, full suite), :mod:`.figures`, :mod:`.report`
+:mod:`.brouwer` (round-off over many steps: the paper's orbit in the full suite, and
+``brouwer-j2``, with J2..J6, a case of both suites), :mod:`.figures`, :mod:`.report`
 (Markdown and JSON), :mod:`.suite` (the whole suite), :mod:`.cli` (``emorbit validate``).
 The cases of the effects (zonal harmonics, mutual gravity): :mod:`.effect_cases`,
 :mod:`.effect_runs`, :mod:`.effect_runner`, :mod:`.effect_checks`, :mod:`.secular`,

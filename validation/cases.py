@@ -7,7 +7,9 @@ steps per tau_p (and at least 100 per orbit), so that errors are comparable acro
 eccentricities; orders 4-8 run at a quarter of that step (the paper's T/400).
 
 The cases of the effects beyond the central field (zonal harmonics, mutual gravity) are
-:mod:`.effect_cases`; :data:`CASES` lists them after the orbit cases.
+:mod:`.effect_cases`; :data:`CASES` lists them after the orbit cases. The studies of
+:data:`STUDY_CASES` (Brouwer's law with J2..J6, :mod:`.brouwer`) are cases of the suite as
+well, listed before the effect cases; :func:`get_cases` gives each as a :class:`Study`.
 """
 
 from __future__ import annotations
@@ -23,7 +25,16 @@ from emorbit import orbits
 
 from .effect_cases import EFFECT_CASES, EffectCase, effect_cases
 
-__all__ = ["Case", "CASES", "case_names", "get_cases", "periapsis_timescale", "steps_per_orbit"]
+__all__ = [
+    "Case",
+    "CASES",
+    "STUDY_CASES",
+    "Study",
+    "case_names",
+    "get_cases",
+    "periapsis_timescale",
+    "steps_per_orbit",
+]
 
 #: the paper's orbit (Goettlicher & Schweizerhof): r_max = 10 m, GM = 3.9478 m^3/s^2
 PAPER_GM = 3.9478
@@ -170,6 +181,22 @@ class Case:
             (n,), s.
         """
         return np.asarray(orbits.kepler_period(self.semi_major_axes(), self.gm), float)
+
+
+@dataclass(frozen=True)
+class Study:
+    """A study over many steps that is a case of the suite (run by :func:`.brouwer.run_study`).
+
+    Attributes
+    ----------
+    name : str
+        Its name in :data:`STUDY_CASES`.
+    mode : str
+        ``"quick"`` or ``"full"``.
+    """
+
+    name: str
+    mode: str
 
 
 def _single(
@@ -457,12 +484,26 @@ def _cloud(n_quick: int = 200, n_full: int = 1000, seed: int = 20240607) -> dict
     return out
 
 
-def _all_cases(mode: str) -> dict[str, Case | EffectCase]:
+#: the studies that are cases of the suite (their runs: :data:`.brouwer.STUDIES`)
+STUDY_CASES = ("brouwer-j2",)
+
+
+def _all_cases(mode: str) -> dict[str, Case | EffectCase | Study]:
     cases = [_paper(), *_family(), *_earth(), _cloud()[mode]]
-    return {**{c.name: c for c in cases}, **effect_cases(mode)}
+    studies = {name: Study(name, mode) for name in STUDY_CASES}
+    return {**{c.name: c for c in cases}, **studies, **effect_cases(mode)}
 
 
-CASES = ("paper", *(f[0] for f in _FAMILY), "earth-leo", "earth-molniya", "earth-geo", "cloud", *EFFECT_CASES)
+CASES = (
+    "paper",
+    *(f[0] for f in _FAMILY),
+    "earth-leo",
+    "earth-molniya",
+    "earth-geo",
+    "cloud",
+    *STUDY_CASES,
+    *EFFECT_CASES,
+)
 
 
 def case_names() -> tuple[str, ...]:
@@ -476,8 +517,8 @@ def case_names() -> tuple[str, ...]:
     return CASES
 
 
-def get_cases(mode: str, names=None) -> list[Case | EffectCase]:
-    """The cases of a mode, all or some (orbit cases and effect cases).
+def get_cases(mode: str, names=None) -> list[Case | EffectCase | Study]:
+    """The cases of a mode, all or some (orbit cases, studies and effect cases).
 
     Parameters
     ----------
@@ -488,7 +529,7 @@ def get_cases(mode: str, names=None) -> list[Case | EffectCase]:
 
     Returns
     -------
-    list of Case or EffectCase
+    list of Case, EffectCase or Study
         The cases.
     """
     table = _all_cases(mode)

@@ -33,6 +33,7 @@ __all__ = [
     "SECULAR_NODE",
     "SECULAR_PERIGEE",
     "RETURN_AFTER_PERIOD",
+    "RANDOM_WALK_SLOPE",
     "Period",
     "measure_period",
     "richardson",
@@ -100,6 +101,13 @@ SECULAR_PERIGEE = 15.0
 #: published initial conditions and period carry 8 and 9 digits (rounding ~5e-9); 1e-6
 #: allows 200 times that for its growth over one period, and is 1e-7 of the motion
 RETURN_AFTER_PERIOD = 1e-6
+
+# -- the Brouwer studies (validation/brouwer.py) -------------------------------------------
+#: |slope - 0.5| of the ensemble RMS energy error against steps on log-log axes: round-off
+#: independent from step to step adds up as a random walk (Brouwer's law, slope 0.5), a
+#: systematic drift grows like steps (slope 1); 0.1 allows for the scatter of an RMS over
+#: 32 runs
+RANDOM_WALK_SLOPE = 0.1
 
 
 @dataclass

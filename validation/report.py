@@ -7,6 +7,7 @@ import json
 import math
 import os
 
+from .cases import STUDY_CASES
 from .effect_cases import EFFECT_CASES, RIGID_BINARY_NOTE
 
 __all__ = ["write_json", "write_markdown"]
@@ -119,6 +120,14 @@ def write_markdown(suite: dict, outdir: str) -> str:
             "effects beyond the central field: zonal harmonics against REBOUND IAS15 with REBOUNDx's "
             "`gravitational_harmonics` and against first-order secular theory, mutual gravity against the "
             "analytic two-body solution and against IAS15. " + RIGID_BINARY_NOTE,
+            "",
+        ]
+    studies = [c["name"] for c in suite["cases"] if c["name"] in ("brouwer", *STUDY_CASES)]
+    if studies:
+        lines += [
+            "The studies (" + ", ".join(f"`{n}`" for n in studies) + ") run em at order 2 on ensembles of "
+            "perturbed copies of one orbit over many steps, and check Brouwer's law instead: the energy error "
+            "is a random walk, not a drift.",
             "",
         ]
     for case in suite["cases"]:

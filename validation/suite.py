@@ -7,13 +7,22 @@ import os
 import platform
 import time
 
-from .cases import case_names, get_cases
+from .cases import Study, case_names, get_cases
 from .effect_cases import EffectCase
 from .effect_runner import run_effect_case
 from .report import write_json, write_markdown
 from .runner import run_case
 
 __all__ = ["run_suite", "environment"]
+
+
+def _run(case, mode: str, outdir: str, scale: float):
+    """One case of the suite: an orbit case, an effect case or a study."""
+    if isinstance(case, Study):
+        from .brouwer import run_study
+
+        return run_study(case.name, mode, outdir, scale=scale)
+    return (run_effect_case if isinstance(case, EffectCase) else run_case)(case, mode, outdir, scale=scale)
 
 
 def _cpu() -> str:
@@ -68,7 +77,8 @@ def run_suite(outdir: str, *, quick: bool = False, names=None, scale: float = 1.
     """Run the validation suite and write its report.
 
     Writes ``report.md``, ``results.json``, one ``<case>.json`` per case and the figures into
-    ``outdir``. The full suite adds the Brouwer study of round-off over many steps.
+    ``outdir``. The full suite adds the Brouwer study of round-off over many steps of the
+    paper's orbit; the study with J2..J6 (``"brouwer-j2"``) is a case of both suites.
 
     Parameters
     ----------
@@ -94,10 +104,7 @@ def run_suite(outdir: str, *, quick: bool = False, names=None, scale: float = 1.
     start = time.perf_counter()
     results = []
     jobs = [
-        (
-            case.name,
-            lambda c=case: (run_effect_case if isinstance(c, EffectCase) else run_case)(c, mode, outdir, scale=scale),
-        )
+        (case.name, lambda c=case: _run(c, mode, outdir, scale))
         for case in get_cases(mode, [n for n in names if n in case_names()] if names else None)
     ]
     if mode == "full" and (names is None or "brouwer" in names):  # a study, not an orbit case
