@@ -15,7 +15,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..integrators import coefficients
 from ..kernels import invariants as inv
 from .pointmasses import ChunkRecords, PointMasses
 from .system import roundoff_scales
@@ -184,4 +183,4 @@ class EffectPoints(PointMasses):
     def work_per_step(self) -> int:
         """Point updates per step, per Newton sweep: n, or n^2 with mutual gravity."""
         n = len(self)
-        return n * n if any(t.kind == "mutual" for t in self.terms) else n * coefficients(2).size
+        return n * n if any(t.kind == "mutual" for t in self.terms) else n
