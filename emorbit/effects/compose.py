@@ -147,7 +147,7 @@ def chunk(x, v, cx, cv, wp, hp, m, {params}, dt, gammas, every, nrec, max_iter, 
                     if (
                         worst <= 4.0 * _EPS
                         or (worst <= 128.0 * _EPS and worst > 0.5 * prev)
-                        or (worst <= 1e-8 and worst * max(worst / prev, coupling) <= 1e-3 * _EPS)
+                        or (prev < math.inf and worst <= 1e-8 and worst * max(worst / prev, coupling) <= 1e-3 * _EPS)
                     ):
                         status = 0
                         break
