@@ -452,3 +452,18 @@ def test_lost_error_is_an_emorbit_error():
     from emorbit.io.hdf5 import FileLostError
 
     assert issubclass(FileLostError, emorbit.EmorbitError)
+
+
+def test_a_run_removes_the_temporary_files_of_killed_runs(tmp_path):
+    """A run SIGKILLed before its first checkpoint leaves its hidden temporary file; the next
+    run to the same path removes it (its process is gone), and leaves a running process's."""
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()  # a process id that no longer runs
+    orphan = tmp_path / f".out.h5.{dead.pid}-deadbeef.tmp"
+    orphan.write_bytes(b"half a file")
+    mine = tmp_path / f".out.h5.{os.getpid()}-cafecafe.tmp"  # this process runs: not an orphan
+    mine.write_bytes(b"a run in progress")
+    other = tmp_path / f".other.h5.{dead.pid}-deadbeef.tmp"  # another path's: not this run's to judge
+    other.write_bytes(b"x")
+    assert main(["run", "paper-ellipse", "-o", str(tmp_path / "out.h5"), "--t-end", "46.4758 s", "-q"]) == 0
+    assert not orphan.exists() and mine.exists() and other.exists()

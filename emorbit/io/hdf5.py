@@ -9,7 +9,8 @@ chunked and growable and every appended block is flushed, so a run that stops ea
 a readable file.
 
 A new file is created under a temporary name in the output's folder and renamed into place
-with its first checkpoint, so an existing file is never truncated and a file at the path
+with its first checkpoint (a run to the same path removes the temporary files of killed
+runs whose process is gone), so an existing file is never truncated and a file at the path
 always has a checkpoint. With ``overwrite`` the existing file is first opened for writing,
 which takes its HDF5 file lock: a file that another run is writing (and so holds locked) is
 refused, never replaced. The writer checks at every flush that its path still names the
@@ -193,6 +194,7 @@ class Writer:
         self._lost = None
         self._overwrite = overwrite
         self._held = _hold(path) if overwrite and os.path.lexists(path) else None
+        _remove_orphans(folder, os.path.basename(path))
         self._temp = os.path.join(folder, f".{os.path.basename(path)}.{os.getpid()}-{secrets.token_hex(4)}.tmp")
         try:
             try:
@@ -573,6 +575,38 @@ class Writer:
                 f"the records this run wrote are not at that path{note}"
             )
         return note
+
+
+def _remove_orphans(folder: str, name: str) -> None:
+    """Remove the hidden temporary files that runs to ``name`` left when they were killed
+    (SIGKILL) before their first checkpoint gave the file its name: those whose process is
+    gone. A temporary file of a process that still runs is its run's, and stays."""
+    prefix = f".{name}."
+    try:
+        entries = os.listdir(folder)
+    except OSError:
+        return
+    for entry in entries:
+        if not (entry.startswith(prefix) and entry.endswith(".tmp")):
+            continue
+        pid = entry[len(prefix) : -len(".tmp")].split("-", 1)[0]
+        if not pid.isdigit() or _alive(int(pid)):
+            continue
+        try:
+            os.unlink(os.path.join(folder, entry))
+        except OSError:
+            pass
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process with this id runs (on this machine)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True  # another user's, or not ours to ask: leave its file alone
+    return True
 
 
 def _discard(file, temp, held) -> None:
