@@ -112,8 +112,8 @@ CONFIGS = {
 }
 
 
-def ensemble_states(n: int, seed: int = 1):
-    """The bench's ensemble of test particles around GM = 3.9478 m^3/s^2.
+def ensemble_states(n: int, seed: int = 1, a=(5.0, 10.0), e=(0.0, 0.9), gm: float = GM):
+    """The bench's ensemble of test particles: by default around GM = 3.9478 m^3/s^2.
 
     a uniform in [5, 10] m, e uniform in [0, 0.9], isotropic planes (cos i, node and argument
     of pericentre uniform), time-uniform phases (mean anomaly uniform).
@@ -124,6 +124,10 @@ def ensemble_states(n: int, seed: int = 1):
         Number of particles.
     seed : int
         Seed of numpy's default generator.
+    a, e : tuple of float
+        The ranges of the semi-major axis (m) and the eccentricity.
+    gm : float
+        GM of the centre, m^3/s^2.
 
     Returns
     -------
@@ -131,13 +135,13 @@ def ensemble_states(n: int, seed: int = 1):
         (3, n) positions (m) and velocities (m/s), C-contiguous.
     """
     rng = np.random.default_rng(seed)
-    a = rng.uniform(5.0, 10.0, n)
-    e = rng.uniform(0.0, 0.9, n)
+    a = rng.uniform(*a, n)
+    e = rng.uniform(*e, n)
     inc = np.arccos(rng.uniform(-1.0, 1.0, n))
     raan, argp, M = (rng.uniform(0.0, 2 * np.pi, n) for _ in range(3))
     E = solve_kepler(M, e)
     nu = 2 * np.arctan2(np.sqrt(1 + e) * np.sin(E / 2), np.sqrt(1 - e) * np.cos(E / 2))
-    x, v = state_from_elements((a, e, inc, raan, argp, nu), GM)
+    x, v = state_from_elements((a, e, inc, raan, argp, nu), gm)
     return np.ascontiguousarray(x.T), np.ascontiguousarray(v.T)
 
 

@@ -52,7 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .common import CONFIGS, point_masses
+from .common import CONFIGS, ensemble_states, point_masses
 from .timing import calibrate, clock, paired_ratio, since, timed
 
 __all__ = [
@@ -175,17 +175,7 @@ def earth_orbits(n: int, gm: float, seed: int = 3):
     x, v : ndarray
         (3, n) positions (m) and velocities (m/s), C-contiguous.
     """
-    from ..orbits import solve_kepler, state_from_elements
-
-    rng = np.random.default_rng(seed)
-    a = rng.uniform(_R_LOW, _R_HIGH, n)
-    e = rng.uniform(0.0, 0.02, n)
-    inc = np.arccos(rng.uniform(-1.0, 1.0, n))
-    raan, argp, M = (rng.uniform(0.0, 2 * np.pi, n) for _ in range(3))
-    E = solve_kepler(M, e)
-    nu = 2 * np.arctan2(np.sqrt(1 + e) * np.sin(E / 2), np.sqrt(1 - e) * np.cos(E / 2))
-    x, v = state_from_elements((a, e, inc, raan, argp, nu), gm)
-    return np.ascontiguousarray(x.T), np.ascontiguousarray(v.T)
+    return ensemble_states(n, seed, a=(_R_LOW, _R_HIGH), e=(0.0, 0.02), gm=gm)
 
 
 def _point_energies(terms, x, v) -> np.ndarray:
