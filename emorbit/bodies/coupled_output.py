@@ -61,9 +61,7 @@ class StructureOutput(BodySystem):
         relative to the reference point (:meth:`relative`)."""
         Mv = self.Ms @ v
         T = 0.5 * float(np.sum(v * Mv))
-        urel, ref = self.relative(u, np.zeros_like(u))
-        xn = np.empty((self.node_slot.shape[0], 3))
-        kel.combine_rows(urel, self.node_slot, self.node_coef, xn)
+        xn, ref = self._nodes(u)
         W = kel.strain_energy(
             xn,
             self.bar_node,
@@ -77,17 +75,28 @@ class StructureOutput(BodySystem):
         )
         V = 0.0
         if gm != 0.0 and self.gp_m.size:
-            xg = np.empty((self.gp_m.size, 3))
-            kel.combine_rows(xn, self.gp_node, self.gp_w, xg)
-            V = -gm * float(np.sum(self.gp_m / np.linalg.norm(xg - (c - ref), axis=1)))
-            if getattr(self, "zonal", None) is not None:
-                V += self._zonal_energy(xg + ref)
+            V, zonal = self._potentials(xn, ref, gm, c)
+            if zonal is not None:
+                V += zonal
         return T, W, V, Mv, xn
 
-    def _zonal_energy(self, xg) -> float:
-        """The zonal harmonics' potential energy of the gravity points at positions xg, J."""
+    def _nodes(self, u):
+        """The node positions relative to the reference point (:meth:`relative`), and that point."""
+        urel, ref = self.relative(u, np.zeros_like(u))
+        xn = np.empty((self.node_slot.shape[0], 3))
+        kel.combine_rows(urel, self.node_slot, self.node_coef, xn)
+        return xn, ref
+
+    def _potentials(self, xn, ref, gm, c):
+        """The central field's and the zonal harmonics' potential energy of the gravity points
+        (J; zonal None without zonal harmonics), from the nodes xn relative to ``ref``."""
+        xg = np.empty((self.gp_m.size, 3))
+        kel.combine_rows(xn, self.gp_node, self.gp_w, xg)
+        central = -gm * float(np.sum(self.gp_m / np.linalg.norm(xg - (c - ref), axis=1)))
+        if getattr(self, "zonal", None) is None:
+            return central, None
         active = np.ones(self.gp_m.size, bool)
-        return float(self.zonal.potential(xg.T[None], self.gp_m, active)[0])
+        return central, float(self.zonal.potential((xg + ref).T[None], self.gp_m, active)[0])
 
     def effect_energies(self, rec, nrec, gm, center) -> dict:
         """Each effect's potential energy at each record where the structure feels zonal
@@ -97,13 +106,7 @@ class StructureOutput(BodySystem):
         c = np.asarray(center, float)
         central, zonal = np.empty(nrec), np.empty(nrec)
         for r in range(nrec):
-            urel, ref = self.relative(rec.u[r], np.zeros_like(rec.u[r]))
-            xn = np.empty((self.node_slot.shape[0], 3))
-            kel.combine_rows(urel, self.node_slot, self.node_coef, xn)
-            xg = np.empty((self.gp_m.size, 3))
-            kel.combine_rows(xn, self.gp_node, self.gp_w, xg)
-            central[r] = -gm * float(np.sum(self.gp_m / np.linalg.norm(xg - (c - ref), axis=1)))
-            zonal[r] = self._zonal_energy(xg + ref)
+            central[r], zonal[r] = self._potentials(*self._nodes(rec.u[r]), gm, c)
         return {"potential_central": central, f"potential_{self.zonal.label}": zonal}
 
     def invariants(self, rec, nrec, gm, center):
