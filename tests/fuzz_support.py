@@ -1,13 +1,13 @@
 """What the fuzz tests share: a small valid scene with a point, a rigid and an elastic body,
-TOML text from a dict, the command line run in this process with its output captured and a
-watchdog on its time, and the checks of a clean error and of a correct run."""
+TOML text from a dict (:func:`emorbit.sweep.scene_text.scene_toml`), the command line run in
+this process with its output captured and a watchdog on its time, and the checks of a clean
+error and of a correct run."""
 
 from __future__ import annotations
 
 import contextlib
 import faulthandler
 import io
-import json
 import os
 import re
 import sys
@@ -16,6 +16,7 @@ import numpy as np
 
 import emorbit
 from emorbit.cli import main
+from emorbit.sweep.scene_text import scene_toml
 
 #: a valid scene of three bodies and 10 steps (one of each kind: point, rigid, elastic)
 BASE = {
@@ -60,42 +61,8 @@ BASE = {
 CASE_SECONDS = 120
 
 
-def _string(text: str) -> str:
-    """A TOML basic string: JSON's escapes, except that characters beyond U+FFFF stay as they
-    are (TOML has no surrogate pairs) and DEL is escaped (TOML refuses it raw)."""
-    return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")
-
-
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, float) and not np.isfinite(v):
-        return "nan" if np.isnan(v) else ("inf" if v > 0 else "-inf")
-    if isinstance(v, (int, float)):
-        return repr(v)
-    if isinstance(v, str):
-        return _string(v)
-    if isinstance(v, list):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{_string(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
-    raise TypeError(v)
-
-
-def to_toml(d: dict) -> str:
-    """TOML text of a scene or sweep dict: tables, arrays of tables, inline tables below them."""
-    head, out = [], []
-    for key, value in d.items():
-        if isinstance(value, dict):
-            out.append(f"[{_string(key)}]")
-            out += [f"{_string(k)} = {_toml_value(v)}" for k, v in value.items()]
-        elif isinstance(value, list) and value and all(isinstance(x, dict) for x in value):
-            for item in value:
-                out.append(f"[[{_string(key)}]]")
-                out += [f"{_string(k)} = {_toml_value(v)}" for k, v in item.items()]
-        else:
-            head.append(f"{_string(key)} = {_toml_value(value)}")
-    return "\n".join(head + out) + "\n"
+#: TOML text of a scene or sweep dict: the writer a sweep run's file uses for its scene
+to_toml = scene_toml
 
 
 @contextlib.contextmanager

@@ -222,6 +222,8 @@ def edit(draw, f) -> tuple[str, set]:
             st.sampled_from(["rename body", "drop body", "add body", "checkpoint_next", "drop final_state", "group"])
         )
         bodies = sorted(f["bodies"])
+        if not bodies and how in ("rename body", "drop body", "add body"):
+            how = "group"  # an earlier edit dropped the only body
         if how == "rename body":
             f.move(f"bodies/{bodies[0]}", f"bodies/{bodies[0]}x")
         elif how == "drop body":
@@ -235,7 +237,10 @@ def edit(draw, f) -> tuple[str, set]:
         elif how == "drop final_state" and "final_state" in f:
             del f["final_state"]
         else:
-            name = draw(st.sampled_from(_datasets(f, cp)))
+            names = _datasets(f, cp) if isinstance(f.get(cp), h5py.Group) else []
+            if not names:
+                return "no checkpoint dataset left to turn into a group", set()
+            name = draw(st.sampled_from(names))
             del f[name]
             f.create_group(name)
             return f"{name} a group", {name}
