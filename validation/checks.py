@@ -15,6 +15,7 @@ import numpy as np
 from emorbit import analysis
 
 __all__ = [
+    "run_checked",
     "Check",
     "EPS",
     "ENERGY_ORDER2",
@@ -310,3 +311,38 @@ def wrap(angle):
         rad.
     """
     return np.mod(np.asarray(angle, float) + np.pi, 2 * np.pi) - np.pi
+
+
+def run_checked(case_run) -> str | None:
+    """Run a case (``case_run.run()``); an exception becomes a failed check.
+
+    Parameters
+    ----------
+    case_run : object
+        With ``run()`` and a list ``checks``.
+
+    Returns
+    -------
+    str or None
+        The exception's one-line text, after the check "case-error" (with its traceback) was
+        appended to ``case_run.checks``; None when the case ran to the end.
+    """
+    import traceback
+
+    try:
+        case_run.run()
+    except Exception as exc:  # noqa: BLE001 - reported as a failed check with its traceback
+        case_run.checks.append(
+            Check(
+                "case-error",
+                "the case ran to the end",
+                "no exception",
+                math.inf,
+                0.0,
+                "",
+                "a case that cannot run has failed",
+                traceback.format_exc(limit=4),
+            )
+        )
+        return "".join(traceback.format_exception_only(type(exc), exc)).strip()
+    return None

@@ -19,12 +19,11 @@ from __future__ import annotations
 
 import math
 import time
-import traceback
 
 import numpy as np
 
 from . import checks as C
-from .checks import Check
+from .checks import Check, run_checked
 from .effect_cases import EffectCase
 from .effect_runs import EffectTrajectory, effect_record_times, run_em, run_ias15, two_body_analytic
 
@@ -232,23 +231,7 @@ def run_effect_case(case: EffectCase, mode: str, outdir: str, *, scale: float = 
 
     start = time.perf_counter()
     r = EffectRun(case, mode, scale, outdir)
-    error = None
-    try:
-        r.run()
-    except Exception as exc:  # noqa: BLE001 - reported as a failed check with its traceback
-        error = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-        r.checks.append(
-            Check(
-                "case-error",
-                "the case ran to the end",
-                "no exception",
-                math.inf,
-                0.0,
-                "",
-                "a case that cannot run has failed",
-                traceback.format_exc(limit=4),
-            )
-        )
+    error = run_checked(r)
     figs = []
     if figures and error is None:
         from .effect_figures import effect_figures

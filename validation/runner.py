@@ -16,7 +16,6 @@ from __future__ import annotations
 import math
 import os
 import time
-import traceback
 
 import numpy as np
 
@@ -24,7 +23,7 @@ from emorbit import orbits
 
 from . import checks as C
 from .cases import HIGH_ORDER_REFINEMENT, Case
-from .checks import Check, measure_period, richardson, wrap
+from .checks import Check, measure_period, richardson, run_checked, wrap
 from .runs import Trajectory, analytic, record_times, run_emorbit, run_rebound
 
 __all__ = ["run_case", "CaseOutcome"]
@@ -584,23 +583,7 @@ def run_case(case: Case, mode: str, outdir: str, *, scale: float = 1.0, figures:
     """
     start = time.perf_counter()
     r = _CaseRun(case, mode, scale, outdir)
-    error = None
-    try:
-        r.run()
-    except Exception as exc:  # noqa: BLE001 - reported as a failed check with its traceback
-        error = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-        r.checks.append(
-            Check(
-                "case-error",
-                "the case ran to the end",
-                "no exception",
-                math.inf,
-                0.0,
-                "",
-                "a case that cannot run has failed",
-                traceback.format_exc(limit=4),
-            )
-        )
+    error = run_checked(r)
     figs = []
     if figures and error is None:
         from .figures import case_figures
