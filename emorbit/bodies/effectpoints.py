@@ -156,8 +156,13 @@ class EffectPoints(PointMasses):
         dict
             {``potential_<label>``: (nrec,) J}.
         """
+        cached = getattr(self, "_last_energies", None)  # invariants, scales and the file ask for the same
+        if cached is not None and cached[0] is rec and cached[1] == nrec:
+            return cached[2]
         x = rec.x[:nrec]
-        return {f"potential_{t.label}": t.potential(x, self.masses, self._active(t)) for t in self.terms}
+        out = {f"potential_{t.label}": t.potential(x, self.masses, self._active(t)) for t in self.terms}
+        self._last_energies = (rec, nrec, out)
+        return out
 
     def invariants(self, rec: ChunkRecords, nrec: int, gm: float, center):
         """Energy (kinetic plus every effect's potential), momentum and angular momentum about
