@@ -22,6 +22,7 @@ import numpy as np
 
 from .bodies.pointmasses import PointMasses
 from .bodies.system import check_body_name, check_output
+from .effect_setup import EffectSetup
 from .errors import InputError
 from .field import CentralField
 from .integrators import METHODS, check_device, check_order, check_roundoff, get_method
@@ -57,7 +58,7 @@ def _steps_between(t_start: float, t_end: float, dt: float, key: str, dt_key: st
     return int(n)
 
 
-class Simulation(StateQueries, ChunkDriver):
+class Simulation(EffectSetup, StateQueries, ChunkDriver):
     """Bodies in a central field (or in free space), advanced by one method at a fixed step.
 
     Bodies are added with :meth:`add_point`, :meth:`add_rigid` and :meth:`add_elastic`,
@@ -210,73 +211,6 @@ class Simulation(StateQueries, ChunkDriver):
         self.points.device = device
 
     @property
-    def effects(self) -> tuple:
-        """The effects the bodies feel: the central field (where there is one), then those of
-        :meth:`add_effect`, as :class:`~emorbit.effects.base.EffectTerm` (``.kind``, ``.table``)."""
-        from .effects import central
-
-        return ((central.build({}, self.field, "field", None),) if self.field is not None else ()) + tuple(
-            self._effects
-        )
-
-    def add_effect(self, kind: str, *, key: str | None = None, strict: bool = False, **keys) -> None:
-        """Add an effect beyond the central field: ``"zonal"`` or ``"mutual"``
-        (:mod:`emorbit.effects` lists them and their keys).
-
-        Point masses then run the em step compiled for the simulation's effects
-        (:mod:`emorbit.effects.compose`), rigid bodies feel zonal harmonics on their mass
-        points and elastic ones at their gravity points; each effect's potential energy is
-        recorded as ``invariants/potential_<kind>``.
-
-        Parameters
-        ----------
-        kind : str
-            The effect.
-        key : str, optional
-            The name errors give the effect (default ``effect[<i>]``).
-        strict : bool
-            Require units on every dimensional value (scenes do).
-        **keys
-            The effect's keys, e.g. ``model="earth", degree=2`` or ``bodies=["a", "b"]``
-            (Quantities, strings with units or SI numbers).
-
-        Raises
-        ------
-        InputError
-            An unknown effect or key, a value the effect refuses, a method other than em,
-            bodies of a kind the effect does not act on (zonal: every kind; mutual: point
-            masses), a second set of zonal harmonics, or an effect
-            that needs a central field in free space.
-        """
-        from .bodies.effectpoints import EffectPoints
-        from .effects import build
-
-        key = key or f"effect[{len(self._effects)}]"
-        term = build({"kind": kind, **keys}, self.field, key, strict=strict)
-        if self.method != "em":
-            raise InputError(
-                "method", f"effects other than the central field run with method 'em', got {self.method!r}"
-            )
-        if self.adaptive is not None:
-            raise InputError(key, f"{kind!r} runs with fixed steps; this simulation has adaptive steps")
-        if kind == "mutual" and (self.rigid is not None or self.structure is not None):
-            raise InputError(key, f"{kind!r} acts on point masses; this simulation has other bodies")
-        if kind == "zonal" and any(t.kind == "zonal" for t in self._effects):
-            raise InputError(key, "the central body has one set of zonal harmonics; this simulation has it already")
-        same = sum(t.kind == kind for t in self._effects)
-        if same:
-            term.label = f"{kind}_{same + 1}"
-        self._effects.append(term)
-        for system in (self.rigid, self.structure) if kind == "zonal" else ():
-            if system is not None:
-                system.zonal = term
-        if isinstance(self.points, EffectPoints):
-            self.points.terms = list(self.effects)
-            self.points._kernel = None
-        else:
-            self.points = EffectPoints.taking_over(self.points, self.effects)
-
-    @property
     def systems(self) -> list:
         """The body systems that have bodies, in a fixed order (points, rigid, structure)."""
         return [s for s in (self.points, self.rigid, self.structure) if s is not None and len(s)]
@@ -347,6 +281,9 @@ class Simulation(StateQueries, ChunkDriver):
         self._check_method_supports(self.points, key)
         if self.field is not None:
             self.field.check_start(x, x, v, gravity=True, key=xkey, what=f"{x.tolist()} m", motion_key=vkey)
+        if self.structure is not None and self.structure.mutual:  # mutual gravity with other bodies
+            self._structure().add_point(name, m, x, v)
+            return
         self.points.add(name, m, x, v)
 
     def add_rigid(
@@ -373,7 +310,8 @@ class Simulation(StateQueries, ChunkDriver):
         name : str
             A new body name.
         shape : str
-            ``"box"``, ``"cylinder"``, ``"sphere"``, ``"shell"``, ``"dumbbell"`` or ``"mesh"``.
+            ``"box"``, ``"cylinder"``, ``"sphere"``, ``"ellipsoid"``, ``"shell"``, ``"dumbbell"`` or
+            ``"mesh"``.
         position : Quantity or sequence
             Initial position of the centre of mass, m.
         velocity : Quantity or sequence
@@ -400,7 +338,7 @@ class Simulation(StateQueries, ChunkDriver):
             Prefix of the keys that error messages name.
         **shape_params
             The shape's parameters: box ``size``; cylinder ``radius``, ``height``; sphere
-            ``radius``; shell ``radius``, ``mass``; dumbbell ``masses``, ``length``
+            ``radius``; ellipsoid ``semi_axes``; shell ``radius``, ``mass``; dumbbell ``masses``, ``length``
             [, ``end_radius``]; mesh ``nodes``, ``tetrahedra``, ``density``
             [, ``mesh_unit``]; plus ``density`` or ``mass`` and ``refinement`` (cells per
             edge, default 1) where they apply (scenes.md lists them with their units).
@@ -433,7 +371,6 @@ class Simulation(StateQueries, ChunkDriver):
         )
         if self.adaptive is not None:
             raise InputError("adaptive", f"adaptive steps are for point masses only ({key} is a rigid body)")
-        self._no_effects(key, allowed=("zonal",))
         if self.rigid is None:
             self.rigid = RigidBodies()
             self.rigid.zonal = next((t for t in self._effects if t.kind == "zonal"), None)
@@ -459,16 +396,10 @@ class Simulation(StateQueries, ChunkDriver):
             spec["omega_space"],
             spec["params"],
         )
-
-    def _no_effects(self, key: str, allowed=()) -> None:
-        """Rigid and elastic bodies feel the central field and zonal harmonics (mutual gravity
-        acts on point masses only, so far)."""
-        kinds = sorted({t.kind for t in self._effects} - set(allowed))
-        if kinds:
-            raise InputError(key, f"the effects {', '.join(kinds)} act on point masses only; this body is not one")
+        if any(t.kind == "mutual" for t in self._effects):
+            self._gather()
 
     def _structure(self):
-        self._no_effects("body", allowed=("zonal",))
         if self.structure is None:
             from .bodies.coupled import Structure
 
@@ -476,6 +407,7 @@ class Simulation(StateQueries, ChunkDriver):
             self.structure.zonal = next((t for t in self._effects if t.kind == "zonal"), None)
         if self.structure._built:
             raise InputError("body", "bodies and couplings cannot be added after the structure has started running")
+        self.structure.mutual = [t for t in self._effects if t.kind == "mutual"]
         return self.structure
 
     def add_elastic(
@@ -592,6 +524,8 @@ class Simulation(StateQueries, ChunkDriver):
                 motion_key=vkey,
             )
         self._structure().add_elastic(spec)
+        if any(t.kind == "mutual" for t in self._effects):
+            self._gather()
 
     def attach(self, elastic: str, nodes, to: str, key: str = "coupling") -> None:
         """Attach nodes of an elastic body to a rigid body or a point mass.
@@ -747,7 +681,7 @@ class Simulation(StateQueries, ChunkDriver):
         if not self.systems:
             raise InputError("body", "the simulation has no bodies; add one with add_point() or add_rigid()")
         if self._effects:
-            self.points.check(self.method)
+            self._check_effects()
         if (t_end is None) == (steps is None):
             raise InputError("t_end", "give exactly one of t_end and steps")
         n_steps = to_count(steps, "steps", 1, MAX_STEPS) if steps is not None else self.steps_until(t_end)

@@ -18,24 +18,28 @@ with SuperLU (scipy.sparse.linalg.splu). The velocity follows from
 ``M dv = h F - G(u05)^T nu`` with F at the final iterate, M solved through its factorisation
 with one step of iterative refinement: a fixed rounded inverse of M would make the same
 error in every step, which adds up as a drift instead of a random walk. A step that fails
-is redone in two halves, down to 2**MAX_SPLIT sub-steps. What a structure records is
+is redone in two halves, down to 2**MAX_SPLIT sub-steps.
+
+Mutual gravity (:mod:`emorbit.effects.mutual`) between bodies that are not all point masses
+makes them one structure, attached or not: its pair forces act between the mass points of
+different bodies (a point mass's node, a rigid body's mass points, an elastic body's gravity
+points), each mass point's own 3 x 3 block of their Jacobian joins the matrix, and the
+blocks between bodies stay out (the pattern stays that of the bodies alone; the iteration
+converges on those couplings at the rate h^2/2 |dF/dx| per iteration). What a structure records is
 :mod:`emorbit.bodies.coupled_output`.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
-from ..errors import InputError
 from ..integrators.dispatch import method_code
 from ..kernels import coupled as kc
 from ..kernels import elastic as kel
 from ..kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
-from .coupled_output import StructureOutput, StructureRecords
-from .coupled_sparse import EquilibratedLU, KeptFactors, jacobian_pattern, slot_pairs
-from .elastic import ElasticSpec
+from .coupled_layout import StructureLayout
+from .coupled_output import StructureRecords
+from .coupled_sparse import EquilibratedLU, KeptFactors
 
 __all__ = ["Structure", "StructureRecords"]
 
@@ -45,7 +49,7 @@ _FLOOR2 = (2.0**20 * _EPS) ** 2  # a stall (see Structure.step) is accepted only
 _STALLS = 3  # iterations in a row without progress that make a stall
 
 
-class Structure(StructureOutput):
+class Structure(StructureLayout):
     """A coupled structure of elastic bodies, rigid bodies and point masses: one system.
 
     Bodies are added, attachments declared, then :meth:`build` lays out the slots and the
@@ -111,322 +115,13 @@ class Structure(StructureOutput):
         self._rb_omega: list[np.ndarray] = []
         self._built = False
         self.zonal = None  # an EffectTerm of kind "zonal" at the gravity points, or None
-
-    # -- building ---------------------------------------------------------------------------
-    @property
-    def names(self) -> list[str]:
-        """Body names, in the order of adding."""
-        return [b["name"] for b in self.bodies]
-
-    def __len__(self) -> int:
-        return len(self.bodies)
-
-    def __contains__(self, name) -> bool:
-        return any(b["name"] == name for b in self.bodies)
-
-    def _new_slots(self, u, v, kind, mass):
-        s0 = len(self._u)
-        for i in range(len(u)):
-            self._u.append(np.asarray(u[i], float))
-            self._v.append(np.asarray(v[i], float))
-            self._slot_kind.append(kind[i])
-        idx = np.arange(s0, s0 + len(u))
-        self._slot_mass_blocks.append((idx, sp.csr_matrix(mass)))
-        return idx
-
-    def _new_node(self, slots, coefs) -> int:
-        self._node_slot.append(list(slots) + [-1] * (4 - len(slots)))
-        self._node_coef.append(list(coefs) + [0.0] * (4 - len(coefs)))
-        return len(self._node_slot) - 1
-
-    def add_point(self, name, mass, x, v) -> int:
-        """Add a point mass.
-
-        Parameters
-        ----------
-        name : str
-            Its name.
-        mass : float
-            kg.
-        x, v : array_like
-            (3,) position (m) and velocity (m/s).
-
-        Returns
-        -------
-        int
-            Its node index (a node on its own slot).
-        """
-        (s,) = self._new_slots([x], [v], [1], [[mass]])
-        n = self._new_node([s], [1.0])
-        self._gp.append(([n], [1.0], mass))
-        self.bodies.append({"name": name, "kind": "point", "slot": s, "node": n, "mass": float(mass)})
-        return n
-
-    def add_rigid(self, name, points, gravity, position, velocity, R, omega_space, shape="", params=None):
-        """Add a rigid body: four slots (centre of mass and three axes) with 6 constraints.
-
-        Parameters
-        ----------
-        name : str
-            Its name.
-        points : MassPoints
-            Its mass points (:mod:`emorbit.bodies.shapes`).
-        gravity : str
-            ``"volume"``, ``"point"`` or ``"none"``.
-        position, velocity : array_like
-            (3,) centre of mass, m and m/s.
-        R : array_like
-            (3, 3) attitude, body to space.
-        omega_space : array_like
-            (3,) angular velocity in space axes, rad/s.
-        shape : str
-            The shape's name, for the output.
-        params : dict, optional
-            The shape's parameters, for the output.
-
-        Returns
-        -------
-        ndarray
-            Its four slot indices.
-        """
-        E = points.second_moment
-        m = points.mass
-        mass = np.zeros((4, 4))
-        mass[0, 0] = m
-        mass[1:, 1:] = E
-        u = [position] + [R[:, k] for k in range(3)]
-        v = [velocity] + [np.cross(omega_space, R[:, k]) for k in range(3)]
-        slots = self._new_slots(u, v, [1, 0, 0, 0], mass)
-        self._rb_slots.append(list(slots))
-        self._rb_es.append(float(np.trace(E) / 3.0))
-        if gravity == "volume":
-            for i in range(len(points)):
-                X = points.X[:, i]
-                n = self._new_node(slots, [1.0, X[0], X[1], X[2]])
-                self._gp.append(([n], [1.0], float(points.m[i])))
-        elif gravity == "point":
-            n = self._new_node([slots[0]], [1.0])
-            self._gp.append(([n], [1.0], m))
-        self.bodies.append(
-            {
-                "name": name,
-                "kind": "rigid",
-                "slots": slots,
-                "mass": float(m),
-                "points": points,
-                "gravity": gravity,
-                "shape": shape,
-                "params": params or {},
-            }
-        )
-        return slots
-
-    def rigid_node(self, body: str, X) -> int:
-        """Add a node riding on a rigid body.
-
-        Parameters
-        ----------
-        body : str
-            The rigid body.
-        X : array_like
-            (3,) body coordinates relative to its centre of mass, m.
-
-        Returns
-        -------
-        int
-            The node index.
-        """
-        b = self._body(body)
-        return self._new_node(b["slots"], [1.0, float(X[0]), float(X[1]), float(X[2])])
-
-    def point_node(self, body: str) -> int:
-        """The node of a point mass of the structure.
-
-        Parameters
-        ----------
-        body : str
-            The point mass.
-
-        Returns
-        -------
-        int
-            Its node index.
-        """
-        return self._body(body)["node"]
-
-    def _body(self, name):
-        for b in self.bodies:
-            if b["name"] == name:
-                return b
-        raise KeyError(name)
-
-    def add_elastic(self, spec: ElasticSpec) -> None:
-        """Add an elastic body; it is laid out in :meth:`build`, once every attachment is known.
-
-        Parameters
-        ----------
-        spec : ElasticSpec
-            The body.
-        """
-        self._pending = getattr(self, "_pending", [])
-        self._pending.append(spec)
-        self.bodies.append({"name": spec.name, "kind": "elastic", "spec": spec, "mass": float(spec.node_mass.sum())})
-
-    def attach(self, elastic: str, nodes, target: str) -> None:
-        """Declare that nodes of an elastic body ride on another body of the structure.
-
-        On a rigid body a node rides at the material point where it is at :meth:`build`; a
-        node attached to a point mass is that point mass.
-
-        Parameters
-        ----------
-        elastic : str
-            The elastic body.
-        nodes : sequence of int
-            Indices into its mesh's nodes.
-        target : str
-            A rigid body or point mass of the structure.
-        """
-        self._attach = getattr(self, "_attach", [])
-        self._attach.append((elastic, [int(n) for n in nodes], target))
-
-    def _layout_elastic(self, spec: ElasticSpec, attached: dict[int, int]) -> None:
-        """Slots, nodes, elements and gravity points of an elastic body; ``attached`` maps some
-        of its nodes to existing structure nodes (those get no slots of their own, and their
-        mass joins the body they ride on)."""
-        n = spec.nodes.shape[0]
-        free = [i for i in range(n) if i not in attached]
-        Mn = sp.csr_matrix(spec.node_mass)
-        node_of = np.empty(n, dtype=np.int64)
-        slots = self._new_slots(
-            [spec.nodes[i] for i in free],
-            [spec.velocities[i] for i in free],
-            [1] * len(free),
-            Mn[free][:, free].toarray() if len(free) < 2000 else Mn[free][:, free],
-        )
-        for k, i in enumerate(free):
-            node_of[i] = self._new_node([slots[k]], [1.0])
-        for i, target in attached.items():
-            node_of[i] = target
-        # mass of attached nodes (and their coupling to free nodes) goes through the node maps
-        self._node_mass_terms = getattr(self, "_node_mass_terms", [])
-        att = sorted(attached)
-        if att:
-            coo = Mn.tocoo()
-            keep = np.isin(coo.row, att) | np.isin(coo.col, att)
-            self._node_mass_terms.append((node_of[coo.row[keep]], node_of[coo.col[keep]], coo.data[keep]))
-        self._bars.extend(node_of[spec.bars].tolist() if len(spec.bars) else [])
-        self._bar_EA.extend(spec.bar_EA.tolist())
-        self._bar_L.extend(spec.bar_L.tolist())
-        self._tets.extend(node_of[spec.tets].tolist() if len(spec.tets) else [])
-        self._tet_g.extend(list(spec.tet_g))
-        self._tet_V.extend(spec.tet_V.tolist())
-        self._tet_lam.extend(spec.tet_lam.tolist())
-        self._tet_mu.extend(spec.tet_mu.tolist())
-        if spec.gravity:
-            for q in range(spec.gp_m.size):
-                nodes = [int(node_of[a]) for a in spec.gp_node[q] if a >= 0]
-                self._gp.append((nodes, [float(w) for w in spec.gp_w[q][: len(nodes)]], float(spec.gp_m[q])))
-        body = self._body(spec.name)
-        body["nodes"] = node_of
-        body["free_slots"] = slots
-
-    def build(self) -> None:
-        """Lay out the elastic bodies and their attachments, then freeze the arrays and the pattern.
-
-        Called before the first step; later calls do nothing.
-
-        Raises
-        ------
-        InputError
-            An attached node does not start with the velocity of the point it rides on.
-        """
-        if self._built:
-            return
-        for spec in getattr(self, "_pending", []):
-            attached = {}
-            for name, nodes, target in getattr(self, "_attach", []):
-                if name != spec.name:
-                    continue
-                tb = self._body(target)
-                for i in nodes:
-                    if tb["kind"] == "point":
-                        attached[i] = tb["node"]
-                        v_target = self._v[tb["slot"]]
-                    else:
-                        s = tb["slots"]
-                        R = np.column_stack([self._u[k] for k in s[1:]])
-                        X = R.T @ (spec.nodes[i] - self._u[s[0]])
-                        attached[i] = self.rigid_node(target, X)
-                        v_target = self._v[s[0]] + sum(X[k] * self._v[s[1 + k]] for k in range(3))
-                    gap = float(np.linalg.norm(spec.velocities[i] - v_target))
-                    if gap > 1e-9 * max(1.0, float(np.linalg.norm(v_target))):
-                        raise InputError(
-                            f"coupling ({spec.name} -> {target})",
-                            f"node {i} of {spec.name!r} starts at velocity {spec.velocities[i].tolist()} "
-                            f"m/s but the point of {target!r} it rides on moves at {v_target.tolist()} m/s "
-                            f"(difference {gap:.3g} m/s): give the elastic body the same rigid motion",
-                        )
-            self._layout_elastic(spec, attached)
-        ns = len(self._u)
-        self.u = np.ascontiguousarray(np.array(self._u, dtype=float).reshape(ns, 3))
-        self.v = np.ascontiguousarray(np.array(self._v, dtype=float).reshape(ns, 3))
-        self.cu = np.zeros_like(self.u)
-        self.cv = np.zeros_like(self.v)
-        self.slot_pos = np.array(self._slot_kind, dtype=float)
-        self.node_slot = np.array(self._node_slot, dtype=np.int64).reshape(-1, 4)
-        self.node_coef = np.array(self._node_coef, dtype=float).reshape(-1, 4)
-        # scalar mass matrix over slots
-        rows, cols, vals = [], [], []
-        for idx, Ms in self._slot_mass_blocks:
-            c = Ms.tocoo()
-            rows.append(idx[c.row])
-            cols.append(idx[c.col])
-            vals.append(c.data)
-        for na, nb, mv in getattr(self, "_node_mass_terms", []):
-            for a, b, m_ in zip(na, nb, mv):  # node masses through the node maps: M += m c_a c_b^T
-                for si, sj, ca, cb in slot_pairs(self.node_slot, self.node_coef, a, b):
-                    rows.append(np.array([si]))
-                    cols.append(np.array([sj]))
-                    vals.append(np.array([m_ * ca * cb]))
-        self.Ms = sp.coo_matrix(
-            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(ns, ns)
-        ).tocsc()
-        self.Ms.sum_duplicates()
-        self.Ms_lu = spla.splu(self.Ms)
-        self.mdiag = self.Ms.diagonal()
-        self._Mmul = self.Ms.toarray() if ns <= 300 else self.Ms  # dense matvec for small structures
-        self.bar_node = np.array(self._bars, dtype=np.int64).reshape(-1, 2)
-        self.bar_EA = np.array(self._bar_EA, dtype=float)
-        self.bar_L = np.array(self._bar_L, dtype=float)
-        self.tet_node = np.array(self._tets, dtype=np.int64).reshape(-1, 4)
-        self.tet_g = np.ascontiguousarray(np.array(self._tet_g, dtype=float).reshape(-1, 3, 4))
-        self.tet_V = np.array(self._tet_V, dtype=float)
-        self.tet_lam = np.array(self._tet_lam, dtype=float)
-        self.tet_mu = np.array(self._tet_mu, dtype=float)
-        ng = len(self._gp)
-        self.gp_node = -np.ones((ng, 4), dtype=np.int64)
-        self.gp_w = np.zeros((ng, 4))
-        self.gp_m = np.zeros(ng)
-        for q, (nodes, w, m) in enumerate(self._gp):
-            self.gp_node[q, : len(nodes)] = nodes
-            self.gp_w[q, : len(nodes)] = w
-            self.gp_m[q] = m
-        self.rb_slots = np.array(self._rb_slots, dtype=np.int64).reshape(-1, 4)
-        self.rb_es = np.array(self._rb_es, dtype=float)
-        self.lam = np.zeros(6 * len(self.rb_slots))
-        self.acc = np.zeros_like(self.u)  # the last step's mean acceleration (predictor warm start)
-        self.J, self._indices32, self._indptr32, self.J_mass = jacobian_pattern(
-            self.Ms, self.node_slot, self.bar_node, self.tet_node, self.gp_node, self.rb_slots
-        )
-        if self.newton_option == "auto":
-            self.newton = "full" if self.J.shape[0] < self.AUTO_FULL else "reuse"
-        self._built = True
+        self.mutual: list = []  # EffectTerms of kind "mutual" between the bodies' mass points
 
     # -- stepping ------------------------------------------------------------------------------
     def work_per_step(self) -> int:
-        """Slots, elements and gravity points touched per step."""
-        return int(20 * (self.u.shape[0] + self.tet_node.shape[0] + self.gp_m.size))
+        """Slots, elements and gravity points touched per step (and pairs of mass points)."""
+        pairs = self.mp_m.size**2 // 2 * len(self.mutual)
+        return int(20 * (self.u.shape[0] + self.tet_node.shape[0] + self.gp_m.size) + pairs)
 
     def _forces(self, code, u0, u1, gm, c, h, with_jacobian: bool, with_stiffness: bool | None = None):
         x0n = np.empty((self.node_slot.shape[0], 3))
@@ -449,6 +144,15 @@ class Structure(StructureOutput):
             self.gp_w, self.gp_m, xg0, xg1, gm, c, gm != 0.0, with_jacobian, self.J.indptr, self.J.indices, data,
             F, self._fn, self._kb, self._kt, self._fg, self._kg, *zonal,
         )  # fmt: skip
+        for term, on in zip(self.mutual, self.mp_on):
+            st, _ = kc.fill_mutual(
+                term.params["mutual_p"][0], hf * h, x0n, x1n, self.mp_node, self.mp_w, self.mp_m, self.mp_body, on,
+                self.node_slot, self.node_coef, with_jacobian, self.J.indptr, self.J.indices, data, F, self._xm0,
+                self._xm1, self._fm, self._km, self._fnm, self.mp_cross, self.mp_coef, self.body_slots,
+                self._cross_acc,
+            )  # fmt: skip
+            if st != STATUS_OK:
+                status = st
         return status, F, data
 
     def _solve_mass(self, b):
@@ -724,6 +428,10 @@ class Structure(StructureOutput):
         self._kt = np.empty((nt, 4, 4, 3, 3))
         self._fg = np.empty((ng, 3))
         self._kg = np.empty((ng, 3, 3))
+        nm = self.mp_m.size
+        self._xm0, self._xm1, self._fm = np.empty((nm, 3)), np.empty((nm, 3)), np.empty((nm, 3))
+        self._km = np.empty((nm, 3, 3))
+        self._fnm = np.empty((self.node_slot.shape[0], 3))
         self._nodata = np.zeros(self.J.data.size)
 
     def current(self) -> StructureRecords:

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..kernels import elastic as kel
+from ..kernels.effects.pairs import mutual_potential
 from .rigid import body_angular_velocity
 from .rotations import matrix_to_quaternion
 from .system import BodySystem, roundoff_scales
@@ -78,6 +79,7 @@ class StructureOutput(BodySystem):
             V, zonal = self._potentials(xn, ref, gm, c)
             if zonal is not None:
                 V += zonal
+        V += sum(self._mutual_potentials(xn))
         return T, W, V, Mv, xn
 
     def _nodes(self, u):
@@ -98,16 +100,38 @@ class StructureOutput(BodySystem):
         active = np.ones(self.gp_m.size, bool)
         return central, float(self.zonal.potential((xg + ref).T[None], self.gp_m, active)[0])
 
+    def _mutual_potentials(self, xn) -> list:
+        """Each mutual-gravity term's potential energy over its pairs of mass points, J."""
+        if not self.mutual:
+            return []
+        xm = np.empty((self.mp_m.size, 3))
+        kel.combine_rows(xn, self.mp_node, self.mp_w, xm)
+        return [
+            mutual_potential(t.params["mutual_p"][0], xm, self.mp_m, self.mp_body, on)
+            for t, on in zip(self.mutual, self.mp_on)
+        ]
+
     def effect_energies(self, rec, nrec, gm, center) -> dict:
-        """Each effect's potential energy at each record where the structure feels zonal
-        harmonics: {``potential_central``, ``potential_zonal``: (nrec,) J}; else {}."""
-        if getattr(self, "zonal", None) is None or gm == 0.0 or not self.gp_m.size:
+        """Each effect's potential energy at each record where the structure feels effects
+        beyond the central field: {``potential_central`` (with a field), ``potential_zonal``,
+        ``potential_<mutual label>``: (nrec,) J}; else {}."""
+        zonal = getattr(self, "zonal", None) is not None and gm != 0.0 and self.gp_m.size
+        if not zonal and not self.mutual:
             return {}
         c = np.asarray(center, float)
-        central, zonal = np.empty(nrec), np.empty(nrec)
+        out = {}
         for r in range(nrec):
-            central[r], zonal[r] = self._potentials(*self._nodes(rec.u[r]), gm, c)
-        return {"potential_central": central, f"potential_{self.zonal.label}": zonal}
+            xn, ref = self._nodes(rec.u[r])
+            values = {}
+            if gm != 0.0 and self.gp_m.size:
+                values["potential_central"], z = self._potentials(xn, ref, gm, c)
+                if z is not None:
+                    values[f"potential_{self.zonal.label}"] = z
+            for t, e in zip(self.mutual, self._mutual_potentials(xn)):
+                values[f"potential_{t.label}"] = e
+            for name, e in values.items():
+                out.setdefault(name, np.empty(nrec))[r] = e
+        return out
 
     def invariants(self, rec, nrec, gm, center):
         """Energy (kinetic, strain and potential), momentum and angular momentum at each record."""

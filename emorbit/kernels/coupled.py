@@ -9,6 +9,10 @@ values into it:
 
 * :func:`fill_forces`: the element and gravity forces F mapped to the slots and, for
   Newton, ``-h**2/2 K`` of the element stiffness and the gravity load stiffness;
+* :func:`fill_mutual`: mutual gravity between the mass points of different bodies
+  (:mod:`.effects.pairs`), mapped to the slots, and ``-h**2/2`` times each mass point's own
+  block of its load stiffness (the blocks between bodies stay out of the matrix, which keeps
+  its pattern that of the bodies alone: the iteration converges on them);
 * :func:`fill_constraints`: the rigid bodies' orthonormality constraints
   ``d_k . d_l = delta_kl``: ``(h/2) G(u05)^T nu`` in the momentum rows, ``g(u1)`` scaled by
   ``es`` in the constraint rows, and their derivatives;
@@ -25,10 +29,11 @@ from __future__ import annotations
 import numpy as np
 
 from .codes import STATUS_OK
-from .elastic import bar_forces, csc_find, gravity_forces, spread_rows, tet_forces
+from .effects.pairs import mutual_cross, mutual_forces
+from .elastic import bar_forces, combine_rows, csc_find, gravity_forces, spread_rows, tet_forces
 from .jit import kernel
 
-__all__ = ["fill_forces", "add_block", "fill_constraints", "equilibrate", "scatter"]
+__all__ = ["fill_forces", "fill_mutual", "add_block", "fill_constraints", "equilibrate", "scatter"]
 
 
 @kernel
@@ -108,6 +113,60 @@ def fill_forces(
                         break
                     add_block(na, nb, kg[q], -hh * gp_w[q, a] * gp_w[q, b], node_slot, node_coef, indptr, indices, data)
     return status
+
+
+@kernel
+def fill_mutual(
+    g, hh, x0n, x1n, mp_node, mp_w, mp_m, mp_body, on, node_slot, node_coef, want_K, indptr, indices, data, Fslot,
+    xm0, xm1, fm, km, fnm, cross, coef, body_slots, acc,
+):  # fmt: skip
+    """Mutual gravity between the mass points (mp_node, mp_w: (q, 4) nodes and weights; mp_m
+    masses; mp_body their bodies; ``on`` 1 where a point takes part) added into Fslot and, if
+    ``want_K``, ``-hh`` times each point's own block into ``data``, and the blocks between
+    compact bodies (``cross``, ``coef`` (q, 4) of the slots ``body_slots`` (nb, 4) of each
+    body; ``acc`` (nb, nb, 4, 4, 3, 3) scratch, size 0 along the first axis: none) summed per
+    pair of bodies (:func:`~.effects.pairs.mutual_cross`). xm0, xm1 (q, 3), fm (q, 3),
+    km (q, 3, 3) and fnm (n_nodes, 3) are scratch. Returns (status, coupling) of
+    :func:`~.effects.pairs.mutual_forces`."""
+    combine_rows(x0n, mp_node, mp_w, xm0)
+    combine_rows(x1n, mp_node, mp_w, xm1)
+    status, coupling = mutual_forces(g, xm0, xm1, mp_m, mp_body, on, fm, km)
+    fnm[:, :] = 0.0
+    spread_rows(fm, mp_node, mp_w, fnm)
+    spread_rows(fnm, node_slot, node_coef, Fslot)
+    if want_K:
+        for q in range(mp_m.shape[0]):
+            if on[q] == 0.0:
+                continue
+            for a in range(4):
+                na = mp_node[q, a]
+                if na < 0:
+                    break
+                for b in range(4):
+                    nb = mp_node[q, b]
+                    if nb < 0:
+                        break
+                    add_block(na, nb, km[q], -hh * mp_w[q, a] * mp_w[q, b], node_slot, node_coef, indptr, indices, data)
+        if acc.shape[0] > 0:
+            mutual_cross(g, xm0, xm1, mp_m, mp_body, on, cross, coef, acc)
+            nb = acc.shape[0]
+            for A in range(nb):
+                for B in range(A + 1, nb):
+                    for i in range(4):
+                        si = body_slots[A, i]
+                        if si < 0:
+                            break
+                        for j in range(4):
+                            sj = body_slots[B, j]
+                            if sj < 0:
+                                break
+                            for d in range(3):
+                                for e in range(3):
+                                    v = hh * acc[A, B, i, j, d, e]  # -hh K, K = -G m_a m_b J summed
+                                    if v != 0.0:
+                                        data[csc_find(indptr, indices, 3 * si + d, 3 * sj + e)] += v
+                                        data[csc_find(indptr, indices, 3 * sj + d, 3 * si + e)] += v
+    return status, coupling
 
 
 @kernel

@@ -1,0 +1,112 @@
+"""The effects half of a simulation's set-up: :meth:`EffectSetup.add_effect`, the effects a
+simulation holds, and where mutual gravity puts the bodies.
+
+Point masses under effects run the em step compiled for the simulation's effects
+(:class:`~emorbit.bodies.effectpoints.EffectPoints`, :mod:`emorbit.effects.compose`); rigid and
+elastic bodies feel the central field and zonal harmonics at their mass and gravity points.
+Mutual gravity that reaches a rigid or elastic body makes every body of the simulation part of
+one coupled structure (:class:`~emorbit.bodies.coupled.Structure`), whichever was added first:
+the bodies then attract each other through their mass points within one Newton iteration per
+step.
+"""
+
+from __future__ import annotations
+
+from .errors import InputError
+
+__all__ = ["EffectSetup"]
+
+
+class EffectSetup:
+    """The effects of :class:`emorbit.Simulation`: a base class that holds no state (the
+    simulation's ``_effects``, ``points``, ``rigid`` and ``structure`` are its)."""
+
+    @property
+    def effects(self) -> tuple:
+        """The effects the bodies feel: the central field (where there is one), then those of
+        :meth:`add_effect`, as :class:`~emorbit.effects.base.EffectTerm` (``.kind``, ``.table``)."""
+        from .effects import central
+
+        return ((central.build({}, self.field, "field", None),) if self.field is not None else ()) + tuple(
+            self._effects
+        )
+
+    def add_effect(self, kind: str, *, key: str | None = None, strict: bool = False, **keys) -> None:
+        """Add an effect beyond the central field: ``"zonal"`` or ``"mutual"``
+        (:mod:`emorbit.effects` lists them and their keys).
+
+        Point masses then run the em step compiled for the simulation's effects
+        (:mod:`emorbit.effects.compose`), rigid bodies feel zonal harmonics on their mass
+        points and elastic ones at their gravity points; each effect's potential energy is
+        recorded as ``invariants/potential_<kind>``.
+
+        Parameters
+        ----------
+        kind : str
+            The effect.
+        key : str, optional
+            The name errors give the effect (default ``effect[<i>]``).
+        strict : bool
+            Require units on every dimensional value (scenes do).
+        **keys
+            The effect's keys, e.g. ``model="earth", degree=2`` or ``bodies=["a", "b"]``
+            (Quantities, strings with units or SI numbers).
+
+        Raises
+        ------
+        InputError
+            An unknown effect or key, a value the effect refuses, a method other than em,
+            bodies of a kind the effect does not act on (zonal: every kind; mutual: point
+            masses), a second set of zonal harmonics, or an effect
+            that needs a central field in free space.
+        """
+        from .bodies.effectpoints import EffectPoints
+        from .effects import build
+
+        key = key or f"effect[{len(self._effects)}]"
+        term = build({"kind": kind, **keys}, self.field, key, strict=strict)
+        if self.method != "em":
+            raise InputError(
+                "method", f"effects other than the central field run with method 'em', got {self.method!r}"
+            )
+        if self.adaptive is not None:
+            raise InputError(key, f"{kind!r} runs with fixed steps; this simulation has adaptive steps")
+        if kind == "mutual" and self.structure is not None and self.structure._built:
+            raise InputError(key, "mutual gravity cannot be added after the structure has started running")
+        if kind == "zonal" and any(t.kind == "zonal" for t in self._effects):
+            raise InputError(key, "the central body has one set of zonal harmonics; this simulation has it already")
+        same = sum(t.kind == kind for t in self._effects)
+        if same:
+            term.label = f"{kind}_{same + 1}"
+        self._effects.append(term)
+        for system in (self.rigid, self.structure) if kind == "zonal" else ():
+            if system is not None:
+                system.zonal = term
+        if kind == "mutual" and ((self.rigid is not None and len(self.rigid)) or self.structure is not None):
+            self._gather()
+        if isinstance(self.points, EffectPoints):
+            self.points.terms = list(self.effects)
+            self.points._kernel = None
+        else:
+            self.points = EffectPoints.taking_over(self.points, self.effects)
+
+    def _gather(self) -> None:
+        """Mutual gravity that reaches a rigid or elastic body: every point mass and rigid body
+        joins the structure (one system, one Newton iteration per step over all of them), with
+        the mutual-gravity terms."""
+        st = self._structure()
+        for name in list(self.points.names):
+            st.add_point(name, *self.points.pop(name))
+        for name in list(self.rigid.names) if self.rigid is not None else ():
+            st.add_rigid(name, **self.rigid.pop(name))
+
+    def _check_effects(self) -> None:
+        """The effects' bodies exist where the effects act (raises InputError naming the key)."""
+        st = self.structure
+        if st is None or not st.mutual:
+            self.points.check(self.method)
+            return
+        for term in st.mutual:
+            for name in term.bodies or ():
+                if name not in st.names:
+                    raise InputError(f"{term.key}.bodies", f"no body named {name!r}; bodies: {', '.join(self.names)}")
