@@ -67,7 +67,7 @@ MAX_NEWTON_ITERATIONS = 1_000_000
 #: the kinds of [[body]] and [[coupling]] tables
 BODY_KINDS = ("point", "rigid", "elastic")
 COUPLING_KINDS = ("attach",)
-_RIGID_SHAPES = ("box", "cylinder", "sphere", "shell", "dumbbell", "mesh")
+_RIGID_SHAPES = ("box", "cylinder", "sphere", "ellipsoid", "shell", "dumbbell", "mesh")
 _ELASTIC_MESHES = ("beam", "chain", "net", "file")
 
 
@@ -176,6 +176,7 @@ KEYS: dict[str, tuple[Key, ...]] = {
             'of mass; "none": free motion'),
         Key("size", False, _LENGTHS, "", "> 0", "the edge lengths along the body axes" + _REQ, ("box",)),
         Key("radius", False, _LENGTH, "", "> 0", "the radius" + _REQ, ("cylinder", "sphere", "shell")),
+        Key("semi_axes", False, _LENGTHS, "", "> 0", "the semi-axes along the body axes" + _REQ, ("ellipsoid",)),
         Key("height", False, _LENGTH, "", "> 0", "the length along the body's z axis" + _REQ, ("cylinder",)),
         Key("masses", False, "mass (kg), 2 strings with units", "", "> 0", "the masses of the two ends" + _REQ,
             ("dumbbell",)),
@@ -183,14 +184,14 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("end_radius", False, _LENGTH, "length / 20", "in (0, length / 2)",
             "the radius of each end, a small solid sphere", ("dumbbell",)),
         Key("density", False, "density (kg / m3)", "", "> 0",
-            "the density; box, cylinder, sphere: give density or mass; mesh: required",
-            ("box", "cylinder", "sphere", "mesh")),
+            "the density; box, cylinder, sphere, ellipsoid: give density or mass; mesh: required",
+            ("box", "cylinder", "sphere", "ellipsoid", "mesh")),
         Key("mass", False, "mass (kg)", "", "> 0",
-            "the total mass; box, cylinder, sphere: give density or mass; shell: required",
-            ("box", "cylinder", "sphere", "shell")),
+            "the total mass; box, cylinder, sphere, ellipsoid: give density or mass; shell: required",
+            ("box", "cylinder", "sphere", "ellipsoid", "shell")),
         Key("refinement", False, "integer", "1", ">= 1",
             "elements per edge (more mass points: a better gravity integral, the same inertia)",
-            ("box", "cylinder", "sphere", "shell", "dumbbell")),
+            ("box", "cylinder", "sphere", "ellipsoid", "shell", "dumbbell")),
         Key("nodes", False, "numbers in mesh_unit", "", "n >= 4 rows [x, y, z]", "the mesh's nodes" + _REQ, ("mesh",)),
         Key("tetrahedra", False, "integers", "", "rows [i, j, k, l] of 0-based node indices, positive volume",
             "the mesh's 4-node tetrahedra" + _REQ, ("mesh",)),

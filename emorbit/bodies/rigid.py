@@ -481,6 +481,7 @@ SHAPE_PARAMETERS = {
     "box": {"size": "lengths", "density": "density", "mass": "mass", "refinement": "int"},
     "cylinder": {"radius": "length", "height": "length", "density": "density", "mass": "mass", "refinement": "int"},
     "sphere": {"radius": "length", "density": "density", "mass": "mass", "refinement": "int"},
+    "ellipsoid": {"semi_axes": "lengths", "density": "density", "mass": "mass", "refinement": "int"},
     "shell": {"radius": "length", "mass": "mass", "refinement": "int"},
     "dumbbell": {"masses": "masses", "length": "length", "end_radius": "length", "refinement": "int"},
     "mesh": {"nodes": "mesh", "tetrahedra": "mesh", "mesh_unit": "unit", "density": "density"},
@@ -541,6 +542,7 @@ def _shape_points(shape: str, params: dict, strict: bool, key: str) -> MassPoint
         "box": ("size",),
         "cylinder": ("radius", "height"),
         "sphere": ("radius",),
+        "ellipsoid": ("semi_axes",),
         "shell": ("radius", "mass"),
         "dumbbell": ("masses", "length"),
     }[shape]
@@ -551,6 +553,8 @@ def _shape_points(shape: str, params: dict, strict: bool, key: str) -> MassPoint
     args = dict(kw)
     if shape == "box":
         return fn(args.pop("size"), key=key, **args), kw
+    if shape == "ellipsoid":
+        return fn(args.pop("semi_axes"), key=key, **args), kw
     if shape == "cylinder":
         return fn(args.pop("radius"), args.pop("height"), key=key, **args), kw
     if shape in ("sphere", "shell"):

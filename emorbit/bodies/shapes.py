@@ -8,7 +8,8 @@ inertia of the continuous shape where it exists, so the two can be compared.
 The quadratures integrate second moments exactly where they can: boxes (2-point Gauss per
 direction per cell), cylinders (2-point Gauss in r with weight r, uniform angles, 2-point
 Gauss along the axis), solid spheres (3-point Gauss in r with weight r^2, Gauss-Legendre in
-cos(theta), uniform in phi), thin spherical shells, and tetrahedral meshes (4-point rule of
+cos(theta), uniform in phi), solid ellipsoids (the sphere's points scaled along the axes),
+thin spherical shells, and tetrahedral meshes (4-point rule of
 degree 2) all reproduce the exact inertia of their geometry at any refinement; refinement
 improves the gravity integral (the gravity-gradient torque and the centre of gravity).
 
@@ -31,6 +32,7 @@ __all__ = [
     "box",
     "cylinder",
     "sphere",
+    "ellipsoid",
     "shell",
     "dumbbell",
     "tetra_mesh",
@@ -306,6 +308,49 @@ def sphere(radius, *, density=None, mass=None, refinement: int = 1, key: str = "
 
 
 @_quiet
+def ellipsoid(semi_axes, *, density=None, mass=None, refinement: int = 1, key: str = "body") -> MassPoints:
+    """A solid homogeneous ellipsoid: the unit sphere's 24 refinement^3 mass points
+    (:func:`sphere`) scaled by the semi-axes along the body axes.
+
+    A linear map keeps a homogeneous body homogeneous, so the scaled quadrature integrates the
+    ellipsoid as the sphere's integrates the ball: its second moments are exact,
+    ``E = m/5 diag(a^2, b^2, c^2)``.
+
+    Parameters
+    ----------
+    semi_axes : array_like
+        (a, b, c) along the body axes, m.
+    density : float, optional
+        kg/m^3; give exactly one of density and mass.
+    mass : float, optional
+        Total mass, kg.
+    refinement : int
+        Radial shells.
+    key : str
+        Prefix of the keys that error messages name.
+
+    Returns
+    -------
+    MassPoints
+        Relative to the centre of mass, with the analytic inertia of the continuous shape.
+
+    Raises
+    ------
+    InputError
+        Semi-axes that are not three positive lengths, not exactly one of density and mass,
+        or a bad refinement.
+    """
+    axes = np.asarray(semi_axes, dtype=float).ravel() if not isinstance(semi_axes, str) else np.zeros(0)
+    if axes.shape != (3,) or not np.all(axes > 0) or not np.all(np.isfinite(axes)):
+        raise InputError(f"{key}.semi_axes", f"three lengths > 0 expected, got {semi_axes!r}")
+    vol = 4.0 / 3.0 * np.pi * float(np.prod(axes))
+    total = _mass_from(density, mass, vol, key)
+    unit = sphere(1.0, mass=total, refinement=refinement, key=key)
+    analytic = np.diag([axes[1] ** 2 + axes[2] ** 2, axes[0] ** 2 + axes[2] ** 2, axes[0] ** 2 + axes[1] ** 2])
+    return _finish(axes[:, None] * unit.X, unit.m, vol, total / 5.0 * analytic, key)
+
+
+@_quiet
 def shell(radius, *, mass, refinement: int = 1, key: str = "body") -> MassPoints:
     """A thin spherical shell, all mass on the surface: 8 refinement^2 mass points.
 
@@ -560,6 +605,7 @@ SHAPES = {
     "box": box,
     "cylinder": cylinder,
     "sphere": sphere,
+    "ellipsoid": ellipsoid,
     "shell": shell,
     "dumbbell": dumbbell,
     "mesh": tetra_mesh,
