@@ -28,6 +28,7 @@ GM_EARTH = const.GM_earth.si.value
         (lambda: shapes.box([3.0, 2.0, 1.0], mass=5.0, refinement=3), 216),
         (lambda: shapes.cylinder(0.5, 2.0, density=3.0, refinement=2), 2 * 2 * 2 * 2 * 8),
         (lambda: shapes.sphere(1.5, density=2.0, refinement=2), 24 * 8),
+        (lambda: shapes.ellipsoid([3.0, 2.0, 0.5], mass=7.0, refinement=2), 24 * 8),
         (lambda: shapes.shell(2.0, mass=4.0, refinement=2), 32),
         (lambda: shapes.dumbbell([1.0, 3.0], 10.0, refinement=1), 48),
     ],
@@ -39,6 +40,15 @@ def test_discrete_inertia_is_exact(points, npts):
     assert len(p) == npts
     np.testing.assert_allclose(p.inertia, p.analytic_inertia, rtol=1e-12, atol=1e-12 * np.abs(p.analytic_inertia).max())
     assert np.abs(p.X @ p.m).max() < 1e-12 * p.mass
+
+
+def test_an_ellipsoid_has_its_volume_and_names_bad_semi_axes():
+    p = shapes.ellipsoid([3.0, 2.0, 0.5], density=2.0)
+    assert p.mass == pytest.approx(2.0 * 4 / 3 * np.pi * 3.0, rel=1e-14)
+    for bad in ([1.0, 2.0], [1.0, -2.0, 3.0], "1 m"):
+        with pytest.raises(InputError, match="three lengths > 0") as exc:
+            shapes.ellipsoid(bad, mass=1.0, key="body['e']")
+        assert exc.value.key == "body['e'].semi_axes"
 
 
 def test_mesh_inertia_and_volume():
