@@ -237,3 +237,41 @@ def test_nothing_joins_mutual_gravity_once_the_structure_runs():
         sim.add_point("late", mass=M, position=[0, D, 0], velocity=[0, 0, 0])
     with pytest.raises(InputError, match="after the structure has started running"):
         sim.add_effect("mutual", bodies=["a", "b"])
+
+
+def test_the_blocks_between_compact_bodies_match_finite_differences():
+    """acc[A, B, i, j] = sum c_ai c_bj G m_a m_b J_ab is minus the derivative of the force on
+    body A's slot i along its points' coefficients with respect to body B's slot j."""
+    from emorbit.kernels.effects.pairs import mutual_cross
+
+    rng = np.random.default_rng(7)
+    n = 10
+    body = (np.arange(n) >= 6).astype(np.int64)  # a rigid body of 6 points and one of 4
+    coef = np.column_stack([np.ones(n), rng.normal(size=(n, 3)) * 20.0])
+    slots0 = rng.normal(size=(2, 4, 3)) * [[[300.0]], [[1.0]]]  # per body: centre, three axes
+    slots0[1, 0] += 500.0
+
+    def points(slots):
+        return np.einsum("ni,nid->nd", coef, slots[body])
+
+    x0 = points(slots0)
+    slots1 = slots0 + rng.normal(size=slots0.shape) * 1e-2
+    m = rng.uniform(1e8, 1e9, n)
+    on, cross = np.ones(n), np.ones(n)
+    acc = np.empty((2, 2, 4, 4, 3, 3))
+    mutual_cross(G, x0, points(slots1), m, body, on, cross, coef, acc)
+
+    def slot_forces(slots):
+        f, k = np.empty((n, 3)), np.empty((n, 3, 3))
+        mutual_forces(G, x0, points(slots), m, body, on, f, k)
+        return np.einsum("ni,nd->nid", coef, f)  # the force on each slot from each point
+
+    step = 1e-3
+    for j in (0, 2):
+        for e in range(3):
+            up, down = slots1.copy(), slots1.copy()
+            up[1, j, e] += step
+            down[1, j, e] -= step
+            d = (slot_forces(up) - slot_forces(down)) / (2 * step)
+            dA = d[body == 0].sum(axis=0)  # (4, 3): d F_{A,i} / d s_{B,j,e}
+            assert np.allclose(dA, -acc[0, 1, :, j, :, e], rtol=1e-5, atol=1e-7 * np.abs(acc).max())
