@@ -1,5 +1,5 @@
-"""emorbit's validation suite: emorbit against REBOUND (IAS15, WHFast), REBOUNDx, astropy's
-constants and units, first-order secular theory and the analytic Kepler solution, with a
+"""emorbit's validation suite: emorbit against REBOUND (IAS15, WHFast), REBOUNDx, scipy's DOP853,
+astropy's constants and units, first-order secular theory and the analytic Kepler solution, with a
 report a reviewer can read.
 
 The repository's ``validation/`` folder is installed as ``emorbit.validation`` (never as a
@@ -18,7 +18,8 @@ units and reasons), :mod:`.runner` (one case: runs, checks, convergence study),
 (Markdown and JSON), :mod:`.suite` (the whole suite), :mod:`.cli` (``emorbit validate``).
 The cases of the effects (zonal harmonics, mutual gravity): :mod:`.effect_cases`,
 :mod:`.effect_runs`, :mod:`.effect_runner`, :mod:`.effect_checks`, :mod:`.secular`,
-:mod:`.effect_figures`.
+:mod:`.effect_figures`. The rigid-rigid binary against scipy's DOP853: :mod:`.rigid_binary_case`,
+:mod:`.rigid_binary`, :mod:`.rigid_binary_figures`.
 """
 
 from .cases import case_names, get_cases

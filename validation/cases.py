@@ -7,7 +7,8 @@ steps per tau_p (and at least 100 per orbit), so that errors are comparable acro
 eccentricities; orders 4-8 run at a quarter of that step (the paper's T/400).
 
 The cases of the effects beyond the central field (zonal harmonics, mutual gravity) are
-:mod:`.effect_cases`; :data:`CASES` lists them after the orbit cases. The studies of
+:mod:`.effect_cases`, the rigid-rigid binary :mod:`.rigid_binary_case`; :data:`CASES` lists them
+after the orbit cases (the rigid binary last). The studies of
 :data:`STUDY_CASES` (Brouwer's law with J2..J6, :mod:`.brouwer`) are cases of the suite as
 well, listed before the effect cases; :func:`get_cases` gives each as a :class:`Study`.
 """
@@ -24,6 +25,7 @@ import numpy as np
 from emorbit import orbits
 
 from .effect_cases import EFFECT_CASES, EffectCase, effect_cases
+from .rigid_binary_case import RIGID_BINARY_CASES, RigidBinaryCase, rigid_binary_cases
 
 __all__ = [
     "Case",
@@ -488,10 +490,10 @@ def _cloud(n_quick: int = 200, n_full: int = 1000, seed: int = 20240607) -> dict
 STUDY_CASES = ("brouwer-j2",)
 
 
-def _all_cases(mode: str) -> dict[str, Case | EffectCase | Study]:
+def _all_cases(mode: str) -> dict[str, Case | EffectCase | RigidBinaryCase | Study]:
     cases = [_paper(), *_family(), *_earth(), _cloud()[mode]]
     studies = {name: Study(name, mode) for name in STUDY_CASES}
-    return {**{c.name: c for c in cases}, **studies, **effect_cases(mode)}
+    return {**{c.name: c for c in cases}, **studies, **effect_cases(mode), **rigid_binary_cases(mode)}
 
 
 CASES = (
@@ -503,6 +505,7 @@ CASES = (
     "cloud",
     *STUDY_CASES,
     *EFFECT_CASES,
+    *RIGID_BINARY_CASES,
 )
 
 
@@ -517,8 +520,8 @@ def case_names() -> tuple[str, ...]:
     return CASES
 
 
-def get_cases(mode: str, names=None) -> list[Case | EffectCase | Study]:
-    """The cases of a mode, all or some (orbit cases, studies and effect cases).
+def get_cases(mode: str, names=None) -> list[Case | EffectCase | RigidBinaryCase | Study]:
+    """The cases of a mode, all or some (orbit cases, studies, effect cases and the rigid binary).
 
     Parameters
     ----------
@@ -529,7 +532,7 @@ def get_cases(mode: str, names=None) -> list[Case | EffectCase | Study]:
 
     Returns
     -------
-    list of Case, EffectCase or Study
+    list of Case, EffectCase, RigidBinaryCase or Study
         The cases.
     """
     table = _all_cases(mode)

@@ -19,8 +19,8 @@ gravity (``sim.add_effect("zonal", ...)``, ``sim.add_effect("mutual")``).
 
 Every case runs em at orders 2, 4, 6, 8 (two steps per order for the order of convergence);
 steps are given per ``period`` (the Kepler period of the orbit, the figure-eight's period).
-The rigid-rigid binary (against scipy's DOP853) is not a case yet: rigid bodies do not take
-mutual gravity.
+The rigid-rigid binary (two tumbling ellipsoids of mass points against scipy's DOP853) is the
+case ``rigid-binary`` of :mod:`.rigid_binary_case` and :mod:`.rigid_binary`.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from emorbit.kernels.effects.zonal import MODELS
 
 from .secular import sun_synchronous_inclination
 
-__all__ = ["EffectCase", "EFFECT_CASES", "effect_cases", "J2", "J4", "R_EARTH", "RIGID_BINARY_NOTE"]
+__all__ = ["EffectCase", "EFFECT_CASES", "effect_cases", "J2", "J4", "R_EARTH"]
 
 #: EGM2008's J2 and J4 and its reference radius (emorbit's zonal model "earth")
 J2 = float(MODELS["earth"]["jn"][0])
@@ -45,10 +45,6 @@ J4 = float(MODELS["earth"]["jn"][2])
 R_EARTH = float(MODELS["earth"]["radius"])
 #: the effect cases, in the order they run
 EFFECT_CASES = ("j2-reboundx", "j2-secular", "mutual-two-body", "figure-eight")
-#: what the report says about the case that cannot run yet
-RIGID_BINARY_NOTE = (
-    "The rigid-rigid binary against scipy's DOP853 is not yet run: rigid bodies under mutual gravity are not built."
-)
 
 
 @dataclass

@@ -8,7 +8,8 @@ import math
 import os
 
 from .cases import STUDY_CASES
-from .effect_cases import EFFECT_CASES, RIGID_BINARY_NOTE
+from .effect_cases import EFFECT_CASES
+from .rigid_binary_case import RIGID_BINARY_CASES, RIGID_BINARY_NOTE
 
 __all__ = ["write_json", "write_markdown"]
 
@@ -119,9 +120,11 @@ def write_markdown(suite: dict, outdir: str) -> str:
             "The effect cases (" + ", ".join(f"`{n}`" for n in EFFECT_CASES) + ") run point masses under the "
             "effects beyond the central field: zonal harmonics against REBOUND IAS15 with REBOUNDx's "
             "`gravitational_harmonics` and against first-order secular theory, mutual gravity against the "
-            "analytic two-body solution and against IAS15. " + RIGID_BINARY_NOTE,
+            "analytic two-body solution and against IAS15.",
             "",
         ]
+    if any(c["name"] in RIGID_BINARY_CASES for c in suite["cases"]):
+        lines += [RIGID_BINARY_NOTE, ""]
     studies = [c["name"] for c in suite["cases"] if c["name"] in ("brouwer", *STUDY_CASES)]
     if studies:
         lines += [

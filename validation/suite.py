@@ -11,17 +11,21 @@ from .cases import Study, case_names, get_cases
 from .effect_cases import EffectCase
 from .effect_runner import run_effect_case
 from .report import write_json, write_markdown
+from .rigid_binary import run_rigid_binary
+from .rigid_binary_case import RigidBinaryCase
 from .runner import run_case
 
 __all__ = ["run_suite", "environment"]
 
 
 def _run(case, mode: str, outdir: str, scale: float):
-    """One case of the suite: an orbit case, an effect case or a study."""
+    """One case of the suite: an orbit case, an effect case, the rigid binary or a study."""
     if isinstance(case, Study):
         from .brouwer import run_study
 
         return run_study(case.name, mode, outdir, scale=scale)
+    if isinstance(case, RigidBinaryCase):
+        return run_rigid_binary(case, mode, outdir, scale=scale)
     return (run_effect_case if isinstance(case, EffectCase) else run_case)(case, mode, outdir, scale=scale)
 
 
