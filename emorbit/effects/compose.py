@@ -16,17 +16,22 @@ sub-step ``h = gamma_k dt`` of the composition: the unknowns are the second-orde
 with F_i the sum of the effects' discrete forces per unit mass on point i (its own terms and,
 for mutual gravity, the pair terms with every other point). The iteration starts from the last
 sub-step's w scaled by (h / h_last)^2 (``wp``, ``hp``: state, checkpointed). Each sweep first
-evaluates the pair forces at the current iterates, each pair once for both of its points
-(the effects' ``pairs`` code), then updates every point by one Newton step on its own 3 x 3
-block (the effects' ``own`` code and the pair forces' diagonal blocks;
-:func:`emorbit.kernels.effects.newton.newton_update`): block Jacobi. Sweeps stop when every
+brings the pair forces ``fp`` (3, n) and their coupling bounds ``rho`` (n,) to the current
+iterates (the effects' ``pairs`` code; mutual gravity's,
+:func:`emorbit.kernels.effects.central.pair_pass`, forms every pair in the first sweep of a
+sub-step and afterwards only the pairs of the points that moved), then updates every point by
+one Newton step on its own 3 x 3 block (the effects' ``blocks`` code, the pair forces'
+diagonal blocks where the pairs couple strongly, and ``own`` code, each effect's own force
+and Jacobian; :func:`emorbit.kernels.effects.newton.newton_update`): block Jacobi. An
+effect's ``setup`` code runs once per chunk (its work arrays). Sweeps stop when every
 update is below 4 eps of its increment, or has stalled at round-off (below 128 eps and no
 longer halving), or, after a second sweep, is below 1e-8 with the next update estimated at a
 thousandth of round-off: the update times the larger of the measured contraction (this update
-over the last) and the pair coupling ``rho`` (h^2 / 2 times the norms of d F_i / d x_j summed
-over j). An error that each step leaves with the same sign adds up over a run: stopping at
-eps itself made the energy of a binary drift by 6e-14 in 100 orbits. Positions and velocities are updated with
-Kahan compensation, so the energy error of a long run is a random walk (Brouwer's law).
+over the last) and the pair coupling (6 h^2 / 2 ``rho``, a bound of the norms of
+d F_i / d x_j summed over j). An error that each step leaves with the same sign adds up over
+a run: stopping at eps itself made the energy of a binary drift by 6e-14 in 100 orbits.
+Positions and velocities are updated with Kahan compensation, so the energy error of a long
+run is a random walk (Brouwer's law).
 Data layout: x, v, cx, cv, wp (3, n); hp (1,); m (n,); the effects' parameter arrays;
 records as the point-mass kernels' (rec_x, rec_v (nrec, 3, n), rec_iters (nrec, n),
 fail (n, 2)).
@@ -69,12 +74,11 @@ def chunk(x, v, cx, cv, wp, hp, m, {params}, dt, gammas, every, nrec, max_iter, 
     dx = np.empty((3, n))
     w = np.empty((3, n))
     J = np.empty((3, 3))
-    Ju = np.empty((3, 3))
-    fp = np.zeros((n, 3))  # pair forces per unit mass on each point, at the current iterates
-    jp = np.zeros((n, 3, 3))  # their Jacobian blocks d fp_i / d x1_i
-    rho = np.zeros(n)  # h^2/2 sum_j |d fp_i / d x1_j|: how much point i's update moves with the others'
+    fp = np.zeros((3, n))  # pair forces per unit mass on each point, at the current iterates
+    rho = np.zeros(n)  # sum_j |d fp_i / d x1_j|: times h^2/2, how much point i's update moves with the others'
     sx = np.empty((5, 3, n))  # the state at the start of a composed step: x, v, cx, cv, wp
     hp0 = hp[0]
+{setup}
     for r in range(nrec):
         for i in range(n):
             rec_iters[r, i] = 0
@@ -97,12 +101,6 @@ def chunk(x, v, cx, cv, wp, hp, m, {params}, dt, gammas, every, nrec, max_iter, 
                 status = STATUS_NO_CONVERGENCE
                 coupling = math.inf  # unknown before the first sweep
                 for it in range(max_iter):
-                    for i in range(n):
-                        rho[i] = 0.0
-                        for a in range(3):
-                            fp[i, a] = 0.0
-                            for b in range(3):
-                                jp[i, a, b] = 0.0
 {pairs}
                     worst = 0.0
                     coupling_now = 0.0
@@ -113,12 +111,13 @@ def chunk(x, v, cx, cv, wp, hp, m, {params}, dt, gammas, every, nrec, max_iter, 
                         x1 = x0 + dx[0, i]
                         y1 = y0 + dx[1, i]
                         z1 = z0 + dx[2, i]
-                        fx = fp[i, 0]
-                        fy = fp[i, 1]
-                        fz = fp[i, 2]
+                        fx = fp[0, i]
+                        fy = fp[1, i]
+                        fz = fp[2, i]
                         for a in range(3):
                             for b in range(3):
-                                J[a, b] = jp[i, a, b]
+                                J[a, b] = 0.0
+{blocks}
 {own}
                         d0, d1, d2 = newton_update(J, hh, w[0, i] - hh * fx, w[1, i] - hh * fy, w[2, i] - hh * fz)
                         w[0, i] -= d0
@@ -229,16 +228,20 @@ def step_source(kinds) -> tuple[str, list[str]]:
     imports = sorted({m.KERNEL["imports"] for m in modules})
     options = {k: v for k, v in JIT_OPTIONS.items() if k != "cache"}
     options["cache"] = cache_enabled()
-    pairs = "\n".join(m.KERNEL["pairs"] for m in modules if m.KERNEL["pairs"].strip()) or "pass"
-    own = "\n".join(m.KERNEL["own"] for m in modules if m.KERNEL["own"].strip()) or "pass"
+    code = {
+        key: "\n".join(m.KERNEL.get(key, "") for m in modules if m.KERNEL.get(key, "").strip()) or "pass"
+        for key in ("setup", "pairs", "blocks", "own")
+    }
     source = _TEMPLATE.format(
         names=", ".join(kinds),
         digest=_kernel_digest(modules),
         imports="\n".join(imports),
         options=repr(options),
         params=", ".join(names),
-        own=_indent(own, 24),
-        pairs=_indent(pairs, 20),
+        setup=_indent(code["setup"], 4),
+        pairs=_indent(code["pairs"], 20),
+        blocks=_indent(code["blocks"], 24),
+        own=_indent(code["own"], 24),
     )
     return source, names
 

@@ -13,13 +13,27 @@ equal and opposite (linear momentum is kept) and lie along the mean separation
 field (the field stays fixed, as in the paper) or in free space.
 
 The implicit step couples every pair. :mod:`emorbit.effects.compose` solves it by Newton on
-each body's own 3 x 3 block (its field terms and the diagonal blocks of its pair forces),
-all bodies at once from the pair forces of the last sweep (block Jacobi), until every update
-is at round-off: a sweep evaluates each pair once, for both of its bodies, and no dense
-3n x 3n matrix is formed. Where the pairs couple weakly (h^2/2 times the pair Jacobians' norms
-below 1e-4: their part of each Newton matrix would change the update by less than that), the
-pairs' blocks are left out of the Newton matrices and the pair forces converge by the sweeps
-alone, at that rate per sweep.
+each body's own 3 x 3 block (its field terms and the diagonal block of its pair forces), all
+bodies at once from the pair forces of the last sweep (block Jacobi), until every update is at
+round-off; no dense 3n x 3n matrix is formed. The pair forces come from
+:func:`~emorbit.kernels.effects.central.pair_pass`: the bodies are packed into contiguous
+coordinate arrays, and the first sweep of each sub-step evaluates every pair from each of its
+two sides in branch-free loops that LLVM vectorises (the two sides are bitwise opposite, so
+the pair forces stay equal and opposite); a later sweep evaluates again only the pairs of the
+bodies whose end positions moved (in a cluster, a handful by the third sweep: the others'
+updates fall below the last bit of their positions) and adds each moved body's change to the
+others' forces. A body's pair block joins its Newton matrix where its pairs couple strongly
+(6 h^2/2 times the bound of its pair Jacobians' norms above 1e-4), formed at each sweep's
+iterate; elsewhere the pair forces converge by the sweeps alone, at that rate per sweep.
+
+Rigid and elastic bodies attract each other and point masses through their mass points (a
+rigid body's quadrature points, an elastic body's gravity points): every pair of mass points
+of two different bodies takes the same pair force, which gives the full two-body problem of
+extended bodies (binary asteroids, docking) with E, P and L kept exactly. Such a scene runs
+as one coupled structure (:mod:`emorbit.bodies.coupled`): the pair forces enter its Newton
+iteration with each mass point's own Jacobian block; the blocks between bodies stay out of
+the sparse matrix, and the iteration converges on them at the rate h^2/2 |dF/dx| per
+iteration (:mod:`emorbit.kernels.effects.pairs`). Pairs inside one body are left out.
 
 References: D. Greenspan, Conservative numerical methods for x'' = f(x), J. Comput. Phys. 56
 (1984) 28-41; J. C. Simo, N. Tarnow, Z. angew. Math. Phys. 43 (1992) 757-792.
@@ -41,64 +55,51 @@ SUMMARY = "gravity between the bodies of the scene (all, or those listed)"
 #: the constant of gravitation, m^3 / (kg s^2) (astropy, CODATA)
 G = float(const.G.si.value)
 KEYS = (
-    Key("bodies", False, "array of strings", "every body", "names of point masses in the scene, at least 2",
-        "the bodies that attract each other"),
+    Key("bodies", False, "array of strings", "every body", "names of bodies in the scene, at least 2",
+        "the bodies that attract each other (point masses, rigid and elastic bodies)"),
 )  # fmt: skip
 POTENTIAL = "V = -sum_{i<j} G m_i m_j / |x_i - x_j|"
 DISCRETE_FORCE = "F_ij = -G m_i m_j (d0 + d1) / (r0 r1 (r0 + r1)) = -F_ji, d = x_i - x_j (Greenspan's pair g_em)"
 JACOBIAN = "dF_ij/dx_i1 = the central field's with GM = G m_j; dF_ij/dx_j1 = its negative"
 CONSERVES = ("energy", "linear momentum (in free space)", "angular momentum")
-BODY_KINDS = ("point",)
+BODY_KINDS = ("point", "rigid", "elastic")
 
 KERNEL = {
-    "imports": "from emorbit.kernels.effects.central import pair_force, pair_unit",
+    "imports": "from emorbit.kernels.effects.central import pair_block, pair_blocks, pair_pass",
+    "setup": """
+mutual_idx = np.flatnonzero(mutual_on != 0.0)  # the points that attract each other, packed
+mutual_k = mutual_idx.shape[0]
+mutual_w = np.zeros((17, mutual_k))  # packed rows (pair_pass): x0, x1, G m, forces, rho, new x1, scratch
+mutual_m = np.zeros(mutual_k, np.int64)  # scratch: the points that moved
+mutual_b = np.zeros((9, mutual_k))  # the diagonal Jacobian blocks of the strongly coupled points
+mutual_s = np.zeros(mutual_k)  # 1 where a point is strongly coupled
+mutual_at = np.full(n, -1)  # each point's index in the packed rows (-1: no pair forces)
+for p in range(mutual_k):
+    mutual_at[mutual_idx[p]] = p
+    mutual_w[6, p] = mutual_p[0] * m[mutual_idx[p]]
+""",
     "own": "",
     "pairs": """
-pair_blocks = coupling > 1e-4  # strong coupling: the pairs' own blocks join each point's Newton matrix
-for i in range(n):
-    if mutual_on[i] == 0.0:
-        continue
-    xi0 = x[0, i]
-    yi0 = x[1, i]
-    zi0 = x[2, i]
-    xi1 = xi0 + dx[0, i]
-    yi1 = yi0 + dx[1, i]
-    zi1 = zi0 + dx[2, i]
-    gj = mutual_p[0] * m[i]
-    fxi = 0.0
-    fyi = 0.0
-    fzi = 0.0
-    rhoi = 0.0
-    for j in range(i + 1, n):
-        if mutual_on[j] == 0.0:
-            continue
-        ax = xi0 - x[0, j]
-        ay = yi0 - x[1, j]
-        az = zi0 - x[2, j]
-        bx = xi1 - (x[0, j] + dx[0, j])
-        by = yi1 - (x[1, j] + dx[1, j])
-        bz = zi1 - (x[2, j] + dx[2, j])
-        gi = mutual_p[0] * m[j]
-        if pair_blocks:
-            gx, gy, gz, big = pair_unit(ax, ay, az, bx, by, bz, Ju)
-            for a in range(3):
-                for b in range(3):
-                    jp[i, a, b] += gi * Ju[a, b]
-                    jp[j, a, b] += gj * Ju[a, b]
-        else:
-            gx, gy, gz, big = pair_force(ax, ay, az, bx, by, bz)
-        fxi += gi * gx
-        fyi += gi * gy
-        fzi += gi * gz
-        fp[j, 0] -= gj * gx
-        fp[j, 1] -= gj * gy
-        fp[j, 2] -= gj * gz
-        rhoi += gi * big
-        rho[j] += gj * big
-    fp[i, 0] += fxi
-    fp[i, 1] += fyi
-    fp[i, 2] += fzi
-    rho[i] += rhoi
+pair_pass(it == 0, hh, x, dx, mutual_idx, mutual_w, mutual_m, fp, rho)
+strong = 0  # strongly coupled points: their pairs' own blocks join their Newton matrices
+for p in range(mutual_k):
+    mutual_s[p] = 1.0 if 6.0 * hh * mutual_w[10, p] > 1e-4 else 0.0
+    strong += int(mutual_s[p])
+if 8 * strong > mutual_k:
+    pair_blocks(mutual_w[0], mutual_w[1], mutual_w[2], mutual_w[3], mutual_w[4], mutual_w[5], mutual_w[6], mutual_b)
+elif strong > 0:
+    for p in range(mutual_k):
+        if mutual_s[p] != 0.0:
+            pair_block(
+                p, mutual_w[0], mutual_w[1], mutual_w[2], mutual_w[3], mutual_w[4], mutual_w[5], mutual_w[6], mutual_b
+            )
+""",
+    "blocks": """
+if mutual_at[i] >= 0 and mutual_s[mutual_at[i]] != 0.0:
+    p = mutual_at[i]
+    for a in range(3):
+        for b in range(3):
+            J[a, b] += mutual_b[3 * a + b, p]
 """,
 }
 
