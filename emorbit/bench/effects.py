@@ -10,7 +10,9 @@ central + J2 against central only
     central-only simulation (:class:`~emorbit.bodies.pointmasses.PointMasses`, the packed
     kernels; one thread below ``PARALLEL_MIN`` points) and the same points after
     ``add_effect("zonal", model="earth", degree=2)``
-    (:class:`~emorbit.bodies.effectpoints.EffectPoints`, the compiled effect step, serial).
+    (:class:`~emorbit.bodies.effectpoints.EffectPoints`, the packed central + zonal kernel
+    :mod:`emorbit.kernels.effects.zonal_packed`, on all threads from its ``PARALLEL_MIN``
+    points).
     ns per particle-step of each and their ratio; the same for one point (the lowest orbit);
     each run's largest relative energy error over the particles (kinetic plus every
     effect's potential energy) after the steps it took.
@@ -201,7 +203,9 @@ def zonal_rows(cfg, n: int) -> dict:
         ``rows`` ({engine: ns per particle-step in CPU and wall time, steps, Newton sweeps
         per sub-step, max relative energy error}), ``j2_over_central`` (the ratio of the
         times per particle-step), ``j2_over_central_one_point``, ``scene_over_bare`` (the
-        central-only scene's throughput over the bare kernel's) and the case.
+        central-only scene's throughput over the bare kernel's), the systems' classes,
+        ``j2_kernel`` (the chunk kernel the J2 system runs: for central + zonal the packed
+        kernel of :mod:`emorbit.kernels.effects.zonal_packed`) and the case.
     """
     import emorbit
 
@@ -222,6 +226,7 @@ def zonal_rows(cfg, n: int) -> dict:
     e0 = {name: _point_energies(sim.effects, sim.points.x, sim.points.v) for name, sim in systems.items()}
     e0["central, bare kernel"] = e0["central"]
     times = timed(runners, cfg)
+    j2_kernel = systems["central + J2"].points.step_kernel()
     rows = {}
     for name, r in runners.items():
         stats, bare = times[name], isinstance(r, _BareRunner)
@@ -253,6 +258,7 @@ def zonal_rows(cfg, n: int) -> dict:
         "scene_over_bare": 1.0 / paired_ratio(times["central"], times["central, bare kernel"]),
         "central_system": type(systems["central"].points).__name__,
         "j2_system": type(systems["central + J2"].points).__name__,
+        "j2_kernel": f"{j2_kernel.__module__}.{j2_kernel.__name__}",
     }
 
 

@@ -5,9 +5,13 @@ arrays ``x``, ``v`` with Kahan compensation terms; SI), plus the Newton iteratio
 start (``wp`` (3, n), ``hp`` (1,)), which checkpoints store. The step is the em step compiled for
 the simulation's effects (:func:`emorbit.effects.compose.compile_step`): the central field
 when there is one, then each ``[[effect]]`` in the order the scene names them. Mutual gravity
-couples the points, so all of them are one system and advance together. The energy a record
-holds is the kinetic energy plus every effect's potential energy; each effect's own is in
-:meth:`EffectPoints.effect_energies`.
+couples the points, so all of them are one system and advance together. Where the effects are
+the central field and its zonal harmonics only, the points are independent and run in the
+packed kernel of :mod:`emorbit.kernels.effects.zonal_packed` instead (the same equations and
+discrete force, vectorised over blocks of points like the central-only kernels; on all of
+Numba's threads from its ``PARALLEL_MIN`` points on): :meth:`EffectPoints.step_kernel`. The
+energy a record holds is the kinetic energy plus every effect's potential energy; each
+effect's own is in :meth:`EffectPoints.effect_energies`.
 """
 
 from __future__ import annotations
@@ -81,6 +85,30 @@ class EffectPoints(PointMasses):
             return np.ones(len(self), bool)
         return np.isin(np.array(self.names, dtype=object), term.bodies)
 
+    def independent(self) -> bool:
+        """Whether the effects are the central field and its zonal harmonics only: then every
+        point moves on its own, and :meth:`step_kernel` is the packed zonal kernel."""
+        if [t.kind for t in self.terms] != ["central", "zonal"]:  # the kernel's parameter order
+            return False
+        params = {t.kind: t.params for t in self.terms}
+        central, zonal = params["central"]["central_p"], params["zonal"]["zonal_p"]
+        return bool(np.array_equal(central[:3], zonal[:3]))  # one centre, as build() makes it
+
+    def step_kernel(self):
+        """The chunk kernel for the effects: the packed kernel of the central field plus zonal
+        harmonics (:func:`emorbit.kernels.effects.zonal_packed.chunk`) where
+        :meth:`independent`, else the effect step compiled for the set
+        (:func:`emorbit.effects.compose.compile_step`, which couples the points through
+        mutual gravity). Both take ``chunk(x, v, cx, cv, wp, hp, m, *params, dt, gammas,
+        every, nrec, max_iter, rec_x, rec_v, rec_iters, fail)``."""
+        if self.independent():
+            from ..kernels.effects.zonal_packed import chunk
+
+            return chunk
+        from ..effects.compose import compile_step
+
+        return compile_step([t.kind for t in self.terms])
+
     def _params(self) -> list:
         out = []
         for term in self.terms:
@@ -128,12 +156,11 @@ class EffectPoints(PointMasses):
         Returns
         -------
         ChunkRecords
-            The records; on a failure every point stops before the failing step.
+            The records; on a failure every point stops before the failing step (in the
+            packed zonal kernel, the failing point does; the others go on).
         """
-        from ..effects.compose import compile_step
-
         if self._kernel is None:
-            self._kernel = compile_step([t.kind for t in self.terms])
+            self._kernel = self.step_kernel()
         n = len(self)
         rec = ChunkRecords(
             x=np.empty((nrec, 3, n)),

@@ -7,8 +7,10 @@ Schweizerhof; :mod:`emorbit.kernels.effects.central`): its work is exactly
 ``GM (1/r1 - 1/r0)``, the drop in the potential, and it points along ``d0 + d1``, so the
 angular momentum about the centre is kept too. A scene whose only effect is the central
 field runs the point-mass, rigid and elastic kernels built for it
-(:mod:`emorbit.kernels.pointmass` and the body kinds' own); a scene with further effects
-runs the step that :mod:`emorbit.effects.compose` compiles for its set, with this force.
+(:mod:`emorbit.kernels.pointmass` and the body kinds' own); point masses under this field
+and zonal harmonics alone run the packed kernel :mod:`emorbit.kernels.effects.zonal_packed`;
+a scene with further effects runs the step that :mod:`emorbit.effects.compose` compiles for
+its set, with this force.
 """
 
 from __future__ import annotations

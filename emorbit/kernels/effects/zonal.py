@@ -44,7 +44,7 @@ import numpy as np
 
 from ..jit import kernel
 
-__all__ = ["zonal_potential", "zonal_force", "zonal_jacobian", "MODELS", "NMAX"]
+__all__ = ["zonal_potential", "zonal_force", "zonal_jacobian", "zonal_sums", "MODELS", "NMAX"]
 
 _inline = kernel(inline="always")
 
@@ -137,18 +137,29 @@ def zonal_potential(x, y, z, c0, c1, c2, p0, p1, p2, gm, R, jn):
 
 
 @_inline
-def _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, jac):
+def _coef(n, j2, j3, j4, j5, j6):
+    """J_n of (J2, ..., J6), n = 2..6 (a constant n folds to one of them)."""
+    if n == 2:
+        return j2
+    if n == 3:
+        return j3
+    if n == 4:
+        return j4
+    if n == 5:
+        return j5
+    return j6
+
+
+@_inline
+def zonal_sums(q0, q1, z0, z1, nmax, j2, j3, j4, j5, j6, jac):
     """The discrete partials of :func:`zonal_potential` / (gm / R) in rho = r/R, zeta = z/R.
 
-    ``a = x0 - c``, ``b = x1 - c``. Returns (A, B, dA/drho1, dA/dzeta1, dB/drho1,
-    dB/dzeta1, r0, r1); the four derivatives are zero unless ``jac``."""
-    r0 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-    r1 = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
-    z0 = (a0 * p0 + a1 * p1 + a2 * p2) / R
-    z1 = (b0 * p0 + b1 * p1 + b2 * p2) / R
-    q0 = 1.0 / (r0 / R)
-    q1 = 1.0 / (r1 / R)
-    nmax = jn.shape[0] + 1
+    ``q0, q1`` = 1 / rho and ``z0, z1`` = zeta at the two ends, ``nmax`` the highest degree
+    and ``j2 .. j6`` the coefficients (those above ``nmax`` unused). Returns (A, B, dA/drho1,
+    dA/dzeta1, dB/drho1, dB/dzeta1); the four derivatives are zero unless ``jac``. Compiled
+    with ``nmax`` a constant (:mod:`.zonal_packed`), both loops have constant trip counts
+    and LLVM unrolls them.
+    """
     A = 0.0
     B = 0.0
     dAr = 0.0
@@ -164,8 +175,10 @@ def _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, jac):
     T = S
     for m in range(1, 2 * nmax + 2):
         if m >= 3 and m % 2 == 1:
-            kmin = max(0, m - 1 - nmax)
-            kmax = min((m - 1) // 2, m - 3)
+            # k from max(0, m - 1 - nmax) to min((m - 1) // 2, m - 3), written out (no call
+            # to min or max: with nmax a constant the trip count is one at once)
+            kmin = m - 1 - nmax if m - 1 - nmax > 0 else 0
+            kmax = (m - 1) // 2 if (m - 1) // 2 < m - 3 else m - 3
             g0 = 0.0
             g1 = 0.0
             gd = 0.0  # sum c dg, dg = (g1 - g0) / (zeta1 - zeta0)
@@ -179,7 +192,7 @@ def _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, jac):
             for k in range(kmax + 1):
                 if k >= kmin:
                     n = m - 1 - k
-                    c = jn[n - 2] * _LEGENDRE[n, k]
+                    c = _coef(n, j2, j3, j4, j5, j6) * _LEGENDRE[n, k]
                     g0 += c * zp0
                     g1 += c * zp1
                     gd += c * G
@@ -205,6 +218,35 @@ def _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, jac):
         S = q1 * S + f0n * q1
         f0 = f0n
         f1 *= q1
+    return A, B, dAr, dAz, dBr, dBz
+
+
+@_inline
+def _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, jac):
+    """The discrete partials of :func:`zonal_potential` / (gm / R) in rho = r/R, zeta = z/R.
+
+    ``a = x0 - c``, ``b = x1 - c``. Returns (A, B, dA/drho1, dA/dzeta1, dB/drho1,
+    dB/dzeta1, r0, r1) (:func:`zonal_sums`); the four derivatives are zero unless ``jac``."""
+    r0 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    r1 = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+    z0 = (a0 * p0 + a1 * p1 + a2 * p2) / R
+    z1 = (b0 * p0 + b1 * p1 + b2 * p2) / R
+    q0 = 1.0 / (r0 / R)
+    q1 = 1.0 / (r1 / R)
+    nj = jn.shape[0]
+    A, B, dAr, dAz, dBr, dBz = zonal_sums(
+        q0,
+        q1,
+        z0,
+        z1,
+        nj + 1,
+        jn[0],
+        jn[1] if nj > 1 else 0.0,
+        jn[2] if nj > 2 else 0.0,
+        jn[3] if nj > 3 else 0.0,
+        jn[4] if nj > 4 else 0.0,
+        jac,
+    )
     return A, B, dAr, dAz, dBr, dBz, r0, r1
 
 
