@@ -6,7 +6,8 @@ Checked: each body kind's conservation of E, P and L over long runs at large ste
 forces' work equals the drop of their potential, their own Jacobian blocks match finite
 differences, their sum and moment vanish; a uniform sphere of mass points attracts like a
 point mass; the order of adding bodies and the effect does not matter; bodies left out of
-``bodies`` feel nothing; the potential is recorded and a run resumes bit for bit.
+``bodies`` feel nothing; the potential is recorded and a run resumes bit for bit. An elastic
+chain keeps its invariants over 1e5 steps under zonal harmonics and under mutual gravity.
 """
 
 from __future__ import annotations
@@ -275,3 +276,36 @@ def test_the_blocks_between_compact_bodies_match_finite_differences():
             d = (slot_forces(up) - slot_forces(down)) / (2 * step)
             dA = d[body == 0].sum(axis=0)  # (4, 3): d F_{A,i} / d s_{B,j,e}
             assert np.allclose(dA, -acc[0, 1, :, j, :, e], rtol=1e-5, atol=1e-7 * np.abs(acc).max())
+
+
+@pytest.mark.parametrize("effect", ["zonal", "mutual"])
+def test_effects_on_an_elastic_chain_over_1e5_steps(effect):
+    """An elastic chain of 4 bars under J2..J6 in a 7000 km orbit at 63 deg, or attracting a
+    tumbling rigid box in free space, at T/50 per step: energy within 1e-12 and the angular
+    momentum (about the pole under zonal harmonics) within 1e-13 over 1e5 steps (measured
+    6.0e-13 and 3.2e-13 for the energy, 1.6e-14 and 1.7e-14 for L)."""
+    chain = dict(start=[0, 0, 0], elements=4, young=1e9)
+    if effect == "zonal":
+        earth = emorbit.CentralField(body="earth")
+        r, inc = 7000e3, np.radians(63.0)
+        v = float(np.sqrt(earth.gm / r))
+        sim = emorbit.Simulation(earth, dt=2 * np.pi * float(np.sqrt(r**3 / earth.gm)) / 50)
+        sim.add_effect("zonal", model="earth")
+        sim.add_elastic(
+            "chain", "chain", end=[40.0, 0, 0], density=3000.0, area=1e-2, position=[r, 0, 0],
+            velocity=[0, v * np.cos(inc), v * np.sin(inc)], angular_velocity=[0, 0, 0.001], **chain,
+        )  # fmt: skip
+        pole = np.array([0.0, 0.0, 1.0])
+    else:
+        sim = emorbit.Simulation(None, dt=T_BINARY / 50)
+        sim.add_effect("mutual")
+        sim.add_rigid("a", "box", size=[300, 200, 100], mass=M, position=[-D / 2, 0, 0],
+                      velocity=[0, -0.45 * V_REL, 0], angular_velocity=[0, 0, 1e-3])  # fmt: skip
+        sim.add_elastic("b", "chain", end=[200.0, 0, 0], density=M / 200.0, area=1.0, position=[D / 2 - 100, 0, 0],
+                        velocity=[0, 0.45 * V_REL, 0], **chain)  # fmt: skip
+        pole = None
+    res = sim.run(steps=100_000, every=1000, progress=False).si
+    E, L = res.energy, res.angular_momentum
+    assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 1e-12
+    dL = (L - L[0]) @ pole if pole is not None else np.linalg.norm(L - L[0], axis=1)
+    assert np.max(np.abs(dL)) / np.linalg.norm(L[0]) <= 1e-13
