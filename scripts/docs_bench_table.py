@@ -302,6 +302,34 @@ def _elastic(s: dict) -> list[str]:
     return out
 
 
+def _effects(s: dict) -> list[str]:
+    z, mu, co = s["zonal"], s["mutual"], s["compile"]
+    rows = [[n, r["system"], _f(r["ns_per_particle_step"], 2), _e(r["max_energy_error"])] for n, r in z["rows"].items()]
+    out = ["### Effects", "", f"Central + J2: {z['case']}.", ""]
+    out += _table(["", "system", "ns per particle-step", "max \\|dE/E\\|"], rows)
+    out += [
+        f"Central + J2 over central only: {z['j2_over_central']:.2f}x ({z['n']} points), "
+        f"{z['j2_over_central_one_point']:.2f}x (one point).",
+        "",
+        f"Mutual gravity: {mu['case']}.",
+        "",
+    ]
+    rows = [
+        [n, _f(r["ms_per_step"], 3), str(r["steps"]), _e(r["energy_error"])]
+        for n, r in mu["rows"].items()
+        if "status" not in r
+    ]
+    out += _table(["", "ms per step (CPU)", "steps", "\\|dE/E\\| over them"], rows)
+    ratio = mu["em_over_rebound_leapfrog"]
+    out += [f"em over REBOUND leapfrog per step: {ratio:.2f}x." if ratio is not None else "", ""]
+    out += [f"Compile time and start-up: {co['case']}.", ""]
+    rows = [
+        [" + ".join(x["effects"]), _f(x["cold_s"], 2), _f(x["warm_s"], 2), _f(x["compile_s"], 2)] for x in co["sets"]
+    ]
+    out += _table(["effects", "cold s", "warm s", "compile s"], rows)
+    return out
+
+
 def markdown(data: dict) -> str:
     """The generated part of the page, markers included."""
     out = [BEGIN, ""] + _run(data) + _targets(data)
@@ -312,6 +340,7 @@ def markdown(data: dict) -> str:
         ("startup", _startup),
         ("rigid", _rigid),
         ("elastic", _elastic),
+        ("effects", _effects),
     ):
         if key in data:
             out += fn(data[key])
