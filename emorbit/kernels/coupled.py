@@ -33,7 +33,7 @@ from .effects.pairs import mutual_cross, mutual_forces
 from .elastic import bar_forces, combine_rows, csc_find, gravity_forces, spread_rows, tet_forces
 from .jit import kernel
 
-__all__ = ["fill_forces", "fill_mutual", "add_block", "fill_constraints", "equilibrate", "scatter"]
+__all__ = ["fill_forces", "fill_mutual", "add_point_blocks", "add_block", "fill_constraints", "equilibrate", "scatter"]
 
 
 @kernel
@@ -102,17 +102,24 @@ def fill_forces(
             for b in range(4):
                 add_block(tet_node[e, a], tet_node[e, b], kt[e, a, b], -hh, node_slot, node_coef, indptr, indices, data)
     if want_gravity:
-        for q in range(gp_m.shape[0]):
-            for a in range(4):
-                na = gp_node[q, a]
-                if na < 0:
-                    break
-                for b in range(4):
-                    nb = gp_node[q, b]
-                    if nb < 0:
-                        break
-                    add_block(na, nb, kg[q], -hh * gp_w[q, a] * gp_w[q, b], node_slot, node_coef, indptr, indices, data)
+        add_point_blocks(gp_node, gp_w, kg, -hh, node_slot, node_coef, indptr, indices, data)
     return status
+
+
+@kernel
+def add_point_blocks(p_node, p_w, K, scale, node_slot, node_coef, indptr, indices, data):
+    """data += scale * w_a w_b K[q] for every two nodes a, b of every point q (gravity or
+    mass points: p_node, p_w (q, 4), -1 ends a row; K (q, 3, 3) each point's own block)."""
+    for q in range(p_node.shape[0]):
+        for a in range(4):
+            na = p_node[q, a]
+            if na < 0:
+                break
+            for b in range(4):
+                nb = p_node[q, b]
+                if nb < 0:
+                    break
+                add_block(na, nb, K[q], scale * p_w[q, a] * p_w[q, b], node_slot, node_coef, indptr, indices, data)
 
 
 @kernel
@@ -135,18 +142,7 @@ def fill_mutual(
     spread_rows(fm, mp_node, mp_w, fnm)
     spread_rows(fnm, node_slot, node_coef, Fslot)
     if want_K:
-        for q in range(mp_m.shape[0]):
-            if on[q] == 0.0:
-                continue
-            for a in range(4):
-                na = mp_node[q, a]
-                if na < 0:
-                    break
-                for b in range(4):
-                    nb = mp_node[q, b]
-                    if nb < 0:
-                        break
-                    add_block(na, nb, km[q], -hh * mp_w[q, a] * mp_w[q, b], node_slot, node_coef, indptr, indices, data)
+        add_point_blocks(mp_node, mp_w, km, -hh, node_slot, node_coef, indptr, indices, data)  # zero where off
         if acc.shape[0] > 0:
             mutual_cross(g, xm0, xm1, mp_m, mp_body, on, cross, coef, acc)
             nb = acc.shape[0]
