@@ -22,7 +22,16 @@ The cases of the effects (zonal harmonics, mutual gravity): :mod:`.effect_cases`
 :mod:`.rigid_binary`, :mod:`.rigid_binary_figures`.
 """
 
-from .cases import case_names, get_cases
-from .suite import run_suite
+import importlib
 
 __all__ = ["run_suite", "case_names", "get_cases"]
+
+#: the public names and their modules, imported on first use: ``emorbit run`` builds the
+#: command line, which imports :mod:`.cli`, and must not load the cases (rigid bodies among them)
+_LAZY = {"run_suite": ".suite", "case_names": ".cases", "get_cases": ".cases"}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name], __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -13,8 +13,6 @@ import os
 
 from emorbit.errors import InputError
 
-from .cases import case_names
-
 __all__ = ["add_arguments", "run", "REPORT_FILES"]
 
 #: files whose presence marks a directory as holding a report
@@ -64,6 +62,8 @@ def _cases(text):
     if text is None:
         return None
     names = [n.strip() for n in text.split(",") if n.strip()]
+    from .cases import case_names
+
     known = case_names() + ("brouwer",)  # brouwer: the full suite's round-off study
     unknown = [n for n in names if n not in known]
     if not names or unknown:
@@ -97,6 +97,8 @@ def run(args) -> int:
     InputError
         Bad options or a report folder that holds a report (exit code 2).
     """
+    from .cases import case_names
+
     if args.list:
         for name in case_names():
             print(name)
