@@ -32,7 +32,7 @@ class EffectSetup:
         )
 
     def add_effect(self, kind: str, *, key: str | None = None, strict: bool = False, **keys) -> None:
-        """Add an effect beyond the central field: ``"zonal"`` or ``"mutual"``
+        """Add an effect beyond the central field: ``"zonal"``, ``"mutual"`` or ``"drag"``
         (:mod:`emorbit.effects` lists them and their keys).
 
         Point masses then run the em step compiled for the simulation's effects
@@ -49,7 +49,8 @@ class EffectSetup:
         strict : bool
             Require units on every dimensional value (scenes do).
         **keys
-            The effect's keys, e.g. ``model="earth", degree=2`` or ``bodies=["a", "b"]``
+            The effect's keys, e.g. ``model="earth", degree=2``, ``bodies=["a", "b"]`` or
+            ``atmosphere="exponential", density=..., reference_altitude=..., scale_height=...``
             (Quantities, strings with units or SI numbers).
 
         Raises
@@ -57,8 +58,9 @@ class EffectSetup:
         InputError
             An unknown effect or key, a value the effect refuses, a method other than em,
             bodies of a kind the effect does not act on (zonal: every kind; mutual: point
-            masses), a second set of zonal harmonics, or an effect
-            that needs a central field in free space.
+            masses), a second set of zonal harmonics or a second drag, drag with rigid or
+            elastic bodies or with a point mass that has no ``ballistic_coefficient``, or an
+            effect that needs a central field in free space.
         """
         from .bodies.effectpoints import EffectPoints
         from .effects import build
@@ -75,6 +77,17 @@ class EffectSetup:
             raise InputError(key, "mutual gravity cannot be added after the structure has started running")
         if kind == "zonal" and any(t.kind == "zonal" for t in self._effects):
             raise InputError(key, "the central body has one set of zonal harmonics; this simulation has it already")
+        if kind == "drag":
+            if any(t.kind == "drag" for t in self._effects):
+                raise InputError(key, "the central body has one atmosphere; this simulation has drag already")
+            if (self.rigid is not None and len(self.rigid)) or self.structure is not None:
+                raise InputError(key, "drag acts on point masses only; this simulation has rigid or elastic bodies")
+            for name in self.points.names:
+                if name not in self.points.ballistic:
+                    raise InputError(
+                        f"body[{name!r}].ballistic_coefficient",
+                        "drag acts on the point masses: give Cd A / m (m2 / kg; 0 for no drag)",
+                    )
         same = sum(t.kind == kind for t in self._effects)
         if same:
             term.label = f"{kind}_{same + 1}"
@@ -103,6 +116,9 @@ class EffectSetup:
     def _check_effects(self) -> None:
         """The effects' bodies exist where the effects act (raises InputError naming the key)."""
         st = self.structure
+        drag = next((t for t in self._effects if t.kind == "drag"), None)
+        if drag is not None and ((self.rigid is not None and len(self.rigid)) or st is not None):
+            raise InputError(drag.key, "drag acts on point masses only; this simulation has rigid or elastic bodies")
         if st is None or not st.mutual:
             self.points.check(self.method)
             return

@@ -165,6 +165,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
         *_IDENTITY,
         Key("mass", True, "mass (kg)", "", "> 0", "the point's mass (a test particle: it feels only the field)"),
         *_motion("the point's position", "the point's velocity", "the point"),
+        Key("ballistic_coefficient", False, "area per mass (m2 / kg)", "", ">= 0 (0: no drag); required with drag",
+            "Cd A / m: how strongly the drag effect acts on the point"),
     ),
     "body.rigid": (
         *_IDENTITY,
@@ -517,7 +519,14 @@ class Scene:
             _check_keys(b, f"body.{kind}", where)
             check_body_name(b["name"], f"{where}.name")
             if kind == "point":
-                sim.add_point(b["name"], mass=b["mass"], **_placement(b), strict=True, key=where)
+                sim.add_point(
+                    b["name"],
+                    mass=b["mass"],
+                    ballistic_coefficient=b.get("ballistic_coefficient"),
+                    **_placement(b),
+                    strict=True,
+                    key=where,
+                )
             elif kind == "elastic":
                 mesh_params = {k: v for k, v in b.items() if k not in _ELASTIC_COMMON}
                 if "file" in mesh_params and not isinstance(mesh_params["file"], str):

@@ -234,7 +234,16 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
             )
 
     def add_point(
-        self, name: str, *, mass, position=None, velocity=None, orbit=None, strict: bool = False, key: str | None = None
+        self,
+        name: str,
+        *,
+        mass,
+        position=None,
+        velocity=None,
+        orbit=None,
+        ballistic_coefficient=None,
+        strict: bool = False,
+        key: str | None = None,
     ) -> None:
         """Add a point mass: a test particle that feels the field and nothing else.
 
@@ -254,6 +263,9 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
             (``periapsis_radius`` / ``_altitude`` ...), ``i``, ``raan``, ``argp``, and ``nu``
             or ``mean_anomaly``; lengths and angles as Quantities, strings or SI numbers
             (:func:`emorbit.orbits.orbit_state`).
+        ballistic_coefficient : Quantity, str or float, optional
+            ``Cd A / m``, m^2/kg (>= 0; 0: no drag): how strongly drag
+            (``add_effect("drag")``) acts on the point; required when the simulation has drag.
         strict : bool
             Require units on every value.
         key : str, optional
@@ -264,7 +276,8 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         InputError
             A bad value, a taken name, no field, a position at the centre or inside the
             central body, a radial fall into a centre without radius (see
-            :meth:`CentralField.check_start`), or a method without a point-mass kernel.
+            :meth:`CentralField.check_start`), a method without a point-mass kernel, or no
+            ballistic coefficient under drag.
         """
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
@@ -275,6 +288,15 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
                 "this simulation has neither",
             )
         m = to_si(mass, "mass", f"{key}.mass", strict=strict, positive=True)
+        bc = None
+        if ballistic_coefficient is not None:
+            bc = to_si(
+                ballistic_coefficient, "area_per_mass", f"{key}.ballistic_coefficient", strict=strict, nonnegative=True
+            )
+        elif any(t.kind == "drag" for t in self._effects):
+            raise InputError(
+                f"{key}.ballistic_coefficient", "drag acts on the point masses: give Cd A / m (m2 / kg; 0 for no drag)"
+            )
         position, velocity, xkey, vkey = initial_state(position, velocity, orbit, self.field, strict=strict, key=key)
         x = vector_to_si(position, "length", xkey, strict=strict)
         v = vector_to_si(velocity, "speed", vkey, strict=strict)
@@ -282,9 +304,13 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         if self.field is not None:
             self.field.check_start(x, x, v, gravity=True, key=xkey, what=f"{x.tolist()} m", motion_key=vkey)
         if self.structure is not None and self.structure.mutual:  # mutual gravity with other bodies
+            if bc is not None:
+                raise InputError(f"{key}.ballistic_coefficient", "drag acts on point masses outside a structure")
             self._structure().add_point(name, m, x, v)
             return
         self.points.add(name, m, x, v)
+        if bc is not None:
+            self.points.ballistic[name] = bc
 
     def add_rigid(
         self,

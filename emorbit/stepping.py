@@ -230,12 +230,21 @@ class ChunkDriver:
             return "energy" not in get_method(self.method).conserves
         return bool(self._energy_range)
 
+    def _working_labels(self) -> list:
+        """The labels of the effects that do work (drag): their work is recorded, not conserved."""
+        from .effects import EFFECTS
+        from .effects.compose import does_work
+
+        return [t.label for t in getattr(self, "_effects", ()) if does_work(EFFECTS[t.kind])]
+
     def _start_drift(self, tolerance) -> None:
-        """A new drift monitor for a run whose first record is the reference."""
+        """A new drift monitor for a run whose first record is the reference (an effect that
+        does work conserves neither energy nor momenta: none of them is checked)."""
         tol = check_tolerance(self.drift_tolerance if tolerance is None else tolerance)
-        self._drift = DriftMonitor(
-            tol, coefficients(self.order).size, conserved(self.method, self.field is None, self._axisymmetric())
-        )
+        kept = conserved(self.method, self.field is None, self._axisymmetric())
+        if self._working_labels():
+            kept[:] = False
+        self._drift = DriftMonitor(tol, coefficients(self.order).size, kept)
 
     # -- state, for checkpoints and restarts -------------------------------------------
     def state_arrays(self) -> dict[str, np.ndarray]:
@@ -325,10 +334,13 @@ class ChunkDriver:
             ]
             attrs = self._file_attrs(every, n_steps)
             attrs["checkpoint_every"] = cp
-            labels = [t.label for t in getattr(self, "_effects", ())]
-            if labels and self.field is not None:
+            labels = [t.label for t in getattr(self, "_effects", ()) if t.label not in self._working_labels()]
+            if getattr(self, "_effects", ()) and self.field is not None:
                 labels.insert(0, "central")
-            writer = Writer(output, bodies, attrs, overwrite=overwrite, potentials=labels)
+            writer = Writer(output, bodies, attrs, overwrite=overwrite, potentials=labels, works=self._working_labels())
+        for s in self.systems:  # the work of non-conservative effects counts from the run's start
+            if hasattr(s, "reset_work"):
+                s.reset_work()
         self._run_origin = self._steps
         sink = Sink(self, writer, keep)
         sink.emit([(s, s.current()) for s in self.systems], np.array([self._steps]), 1, 0)

@@ -38,6 +38,7 @@ SI = {
     "angular_speed": u.rad / u.s,
     "density": u.kg / u.m**3,
     "area": u.m**2,
+    "area_per_mass": u.m**2 / u.kg,
     "pressure": u.Pa,
     "information": u.byte,
     "dimensionless": u.dimensionless_unscaled,

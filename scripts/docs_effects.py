@@ -26,11 +26,14 @@ HEAD = """# Effects
 
 A scene's bodies move in the central field of its `[field]` table. Each `[[effect]]` table adds
 one more effect; the step a scene runs is compiled for exactly its set of effects, so a scene
-pays only for the effects it names. Every effect's force over a step does work equal to the
-drop of its potential energy, so an em step keeps the total energy exactly (to round-off), and
-each keeps what it lists under *conserves*. Each effect's potential energy is recorded as
-`invariants/potential_<kind>` (J) beside the total in `invariants/energy`, and the root
-attribute `effects` names them ([HDF5 layout](hdf5.md)).
+pays only for the effects it names. A conservative effect's force over a step does work
+equal to the drop of its potential energy, so an em step keeps the total energy exactly (to
+round-off), and each keeps what it lists under *conserves*. Each effect's potential energy is
+recorded as `invariants/potential_<kind>` (J) beside the total in `invariants/energy`, and the
+root attribute `effects` names them ([HDF5 layout](hdf5.md)). Drag has no potential: the step
+sums its discrete work `m F . (x1 - x0)` on every point, the run records it as
+`invariants/work_<label>` (J, since the run's start), and `invariants/energy_balance`
+= E - E0 - W stays at round-off.
 
 ```toml
 [field]
@@ -43,9 +46,18 @@ degree = 2                 # use J2..J<degree> of the model
 
 [[effect]]
 kind = "mutual"            # gravity between all bodies of the scene (or: bodies = ["a", "b"])
+
+[[effect]]
+kind = "drag"              # on point masses with a ballistic_coefficient (Cd A / m)
+atmosphere = "exponential" # or "ussa1976", "vallado"
+density = "3.7e-12 kg/m3"
+reference_altitude = "400 km"
+scale_height = "58 km"
 ```
 
-From Python: `sim.add_effect("zonal", model="earth", degree=2)`, `sim.add_effect("mutual")`;
+From Python: `sim.add_effect("zonal", model="earth", degree=2)`, `sim.add_effect("mutual")`,
+`sim.add_effect("drag", atmosphere="ussa1976")` with
+`sim.add_point(..., ballistic_coefficient="0.02 m2/kg")`;
 `sim.effects` lists them. [Architecture](architecture.md#how-to-add-an-effect) says how to add one.
 """
 
@@ -75,7 +87,7 @@ def markdown() -> str:
             f"| potential | `{_pipes(m.POTENTIAL)}` |",
             f"| force over a step | `{_pipes(m.DISCRETE_FORCE)}` |",
             f"| Jacobian | `{_pipes(m.JACOBIAN)}` |",
-            f"| conserves | {', '.join(m.CONSERVES)} |",
+            f"| conserves | {', '.join(m.CONSERVES) or 'nothing: it does work, recorded as invariants/work_<label>'} |",
             f"| acts on | {', '.join(m.BODY_KINDS)} bodies |",
             "",
         ]

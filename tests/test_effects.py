@@ -209,7 +209,7 @@ def test_python_quantities_are_written_as_strings_with_units():
 @pytest.mark.parametrize(
     "table, key, message",
     [
-        ('kind = "drag"', "effect[0].kind", "unknown effect"),
+        ('kind = "magnetic"', "effect[0].kind", "unknown effect"),
         ('kind = "zonal"\nmodel = "earth"\ncolour = 1', "effect[0].colour", "unknown key"),
         ('kind = "zonal"\nmodel = "mars"', "effect[0].model", "unknown zonal model"),
         ('kind = "zonal"\nj = [1e-3]', "effect[0].radius", "reference radius"),

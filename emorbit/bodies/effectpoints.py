@@ -11,7 +11,11 @@ packed kernel of :mod:`emorbit.kernels.effects.zonal_packed` instead (the same e
 discrete force, vectorised over blocks of points like the central-only kernels; on all of
 Numba's threads from its ``PARALLEL_MIN`` points on): :meth:`EffectPoints.step_kernel`. The
 energy a record holds is the kinetic energy plus every effect's potential energy; each
-effect's own is in :meth:`EffectPoints.effect_energies`.
+effect's own is in :meth:`EffectPoints.effect_energies`. An effect that does work (drag) has
+no potential: the compiled step sums its discrete work on each point into ``work`` (k, n) J
+with Kahan terms ``cwork`` (state, checkpointed, zeroed at a run's start), records carry it
+(``ChunkRecords.work``) and :meth:`EffectPoints.effect_work` gives its totals; each point's
+``Cd A / m`` is :attr:`ballistic` (name -> m^2/kg).
 """
 
 from __future__ import annotations
@@ -35,10 +39,12 @@ class EffectPoints(PointMasses):
         The effects, the central field first where there is one.
     """
 
-    #: the whole state: the points' and the warm start of the next Newton iteration
-    STATE_FIELDS = ("x", "v", "cx", "cv", "wp", "hp")
+    #: the state of every effect set: the points' and the warm start of the next Newton iteration
+    BASE_FIELDS = ("x", "v", "cx", "cv", "wp", "hp")
+    #: the state a set with non-conservative effects adds: their work so far and its compensation
+    WORK_FIELDS = ("work", "cwork")
     #: units of the state arrays beyond emorbit.io.reader.STATE_UNITS
-    STATE_UNITS = {"wp": "m", "hp": "s"}
+    STATE_UNITS = {"wp": "m", "hp": "s", "work": "J", "cwork": "J"}
 
     def __init__(self, terms):
         super().__init__()
@@ -46,6 +52,58 @@ class EffectPoints(PointMasses):
         self._kernel = None
         self._wp = np.zeros((3, 0))
         self.hp = np.zeros(1)
+        self._work = np.zeros((0, 0))
+        self._cwork = np.zeros((0, 0))
+
+    @property
+    def STATE_FIELDS(self) -> tuple:  # noqa: N802 (the name every body system uses)
+        """The whole state: :attr:`BASE_FIELDS`, and :attr:`WORK_FIELDS` where an effect does
+        work (a conservative set's checkpoints hold what they always held)."""
+        return self.BASE_FIELDS + (self.WORK_FIELDS if self.working_terms() else ())
+
+    def working_terms(self) -> list:
+        """The non-conservative effects (drag), in their slot order in :attr:`work`."""
+        from ..effects import EFFECTS
+        from ..effects.compose import does_work
+
+        return [t for t in self.terms if does_work(EFFECTS[t.kind])]
+
+    def _work_shape(self) -> tuple:
+        return (len(self.working_terms()), len(self))
+
+    @property
+    def work(self) -> np.ndarray:
+        """(k, n) the work each non-conservative effect has done on each point since the run's
+        start, J (:meth:`reset_work` at a run's start); zeros for new points."""
+        if self._work.shape != self._work_shape():
+            self._work, self._cwork = np.zeros(self._work_shape()), np.zeros(self._work_shape())
+        return self._work
+
+    @work.setter
+    def work(self, value) -> None:
+        self._work = np.ascontiguousarray(value, dtype=float)
+
+    @property
+    def cwork(self) -> np.ndarray:
+        """(k, n) the Kahan compensation terms of :attr:`work`, J."""
+        self.work  # noqa: B018 (shapes both)
+        return self._cwork
+
+    @cwork.setter
+    def cwork(self, value) -> None:
+        self._cwork = np.ascontiguousarray(value, dtype=float)
+
+    def reset_work(self) -> None:
+        """Start the work sums at 0 (a new run; a resumed run restores them instead)."""
+        self.work[...] = 0.0
+        self.cwork[...] = 0.0
+
+    def current(self) -> ChunkRecords:
+        """The current state as one record, with the work so far where an effect does work."""
+        rec = super().current()
+        if self.working_terms():
+            rec.work = self.work[None].copy()
+        return rec
 
     @property
     def wp(self) -> np.ndarray:
@@ -60,14 +118,16 @@ class EffectPoints(PointMasses):
         self._wp = np.ascontiguousarray(value, dtype=float)
 
     def snapshot(self):
-        """Copies of x, v, cx, cv and the warm start."""
-        return super().snapshot() + (self.wp.copy(), self.hp.copy())
+        """Copies of x, v, cx, cv, the warm start and the work sums."""
+        return super().snapshot() + (self.wp.copy(), self.hp.copy(), self.work.copy(), self.cwork.copy())
 
     def restore(self, snap) -> None:
         """Put back what :meth:`snapshot` copied."""
         super().restore(snap[:4])
         self.wp[...] = snap[4]
         self.hp[...] = snap[5]
+        self.work[...] = snap[6]
+        self.cwork[...] = snap[7]
 
     @classmethod
     def taking_over(cls, points: PointMasses, terms) -> EffectPoints:
@@ -76,6 +136,7 @@ class EffectPoints(PointMasses):
         out.names = list(points.names)
         out.masses, out.x, out.v = points.masses.copy(), points.x.copy(), points.v.copy()
         out.cx, out.cv = points.cx.copy(), points.cv.copy()
+        out.ballistic = dict(points.ballistic)
         out.device = getattr(points, "device", "cpu")
         return out
 
@@ -87,7 +148,8 @@ class EffectPoints(PointMasses):
 
     def independent(self) -> bool:
         """Whether the effects are the central field and its zonal harmonics only: then every
-        point moves on its own, and :meth:`step_kernel` is the packed zonal kernel."""
+        point moves on its own, and :meth:`step_kernel` is the packed zonal kernel (a set with
+        drag or mutual gravity is not: it runs the step compiled for it)."""
         if [t.kind for t in self.terms] != ["central", "zonal"]:  # the kernel's parameter order
             return False
         params = {t.kind: t.params for t in self.terms}
@@ -115,6 +177,10 @@ class EffectPoints(PointMasses):
             out.extend(term.params.values())
             if term.kind == "mutual":
                 out.append(self._active(term).astype(float))
+            if term.kind == "drag":
+                out.append(np.array([self.ballistic.get(n, 0.0) for n in self.names], float))
+        if self.working_terms():
+            out.extend([self.work, self.cwork])
         return out
 
     def check(self, method: str, key: str = "method") -> None:
@@ -169,11 +235,27 @@ class EffectPoints(PointMasses):
             fail=np.full((n, 2), -1, dtype=np.int64),
         )
         wp = self.wp
+        params = self._params()
+        if self.working_terms():
+            rec.work = np.empty((nrec,) + self.work.shape)
+            params.append(rec.work)
         self._kernel(
-            self.x, self.v, self.cx, self.cv, wp, self.hp, self.masses, *self._params(), float(dt),
+            self.x, self.v, self.cx, self.cv, wp, self.hp, self.masses, *params, float(dt),
             np.asarray(gammas, float), int(every), int(nrec), int(max_iter), rec.x, rec.v, rec.iterations, rec.fail,
         )  # fmt: skip
         return rec
+
+    def effect_work(self, rec: ChunkRecords, nrec: int) -> dict:
+        """The work of each non-conservative effect on all points since the run's start.
+
+        Returns
+        -------
+        dict
+            {``work_<label>``: (nrec,) J}; {} where every effect is conservative.
+        """
+        if rec.work is None:
+            return {}
+        return {f"work_{t.label}": rec.work[:nrec, k].sum(axis=1) for k, t in enumerate(self.working_terms())}
 
     def effect_energies(self, rec: ChunkRecords, nrec: int, gm: float = 0.0, center=None) -> dict:
         """Each effect's potential energy at each record.
@@ -187,7 +269,12 @@ class EffectPoints(PointMasses):
         if cached is not None and cached[0] is rec and cached[1] == nrec:
             return cached[2]
         x = rec.x[:nrec]
-        out = {f"potential_{t.label}": t.potential(x, self.masses, self._active(t)) for t in self.terms}
+        working = {t.label for t in self.working_terms()}  # no potential: their work is recorded instead
+        out = {
+            f"potential_{t.label}": t.potential(x, self.masses, self._active(t))
+            for t in self.terms
+            if t.label not in working
+        }
         self._last_energies = (rec, nrec, out)
         return out
 

@@ -56,6 +56,9 @@ class ChunkRecords:
         (n, 2) step index within the chunk and status code per point, -1 if none.
     solves : ndarray or None
         (nrec, n) implicit solves per interval, when the steps vary (adaptive).
+    work : ndarray or None
+        (nrec, k, n) the work each of k non-conservative effects (drag) has done on each point
+        since the run's start, J, at each record (point masses under effects).
     """
 
     x: np.ndarray
@@ -63,6 +66,7 @@ class ChunkRecords:
     iterations: np.ndarray
     fail: np.ndarray
     solves: np.ndarray | None = None  # (nrec, n) implicit solves per interval, when steps vary (adaptive)
+    work: np.ndarray | None = None  # (nrec, k, n) work of k non-conservative effects so far, J (effects)
 
     def first_failure(self):
         """The earliest failure.
@@ -94,6 +98,7 @@ class PointMasses(BodySystem):
         self._v = np.zeros((3, 0))
         self._cx = np.zeros((3, 0))
         self._cv = np.zeros((3, 0))
+        self.ballistic: dict[str, float] = {}  # name -> Cd A / m, m^2/kg, where given (drag)
 
     def __len__(self) -> int:
         return len(self._names)
@@ -217,6 +222,7 @@ class PointMasses(BodySystem):
         out = (float(self._masses[i]), self._x[:, i].copy(), self._v[:, i].copy())
         keep = [j for j in range(len(self._names)) if j != i]
         del self._names[i]
+        self.ballistic.pop(name, None)
         self._index = None
         self._masses = self._masses[keep]
         self._x = np.ascontiguousarray(self._x[:, keep])

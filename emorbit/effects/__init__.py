@@ -1,7 +1,7 @@
 """Effects: the forces a scene names, one module per effect, each registered here by name.
 
 A scene's bodies move in the central field of ``[field]`` (the effect ``central``) and in
-whatever ``[[effect]]`` tables add (``zonal``, ``mutual``). Each effect module declares:
+whatever ``[[effect]]`` tables add (``zonal``, ``mutual``, ``drag``). Each effect module declares:
 
 ``NAME``, ``SUMMARY``
     its ``kind`` in scenes and one line on what it is;
@@ -11,8 +11,10 @@ whatever ``[[effect]]`` tables add (``zonal``, ``mutual``). Each effect module d
     declarations (``scripts/docs_effects.py``);
 ``POTENTIAL``, ``DISCRETE_FORCE``, ``JACOBIAN``, ``CONSERVES``, ``BODY_KINDS``
     its potential energy, its force over a step (the g_em analogue: its work equals the
-    drop in its potential exactly), the Jacobian of that force for Newton, what an em step
-    with it conserves, and the body kinds it acts on;
+    drop in its potential exactly; a non-conservative force such as drag has no potential,
+    keeps nothing and declares the ``work`` code that sums its discrete work), the Jacobian
+    of that force for Newton, what an em step with it conserves, and the body kinds it acts
+    on;
 ``build(table, field, key)``
     a checked :class:`~emorbit.effects.base.EffectTerm` from the scene table (or the Python
     API's keywords, :meth:`emorbit.Simulation.add_effect`);
@@ -30,13 +32,13 @@ it to :data:`EFFECTS`.
 from __future__ import annotations
 
 from ..errors import InputError
-from . import central, mutual, zonal
+from . import central, drag, mutual, zonal
 from .base import EffectTerm
 
 __all__ = ["EFFECTS", "EffectTerm", "build", "effect_kinds"]
 
 #: every effect by its ``kind``, in the order a step adds their forces
-EFFECTS = {m.NAME: m for m in (central, zonal, mutual)}
+EFFECTS = {m.NAME: m for m in (central, zonal, mutual, drag)}
 
 
 def effect_kinds() -> tuple[str, ...]:

@@ -32,9 +32,15 @@ d F_i / d x_j summed over j). An error that each step leaves with the same sign 
 a run: stopping at eps itself made the energy of a binary drift by 6e-14 in 100 orbits.
 Positions and velocities are updated with Kahan compensation, so the energy error of a long
 run is a random walk (Brouwer's law).
-Data layout: x, v, cx, cv, wp (3, n); hp (1,); m (n,); the effects' parameter arrays;
-records as the point-mass kernels' (rec_x, rec_v (nrec, 3, n), rec_iters (nrec, n),
-fail (n, 2)).
+A non-conservative effect (drag: it keeps no energy, :func:`does_work`) adds, after each
+converged sub-step, its discrete work ``m_i F_i . (x1_i - x0_i)`` on every point into
+``work[k, i]`` (J; k the effect's slot among the set's non-conservative effects), with Kahan
+compensation in ``cwork``; since the em step's kinetic-energy change is the conservative
+potentials' drop plus that work, ``E - E0 - sum work`` stays at round-off
+(:mod:`emorbit.effects.drag`). A failed step puts the sums back with the state.
+Data layout: x, v, cx, cv, wp (3, n); hp (1,); m (n,); the effects' parameter arrays; for a
+set with non-conservative effects, work and cwork (k, n) and rec_work (nrec, k, n); records
+as the point-mass kernels' (rec_x, rec_v (nrec, 3, n), rec_iters (nrec, n), fail (n, 2)).
 """
 
 from __future__ import annotations
@@ -48,7 +54,7 @@ import tempfile
 
 from ..kernels.jit import JIT_OPTIONS, cache_dir, cache_enabled
 
-__all__ = ["compile_step", "step_source"]
+__all__ = ["compile_step", "does_work", "step_source"]
 
 _TEMPLATE = '''"""The em chunk kernel of point masses under the effects: {names}.
 
@@ -69,7 +75,9 @@ _EPS = 2.0**-52
 
 
 @numba.njit(**{options})
-def chunk(x, v, cx, cv, wp, hp, m, {params}, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+def chunk(
+    x, v, cx, cv, wp, hp, m, {params}, {work_args}dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail
+):
     n = x.shape[1]
     dx = np.empty((3, n))
     w = np.empty((3, n))
@@ -78,6 +86,7 @@ def chunk(x, v, cx, cv, wp, hp, m, {params}, dt, gammas, every, nrec, max_iter, 
     rho = np.zeros(n)  # sum_j |d fp_i / d x1_j|: times h^2/2, how much point i's update moves with the others'
     sx = np.empty((5, 3, n))  # the state at the start of a composed step: x, v, cx, cv, wp
     hp0 = hp[0]
+{work_setup}
 {setup}
     for r in range(nrec):
         for i in range(n):
@@ -88,6 +97,7 @@ def chunk(x, v, cx, cv, wp, hp, m, {params}, dt, gammas, every, nrec, max_iter, 
             sx[2, :, :] = cx
             sx[3, :, :] = cv
             sx[4, :, :] = wp
+{work_snap}
             hp0 = hp[0]
             for k in range(gammas.shape[0]):
                 h = dt * gammas[k]
@@ -158,14 +168,17 @@ def chunk(x, v, cx, cv, wp, hp, m, {params}, dt, gammas, every, nrec, max_iter, 
                     cv[:, :] = sx[3]
                     wp[:, :] = sx[4]
                     hp[0] = hp0
+{work_restore}
                     for i in range(n):
                         fail[i, 0] = r * every + s
                         fail[i, 1] = status
                     for rr in range(r, nrec):
                         rec_x[rr, :, :] = x
                         rec_v[rr, :, :] = v
+{work_fill}
                     return
                 for i in range(n):
+{work}
                     for c in range(3):
                         y = dx[c, i] + cx[c, i]
                         t = x[c, i] + y
@@ -179,6 +192,7 @@ def chunk(x, v, cx, cv, wp, hp, m, {params}, dt, gammas, every, nrec, max_iter, 
                 hp[0] = h
         rec_x[r, :, :] = x
         rec_v[r, :, :] = v
+{work_record}
 '''
 
 
@@ -195,6 +209,7 @@ def _kernel_digest(modules) -> str:
         "kernels/effects/central.py",
         "kernels/effects/zonal.py",
         "kernels/effects/newton.py",
+        "kernels/effects/atmosphere.py",
         "kernels/codes.py",
     ):
         with open(os.path.join(root, rel), "rb") as f:
@@ -218,13 +233,23 @@ def step_source(kinds) -> tuple[str, list[str]]:
     source : str
         A Python module defining ``chunk``.
     params : list of str
-        The parameter arrays ``chunk`` takes after the masses, in order.
+        The parameter arrays ``chunk`` takes after the masses, in order; where an effect does
+        work (:func:`does_work`), the last three are ``work``, ``cwork`` and ``rec_work``.
     """
     from . import EFFECTS
 
     modules = [EFFECTS[k] for k in kinds]
-    params = {"central": ["central_p"], "zonal": ["zonal_p", "zonal_j"], "mutual": ["mutual_p", "mutual_on"]}
+    params = {
+        "central": ["central_p"],
+        "zonal": ["zonal_p", "zonal_j"],
+        "mutual": ["mutual_p", "mutual_on"],
+        "drag": ["drag_p", "drag_t", "drag_b"],
+    }
     names = [p for k in kinds for p in params[k]]
+    working = [m for m in modules if does_work(m)]  # each one's slot in work, cwork: its order here
+    work_code = "\n".join(
+        m.KERNEL["work"].replace("WORK_SLOT", str(slot)) for slot, m in enumerate(working) if m.KERNEL["work"].strip()
+    )
     imports = sorted({m.KERNEL["imports"] for m in modules})
     options = {k: v for k, v in JIT_OPTIONS.items() if k != "cache"}
     options["cache"] = cache_enabled()
@@ -242,8 +267,23 @@ def step_source(kinds) -> tuple[str, list[str]]:
         pairs=_indent(code["pairs"], 20),
         blocks=_indent(code["blocks"], 24),
         own=_indent(code["own"], 24),
+        work_args="work, cwork, rec_work, " if working else "",
+        work_setup=_indent("sw = np.empty((2,) + work.shape)  # work, cwork at the composed step's start", 4)
+        if working
+        else "",
+        work_snap=_indent("sw[0, :, :] = work\nsw[1, :, :] = cwork", 12) if working else "",
+        work_restore=_indent("work[:, :] = sw[0]\ncwork[:, :] = sw[1]", 20) if working else "",
+        work_fill=_indent("for rr in range(r, nrec):\n    rec_work[rr, :, :] = work", 20) if working else "",
+        work=_indent(work_code, 20) if working else "",
+        work_record=_indent("rec_work[r, :, :] = work", 8) if working else "",
     )
-    return source, names
+    return source, names + (["work", "cwork", "rec_work"] if working else [])
+
+
+def does_work(module) -> bool:
+    """Whether an effect module's force is non-conservative (it keeps no energy): its work
+    over each sub-step is summed into the step's ``work`` arrays."""
+    return "energy" not in module.CONSERVES
 
 
 _LOADED: dict = {}

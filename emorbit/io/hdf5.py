@@ -55,6 +55,9 @@ from .reader import (
 
 __all__ = ["Writer", "FileLostError"]
 
+#: the record datasets of effects, one per effect (or the balance of those that do work)
+_EFFECT_RECORDS = ("invariants/potential_", "invariants/work_", "invariants/energy_balance")
+
 
 class FileLostError(EmorbitError, OSError):
     """The run file was removed or replaced while a run wrote it; the message says where the
@@ -171,6 +174,11 @@ class Writer:
         Labels of the effects whose potential energy each record holds, in
         ``invariants/potential_<label>`` (J); :meth:`append` takes them by
         ``potential_<label>``.
+    works : sequence of str
+        Labels of the non-conservative effects (drag): each record holds the work each has
+        done since the run's start in ``invariants/work_<label>`` (J) and the energy balance
+        ``E - E0 - sum W`` in ``invariants/energy_balance`` (J); :meth:`append` takes them by
+        ``work_<label>`` and ``energy_balance``. None given: neither is written.
 
     Raises
     ------
@@ -179,7 +187,9 @@ class Writer:
         does not exist, or it cannot be created.
     """
 
-    def __init__(self, path, bodies, attrs: dict, *, overwrite: bool = False, chunk_rows: int = 1024, potentials=()):
+    def __init__(
+        self, path, bodies, attrs: dict, *, overwrite: bool = False, chunk_rows: int = 1024, potentials=(), works=()
+    ):
         path = os.fspath(path)
         if os.path.lexists(path) and not overwrite:
             raise InputError("output", _exists_message(path))
@@ -202,7 +212,7 @@ class Writer:
             except OSError as exc:
                 raise InputError("output", f"cannot create a file in {folder!r}: {exc}") from None
             self._identity = _identity(os.fstat(self.file.id.get_vfd_handle()))
-            self._layout(bodies, attrs, chunk_rows, potentials)
+            self._layout(bodies, attrs, chunk_rows, potentials, works)
             self.file.flush()
         except BaseException:
             self._discard()
@@ -247,7 +257,7 @@ class Writer:
             self._held.close()
             self._held = None
 
-    def _layout(self, bodies, attrs: dict, chunk_rows: int, potentials=()) -> None:
+    def _layout(self, bodies, attrs: dict, chunk_rows: int, potentials=(), works=()) -> None:
         f = self.file
         f.attrs["creator"] = f"emorbit {__version__}"
         f.attrs["emorbit_version"] = __version__
@@ -262,6 +272,8 @@ class Writer:
         for label in potentials:  # each effect's potential energy (emorbit.effects)
             name = f"invariants/potential_{label}"
             self._ds[name] = _growable(f, name, None, "J", chunk_rows)
+        for name in [f"invariants/work_{label}" for label in works] + (["invariants/energy_balance"] if works else []):
+            self._ds[name] = _growable(f, name, None, "J", chunk_rows)  # the non-conservative effects' work
         self._body_ds = {}
         group = f.create_group("bodies", track_order=True)
         for body in bodies:
@@ -356,7 +368,7 @@ class Writer:
                 fill = np.asarray(energy, float)[:, None]
             blocks[name] = diagnostics.get(name.split("/")[1], np.broadcast_to(fill, shape))
         for name in self._ds:
-            if name.startswith("invariants/potential_"):
+            if name.startswith(_EFFECT_RECORDS):
                 blocks[name] = diagnostics.get(name.split("/")[1], np.zeros(time.shape[0]))
         for name, block in blocks.items():
             _append(self._ds[name], np.asarray(block, float))
@@ -497,8 +509,8 @@ class Writer:
                 ds.resize(rows.shape[0], axis=0)
                 ds[:] = rows
         self._ds = {name: f[name] for name in LAYOUT_UNITS}
-        for label in f["invariants"]:  # each effect's potential energy
-            if label.startswith("potential_"):
+        for label in f["invariants"]:  # each effect's potential energy, the work of those doing work
+            if label.startswith(tuple(p.split("/")[1] for p in _EFFECT_RECORDS)):
                 self._ds[f"invariants/{label}"] = f[f"invariants/{label}"]
         self._body_ds = {}
         for name, g in f["bodies"].items():

@@ -2,7 +2,9 @@
 
 A :class:`Sink` receives the states a chunk of steps recorded, computes the invariants of
 every record (energy in J, linear momentum in kg m/s, angular momentum about the field's
-centre in kg m2/s), the mean Newton iterations per solve, the steps redone in sub-steps and
+centre in kg m2/s; under effects that do work, such as drag, the work each has done since the
+run's start and the energy balance ``E - E0 - sum W``, which an em step keeps at round-off),
+the mean Newton iterations per solve, the steps redone in sub-steps and
 the sub-steps whose Newton iteration was accepted at a stall in each record interval, and
 the drift of the conserved invariants against the bound round-off explains (the
 simulation's :class:`~emorbit.io.drift.DriftMonitor`); stops the run when a record falls
@@ -91,6 +93,12 @@ class Sink:
         (2,) the least and greatest total energy, J, of the steps since the last record that
         no emitted chunk holds (steps redone in sub-steps); widens the next record's
         ``invariants/energy_range``.
+    energy0 : float or None
+        Under effects that do work (drag): the energy of the run file's first record, J, the
+        E0 of ``invariants/energy_balance = E - E0 - sum W``.
+    works : list of dict
+        Under effects that do work: each emitted block's ``work_<label>`` (the work since the
+        run's start, J, summed over the points) and ``energy_balance`` (J).
     """
 
     def __init__(self, sim, writer, keep: bool):
@@ -104,6 +112,8 @@ class Sink:
         self.stalled_pending = 0
         self.monitor = getattr(sim, "_drift", None)
         self.range_pending = np.array([np.inf, -np.inf])
+        self.energy0 = None  # E0 of the energy balance: the run file's first record
+        self.works: list[dict] = []  # {work_<label>, energy_balance: (rows,) J} per emitted block
 
     def widen(self, energy) -> None:
         """Widen the next record's energy range by energies (J) of steps between records.
@@ -172,10 +182,14 @@ class Sink:
         substeps = None  # counted by an adaptive kernel
         solves = 0
         potentials = {}  # each effect's potential energy (systems under effects)
+        works = {}  # the work of the effects that do work, since the run's start
         for system, rec in recs:
             if hasattr(system, "effect_energies") and self.writer is not None:
                 for name, e in system.effect_energies(rec, nrec, gm, center).items():
                     potentials[name] = potentials.get(name, 0.0) + e
+            if hasattr(system, "effect_work"):
+                for name, w in system.effect_work(rec, nrec).items():
+                    works[name] = works.get(name, 0.0) + w
             e, p, L = system.invariants(rec, nrec, gm, center)
             energy += e
             momentum += p
@@ -225,6 +239,13 @@ class Sink:
         self.rows += nrec
         self.last_step = int(steps[nrec - 1])
         block = (times, energy, momentum, angular, its, data, split, stalled, drift, bound, erange)
+        if works:  # E - E0 - W: the energy the records hold beyond the work done on the bodies
+            if self.energy0 is None:
+                resumed = self.writer is not None and self.rows > nrec  # the file's first record is E0
+                self.energy0 = float(self.writer.file["invariants/energy"][0]) if resumed else float(energy[0])
+            works["energy_balance"] = energy - self.energy0 - sum(works.values())
+            if self.keep:
+                self.works.append({k: np.array(w, float) for k, w in works.items()})
         if self.writer is not None:
             self.writer.append(
                 *block[:6],
@@ -234,6 +255,7 @@ class Sink:
                 drift_bound=bound,
                 energy_range=erange,
                 **potentials,
+                **works,
             )
         if self.keep or not self.blocks:
             self.blocks.append(block if self.keep else _row(block, 0))

@@ -127,7 +127,7 @@ def _check_bodies(f, path, sim, records: int) -> None:
 
 #: compensation terms: each holds the rounding error of the state array it is named after
 #: (cx of x, ...), which is at most an ulp of it
-_COMPENSATED = ("cx", "cv", "cq", "cu")
+_COMPENSATED = ("cx", "cv", "cq", "cu", "cwork")
 
 
 def _check_state(path, where: str, arrays: dict, sim) -> None:

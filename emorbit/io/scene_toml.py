@@ -101,6 +101,8 @@ def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -
             f"position = {_v(pts.x[:, i], 'm')}",
             f"velocity = {_v(pts.v[:, i], 'm / s')}",
         ]
+        if name in getattr(pts, "ballistic", {}):
+            lines.append(f"ballistic_coefficient = {_q(pts.ballistic[name], 'm2 / kg')}")
     if sim.rigid is not None:
         rb = sim.rigid
         now = rb.datasets(rb.current(), 1)
