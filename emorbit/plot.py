@@ -1,16 +1,18 @@
-"""Figures from run files: the paper's energy figure (several runs on one axes), the orbit or
-the angular momentum, attitudes of rigid bodies and deformations of elastic ones.
+"""Figures from run files: the paper's energy figure (several runs on one axes), the orbit or the
+angular momentum, attitudes of rigid bodies and deformations of elastic ones.
 
 The energy error of each run is its recorded points joined by a line over a shaded band: the
 least and greatest error over the steps between records
 (:meth:`emorbit.Result.relative_energy_error_range`), so a run recorded every k-th step shows
 where it went between records, and a decimated record never looks like a dip the run did not
-have. Legends sit beside the axes, never over the curves. A run in a central field gets an
-orbit panel (x-y projection with the centre marked); a free-space run gets the relative
-angular-momentum error instead. Rigid bodies add their attitude angles and body-frame
-angular velocity; elastic bodies add their deformation: the largest distance of a node from
-the best rigid placement of the mesh's reference nodes (:func:`deformation`), which is the
-tip deflection of a beam relative to its rigid motion and the sag and stretch of a tether.
+have. Under effects that do work (drag) the log panel adds each run's energy balance,
+``|E - E0 - W| / |E0|``, as a dashed line in its colour. Legends sit beside the axes, never over the
+curves. A run in a central field gets an orbit panel (x-y projection with the centre marked); a
+free-space run gets the relative angular-momentum error instead. Rigid bodies add their
+attitude angles and body-frame angular velocity; elastic bodies add their deformation: the
+largest distance of a node from the best rigid placement of the mesh's reference nodes
+(:func:`deformation`), which is the tip deflection of a beam relative to its rigid motion and
+the sag and stretch of a tether.
 """
 
 from __future__ import annotations
@@ -55,6 +57,12 @@ def _plot_energy(runs, ax_lin, ax_log, floor: float) -> None:
         label = _label(path, res)
         (line,) = ax_lin.plot(res.time, err, lw=0.8, label=label, zorder=3)
         (log_line,) = ax_log.semilogy(res.time, np.maximum(np.abs(err), floor), lw=0.8, label=label, zorder=3)
+        balance = res.relative_energy_balance()
+        if balance is not None:  # under drag: the balance E - E0 - W beside the energy, dashed
+            ax_log.semilogy(
+                res.time, np.maximum(np.abs(balance), floor), lw=0.8, ls="--", color=log_line.get_color(),
+                label=f"{label}: |E - E0 - W| / |E0|", zorder=3,
+            )  # fmt: skip
         band = _band(res)
         if band is None:
             continue

@@ -98,6 +98,12 @@ class ResultSI:
         (n, 2) the least and the greatest total energy over the steps of the record interval
         that ends at each record, J; both columns equal :attr:`energy` where the run did
         not record them.
+    work : dict
+        {effect label: (n,) J}: the work each effect that does work (drag) has done on the
+        bodies since the run's start; empty for conservative scenes.
+    energy_balance : ndarray or None
+        (n,) ``E - E0 - sum W``, J, under effects that do work (an em step keeps it at
+        round-off); None for conservative scenes.
     """
 
     time: np.ndarray
@@ -119,6 +125,8 @@ class ResultSI:
     invariant_drift: np.ndarray | None = None
     drift_bound: np.ndarray | None = None
     energy_range: np.ndarray | None = None
+    work: dict = field(default_factory=dict)
+    energy_balance: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.time)
@@ -195,6 +203,18 @@ class ResultSI:
             interval that ends at each record (:attr:`energy_range`).
         """
         return (self.energy_range - self.energy[0]) / abs(self.energy[0])
+
+    def relative_energy_balance(self) -> np.ndarray | None:
+        """The energy balance of every record relative to the first energy.
+
+        Returns
+        -------
+        ndarray or None
+            (E - E0 - sum W) / |E0|, shape (n,), under effects that do work; None otherwise.
+        """
+        if self.energy_balance is None:
+            return None
+        return np.asarray(self.energy_balance, float) / abs(self.energy[0])
 
     def relative_angular_momentum_error(self) -> np.ndarray:
         """The relative angular-momentum error of every record.
@@ -316,6 +336,8 @@ class Result:
         invariant_drift=None,
         drift_bound=None,
         energy_range=None,
+        work=None,
+        energy_balance=None,
     ) -> None:
         self._si = ResultSI(
             time=time,
@@ -337,6 +359,8 @@ class Result:
             invariant_drift=invariant_drift,
             drift_bound=drift_bound,
             energy_range=energy_range,
+            work={} if work is None else dict(work),
+            energy_balance=energy_balance,
         )
 
     def __repr__(self) -> str:
@@ -520,6 +544,22 @@ class Result:
     def drift_bound(self) -> np.ndarray:
         """(n,) the drift that round-off explains at each record."""
         return self._si.drift_bound
+
+    @property
+    def work(self) -> dict[str, u.Quantity]:
+        """{effect label: (n,) J} the work of each effect that does work (drag) since the run's
+        start; empty for conservative scenes."""
+        return {k: _with_unit(w, u.J) for k, w in self._si.work.items()}
+
+    @property
+    def energy_balance(self) -> u.Quantity | None:
+        """(n,) ``E - E0 - sum W``, J, under effects that do work; None otherwise."""
+        b = self._si.energy_balance
+        return None if b is None else _with_unit(b, u.J)
+
+    def relative_energy_balance(self) -> np.ndarray | None:
+        """(E - E0 - sum W) / |E0| of every record (plain array), or None for conservative scenes."""
+        return self._si.relative_energy_balance()
 
     def relative_energy_error(self) -> np.ndarray:
         """The relative energy error of every record.

@@ -241,3 +241,28 @@ def test_drag_in_free_space_and_a_point_without_coefficient_are_refused():
     sim.add_effect("drag", atmosphere="vallado")
     with pytest.raises(InputError, match="one atmosphere"):
         sim.add_effect("drag", atmosphere="vallado")
+
+
+def test_the_result_and_the_plot_carry_the_work_and_the_balance(tmp_path):
+    """The kept records and the file read back give the same work and balance, with units;
+    the balance stays at round-off while the energy falls; the plot draws it."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from emorbit.plot import plot_runs
+
+    sim = _leo(T_LEO / 100, EXPONENTIAL)
+    res = sim.run(steps=2000, every=100, output=tmp_path / "d.h5", progress=False)
+    back = emorbit.read(tmp_path / "d.h5")
+    assert set(res.work) == {"drag"} and res.work["drag"].unit == "J" and res.energy_balance.unit == "J"
+    assert np.array_equal(res.si.work["drag"], back.si.work["drag"])
+    assert np.array_equal(res.si.energy_balance, back.si.energy_balance)
+    rel = back.relative_energy_balance()
+    assert np.max(np.abs(rel)) <= 1e-13 and abs(back.relative_energy_error()[-1]) > 1e-7
+    assert np.all(np.diff(res.si.work["drag"]) < 0)  # drag takes energy, record after record
+    conservative = emorbit.Simulation(EARTH, dt=10.0)
+    conservative.add_point("p", mass=1.0, position=[R_LEO, 0, 0], velocity=[0, V_LEO, 0])
+    plain = conservative.run(steps=10, progress=False)
+    assert plain.work == {} and plain.energy_balance is None and plain.relative_energy_balance() is None
+    out = plot_runs([tmp_path / "d.h5"], tmp_path / "d.png")
+    assert (tmp_path / "d.png").stat().st_size > 0 and out

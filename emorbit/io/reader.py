@@ -387,5 +387,7 @@ def read(path) -> Result:
             gm=_attr(f, path, "gm", float),
             center=center,
             attrs={k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()},
+            work={k[len("work_") :]: ds[:n] for k, ds in f["invariants"].items() if k.startswith("work_")},
+            energy_balance=f["invariants/energy_balance"][:n] if "energy_balance" in f["invariants"] else None,
             **diag,
         )

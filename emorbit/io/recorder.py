@@ -299,7 +299,16 @@ class Sink:
             invariant_drift=cat(8),
             drift_bound=cat(9),
             energy_range=cat(10),
+            **self._works(sum(len(b[0]) for b in blocks)),
         )
+
+    def _works(self, rows: int) -> dict:
+        """``work`` and ``energy_balance`` of the kept records (empty when none were kept)."""
+        if not self.works or sum(len(w["energy_balance"]) for w in self.works) != rows:
+            return {}
+        cat = {k: np.concatenate([w[k] for w in self.works]) for k in self.works[0]}
+        balance = cat.pop("energy_balance")
+        return {"work": {k[len("work_") :]: v for k, v in cat.items()}, "energy_balance": balance}
 
 
 def _row(block, i):
