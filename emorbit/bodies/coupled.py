@@ -145,7 +145,7 @@ class Structure(StructureLayout):
             F, self._fn, self._kb, self._kt, self._fg, self._kg, *zonal,
         )  # fmt: skip
         for term, on in zip(self.mutual, self.mp_on):
-            st, _ = kc.fill_mutual(
+            st = kc.fill_mutual(
                 term.params["mutual_p"][0], hf * h, x0n, x1n, self.mp_node, self.mp_w, self.mp_m, self.mp_body, on,
                 self.node_slot, self.node_coef, with_jacobian, self.J.indptr, self.J.indices, data, F, self._xm0,
                 self._xm1, self._fm, self._km, self._fnm, self.mp_cross, self.mp_coef, self.body_slots,

@@ -133,11 +133,11 @@ def fill_mutual(
     compact bodies (``cross``, ``coef`` (q, 4) of the slots ``body_slots`` (nb, 4) of each
     body; ``acc`` (nb, nb, 4, 4, 3, 3) scratch, size 0 along the first axis: none) summed per
     pair of bodies (:func:`~.effects.pairs.mutual_cross`). xm0, xm1 (q, 3), fm (q, 3),
-    km (q, 3, 3) and fnm (n_nodes, 3) are scratch. Returns (status, coupling) of
+    km (q, 3, 3) and fnm (n_nodes, 3) are scratch. Returns the status of
     :func:`~.effects.pairs.mutual_forces`."""
     combine_rows(x0n, mp_node, mp_w, xm0)
     combine_rows(x1n, mp_node, mp_w, xm1)
-    status, coupling = mutual_forces(g, xm0, xm1, mp_m, mp_body, on, fm, km)
+    status = mutual_forces(g, xm0, xm1, mp_m, mp_body, on, fm, km)
     fnm[:, :] = 0.0
     spread_rows(fm, mp_node, mp_w, fnm)
     spread_rows(fnm, node_slot, node_coef, Fslot)
@@ -162,7 +162,7 @@ def fill_mutual(
                                     if v != 0.0:
                                         data[csc_find(indptr, indices, 3 * si + d, 3 * sj + e)] += v
                                         data[csc_find(indptr, indices, 3 * sj + d, 3 * si + e)] += v
-    return status, coupling
+    return status
 
 
 @kernel

@@ -42,16 +42,12 @@ __all__ = ["mutual_forces", "mutual_cross", "mutual_potential"]
 @kernel
 def mutual_forces(g, x0, x1, m, body, on, f, k):
     """The pair forces of mutual gravity on every point into ``f`` and their own Jacobian
-    blocks into ``k`` (both overwritten); ``g`` is the constant of gravitation.
-
-    Returns (status, coupling): STATUS_SINGULAR where two points of different bodies meet
-    (or a value is not finite), else STATUS_OK; and the largest row sum over the points of
-    ``|d f_a / d x1_b| / m_a`` over the other points ``b``, 1/s^2 (times h^2/2, the rate at
-    which an iteration that leaves the blocks between points out converges).
+    blocks into ``k`` (both overwritten); ``g`` is the constant of gravitation. Returns
+    STATUS_SINGULAR where two points of different bodies meet (or a value is not finite),
+    else STATUS_OK.
     """
     n = m.shape[0]
     J = np.empty((3, 3))
-    rho = np.zeros(n)
     f[:, :] = 0.0
     k[:, :, :] = 0.0
     check = 0.0
@@ -76,12 +72,10 @@ def mutual_forces(g, x0, x1, m, body, on, f, k):
                 for j in range(3):
                     k[a, i, j] += gab * J[i, j]
                     k[b, i, j] += gab * J[i, j]
-            rho[a] += g * m[b] * big
-            rho[b] += g * m[a] * big
             check += big
     if not (abs(check) < math.inf):
-        return STATUS_SINGULAR, math.inf
-    return STATUS_OK, np.max(rho) if n else 0.0
+        return STATUS_SINGULAR
+    return STATUS_OK
 
 
 @kernel
