@@ -23,10 +23,11 @@ holds to round-off by construction, whatever the density model (measured: 1.4e-1
 
     dF/dx1 = -1/2 B [rho (|v| (I / h - W / 2) + v u^T / |v|) + (d rho / d a) |v| v d^T / (2 |d|)]
 
-Data layout: components as float64 scalars; a band table as three (n,) float64 arrays
-``table_h0`` (m, increasing), ``table_rho0`` (kg/m^3), ``table_H`` (m); the Jacobian is
-added into a (3, 3) float64 array ``J`` (``J[i, j] += dF_i / dx1_j``). All kernels are
-``inline="always"`` and callable from Python. References: U.S. Standard Atmosphere, 1976
+Any other density (:mod:`.atmosphere_grid`) enters through :func:`drag_force_rho` and
+:func:`drag_jacobian_rho`. Data layout: components as float64 scalars; a band table as three
+(n,) float64 arrays ``table_h0`` (m, increasing), ``table_rho0`` (kg/m^3), ``table_H`` (m);
+the Jacobian is added into a (3, 3) float64 array ``J`` (``J[i, j] += dF_i / dx1_j``). All
+kernels are ``inline="always"`` and callable from Python. References: U.S. Standard Atmosphere, 1976
 (NOAA-S/T 76-1562); D. A. Vallado, Fundamentals of Astrodynamics and Applications, 4th ed.
 (2013), Table 8-4; J. C. Simo, N. Tarnow, ZAMP 43 (1992) 757-792.
 """
@@ -45,7 +46,9 @@ __all__ = [
     "ussa1976_density_derivative",
     "altitude",
     "drag_force",
+    "drag_force_rho",
     "drag_jacobian",
+    "drag_jacobian_rho",
 ]
 
 _inline = kernel(inline="always")
@@ -185,6 +188,33 @@ def altitude(x, y, z, c0, c1, c2, radius):
 
 
 @_inline
+def drag_force_rho(x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, rho):
+    """The drag force per unit mass over the step x0 -> x1 at the density ``rho`` (kg/m^3) of
+    the step's midpoint: :func:`drag_force` for any density model.
+
+    Parameters
+    ----------
+    x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B
+        As :func:`drag_force`.
+    rho : float
+        The density at the midpoint, kg/m^3.
+
+    Returns
+    -------
+    tuple of float
+        ``(fx, fy, fz)``, m/s^2.
+    """
+    d0 = 0.5 * (x0 + x1) - c0
+    d1 = 0.5 * (y0 + y1) - c1
+    d2 = 0.5 * (z0 + z1) - c2
+    v0 = (x1 - x0) / h - (w1 * d2 - w2 * d1)
+    v1 = (y1 - y0) / h - (w2 * d0 - w0 * d2)
+    v2 = (z1 - z0) / h - (w0 * d1 - w1 * d0)
+    k = -0.5 * rho * B * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    return k * v0, k * v1, k * v2
+
+
+@_inline
 def drag_force(x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, radius, table_h0, table_rho0, table_H):
     """The drag force per unit mass over the step x0 -> x1, at the step's midpoint.
 
@@ -216,26 +246,24 @@ def drag_force(x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, radius, tab
     d0 = 0.5 * (x0 + x1) - c0
     d1 = 0.5 * (y0 + y1) - c1
     d2 = 0.5 * (z0 + z1) - c2
-    v0 = (x1 - x0) / h - (w1 * d2 - w2 * d1)
-    v1 = (y1 - y0) / h - (w2 * d0 - w0 * d2)
-    v2 = (z1 - z0) / h - (w0 * d1 - w1 * d0)
     a = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) - radius
     rho = ussa1976_density(a, table_h0, table_rho0, table_H)
-    k = -0.5 * rho * B * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-    return k * v0, k * v1, k * v2
+    return drag_force_rho(x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, rho)
 
 
 @_inline
-def drag_jacobian(x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, radius, table_h0, table_rho0, table_H, J):
-    """Add the derivative of :func:`drag_force` with respect to the end point into ``J``.
+def drag_jacobian_rho(x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, rho, drho, J):
+    """Add the derivative of :func:`drag_force_rho` with respect to the end point into ``J``,
+    the density ``rho`` changing with the midpoint's altitude at the rate ``drho`` (kg/m^4).
 
     Parameters
     ----------
-    x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, radius, table_h0, table_rho0, table_H
-        As :func:`drag_force`.
+    x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, rho
+        As :func:`drag_force_rho`.
+    drho : float
+        ``d rho / d a`` at the midpoint, kg/m^4.
     J : ndarray
-        (3, 3) float64; ``J[i, j] += dF_i / dx1_j`` (1/s^2). Within a band the derivative
-        is exact; at a band's base it is the one-sided derivative of the band above.
+        (3, 3) float64; ``J[i, j] += dF_i / dx1_j`` (1/s^2).
     """
     d0 = 0.5 * (x0 + x1) - c0
     d1 = 0.5 * (y0 + y1) - c1
@@ -244,8 +272,6 @@ def drag_jacobian(x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, radius, 
     v1 = (y1 - y0) / h - (w2 * d0 - w0 * d2)
     v2 = (z1 - z0) / h - (w0 * d1 - w1 * d0)
     r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-    i = band_index(r - radius, table_h0)
-    rho = table_rho0[i] * math.exp(-(r - radius - table_h0[i]) / table_H[i])
     speed = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
     # rho (|v| A + v u^T / |v|), A = dv/dx1 = I / h - W / 2, u = A^T v = v / h + (w x v) / 2
     c = -0.5 * B * rho
@@ -274,9 +300,9 @@ def drag_jacobian(x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, radius, 
         J[2, 0] += cv * v2 * u0
         J[2, 1] += cv * v2 * u1
         J[2, 2] += cv * v2 * u2
-    # the density's altitude derivative: d rho / d x1 = (-rho / H) d / (2 r)
+    # the density's altitude derivative: d rho / d x1 = drho d / (2 r)
     if r > 0.0:
-        cd = -0.5 * B * speed * (-rho / table_H[i]) * 0.5 / r
+        cd = -0.5 * B * speed * drho * 0.5 / r
         J[0, 0] += cd * v0 * d0
         J[0, 1] += cd * v0 * d1
         J[0, 2] += cd * v0 * d2
@@ -286,3 +312,24 @@ def drag_jacobian(x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, radius, 
         J[2, 0] += cd * v2 * d0
         J[2, 1] += cd * v2 * d1
         J[2, 2] += cd * v2 * d2
+
+
+@_inline
+def drag_jacobian(x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, radius, table_h0, table_rho0, table_H, J):
+    """Add the derivative of :func:`drag_force` with respect to the end point into ``J``.
+
+    Parameters
+    ----------
+    x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, radius, table_h0, table_rho0, table_H
+        As :func:`drag_force`.
+    J : ndarray
+        (3, 3) float64; ``J[i, j] += dF_i / dx1_j`` (1/s^2). Within a band the derivative
+        is exact; at a band's base it is the one-sided derivative of the band above.
+    """
+    d0 = 0.5 * (x0 + x1) - c0
+    d1 = 0.5 * (y0 + y1) - c1
+    d2 = 0.5 * (z0 + z1) - c2
+    r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    i = band_index(r - radius, table_h0)
+    rho = table_rho0[i] * math.exp(-(r - radius - table_h0[i]) / table_H[i])
+    drag_jacobian_rho(x0, y0, z0, x1, y1, z1, h, c0, c1, c2, w0, w1, w2, B, rho, -rho / table_H[i], J)

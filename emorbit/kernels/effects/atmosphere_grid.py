@@ -1,0 +1,88 @@
+"""A density grid over altitude, latitude and local solar time (NRLMSIS sampled at an epoch).
+
+The density at a point d (relative to the central body's centre) with the Sun at s and the
+body's pole p (unit) is read from a grid of ``log rho`` by trilinear interpolation in
+
+    a = |d| - R                        (altitude above a sphere of radius R, m)
+    phi = asin(d . p / |d|)            (geocentric latitude, rad)
+    lam = atan2(p . (s_e x d_e), s_e . d_e) + pi    (local solar time as an angle, rad: 0 at
+                                        midnight, pi at noon; d_e, s_e the parts normal to p)
+
+so that the density's diurnal bulge follows the Sun. Between grid altitudes ``log rho`` is
+linear (an exponential layer); below and above the grid the end layers extend, latitudes
+clamp at the poles' rows and the local time wraps around (the grid's last column is its
+first). The altitude derivative ``d rho / d a = rho d(log rho)/da`` is the interpolated
+layer slope, which drag's Jacobian takes (:func:`.atmosphere.drag_jacobian_rho`); the
+horizontal derivatives, over thousands of km, are left out of it.
+
+Data layout: ``g_p`` (5,) float64 ``[a0, da, phi0, dphi, dlam]`` (m, m, rad, rad, rad): the
+grid's first altitude and spacing, first latitude and spacing, local-time spacing; ``grid``
+(na, nphi, nlam + 1) float64 ``log(rho / (kg/m^3))``. References: J. T. Emmert et al.,
+J. Geophys. Res. Space Phys. 127 (2022) e2022JA030896 (NRLMSIS 2.1).
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..jit import kernel
+
+__all__ = ["grid_density"]
+
+_inline = kernel(inline="always")
+
+
+@_inline
+def grid_density(d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, g_p, grid):
+    """The density of the grid at a point, and its altitude derivative.
+
+    Parameters
+    ----------
+    d0, d1, d2 : float
+        The point relative to the central body's centre, m.
+    s0, s1, s2 : float
+        The Sun relative to the same centre, m.
+    p0, p1, p2 : float
+        The body's pole, a unit vector.
+    radius : float
+        R, m.
+    g_p : ndarray
+        (5,) the grid's axes (the module's docstring).
+    grid : ndarray
+        (na, nphi, nlam + 1) ``log rho``.
+
+    Returns
+    -------
+    tuple of float
+        ``(rho, drho)``: kg/m^3 and kg/m^4.
+    """
+    r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    z = d0 * p0 + d1 * p1 + d2 * p2
+    zs = s0 * p0 + s1 * p1 + s2 * p2
+    e0, e1, e2 = d0 - z * p0, d1 - z * p1, d2 - z * p2
+    f0, f1, f2 = s0 - zs * p0, s1 - zs * p1, s2 - zs * p2
+    cross = p0 * (f1 * e2 - f2 * e1) + p1 * (f2 * e0 - f0 * e2) + p2 * (f0 * e1 - f1 * e0)
+    lam = math.atan2(cross, f0 * e0 + f1 * e1 + f2 * e2) + math.pi
+    phi = math.asin(max(-1.0, min(1.0, z / r)))
+    na, nphi, nlam = grid.shape[0], grid.shape[1], grid.shape[2] - 1
+    # altitude: the layer below (the end layers extend)
+    x = (r - radius - g_p[0]) / g_p[1]
+    i = min(max(int(math.floor(x)), 0), na - 2)
+    fa = x - i
+    # latitude: clamped at the poles' rows
+    y = (phi - g_p[2]) / g_p[3]
+    j = min(max(int(math.floor(y)), 0), nphi - 2)
+    fp = min(max(y - j, 0.0), 1.0)
+    # local time: periodic
+    w = lam / g_p[4]
+    k = int(math.floor(w)) % nlam
+    fl = w - math.floor(w)
+    lo = 0.0
+    hi = 0.0
+    for jj, wj in ((j, 1.0 - fp), (j + 1, fp)):
+        for kk, wk in ((k, 1.0 - fl), (k + 1, fl)):
+            lo += wj * wk * grid[i, jj, kk]
+            hi += wj * wk * grid[i + 1, jj, kk]
+    slope = (hi - lo) / g_p[1]
+    rho = math.exp(lo + fa * (hi - lo))
+    return rho, rho * slope
