@@ -14,7 +14,15 @@ from __future__ import annotations
 
 from .errors import InputError
 
-__all__ = ["EffectSetup"]
+__all__ = ["EffectSetup", "ON_POINTS_AND_RIGID"]
+
+#: the effects that act on point masses and rigid bodies but not on structures
+ON_POINTS_AND_RIGID = ("drag", "srp", "third_body")
+_NOT_ON_STRUCTURES = (
+    "{} acts on point masses and rigid bodies; this simulation has a structure (elastic bodies, or mutual "
+    "gravity between bodies that are not all point masses), where only drag acts (on elastic bodies' surfaces "
+    "and rigid bodies' facets)"
+)
 
 
 class EffectSetup:
@@ -77,16 +85,31 @@ class EffectSetup:
             raise InputError(key, "mutual gravity cannot be added after the structure has started running")
         if kind == "zonal" and any(t.kind == "zonal" for t in self._effects):
             raise InputError(key, "the central body has one set of zonal harmonics; this simulation has it already")
-        if kind == "drag":
-            if any(t.kind == "drag" for t in self._effects):
-                raise InputError(key, "the central body has one atmosphere; this simulation has drag already")
-            if (self.rigid is not None and len(self.rigid)) or self.structure is not None:
-                raise InputError(key, "drag acts on point masses only; this simulation has rigid or elastic bodies")
+        if kind in ("drag", "srp") and any(t.kind == kind for t in self._effects):
+            what = "one atmosphere; this simulation has drag" if kind == "drag" else "one Sun; this simulation has srp"
+            raise InputError(key, f"the central body has {what} already")
+        if kind == "third_body" and any(t.kind == kind and t.body == term.body for t in self._effects):
+            raise InputError(f"{key}.body", f"this simulation has the third body {term.body!r} already")
+        if getattr(term, "needs_epoch", False) and getattr(self, "epoch", None) is None:
+            raise InputError(
+                "epoch",
+                f"{key} ({kind}) takes the Sun's or the Moon's position from an ephemeris: give the run's "
+                'epoch, e.g. epoch = "2026-01-01T00:00:00 TDB"',
+            )
+        if kind in ON_POINTS_AND_RIGID and kind != "drag" and self.structure is not None:
+            raise InputError(key, _NOT_ON_STRUCTURES.format(kind))
+        if kind == "drag" and self.structure is not None:
+            if self.structure._built:
+                raise InputError(key, "drag cannot be added after the structure has started running")
+            self.structure.drag = term
+        coefficient = {"drag": ("ballistic", "ballistic_coefficient", "Cd A / m"),
+                       "srp": ("radiation", "radiation_coefficient", "Cr A / m")}.get(kind)  # fmt: skip
+        if coefficient is not None:
+            table, name_, what = coefficient
             for name in self.points.names:
-                if name not in self.points.ballistic:
+                if name not in getattr(self.points, table):
                     raise InputError(
-                        f"body[{name!r}].ballistic_coefficient",
-                        "drag acts on the point masses: give Cd A / m (m2 / kg; 0 for no drag)",
+                        f"body[{name!r}].{name_}", f"{kind} acts on the point masses: give {what} (m2 / kg; 0 for none)"
                     )
         same = sum(t.kind == kind for t in self._effects)
         if same:
@@ -95,6 +118,8 @@ class EffectSetup:
         for system in (self.rigid, self.structure) if kind == "zonal" else ():
             if system is not None:
                 system.zonal = term
+        if kind in ON_POINTS_AND_RIGID and self.rigid is not None:
+            self.rigid.effects = self._rigid_terms()
         if kind == "mutual" and ((self.rigid is not None and len(self.rigid)) or self.structure is not None):
             self._gather()
         if isinstance(self.points, EffectPoints):
@@ -102,6 +127,48 @@ class EffectSetup:
             self.points._kernel = None
         else:
             self.points = EffectPoints.taking_over(self.points, self.effects)
+
+    def _point_coefficients(self, ballistic, radiation, strict: bool, key: str) -> tuple:
+        """A new point mass's ``Cd A / m`` and ``Cr A / m`` (m^2/kg, or None where not given);
+        each is required where the simulation has drag, respectively radiation pressure."""
+        from .units import to_si
+
+        out = []
+        for value, name, kind, what in (
+            (ballistic, "ballistic_coefficient", "drag", "drag acts on the point masses: give Cd A / m"),
+            (radiation, "radiation_coefficient", "srp", "radiation pressure acts on the point masses: give Cr A / m"),
+        ):
+            if value is not None:
+                out.append(to_si(value, "area_per_mass", f"{key}.{name}", strict=strict, nonnegative=True))
+            elif any(t.kind == kind for t in self._effects):
+                raise InputError(f"{key}.{name}", f"{what} (m2 / kg; 0 for none)")
+            else:
+                out.append(None)
+        return tuple(out)
+
+    def _structure(self):
+        """The simulation's structure, created with its effects where it has none yet (drag acts on
+        it; radiation pressure and third bodies refuse it)."""
+        if self.structure is None:
+            from .bodies.coupled import Structure
+
+            for term in self._rigid_terms():
+                if term.kind != "drag":
+                    raise InputError(
+                        "body", f"{term.key} ({term.kind}) acts on point masses and rigid bodies, not on elastic "
+                        "bodies or on a structure of bodies under mutual gravity",
+                    )  # fmt: skip
+            self.structure = Structure(newton=self.newton)
+            self.structure.zonal = next((t for t in self._effects if t.kind == "zonal"), None)
+            self.structure.drag = next((t for t in self._effects if t.kind == "drag"), None)
+        if self.structure._built:
+            raise InputError("body", "bodies and couplings cannot be added after the structure has started running")
+        self.structure.mutual = [t for t in self._effects if t.kind == "mutual"]
+        return self.structure
+
+    def _rigid_terms(self) -> list:
+        """The effects the rigid bodies feel beyond the field and zonal harmonics."""
+        return [t for t in self._effects if t.kind in ON_POINTS_AND_RIGID]
 
     def _gather(self) -> None:
         """Mutual gravity that reaches a rigid or elastic body: every point mass and rigid body
@@ -116,9 +183,12 @@ class EffectSetup:
     def _check_effects(self) -> None:
         """The effects' bodies exist where the effects act (raises InputError naming the key)."""
         st = self.structure
-        drag = next((t for t in self._effects if t.kind == "drag"), None)
-        if drag is not None and ((self.rigid is not None and len(self.rigid)) or st is not None):
-            raise InputError(drag.key, "drag acts on point masses only; this simulation has rigid or elastic bodies")
+        for term in self._effects:
+            if term.kind in ON_POINTS_AND_RIGID and term.kind != "drag" and st is not None:
+                raise InputError(term.key, _NOT_ON_STRUCTURES.format(term.kind))
+            if term.kind in ("drag", "srp") and self.rigid is not None:
+                for b in range(len(self.rigid)):
+                    self.rigid.facets(b)  # a body without a surface says so here, before the run
         if st is None or not st.mutual:
             self.points.check(self.method)
             return

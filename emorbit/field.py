@@ -16,7 +16,7 @@ import numpy as np
 from .errors import InputError
 from .units import to_si, vector_to_si
 
-__all__ = ["CentralField", "BODIES", "RADII"]
+__all__ = ["CentralField", "BODIES", "RADII", "ROTATION_RATES"]
 
 BODIES = {
     "earth": const.GM_earth,
@@ -30,6 +30,14 @@ RADII = {
     "jupiter": const.R_jup,
 }
 """Their nominal equatorial radii (IAU 2015): a named field's default collision radius."""
+ROTATION_RATES = {
+    "earth": 7.292115e-5,
+    "sun": 2.0 * np.pi / (25.38 * 86400.0),
+    "jupiter": 2.0 * np.pi / (9.0 * 3600.0 + 55.0 * 60.0 + 29.711),
+}
+"""Their sidereal rotation rates, rad/s: the Earth's mean angular velocity (IERS Conventions
+2010), the Sun's Carrington rate (25.38 days), Jupiter's System III (9 h 55 min 29.711 s);
+a named field's atmosphere co-rotates at this rate by default."""
 
 
 class CentralField:

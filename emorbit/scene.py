@@ -39,6 +39,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
+from .bodies.facets import FACET_KEYS
 from .effects import EFFECTS, effect_kinds
 from .errors import InputError
 from .field import BODIES, CentralField
@@ -157,6 +158,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("drift_tolerance", False, "number", "1000", "> 0 (inf: no check)",
             "C of the drift bound C eps sqrt(n): a conserved invariant that drifts further from the first "
             "record, in units of its round-off scale, makes the run warn (exit 3 with emorbit run --strict)"),
+        Key("epoch", False, "date and time", "none", '"2026-01-01T00:00:00 TDB" (scales TDB, TT, TAI, UTC, ...)',
+            "the instant time 0 stands for; required by srp and by third bodies from an ephemeris"),
         Key("max_output", False, "information (B)", f'"{MAX_OUTPUT}"', "> 0",
             "the largest output the run may project (its records, nodal positions included, in the file and in "
             "memory); a longer run is refused before anything is created"),
@@ -167,6 +170,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
         *_motion("the point's position", "the point's velocity", "the point"),
         Key("ballistic_coefficient", False, "area per mass (m2 / kg)", "", ">= 0 (0: no drag); required with drag",
             "Cd A / m: how strongly the drag effect acts on the point"),
+        Key("radiation_coefficient", False, "area per mass (m2 / kg)", "", ">= 0 (0: none); required with srp",
+            "Cr A / m: how strongly solar radiation pressure pushes the point (a cannonball)"),
     ),
     "body.rigid": (
         *_IDENTITY,
@@ -176,6 +181,16 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("gravity", False, "string", _GRAVITY_DEFAULT, _choices(("volume", "point", "none")),
             '"volume": summed over the mass points (gravity-gradient torque); "point": all mass at the centre '
             'of mass; "none": free motion'),
+        Key("facets", False, "string", '"shape"', '"shape", "none"',
+            "the flat facets drag and radiation pressure act on: the shape's surface, or only [[body.facet]] tables"),
+        Key("facet", False, "array of tables", "none", "[[body.facet]] tables (see below)",
+            "more facets, e.g. solar panels or a fin: center, normal, area, two_sided, coefficients"),
+        Key("drag_coefficient", False, "number", "2.2", ">= 0",
+            "Cd of the shape's facets, and the facet tables' default"),
+        Key("specular", False, "number", "0", "in [0, 1]; specular + diffuse <= 1",
+            "the specular reflectivity of the shape's facets, and the facet tables' default"),
+        Key("diffuse", False, "number", "0", "in [0, 1]",
+            "the diffuse reflectivity of the shape's facets, and the facet tables' default"),
         Key("size", False, _LENGTHS, "", "> 0", "the edge lengths along the body axes" + _REQ, ("box",)),
         Key("radius", False, _LENGTH, "", "> 0", "the radius" + _REQ, ("cylinder", "sphere", "shell")),
         Key("semi_axes", False, _LENGTHS, "", "> 0", "the semi-axes along the body axes" + _REQ, ("ellipsoid",)),
@@ -212,6 +227,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("gravity", False, "string", _GRAVITY_DEFAULT, _choices(("volume", "none")),
             '"volume": the field at the elements\' quadrature points; "none": free motion'),
         Key("node_output_every", False, "integer", "1", ">= 1", "records between outputs of the nodal positions"),
+        Key("drag_coefficient", False, "number", "2.2", ">= 0",
+            "Cd of the surface triangles of its tetrahedra under drag (bars have no surface)"),
         Key("size", False, f"{_LENGTHS} (net: 2)", "", "> 0",
             "beam: a box (Lx, Ly, Lz); net: a rectangle (Lx, Ly) in the x-y plane; centred on the origin" + _REQ,
             ("beam", "net")),
@@ -247,6 +264,7 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("mean_anomaly", False, "angle (rad)", "", "any; not for e = 1",
             "the mean anomaly (Kepler's equation gives the true anomaly); not with nu"),
     ),
+    "facet": FACET_KEYS,
     "coupling": (
         Key("kind", True, "string", "", _choices(COUPLING_KINDS), "the kind of coupling"),
         Key("elastic", True, "string", "", "the name of an elastic body", "the body whose nodes are attached"),
@@ -268,7 +286,7 @@ for _kind in effect_kinds():
 SCHEMA: dict[str, dict[str, bool]] = {table: {k.name: k.required for k in keys} for table, keys in KEYS.items()}
 #: [integrator] keys that :class:`Simulation` names as its arguments in errors
 _SIMULATION_ARGUMENTS = ("method", "order", "adaptive", "newton", "roundoff", "max_newton_iterations")
-_SIMULATION_ARGUMENTS += ("checkpoint_every",)
+_SIMULATION_ARGUMENTS += ("checkpoint_every", "epoch")
 #: the keys of a rigid or elastic body that are not parameters of its shape or mesh
 _RIGID_COMMON = tuple(k.name for k in KEYS["body.rigid"] if not k.applies)
 _ELASTIC_COMMON = tuple(k.name for k in KEYS["body.elastic"] if not k.applies)
@@ -502,6 +520,7 @@ class Scene:
             newton=newton,
             adaptive=adaptive,
             roundoff=roundoff,
+            epoch=integ.get("epoch"),
         )
         sim.keys = {k: f"integrator.{k}" for k in ("t_end", "dt", "max_output")} | {"every": "integrator.output_every"}
         sim.max_output = max_output
@@ -523,6 +542,7 @@ class Scene:
                     b["name"],
                     mass=b["mass"],
                     ballistic_coefficient=b.get("ballistic_coefficient"),
+                    radiation_coefficient=b.get("radiation_coefficient"),
                     **_placement(b),
                     strict=True,
                     key=where,
@@ -550,6 +570,7 @@ class Scene:
                     gravity=b.get("gravity"),
                     mass_matrix=b.get("mass_matrix", "consistent"),
                     node_output_every=b.get("node_output_every", 1),
+                    drag_coefficient=b.get("drag_coefficient", 2.2),
                     strict=True,
                     key=where,
                     **mesh_params,
@@ -565,6 +586,11 @@ class Scene:
                     angular_velocity=b.get("angular_velocity", ["0 rad/s", "0 rad/s", "0 rad/s"]),
                     angular_velocity_frame=b.get("angular_velocity_frame", "body"),
                     gravity=b.get("gravity"),
+                    facets=b.get("facets", "shape"),
+                    facet=b.get("facet"),
+                    drag_coefficient=b.get("drag_coefficient", 2.2),
+                    specular=b.get("specular", 0.0),
+                    diffuse=b.get("diffuse", 0.0),
                     strict=True,
                     key=where,
                     **shape_params,

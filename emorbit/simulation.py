@@ -23,6 +23,7 @@ import numpy as np
 from .bodies.pointmasses import PointMasses
 from .bodies.system import check_body_name, check_output
 from .effect_setup import EffectSetup
+from .epochs import to_epoch
 from .errors import InputError
 from .field import CentralField
 from .integrators import METHODS, check_device, check_order, check_roundoff, get_method
@@ -96,6 +97,11 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         a rounding (see :mod:`emorbit.kernels.pointmass.packed`). ``"fast"`` solves the
         equation in plain floating point: a little cheaper per step, with an energy drift
         at round-off level (methods.md compares the two). Rigid and elastic bodies ignore it.
+    epoch : astropy.time.Time or str, optional
+        The instant the run's time 0 stands for (:func:`emorbit.epochs.to_epoch`:
+        ``"2026-01-01T00:00:00 TDB"``); the clock then counts seconds of TDB from it.
+        Required by the effects that take the Sun's or the Moon's position from an
+        ephemeris (``srp``, ``third_body``).
 
     Attributes
     ----------
@@ -117,6 +123,8 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
     drift_tolerance : float
         The default C of :meth:`run`'s drift bound C eps sqrt(n), 1000 (a scene's
         ``integrator.drift_tolerance`` sets it).
+    epoch : astropy.time.Time or None
+        The run's epoch in TDB (None: none given).
 
     Raises
     ------
@@ -136,6 +144,7 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         newton: str = "auto",
         adaptive: float | None = None,
         roundoff: str = "brouwer",
+        epoch=None,
     ):
         if field is not None and not isinstance(field, CentralField):
             raise InputError("field", f"expected a CentralField or None (free space), got {field!r}")
@@ -168,6 +177,7 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         self.keys = {k: k for k in ("t_end", "dt", "every", "max_output")}
         self.max_output = MAX_OUTPUT
         self._effects: list = []  # the effects beyond the central field, in the order added
+        self.epoch = None if epoch is None else to_epoch(epoch, "epoch")
 
     # -- set-up -----------------------------------------------------------------------
     @property
@@ -242,6 +252,7 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         velocity=None,
         orbit=None,
         ballistic_coefficient=None,
+        radiation_coefficient=None,
         strict: bool = False,
         key: str | None = None,
     ) -> None:
@@ -266,6 +277,9 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         ballistic_coefficient : Quantity, str or float, optional
             ``Cd A / m``, m^2/kg (>= 0; 0: no drag): how strongly drag
             (``add_effect("drag")``) acts on the point; required when the simulation has drag.
+        radiation_coefficient : Quantity, str or float, optional
+            ``Cr A / m``, m^2/kg (>= 0; 0: none): how strongly solar radiation pressure
+            (``add_effect("srp")``) pushes the point, a cannonball; required with srp.
         strict : bool
             Require units on every value.
         key : str, optional
@@ -288,15 +302,7 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
                 "this simulation has neither",
             )
         m = to_si(mass, "mass", f"{key}.mass", strict=strict, positive=True)
-        bc = None
-        if ballistic_coefficient is not None:
-            bc = to_si(
-                ballistic_coefficient, "area_per_mass", f"{key}.ballistic_coefficient", strict=strict, nonnegative=True
-            )
-        elif any(t.kind == "drag" for t in self._effects):
-            raise InputError(
-                f"{key}.ballistic_coefficient", "drag acts on the point masses: give Cd A / m (m2 / kg; 0 for no drag)"
-            )
+        bc, rc = self._point_coefficients(ballistic_coefficient, radiation_coefficient, strict, key)
         position, velocity, xkey, vkey = initial_state(position, velocity, orbit, self.field, strict=strict, key=key)
         x = vector_to_si(position, "length", xkey, strict=strict)
         v = vector_to_si(velocity, "speed", vkey, strict=strict)
@@ -304,13 +310,18 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         if self.field is not None:
             self.field.check_start(x, x, v, gravity=True, key=xkey, what=f"{x.tolist()} m", motion_key=vkey)
         if self.structure is not None and self.structure.mutual:  # mutual gravity with other bodies
-            if bc is not None:
-                raise InputError(f"{key}.ballistic_coefficient", "drag acts on point masses outside a structure")
+            for given, which in ((bc, "ballistic_coefficient"), (rc, "radiation_coefficient")):
+                if given is not None:
+                    raise InputError(
+                        f"{key}.{which}", "drag and radiation pressure act on point masses outside a structure"
+                    )
             self._structure().add_point(name, m, x, v)
             return
         self.points.add(name, m, x, v)
         if bc is not None:
             self.points.ballistic[name] = bc
+        if rc is not None:
+            self.points.radiation[name] = rc
 
     def add_rigid(
         self,
@@ -325,6 +336,11 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         angular_velocity=(0.0, 0.0, 0.0),
         angular_velocity_frame: str = "body",
         gravity: str | None = None,
+        facets: str = "shape",
+        facet=None,
+        drag_coefficient=2.2,
+        specular=0.0,
+        diffuse=0.0,
         strict: bool = False,
         key: str | None = None,
         **shape_params,
@@ -358,6 +374,18 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
             ``"volume"`` (the field summed over the mass points: gravity-gradient torque),
             ``"point"`` (all mass at the centre of mass, no torque) or ``"none"`` (free
             motion); default ``"volume"`` with a field, ``"none"`` without.
+        facets : str
+            The flat facets that drag and radiation pressure act on (:mod:`emorbit.bodies.facets`):
+            ``"shape"`` (default) the shape's closed surface, ``"none"`` only those of ``facet``.
+        facet : list of dict, optional
+            More facets, e.g. solar panels or a fin: each ``center`` (body frame, m),
+            ``normal``, ``area`` (m^2), optional ``two_sided``, ``drag_coefficient``,
+            ``specular``, ``diffuse`` (:data:`emorbit.bodies.facets.FACET_KEYS`).
+        drag_coefficient : float
+            Cd of the shape's facets and the default of ``facet`` (2.2).
+        specular, diffuse : float
+            The reflection coefficients of the shape's facets and the defaults of ``facet``, in
+            [0, 1], summing to at most 1 (0, 0: a black body).
         strict : bool
             Require units on every value.
         key : str, optional
@@ -376,6 +404,7 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
             or inside the central body, a radial fall into a centre without radius, or a
             method without a rigid-body kernel.
         """
+        from .bodies.facets import surface_spec
         from .bodies.rigid import RigidBodies, build_rigid
 
         key = key or f"body[{name!r}]"
@@ -397,9 +426,11 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         )
         if self.adaptive is not None:
             raise InputError("adaptive", f"adaptive steps are for point masses only ({key} is a rigid body)")
+        surface = surface_spec(facets, facet, drag_coefficient, specular, diffuse, strict, key)
         if self.rigid is None:
             self.rigid = RigidBodies()
             self.rigid.zonal = next((t for t in self._effects if t.kind == "zonal"), None)
+            self.rigid.effects = self._rigid_terms()
         self._check_method_supports(self.rigid, key)
         if self.field is not None:
             self.field.check_start(
@@ -421,20 +452,10 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
             spec["R"],
             spec["omega_space"],
             spec["params"],
+            surface,
         )
         if any(t.kind == "mutual" for t in self._effects):
             self._gather()
-
-    def _structure(self):
-        if self.structure is None:
-            from .bodies.coupled import Structure
-
-            self.structure = Structure(newton=self.newton)
-            self.structure.zonal = next((t for t in self._effects if t.kind == "zonal"), None)
-        if self.structure._built:
-            raise InputError("body", "bodies and couplings cannot be added after the structure has started running")
-        self.structure.mutual = [t for t in self._effects if t.kind == "mutual"]
-        return self.structure
 
     def add_elastic(
         self,
@@ -455,6 +476,7 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         gravity: str | None = None,
         mass_matrix: str = "consistent",
         node_output_every: int = 1,
+        drag_coefficient=2.2,
         strict: bool = False,
         key: str | None = None,
         **mesh_params,
@@ -490,6 +512,9 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
             ``"consistent"`` (default) or ``"lumped"``.
         node_output_every : int
             Records between the nodal positions written to the file.
+        drag_coefficient : float
+            Cd of the surface triangles of its tetrahedra, where the simulation has drag
+            (bars have no surface).
         strict : bool
             Require units on every value.
         key : str, optional
@@ -506,6 +531,7 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
             or a method without an elastic kernel (em and midpoint have one).
         """
         from .bodies import elastic as el
+        from .bodies.facets import facet_coefficients
 
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
@@ -549,7 +575,7 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
                 what="the centre of mass or a node of the body",
                 motion_key=vkey,
             )
-        self._structure().add_elastic(spec)
+        self._structure().add_elastic(spec, facet_coefficients(drag_coefficient, 0.0, 0.0, key)[0])
         if any(t.kind == "mutual" for t in self._effects):
             self._gather()
 
@@ -590,6 +616,12 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         if to == elastic:
             raise InputError(f"{key}.to", "a body cannot be attached to itself")
         if to in self.points:
+            if self.points.ballistic.get(to, 0.0) != 0.0 and any(t.kind == "drag" for t in self._effects):
+                raise InputError(
+                    f"body[{to!r}].ballistic_coefficient",
+                    "a point mass attached to an elastic body joins its structure, where drag acts on the elastic "
+                    "bodies' surfaces and the rigid bodies' facets: give it 0",
+                )
             st.add_point(to, *self.points.pop_onto(to, idx, spec.nodes[idx], f"{key}.nodes"))
         elif self.rigid is not None and to in self.rigid.names:
             st.add_rigid(to, **self.rigid.pop(to))

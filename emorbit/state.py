@@ -56,7 +56,14 @@ class StateQueries:
         return d["position"][0].copy(), d["velocity"][0].copy()
 
     def _invariants_now(self):
-        parts = [s.invariants(s.current(), 1, self.gm, self.center) for s in self._measured()]
+        recs = [(s, s.current()) for s in self._measured()]
+        if any(t.time_dependent for t in getattr(self, "_effects", ())):  # potentials that follow the clock
+            from .integrators import coefficients
+
+            self._prepare_effects(1, coefficients(self.order))
+            for _, rec in recs:
+                rec.t = np.array([self.time])
+        parts = [s.invariants(rec, 1, self.gm, self.center) for s, rec in recs]
         return [sum(p[j] for p in parts)[0] for j in range(3)]
 
     def energy(self) -> float:

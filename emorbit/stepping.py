@@ -48,6 +48,7 @@ import warnings
 import numpy as np
 
 from .bodies.system import newton_failure
+from .epochs import epoch_text
 from .errors import InputError, IntegrationError, RoundoffError, RoundoffWarning
 from .integrators import coefficients, get_method
 from .io.drift import DRIFT_TOLERANCE, STATE, DriftMonitor, absent_state, check_tolerance, conserved, is_absent
@@ -238,13 +239,28 @@ class ChunkDriver:
         return [t.label for t in getattr(self, "_effects", ()) if does_work(EFFECTS[t.kind])]
 
     def _start_drift(self, tolerance) -> None:
-        """A new drift monitor for a run whose first record is the reference (an effect that
-        does work conserves neither energy nor momenta: none of them is checked)."""
+        """A new drift monitor for a run whose first record is the reference. Under an effect
+        that does work (drag, radiation pressure, a third body's changing potential) the
+        momenta are not conserved and are not checked; the energy is checked as E - W, the
+        energy less the work done (its balance), which an em step keeps."""
         tol = check_tolerance(self.drift_tolerance if tolerance is None else tolerance)
         kept = conserved(self.method, self.field is None, self._axisymmetric())
         if self._working_labels():
-            kept[:] = False
+            kept[1:] = False
         self._drift = DriftMonitor(tol, coefficients(self.order).size, kept)
+
+    def _prepare_effects(self, n_steps: int, gammas) -> None:
+        """Effects that depend on time (:meth:`~emorbit.effects.base.EffectTerm.prepare`) sample
+        the paths they follow over the next ``n_steps`` steps, with a margin for the
+        composition's sub-steps, which reach outside the step."""
+        terms = [t for t in getattr(self, "_effects", ()) if t.time_dependent]
+        if not terms:
+            return
+        reach = np.concatenate([[0.0], np.cumsum(gammas)])
+        lo = self.time + (min(0.0, reach.min()) - 1.0) * self._dt
+        hi = self.time + (n_steps + max(1.0, reach.max()) + 1.0) * self._dt
+        for term in terms:
+            term.prepare(lo, hi, getattr(self, "epoch", None))
 
     # -- state, for checkpoints and restarts -------------------------------------------
     def state_arrays(self) -> dict[str, np.ndarray]:
@@ -317,6 +333,7 @@ class ChunkDriver:
             "roundoff": self.roundoff,
             "scene": self.scene_text if self.scene_text is not None else self.to_toml(),
             "effects": json.dumps([{"kind": t.kind, "label": t.label} for t in getattr(self, "effects", ())]),
+            "epoch": epoch_text(self.epoch) if getattr(self, "epoch", None) is not None else "",
         }
 
     def _start_run(self, n_steps, every, output, overwrite, keep, checkpoint_every, progress, tolerance) -> Result:
@@ -324,6 +341,7 @@ class ChunkDriver:
         if self.structure is not None:
             self.structure.build()
         cp = self._checkpoint_steps(checkpoint_every, every)
+        self._prepare_effects(n_steps, coefficients(self.order))  # the first record's potentials need them
         self._start_drift(tolerance)
         writer = None
         if output is not None:
@@ -334,7 +352,9 @@ class ChunkDriver:
             ]
             attrs = self._file_attrs(every, n_steps)
             attrs["checkpoint_every"] = cp
-            labels = [t.label for t in getattr(self, "_effects", ()) if t.label not in self._working_labels()]
+            from .effects import EFFECTS, has_potential
+
+            labels = [t.label for t in getattr(self, "_effects", ()) if has_potential(EFFECTS[t.kind])]
             if getattr(self, "_effects", ()) and self.field is not None:
                 labels.insert(0, "central")
             writer = Writer(output, bodies, attrs, overwrite=overwrite, potentials=labels, works=self._working_labels())
@@ -426,9 +446,12 @@ class ChunkDriver:
             raise InputError("checkpoint_every", f"must be an integer >= 1, got {checkpoint_every!r}")
         return int(-(-int(checkpoint_every) // every) * every)
 
-    def _advance_all(self, gammas, k: int, nrec: int):
+    def _advance_all(self, gammas, k: int, nrec: int, n0: int | None = None):
+        """Every system ``nrec * k`` steps from step ``n0`` (default: now) of the run's clock."""
+        clock = (self._t_base, self._steps if n0 is None else n0)
+        its = self.max_newton_iterations
         return [
-            (s, s.advance(self.method, self.gm, self.center, self._dt, gammas, k, nrec, self.max_newton_iterations))
+            (s, s.advance(self.method, self.gm, self.center, self._dt, gammas, k, nrec, its, clock))
             for s in self.systems
         ]
 
@@ -472,7 +495,7 @@ class ChunkDriver:
         """The total energy of the first ``rows`` rows of a chunk's records, J."""
         return sum(s.invariants(r, rows, self.gm, self.center)[0] for s, r in recs)
 
-    def _advance_ranged(self, gammas, k: int, nrec: int, snapshots):
+    def _advance_ranged(self, gammas, k: int, nrec: int, snapshots, n0: int | None = None):
         """:meth:`_advance_all` for ``nrec`` records ``k`` steps apart, with the least and
         greatest total energy over each record's ``k`` steps: (records, (nrec, 2) J). The
         systems record every step, at most :data:`RANGE_BYTES` of states per call, and the
@@ -482,11 +505,14 @@ class ChunkDriver:
         per = max(1, RANGE_BYTES // max(1, row))  # steps per call
         rows, span = [], np.empty((nrec, 2))
         r = 0
+        taken = 0  # steps since the clock's
+        n0 = self._steps if n0 is None else n0
         while r < nrec:
             n = min(nrec - r, max(1, per // k))  # records of this call (k > per: one, in parts)
             acc, lo, hi = None, np.inf, -np.inf
             for m in (n * k,) if k <= per else (min(per, k - t) for t in range(0, k, per)):
-                recs = self._advance_all(gammas, 1, m)
+                recs = self._advance_all(gammas, 1, m, n0 + taken)
+                taken += m
                 if any(rec.first_failure() is not None for _, rec in recs):
                     for s, snap in zip(self.systems, snapshots):
                         s.restore(snap)
@@ -526,6 +552,7 @@ class ChunkDriver:
         loop before the next chunk.
         """
         gammas = coefficients(self.order)
+        self._prepare_effects(n_steps, gammas)
         pace = _Pace(max(1, CHUNK_BYTES // (128 * len(self.names))))
         origin = getattr(self, "_run_origin", 0)
         if self._steps == origin:  # the run's start: Simulation.run has written its checkpoint
@@ -594,11 +621,13 @@ class ChunkDriver:
         for s, snap in zip(self.systems, snapshots):
             s.restore(snap)
         ranging = self._ranges_energy()
+        n0 = self._steps
         for n, each in ((good, k), (1 if rest else 0, rest)):  # the records before it, then the rest
             if not n:
                 continue
-            got = self._advance_ranged(gammas, each, n, snapshots) if ranging and each > 1 else None
-            again, span = got if got is not None else (self._advance_all(gammas, each, n), None)
+            got = self._advance_ranged(gammas, each, n, snapshots, n0) if ranging and each > 1 else None
+            again, span = got if got is not None else (self._advance_all(gammas, each, n, n0), None)
+            n0 += n * each
             if any(r.first_failure() is not None for _, r in again) or (ranging and each > 1 and got is None):
                 raise RuntimeError("re-running the steps before a failure failed again")  # deterministic: cannot
             if each == k:
@@ -623,6 +652,7 @@ class ChunkDriver:
                         parts,
                         1,
                         self.max_newton_iterations,
+                        (self.time, 0),  # the failed step's start: sub-step j at time + j dt / parts
                     ),
                 )
                 for s in self.systems

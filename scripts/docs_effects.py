@@ -30,10 +30,14 @@ pays only for the effects it names. A conservative effect's force over a step do
 equal to the drop of its potential energy, so an em step keeps the total energy exactly (to
 round-off), and each keeps what it lists under *conserves*. Each effect's potential energy is
 recorded as `invariants/potential_<kind>` (J) beside the total in `invariants/energy`, and the
-root attribute `effects` names them ([HDF5 layout](hdf5.md)). Drag has no potential: the step
-sums its discrete work `m F . (x1 - x0)` on every point, the run records it as
-`invariants/work_<label>` (J, since the run's start), and `invariants/energy_balance`
-= E - E0 - W stays at round-off.
+root attribute `effects` names them ([HDF5 layout](hdf5.md)). Drag and radiation pressure have
+no potential: the step sums their discrete work `F . (x1 - x0)` on every point (on every facet
+of a rigid body), the run records it as `invariants/work_<label>` (J, since the run's start).
+A third body's potential changes in time: the step sums the work of that change
+(`invariants/work_third_body`) beside its potential. Either way `invariants/energy_balance`
+= E - E0 - W stays at round-off, and the drift monitor checks it where the energy itself is
+not conserved. The Sun and the Moon are where the ephemeris puts them at the run's epoch
+(`[integrator] epoch = "2026-01-01T00:00:00 TDB"`) plus the clock.
 
 ```toml
 [field]
@@ -48,16 +52,28 @@ degree = 2                 # use J2..J<degree> of the model
 kind = "mutual"            # gravity between all bodies of the scene (or: bodies = ["a", "b"])
 
 [[effect]]
-kind = "drag"              # on point masses with a ballistic_coefficient (Cd A / m)
+kind = "drag"              # on point masses with a ballistic_coefficient (Cd A / m), rigid bodies' facets
 atmosphere = "exponential" # or "ussa1976", "vallado"
 density = "3.7e-12 kg/m3"
 reference_altitude = "400 km"
 scale_height = "58 km"
+
+[[effect]]
+kind = "srp"               # on point masses with a radiation_coefficient (Cr A / m), rigid bodies' facets
+shadow = "conical"         # or "cylindrical", "none"
+
+[[effect]]
+kind = "third_body"
+body = "moon"              # "sun", "moon", or a name with gm and an orbit table (a Kepler body)
 ```
 
 From Python: `sim.add_effect("zonal", model="earth", degree=2)`, `sim.add_effect("mutual")`,
 `sim.add_effect("drag", atmosphere="ussa1976")` with
-`sim.add_point(..., ballistic_coefficient="0.02 m2/kg")`;
+`sim.add_point(..., ballistic_coefficient="0.02 m2/kg")`, `sim.add_effect("srp")` with
+`radiation_coefficient`, `sim.add_effect("third_body", body="sun")` (with
+`Simulation(..., epoch="2026-01-01T00:00:00 TDB")`); a rigid body's facets are its shape's
+surface and any `facet=[...]` tables (`add_rigid(..., specular=0.3, facet=[{"center": ...,
+"normal": ..., "area": ...}])`, [scenes](scenes.md));
 `sim.effects` lists them. [Architecture](architecture.md#how-to-add-an-effect) says how to add one.
 """
 

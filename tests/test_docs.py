@@ -64,8 +64,8 @@ def test_scenes_page_lists_exactly_the_keys_the_parser_accepts():
     for part in region.split("\n### ")[1:]:
         title, body = part.split("\n", 1)
         table = titles[title.strip()]
-        found[table] = re.findall(r"^\| `([a-z_]+)` \|", body, re.M)
-        required[table] = re.findall(r"^\| `([a-z_]+)` \| yes \|", body, re.M)
+        found[table] = re.findall(r"^\| `([a-z_0-9]+)` \|", body, re.M)
+        required[table] = re.findall(r"^\| `([a-z_0-9]+)` \| yes \|", body, re.M)
     assert list(found) == list(SCHEMA)
     for table, keys in SCHEMA.items():
         assert found[table] == list(keys), table

@@ -37,6 +37,7 @@ from ..integrators.dispatch import method_code
 from ..kernels import coupled as kc
 from ..kernels import elastic as kel
 from ..kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from .coupled_drag import StructureDrag
 from .coupled_layout import StructureLayout
 from .coupled_output import StructureRecords
 from .coupled_sparse import EquilibratedLU, KeptFactors
@@ -49,7 +50,7 @@ _FLOOR2 = (2.0**20 * _EPS) ** 2  # a stall (see Structure.step) is accepted only
 _STALLS = 3  # iterations in a row without progress that make a stall
 
 
-class Structure(StructureLayout):
+class Structure(StructureDrag, StructureLayout):
     """A coupled structure of elastic bodies, rigid bodies and point masses: one system.
 
     Bodies are added, attachments declared, then :meth:`build` lays out the slots and the
@@ -85,8 +86,10 @@ class Structure(StructureLayout):
     kind = "structure"
     #: methods with a structure kernel
     METHODS = ("em", "midpoint")
-    #: the whole state: what a checkpoint stores
-    STATE_FIELDS = ("u", "v", "cu", "cv", "lam", "acc")
+    #: the state of every structure
+    BASE_FIELDS = ("u", "v", "cu", "cv", "lam", "acc")
+    #: units of the state arrays beyond emorbit.io.reader.STATE_UNITS
+    STATE_UNITS = {"work": "J", "cwork": "J"}
     NEWTON = ("auto", "reuse", "full")
     #: unknowns from which "auto" reuses factors
     AUTO_FULL = 500
@@ -116,6 +119,11 @@ class Structure(StructureLayout):
         self._built = False
         self.zonal = None  # an EffectTerm of kind "zonal" at the gravity points, or None
         self.mutual: list = []  # EffectTerms of kind "mutual" between the bodies' mass points
+
+    @property
+    def STATE_FIELDS(self) -> tuple:  # noqa: N802 (the name every body system uses)
+        """The whole state: :attr:`BASE_FIELDS`, and drag's work sums where it has drag."""
+        return self.BASE_FIELDS + (("work", "cwork") if self.drag is not None else ())
 
     # -- stepping ------------------------------------------------------------------------------
     def work_per_step(self) -> int:
@@ -153,6 +161,8 @@ class Structure(StructureLayout):
             )  # fmt: skip
             if st != STATUS_OK:
                 status = st
+        if self.drag is not None:
+            self._drag_forces(u0, u1, c, h, F)
         return status, F, data
 
     def _solve_mass(self, b):
@@ -323,7 +333,7 @@ class Structure(StructureLayout):
         acc[:] = dv / h
         return du, dv, it, status, stalled
 
-    def advance(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> StructureRecords:
+    def advance(self, method, gm, center, dt, gammas, every, nrec, max_iter, clock=(0.0, 0)) -> StructureRecords:
         """Advance the structure ``nrec * every`` composed steps, recording every ``every``.
 
         Parameters
@@ -344,6 +354,10 @@ class Structure(StructureLayout):
             Records.
         max_iter : int
             Newton iterations per sub-step at most.
+        clock : tuple
+            ``(t_base, n0)``: the chunk's j-th step starts at ``t_base + (n0 + j) dt``, s from
+            the run's epoch (effects that depend on time read it; a step's time does not
+            depend on where chunks start).
 
         Returns
         -------
@@ -361,14 +375,20 @@ class Structure(StructureLayout):
         )
         code = method_code(method)
         c = np.asarray(center, float)
+        if self.drag is not None:
+            rec.work = np.empty((nrec, 1))
         for r in range(nrec):
             its = stl = 0
             for s in range(every):
                 u, v, cu, cv = self.u.copy(), self.v.copy(), self.cu.copy(), self.cv.copy()
                 lam, acc = self.lam.copy(), self.acc.copy()
+                state = (u, v, cu, cv, lam, acc)
+                if self.drag is not None:
+                    state += (self.work.copy(), self.cwork.copy())
                 ok = True
-                for g in gammas:
-                    status, its_g, stl_g = self._substeps(code, dt * g, (u, v, cu, cv, lam, acc), gm, c, max_iter, 0)
+                starts = self._clock_times(clock, dt, gammas, r * every + s)
+                for g, t0 in zip(gammas, starts):
+                    status, its_g, stl_g = self._substeps(code, dt * g, state, gm, c, max_iter, 0, t0)
                     its += its_g
                     stl += stl_g
                     if status != STATUS_OK:
@@ -378,10 +398,14 @@ class Structure(StructureLayout):
                     rec.fail[0] = (r * every + s, status)
                     return rec
                 self.u, self.v, self.cu, self.cv, self.lam, self.acc = u, v, cu, cv, lam, acc
+                if self.drag is not None:
+                    self.work, self.cwork = state[6], state[7]
                 self.retries_total += self.retries_step
                 self.retries_step = 0
             rec.u[r] = self.u
             rec.v[r] = self.v
+            if rec.work is not None:
+                rec.work[r] = self.work
             rec.iterations[r, 0] = its
             rec.stalled[r, 0] = stl
         return rec
@@ -389,19 +413,25 @@ class Structure(StructureLayout):
     #: how often a failed step may be halved (2**MAX_SPLIT sub-steps at most)
     MAX_SPLIT = 4
 
-    def _substeps(self, code, h, state, gm, c, max_iter, depth):
-        """Advance ``state`` = (u, v, cu, cv, lam, acc) (arrays updated in place) by one step of
-        size h; a step whose Newton iteration fails is retried as two steps of h/2, down to
-        2**MAX_SPLIT sub-steps. Every sub-step is an energy-momentum step, so conservation
-        is untouched. Returns (status, iterations, sub-steps accepted at a stall)."""
-        u, v, cu, cv, lam, acc = state
+    def _substeps(self, code, h, state, gm, c, max_iter, depth, t0=0.0):
+        """Advance ``state`` = (u, v, cu, cv, lam, acc[, work, cwork]) (arrays updated in place)
+        by one step of size h from time ``t0``; a step whose Newton iteration fails is retried
+        as two steps of h/2, down to 2**MAX_SPLIT sub-steps. Every sub-step is an
+        energy-momentum step, so conservation is untouched (and drag's work is summed).
+        Returns (status, iterations, sub-steps accepted at a stall)."""
+        u, v, cu, cv, lam, acc = state[:6]
         saved = tuple(a.copy() for a in state)
         urel, ref = self.relative(u, cu)
+        if self.drag is not None:
+            self._drag_clock(t0 + 0.5 * h)
         du, dv, it, status, stalled = self.step(code, urel, v, lam, acc, gm, c - ref, h, max_iter)
         if status == STATUS_OK:
             u2, cu2 = _kahan(u, cu, du)
             v2, cv2 = _kahan(v, cv, dv)
             if np.all(np.isfinite(u2)) and np.all(np.isfinite(v2)):
+                if self.drag is not None:  # the work of the converged step
+                    w = self._drag_forces(urel, urel + du, c - ref, h, np.zeros_like(u))
+                    state[6][...], state[7][...] = _kahan(state[6], state[7], np.array([w]))
                 u[...], cu[...], v[...], cv[...] = u2, cu2, v2, cv2
                 return status, it, int(stalled)
             status = STATUS_SINGULAR
@@ -411,8 +441,8 @@ class Structure(StructureLayout):
             return status, it, 0
         self.retries_step += 1
         total, stl = it, 0
-        for _ in range(2):
-            status, k, n = self._substeps(code, 0.5 * h, state, gm, c, max_iter, depth + 1)
+        for half in range(2):
+            status, k, n = self._substeps(code, 0.5 * h, state, gm, c, max_iter, depth + 1, t0 + half * 0.5 * h)
             total += k
             stl += n
             if status != STATUS_OK:
@@ -435,18 +465,26 @@ class Structure(StructureLayout):
         self._nodata = np.zeros(self.J.data.size)
 
     def current(self) -> StructureRecords:
-        """The current state as one record."""
+        """The current state as one record (with drag's work so far)."""
         z = np.zeros((1, 1), np.int64)
-        return StructureRecords(self.u[None].copy(), self.v[None].copy(), z, np.full((1, 2), -1, np.int64), z.copy())
+        work = self.work[None].copy() if self.drag is not None else None
+        return StructureRecords(
+            self.u[None].copy(), self.v[None].copy(), z, np.full((1, 2), -1, np.int64), z.copy(), work
+        )
 
     def snapshot(self):
-        """Copies of u, v, cu, cv, lam, acc and of the kept factors (:class:`KeptFactors`)."""
-        return tuple(a.copy() for a in (self.u, self.v, self.cu, self.cv, self.lam, self.acc)) + (self._kept.copy(),)
+        """Copies of u, v, cu, cv, lam, acc, of the kept factors (:class:`KeptFactors`) and of
+        drag's work sums."""
+        state = tuple(a.copy() for a in (self.u, self.v, self.cu, self.cv, self.lam, self.acc))
+        work = (self.work.copy(), self.cwork.copy()) if self.drag is not None else ()
+        return state + (self._kept.copy(),) + work
 
     def restore(self, snap) -> None:
-        """Put back the state of :meth:`snapshot`, kept factors included."""
+        """Put back the state of :meth:`snapshot`, kept factors and work sums included."""
         self.u, self.v, self.cu, self.cv, self.lam, self.acc = (a.copy() for a in snap[:6])
         self._kept = snap[6].copy()
+        if len(snap) > 7:
+            self.work, self.cwork = snap[7].copy(), snap[8].copy()
 
     def state_arrays(self) -> dict[str, np.ndarray]:
         """The arrays of :attr:`STATE_FIELDS` and, in "reuse" mode, the kept factors as the

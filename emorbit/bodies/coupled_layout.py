@@ -80,7 +80,7 @@ class StructureLayout(StructureOutput):
         self.bodies.append({"name": name, "kind": "point", "slot": s, "node": n, "mass": float(mass)})
         return n
 
-    def add_rigid(self, name, points, gravity, position, velocity, R, omega_space, shape="", params=None):
+    def add_rigid(self, name, points, gravity, position, velocity, R, omega_space, shape="", params=None, surface=None):
         """Add a rigid body: four slots (centre of mass and three axes) with 6 constraints.
 
         Parameters
@@ -101,6 +101,8 @@ class StructureLayout(StructureOutput):
             The shape's name, for the output.
         params : dict, optional
             The shape's parameters, for the output.
+        surface : tuple, optional
+            Its facets for drag (:func:`emorbit.bodies.facets.surface_spec`).
 
         Returns
         -------
@@ -135,6 +137,7 @@ class StructureLayout(StructureOutput):
                 "gravity": gravity,
                 "shape": shape,
                 "params": params or {},
+                "surface": surface,
             }
         )
         return slots
@@ -178,17 +181,21 @@ class StructureLayout(StructureOutput):
                 return b
         raise KeyError(name)
 
-    def add_elastic(self, spec: ElasticSpec) -> None:
+    def add_elastic(self, spec: ElasticSpec, drag_coefficient: float = 2.2) -> None:
         """Add an elastic body; it is laid out in :meth:`build`, once every attachment is known.
 
         Parameters
         ----------
         spec : ElasticSpec
             The body.
+        drag_coefficient : float
+            Cd of its surface triangles under drag.
         """
         self._pending = getattr(self, "_pending", [])
         self._pending.append(spec)
-        self.bodies.append({"name": spec.name, "kind": "elastic", "spec": spec, "mass": float(spec.node_mass.sum())})
+        mass = float(spec.node_mass.sum())
+        body = {"name": spec.name, "kind": "elastic", "spec": spec, "mass": mass, "drag_coefficient": drag_coefficient}
+        self.bodies.append(body)
 
     def attach(self, elastic: str, nodes, target: str) -> None:
         """Declare that nodes of an elastic body ride on another body of the structure.
@@ -353,6 +360,8 @@ class StructureLayout(StructureOutput):
         )
         if self.newton_option == "auto":
             self.newton = "full" if self.J.shape[0] < self.AUTO_FULL else "reuse"
+        if getattr(self, "drag", None) is not None:
+            self._layout_surfaces()
         self._built = True
 
     def _layout_mutual(self) -> None:

@@ -27,15 +27,17 @@ __all__ = ["StructureRecords", "StructureOutput"]
 
 @dataclass
 class StructureRecords:
-    """States recorded by one call: u, v (nrec, n_slots, 3), iterations (nrec, 1), fail (1, 2), and
+    """States recorded by one call: u, v (nrec, n_slots, 3), iterations (nrec, 1), fail (1, 2),
     stalled (nrec, 1): the sub-steps of each interval whose Newton iteration was accepted at a
-    stall, above round-off."""
+    stall, above round-off, and with drag its work since the run's start (nrec, 1) J."""
 
     u: np.ndarray
     v: np.ndarray
     iterations: np.ndarray
     fail: np.ndarray
     stalled: np.ndarray | None = None
+    work: np.ndarray | None = None  # (nrec, 1) drag's work since the run's start, J
+    t: np.ndarray | None = None  # (nrec,) the records' times (set by the recorder)
 
     def first_failure(self):
         """The failure, if any: (step index in the chunk, 0, status), or None.
@@ -116,7 +118,7 @@ class StructureOutput(BodySystem):
         beyond the central field: {``potential_central`` (with a field), ``potential_zonal``,
         ``potential_<mutual label>``: (nrec,) J}; else {}."""
         zonal = getattr(self, "zonal", None) is not None and gm != 0.0 and self.gp_m.size
-        if not zonal and not self.mutual:
+        if not zonal and not self.mutual and getattr(self, "drag", None) is None:
             return {}
         c = np.asarray(center, float)
         out = {}

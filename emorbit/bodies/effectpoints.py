@@ -25,12 +25,12 @@ import numpy as np
 from ..errors import InputError
 from ..kernels import invariants as inv
 from .pointmasses import ChunkRecords, PointMasses
-from .system import roundoff_scales
+from .system import WorkSums, roundoff_scales
 
 __all__ = ["EffectPoints"]
 
 
-class EffectPoints(PointMasses):
+class EffectPoints(WorkSums, PointMasses):
     """Point masses moved by the em step of a set of effects.
 
     Parameters
@@ -61,42 +61,28 @@ class EffectPoints(PointMasses):
         work (a conservative set's checkpoints hold what they always held)."""
         return self.BASE_FIELDS + (self.WORK_FIELDS if self.working_terms() else ())
 
+    def ordered_terms(self) -> list:
+        """The effects in the order a step adds their forces: the registry's
+        (:data:`emorbit.effects.EFFECTS`), several third bodies one after another."""
+        from ..effects import EFFECTS
+
+        rank = {k: i for i, k in enumerate(EFFECTS)}
+        return sorted(self.terms, key=lambda t: rank[t.kind])
+
+    def kinds(self) -> list:
+        """The kinds of :meth:`ordered_terms`, each once: the compiled step's effect set."""
+        return list(dict.fromkeys(t.kind for t in self.ordered_terms()))
+
     def working_terms(self) -> list:
-        """The non-conservative effects (drag), in their slot order in :attr:`work`."""
+        """The effects whose work the step sums (drag, radiation pressure, third bodies), in
+        their slot order in :attr:`work`."""
         from ..effects import EFFECTS
         from ..effects.compose import does_work
 
-        return [t for t in self.terms if does_work(EFFECTS[t.kind])]
+        return [t for t in self.ordered_terms() if does_work(EFFECTS[t.kind])]
 
     def _work_shape(self) -> tuple:
         return (len(self.working_terms()), len(self))
-
-    @property
-    def work(self) -> np.ndarray:
-        """(k, n) the work each non-conservative effect has done on each point since the run's
-        start, J (:meth:`reset_work` at a run's start); zeros for new points."""
-        if self._work.shape != self._work_shape():
-            self._work, self._cwork = np.zeros(self._work_shape()), np.zeros(self._work_shape())
-        return self._work
-
-    @work.setter
-    def work(self, value) -> None:
-        self._work = np.ascontiguousarray(value, dtype=float)
-
-    @property
-    def cwork(self) -> np.ndarray:
-        """(k, n) the Kahan compensation terms of :attr:`work`, J."""
-        self.work  # noqa: B018 (shapes both)
-        return self._cwork
-
-    @cwork.setter
-    def cwork(self, value) -> None:
-        self._cwork = np.ascontiguousarray(value, dtype=float)
-
-    def reset_work(self) -> None:
-        """Start the work sums at 0 (a new run; a resumed run restores them instead)."""
-        self.work[...] = 0.0
-        self.cwork[...] = 0.0
 
     def current(self) -> ChunkRecords:
         """The current state as one record, with the work so far where an effect does work."""
@@ -137,6 +123,7 @@ class EffectPoints(PointMasses):
         out.masses, out.x, out.v = points.masses.copy(), points.x.copy(), points.v.copy()
         out.cx, out.cv = points.cx.copy(), points.cv.copy()
         out.ballistic = dict(points.ballistic)
+        out.radiation = dict(points.radiation)
         out.device = getattr(points, "device", "cpu")
         return out
 
@@ -150,7 +137,7 @@ class EffectPoints(PointMasses):
         """Whether the effects are the central field and its zonal harmonics only: then every
         point moves on its own, and :meth:`step_kernel` is the packed zonal kernel (a set with
         drag or mutual gravity is not: it runs the step compiled for it)."""
-        if [t.kind for t in self.terms] != ["central", "zonal"]:  # the kernel's parameter order
+        if self.kinds() != ["central", "zonal"]:  # the kernel's parameter order
             return False
         params = {t.kind: t.params for t in self.terms}
         central, zonal = params["central"]["central_p"], params["zonal"]["zonal_p"]
@@ -169,19 +156,35 @@ class EffectPoints(PointMasses):
             return chunk
         from ..effects.compose import compile_step
 
-        return compile_step([t.kind for t in self.terms])
+        return compile_step(self.kinds())
 
-    def _params(self) -> list:
+    def _params(self, clock=None) -> list:
+        from ..effects.third_body import stack
+
         out = []
-        for term in self.terms:
+        third = [t for t in self.ordered_terms() if t.kind == "third_body"]
+        for term in self.ordered_terms():
+            if term.kind == "third_body":
+                if term is third[0]:
+                    out.extend(stack(third))
+                continue
             out.extend(term.params.values())
             if term.kind == "mutual":
                 out.append(self._active(term).astype(float))
             if term.kind == "drag":
                 out.append(np.array([self.ballistic.get(n, 0.0) for n in self.names], float))
+            if term.kind == "srp":
+                out.append(np.array([self.radiation.get(n, 0.0) for n in self.names], float))
         if self.working_terms():
             out.extend([self.work, self.cwork])
         return out
+
+    def timed(self) -> bool:
+        """Whether the compiled step reads the run's clock (an effect's kernel code does)."""
+        from ..effects import EFFECTS
+        from ..effects.compose import timed
+
+        return not self.independent() and any(timed(EFFECTS[k]) for k in self.kinds())
 
     def check(self, method: str, key: str = "method") -> None:
         """Refuse what the effect step cannot do yet.
@@ -201,7 +204,7 @@ class EffectPoints(PointMasses):
                             f"{term.key}.bodies", f"{name!r} is not a point mass: {term.kind} acts on point masses"
                         )
 
-    def advance(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> ChunkRecords:
+    def advance(self, method, gm, center, dt, gammas, every, nrec, max_iter, clock=(0.0, 0)) -> ChunkRecords:
         """Advance all points ``nrec * every`` composed em steps, recording every ``every``.
 
         Parameters
@@ -218,6 +221,10 @@ class EffectPoints(PointMasses):
             Steps per record, records.
         max_iter : int
             Newton sweeps per sub-step at most.
+        clock : tuple
+            ``(t_base, n0)``: the chunk's j-th step starts at ``t_base + (n0 + j) dt``, s from
+            the run's epoch (effects that depend on time read it; a step's time does not
+            depend on where chunks start).
 
         Returns
         -------
@@ -239,6 +246,8 @@ class EffectPoints(PointMasses):
         if self.working_terms():
             rec.work = np.empty((nrec,) + self.work.shape)
             params.append(rec.work)
+        if self.timed():
+            params.extend([float(clock[0]), float(clock[1])])
         self._kernel(
             self.x, self.v, self.cx, self.cv, wp, self.hp, self.masses, *params, float(dt),
             np.asarray(gammas, float), int(every), int(nrec), int(max_iter), rec.x, rec.v, rec.iterations, rec.fail,
@@ -268,12 +277,14 @@ class EffectPoints(PointMasses):
         cached = getattr(self, "_last_energies", None)  # invariants, scales and the file ask for the same
         if cached is not None and cached[0] is rec and cached[1] == nrec:
             return cached[2]
+        from ..effects import EFFECTS, has_potential
+
         x = rec.x[:nrec]
-        working = {t.label for t in self.working_terms()}  # no potential: their work is recorded instead
+        t = None if getattr(rec, "t", None) is None else rec.t[:nrec]
         out = {
-            f"potential_{t.label}": t.potential(x, self.masses, self._active(t))
-            for t in self.terms
-            if t.label not in working
+            f"potential_{e.label}": e.potential(x, self.masses, self._active(e), t)
+            for e in self.terms
+            if has_potential(EFFECTS[e.kind])  # drag and radiation pressure: their work is recorded instead
         }
         self._last_energies = (rec, nrec, out)
         return out

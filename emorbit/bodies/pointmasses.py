@@ -59,6 +59,9 @@ class ChunkRecords:
     work : ndarray or None
         (nrec, k, n) the work each of k non-conservative effects (drag) has done on each point
         since the run's start, J, at each record (point masses under effects).
+    t : ndarray or None
+        (nrec,) the records' times, s from the epoch: the recorder sets them before it asks
+        for the potentials of effects that depend on time.
     """
 
     x: np.ndarray
@@ -67,6 +70,7 @@ class ChunkRecords:
     fail: np.ndarray
     solves: np.ndarray | None = None  # (nrec, n) implicit solves per interval, when steps vary (adaptive)
     work: np.ndarray | None = None  # (nrec, k, n) work of k non-conservative effects so far, J (effects)
+    t: np.ndarray | None = None  # (nrec,) the records' times, s from the epoch (set by the recorder)
 
     def first_failure(self):
         """The earliest failure.
@@ -99,6 +103,7 @@ class PointMasses(BodySystem):
         self._cx = np.zeros((3, 0))
         self._cv = np.zeros((3, 0))
         self.ballistic: dict[str, float] = {}  # name -> Cd A / m, m^2/kg, where given (drag)
+        self.radiation: dict[str, float] = {}  # name -> Cr A / m, m^2/kg, where given (radiation pressure)
 
     def __len__(self) -> int:
         return len(self._names)
@@ -223,6 +228,7 @@ class PointMasses(BodySystem):
         keep = [j for j in range(len(self._names)) if j != i]
         del self._names[i]
         self.ballistic.pop(name, None)
+        self.radiation.pop(name, None)
         self._index = None
         self._masses = self._masses[keep]
         self._x = np.ascontiguousarray(self._x[:, keep])
@@ -241,6 +247,7 @@ class PointMasses(BodySystem):
         every: int,
         nrec: int,
         max_iter: int,
+        clock: tuple = (0.0, 0),
     ) -> ChunkRecords:
         """Advance all points ``nrec * every`` composed steps, recording every ``every``.
 
@@ -269,6 +276,10 @@ class PointMasses(BodySystem):
             Records.
         max_iter : int
             Newton iterations per sub-step at most.
+        clock : tuple
+            ``(t_base, n0)``: the chunk's j-th step starts at ``t_base + (n0 + j) dt``, s from
+            the run's epoch (effects that depend on time read it; a step's time does not
+            depend on where chunks start).
 
         Returns
         -------

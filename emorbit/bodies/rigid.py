@@ -23,6 +23,7 @@ from ..kernels import rigid as kern
 from ..units import to_si, vector_to_si
 from . import shapes
 from .pointmasses import earliest_failure
+from .rigid_effects import RigidEffects
 from .rotations import attitude_matrix, matrix_to_quaternion
 from .shapes import MassPoints
 from .system import BodySystem, roundoff_scales
@@ -48,6 +49,11 @@ class RigidRecords:
     stalled : ndarray or None
         (nrec, nb) sub-steps of each interval whose Newton iteration was accepted at its
         floor, above round-off.
+    work : ndarray or None
+        (nrec, nb, k) the work each of k effects that do work (drag, radiation pressure,
+        third bodies) has done on each body since the run's start, J.
+    t : ndarray or None
+        (nrec,) the records' times, s from the epoch (set by the recorder).
     """
 
     q: np.ndarray
@@ -55,6 +61,8 @@ class RigidRecords:
     iterations: np.ndarray
     fail: np.ndarray
     stalled: np.ndarray | None = None
+    work: np.ndarray | None = None
+    t: np.ndarray | None = None
 
     def first_failure(self):
         """The earliest failure.
@@ -99,7 +107,7 @@ def body_angular_velocity(E, D, dD):
     return np.linalg.solve(np.broadcast_to(J, body.shape[:-1] + (3, 3)), body[..., None])[..., 0]
 
 
-class RigidBodies(BodySystem):
+class RigidBodies(RigidEffects, BodySystem):
     """A set of rigid bodies, each with its own mass points and gravity model.
 
     The rigid-body system of a simulation; the arrays hold every body's state in rows and
@@ -115,8 +123,12 @@ class RigidBodies(BodySystem):
         "angular_velocity": (3, "rad / s"),
     }
     METHODS = ("em", "midpoint")
-    #: the whole state: what a checkpoint stores
-    STATE_FIELDS = ("q", "v", "cq", "cv", "lam")
+    #: the state of every set of rigid bodies
+    BASE_FIELDS = ("q", "v", "cq", "cv", "lam")
+    #: the state that effects doing work add: their work so far and its compensation
+    WORK_FIELDS = ("work", "cwork")
+    #: units of the state arrays beyond emorbit.io.reader.STATE_UNITS
+    STATE_UNITS = {"work": "J", "cwork": "J"}
 
     def __init__(self):
         self.names: list[str] = []
@@ -133,6 +145,11 @@ class RigidBodies(BodySystem):
         self.cv = np.zeros((0, 12))
         self.lam = np.zeros((0, 6))
         self.zonal = None  # an EffectTerm of kind "zonal" (emorbit.effects.zonal), or None
+        self.effects: list = []  # drag, radiation pressure and third bodies (EffectTerm), set by the simulation
+        self.surfaces: list = []  # per body: how its facets are made (see add), built on first use
+        self._facets: list = []  # per body: Facets or None, once built
+        self._work = np.zeros((0, 0))
+        self._cwork = np.zeros((0, 0))
         self._pack()
 
     def _pack(self) -> None:
@@ -156,6 +173,7 @@ class RigidBodies(BodySystem):
         R,
         omega_space,
         params: dict | None = None,
+        surface=None,
     ) -> None:
         """Append a body; the others keep their state, compensation terms and warm starts.
 
@@ -177,8 +195,16 @@ class RigidBodies(BodySystem):
             (3,) angular velocity in space axes, rad/s.
         params : dict, optional
             The shape's parameters in SI, kept to write the body back as a scene.
+        surface : tuple, optional
+            How its facets are made, for drag and radiation pressure: ``(mode, facets,
+            defaults, key)``, mode ``"shape"`` (the shape's surface, plus ``facets``) or
+            ``"none"`` (``facets`` alone, a :class:`~emorbit.bodies.facets.Facets` or None),
+            ``defaults`` the shape facets' coefficients, ``key`` the body's key in errors.
+            None: no facets.
         """
         self.names.append(name)
+        self.surfaces.append(surface)
+        self._facets.append(None)
         self.shapes.append(shape)
         self.params.append(dict(params or {}))
         self.points.append(points)
@@ -193,7 +219,11 @@ class RigidBodies(BodySystem):
         v = np.concatenate([velocity] + [np.cross(w, R[:, k]) for k in range(3)])
         self.q = np.ascontiguousarray(np.vstack([self.q, q]))
         self.v = np.ascontiguousarray(np.vstack([self.v, v]))
-        # the bodies already there keep their compensation terms and warm starts
+        # the bodies already there keep their compensation terms, warm starts and work
+        k = len(self.working_terms())
+        if self._work.shape == (len(self.names) - 1, k):  # the others' work so far is kept
+            self._work = np.vstack([self._work, np.zeros((1, k))])
+            self._cwork = np.vstack([self._cwork, np.zeros((1, k))])
         self.cq = np.ascontiguousarray(np.vstack([self.cq, np.zeros_like(q)]))
         self.cv = np.ascontiguousarray(np.vstack([self.cv, np.zeros_like(v)]))
         self.lam = np.ascontiguousarray(np.vstack([self.lam, np.zeros(6)]))
@@ -211,7 +241,7 @@ class RigidBodies(BodySystem):
         -------
         dict
             ``shape``, ``points``, ``gravity``, ``position``, ``velocity``, ``R``,
-            ``omega_space`` and ``params``.
+            ``omega_space``, ``params`` and ``surface``.
         """
         b = self.names.index(name)
         q, v = self.q[b], self.v[b]
@@ -227,9 +257,12 @@ class RigidBodies(BodySystem):
             "R": D.T.copy(),
             "omega_space": 0.5 * np.cross(D, dD).sum(axis=0),
             "params": self.params[b],
+            "surface": self.surfaces[b],
         }
         keep = [j for j in range(len(self.names)) if j != b]
-        for attr in ("names", "shapes", "points", "params"):
+        if self._work.shape[0] == len(self.names):
+            self._work, self._cwork = self._work[keep], self._cwork[keep]
+        for attr in ("names", "shapes", "points", "params", "surfaces", "_facets"):
             lst = getattr(self, attr)
             del lst[b]
         for attr in ("models", "mass", "E", "Einv", "q", "v", "cq", "cv", "lam"):
@@ -245,7 +278,16 @@ class RigidBodies(BodySystem):
         )
 
     def advance(
-        self, method: str, gm: float, center, dt: float, gammas, every: int, nrec: int, max_iter: int
+        self,
+        method: str,
+        gm: float,
+        center,
+        dt: float,
+        gammas,
+        every: int,
+        nrec: int,
+        max_iter: int,
+        clock: tuple = (0.0, 0),
     ) -> RigidRecords:
         """Advance all bodies ``nrec * every`` composed steps, recording every ``every``.
 
@@ -267,6 +309,10 @@ class RigidBodies(BodySystem):
             Records.
         max_iter : int
             Newton iterations per sub-step at most.
+        clock : tuple
+            ``(t_base, n0)``: the chunk's j-th step starts at ``t_base + (n0 + j) dt``, s from
+            the run's epoch (effects that depend on time read it; a step's time does not
+            depend on where chunks start).
 
         Returns
         -------
@@ -308,6 +354,7 @@ class RigidBodies(BodySystem):
             rec.stalled,
             rec.fail,
             *self._zonal_args(),
+            *self._effect_args(rec, nrec, clock),
         )
         return rec
 
@@ -323,34 +370,41 @@ class RigidBodies(BodySystem):
         out = np.zeros(q.shape[0])
         if self.zonal is None:
             return out
+        for x, mb in self.gravity_points(q):
+            out += self.zonal.potential(x, mb, np.ones(mb.shape[0], bool))
+        return out
+
+    def gravity_points(self, q: np.ndarray):
+        """Where the field acts on each body at recorded states q (rows, nb, 12): for each body
+        that feels gravity, its mass points' positions (rows, 3, N) and masses (N,) (the centre
+        of mass and the body's mass for the point model)."""
         D = q[..., 3:].reshape(q.shape[:-1] + (3, 3))
         for b in range(len(self)):
             if self.models[b] == kern.GRAVITY_NONE:
                 continue
             if self.models[b] == kern.GRAVITY_POINT:
-                x, mb = q[:, b, 0:3, None], np.array([self.mass[b]])
+                yield q[:, b, 0:3, None], np.array([self.mass[b]])
             else:
                 Xb, mb = self.points[b].X, self.points[b].m
-                x = q[:, b, 0:3, None] + np.einsum("kn,rki->rin", Xb, D[:, b])
-            out += self.zonal.potential(x, mb, np.ones(mb.shape[0], bool))
-        return out
+                yield q[:, b, 0:3, None] + np.einsum("kn,rki->rin", Xb, D[:, b]), mb
 
     def current(self) -> RigidRecords:
-        """The current state as one record."""
+        """The current state as one record, with the work so far where an effect does work."""
         return RigidRecords(
             self.q[None].copy(),
             self.v[None].copy(),
             np.zeros((1, len(self)), np.int64),
             np.full((len(self), 2), -1, np.int64),
+            work=self.work[None].copy() if self.effects else None,
         )
 
     def snapshot(self):
-        """Copies of q, v, cq, cv, lam."""
-        return tuple(a.copy() for a in (self.q, self.v, self.cq, self.cv, self.lam))
+        """Copies of q, v, cq, cv, lam and the work sums."""
+        return tuple(a.copy() for a in (self.q, self.v, self.cq, self.cv, self.lam, self.work, self.cwork))
 
     def restore(self, snap) -> None:
-        """Put back q, v, cq, cv, lam from :meth:`snapshot`."""
-        for a, s in zip((self.q, self.v, self.cq, self.cv, self.lam), snap):
+        """Put back q, v, cq, cv, lam and the work sums from :meth:`snapshot`."""
+        for a, s in zip((self.q, self.v, self.cq, self.cv, self.lam, self.work, self.cwork), snap):
             a[...] = s
 
     # -- diagnostics -----------------------------------------------------------------------
@@ -371,6 +425,8 @@ class RigidBodies(BodySystem):
         energy = (T + self._central_energy(q, gm, c)).sum(axis=1)
         if self.zonal is not None:
             energy = energy + self.zonal_energy(q)
+        if any(t_.kind == "third_body" for t_ in self.effects):
+            energy = energy + sum(self.third_body_energy(q, rec.t[:nrec]).values())
         return energy, P.sum(axis=1), L.sum(axis=1)
 
     def _central_energy(self, q: np.ndarray, gm: float, c: np.ndarray) -> np.ndarray:
@@ -389,15 +445,18 @@ class RigidBodies(BodySystem):
         return V
 
     def effect_energies(self, rec: RigidRecords, nrec: int, gm: float, center) -> dict:
-        """Each effect's potential energy at each record, where the bodies feel zonal harmonics:
-        {``potential_central``, ``potential_zonal``: (nrec,) J}; else {}."""
-        if self.zonal is None:
+        """Each effect's potential energy at each record, where the bodies feel effects beyond
+        the central field: {``potential_central``, ``potential_zonal``, ``potential_<third
+        body>``: (nrec,) J}; else {}."""
+        if self.zonal is None and not self.effects:
             return {}
         q = rec.q[:nrec]
-        return {
-            "potential_central": self._central_energy(q, gm, np.asarray(center, float)).sum(axis=1),
-            f"potential_{self.zonal.label}": self.zonal_energy(q),
-        }
+        out = {"potential_central": self._central_energy(q, gm, np.asarray(center, float)).sum(axis=1)}
+        if self.zonal is not None:
+            out[f"potential_{self.zonal.label}"] = self.zonal_energy(q)
+        if any(t_.kind == "third_body" for t_ in self.effects):
+            out.update(self.third_body_energy(q, rec.t[:nrec]))
+        return out
 
     def invariant_scales(self, rec: RigidRecords, nrec: int, gm: float, center) -> np.ndarray:
         """Round-off scales of the invariants at each record (:func:`~emorbit.bodies.system.roundoff_scales`):
@@ -425,7 +484,7 @@ class RigidBodies(BodySystem):
         args = (method_code(method), self.models[b], q0, v0, self.lam[b].copy(), self.mass[b], self.E[b])
         _, status, _ = kern.rigid_step(
             *args, self.Einv[b], Xb, mb, float(gm), c, float(h), int(max_iter), work, *self._zonal_args()
-        )
+        )  # fmt: skip
         w, delta, dq = work[15], work[12], work[16]
         scale = float(np.sum(w * (h * v0) ** 2) + w[3] + w[6] + w[9] + np.sum(w * dq * dq))
         return int(status), float(np.sqrt(np.sum(w * delta[:12] ** 2) / scale)), None

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["BodySystem", "check_body_name", "check_output", "newton_failure", "roundoff_scales"]
+__all__ = ["WorkSums", "BodySystem", "check_body_name", "check_output", "newton_failure", "roundoff_scales"]
 
 
 def roundoff_scales(kinetic, potential, mass, moment):
@@ -150,7 +150,18 @@ class BodySystem:
         """A rough cost of one step, in point updates, for sizing chunks of steps."""
         raise NotImplementedError
 
-    def advance(self, method: str, gm: float, center, dt: float, gammas, every: int, nrec: int, max_iter: int):
+    def advance(
+        self,
+        method: str,
+        gm: float,
+        center,
+        dt: float,
+        gammas,
+        every: int,
+        nrec: int,
+        max_iter: int,
+        clock: tuple = (0.0, 0),
+    ):
         """Advance every body ``nrec * every`` composed steps, recording every ``every`` steps.
 
         Parameters
@@ -171,6 +182,10 @@ class BodySystem:
             Records to take.
         max_iter : int
             Newton iterations allowed per implicit sub-step.
+        clock : tuple
+            ``(t_base, n0)``: the chunk's j-th step starts at ``t_base + (n0 + j) dt``, s from
+            the run's epoch (effects that depend on time read it; a step's time does not
+            depend on where chunks start).
 
         Returns
         -------
@@ -396,3 +411,37 @@ def newton_failure(max_iter: int, update: float, residual: float | None, where: 
         f"{where} Newton's iteration does not approach a solution: after {max_iter} iterations its update is "
         f"{update:.2g} of the step's scale{res}; take a smaller dt"
     )
+
+
+class WorkSums:
+    """The work sums of a body system under effects that do work (drag, radiation pressure,
+    third bodies): ``work`` and its Kahan compensation ``cwork``, J, shaped by the system's
+    ``_work_shape()`` (an array of that shape is kept; a change of shape, new bodies or
+    effects, starts it at zeros). A base class whose ``_work`` and ``_cwork`` the system holds."""
+
+    @property
+    def work(self) -> np.ndarray:
+        """The work each effect that does work has done on each body since the run's start, J
+        (:meth:`reset_work` at a run's start); zeros for new bodies."""
+        if self._work.shape != self._work_shape():
+            self._work, self._cwork = np.zeros(self._work_shape()), np.zeros(self._work_shape())
+        return self._work
+
+    @work.setter
+    def work(self, value) -> None:
+        self._work = np.ascontiguousarray(value, dtype=float)
+
+    @property
+    def cwork(self) -> np.ndarray:
+        """The Kahan compensation terms of :attr:`work`, J."""
+        self.work  # noqa: B018 (shapes both)
+        return self._cwork
+
+    @cwork.setter
+    def cwork(self, value) -> None:
+        self._cwork = np.ascontiguousarray(value, dtype=float)
+
+    def reset_work(self) -> None:
+        """Start the work sums at 0 (a new run; a resumed run restores them instead)."""
+        self.work[...] = 0.0
+        self.cwork[...] = 0.0

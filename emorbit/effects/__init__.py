@@ -1,7 +1,8 @@
 """Effects: the forces a scene names, one module per effect, each registered here by name.
 
 A scene's bodies move in the central field of ``[field]`` (the effect ``central``) and in
-whatever ``[[effect]]`` tables add (``zonal``, ``mutual``, ``drag``). Each effect module declares:
+whatever ``[[effect]]`` tables add (``zonal``, ``mutual``, ``drag``, ``srp``, ``third_body``). Each
+effect module declares:
 
 ``NAME``, ``SUMMARY``
     its ``kind`` in scenes and one line on what it is;
@@ -11,17 +12,20 @@ whatever ``[[effect]]`` tables add (``zonal``, ``mutual``, ``drag``). Each effec
     declarations (``scripts/docs_effects.py``);
 ``POTENTIAL``, ``DISCRETE_FORCE``, ``JACOBIAN``, ``CONSERVES``, ``BODY_KINDS``
     its potential energy, its force over a step (the g_em analogue: its work equals the
-    drop in its potential exactly; a non-conservative force such as drag has no potential,
-    keeps nothing and declares the ``work`` code that sums its discrete work), the Jacobian
-    of that force for Newton, what an em step with it conserves, and the body kinds it acts
-    on;
+    drop in its potential exactly; a non-conservative force such as drag has no potential
+    (``HAS_POTENTIAL = False``), keeps nothing and declares the ``work`` code that sums its
+    discrete work; a potential that changes in time sums the work of that change), the
+    Jacobian of that force for Newton, what an em step with it conserves, and the body kinds
+    it acts on;
 ``build(table, field, key)``
     a checked :class:`~emorbit.effects.base.EffectTerm` from the scene table (or the Python
     API's keywords, :meth:`emorbit.Simulation.add_effect`);
 ``KERNEL``
     the kernel functions and the code that :mod:`emorbit.effects.compose` puts into the
     step compiled for a scene's set of effects, so that a scene pays only for the effects it
-    names.
+    names; an effect that depends on time has ``substep`` code, which reads the sub-step's
+    start, middle and end times ``ta``, ``tm``, ``tb``, and its term samples its path in
+    :meth:`~emorbit.effects.base.EffectTerm.prepare` before the steps.
 
 To add an effect: write its force, potential and Jacobian as kernels in
 ``emorbit/kernels/effects/`` (with tests that the work equals the potential drop and the
@@ -32,13 +36,20 @@ it to :data:`EFFECTS`.
 from __future__ import annotations
 
 from ..errors import InputError
-from . import central, drag, mutual, zonal
+from . import central, drag, mutual, srp, third_body, zonal
 from .base import EffectTerm
 
-__all__ = ["EFFECTS", "EffectTerm", "build", "effect_kinds"]
+__all__ = ["EFFECTS", "EffectTerm", "build", "effect_kinds", "has_potential"]
 
-#: every effect by its ``kind``, in the order a step adds their forces
-EFFECTS = {m.NAME: m for m in (central, zonal, mutual, drag)}
+#: every effect by its ``kind``, in the order a step adds their forces (third bodies last: a
+#: scene may name several, whose work the step sums in consecutive slots)
+EFFECTS = {m.NAME: m for m in (central, zonal, mutual, drag, srp, third_body)}
+
+
+def has_potential(module) -> bool:
+    """Whether an effect has a potential energy, recorded as ``invariants/potential_<label>``
+    (drag and radiation pressure have none: only their work is recorded)."""
+    return getattr(module, "HAS_POTENTIAL", True)
 
 
 def effect_kinds() -> tuple[str, ...]:

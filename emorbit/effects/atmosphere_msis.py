@@ -25,7 +25,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["msis_density", "MSIS_VERSIONS"]
+__all__ = ["msis_density", "msis_grid", "MSIS_VERSIONS", "GRID"]
 
 #: the NRLMSIS versions pymsis computes (0: NRLMSISE-00)
 MSIS_VERSIONS = (0, 2.0, 2.1)
@@ -132,3 +132,60 @@ def msis_density(h, lat, lon, time, f107, f107a, ap, *, version=2.1) -> np.ndarr
         flat(dates), flat(lon_deg), flat(lat_deg), flat(alt_km), flat(f107v), flat(f107av), aps, version=version
     )
     return np.asarray(out[..., pymsis.Variable.MASS_DENSITY], dtype=np.float64).reshape(shape)
+
+
+#: the axes of :func:`msis_grid`: altitudes from 80 km every 10 km to 1000 km, geocentric
+#: latitudes every 5 deg, local solar time every hour
+GRID = {"a0": 80e3, "da": 10e3, "na": 93, "dphi_deg": 5.0, "nlam": 24}
+
+
+def msis_grid(epoch, f107, f107a, ap, radius, *, version=2.1) -> tuple[np.ndarray, np.ndarray]:
+    """NRLMSIS sampled on a grid over altitude, latitude and local solar time at an epoch: the
+    density drag reads in its kernels (:mod:`emorbit.kernels.effects.atmosphere_grid`).
+
+    The grid's altitudes are above a sphere of ``radius`` and its latitudes geocentric, as the
+    kernels measure them; each node is converted to geodetic coordinates on the WGS84
+    ellipsoid (ERFA's ``gc2gd``) for NRLMSIS, at the longitude whose mean local solar time at
+    the epoch is the node's (``lon = 15 deg (LST - UT)``; the kernels' local time is the
+    apparent one, from the Sun's direction: they differ by the equation of time, at most
+    16 min). The space weather, the day of the year and the universal time are those of the
+    epoch for the whole run.
+
+    Parameters
+    ----------
+    epoch : astropy.time.Time
+        The date and time (converted to UTC).
+    f107, f107a, ap : float
+        As :func:`msis_density`.
+    radius : float
+        The sphere altitudes are measured from, m.
+    version : float
+        As :func:`msis_density`.
+
+    Returns
+    -------
+    grid : ndarray
+        (na, nphi, nlam + 1) float64 ``log(rho / (kg/m^3))``; the last local-time column is
+        the first.
+    g_p : ndarray
+        (5,) ``[a0, da, phi0, dphi, dlam]`` (m, m, rad, rad, rad).
+    """
+    import erfa
+
+    a = GRID["a0"] + GRID["da"] * np.arange(GRID["na"])
+    nphi = int(round(180.0 / GRID["dphi_deg"])) + 1
+    phi = np.radians(-90.0 + GRID["dphi_deg"] * np.arange(nphi))
+    lam = (2.0 * np.pi / GRID["nlam"]) * np.arange(GRID["nlam"])
+    A, P, L = np.meshgrid(a, phi, lam, indexing="ij")
+    r = radius + A
+    xyz = np.stack([r * np.cos(P), np.zeros_like(r), r * np.sin(P)], axis=-1)
+    _, lat, height = erfa.gc2gd(1, xyz)  # 1: WGS84
+    t = epoch.utc
+    ut = (t.jd2 + 0.5 + (t.jd1 % 1.0)) % 1.0 * 24.0  # hours of the day
+    lon = (15.0 * (L * 12.0 / np.pi - ut) + 180.0) % 360.0 - 180.0
+    rho = msis_density(height, np.degrees(lat), lon, epoch, f107, f107a, ap, version=version)
+    grid = np.empty((GRID["na"], nphi, GRID["nlam"] + 1))
+    grid[:, :, :-1] = np.log(rho)
+    grid[:, :, -1] = grid[:, :, 0]
+    g_p = np.array([GRID["a0"], GRID["da"], -np.pi / 2, np.radians(GRID["dphi_deg"]), 2.0 * np.pi / GRID["nlam"]])
+    return np.ascontiguousarray(grid), g_p

@@ -42,8 +42,23 @@ class EffectTerm:
     params: dict = field(default_factory=dict)
     bodies: list | None = None
     key: str = ""
+    #: whether the effect depends on time: then :meth:`prepare` runs before the steps and
+    #: :meth:`potential` takes the records' times
+    time_dependent = False
 
-    def potential(self, x: np.ndarray, masses: np.ndarray, active: np.ndarray) -> np.ndarray:
+    def prepare(self, t0: float, t1: float, epoch) -> None:
+        """Make the parameters cover the times ``t0`` to ``t1`` (s from the epoch): an effect
+        that follows a path in time samples it (nothing to do for the others).
+
+        Parameters
+        ----------
+        t0, t1 : float
+            The span the steps reach, s.
+        epoch : astropy.time.Time or None
+            The run's epoch.
+        """
+
+    def potential(self, x: np.ndarray, masses: np.ndarray, active: np.ndarray, t=None) -> np.ndarray:
         """The effect's potential energy at recorded states.
 
         Parameters
@@ -54,6 +69,8 @@ class EffectTerm:
             (n,) kg.
         active : ndarray
             (n,) bool: the points it acts on.
+        t : ndarray, optional
+            (rows,) the records' times, s from the epoch (read where :attr:`time_dependent`).
 
         Returns
         -------

@@ -48,7 +48,7 @@ central_jacobian(x0, y0, z0, x1, y1, z1, central_p[0], central_p[1], central_p[2
 class Central(EffectTerm):
     """The central field as an effect term: ``params["central_p"] = [c0, c1, c2, GM]``."""
 
-    def potential(self, x, masses, active):
+    def potential(self, x, masses, active, t=None):
         c = self.params["central_p"][:3]
         gm = self.params["central_p"][3]
         r = np.sqrt(np.einsum("rkn,rkn->rn", x - c[None, :, None], x - c[None, :, None]))

@@ -54,7 +54,7 @@ import tempfile
 
 from ..kernels.jit import JIT_OPTIONS, cache_dir, cache_enabled
 
-__all__ = ["compile_step", "does_work", "step_source"]
+__all__ = ["compile_step", "does_work", "step_source", "timed"]
 
 _TEMPLATE = '''"""The em chunk kernel of point masses under the effects: {names}.
 
@@ -76,7 +76,8 @@ _EPS = 2.0**-52
 
 @numba.njit(**{options})
 def chunk(
-    x, v, cx, cv, wp, hp, m, {params}, {work_args}dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail
+    x, v, cx, cv, wp, hp, m, {params}, {work_args}{time_args}dt, gammas, every, nrec, max_iter, rec_x, rec_v,
+    rec_iters, fail
 ):
     n = x.shape[1]
     dx = np.empty((3, n))
@@ -87,6 +88,7 @@ def chunk(
     sx = np.empty((5, 3, n))  # the state at the start of a composed step: x, v, cx, cv, wp
     hp0 = hp[0]
 {work_setup}
+{time_setup}
 {setup}
     for r in range(nrec):
         for i in range(n):
@@ -102,6 +104,8 @@ def chunk(
             for k in range(gammas.shape[0]):
                 h = dt * gammas[k]
                 hh = 0.5 * h * h
+{time_step}
+{substep}
                 scale = (h / hp[0]) ** 2 if hp[0] != 0.0 else 0.0  # the last sub-step's w, rescaled
                 for i in range(n):
                     for c in range(3):
@@ -196,6 +200,23 @@ def chunk(
 '''
 
 
+# the clock of a set with effects that depend on time: step j of the chunk starts at
+# clock_base + (clock_n0 + j) dt (the same bits wherever chunks start); sub-step k runs from
+# ta to tb, its middle tm, with the composition's partial sums; the last one ends on the next step
+_TIME_SETUP = """
+tcum = np.empty(gammas.shape[0] + 1)
+tcum[0] = 0.0
+for k in range(gammas.shape[0]):
+    tcum[k + 1] = tcum[k] + gammas[k]
+"""
+_TIME_STEP = """
+j = clock_n0 + r * every + s
+ta = clock_base + (j + tcum[k] if k > 0 else j) * dt
+tb = clock_base + (j + 1.0 if k == gammas.shape[0] - 1 else j + tcum[k + 1]) * dt
+tm = 0.5 * (ta + tb)
+"""
+
+
 def _indent(code: str, spaces: int) -> str:
     pad = " " * spaces
     return "\n".join(pad + line if line.strip() else "" for line in code.strip("\n").splitlines())
@@ -210,6 +231,9 @@ def _kernel_digest(modules) -> str:
         "kernels/effects/zonal.py",
         "kernels/effects/newton.py",
         "kernels/effects/atmosphere.py",
+        "kernels/effects/atmosphere_grid.py",
+        "kernels/effects/third_body.py",
+        "kernels/effects/radiation.py",
         "kernels/codes.py",
     ):
         with open(os.path.join(root, rel), "rb") as f:
@@ -243,7 +267,9 @@ def step_source(kinds) -> tuple[str, list[str]]:
         "central": ["central_p"],
         "zonal": ["zonal_p", "zonal_j"],
         "mutual": ["mutual_p", "mutual_on"],
-        "drag": ["drag_p", "drag_t", "drag_b"],
+        "drag": ["drag_p", "drag_t", "drag_g", "drag_gp", "drag_s", "drag_b"],
+        "srp": ["srp_p", "srp_tab", "srp_c"],
+        "third_body": ["tb_p", "tb_tab"],
     }
     names = [p for k in kinds for p in params[k]]
     working = [m for m in modules if does_work(m)]  # each one's slot in work, cwork: its order here
@@ -251,11 +277,12 @@ def step_source(kinds) -> tuple[str, list[str]]:
         m.KERNEL["work"].replace("WORK_SLOT", str(slot)) for slot, m in enumerate(working) if m.KERNEL["work"].strip()
     )
     imports = sorted({m.KERNEL["imports"] for m in modules})
+    timed_ = any(timed(m) for m in modules)
     options = {k: v for k, v in JIT_OPTIONS.items() if k != "cache"}
     options["cache"] = cache_enabled()
     code = {
         key: "\n".join(m.KERNEL.get(key, "") for m in modules if m.KERNEL.get(key, "").strip()) or "pass"
-        for key in ("setup", "pairs", "blocks", "own")
+        for key in ("setup", "substep", "pairs", "blocks", "own")
     }
     source = _TEMPLATE.format(
         names=", ".join(kinds),
@@ -264,6 +291,10 @@ def step_source(kinds) -> tuple[str, list[str]]:
         options=repr(options),
         params=", ".join(names),
         setup=_indent(code["setup"], 4),
+        substep=_indent(code["substep"], 16) if timed_ else "",
+        time_args="clock_base, clock_n0, " if timed_ else "",
+        time_setup=_indent(_TIME_SETUP, 4) if timed_ else "",
+        time_step=_indent(_TIME_STEP, 16) if timed_ else "",
         pairs=_indent(code["pairs"], 20),
         blocks=_indent(code["blocks"], 24),
         own=_indent(code["own"], 24),
@@ -277,7 +308,13 @@ def step_source(kinds) -> tuple[str, list[str]]:
         work=_indent(work_code, 20) if working else "",
         work_record=_indent("rec_work[r, :, :] = work", 8) if working else "",
     )
-    return source, names + (["work", "cwork", "rec_work"] if working else [])
+    return source, names + (["work", "cwork", "rec_work"] if working else []) + (["clock"] if timed_ else [])
+
+
+def timed(module) -> bool:
+    """Whether an effect module's kernel code reads the clock (``substep`` code: the sub-step's
+    times ``ta``, ``tm``, ``tb``): a set with one takes the clock's arguments."""
+    return bool(module.KERNEL.get("substep", "").strip())
 
 
 def does_work(module) -> bool:

@@ -57,6 +57,7 @@ __all__ = [
     "sun_moon_positions",
     "sun_moon_states",
     "EphemerisTable",
+    "sample_table",
     "KeplerThirdBody",
     "kepler_third_body",
 ]
@@ -183,6 +184,42 @@ def sun_moon_states(times, body: str, *, ephemeris="builtin") -> tuple[np.ndarra
 
 def _seconds(value, key: str, *, positive: bool = False) -> float:
     return to_si(value, "time", key, positive=positive)
+
+
+def sample_table(body: str, k_first: int, k_last: int, step: float, epoch, ephemeris="builtin") -> np.ndarray:
+    """Positions and velocities of the Sun or the Moon at the samples ``k step`` from an epoch,
+    ``k = k_first .. k_last``: the rows of a table that
+    :func:`emorbit.kernels.effects.third_body.table_position` interpolates.
+
+    The positions are :func:`sun_moon_positions`'; the velocities are their 5-point central
+    differences (error ``step^4 |x^(5)| / 30``), consistent with the positions, as in
+    :class:`EphemerisTable`. A sample's values depend on its time alone, not on the range:
+    tables of overlapping ranges agree bit for bit where they overlap.
+
+    Parameters
+    ----------
+    body : str
+        ``"sun"`` or ``"moon"``.
+    k_first, k_last : int
+        The first and the last sample index (k_last > k_first).
+    step : float
+        The sampling interval, s.
+    epoch : astropy.time.Time
+        Time 0 of the samples.
+    ephemeris : str or path
+        As :func:`sun_moon_positions`.
+
+    Returns
+    -------
+    ndarray
+        (k_last - k_first + 1, 6) float64: x, y, z (m), vx, vy, vz (m/s), geocentric, ICRS axes.
+    """
+    from astropy.time import TimeDelta
+
+    k = np.arange(int(k_first) - 2, int(k_last) + 3, dtype=np.float64)
+    p = _posvel(epoch.tdb + TimeDelta(k * float(step), format="sec"), _body(body), _ephemeris(ephemeris), "t_end")[0]
+    v = (p[:-4] - 8.0 * p[1:-3] + 8.0 * p[3:-1] - p[4:]) / (12.0 * float(step))
+    return np.ascontiguousarray(np.hstack([p[2:-2], v]))
 
 
 class EphemerisTable:

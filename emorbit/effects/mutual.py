@@ -108,7 +108,7 @@ class Mutual(EffectTerm):
     """Mutual gravity as an effect term: ``params["mutual_p"] = [G]``; the points it acts on
     are set when the simulation lays out its points (``mutual_on``)."""
 
-    def potential(self, x, masses, active):
+    def potential(self, x, masses, active, t=None):
         idx = np.flatnonzero(active)
         out = np.zeros(x.shape[0])
         for a, i in enumerate(idx[:-1]):

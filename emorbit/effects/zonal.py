@@ -80,7 +80,7 @@ class Zonal(EffectTerm):
     """Zonal harmonics as an effect term: ``params["zonal_p"] = [c0, c1, c2, p0, p1, p2, GM, R]``,
     ``params["zonal_j"] = [J2, ..., J_degree]``."""
 
-    def potential(self, x, masses, active):
+    def potential(self, x, masses, active, t=None):
         c, p, (gm, R) = self.params["zonal_p"][:3], self.params["zonal_p"][3:6], self.params["zonal_p"][6:]
         d = x - c[None, :, None]
         r = np.sqrt(np.einsum("rkn,rkn->rn", d, d))

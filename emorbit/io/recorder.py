@@ -184,6 +184,8 @@ class Sink:
         potentials = {}  # each effect's potential energy (systems under effects)
         works = {}  # the work of the effects that do work, since the run's start
         for system, rec in recs:
+            if hasattr(rec, "t"):  # the records' times, for potentials that depend on time
+                rec.t = times[:nrec]
             if hasattr(system, "effect_energies") and self.writer is not None:
                 for name, e in system.effect_energies(rec, nrec, gm, center).items():
                     potentials[name] = potentials.get(name, 0.0) + e
@@ -231,21 +233,23 @@ class Sink:
         split[0] = self.split_pending
         stalled[0] += self.stalled_pending
         self.split_pending = self.stalled_pending = 0
-        drift, bound = np.full((nrec, 3), -1.0), np.full(nrec, -1.0)  # -1: not measured
-        if self.monitor is not None:
-            scales = sum(system.invariant_scales(rec, nrec, gm, center) for system, rec in recs)
-            rel = np.asarray(steps[:nrec]) - getattr(sim, "_run_origin", 0)  # steps since the file's start
-            drift, bound = self.monitor.update(times, rel, energy, momentum, angular, scales, substeps, stalled)
-        self.rows += nrec
-        self.last_step = int(steps[nrec - 1])
-        block = (times, energy, momentum, angular, its, data, split, stalled, drift, bound, erange)
         if works:  # E - E0 - W: the energy the records hold beyond the work done on the bodies
             if self.energy0 is None:
-                resumed = self.writer is not None and self.rows > nrec  # the file's first record is E0
+                resumed = self.writer is not None and self.rows > 0  # the file's first record is E0
                 self.energy0 = float(self.writer.file["invariants/energy"][0]) if resumed else float(energy[0])
             works["energy_balance"] = energy - self.energy0 - sum(works.values())
             if self.keep:
                 self.works.append({k: np.array(w, float) for k, w in works.items()})
+        drift, bound = np.full((nrec, 3), -1.0), np.full(nrec, -1.0)  # -1: not measured
+        if self.monitor is not None:
+            scales = sum(system.invariant_scales(rec, nrec, gm, center) for system, rec in recs)
+            rel = np.asarray(steps[:nrec]) - getattr(sim, "_run_origin", 0)  # steps since the file's start
+            # under effects that do work, E - W is what the step keeps (the balance)
+            kept = energy - sum(w for k, w in works.items() if k != "energy_balance") if works else energy
+            drift, bound = self.monitor.update(times, rel, kept, momentum, angular, scales, substeps, stalled)
+        self.rows += nrec
+        self.last_step = int(steps[nrec - 1])
+        block = (times, energy, momentum, angular, its, data, split, stalled, drift, bound, erange)
         if self.writer is not None:
             self.writer.append(
                 *block[:6],

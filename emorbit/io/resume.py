@@ -246,6 +246,8 @@ def _read(f, path: str):
                     rows = min(rows, f["bodies"][name][q].shape[0])
     recorded = {q: f[f"invariants/{q}"][records - 1] for q in ("energy", "momentum", "angular_momentum")}
     recorded["first"] = np.concatenate([np.atleast_1d(f[f"invariants/{q}"][0]) for q in recorded])
+    works = [k for k in f["invariants"] if k.startswith("work_")]
+    recorded["work"] = sum(float(f[f"invariants/{k}"][records - 1]) for k in works)  # the monitor checks E - W
     for q in ("drift_bound", "invariant_drift"):
         if f"diagnostics/{q}" in f:
             recorded[q] = f[f"diagnostics/{q}"][records - 1]
@@ -314,6 +316,7 @@ def _check_drift(path: str, where: str, arrays: dict, recorded: dict, steps: int
     if drift is None or scale.shape != (3,) or np.shape(drift) != (3,):
         return
     inv = np.concatenate([np.atleast_1d(recorded[q]) for q in ("energy", "momentum", "angular_momentum")])
+    inv[0] -= recorded.get("work", 0.0)
     change = [abs(inv[0] - ref[0]), np.linalg.norm(inv[1:4] - ref[1:4]), np.linalg.norm(inv[4:7] - ref[4:7])]
     with np.errstate(all="ignore"):
         now = np.asarray(change) / np.maximum(scale, np.finfo(float).tiny)

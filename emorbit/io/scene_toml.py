@@ -31,6 +31,8 @@ def _value(v) -> str:
         return "true" if v else "false"
     if isinstance(v, (list, tuple, np.ndarray)):
         return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, dict):  # an inline table, e.g. a third body's orbit
+        return "{" + ", ".join(f"{json.dumps(str(k))} = {_value(x)}" for k, x in v.items()) + "}"
     return repr(float(v)) if isinstance(v, (float, np.floating)) else str(int(v))
 
 
@@ -87,6 +89,10 @@ def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -
         lines.append(f"energy_range = {'true' if sim.energy_range else 'false'}")
     if sim.drift_tolerance != DRIFT_TOLERANCE:
         lines.append(f"drift_tolerance = {float(sim.drift_tolerance)!r}")
+    if getattr(sim, "epoch", None) is not None:
+        from ..epochs import epoch_text
+
+        lines.append(f'epoch = "{epoch_text(sim.epoch)}"')
     for term in getattr(sim, "_effects", ()):
         lines += ["", "[[effect]]", f'kind = "{term.kind}"']
         lines += [f"{k} = {_value(v)}" for k, v in term.table.items() if k != "kind"]
@@ -103,6 +109,8 @@ def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -
         ]
         if name in getattr(pts, "ballistic", {}):
             lines.append(f"ballistic_coefficient = {_q(pts.ballistic[name], 'm2 / kg')}")
+        if name in getattr(pts, "radiation", {}):
+            lines.append(f"radiation_coefficient = {_q(pts.radiation[name], 'm2 / kg')}")
     if sim.rigid is not None:
         rb = sim.rigid
         now = rb.datasets(rb.current(), 1)
@@ -121,6 +129,7 @@ def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -
                 f'gravity = "{rb.body_attrs(b)["gravity"]}"',
             ]
             lines += _shape_lines(rb.params[b])
+            lines += _surface_lines(rb.surfaces[b]) if hasattr(rb, "surfaces") else []
     if sim.structure is not None:
         lines += [
             "",
@@ -160,4 +169,27 @@ def _shape_lines(params: dict) -> list[str]:
             out.append(
                 "tetrahedra = [" + ", ".join("[" + ", ".join(str(int(c)) for c in row) + "]" for row in value) + "]"
             )
+    return out
+
+
+def _surface_lines(surface) -> list[str]:
+    """A rigid body's facets: ``facets``, its coefficients, and a ``[[body.facet]]`` table for
+    each facet beyond its shape's (exact to the last bit)."""
+    if surface is None:
+        return ['facets = "none"']
+    mode, extra, defaults, _ = surface
+    out = [] if mode == "shape" else ['facets = "none"']
+    out += [f"{k} = {float(v)!r}" for k, v in defaults.items()]
+    for j in range(len(extra) if extra is not None else 0):
+        out += [
+            "",
+            "[[body.facet]]",
+            f"center = {_v(extra.center[j], 'm')}",
+            "normal = [" + ", ".join(repr(float(c)) for c in extra.normal[j]) + "]",
+            f"area = {_q(extra.area[j], 'm2')}",
+            f"two_sided = {'true' if extra.two_sided[j] else 'false'}",
+            f"drag_coefficient = {float(extra.drag_coefficient[j])!r}",
+            f"specular = {float(extra.specular[j])!r}",
+            f"diffuse = {float(extra.diffuse[j])!r}",
+        ]
     return out

@@ -56,10 +56,13 @@ from .codes import (
     STATUS_OK,
     STATUS_SINGULAR,
 )
+from .effects.radiation import shadow_cylindrical
+from .effects.third_body import table_position
 from .effects.zonal import zonal_force, zonal_jacobian
 from .eft import kahan_add
 from .gravity import accel, accel_jacobian_coeffs, em_accel, em_jacobian_coeffs
 from .jit import kernel
+from .rigid_effects import facet_forces, facet_jacobian, third_body_forces, third_body_work
 
 __all__ = [
     "GRAVITY_NONE",
@@ -372,6 +375,7 @@ def work_arrays(X):
         np.empty((3, 3)),
         np.empty(12),
         np.empty((3, npoints)),
+        np.zeros(2),
     )
 
 
@@ -379,8 +383,18 @@ _work_arrays = kernel(work_arrays)
 
 
 @kernel
-def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter, work, zonal_p, zonal_j):
+def rigid_step(
+    method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter, work, zonal_p, zonal_j,
+    facets=None, f0=0, f1=0, drag_p=None, drag_t=None, drag_g=None, drag_gp=None, dsun=None, srp_p=None, sun=None,
+    shade=1.0, tb_p=None, tb_s=None,
+):  # fmt: skip
     """One step of size ``h`` for one rigid body.
+
+    Beyond gravity (None: none, pruned): drag and radiation pressure on the facet rows
+    ``f0 .. f1`` of ``facets`` with the Sun at ``sun`` and the shadow fraction ``shade``, and
+    third bodies ``tb_p`` at ``tb_s`` (:mod:`.rigid_effects`). The facets' derivative joins the
+    load stiffness (by differences, :func:`.rigid_effects.facet_jacobian`); the third bodies'
+    stays out (below 1e-6 of the gravity gradient's), so the iteration converges on it.
 
     q0, v0 (12,) the state; lam (6,) the multipliers' warm start lambda (updated in place
     with this step's value); work from :func:`work_arrays`. Returns (iterations, status,
@@ -396,7 +410,7 @@ def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter
     update.
     The load stiffness K is exact at the first iterate and kept for the step (chord).
     """
-    a0, r0, F, K, P, W, J, rhs, G05, G1, q1, q05, delta, Mv0, nu, wdiag, dq, gen, S, dv, G = work
+    a0, r0, F, K, P, W, J, rhs, G05, G1, q1, q05, delta, Mv0, nu, wdiag, dq, gen, S, dv, G, wk = work
     n = mp.shape[0]
     volume = model == GRAVITY_VOLUME
     if volume:
@@ -478,6 +492,14 @@ def rigid_step(method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter
         if st != STATUS_OK:
             status = st
             break
+        if facets is not None:
+            facet_forces(q0, q1, h, F, facets, f0, f1, drag_p, drag_t, drag_g, drag_gp, dsun, srp_p, sun, shade, wk)
+            if it == 1:  # the facets' torques depend on the attitude: their derivative joins K
+                facet_jacobian(
+                    q0, q1, h, K, facets, f0, f1, drag_p, drag_t, drag_g, drag_gp, dsun, srp_p, sun, shade, J[:3, :12]
+                )
+        if tb_p is not None and model != GRAVITY_NONE:
+            third_body_forces(q0, q1, X, mp, m, model == GRAVITY_POINT, tb_p, tb_s, F)
         _constraint_jacobian(q05, G05)
         _constraint_jacobian(q1, G1)
         _sym(nu, S)
@@ -595,6 +617,22 @@ def rigid_chunk(
     fail,
     zonal_p,
     zonal_j,
+    clock_base=0.0,
+    clock_n0=0.0,
+    facets=None,
+    foff=None,
+    drag_p=None,
+    drag_t=None,
+    drag_g=None,
+    drag_gp=None,
+    drag_s=None,
+    srp_p=None,
+    srp_tab=None,
+    tb_p=None,
+    tb_tab=None,
+    work=None,
+    cwork=None,
+    rec_work=None,
 ):
     """Advance every rigid body ``nrec * every`` composed steps, recording every ``every``.
 
@@ -604,6 +642,15 @@ def rigid_chunk(
     rec_iters (nrec, nb), fail (nb, 2) as in :func:`emorbit.kernels.pointmass.reference.implicit_chunk`;
     rec_stalled (nrec, nb) counts each interval's sub-steps that :func:`rigid_step` accepted at
     its floor, above round-off.
+
+    Effects beyond gravity (None: none): body b's facets are rows ``foff[b] .. foff[b+1]`` of
+    ``facets`` (drag with ``drag_p``, ``drag_t`` or NRLMSIS's ``drag_g``, ``drag_gp`` and the Sun's
+    table ``drag_s``; radiation pressure with ``srp_p`` and the
+    Sun's table ``srp_tab``); third bodies ``tb_p`` with their tables ``tb_tab``
+    (:mod:`.rigid_effects`, :mod:`emorbit.effects.third_body`). Step j starts at
+    ``clock_base + (clock_n0 + j) dt``. With them, ``work`` and ``cwork`` (nb, k) sum each
+    effect's work on each body (slots: drag, srp, then the third bodies; Kahan), recorded in
+    ``rec_work`` (nrec, nb, k).
     """
     nb = q.shape[0]
     ns = gammas.shape[0]
@@ -612,12 +659,31 @@ def rigid_chunk(
     te = np.empty(12)
     tf = np.empty(12)
     tl = np.empty(6)
+    q1 = np.empty(12)
+    Fs = np.empty(12)
+    wk = np.zeros(2)
+    sun = np.zeros(3)
+    dsun = np.zeros(3)
+    tcum = np.empty(ns + 1)
+    tcum[0] = 0.0
+    for k in range(ns):
+        tcum[k + 1] = tcum[k] + gammas[k]
+    nw = 0 if work is None else work.shape[1]
+    tw = np.zeros(nw)
+    tcw = np.zeros(nw)
+    slot_drag = 0
+    slot_srp = 1 if drag_p is not None else 0
+    slot_tb = (1 if drag_p is not None else 0) + (1 if srp_p is not None else 0)
+    ntb = 0 if tb_p is None else tb_p.shape[0]
+    tb_s = np.zeros((ntb, 3, 3))
     for b in range(nb):
         Xb = X[:, offsets[b] : offsets[b + 1]]
         mb = mp[offsets[b] : offsets[b + 1]]
-        work = _work_arrays(Xb)
-        dq = work[16]
-        dv = work[19]
+        work_b = _work_arrays(Xb)
+        dq = work_b[16]
+        dv = work_b[19]
+        f0 = 0 if foff is None else foff[b]
+        f1 = 0 if foff is None else foff[b + 1]
         failed = False
         for r in range(nrec):
             its = 0
@@ -628,19 +694,67 @@ def rigid_chunk(
                 te[:] = cq[b]
                 tf[:] = cv[b]
                 tl[:] = lam[b]
+                if work is not None:
+                    tw[:] = work[b]
+                    tcw[:] = cwork[b]
                 for k in range(ns):
                     h = dt * gammas[k]
+                    shade = 1.0
+                    if srp_p is not None or tb_p is not None or drag_p is not None:
+                        j = clock_n0 + r * every + s
+                        ta = clock_base + (j + tcum[k] if k > 0 else j) * dt
+                        tb = clock_base + (j + 1.0 if k == ns - 1 else j + tcum[k + 1]) * dt
+                        tm = 0.5 * (ta + tb)
+                        if drag_p is not None and drag_p[7] != 0.0:  # NRLMSIS's local time
+                            dsun[0], dsun[1], dsun[2] = table_position(tm, drag_p[8], drag_p[9], drag_s)
+                        if srp_p is not None:
+                            sun[0], sun[1], sun[2] = table_position(tm, srp_p[8], srp_p[9], srp_tab)
+                            if srp_p[4] == 1.0:  # the cylindrical shadow at the predicted midpoint
+                                px = tp[0] + 0.5 * h * tu[0] - srp_p[5]
+                                py = tp[1] + 0.5 * h * tu[1] - srp_p[6]
+                                pz = tp[2] + 0.5 * h * tu[2] - srp_p[7]
+                                shade = shadow_cylindrical(px, py, pz, sun[0], sun[1], sun[2], srp_p[2])
+                        if tb_p is not None:
+                            for jb in range(ntb):
+                                o = int(tb_p[jb, 7])
+                                tab = tb_tab[o : o + int(tb_p[jb, 8])]
+                                for e, te_ in ((0, ta), (1, tm), (2, tb)):
+                                    sx, sy, sz = table_position(te_, tb_p[jb, 5], tb_p[jb, 6], tab)
+                                    tb_s[jb, e, 0] = sx
+                                    tb_s[jb, e, 1] = sy
+                                    tb_s[jb, e, 2] = sz
                     it, status, stalled = rigid_step(
-                        method, models[b], tp, tu, tl, mass[b], E[b], Einv[b], Xb, mb, gm, center, h, max_iter, work,
-                        zonal_p, zonal_j,
+                        method, models[b], tp, tu, tl, mass[b], E[b], Einv[b], Xb, mb, gm, center, h, max_iter, work_b,
+                        zonal_p, zonal_j, facets, f0, f1, drag_p, drag_t, drag_g, drag_gp, dsun, srp_p, sun, shade,
+                        tb_p, tb_s,
                     )  # fmt: skip
                     its += it
                     stl += stalled
                     ok = status == STATUS_OK
-                    for j in range(12):
-                        tp[j], te[j] = kahan_add(tp[j], te[j], dq[j])
-                        tu[j], tf[j] = kahan_add(tu[j], tf[j], dv[j])
-                        if not (abs(tp[j]) < math.inf and abs(tu[j]) < math.inf):
+                    if ok and work is not None:  # the effects' work over the converged sub-step
+                        for jj in range(12):
+                            q1[jj] = tp[jj] + dq[jj]
+                        if facets is not None:
+                            wk[0] = 0.0
+                            wk[1] = 0.0
+                            facet_forces(
+                                tp, q1, h, Fs, facets, f0, f1, drag_p, drag_t, drag_g, drag_gp, dsun, srp_p, sun, shade,
+                                wk,
+                            )  # fmt: skip
+                            if drag_p is not None:
+                                tw[slot_drag], tcw[slot_drag] = kahan_add(tw[slot_drag], tcw[slot_drag], wk[0])
+                            if srp_p is not None:
+                                tw[slot_srp], tcw[slot_srp] = kahan_add(tw[slot_srp], tcw[slot_srp], wk[1])
+                        if tb_p is not None and models[b] != GRAVITY_NONE:
+                            for jb in range(ntb):
+                                w_ = third_body_work(
+                                    tp, q1, Xb, mb, mass[b], models[b] == GRAVITY_POINT, tb_p, tb_s, jb
+                                )
+                                tw[slot_tb + jb], tcw[slot_tb + jb] = kahan_add(tw[slot_tb + jb], tcw[slot_tb + jb], w_)
+                    for j_ in range(12):
+                        tp[j_], te[j_] = kahan_add(tp[j_], te[j_], dq[j_])
+                        tu[j_], tf[j_] = kahan_add(tu[j_], tf[j_], dv[j_])
+                        if not (abs(tp[j_]) < math.inf and abs(tu[j_]) < math.inf):
                             ok = False
                     if not ok:
                         fail[b, 0] = r * every + s
@@ -654,9 +768,14 @@ def rigid_chunk(
                 cq[b] = te
                 cv[b] = tf
                 lam[b] = tl
+                if work is not None:
+                    work[b] = tw
+                    cwork[b] = tcw
             if failed:
                 break
             rec_q[r, b, :] = q[b]
             rec_v[r, b, :] = v[b]
             rec_iters[r, b] = its
             rec_stalled[r, b] = stl
+            if work is not None:
+                rec_work[r, b, :] = work[b]
