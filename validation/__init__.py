@@ -19,7 +19,10 @@ units and reasons), :mod:`.runner` (one case: runs, checks, convergence study),
 The cases of the effects (zonal harmonics, mutual gravity): :mod:`.effect_cases`,
 :mod:`.effect_runs`, :mod:`.effect_runner`, :mod:`.effect_checks`, :mod:`.secular`,
 :mod:`.effect_figures`. The rigid-rigid binary against scipy's DOP853: :mod:`.rigid_binary_case`,
-:mod:`.rigid_binary`, :mod:`.rigid_binary_figures`.
+:mod:`.rigid_binary`, :mod:`.rigid_binary_figures`. Drag, radiation pressure with the Earth's
+shadow, and the Moon and the Sun against IAS15 carrying the same force model:
+:mod:`.perturbation_cases`, :mod:`.perturbation_model`, :mod:`.perturbation_runs`,
+:mod:`.perturbation_runner`, :mod:`.perturbation_figures`.
 """
 
 import importlib

@@ -10,7 +10,9 @@ The cases of the effects beyond the central field (zonal harmonics, mutual gravi
 :mod:`.effect_cases`, the rigid-rigid binary :mod:`.rigid_binary_case`; :data:`CASES` lists them
 after the orbit cases (the rigid binary last). The studies of
 :data:`STUDY_CASES` (Brouwer's law with J2..J6, :mod:`.brouwer`) are cases of the suite as
-well, listed before the effect cases; :func:`get_cases` gives each as a :class:`Study`.
+well, listed before the effect cases; :func:`get_cases` gives each as a :class:`Study`. The
+perturbation cases (drag, radiation pressure, the Moon and the Sun against IAS15,
+:mod:`.perturbation_cases`) come between the studies and the effect cases.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ import numpy as np
 from emorbit import orbits
 
 from .effect_cases import EFFECT_CASES, EffectCase, effect_cases
+from .perturbation_cases import PERTURBATION_CASES, PerturbationCase, perturbation_cases
 from .rigid_binary_case import RIGID_BINARY_CASES, RigidBinaryCase, rigid_binary_cases
 
 __all__ = [
@@ -490,10 +493,16 @@ def _cloud(n_quick: int = 200, n_full: int = 1000, seed: int = 20240607) -> dict
 STUDY_CASES = ("brouwer-j2",)
 
 
-def _all_cases(mode: str) -> dict[str, Case | EffectCase | RigidBinaryCase | Study]:
+def _all_cases(mode: str) -> dict[str, Case | EffectCase | PerturbationCase | RigidBinaryCase | Study]:
     cases = [_paper(), *_family(), *_earth(), _cloud()[mode]]
     studies = {name: Study(name, mode) for name in STUDY_CASES}
-    return {**{c.name: c for c in cases}, **studies, **effect_cases(mode), **rigid_binary_cases(mode)}
+    return {
+        **{c.name: c for c in cases},
+        **studies,
+        **perturbation_cases(mode),
+        **effect_cases(mode),
+        **rigid_binary_cases(mode),
+    }
 
 
 CASES = (
@@ -504,6 +513,7 @@ CASES = (
     "earth-geo",
     "cloud",
     *STUDY_CASES,
+    *PERTURBATION_CASES,
     *EFFECT_CASES,
     *RIGID_BINARY_CASES,
 )

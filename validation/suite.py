@@ -10,6 +10,7 @@ import time
 from .cases import Study, case_names, get_cases
 from .effect_cases import EffectCase
 from .effect_runner import run_effect_case
+from .perturbation_cases import PerturbationCase
 from .report import write_json, write_markdown
 from .rigid_binary import run_rigid_binary
 from .rigid_binary_case import RigidBinaryCase
@@ -19,13 +20,17 @@ __all__ = ["run_suite", "environment"]
 
 
 def _run(case, mode: str, outdir: str, scale: float):
-    """One case of the suite: an orbit case, an effect case, the rigid binary or a study."""
+    """One case of the suite: an orbit case, an effect case, a perturbation case, the rigid binary or a study."""
     if isinstance(case, Study):
         from .brouwer import run_study
 
         return run_study(case.name, mode, outdir, scale=scale)
     if isinstance(case, RigidBinaryCase):
         return run_rigid_binary(case, mode, outdir, scale=scale)
+    if isinstance(case, PerturbationCase):
+        from .perturbation_runner import run_perturbation_case
+
+        return run_perturbation_case(case, mode, outdir, scale=scale)
     return (run_effect_case if isinstance(case, EffectCase) else run_case)(case, mode, outdir, scale=scale)
 
 
