@@ -6,7 +6,10 @@ root attributes other than the provenance ones (creation time, versions). A refa
 that changes no physics leaves all of them unchanged; a change that moves a single bit of
 any record fails here, naming the scene and the dataset.
 
-To record new references after a deliberate change of results::
+The bits of the compiled kernels and of the linear algebra also follow the libraries (Numba,
+LLVM, NumPy's LAPACK, SciPy's SuperLU): the file records their versions, and a failure says
+when they differ from this environment's. To record new references after a deliberate change
+of results, or in a new environment::
 
     python tests/test_scene_outputs.py > tests/data/scene_hashes.json
 """
@@ -52,27 +55,50 @@ def run_scene(name: str, folder: str) -> dict[str, str]:
     return digest(path)
 
 
+#: the key of the libraries the references were recorded with (the compiled kernels' and the
+#: linear algebra's bits follow them: another Numba, LLVM or LAPACK may round differently)
+ENVIRONMENT = "_environment"
+
+
+def environment() -> dict[str, str]:
+    """The versions of the libraries whose arithmetic the recorded bits depend on."""
+    import llvmlite
+    import numba
+    import scipy
+
+    return {
+        "numba": numba.__version__,
+        "llvmlite": llvmlite.__version__,
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+    }
+
+
 def _reference() -> dict:
     with open(REFERENCE) as fh:
         return json.load(fh)
 
 
 def test_every_shipped_scene_has_a_reference():
-    assert sorted(_reference()) == emorbit.list_scenes()
+    assert sorted(k for k in _reference() if k != ENVIRONMENT) == emorbit.list_scenes()
 
 
 @pytest.mark.parametrize("name", emorbit.list_scenes())
 def test_scene_output_is_bit_identical(name, tmp_path):
-    expected = _reference()[name]
+    reference = _reference()
+    expected = reference[name]
     got = run_scene(name, str(tmp_path))
     assert sorted(got) == sorted(expected), f"{name}: the file's datasets changed"
     changed = [key for key in expected if got[key] != expected[key]]
-    assert not changed, f"{name}: these datasets differ from the reference bits: {changed}"
+    recorded, now = reference.get(ENVIRONMENT), environment()
+    note = "" if recorded == now else f" (the references were recorded with {recorded}, this is {now})"
+    assert not changed, f"{name}: these datasets differ from the reference bits{note}: {changed}"
 
 
 if __name__ == "__main__":  # pragma: no cover - records the references
     import tempfile
 
     with tempfile.TemporaryDirectory() as folder:
-        json.dump({n: run_scene(n, folder) for n in emorbit.list_scenes()}, sys.stdout, indent=1, sort_keys=True)
+        hashes = {n: run_scene(n, folder) for n in emorbit.list_scenes()}
+        json.dump(hashes | {ENVIRONMENT: environment()}, sys.stdout, indent=1, sort_keys=True)
         sys.stdout.write("\n")
