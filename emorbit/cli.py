@@ -161,9 +161,11 @@ def _run(args) -> int:
         )
     if not args.quiet:
         err = abs(result.relative_energy_error()[-1])
+        balance = result.relative_energy_balance()
+        kept = "" if balance is None else f", |E - E0 - W|/|E0| = {abs(balance[-1]):.3e}"  # effects that do work
         print(
             f"{args.output}: {sim.method} order {sim.order}, dt = {sim.dt:.6g} s, t = {sim.time:.6g} s, "
-            f"|dE/E0| at end = {err:.3e}, wall {time.perf_counter() - start:.2f} s"
+            f"|dE/E0| at end = {err:.3e}{kept}, wall {time.perf_counter() - start:.2f} s"
         )
     return 0
 

@@ -238,8 +238,11 @@ class Sink:
                 resumed = self.writer is not None and self.rows > 0  # the file's first record is E0
                 self.energy0 = float(self.writer.file["invariants/energy"][0]) if resumed else float(energy[0])
             works["energy_balance"] = energy - self.energy0 - sum(works.values())
-            if self.keep:
-                self.works.append({k: np.array(w, float) for k, w in works.items()})
+            entry = {k: np.array(w, float) for k, w in works.items()}
+            if self.keep or not self.works:  # as the blocks: all, or the first and the last
+                self.works.append(entry if self.keep else {k: w[:1] for k, w in entry.items()})
+            if not self.keep:
+                self.works[1:] = [{k: w[-1:] for k, w in entry.items()}]
         drift, bound = np.full((nrec, 3), -1.0), np.full(nrec, -1.0)  # -1: not measured
         if self.monitor is not None:
             scales = sum(system.invariant_scales(rec, nrec, gm, center) for system, rec in recs)
