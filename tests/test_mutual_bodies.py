@@ -279,14 +279,16 @@ def test_the_blocks_between_compact_bodies_match_finite_differences():
 
 
 @pytest.mark.parametrize("effect", ["zonal", "mutual"])
-def test_effects_on_an_elastic_chain_over_1e5_steps(effect):
-    """An elastic chain of 4 bars under J2..J6 in a 7000 km orbit at 63 deg, or attracting a
-    tumbling rigid box in free space, at T/50 per step: energy within 3e-12 and the angular
-    momentum (about the pole under zonal harmonics) within 1e-13 over 1e5 steps (measured
-    6.0e-13 and 3.2e-13 for the energy, 1.6e-14 and 1.7e-14 for L; with numba 0.68.1,
-    llvmlite 0.50, numpy 2.4.6, scipy 1.17.1 the zonal chain's energy reaches 1.2e-12: the
-    bars' stiff axial mode at this step amplifies round-off, whose bits follow the libraries)."""
-    chain = dict(start=[0, 0, 0], elements=4, young=1e9)
+def test_effects_on_an_elastic_chain_over_many_steps(effect):
+    """An elastic chain of 4 bars under J2..J6 in a 7000 km orbit at 63 deg (1e5 steps), or
+    attracting a tumbling rigid box in free space (2e4 steps: the blocks between the bodies
+    stay out of Newton's matrix, and each step takes 11 iterations), at T/50 per step: energy
+    within 2e-13 and the angular momentum (about the pole under zonal harmonics) within 1e-13
+    (measured 4.7e-14 and 6.0e-14 for the energy, 1.1e-14 and 3.3e-15 for L). The zonal chain
+    is soft (E = 1 MPa, axial omega dt = 660): a chain a thousand times stiffer takes 14
+    iterations per step and its energy error, round-off amplified by its stiff mode, reaches
+    1.2e-12 over 1e5 steps."""
+    chain = dict(start=[0, 0, 0], elements=4, young=1e6 if effect == "zonal" else 1e9)
     if effect == "zonal":
         earth = emorbit.CentralField(body="earth")
         r, inc = 7000e3, np.radians(63.0)
@@ -306,8 +308,8 @@ def test_effects_on_an_elastic_chain_over_1e5_steps(effect):
         sim.add_elastic("b", "chain", end=[200.0, 0, 0], density=M / 200.0, area=1.0, position=[D / 2 - 100, 0, 0],
                         velocity=[0, 0.45 * V_REL, 0], **chain)  # fmt: skip
         pole = None
-    res = sim.run(steps=100_000, every=1000, progress=False).si
+    res = sim.run(steps=100_000 if effect == "zonal" else 20_000, every=1000, progress=False).si
     E, L = res.energy, res.angular_momentum
-    assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 3e-12
+    assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 2e-13
     dL = (L - L[0]) @ pole if pole is not None else np.linalg.norm(L - L[0], axis=1)
     assert np.max(np.abs(dL)) / np.linalg.norm(L[0]) <= 1e-13
