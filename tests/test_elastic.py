@@ -75,14 +75,18 @@ def test_tether_in_the_field_conserves_over_1e4_steps():
 
 def test_stiff_case_em_bounded_midpoint_not():
     """Axial frequency 1e6 times the orbital rate, dt = T/100 (omega dt = 6.3e4): em stays
-    bounded for 100 orbits (measured |dE| 3.8e-11, bar length within 3e-7); the midpoint rule
+    bounded for 100 orbits (measured |dE| 6.9e-11, |dL| 8.1e-13, the 100 m bar's length within
+    3.6e-5 m; limits 5e-10, 8e-12, 1e-4 m: the round-off this step amplifies moves with the
+    machine's libraries, see below); the midpoint rule
     at the same dt blows up (measured energy error 1e8 and the bar stretched to 5.5 km). At
     (omega dt)^2 = 4e9 the step amplifies round-off (docs/hard-cases.md): the energy's drift
     sits at the round-off bound of drift_tolerance 1000 (measured from 0.9 to 1.1 times it,
     with the machine's libraries), so the run takes 1e4."""
     res = _tethered("em", k_ratio=1e6, elements=1).run(steps=10_000, every=50, drift_tolerance=1e4)
-    assert np.abs(res.relative_energy_error()).max() <= 1e-9
-    assert res.relative_angular_momentum_error().max() <= 1e-10
+    dE = np.abs(res.relative_energy_error()).max()
+    dL = res.relative_angular_momentum_error().max()
+    assert dE <= 5e-10, f"|dE|/|E0| = {dE:.3g}, measured 6.9e-11"
+    assert dL <= 8e-12, f"|dL|/|L0| = {dL:.3g}, measured 8.1e-13"
     sep = np.linalg.norm(res.si.positions["b"] - res.si.positions["a"], axis=1)
     assert np.abs(sep - 100.0).max() < 1e-4
     mid = _tethered("midpoint", k_ratio=1e6, elements=1)
@@ -136,7 +140,7 @@ def test_axial_vibration_frequency_converges(mass_matrix, sign):
 def test_stiff_elastic_box_librates_like_the_rigid_one():
     """A 2 x 1 x 0.5 m elastic box (E = 10 MPa: lowest elastic mode ~7e4 times the orbital
     rate) in a circular orbit, pitched 1 degree: its pitch libration matches the rigid-body
-    frequency n sqrt(3 (I_y - I_x) / I_z) (1 - theta0^2/4) within 1% (measured 3e-5)."""
+    frequency n sqrt(3 (I_y - I_x) / I_z) (1 - theta0^2/4) within 3e-4 (measured 3e-5)."""
     th0 = np.radians(1.0)
     sim = emorbit.Simulation(emorbit.CentralField(body="earth"), method="em", dt=T_ORBIT / 500)
     sim.add_elastic(
@@ -166,7 +170,7 @@ def test_stiff_elastic_box_librates_like_the_rigid_one():
     w = 2 * np.pi / np.polyfit(np.arange(tc.size), tc, 1)[0]
     theory = N_ORBIT * np.sqrt(3 * 0.6) * (1 - th0**2 / 4)
     assert tc.size >= 4
-    assert abs(w / theory - 1) < 0.01
+    assert abs(w / theory - 1) < 3e-4, f"libration frequency off by {abs(w / theory - 1):.3g}, measured 3e-5"
     assert np.abs(res.relative_energy_error()).max() <= 1e-11
 
 

@@ -59,22 +59,23 @@ def _leo(effects: str, kind: str, dt: float = T_LEO / 50) -> emorbit.Simulation:
 
 #: the least max |W| / |E0| each effect reaches over the 1e5 steps (measured, records every
 #: 1000 steps: drag 2.7e-3; srp 5.4e-9 on the point, 3.8e-8 on the box; the Moon 2.2e-8): far
-#: above the balance's 1e-12
+#: above the balance's limit
 LEAST_WORK = {"drag": 1e-3, "srp": 2e-9, "third_body": 1e-8}
 
 
 @pytest.mark.parametrize("kind", ["point", "rigid"])
 @pytest.mark.parametrize("effects", ["drag", "srp", "third_body", "all"])
 def test_the_balance_closes_to_roundoff_over_1e5_large_steps(tmp_path, effects, kind):
-    """1e5 em steps of T/50 (2000 orbits, 128 days): |E - E0 - W| / |E0| stays below 1e-12
-    (measured 4.2e-15 to 8.6e-15 for every effect and both body kinds), while each effect's work
+    """1e5 em steps of T/50 (2000 orbits, 128 days): |E - E0 - W| / |E0| stays below 8e-14
+    (measured 4.2e-15 to 8.6e-15 for every effect and both body kinds; the issue asks 1e-12,
+    the limit is 10x what is measured), while each effect's work
     reaches 2e3 to 3e9 times that; the file holds the same balance, each work with its unit."""
     sim = _leo(effects, kind)
     path = tmp_path / "run.h5"
     res = sim.run(steps=100_000, every=1000, output=path, progress=False)
     e0 = abs(res.energy[0].value)
     balance = np.abs(res.energy_balance.value) / e0
-    assert balance.max() <= 1e-12, f"the balance reached {balance.max():.2e} of |E0|"
+    assert balance.max() <= 8e-14, f"the balance reached {balance.max():.2e} of |E0|, measured <= 8.6e-15"
     labels = {"drag": "drag", "srp": "srp", "third_body": "third_body"}
     for label, work in res.work.items():
         kind_ = next(k for k in labels if label.startswith(k))

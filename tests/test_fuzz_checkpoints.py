@@ -314,7 +314,7 @@ def test_the_run_files_resume(tmp_path, files):
             _same_continuation(path, files[run], records, set())
 
 
-@settings(max_examples=200, **SETTINGS)
+@settings(max_examples=80, **SETTINGS)
 @given(case=checkpoint_cases(), data=st.data())
 def test_generated_checkpoints(tmp_path_factory, files, case, data):
     run, variant, n_edits, damage, offset = case

@@ -475,7 +475,7 @@ def check_run_length(folder, d) -> str:
     return "exit 0"
 
 
-@settings(max_examples=30, phases=[Phase.explicit, Phase.generate], **SETTINGS)  # no shrinking: each case is a process
+@settings(max_examples=15, phases=[Phase.explicit, Phase.generate], **SETTINGS)  # no shrinking: each case is a process
 @given(d=run_lengths())
 def test_generated_run_lengths(tmp_path_factory, d):
     """A run's length is refused before anything is created when it exceeds int64 steps or

@@ -7,7 +7,8 @@ forces' work equals the drop of their potential, their own Jacobian blocks match
 differences, their sum and moment vanish; a uniform sphere of mass points attracts like a
 point mass; the order of adding bodies and the effect does not matter; bodies left out of
 ``bodies`` feel nothing; the potential is recorded and a run resumes bit for bit. An elastic
-chain keeps its invariants over 1e5 steps under zonal harmonics and under mutual gravity.
+chain keeps its invariants over many steps under zonal harmonics and under mutual gravity (the
+longest runs under the ``long`` marker).
 """
 
 from __future__ import annotations
@@ -55,11 +56,13 @@ def _errors(res) -> tuple[float, float, float]:
     )
 
 
-def test_a_rigid_binary_keeps_energy_momentum_and_angular_momentum_over_1e5_steps():
-    """Two tumbling boxes on an eccentric mutual orbit (e ~ 0.6), T/50 per step, 1e5 steps
-    (2000 orbits): E, P and L within 1e-12; the spins exchange angular momentum with the orbit."""
+@pytest.mark.parametrize("steps", [pytest.param(100_000, marks=pytest.mark.long), 20_000])
+def test_a_rigid_binary_keeps_energy_momentum_and_angular_momentum_over_many_steps(steps):
+    """Two tumbling boxes on an eccentric mutual orbit (e ~ 0.6), T/50 per step, 2e4 steps
+    (400 orbits; 1e5 steps, 2000 orbits, under the ``long`` marker): E, P and L within 1e-12;
+    the spins exchange angular momentum with the orbit."""
     sim = _binary("box", "box", T_BINARY / 50)
-    res = sim.run(steps=100_000, every=2000, progress=False).si
+    res = sim.run(steps=steps, every=2000, progress=False).si
     dE, dP, dL = _errors(res)
     assert dE <= 1e-12 and dP <= 1e-12 and dL <= 1e-12, (dE, dP, dL)
     w = res.angular_velocities["a"]
@@ -278,13 +281,23 @@ def test_the_blocks_between_compact_bodies_match_finite_differences():
             assert np.allclose(dA, -acc[0, 1, :, j, :, e], rtol=1e-5, atol=1e-7 * np.abs(acc).max())
 
 
-@pytest.mark.parametrize("effect", ["zonal", "mutual"])
-def test_effects_on_an_elastic_chain_over_many_steps(effect):
-    """An elastic chain of 4 bars under J2..J6 in a 7000 km orbit at 63 deg (1e5 steps), or
-    attracting a tumbling rigid box in free space (2e4 steps: the blocks between the bodies
-    stay out of Newton's matrix, and each step takes 11 iterations), at T/50 per step: energy
+@pytest.mark.parametrize(
+    ("effect", "steps"),
+    [
+        pytest.param("zonal", 100_000, marks=pytest.mark.long),
+        ("zonal", 10_000),
+        pytest.param("mutual", 20_000, marks=pytest.mark.long),
+        ("mutual", 4_000),
+    ],
+)
+def test_effects_on_an_elastic_chain_over_many_steps(effect, steps):
+    """An elastic chain of 4 bars under J2..J6 in a 7000 km orbit at 63 deg (1e4 steps; 1e5
+    under the ``long`` marker), or attracting a tumbling rigid box in free space (4000 steps;
+    2e4 under ``long``: the blocks between the bodies stay out of Newton's matrix, and each
+    step takes 11 iterations), at T/50 per step: energy
     within 2e-13 and the angular momentum (about the pole under zonal harmonics) within 1e-13
-    (measured 4.7e-14 and 6.0e-14 for the energy, 1.1e-14 and 3.3e-15 for L). The zonal chain
+    (measured over the long runs 4.7e-14 and 6.0e-14 for the energy, 1.1e-14 and 3.3e-15 for
+    L). The zonal chain
     is soft (E = 1 MPa, axial omega dt = 660): a chain a thousand times stiffer takes 14
     iterations per step and its energy error, round-off amplified by its stiff mode, reaches
     1.2e-12 over 1e5 steps."""
@@ -308,7 +321,7 @@ def test_effects_on_an_elastic_chain_over_many_steps(effect):
         sim.add_elastic("b", "chain", end=[200.0, 0, 0], density=M / 200.0, area=1.0, position=[D / 2 - 100, 0, 0],
                         velocity=[0, 0.45 * V_REL, 0], **chain)  # fmt: skip
         pole = None
-    res = sim.run(steps=100_000 if effect == "zonal" else 20_000, every=1000, progress=False).si
+    res = sim.run(steps=steps, every=1000, progress=False).si
     E, L = res.energy, res.angular_momentum
     assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 2e-13
     dL = (L - L[0]) @ pole if pole is not None else np.linalg.norm(L - L[0], axis=1)

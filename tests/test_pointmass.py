@@ -24,17 +24,22 @@ def midpoint_long():
 
 
 def test_em_conserves_energy_and_angular_momentum(em_long):
-    """Issue target 1e-12; measured 3.8e-14 (energy) and 3.9e-15 (angular momentum)."""
+    """1e5 steps: measured 1.23e-14 (energy) and 1.96e-15 (angular momentum); limits 10x.
+    g_em off by 1e-12 relative (mutant M1) moves the energy by about 1e-12."""
     assert len(em_long) == 100 * N_ORBITS + 1
-    assert np.abs(em_long.relative_energy_error()).max() <= 1e-12
-    assert em_long.relative_angular_momentum_error().max() <= 1e-12
+    dE = np.abs(em_long.relative_energy_error()).max()
+    dL = em_long.relative_angular_momentum_error().max()
+    assert dE <= 1.2e-13, f"|dE|/|E0| = {dE:.3g}, measured 1.23e-14"
+    assert dL <= 2e-14, f"|dL|/|L0| = {dL:.3g}, measured 1.96e-15"
 
 
 def test_em_keeps_a_and_e(em_long):
-    """a follows from the energy and e from energy and angular momentum: both exact."""
+    """a follows from the energy and e from energy and angular momentum: both exact.
+    Measured spreads over 1e5 steps: 1.66e-14 of a, 5.6e-15 in e; limits 10x."""
     el = em_long.elements("satellite")
-    assert np.ptp(el.a) / el.a[0] < 1e-12
-    assert np.ptp(el.e) < 1e-12
+    da, de = np.ptp(el.a) / el.a[0], np.ptp(el.e)
+    assert da < 1.7e-13, f"spread of a {da:.3g}, measured 1.66e-14"
+    assert de < 5.6e-14, f"spread of e {de:.3g}, measured 5.6e-15"
 
 
 def test_em_period_second_order(em_long, paper_kepler_period):
@@ -66,9 +71,12 @@ def test_midpoint_energy_oscillates_without_drift(midpoint_long):
 
 
 def test_newton_iterations(em_long, midpoint_long):
-    """Mean Newton iterations per step at T/100: measured 3.07 for em and midpoint (<= 5)."""
-    assert 1.0 <= em_long.mean_newton_iterations() <= 5.0
-    assert 1.0 <= midpoint_long.mean_newton_iterations() <= 5.0
+    """Mean Newton iterations per step at T/100 (deterministic, not a timing): measured 1.637
+    for em (its predictor and certified scalar Newton) and 3.103 for the midpoint rule. A
+    wrong Jacobian or predictor adds iterations; the limits allow 10 %."""
+    em, mid = em_long.mean_newton_iterations(), midpoint_long.mean_newton_iterations()
+    assert 1.0 <= em <= 1.8, f"em: {em:.3f} iterations per step, measured 1.637"
+    assert 2.8 <= mid <= 3.4, f"midpoint: {mid:.3f} iterations per step, measured 3.103"
 
 
 @pytest.mark.parametrize("method", list(emorbit.METHODS))
@@ -76,7 +84,10 @@ def test_newton_iterations(em_long, midpoint_long):
 def test_convergence_order(method, order):
     """Position error after one orbit against the analytic Kepler solution. Orders 2-6:
     dt = T/100 ... T/800; order 8: T/100 ... T/400 (asymptotic there and above round-off;
-    measured errors 8.6e-9 ... 1.2e-13 for em). Fitted order within 0.5 of nominal."""
+    measured errors 8.6e-9 ... 1.2e-13 for em). Measured slopes: em 1.989, 4.041, 5.997,
+    8.020; midpoint 2.043, 4.278, 6.003, 8.101; leapfrog 1.986, 3.916, 5.998, 7.967. The fit
+    must lie within 0.15 of the nominal order (0.35 for the midpoint rule at order 4, whose
+    error constant still changes over these steps)."""
     t_end = PAPER_T
     ref, _ = orbits.propagate(PAPER_X0, PAPER_V0, PAPER_GM, t_end)
     divs = [100, 200, 400, 800] if order < 8 else [100, 141, 200, 283, 400]
@@ -85,7 +96,8 @@ def test_convergence_order(method, order):
         r = paper_sim(method, order, dt=t_end / n).run(steps=n, every=n)
         errs.append(np.linalg.norm(r.si.positions["satellite"][-1] - ref))
     slope = -np.polyfit(np.log(divs), np.log(errs), 1)[0]
-    assert abs(slope - order) < 0.5, (errs, slope)
+    tol = 0.35 if (method, order) == ("midpoint", 4) else 0.15
+    assert abs(slope - order) < tol, f"fitted order {slope:.3f} for {method} {order}; errors {errs}"
     assert min(errs) > 1e-13  # still above round-off, so the fit means something
 
 

@@ -33,7 +33,7 @@ SCENES = {
     "coupled": ["elastic-bar-tumbling", "--t-end", "15 s"],
 }
 KINDS = list(SCENES)
-KILLS = 20  # of each signal
+KILLS = 9  # of each signal: three runs of each kind
 
 #: a process that runs ``emorbit run`` once per line of JSON arguments on stdin and prints the
 #: exit code; between runs it ignores SIGINT and SIGTERM (a signal meant for a run that has
@@ -110,7 +110,7 @@ def _delay(rng: random.Random) -> float:
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_sigterm_and_sigint_at_random_moments_resume_bit_identical(tmp_path, reference, sig):
-    """20 runs stopped by the signal at a random moment: exit 128 + signal (or 0 if the run
+    """9 runs stopped by the signal at a random moment: exit 128 + signal (or 0 if the run
     was done first), status "interrupted" with the signal named, and a resume to the end
     gives the unbroken run's records."""
     rng = random.Random(int(sig))
@@ -144,7 +144,7 @@ def test_sigterm_and_sigint_at_random_moments_resume_bit_identical(tmp_path, ref
 
 
 def test_sigkill_at_random_moments_resumes_bit_identical(tmp_path, reference):
-    """20 runs killed at a random moment: every file opens, status "running" (or "completed"
+    """9 runs killed at a random moment: every file opens, status "running" (or "completed"
     if the run was done first), and a resume to the end gives the unbroken run's records."""
     rng = random.Random(9)
     killed = 0

@@ -132,3 +132,16 @@ def test_analytic_referee_at_high_eccentricity(e):
     xr, _ = orbits.state_from_elements((np.full(n, a), np.full(n, e), 1.0, 0.5, 2.0, nu), gm)
     # Kepler's equation near periapsis is ill-conditioned as e -> 1: ~ eps / (1 - e)^1.5 relative
     assert np.max(np.linalg.norm(x - xr, axis=1)) / a < 1e-13 / (1 - e) ** 1.5
+
+
+@pytest.mark.slow
+def test_brouwer_full_case_passes(tmp_path):
+    """The claim of 1e7 steps: ``emorbit validate --cases brouwer`` in its full form (the mean
+    energy error of an ensemble stays a random walk, its standard deviation grows like
+    sqrt(steps)) passes every check (about 25 s on 2 cores). Marked ``slow``: CI runs it,
+    ``-m 'not slow'`` leaves it out."""
+    out = tmp_path / "report"
+    assert main(["validate", "--cases", "brouwer", "--report", str(out), "-q"]) == 0
+    suite = json.loads((out / "results.json").read_text())
+    (case,) = suite["cases"]
+    assert case["name"] == "brouwer" and case["checks"] and all(ch["passed"] for ch in case["checks"]), case

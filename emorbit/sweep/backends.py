@@ -24,6 +24,7 @@ import concurrent.futures as cf
 import logging
 import multiprocessing
 import os
+import sys
 
 from ..errors import InputError
 
@@ -355,6 +356,23 @@ class DaskBackend(Backend):
         return f"Dask LocalCluster, {self.workers or os.cpu_count()} workers on 127.0.0.1"
 
 
+def _mpi_tools_on_path() -> None:
+    """Put the interpreter's folder on ``PATH`` where MPICH's process manager lies there.
+
+    MPICH installed from its PyPI wheel puts ``mpiexec`` and ``hydra_pmi_proxy`` beside the
+    interpreter of the virtual environment. A process not started by ``mpiexec`` (a
+    singleton, as ``emorbit sweep --mpi`` is) spawns its workers through that process
+    manager, looked up on ``PATH``: where the environment was not activated, the spawn waits
+    forever. Nothing changes where the folder holds no ``hydra_pmi_proxy`` or is on ``PATH``.
+    """
+    here = os.path.dirname(sys.executable)
+    if not os.path.exists(os.path.join(here, "hydra_pmi_proxy")):
+        return
+    path = os.environ.get("PATH", "")
+    if here not in path.split(os.pathsep):
+        os.environ["PATH"] = here + os.pathsep + path if path else here
+
+
 class MPIBackend(Backend):
     """MPI workers through :class:`mpi4py.futures.MPIPoolExecutor`.
 
@@ -392,6 +410,7 @@ class MPIBackend(Backend):
     def _new(self) -> cf.Executor:
         from mpi4py.futures import MPIPoolExecutor
 
+        _mpi_tools_on_path()
         return MPIPoolExecutor(max_workers=self.workers, initializer=_init_worker, initargs=(self.threads,))
 
     def start(self) -> cf.Executor:
