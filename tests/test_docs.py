@@ -132,8 +132,8 @@ def test_complete_scenes_and_sweeps_on_the_pages_parse():
 def test_readme_has_the_two_commands():
     ci = (REPO / ".ci" / "run").read_text(encoding="utf-8")
     test_command = (
-        'python3 -m venv .venv && .venv/bin/pip install -e ".[test]" && .venv/bin/python -m pytest -n auto --dist loadfile'
-        " && .venv/bin/python scripts/mutants.py"
+        'python3 -m venv .venv && .venv/bin/pip install -e ".[test]"'
+        " && .venv/bin/python -m pytest -n auto --dist loadfile && .venv/bin/python scripts/mutants.py"
     )
     assert test_command in ci and f"    {test_command}\n" in README
     assert "    python3 -m venv .venv && .venv/bin/pip install . && .venv/bin/emorbit run paper-ellipse" in README
