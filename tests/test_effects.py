@@ -306,8 +306,8 @@ def test_the_zonal_torque_on_a_dumbbell_is_the_analytic_one():
 
 def test_a_tumbling_box_with_j2_keeps_energy_and_the_pole_angular_momentum():
     """A rigid box tumbling on an inclined orbit with J2..J6 at T/50 per step: energy and L_z
-    (orbital plus spin) within 1e-12 over 1e5 steps; the other components move (the node
-    regresses)."""
+    (orbital plus spin) over 1e5 steps, measured 8.6e-15 and 4.4e-15 (limits 10x); the other
+    components move (the node regresses)."""
     r, v = R_SSO, V_SSO
     inc = np.radians(63.0)
     sim = emorbit.Simulation(EARTH, method="em", dt=T_SSO / 50)
@@ -319,8 +319,10 @@ def test_a_tumbling_box_with_j2_keeps_energy_and_the_pole_angular_momentum():
     )  # fmt: skip
     res = sim.run(steps=100_000, every=1000, progress=False).si
     E, Lv = res.energy, res.angular_momentum
-    assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 1e-12
-    assert np.max(np.abs(Lv[:, 2] - Lv[0, 2])) / np.linalg.norm(Lv[0]) <= 1e-12
+    dE = np.max(np.abs(E - E[0])) / abs(E[0])
+    dLz = np.max(np.abs(Lv[:, 2] - Lv[0, 2])) / np.linalg.norm(Lv[0])
+    assert dE <= 8.6e-14, f"|dE|/|E0| = {dE:.3g}, measured 8.6e-15"
+    assert dLz <= 4.4e-14, f"|dLz|/|L0| = {dLz:.3g}, measured 4.4e-15"
     assert np.max(np.abs(Lv[:, 0] - Lv[0, 0])) / np.linalg.norm(Lv[0]) > 1e-3
 
 

@@ -59,12 +59,14 @@ def _errors(res) -> tuple[float, float, float]:
 @pytest.mark.parametrize("steps", [pytest.param(100_000, marks=pytest.mark.long), 20_000])
 def test_a_rigid_binary_keeps_energy_momentum_and_angular_momentum_over_many_steps(steps):
     """Two tumbling boxes on an eccentric mutual orbit (e ~ 0.6), T/50 per step, 2e4 steps
-    (400 orbits; 1e5 steps, 2000 orbits, under the ``long`` marker): E, P and L within 1e-12;
-    the spins exchange angular momentum with the orbit."""
+    (400 orbits; 1e5 steps, 2000 orbits, under the ``long`` marker): E, P and L, measured
+    3.8e-15, 3.1e-15 and 5.5e-16 over 2e4 steps; limits 10x over 2e4 steps and 1e-12 over
+    1e5; the spins exchange angular momentum with the orbit."""
     sim = _binary("box", "box", T_BINARY / 50)
     res = sim.run(steps=steps, every=2000, progress=False).si
     dE, dP, dL = _errors(res)
-    assert dE <= 1e-12 and dP <= 1e-12 and dL <= 1e-12, (dE, dP, dL)
+    limits = (4e-14, 3e-14, 6e-15) if steps == 20_000 else (1e-12, 1e-12, 1e-12)
+    assert all(x <= y for x, y in zip((dE, dP, dL), limits)), (dE, dP, dL, limits)
     w = res.angular_velocities["a"]
     assert np.max(np.abs(w - w[0])) > 1e-6  # gravity-gradient torques of the partner change the spin
 
