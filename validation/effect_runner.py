@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 from . import checks as C
-from .checks import Check, run_checked
+from .checks import Check
 from .effect_cases import EffectCase
 from .effect_runs import EffectTrajectory, effect_record_times, run_em, run_ias15, two_body_analytic
 
@@ -227,42 +227,25 @@ def run_effect_case(case: EffectCase, mode: str, outdir: str, *, scale: float = 
     CaseOutcome
         The outcome, with the keys of the orbit cases and a ``summary`` of what ran.
     """
-    from .runner import CaseOutcome
+    from .runner import case_outcome
+
+    def draw(run):  # matplotlib is imported only where figures are drawn
+        from .effect_figures import effect_figures
+
+        return effect_figures(run, outdir)
 
     start = time.perf_counter()
     r = EffectRun(case, mode, scale, outdir)
-    error = run_checked(r)
-    figs = []
-    if figures and error is None:
-        from .effect_figures import effect_figures
-
-        t0 = time.perf_counter()
-        figs = effect_figures(r, outdir)
-        r.timing["figures_s"] = time.perf_counter() - t0
-    runs = {label: {"wall_s": tr.wall, **tr.info} for label, tr in r.runs.items()}
     steps = "; ".join(
         f"order {p}: T/" + ", T/".join(map(str, dict.fromkeys((*case.steps[p], case.main[p])))) for p in ORDERS
     )
-    return CaseOutcome(
-        name=case.name,
-        title=case.title,
-        description=case.description,
-        params=case.params,
-        mode=mode,
-        orbits=None,
-        orbits_high=None,
+    return case_outcome(
+        case,
+        mode,
+        r,
+        start,
+        draw if figures else None,
         summary=f"em runs {r.n} periods of {case.period:.10g} s at {steps} (T the period); "
         f"{case.records} records per period.",
         steps_per_period=case.main[2],
-        period_s=case.period,
-        runs=runs,
-        metrics=r.metrics,
-        convergence={str(k): v for k, v in r.convergence.items()},
-        checks=[ch.to_dict() for ch in r.checks],
-        figures=figs,
-        files=[],
-        error=error,
-        timing=r.timing,
-        wall_s=time.perf_counter() - start,
-        passed=all(ch.passed for ch in r.checks),
     )

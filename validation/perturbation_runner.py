@@ -36,7 +36,7 @@ import time
 import numpy as np
 
 from . import checks as C
-from .checks import Check, run_checked
+from .checks import Check
 from .perturbation_cases import ORDERS, PerturbationCase
 from .perturbation_model import Path, ReferenceModel, sample_path
 from .perturbation_runs import (
@@ -504,44 +504,24 @@ def run_perturbation_case(case: PerturbationCase, mode: str, outdir: str, *, sca
     CaseOutcome
         The outcome, with the keys of the other cases.
     """
-    from .runner import CaseOutcome
+    from .runner import case_outcome
+
+    def draw(run):  # matplotlib is imported only where figures are drawn
+        from .perturbation_figures import perturbation_figure
+
+        return [perturbation_figure(run, outdir)]
 
     start = time.perf_counter()
     r = PerturbationRun(case, mode, scale, outdir)
-    error = run_checked(r)
-    figs = []
-    if figures and error is None:
-        from .perturbation_figures import perturbation_figure
-
-        t0 = time.perf_counter()
-        figs = [perturbation_figure(r, outdir)]
-        r.timing["figures_s"] = time.perf_counter() - t0
-    runs = {
-        label: {"wall_s": tr.wall, **{k: v for k, v in tr.info.items() if k != "contacts"}}
-        for label, tr in r.runs.items()
-    }
     steps = "; ".join(f"order {p}: 1 d/" + ", 1 d/".join(map(str, case.steps[mode][p])) for p in ORDERS)
-    return CaseOutcome(
-        name=case.name,
-        title=case.title,
-        description=case.description,
-        params=case.params,
-        mode=mode,
-        orbits=None,
-        orbits_high=None,
+    return case_outcome(
+        case,
+        mode,
+        r,
+        start,
+        draw if figures else None,
+        drop=("contacts",),
         summary=f"em runs {case.days:g} day(s) ({case.span / case.period:.4g} orbits of {case.period:.8g} s) at "
         f"{steps}; IAS15 at epsilon 1e-11 and 1e-9{' and 1e-12' if mode == 'full' else ''}; "
         f"{case.records} records per day.",
-        steps_per_period=None,
-        period_s=case.period,
-        runs=runs,
-        metrics=r.metrics,
-        convergence={str(k): v for k, v in r.convergence.items()},
-        checks=[ch.to_dict() for ch in r.checks],
-        figures=figs,
-        files=[],
-        error=error,
-        timing=r.timing,
-        wall_s=time.perf_counter() - start,
-        passed=all(ch.passed for ch in r.checks),
     )

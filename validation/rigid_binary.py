@@ -51,7 +51,7 @@ from emorbit import orbits
 from emorbit.effects.mutual import G
 
 from . import checks as C
-from .checks import Check, run_checked
+from .checks import Check
 from .rigid_binary_case import ATOL_FRACTION, RTOL, RTOL_LOOSE, RigidBinaryCase
 
 __all__ = [
@@ -563,43 +563,24 @@ def run_rigid_binary(
     CaseOutcome
         The outcome, with the keys of the other cases.
     """
-    from .runner import CaseOutcome
+    from .runner import case_outcome
+
+    def draw(run):  # matplotlib is imported only where figures are drawn
+        from .rigid_binary_figures import rigid_binary_figure
+
+        return [rigid_binary_figure(run, outdir)]
 
     start = time.perf_counter()
     r = BinaryRun(case, mode, scale, outdir, g=g)
-    error = run_checked(r)
-    figs = []
-    if figures and error is None:
-        from .rigid_binary_figures import rigid_binary_figure
-
-        t0 = time.perf_counter()
-        figs = [rigid_binary_figure(r, outdir)]
-        r.timing["figures_s"] = time.perf_counter() - t0
-    runs = {
-        label: {"wall_s": tr.wall, **{k: v for k, v in tr.info.items() if k not in ("points", "scales")}}
-        for label, tr in r.runs.items()
-    }
     steps = "; ".join(f"order {p}: T/" + ", T/".join(map(str, case.steps[p])) for p in case.steps)
-    return CaseOutcome(
-        name=case.name,
-        title=case.title,
-        description=case.description,
-        params=case.params,
-        mode=mode,
-        orbits=None,
-        orbits_high=None,
+    return case_outcome(
+        case,
+        mode,
+        r,
+        start,
+        draw if figures else None,
+        drop=("points", "scales"),
         summary=f"em runs {r.n} periods of {case.period:.10g} s at {steps} (T the period); DOP853 at rtol "
         f"{RTOL:g} and {RTOL_LOOSE:g}; {case.records} records per period.",
         steps_per_period=next(iter(case.main.values())),
-        period_s=case.period,
-        runs=runs,
-        metrics=r.metrics,
-        convergence={str(k): v for k, v in r.convergence.items()},
-        checks=[ch.to_dict() for ch in r.checks],
-        figures=figs,
-        files=[],
-        error=error,
-        timing=r.timing,
-        wall_s=time.perf_counter() - start,
-        passed=all(ch.passed for ch in r.checks),
     )

@@ -581,35 +581,94 @@ def run_case(case: Case, mode: str, outdir: str, *, scale: float = 1.0, figures:
     CaseOutcome
         The outcome.
     """
-    start = time.perf_counter()
-    r = _CaseRun(case, mode, scale, outdir)
-    error = run_checked(r)
-    figs = []
-    if figures and error is None:
+
+    def draw(run):  # matplotlib is imported only where figures are drawn
         from .figures import case_figures
 
-        t0 = time.perf_counter()
-        figs = case_figures(r, outdir)
-        r.timing["figures_s"] = time.perf_counter() - t0
-    runs = {label: {"wall_s": tr.wall, **tr.info} for label, tr in r.runs.items()}
-    return CaseOutcome(
-        name=case.name,
-        title=case.title,
-        description=case.description,
-        params=case.params,
-        mode=mode,
+        return case_figures(run, outdir)
+
+    start = time.perf_counter()
+    r = _CaseRun(case, mode, scale, outdir)
+    return case_outcome(
+        case,
+        mode,
+        r,
+        start,
+        draw if figures else None,
         orbits=r.n,
         orbits_high=r.nh,
         steps_per_period=case.steps,
-        period_s=case.period,
-        runs=runs,
-        metrics=r.metrics,
         convergence=r.convergence,
-        checks=[ch.to_dict() for ch in r.checks],
-        figures=figs,
         files=r.files,
-        error=error,
-        timing=r.timing,
-        wall_s=time.perf_counter() - start,
-        passed=all(ch.passed for ch in r.checks),
     )
+
+
+#: the keys of a :class:`CaseOutcome`, in the order results.json writes them
+_OUTCOME_KEYS = (
+    "name", "title", "description", "params", "mode", "orbits", "orbits_high", "summary", "steps_per_period",
+    "period_s", "runs", "metrics", "convergence", "checks", "figures", "files", "error", "timing", "wall_s", "passed",
+)  # fmt: skip
+
+
+def case_outcome(case, mode: str, r, start: float, draw=None, *, drop=(), **keys) -> CaseOutcome:
+    """Run a case's run object and gather its outcome: what every kind of case shares.
+
+    Parameters
+    ----------
+    case : object
+        The case: ``name``, ``title``, ``description``, ``params`` and ``period``.
+    mode : str
+        ``"quick"`` or ``"full"``.
+    r : object
+        The case's run: ``run()``, and ``checks``, ``runs`` (label to a trajectory with
+        ``wall`` and ``info``), ``metrics``, ``convergence`` and ``timing``. An exception in
+        ``run()`` becomes a failed check (:func:`~.checks.run_checked`).
+    start : float
+        ``time.perf_counter()`` when the case began (``wall_s`` counts from it).
+    draw : callable or None
+        ``draw(r)`` returns the paths of the figures, drawn only where the run reached its
+        end; its time lands in ``timing["figures_s"]``.
+    drop : tuple of str
+        ``info`` keys left out of ``runs`` (bulky arrays).
+    **keys
+        The case's own keys of the outcome (``summary``, ``orbits``, ``steps_per_period``,
+        ``files``, ...); by default ``orbits``, ``orbits_high`` and ``steps_per_period`` are
+        None, ``files`` empty and ``convergence`` keyed by strings; no ``summary``.
+
+    Returns
+    -------
+    CaseOutcome
+        The outcome.
+    """
+    error = run_checked(r)
+    figs = []
+    if draw is not None and error is None:
+        t0 = time.perf_counter()
+        figs = draw(r)
+        r.timing["figures_s"] = time.perf_counter() - t0
+    out = {
+        "name": case.name,
+        "title": case.title,
+        "description": case.description,
+        "params": case.params,
+        "mode": mode,
+        "orbits": None,
+        "orbits_high": None,
+        "steps_per_period": None,
+        "period_s": case.period,
+        "runs": {
+            label: {"wall_s": tr.wall, **{k: v for k, v in tr.info.items() if k not in drop}}
+            for label, tr in r.runs.items()
+        },
+        "metrics": r.metrics,
+        "convergence": {str(k): v for k, v in r.convergence.items()},
+        "checks": [ch.to_dict() for ch in r.checks],
+        "figures": figs,
+        "files": [],
+        "error": error,
+        "timing": r.timing,
+        "passed": all(ch.passed for ch in r.checks),
+    }
+    out.update(keys)
+    out["wall_s"] = time.perf_counter() - start
+    return CaseOutcome({k: out[k] for k in _OUTCOME_KEYS if k in out})
