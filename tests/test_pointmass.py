@@ -103,10 +103,13 @@ def test_convergence_order(method, order):
 
 @pytest.mark.parametrize("order", [4, 6, 8])
 def test_em_compositions_conserve(order):
-    """Compositions of em steps (negative sub-steps included) keep energy and angular momentum."""
+    """Compositions of em steps (negative sub-steps included) keep energy and angular momentum:
+    over 1e4 steps measured at most 1.6e-14 (energy) and 1.6e-15 (angular momentum) over the
+    three orders; limits 10x."""
     r = paper_sim("em", order).run(steps=100 * 100, every=10)
-    assert np.abs(r.relative_energy_error()).max() <= 1e-12
-    assert r.relative_angular_momentum_error().max() <= 1e-12
+    dE, dL = np.abs(r.relative_energy_error()).max(), r.relative_angular_momentum_error().max()
+    assert dE <= 1.6e-13, f"order {order}: |dE|/|E0| = {dE:.3g}, measured <= 1.6e-14"
+    assert dL <= 1.6e-14, f"order {order}: |dL|/|L0| = {dL:.3g}, measured <= 1.6e-15"
 
 
 def test_energy_error_is_a_random_walk_not_a_drift():
