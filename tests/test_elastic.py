@@ -206,7 +206,8 @@ def test_newton_converges_quadratically():
 
 def test_coupled_boom_conserves_in_free_space():
     """A boom of tetrahedra clamped to a spinning rigid box: the coupling carries forces both
-    ways and energy and angular momentum stay exact."""
+    ways and energy and angular momentum stay exact (measured 1.5e-13 and 1.1e-13 over 2000
+    steps; limits 10x)."""
     sim = emorbit.Simulation(None, method="em", dt=0.05)
     sim.add_rigid(
         "bus",
@@ -234,8 +235,9 @@ def test_coupled_boom_conserves_in_free_space():
     )
     sim.attach("boom", np.flatnonzero(np.isclose(sim.structure._body("boom")["spec"].ref[:, 0], -2.0)), "bus")
     res = sim.run(steps=2000, every=20)
-    assert np.abs(res.relative_energy_error()).max() <= 1e-12
-    assert res.relative_angular_momentum_error().max() <= 1e-12
+    dE, dL = np.abs(res.relative_energy_error()).max(), res.relative_angular_momentum_error().max()
+    assert dE <= 1.5e-12, f"|dE|/|E0| = {dE:.3g}, measured 1.5e-13"
+    assert dL <= 1.1e-12, f"|dL|/|L0| = {dL:.3g}, measured 1.1e-13"
     assert res.kinds == {"bus": "rigid", "boom": "elastic"}
 
 

@@ -76,7 +76,9 @@ def test_point_rigid_and_ellipsoid_pairs_keep_every_invariant(first, second):
     sim = _binary(first, second, T_BINARY / 50)
     res = sim.run(steps=10_000, every=500, progress=False).si
     dE, dP, dL = _errors(res)
-    assert dE <= 1e-12 and dP <= 1e-12 and dL <= 1e-12, (dE, dP, dL)
+    # measured over 1e4 steps: point-ellipsoid 2.7e-15, 0, 1.1e-15; ellipsoid-ellipsoid 6.3e-15,
+    # 1.7e-15, 9.0e-16 (E, P, L); limits 10x the larger
+    assert dE <= 6.3e-14 and dP <= 1.7e-14 and dL <= 1.1e-14, (dE, dP, dL)
 
 
 def test_an_elastic_tether_a_rigid_box_and_a_point_in_earth_orbit_with_j2():
