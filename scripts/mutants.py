@@ -189,6 +189,30 @@ MUTANTS = (
         "    y = m[i] * (gx * dx[0, i] + gy * dx[1, i] + gz * dx[2, i]) * (1.0 + 1e-3) + cwork[WORK_SLOT, i]",
         ("tests/test_energy_balance.py", "-k", "balance_closes and srp and point"),
     ),
+    Mutant(
+        "F1",
+        "the reference kernel's accurate g_em (em_accel_dd_lo) off by 1e-12 relative",
+        "emorbit/kernels/gravity.py",
+        "    k = gm * iP\n    kl = (fma(-k, P, gm) - k * Pl) * iP\n",
+        "    k = gm * iP\n    kl = (fma(-k, P, gm) - k * Pl) * iP + k * 1e-12\n",
+        ("tests/test_ensemble.py", "-k", "same_trajectories_as_reference"),
+    ),
+    Mutant(
+        "A1",
+        "the adaptive kernel's compensated position update replaced by a plain sum",
+        "emorbit/kernels/pointmass/adaptive.py",
+        "        px, ex = kahan_add(px, ex, d0)\n",
+        "        px, ex = px + (d0 + ex), 0.0\n",
+        ("tests/test_hardcases.py", "-k", "adaptive"),
+    ),
+    Mutant(
+        "C1",
+        "the CUDA kernel leaves the last point of an ensemble unstepped",
+        "emorbit/kernels/pointmass/cuda.py",
+        "        if i < x.shape[1]:\n",
+        "        if i < x.shape[1] - 1:\n",
+        ("tests/test_cuda.py", "-k", "simulator_kernels"),
+    ),
 )
 
 

@@ -50,44 +50,54 @@ def _figure_eight(steps_per_period: int = 100) -> tuple[emorbit.Simulation, floa
 
 
 def test_zonal_keeps_energy_and_the_pole_angular_momentum_over_1e5_steps():
-    """J2..J6 of the Earth, an eccentric inclined orbit, T/95 per step, 1e5 steps."""
+    """J2..J6 of the Earth, an eccentric inclined orbit, T/95 per step, 1e5 steps: the energy
+    and L_z kept to 3.1e-15 and 1.2e-15 (measured; bounds 5x), while L_x moves by 0.89."""
     sim = _j2_sim(T_SSO / 95, inclination=63.0, degree=6, e=0.05)
     res = sim.run(steps=100_000, every=1000, progress=False).si
     E, L = res.energy, res.angular_momentum
-    assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 1e-12
-    assert np.max(np.abs(L[:, 2] - L[0, 2])) / np.linalg.norm(L[0]) <= 1e-12
+    dE = np.max(np.abs(E - E[0])) / abs(E[0])
+    assert dE <= 1.5e-14, f"|dE|/|E0| = {dE:.3g}, measured 3.1e-15"
+    dLz = np.max(np.abs(L[:, 2] - L[0, 2])) / np.linalg.norm(L[0])
+    assert dLz <= 6e-15, f"|dLz|/|L0| = {dLz:.3g}, measured 1.2e-15"
     # the other components are not conserved: the node regresses
     assert np.max(np.abs(L[:, 0] - L[0, 0])) / np.linalg.norm(L[0]) > 1e-3
 
 
 def test_mutual_gravity_keeps_energy_momentum_and_angular_momentum_over_1e5_steps():
-    """The figure-eight at a hundredth of its period per step, 1000 periods."""
+    """The figure-eight at a hundredth of its period per step, 1000 periods: energy, momentum
+    and angular momentum kept to 4.0e-14, 3.1e-15 and 2.8e-15 (measured; bounds 5x)."""
     sim, _ = _figure_eight()
     res = sim.run(steps=100_000, every=1000, progress=False).si
     E, P, L = res.energy, res.momentum, res.angular_momentum
-    assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 1e-12
+    dE = np.max(np.abs(E - E[0])) / abs(E[0])
+    assert dE <= 2e-13, f"|dE|/|E0| = {dE:.3g}, measured 4.0e-14"
     scale_p = sum(m * np.linalg.norm(v[0]) for m, v in zip(res.masses.values(), res.velocities.values()))
-    assert np.max(np.abs(P - P[0])) / scale_p <= 1e-12
+    dP = np.max(np.abs(P - P[0])) / scale_p
+    assert dP <= 1.5e-14, f"|dP| = {dP:.3g} of sum m|v|, measured 3.1e-15"
     scale_l = sum(  # the figure's total angular momentum is 0: relative to the bodies' own
         m * np.linalg.norm(x[0]) * np.linalg.norm(v[0])
         for m, x, v in zip(res.masses.values(), res.positions.values(), res.velocities.values())
     )
-    assert np.max(np.linalg.norm(L - L[0], axis=1)) / scale_l <= 1e-12
+    dL = np.max(np.linalg.norm(L - L[0], axis=1)) / scale_l
+    assert dL <= 1.4e-14, f"|dL| = {dL:.3g} of sum m|x||v|, measured 2.8e-15"
     x = res.positions["a"]
     assert np.ptp(x[:, 0]) > 100.0  # they moved along the figure
 
 
 def test_mutual_gravity_inside_the_central_field():
     """Two satellites attracting each other in the Earth's field: energy and the angular
-    momentum about the centre are kept; each effect's potential is recorded."""
+    momentum about the centre are kept (2e4 steps: measured 1.2e-13 and 6.3e-14, bounds 5x);
+    each effect's potential is recorded."""
     sim = emorbit.Simulation(EARTH, method="em", dt=30.0)
     sim.add_effect("mutual")
     sim.add_point("a", mass=1e10, position=[R_SSO, 0, 0], velocity=[0, V_SSO, 0])
     sim.add_point("b", mass=1e10, position=[R_SSO, 50.0, 0], velocity=[0, V_SSO, 0.01])
     res = sim.run(steps=20_000, every=100, progress=False).si
     E, L = res.energy, res.angular_momentum
-    assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 1e-12
-    assert np.max(np.linalg.norm(L - L[0], axis=1)) / np.linalg.norm(L[0]) <= 1e-12
+    dE = np.max(np.abs(E - E[0])) / abs(E[0])
+    assert dE <= 6e-13, f"|dE|/|E0| = {dE:.3g}, measured 1.2e-13"
+    dL = np.max(np.linalg.norm(L - L[0], axis=1)) / np.linalg.norm(L[0])
+    assert dL <= 3e-13, f"|dL|/|L0| = {dL:.3g}, measured 6.3e-14"
 
 
 def _final_position(dt: float, order: int, t_end: float) -> np.ndarray:
@@ -97,17 +107,20 @@ def _final_position(dt: float, order: int, t_end: float) -> np.ndarray:
 
 @pytest.mark.parametrize("order", [2, 4, 6, 8])
 def test_convergence_orders_with_j2(order):
+    """The final position's error against T/800 at order 8, halving the step: rates measured
+    1.999, 3.988, 5.992 and 7.981 (the worst 0.019 off the order; bound 0.1)."""
     t_end = 2 * T_SSO
     coarse = {2: 100, 4: 60, 6: 40, 8: 30}[order]  # steps per orbit at the coarse step
     ref = _final_position(T_SSO / 800, 8, t_end)
     errors = [np.linalg.norm(_final_position(T_SSO / n, order, t_end) - ref) for n in (coarse, 2 * coarse)]
     rate = np.log2(errors[0] / errors[1])
-    assert abs(rate - order) <= 0.5, (order, errors, rate)
+    assert abs(rate - order) <= 0.1, f"order {order}: rate {rate:.4f} from errors {errors}, measured within 0.019"
 
 
 def test_sun_synchronous_node_advances_as_first_order_theory_says():
     """At 7000 km and 98 deg the node advances by -3/2 n J2 (R/a)^2 cos i per unit time
-    (about 1.00 deg/day); first-order theory's own error is O(J2^2), about 1e-3 relative."""
+    (about 1.00 deg/day); first-order theory's own error is O(J2^2), about 1e-3 relative
+    (measured -1.2e-3 over 2 days; bound 5e-3)."""
     sim = _j2_sim(60.0)
     res = sim.run("2 d", every=10, progress=False)
     el = res.elements("sat", si=True)
@@ -178,8 +191,11 @@ def test_a_scene_with_effects_runs_records_each_potential_and_resumes(tmp_path):
         kinetic = sum(
             0.5 * f[f"bodies/{b}"].attrs["mass"] * np.sum(f[f"bodies/{b}/velocity"][()] ** 2, axis=1) for b in "ab"
         )
-        np.testing.assert_allclose(kinetic + sum(parts.values()), energy, rtol=1e-14)
-        assert np.max(np.abs(energy - energy[0])) / abs(energy[0]) < 1e-13
+        # the parts add up to the energy to one rounding (measured 2.2e-16), and 100 steps keep
+        # it to 4.5e-16 (measured)
+        np.testing.assert_allclose(kinetic + sum(parts.values()), energy, rtol=1e-15)
+        dE = np.max(np.abs(energy - energy[0])) / abs(energy[0])
+        assert dE < 2.5e-15, f"|dE|/|E0| = {dE:.3g}, measured 4.5e-16"
         unbroken = {k: f[k][()] for k in ("time", "invariants/energy", "bodies/a/position")}
     again = tmp_path / "half.h5"
     sim = emorbit.load_scene(str(tmp_path / "scene.toml")).build()
@@ -279,7 +295,8 @@ def _spin(res) -> np.ndarray:
 def test_the_zonal_torque_on_a_dumbbell_is_the_analytic_one():
     """The torque of J2 on a rigid body comes from its mass points, as the gravity gradient's
     does: over one short step from rest, the spin a dumbbell gains with J2 on, less the spin it
-    gains without, is h times the analytic J2 torque on its two ends."""
+    gains without, is h times the analytic J2 torque on its two ends (measured: to 8.4e-5 of
+    |torque|, the step's own error; bound 1e-4 + 1e-4 relative)."""
     h, L, m = 0.01, 100.0, 1000.0
     x_c = np.array([7000e3, 0.0, 1500e3])
     rotation = [0.3, 0.5, 0.2]
@@ -300,7 +317,9 @@ def test_the_zonal_torque_on_a_dumbbell_is_the_analytic_one():
         for s in (axis * L / 2, -axis * L / 2)
     )
     measured = (spins[True] - spins[False]) / h
-    np.testing.assert_allclose(measured, torque, rtol=1e-4, atol=1e-4 * np.linalg.norm(torque))
+    np.testing.assert_allclose(
+        measured, torque, rtol=1e-4, atol=1e-4 * np.linalg.norm(torque), err_msg="measured 8.4e-5 of |torque|"
+    )
     assert np.linalg.norm(torque) > 0
 
 
@@ -350,12 +369,15 @@ def test_the_energy_error_with_j2_is_a_random_walk():
     n = np.arange(records + 1) * (steps // records)
     keep = n >= 1000
     slope = np.polyfit(np.log(n[keep]), np.log(rms[keep]), 1)[0]
-    assert abs(slope - 0.5) <= 0.1, slope
-    assert np.max(np.abs(mean[n >= steps // 10])) <= 0.5 * np.max(rms[n >= steps // 10])
+    # statistical (32 members): measured slope 0.437, |mean| up to 0.16 of the RMS
+    assert abs(slope - 0.5) <= 0.1, f"log-log slope {slope:.3f}, measured 0.437"
+    drift = np.max(np.abs(mean[n >= steps // 10])) / np.max(rms[n >= steps // 10])
+    assert drift <= 0.5, f"|mean| up to {drift:.3g} of the RMS, measured 0.16"
 
 
 def test_a_sweep_varies_an_effect_key(tmp_path):
-    """Sweeps take effect keys like any other: J2 alone against J2..J6 moves the orbit."""
+    """Sweeps take effect keys like any other: J2 alone against J2..J6 moves the orbit (by 4.4 m
+    in 600 s, measured), the energy kept to 1.1e-16 and 2.2e-16 (measured; bound 1.1e-15)."""
     from emorbit.sweep import parse_sweep, run_sweep
 
     (tmp_path / "scene.toml").write_text(SCENE)
@@ -372,16 +394,18 @@ values = [2, 6]
 """
     res = run_sweep(parse_sweep(text), tmp_path / "out", backend="serial")
     assert [r["status"] for r in res.rows] == ["completed", "completed"]
-    assert all(r["energy_error"] < 1e-13 for r in res.rows)
+    errors = [r["energy_error"] for r in res.rows]
+    assert max(errors) < 1.1e-15, f"energy errors {errors}, measured 1.1e-16 and 2.2e-16"
     finals = [emorbit.read(tmp_path / f"out/runs/run-00000{i}.h5").si.positions["a"][-1] for i in range(2)]
-    assert 1e-6 < np.linalg.norm(finals[0] - finals[1]) < 1e3  # J3..J6 move it, a little
+    moved = np.linalg.norm(finals[0] - finals[1])
+    assert 1.0 < moved < 20.0, f"J3..J6 moved it by {moved:.3g} m, measured 4.4 m"  # a little
 
 
 def test_a_binary_keeps_its_energy_without_drift():
     """Two bodies of comparable mass, e = 0.5, T/200, 100 orbits: the energy error stays a
     random walk at a few eps. Stopping the coupled iteration as soon as its rest was bounded
     by eps (not a thousandth of it) left an error of one sign each step: -5.9e-14 after 100
-    orbits, growing linearly."""
+    orbits, growing linearly. Measured now 6.6e-15 (bound 1e-14, below that drift)."""
     from emorbit.effects.mutual import G
 
     m1, m2, a, e = 2e12, 1e12, 100.0, 0.5
@@ -395,24 +419,28 @@ def test_a_binary_keeps_its_energy_without_drift():
     sim.add_point("b", mass=m2, position=[m1 / M * rp, 0, 0], velocity=[0, m1 / M * vp, 0])
     E = sim.run(steps=20_000, every=200, progress=False).si.energy
     rel = (E - E[0]) / abs(E[0])
-    assert np.max(np.abs(rel)) < 1e-14, rel[::10]
+    assert np.max(np.abs(rel)) < 1e-14, f"{rel[::10]}, measured |dE/E0| <= 6.6e-15"
 
 
 def test_tethered_satellites_with_j2_keep_energy_and_the_pole_angular_momentum():
     """Zonal harmonics on a coupled structure (two rigid boxes and an elastic tether) act at its
-    gravity points: energy and the angular momentum about a tilted pole stay within 1e-12 over
-    600 steps, while the component about another axis moves; the zonal potential is recorded."""
+    gravity points: energy and the angular momentum about a tilted pole stay within 3.3e-15 and
+    4.6e-15 over 600 steps (measured 6.6e-16 and 9.2e-16), while the component about another
+    axis moves (measured 1.4e-4 of |L|); the zonal potential is recorded."""
     text = emorbit.load_scene("tethered-satellites").text.replace("[integrator]", EFFECT_TABLE + "\n[integrator]")
     scene = emorbit.parse_scene(text, "test").with_overrides(t_end="600 s")
     sim = scene.build()
     res = sim.run(scene.t_end, every=20, progress=False).si
     pole = np.array([0.3, 0.0, 1.0]) / np.linalg.norm([0.3, 0.0, 1.0])
     E, L = res.energy, res.angular_momentum
-    assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 1e-12
+    dE = np.max(np.abs(E - E[0])) / abs(E[0])
+    assert dE <= 3.3e-15, f"|dE|/|E0| = {dE:.3g}, measured 6.6e-16"
     Lp = L @ pole
-    assert np.max(np.abs(Lp - Lp[0])) / np.linalg.norm(L[0]) <= 1e-12
+    dLp = np.max(np.abs(Lp - Lp[0])) / np.linalg.norm(L[0])
+    assert dLp <= 4.6e-15, f"|dL.pole|/|L0| = {dLp:.3g}, measured 9.2e-16"
     other = L @ np.array([1.0, 0.0, 0.0])
-    assert np.max(np.abs(other - other[0])) / np.linalg.norm(L[0]) > 1e-9
+    moved = np.max(np.abs(other - other[0])) / np.linalg.norm(L[0])
+    assert moved > 1e-5, f"L_x moved by {moved:.3g} of |L0| only, measured 1.4e-4"
 
 
 EFFECT_TABLE = """
@@ -432,9 +460,11 @@ def test_zonal_on_a_structure_changes_its_motion_and_records_its_potential(tmp_p
         sim = scene.build()
         res = sim.run(scene.t_end, every=20, output=tmp_path / f"{name}.h5", progress=False).si
         ends.append(res.positions["upper"][-1])
-    assert np.linalg.norm(ends[0] - ends[1]) > 1.0  # J2 moves a LEO satellite by metres in 100 s
+    moved = np.linalg.norm(ends[0] - ends[1])
+    assert moved > 10.0, f"J2 moved it by {moved:.3g} m, measured 51 m in 100 s"
     with h5py.File(tmp_path / "j2.h5", "r") as f:
         zonal = f["invariants/potential_zonal"][()]
         assert f["invariants/potential_zonal"].attrs["unit"] == "J" and np.all(np.abs(zonal) > 0)
         ratio = np.abs(zonal / f["invariants/potential_central"][()])
-        assert np.all((1e-4 < ratio) & (ratio < 1e-2))  # J2 (R/r)^2 P2: about 5e-4 of the central part
+        # J2 (R/r)^2 P2 of the central part: measured 3.37e-4 to 3.39e-4 along this orbit
+        assert np.all((2.5e-4 < ratio) & (ratio < 4.5e-4)), f"{ratio.min():.3g} to {ratio.max():.3g}"

@@ -175,7 +175,8 @@ def test_stiff_elastic_box_librates_like_the_rigid_one():
     theory = N_ORBIT * np.sqrt(3 * 0.6) * (1 - th0**2 / 4)
     assert tc.size >= 4
     assert abs(w / theory - 1) < 3e-4, f"libration frequency off by {abs(w / theory - 1):.3g}, measured 3e-5"
-    assert np.abs(res.relative_energy_error()).max() <= 1e-11
+    dE = np.abs(res.relative_energy_error()).max()
+    assert dE <= 7.5e-14, f"|dE|/|E0| = {dE:.3g} over 4000 steps, measured 1.5e-14"
 
 
 def test_newton_converges_quadratically():
@@ -356,7 +357,9 @@ def test_bad_meshes_and_couplings(tmp_path):
 
 def test_nodal_output_stride_and_shipped_scenes(tmp_path):
     """Shipped scenes run (shortened here; full runs 4-23 s each), their files hold nodal
-    positions every node_output_every records with their own time axis."""
+    positions every node_output_every records with their own time axis; the energy kept to 5x
+    its measured worst (tethered-satellites 3.3e-16, satellite-flexible-boom 6.7e-16,
+    elastic-bar-tumbling 5.8e-15)."""
     for scene, t_end in (
         ("tethered-satellites", "200 s"),
         ("satellite-flexible-boom", "20 s"),
@@ -366,7 +369,13 @@ def test_nodal_output_stride_and_shipped_scenes(tmp_path):
         assert main(["run", scene, "-o", str(out), "-q", "--t-end", t_end]) == 0
         with h5py.File(out, "r") as f:
             e = f["invariants/energy"][()]
-            assert np.abs(e / e[0] - 1).max() < 1e-11
+            dE = np.abs(e / e[0] - 1).max()
+            bound, measured = {
+                "tethered-satellites": (1.7e-15, 3.3e-16),
+                "satellite-flexible-boom": (3.3e-15, 6.7e-16),
+                "elastic-bar-tumbling": (3e-14, 5.8e-15),
+            }[scene]
+            assert dE < bound, f"{scene}: |dE|/|E0| = {dE:.3g}, measured {measured:.2g}"
             for g in f["bodies"].values():
                 if g.attrs["kind"] != "elastic":
                     continue

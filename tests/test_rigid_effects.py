@@ -60,8 +60,9 @@ def test_a_dart_turns_into_the_wind_and_its_swing_decays_at_the_linear_rate():
     6.5e-4). Measured over 4 e-foldings: the swing falls from 20 deg to below 0.4 deg, the
     fitted rate of the peaks below 8 deg is 0.991 of the linear theory (the rest is the swing's
     finite amplitude and the orbit turning the wind), the period between zero crossings of
-    the second half 12.57 s (2 pi / omega0; 13.0 s at 20 deg, where the restoring torque's
-    sin cos law softens), and the energy balance stays at 8e-16 of |E0|."""
+    the second half 12.57 s (2 pi / omega0 to 2.6e-4, the finite amplitude's share; 13.0 s at
+    20 deg, where the restoring torque's sin cos law softens), and the energy balance stays at
+    7.9e-16 of |E0| (bound 4e-15)."""
     res, alpha, theory = _weathervane(np.radians(20.0), 24_540)
     t = res.time.value
     assert np.degrees(alpha[0]) == pytest.approx(20.0)
@@ -70,13 +71,16 @@ def test_a_dart_turns_into_the_wind_and_its_swing_decays_at_the_linear_rate():
     peaks = np.flatnonzero((swing[1:-1] > swing[:-2]) & (swing[1:-1] >= swing[2:])) + 1
     small = swing[peaks] < np.radians(8.0)
     rate = -np.polyfit(t[peaks][small], np.log(swing[peaks][small]), 1)[0]
-    assert rate / theory == pytest.approx(1.0, abs=0.03), f"decay rate {rate:.4e} /s against {theory:.4e} /s"
+    assert rate / theory == pytest.approx(1.0, abs=0.03), (
+        f"decay rate {rate:.4e} /s against {theory:.4e} /s, measured 0.991 of it"
+    )
     z = np.flatnonzero(np.sign(alpha[1:]) != np.sign(alpha[:-1]))
     crossing = t[z] - alpha[z] * (t[z + 1] - t[z]) / (alpha[z + 1] - alpha[z])
     period = 2 * np.diff(crossing)[len(z) // 2 :]  # the half with swings below 3 deg: 12.6 s; 13.0 s at 20 deg
-    assert np.median(period) == pytest.approx(2 * np.pi / 0.5, rel=0.01)
+    off = np.median(period) / (2 * np.pi / 0.5) - 1
+    assert abs(off) < 1.5e-3, f"period {np.median(period):.4f} s, {off:.3g} off 2 pi / omega0, measured 2.6e-4"
     balance = np.abs(res.energy_balance.value).max() / abs(res.energy[0].value)
-    assert balance <= 1e-14, f"balance {balance:.2e}"
+    assert balance <= 4e-15, f"balance {balance:.2e}, measured 7.9e-16"
     assert abs(res.work["drag"][-1].value) > 1e6 * balance * abs(res.energy[0].value)
 
 
@@ -84,8 +88,8 @@ def test_a_box_broadside_to_the_flow_decays_as_a_cannonball_of_its_face():
     """A 2 x 2 x 1 m box keeping its large face to the flow (turning once per orbit) feels
     exactly the face's drag, -1/2 rho Cd A |v| v with A = 4 m2 (the side faces are edge-on): its
     orbit decays as a point mass's with B = Cd A / m does. Measured over 10 orbits at T/200:
-    the decay is 191 m and the semi-major axes agree to 6e-7 of it (the box's mass points feel
-    a slightly different field), inside the 1e-3 tolerance with room for other machines."""
+    the decay is 191 m and the semi-major axes agree to 6.1e-7 of it (the box's mass points
+    feel a slightly different field; bound 3e-6)."""
     T = 2 * np.pi * np.sqrt(R_LEO**3 / EARTH.gm)
     m = 500.0
     decays = {}
@@ -107,7 +111,8 @@ def test_a_box_broadside_to_the_flow_decays_as_a_cannonball_of_its_face():
         a = res.elements("sat").a.value
         decays[kind] = a - a[0]
     assert decays["point"][-1] < -50.0  # m: drag at work
-    np.testing.assert_allclose(decays["rigid"], decays["point"], rtol=1e-3, atol=1e-3)
+    gap = np.abs(decays["rigid"] - decays["point"]).max() / abs(decays["point"][-1])
+    assert gap <= 3e-6, f"a differs by {gap:.3g} of the decay, measured 6.1e-7"
 
 
 def test_a_black_sphere_of_facets_is_pushed_as_a_cannonball():
@@ -116,7 +121,7 @@ def test_a_black_sphere_of_facets_is_pushed_as_a_cannonball():
     (0.72-0.98 % below pi R^2 at refinement 1). In GEO over 5 days with the conical shadow,
     sunlight moves the body by 19.5 km and the sphere's and the cannonball's positions differ
     by 5.5e-4 of that (the polyhedron's projected area varies with the direction by 0.26 %);
-    both balances close to 5e-16."""
+    both balances close to 5e-16 (measured 4.3e-16 and 5.1e-16; bound 2.5e-15)."""
     r = 42164e3
     v = float(np.sqrt(EARTH.gm / r))
     radius, m = 2.0, 100.0
@@ -135,11 +140,12 @@ def test_a_black_sphere_of_facets_is_pushed_as_a_cannonball():
         res = sim.run(steps=720, every=72, progress=False)
         positions[kind] = res.positions["sat"].value[-1]
         if kind != "none":
-            assert np.abs(res.energy_balance.value).max() / abs(res.energy[0].value) < 1e-13
+            balance = np.abs(res.energy_balance.value).max() / abs(res.energy[0].value)
+            assert balance < 2.5e-15, f"{kind}: balance {balance:.3g}, measured <= 5.1e-16"
     push = np.linalg.norm(positions["point"] - positions["none"])
     assert push > 100.0, f"sunlight moved the point by {push:.1f} m only"
     gap = np.linalg.norm(positions["rigid"] - positions["point"])
-    assert gap < 2e-3 * push, f"sphere and cannonball differ by {gap:.3g} m of {push:.3g} m"
+    assert gap < 2e-3 * push, f"sphere and cannonball differ by {gap:.3g} m of {push:.3g} m, measured 5.5e-4 of it"
 
 
 def test_bodies_without_a_surface_and_structures_are_refused_by_name():
@@ -193,13 +199,16 @@ def test_an_elastic_block_takes_drag_on_its_surface_triangles():
     """An elastic block of tetrahedra feels drag on the boundary triangles of its mesh, each at
     its midpoint configuration, a third on each node: face-on to the flow, its orbit decays as
     a point mass's with the face's area does (measured over a tenth of an orbit at T/2000,
-    Young's modulus 1e7 Pa: the semi-major axes agree to 4.4e-7 of the 1.9 m decay), and the
-    energy balance, strain energy included, stays at 8e-16 of |E0| (4.4 Newton iterations
-    per step; a block a hundred times stiffer at this step needs 23 and leaves 6e-14)."""
+    Young's modulus 1e7 Pa: the semi-major axes agree to 4.4e-7 of the 1.9 m decay; bound
+    2.5e-6), and the energy balance, strain energy included, stays at 8.4e-16 of |E0| (bound
+    4e-15; 4.4 Newton iterations per step; a block a hundred times stiffer at this step needs
+    23 and leaves 6e-14)."""
     _, point = _cube_in_drag("point", 200)
     sim, block = _cube_in_drag("elastic", 200)
     assert sim.structure.surf_tri.shape[0] == 12  # the six faces, two triangles each
     da = {k: r.elements("sat").a.value - r.elements("sat").a.value[0] for k, r in (("p", point), ("e", block))}
     assert da["p"][-1] < -1.0
-    np.testing.assert_allclose(da["e"], da["p"], rtol=1e-5, atol=1e-5)
-    assert np.abs(block.energy_balance.value).max() / abs(block.energy[0].value) < 1e-14
+    gap = np.abs(da["e"] - da["p"]).max() / abs(da["p"][-1])
+    assert gap <= 2.5e-6, f"a differs by {gap:.3g} of the decay, measured 4.4e-7"
+    balance = np.abs(block.energy_balance.value).max() / abs(block.energy[0].value)
+    assert balance < 4e-15, f"balance {balance:.3g}, measured 8.4e-16"
