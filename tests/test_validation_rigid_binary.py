@@ -59,10 +59,16 @@ def test_the_quick_case_passes_every_check(quick):
     assert min(metrics[f"coupling.spin_angular_momentum.{n}"]["value"] for n in "ab") > 0.01  # the torques matter
 
 
-def test_the_case_is_listed_last(capsys):
+def test_the_case_is_listed_after_the_effect_cases_and_before_the_body_cases(capsys):
+    from emorbit.validation.body_case import body_case_names
+    from emorbit.validation.effect_cases import EFFECT_CASES
+
     assert main(["validate", "--list"]) == 0
     listed = capsys.readouterr().out.split()
-    assert listed == list(case_names()) and listed[-1] == "rigid-binary"
+    bodies = list(body_case_names())
+    assert listed == list(case_names())
+    assert listed[len(listed) - len(bodies) - 1 :] == ["rigid-binary", *bodies]
+    assert listed.index(EFFECT_CASES[-1]) < listed.index("rigid-binary")
 
 
 def _one_period_of_order_8():

@@ -1,6 +1,7 @@
 """emorbit's validation suite: emorbit against REBOUND (IAS15, WHFast), REBOUNDx, scipy's DOP853,
-astropy's constants and units, first-order secular theory and the analytic Kepler solution, with a
-report a reviewer can read.
+astropy's constants and units, first-order secular theory and the analytic Kepler solution, and
+rigid and elastic bodies against Basilisk, Exudyn and closed forms, with a report a reviewer can
+read.
 
 The repository's ``validation/`` folder is installed as ``emorbit.validation`` (never as a
 top-level module ``validation``, which any file of that name in the working folder would
@@ -22,7 +23,16 @@ The cases of the effects (zonal harmonics, mutual gravity): :mod:`.effect_cases`
 :mod:`.rigid_binary`, :mod:`.rigid_binary_figures`. Drag, radiation pressure with the Earth's
 shadow, and the Moon and the Sun against IAS15 carrying the same force model:
 :mod:`.perturbation_cases`, :mod:`.perturbation_model`, :mod:`.perturbation_runs`,
-:mod:`.perturbation_runner`, :mod:`.perturbation_figures`.
+:mod:`.perturbation_runner`, :mod:`.perturbation_figures`. Rigid and elastic bodies against outside
+referees (:mod:`.body_case`, what their cases share): gravity-gradient libration against linear and
+pendulum theory and Basilisk, :mod:`.libration`, :mod:`.libration_runner`,
+:mod:`.libration_referees`, :mod:`.libration_figures`; the Dzhanibekov flip against Jacobi's
+elliptic period, DOP853 and Exudyn, :mod:`.torque_free`, :mod:`.torque_free_referees`,
+:mod:`.torque_free_figures`; the resultant gravity force and torque and the centre of gravity
+against exact sums and closed forms, :mod:`.centre_of_gravity`, :mod:`.centre_of_gravity_referees`,
+:mod:`.centre_of_gravity_figures`; elastic bars and beams against the exact chain, Euler-Bernoulli
+and the SVK law, :mod:`.elastic_bodies`, :mod:`.elastic_common`, :mod:`.elastic_bar`,
+:mod:`.elastic_cantilever`, :mod:`.elastic_spinning`, :mod:`.elastic_bodies_figures`.
 """
 
 import importlib

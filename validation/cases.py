@@ -7,8 +7,9 @@ steps per tau_p (and at least 100 per orbit), so that errors are comparable acro
 eccentricities; orders 4-8 run at a quarter of that step (the paper's T/400).
 
 The cases of the effects beyond the central field (zonal harmonics, mutual gravity) are
-:mod:`.effect_cases`, the rigid-rigid binary :mod:`.rigid_binary_case`; :data:`CASES` lists them
-after the orbit cases (the rigid binary last). The studies of
+:mod:`.effect_cases`, the rigid-rigid binary :mod:`.rigid_binary_case`, and the cases of rigid
+and elastic bodies against outside referees :mod:`.body_case`; :data:`CASES` lists them after
+the orbit cases (the body cases last). The studies of
 :data:`STUDY_CASES` (Brouwer's law with J2..J6, :mod:`.brouwer`) are cases of the suite as
 well, listed before the effect cases; :func:`get_cases` gives each as a :class:`Study`. The
 perturbation cases (drag, radiation pressure, the Moon and the Sun against IAS15,
@@ -26,6 +27,7 @@ import numpy as np
 
 from emorbit import orbits
 
+from .body_case import BodyCase, body_case_names, body_cases
 from .effect_cases import EFFECT_CASES, EffectCase, effect_cases
 from .perturbation_cases import PERTURBATION_CASES, PerturbationCase, perturbation_cases
 from .rigid_binary_case import RIGID_BINARY_CASES, RigidBinaryCase, rigid_binary_cases
@@ -493,7 +495,7 @@ def _cloud(n_quick: int = 200, n_full: int = 1000, seed: int = 20240607) -> dict
 STUDY_CASES = ("brouwer-j2",)
 
 
-def _all_cases(mode: str) -> dict[str, Case | EffectCase | PerturbationCase | RigidBinaryCase | Study]:
+def _all_cases(mode: str) -> dict[str, Case | EffectCase | PerturbationCase | RigidBinaryCase | BodyCase | Study]:
     cases = [_paper(), *_family(), *_earth(), _cloud()[mode]]
     studies = {name: Study(name, mode) for name in STUDY_CASES}
     return {
@@ -502,6 +504,7 @@ def _all_cases(mode: str) -> dict[str, Case | EffectCase | PerturbationCase | Ri
         **perturbation_cases(mode),
         **effect_cases(mode),
         **rigid_binary_cases(mode),
+        **body_cases(mode),
     }
 
 
@@ -516,6 +519,7 @@ CASES = (
     *PERTURBATION_CASES,
     *EFFECT_CASES,
     *RIGID_BINARY_CASES,
+    *body_case_names(),
 )
 
 

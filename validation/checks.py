@@ -135,8 +135,11 @@ class Check:
         Why the tolerance has its size.
     detail : str
         Further measurements for the report.
+    skipped : str
+        Empty, or why the check did not run (a referee that is not installed:
+        ``"skipped: Basilisk not installed"``); a skipped check passes, its value is NaN.
     passed : bool
-        Set from value and tolerance.
+        Set from value and tolerance (True when skipped).
     """
 
     id: str
@@ -147,16 +150,19 @@ class Check:
     unit: str
     reason: str
     detail: str = ""
+    skipped: str = ""
     passed: bool = False
 
     def __post_init__(self):
-        self.value = float(self.value)
+        self.value = math.nan if self.skipped else float(self.value)
         self.tolerance = float(self.tolerance)
-        self.passed = bool(math.isfinite(self.value) and self.value <= self.tolerance)
+        self.passed = bool(self.skipped) or bool(math.isfinite(self.value) and self.value <= self.tolerance)
 
     @property
     def margin(self) -> float:
         """tolerance / value (inf for a zero value): how far inside the tolerance."""
+        if self.skipped:
+            return math.nan
         return math.inf if self.value == 0 else self.tolerance / self.value
 
     def to_dict(self) -> dict:
@@ -168,7 +174,7 @@ class Check:
             The fields and ``margin``.
         """
         d = asdict(self)
-        d["margin"] = None if math.isinf(self.margin) else self.margin
+        d["margin"] = None if not math.isfinite(self.margin) else self.margin
         return d
 
 

@@ -12,7 +12,7 @@ import numpy as np
 
 from . import checks as C
 
-__all__ = ["case_figures"]
+__all__ = ["case_figures", "panel_figure", "panels", "save_panels"]
 
 FLOOR = C.EPS / 4  # |error| below this is drawn at this level on log axes
 MAX_POINTS = 1500
@@ -25,6 +25,69 @@ def _plt():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+#: the layout of a figure of 2 x 3 panels (the body cases' figures)
+PANEL_LAYOUT = {"left": 0.05, "right": 0.99, "bottom": 0.07, "top": 0.92, "hspace": 0.3, "wspace": 0.22}
+
+
+def panels(rows: int = 2, cols: int = 3, figsize=(18, 9), **adjust):
+    """A figure of ``rows`` x ``cols`` panels, laid out by :data:`PANEL_LAYOUT` (``adjust``
+    overrides it).
+
+    Returns
+    -------
+    tuple
+        (figure, array of axes).
+    """
+    fig, axes = _plt().subplots(rows, cols, figsize=figsize)
+    fig.subplots_adjust(**{**PANEL_LAYOUT, **adjust})
+    return fig, axes
+
+
+def save_panels(fig, axes, case, outdir: str, *, legend_size=6, wide=(), title_size=None) -> str:
+    """Finish a figure of panels and write ``<case name>.png``: a grid on every panel, a legend
+    where a panel has labelled lines, the case's name and title above.
+
+    Parameters
+    ----------
+    fig, axes
+        The figure and its panels (:func:`panels`).
+    case : object
+        The case: ``name`` and ``title``.
+    outdir : str
+        The report folder.
+    legend_size : float
+        The legends' font size.
+    wide : sequence of int
+        The panels, counted row by row, whose legend has two columns.
+    title_size : float, optional
+        The title's font size (default: matplotlib's).
+
+    Returns
+    -------
+    str
+        The file name, in ``outdir``.
+    """
+    for k, ax in enumerate(np.ravel(axes)):
+        ax.grid(True, alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=legend_size, ncol=2 if k in wide else 1)
+    fig.suptitle(f"{case.name}: {case.title}", **({} if title_size is None else {"fontsize": title_size}))
+    name = f"{case.name}.png"
+    fig.savefig(os.path.join(outdir, name), dpi=90)
+    _plt().close(fig)
+    return name
+
+
+def panel_figure(run, outdir: str, drawers, *, figsize=(18, 9), wide=()) -> str:
+    """Draw a finished case run on 2 x 3 panels, ``drawer(ax, run)`` of each of ``drawers`` row
+    by row, and write ``<case name>.png`` (:func:`save_panels`, ``wide`` as there); return its
+    name."""
+    fig, axes = panels(figsize=figsize)
+    for ax, draw in zip(np.ravel(axes), drawers):
+        draw(ax, run)
+    return save_panels(fig, axes, run.case, outdir, wide=wide)
 
 
 def _thin(t, y):

@@ -7,6 +7,7 @@ import json
 import math
 import os
 
+from .body_case import body_notes
 from .cases import STUDY_CASES
 from .effect_cases import EFFECT_CASES
 from .rigid_binary_case import RIGID_BINARY_CASES, RIGID_BINARY_NOTE
@@ -125,6 +126,8 @@ def write_markdown(suite: dict, outdir: str) -> str:
         ]
     if any(c["name"] in RIGID_BINARY_CASES for c in suite["cases"]):
         lines += [RIGID_BINARY_NOTE, ""]
+    for note in body_notes(c["name"] for c in suite["cases"]):
+        lines += [note, ""]
     studies = [c["name"] for c in suite["cases"] if c["name"] in ("brouwer", *STUDY_CASES)]
     if studies:
         lines += [
@@ -167,11 +170,12 @@ def _case_section(case: dict) -> list[str]:
         "|--------|-------|----------|---------|----------|-----------|------|--------|--------------------|",
     ]
     for ch in case["checks"]:
-        measured = _g(ch["value"])
+        measured = _esc(ch["skipped"]) if ch.get("skipped") else _g(ch["value"])
         if ch.get("detail"):
             measured += f" ({_esc(ch['detail'])})"
+        verdict = "SKIP" if ch.get("skipped") else "PASS" if ch["passed"] else "**FAIL**"
         out.append(
-            f"| {'PASS' if ch['passed'] else '**FAIL**'} | {ch['id']} | {_esc(ch['what'])} | {_esc(ch['against'])} | "
+            f"| {verdict} | {ch['id']} | {_esc(ch['what'])} | {_esc(ch['against'])} | "
             f"{measured} | {_g(ch['tolerance'])} | {ch['unit']} | {_g(ch.get('margin'), 2)} | {_esc(ch['reason'])} |"
         )
     out += [

@@ -26,7 +26,7 @@ from .cases import HIGH_ORDER_REFINEMENT, Case
 from .checks import Check, measure_period, richardson, run_checked, wrap
 from .runs import Trajectory, analytic, record_times, run_emorbit, run_rebound
 
-__all__ = ["run_case", "CaseOutcome"]
+__all__ = ["run_case", "CaseOutcome", "body_outcome"]
 
 ORDERS = (2, 4, 6, 8)
 METHODS = ("em", "midpoint", "leapfrog")
@@ -672,3 +672,41 @@ def case_outcome(case, mode: str, r, start: float, draw=None, *, drop=(), **keys
     out.update(keys)
     out["wall_s"] = time.perf_counter() - start
     return CaseOutcome({k: out[k] for k in _OUTCOME_KEYS if k in out})
+
+
+def body_outcome(case, mode: str, outdir: str, make, draw, *, figures: bool = True, summary="", **keys) -> CaseOutcome:
+    """Run a body case (:mod:`.body_case`) and gather its outcome: what every body module's
+    ``run`` shares.
+
+    Parameters
+    ----------
+    case : BodyCase
+        The case.
+    mode : str
+        ``"quick"`` or ``"full"``.
+    outdir : str
+        The report folder.
+    make : callable
+        ``make()`` gives the case's :class:`~.body_case.BodyRun`, not yet run (``wall_s``
+        counts from before it).
+    draw : callable
+        ``draw(run, outdir)`` writes the figure of the finished run and returns its file name;
+        it imports its figures module (matplotlib) itself, only where figures are drawn.
+    figures : bool
+        Draw the figure.
+    summary : str or callable
+        The report's line on the runs, or ``summary(run)`` giving it from the run not yet run.
+    **keys
+        Passed to :func:`case_outcome` (``drop``, ``orbits``, ``steps_per_period``, ...).
+
+    Returns
+    -------
+    CaseOutcome
+        The outcome.
+    """
+    start = time.perf_counter()
+    r = make()
+    text = summary(r) if callable(summary) else summary
+    return case_outcome(
+        case, mode, r, start, (lambda run: [draw(run, outdir)]) if figures else None, summary=text, **keys
+    )

@@ -7,6 +7,7 @@ import os
 import platform
 import time
 
+from .body_case import BodyCase, run_body_case
 from .cases import Study, case_names, get_cases
 from .effect_cases import EffectCase
 from .effect_runner import run_effect_case
@@ -20,11 +21,13 @@ __all__ = ["run_suite", "environment"]
 
 
 def _run(case, mode: str, outdir: str, scale: float):
-    """One case of the suite: an orbit case, an effect case, a perturbation case, the rigid binary or a study."""
+    """One case of the suite: an orbit, effect, perturbation or body case, the rigid binary or a study."""
     if isinstance(case, Study):
         from .brouwer import run_study
 
         return run_study(case.name, mode, outdir, scale=scale)
+    if isinstance(case, BodyCase):
+        return run_body_case(case, mode, outdir, scale=scale)
     if isinstance(case, RigidBinaryCase):
         return run_rigid_binary(case, mode, outdir, scale=scale)
     if isinstance(case, PerturbationCase):
