@@ -135,7 +135,7 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("method", False, "string", '"em"', _choices(METHODS), "the integration method"),
         Key("order", False, "integer", "2", _choices(ORDERS),
             "2 is the base step; 4, 6, 8 symmetric compositions of it"),
-        Key("dt", True, "time (s)", "", "> 0", "the step (with adaptive: the largest step)"),
+        Key("dt", True, "time (s)", "", "> 0", "the step (with adaptive: the unit of the record grid)"),
         Key("t_end", True, "time (s)", "", "> 0, at least one step",
             "the end time, rounded up to a whole step unless within 1e-9 (relative) of one"),
         Key("output_every", False, "integer", "1", ">= 1", "steps between records"),
@@ -147,7 +147,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("checkpoint_every", False, "integer", "by wall time: at most 5 s between checkpoints", ">= 1",
             "steps between checkpoints, rounded up to a multiple of output_every"),
         Key("adaptive", False, "number", "off (fixed steps of dt)", "in (0, 1]",
-            "point masses: each step is this fraction of the local Kepler time 2 pi sqrt(r^3 / GM), at most dt"),
+            "point masses: the accuracy knob eta of adaptive, time-symmetric steps of about eta times the local "
+            "Kepler time 2 pi sqrt(r^3 / GM); records land on multiples of output_every dt"),
         Key("roundoff", False, "string", '"brouwer"', _choices(ROUNDOFF),
             'em steps of point masses: "brouwer" keeps the energy error a random walk; "fast" is cheaper and '
             "drifts at round-off level"),

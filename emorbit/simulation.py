@@ -84,18 +84,20 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         ``"reuse"`` keeps sparse LU factors while they converge fast, ``"auto"`` (default)
         picks by size (see :class:`~emorbit.bodies.coupled.Structure`).
     adaptive : float, optional
-        Point masses only, with a field: each step is ``adaptive`` times the local Kepler
-        time scale, h = adaptive 2 pi sqrt(r^3 / GM), at most ``dt``; records stay on the
-        grid of ``dt`` (see :mod:`emorbit.kernels.pointmass.adaptive`). A number in (0, 1];
-        default: fixed steps of ``dt``.
+        Point masses only, with a field: the accuracy knob eta of adaptive, time-symmetric
+        steps of about eta times the local Kepler time scale, h ~ eta 2 pi sqrt(r^3 / GM),
+        chosen from both ends of each step (a reversible controller; errors fall as
+        eta**order). ``dt`` is then the unit of the record grid only: records land exactly
+        on multiples of ``every * dt`` (see :mod:`emorbit.kernels.pointmass.adaptive`). A
+        number in (0, 1]; default: fixed steps of ``dt``.
     roundoff : str
         Point masses with method ``"em"``: ``"brouwer"`` (default) keeps the energy error a
         random walk over many steps (Brouwer's law, no drift of one sign): a fixed step
         takes the exact root of its scalar equation correctly rounded (a Newton update
         certified to be it, else one on an accurate evaluation), and steps with a large
-        h^2/2 GM / (r0 r1 (r0 + r1)) and adaptive steps finish on g_em evaluated to within
-        a rounding (see :mod:`emorbit.kernels.pointmass.packed`). ``"fast"`` solves the
-        equation in plain floating point: a little cheaper per step, with an energy drift
+        h^2/2 GM / (r0 r1 (r0 + r1)) finish on g_em evaluated to within a rounding (see
+        :mod:`emorbit.kernels.pointmass.packed`). ``"fast"`` solves the equation in plain
+        floating point: a little cheaper per step, with an energy drift
         at round-off level (methods.md compares the two). Rigid and elastic bodies ignore it.
     epoch : astropy.time.Time or str, optional
         The instant the run's time 0 stands for (:func:`emorbit.epochs.to_epoch`:

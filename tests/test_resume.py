@@ -41,6 +41,26 @@ def _same_files(a, b):
 
 
 REUSE_STRUCTURE = reuse_structure("4 s")
+#: the paper's orbit with adaptive, time-symmetric steps at order 8 (the control variables are state)
+ADAPTIVE = """
+[field]
+gm = "3.9478 m3 / s2"
+
+[integrator]
+method = "em"
+order = 8
+adaptive = 0.01
+dt = "0.464758 s"
+t_end = "500 s"
+output_every = 10
+
+[[body]]
+name = "satellite"
+kind = "point"
+mass = "1 kg"
+position = ["10 m", "0 m", "0 m"]
+velocity = ["0 m/s", "0.36276 m/s", "0 m/s"]
+"""
 
 
 @pytest.mark.parametrize(
@@ -52,13 +72,14 @@ REUSE_STRUCTURE = reuse_structure("4 s")
         ("elastic-bar-tumbling", "7 s", "14 s"),
         ("tethered-satellites", "300 s", "700 s"),
         ("reuse-structure", "1.7 s", "4 s"),
+        ("adaptive", "200 s", "500 s"),
     ],
 )
 def test_resume_is_bit_identical(tmp_path, scene, t1, t2):
     """Run to t1 (off the checkpoint grid), resume to t2: every record equals a single run to t2."""
-    if scene == "reuse-structure":
-        path = tmp_path / "reuse.toml"
-        path.write_text(REUSE_STRUCTURE)
+    if scene in ("reuse-structure", "adaptive"):
+        path = tmp_path / f"{scene}.toml"
+        path.write_text(REUSE_STRUCTURE if scene == "reuse-structure" else ADAPTIVE)
         scene = str(path)
     full, part = tmp_path / "full.h5", tmp_path / "part.h5"
     assert main(["run", scene, "-o", str(full), "-q", "--t-end", t2, "--checkpoint-every", "60"]) == 0

@@ -104,16 +104,17 @@ class EffectPoints(WorkSums, PointMasses):
         self._wp = np.ascontiguousarray(value, dtype=float)
 
     def snapshot(self):
-        """Copies of x, v, cx, cv, the warm start and the work sums."""
+        """Copies of the points' state (:meth:`PointMasses.snapshot`), the warm start and the work sums."""
         return super().snapshot() + (self.wp.copy(), self.hp.copy(), self.work.copy(), self.cwork.copy())
 
     def restore(self, snap) -> None:
         """Put back what :meth:`snapshot` copied."""
-        super().restore(snap[:4])
-        self.wp[...] = snap[4]
-        self.hp[...] = snap[5]
-        self.work[...] = snap[6]
-        self.cwork[...] = snap[7]
+        n = len(snap) - 4
+        super().restore(snap[:n])
+        self.wp[...] = snap[n]
+        self.hp[...] = snap[n + 1]
+        self.work[...] = snap[n + 2]
+        self.cwork[...] = snap[n + 3]
 
     @classmethod
     def taking_over(cls, points: PointMasses, terms) -> EffectPoints:

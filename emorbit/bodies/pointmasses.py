@@ -102,6 +102,7 @@ class PointMasses(BodySystem):
         self._v = np.zeros((3, 0))
         self._cx = np.zeros((3, 0))
         self._cv = np.zeros((3, 0))
+        self._rho = np.zeros(0)
         self.ballistic: dict[str, float] = {}  # name -> Cd A / m, m^2/kg, where given (drag)
         self.radiation: dict[str, float] = {}  # name -> Cr A / m, m^2/kg, where given (radiation pressure)
 
@@ -127,6 +128,7 @@ class PointMasses(BodySystem):
         self._v = np.ascontiguousarray(np.concatenate([self._v, v], axis=1))
         self._cx = np.ascontiguousarray(np.concatenate([self._cx, np.zeros_like(x)], axis=1))
         self._cv = np.ascontiguousarray(np.concatenate([self._cv, np.zeros_like(v)], axis=1))
+        self._rho = np.concatenate([self._rho, np.zeros(len(m))])
 
     def _array(name: str, doc: str):
         def get(self):
@@ -144,6 +146,7 @@ class PointMasses(BodySystem):
     v = _array("_v", "(3, n) velocities (m/s)")
     cx = _array("_cx", "(3, n) compensation terms of x (m)")
     cv = _array("_cv", "(3, n) compensation terms of v (m/s)")
+    rho = _array("_rho", "(n,) adaptive steps' control variables (1/s; 0: set from the state at the next step)")
     del _array
 
     @property
@@ -235,6 +238,7 @@ class PointMasses(BodySystem):
         self._v = np.ascontiguousarray(self._v[:, keep])
         self._cx = np.ascontiguousarray(self._cx[:, keep])
         self._cv = np.ascontiguousarray(self._cv[:, keep])
+        self._rho = np.ascontiguousarray(self._rho[keep])
         return out
 
     def advance(
@@ -267,7 +271,7 @@ class PointMasses(BodySystem):
         center : array_like
             The field's centre (3,), m.
         dt : float
-            The step (the largest step, adaptive), s.
+            The step (adaptive: the unit of the record grid), s.
         gammas : ndarray
             The composition's sub-step fractions.
         every : int
@@ -326,7 +330,8 @@ class PointMasses(BodySystem):
     device: str = "cpu"
 
     def _advance_adaptive(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> ChunkRecords:
-        """Adaptive steps (see :mod:`emorbit.kernels.pointmass.adaptive`); dt is the largest step."""
+        """Adaptive, time-symmetric steps (see :mod:`emorbit.kernels.pointmass.adaptive`),
+        recorded every ``every * dt`` seconds."""
         n = len(self)
         steps = np.zeros((nrec, n), dtype=np.int64)
         rec = ChunkRecords(
@@ -335,6 +340,8 @@ class PointMasses(BodySystem):
             np.zeros((nrec, n), dtype=np.int64),
             np.full((n, 2), -1, dtype=np.int64),
         )
+        if self.rho.shape != (n,):  # the arrays were set directly: start the control from the state
+            self.rho = np.zeros(n)
         code, chunk = dispatch.adaptive_chunk(method, self.roundoff, self.device)
         chunk(
             code,
@@ -342,12 +349,12 @@ class PointMasses(BodySystem):
             self.v,
             self.cx,
             self.cv,
+            self.rho,
             float(gm),
             np.ascontiguousarray(center, float),
-            float(dt),
+            float(every * dt),
             float(self.adaptive),
             np.ascontiguousarray(gammas, float),
-            int(every),
             int(nrec),
             int(max_iter),
             rec.x,
@@ -365,8 +372,14 @@ class PointMasses(BodySystem):
     DATASETS = {"position": (3, "m"), "velocity": (3, "m / s")}
     #: methods with a point-mass kernel
     METHODS = ("em", "midpoint", "leapfrog")
-    #: the whole state: what a checkpoint stores
-    STATE_FIELDS = ("x", "v", "cx", "cv")
+    #: the state of fixed steps: what their checkpoints store
+    BASE_FIELDS = ("x", "v", "cx", "cv")
+
+    @property
+    def STATE_FIELDS(self) -> tuple:  # noqa: N802 (the name every body system uses)
+        """The whole state: :attr:`BASE_FIELDS`, and the control variables ``rho`` of
+        adaptive steps (a fixed-step run's checkpoints hold what they always held)."""
+        return self.BASE_FIELDS + (("rho",) if self.adaptive is not None else ())
 
     def work_per_step(self) -> int:
         """Point updates per step."""
@@ -380,12 +393,12 @@ class PointMasses(BodySystem):
         )
 
     def snapshot(self):
-        """Copies of x, v, cx, cv."""
-        return tuple(a.copy() for a in (self.x, self.v, self.cx, self.cv))
+        """Copies of x, v, cx, cv and rho."""
+        return tuple(a.copy() for a in (self.x, self.v, self.cx, self.cv, self.rho))
 
     def restore(self, snap) -> None:
-        """Put back x, v, cx, cv from :meth:`snapshot`."""
-        for a, s in zip((self.x, self.v, self.cx, self.cv), snap):
+        """Put back x, v, cx, cv and rho from :meth:`snapshot`."""
+        for a, s in zip((self.x, self.v, self.cx, self.cv, self.rho), snap):
             a[...] = s
 
     def invariants(self, rec: ChunkRecords, nrec: int, gm: float, center):

@@ -1,80 +1,186 @@
-"""Adaptive steps for point masses: each point steps by a fraction ``eta`` of its local Kepler
-time scale, ``h = eta * 2 pi sqrt(r**3 / GM)`` (a Sundman-type rule, dt proportional to
-r**(3/2)), bounded above by ``dt_max``, and lands exactly on the record times.
+"""Adaptive, time-symmetric steps for point masses: a reversible step-size controller
+(Hairer & Soederlind) around the symmetric em, midpoint or leapfrog step.
 
-The energy-momentum step conserves energy and angular momentum for any step size, so exact
-conservation survives any step sequence; compositions (order 4-8) are applied to every
-adaptive step. Points are independent, so each takes its own sequence; the records stay on
-the common grid ``every * dt_max``. The step size depends only on the state at the start of
-the step, so results do not depend on how a run is cut into chunks (bit-exact restarts).
+Method. Each point carries a control variable ``rho`` besides its state ``y = (x, v)``; its
+step is ``h = eps / rho``. On the exact motion ``rho = 1 / s(x)``, ``s(x) = eta 2 pi
+sqrt(r**3 / GM)`` (``r = |x - c|``: a fraction ``eta`` of the local Kepler time scale, the
+Sundman-type rule dt ~ r**(3/2)), so in the step variable tau (dt = d tau / rho)
+``d ln rho / d tau = g(y) = -3/2 (x - c).v s(x) / r**2``. One step of size ``eps`` is the
+symmetric splitting
 
-A step whose Newton iteration fails is retried with half the step, up to
-:data:`MAX_HALVINGS` times, before the point is reported as failed.
+    rho_1/2 = rho_0 C(eps/4 g(y_0)),   y_1 = Phi_h(y_0), h = eps / rho_1/2,   rho_1 = rho_1/2 C(eps/4 g(y_1)),
+
+``C(a) = (1 + a) / (1 - a)`` (exp(2 a) to third order, positive, ``C(-a) = 1 / C(a)``),
+``Phi_h`` the symmetric one-step method (``Phi_-h`` is the inverse of ``Phi_h``) and g odd in
+v: the step of size ``-eps`` undoes the step of size ``eps``. The scheme is time-symmetric
+and of order 2 in tau, and the symmetric compositions of :mod:`emorbit.integrators` (orders
+4-8) apply to it (sub-steps ``gammas[k] eps``). em keeps the energy and the angular momentum
+exactly for any step sequence, so for this one too. ``eps`` is 1: ``eta`` alone sets the
+accuracy (``rho`` starts at ``1 / s(x_0)``). The closing kick of a sub-step and the opening
+kick of the next read g at the same state: one evaluation per sub-step.
+
+Records land exactly on the grid ``k * interval``: a composed step that would pass the next
+record time (expected from the last step's length, :data:`PREDICT`, or found by taking it)
+is replaced by one composed step of the remaining time (fixed sub-steps, ``rho`` scaled by
+``s(x_0) / s(x_1)``): the energy stays exact, the symmetry is broken at the records only. A
+composed step whose solve fails, or whose kicks exceed :data:`KICK_MAX`, is retried with
+half the ``eps``, up to :data:`MAX_HALVINGS` times, before the point is reported as failed.
+
+Data layout: ``x, v, cx, cv`` (3, n) state and Kahan compensations as in :mod:`.chunk`;
+``rho`` (n,) the control variables (0 or less: set from ``s(x)`` at the first step), updated
+in place and part of a checkpoint, so a restart is bit for bit.
+
+References: E. Hairer, G. Soederlind, Explicit, time reversible, adaptive step size control,
+SIAM J. Sci. Comput. 26 (2005) 1838-1851; E. Hairer, C. Lubich, G. Wanner, Geometric Numerical
+Integration, 2nd ed. (Springer 2006), sec. VIII.3; K. Sundman, Acta Math. 36 (1913) 105-179.
 """
 
 from __future__ import annotations
 
 import math
 
-from ..codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_LEAPFROG, STATUS_OK, STATUS_SINGULAR
+from ..codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_LEAPFROG, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
 from ..eft import kahan_add
+from ..gravity import accel
 from ..jit import kernel
-from .reference import em_step, midpoint_step
+from .point_step import _implicit_point_em, _implicit_point_em_plain, _implicit_point_mid, _leapfrog_point
+from .roots import _tau
 
-__all__ = ["adaptive_chunk", "MAX_HALVINGS"]
+__all__ = ["adaptive_chunk", "reversible_steps", "control", "MAX_HALVINGS", "KICK_MAX"]
 
 MAX_HALVINGS = 20
+#: a half-kick ``rho (1 + a) / (1 - a)`` with ``|a|`` beyond this (rho changing by more than a
+#: factor 1.5 in half a sub-step: the step is too long for the control) retries the composed
+#: step with half the eps
+KICK_MAX = 0.2
+#: a step after one of duration d is expected to last at most PREDICT d: where less than that
+#: is left to the record, the step of the remaining time is taken without a trial step
+PREDICT = 1.1
 _TWO_PI = 2.0 * math.pi
 
 
 @kernel
-def _leapfrog_sub(px, py, pz, vx, vy, vz, h, gm, c0, c1, c2):
-    """One kick-drift-kick sub-step: (dx, dy, dz, dvx, dvy, dvz, 0, status)."""
-    ax = c0 - px
-    ay = c1 - py
-    az = c2 - pz
-    r0 = math.sqrt(ax * ax + ay * ay + az * az)
-    f0 = gm / (r0 * r0 * r0)
-    hf = 0.5 * h
-    dx = h * (vx + hf * f0 * ax)
-    dy = h * (vy + hf * f0 * ay)
-    dz = h * (vz + hf * f0 * az)
-    bx = ax - dx
-    by = ay - dy
-    bz = az - dz
-    r1 = math.sqrt(bx * bx + by * by + bz * bz)
-    f1 = gm / (r1 * r1 * r1)
-    status = STATUS_OK if (r1 > 0.0 and r1 < math.inf) else STATUS_SINGULAR
-    return dx, dy, dz, hf * (f0 * ax + f1 * bx), hf * (f0 * ay + f1 * by), hf * (f0 * az + f1 * bz), 0, status
+def control(x0, x1, x2, c0, c1, c2, gm, eta):
+    """``1 / s(x)``: the control variable of a state on the exact motion, 1/s."""
+    ax = x0 - c0
+    ay = x1 - c1
+    az = x2 - c2
+    r = math.sqrt(ax * ax + ay * ay + az * az)
+    return 1.0 / (eta * _TWO_PI * r * math.sqrt(r / gm))
 
 
 @kernel
-def _composed(method, px, py, pz, vx, vy, vz, ex, ey, ez, fx, fy, fz, h, gammas, gm, c0, c1, c2, max_iter):
-    """One composed step of size h from a state with Kahan terms; returns the new state and
-    (iterations, status). On failure the returned state is meaningless."""
-    its = 0
-    for k in range(gammas.shape[0]):
-        hk = h * gammas[k]
-        if method == METHOD_EM or method == METHOD_EM_PLAIN:
-            d0, d1, d2, w0, w1, w2, it, status = em_step(
-                px, py, pz, vx, vy, vz, hk, gm, c0, c1, c2, max_iter, method == METHOD_EM
+def _g(x0, x1, x2, y0, y1, y2, c0, c1, c2, gm, eta):
+    """g(y) = d ln(rho) / d tau = -3/2 (x - c).v s(x) / r**2 (odd in v)."""
+    ax = x0 - c0
+    ay = x1 - c1
+    az = x2 - c2
+    r = math.sqrt(ax * ax + ay * ay + az * az)
+    return (-1.5 * eta * _TWO_PI) * (ax * y0 + ay * y1 + az * y2) / math.sqrt(r * gm)
+
+
+@kernel
+def _kick(rho, a):
+    """rho (1 + a) / (1 - a): exp(2 a) to third order, and its own inverse with -a."""
+    return rho * (1.0 + a) / (1.0 - a)
+
+
+@kernel
+def _sub(method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2, max_iter):
+    """One sub-step of physical size h of the symmetric method: 15 values, iterations, status."""
+    extra = 0
+    status = STATUS_OK
+    if method == METHOD_LEAPFROG:
+        (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, good) = _leapfrog_point(
+            t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2
+        )
+        if not good:
+            status = STATUS_SINGULAR
+    else:
+        tau0, tlo = _tau(h, gm)
+        if method == METHOD_EM:
+            (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, extra, status) = _implicit_point_em(
+                t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, h, gm, tau0, tlo, c0, c1, c2, max_iter
             )
-        elif method == METHOD_LEAPFROG:
-            d0, d1, d2, w0, w1, w2, it, status = _leapfrog_sub(px, py, pz, vx, vy, vz, hk, gm, c0, c1, c2)
+        elif method == METHOD_EM_PLAIN:
+            (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, extra, status) = _implicit_point_em_plain(
+                t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, h, gm, tau0, tlo, c0, c1, c2, max_iter
+            )
         else:
-            d0, d1, d2, w0, w1, w2, it, status = midpoint_step(px, py, pz, vx, vy, vz, hk, gm, c0, c1, c2, max_iter)
+            (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, extra, status) = _implicit_point_mid(
+                t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, h, gm, tau0, tlo, c0, c1, c2, max_iter
+            )
+        extra += 1
+    return t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, extra, status
+
+
+@kernel
+def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter):
+    """One composed step from the 15 values ``s`` (x, v, cx, cv, the leapfrog acceleration)
+    and ``rho``: sub-steps ``gammas[k] eps`` in tau, or (``fixed`` > 0) of physical size
+    ``gammas[k] fixed``, with ``rho`` then carried as ``rho s(x)`` (what its kicks keep
+    near 1). Returns (new 15 values, rho, the physical duration as ``dur - dlo`` (a Kahan
+    sum and its compensation), iterations, status); on a failure the values are meaningless.
+
+    The kick closing one sub-step and the kick opening the next read g at the same state: it
+    is evaluated once per sub-step."""
+    t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2 = s
+    its = 0
+    dur = 0.0
+    dlo = 0.0
+    if fixed > 0.0:
+        rho = rho / control(t0, t1, t2, c0, c1, c2, gm, eta)
+    else:
+        g = _g(t0, t1, t2, u0, u1, u2, c0, c1, c2, gm, eta)
+    for k in range(gammas.shape[0]):
+        if fixed > 0.0:
+            h = fixed * gammas[k]
+        else:
+            ak = 0.25 * eps * gammas[k]
+            a = ak * g
+            if not abs(a) < KICK_MAX:
+                return s, rho, dur, dlo, its, STATUS_NO_CONVERGENCE
+            rho = _kick(rho, a)
+            h = (4.0 * ak) / rho
+        (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, it, status) = _sub(
+            method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2, max_iter
+        )
         its += it
         if status != STATUS_OK:
-            return px, py, pz, vx, vy, vz, ex, ey, ez, fx, fy, fz, its, status
-        px, ex = kahan_add(px, ex, d0)
-        py, ey = kahan_add(py, ey, d1)
-        pz, ez = kahan_add(pz, ez, d2)
-        vx, fx = kahan_add(vx, fx, w0)
-        vy, fy = kahan_add(vy, fy, w1)
-        vz, fz = kahan_add(vz, fz, w2)
-        if not (abs(px + py + pz + vx + vy + vz) < math.inf):
-            return px, py, pz, vx, vy, vz, ex, ey, ez, fx, fy, fz, its, STATUS_SINGULAR
-    return px, py, pz, vx, vy, vz, ex, ey, ez, fx, fy, fz, its, STATUS_OK
+            return s, rho, dur, dlo, its, status
+        if fixed <= 0.0:
+            g = _g(t0, t1, t2, u0, u1, u2, c0, c1, c2, gm, eta)
+            a = ak * g
+            if not abs(a) < KICK_MAX:
+                return s, rho, dur, dlo, its, STATUS_NO_CONVERGENCE
+            rho = _kick(rho, a)
+        dur, dlo = kahan_add(dur, dlo, h)
+    if fixed > 0.0:
+        rho = rho * control(t0, t1, t2, c0, c1, c2, gm, eta)
+    return (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2), rho, dur, dlo, its, STATUS_OK
+
+
+@kernel
+def _start(method, x, v, cx, cv, rho, gm, c0, c1, c2, eta, i):
+    """The 15 values of point i and its control variable (set from s(x) where not started)."""
+    n0 = n1 = n2 = 0.0
+    if method == METHOD_LEAPFROG:
+        n0, n1, n2, rr = accel(c0 - x[0, i], c1 - x[1, i], c2 - x[2, i], gm)
+    s = (x[0, i], x[1, i], x[2, i], v[0, i], v[1, i], v[2, i], cx[0, i], cx[1, i], cx[2, i])
+    s = s + (cv[0, i], cv[1, i], cv[2, i], n0, n1, n2)
+    r = rho[i]
+    if not r > 0.0:
+        r = control(x[0, i], x[1, i], x[2, i], c0, c1, c2, gm, eta)
+    return s, r
+
+
+@kernel
+def _store(s, r, x, v, cx, cv, rho, i):
+    x[0, i], x[1, i], x[2, i] = s[0], s[1], s[2]
+    v[0, i], v[1, i], v[2, i] = s[3], s[4], s[5]
+    cx[0, i], cx[1, i], cx[2, i] = s[6], s[7], s[8]
+    cv[0, i], cv[1, i], cv[2, i] = s[9], s[10], s[11]
+    rho[i] = r
 
 
 @kernel
@@ -84,12 +190,12 @@ def adaptive_chunk(
     v,
     cx,
     cv,
+    rho,
     gm,
     center,
-    dt_max,
+    interval,
     eta,
     gammas,
-    every,
     nrec,
     max_iter,
     rec_x,
@@ -98,82 +204,106 @@ def adaptive_chunk(
     rec_steps,
     fail,
 ):
-    """Advance every point by ``nrec`` record intervals of ``every * dt_max`` with adaptive steps.
+    """Advance every point by ``nrec`` record intervals of ``interval`` seconds with adaptive,
+    time-symmetric steps, recording at the end of each.
 
-    method       METHOD_EM, METHOD_EM_PLAIN (3), METHOD_MIDPOINT (1) or METHOD_LEAPFROG
-    eta          steps per local Kepler time scale: h = eta 2 pi sqrt(r^3 / GM) <= dt_max
-    rec_steps    (nrec, n) steps each point took in each interval
-    Other arguments as in :func:`emorbit.kernels.pointmass.reference.implicit_chunk`; ``fail[i]`` holds
-    (record interval index * every, status) for a point that failed even after halving its
-    step :data:`MAX_HALVINGS` times (the point then stops at the start of that interval).
+    method       METHOD_EM, METHOD_EM_PLAIN, METHOD_MIDPOINT or METHOD_LEAPFROG
+    rho          (n,) control variables, updated in place (<= 0: set from the state)
+    eta          the accuracy knob: steps of eta times the local Kepler time scale
+    rec_steps    (nrec, n) composed steps each point took in each interval
+    Other arguments as in :func:`~.chunk._run_point`; ``fail[i]`` holds (record interval
+    index, status) of a point that failed even after halving its step :data:`MAX_HALVINGS`
+    times (the point then stops at the start of that interval).
     """
     n = x.shape[1]
     c0 = center[0]
     c1 = center[1]
     c2 = center[2]
-    interval = every * dt_max
-    inv_gm = 1.0 / gm
     for i in range(n):
-        px, py, pz = x[0, i], x[1, i], x[2, i]
-        vx, vy, vz = v[0, i], v[1, i], v[2, i]
-        ex, ey, ez = cx[0, i], cx[1, i], cx[2, i]
-        fx, fy, fz = cv[0, i], cv[1, i], cv[2, i]
-        failed = False
-        for r in range(nrec):
+        s, r = _start(method, x, v, cx, cv, rho, gm, c0, c1, c2, eta, i)
+        prev = 0.0
+        for k in range(nrec):
             its = 0
             steps = 0
             elapsed = 0.0
             comp = 0.0
+            s_start = s
+            r_start = r
+            failed = False
+            status = STATUS_OK
             last = False
-            sx, sy, sz, sv0, sv1, sv2 = px, py, pz, vx, vy, vz  # state at the interval's start
-            se0, se1, se2, sf0, sf1, sf2 = ex, ey, ez, fx, fy, fz
             while not last:
-                rx = c0 - px
-                ry = c1 - py
-                rz = c2 - pz
-                rr = math.sqrt(rx * rx + ry * ry + rz * rz)
-                h = eta * _TWO_PI * rr * math.sqrt(rr * inv_gm)
-                if h > dt_max:
-                    h = dt_max
-                rem = interval - elapsed
-                if h >= rem:
-                    h = rem
-                    last = True
-                elif h > 0.5 * rem:
-                    h = 0.5 * rem  # two even steps rather than a long one and a sliver
+                rem = (interval - elapsed) + comp  # kahan_add's compensation: the sum is elapsed - comp
                 ok = False
+                eps = 1.0
                 for _halving in range(MAX_HALVINGS + 1):
-                    (qx, qy, qz, wx, wy, wz, gx, gy, gz, kx, ky, kz, it, status) = _composed(
-                        method, px, py, pz, vx, vy, vz, ex, ey, ez, fx, fy, fz, h, gammas, gm, c0, c1, c2, max_iter
-                    )
-                    its += it
+                    if prev >= rem:  # the last step was longer than what is left: no trial step
+                        dur = rem
+                        dlo = 0.0
+                        status = STATUS_OK
+                    else:
+                        q, rq, dur, dlo, it, status = _composed(
+                            method, s, r, eps, 0.0, gammas, gm, c0, c1, c2, eta, max_iter
+                        )
+                        its += it
+                    if status == STATUS_OK and dur - dlo >= rem:
+                        # the step passes the record: one step of the remaining time instead
+                        q, rq, dur, dlo, it, status = _composed(
+                            method, s, r, 1.0, rem, gammas, gm, c0, c1, c2, eta, max_iter
+                        )
+                        its += it
+                        last = True
                     if status == STATUS_OK:
                         ok = True
                         break
-                    h *= 0.5
+                    eps *= 0.5
                     last = False
                 if not ok:
                     failed = True
                     break
-                px, py, pz, vx, vy, vz = qx, qy, qz, wx, wy, wz
-                ex, ey, ez, fx, fy, fz = gx, gy, gz, kx, ky, kz
-                elapsed, comp = kahan_add(elapsed, comp, h)
+                s = q
+                r = rq
                 steps += 1
+                if not last:
+                    elapsed, comp = kahan_add(elapsed, comp + dlo, dur)
+                    prev = PREDICT * (dur - dlo)
             if failed:
-                px, py, pz, vx, vy, vz = sx, sy, sz, sv0, sv1, sv2
-                ex, ey, ez, fx, fy, fz = se0, se1, se2, sf0, sf1, sf2
-                fail[i, 0] = r * every
+                s = s_start
+                r = r_start
+                fail[i, 0] = k
                 fail[i, 1] = status
                 break
-            rec_x[r, 0, i] = px
-            rec_x[r, 1, i] = py
-            rec_x[r, 2, i] = pz
-            rec_v[r, 0, i] = vx
-            rec_v[r, 1, i] = vy
-            rec_v[r, 2, i] = vz
-            rec_iters[r, i] = its
-            rec_steps[r, i] = steps
-        x[0, i], x[1, i], x[2, i] = px, py, pz
-        v[0, i], v[1, i], v[2, i] = vx, vy, vz
-        cx[0, i], cx[1, i], cx[2, i] = ex, ey, ez
-        cv[0, i], cv[1, i], cv[2, i] = fx, fy, fz
+            rec_x[k, 0, i] = s[0]
+            rec_x[k, 1, i] = s[1]
+            rec_x[k, 2, i] = s[2]
+            rec_v[k, 0, i] = s[3]
+            rec_v[k, 1, i] = s[4]
+            rec_v[k, 2, i] = s[5]
+            rec_iters[k, i] = its
+            rec_steps[k, i] = steps
+        _store(s, r, x, v, cx, cv, rho, i)
+
+
+@kernel
+def reversible_steps(method, x, v, cx, cv, rho, gm, center, eta, gammas, nsteps, max_iter, elapsed):
+    """Take exactly ``nsteps`` composed steps of size 1 in tau from every point (no records,
+    no landing on a time): the scheme alone, for its time symmetry. ``elapsed`` (n,) gets the
+    physical time each point advanced. Reversing the velocities and their compensations and
+    calling it again runs the same steps back (the scheme is time-symmetric). Returns the
+    status of the first failure (0: none)."""
+    n = x.shape[1]
+    c0 = center[0]
+    c1 = center[1]
+    c2 = center[2]
+    for i in range(n):
+        s, r = _start(method, x, v, cx, cv, rho, gm, c0, c1, c2, eta, i)
+        t = 0.0
+        tc = 0.0
+        for _ in range(nsteps):
+            s, r, dur, dlo, it, status = _composed(method, s, r, 1.0, 0.0, gammas, gm, c0, c1, c2, eta, max_iter)
+            if status != STATUS_OK:
+                return status
+            t, tc = kahan_add(t, tc + dlo, dur)
+        elapsed[i] = t - tc
+        _store(s, r, x, v, cx, cv, rho, i)
+    return STATUS_OK
