@@ -308,3 +308,19 @@ def test_real_gpu_no_drift_at_large_steps(div):
     rel = energy(x, v) / e0 - 1.0
     z = rel.mean() / (rel.std() / np.sqrt(n))
     assert abs(z) < 3.5, (z, rel.mean() / steps)
+
+
+@pytest.mark.parametrize(
+    "numpy_version, numba_cuda, broken",
+    [("2.5.0", "0.30.4", True), ("2.5.1", "0.29.0", True), ("2.4.6", "0.30.4", False), ("2.5.0", "0.31.0", False),
+     ("2.6.0.dev0+abc", "0.30.4", True), ("2.5.0", None, False)],
+)  # fmt: skip
+def test_a_numpy_the_cuda_compiler_cannot_use_is_named(numpy_version, numba_cuda, broken):
+    """numba-cuda <= 0.30.4 calls numpy.row_stack, gone in NumPy 2.5: the device check says so
+    and how to fix it, instead of a compile error from deep in numba-cuda."""
+    from emorbit.kernels.pointmass import cuda as kcuda
+
+    problem = kcuda._numpy_problem(numpy_version, numba_cuda)
+    assert (problem is not None) == broken
+    if broken:
+        assert numpy_version in problem and numba_cuda in problem and "numpy<2.5" in problem

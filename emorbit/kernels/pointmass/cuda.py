@@ -54,13 +54,40 @@ _compiled: dict = {}
 _devices: dict = {}
 
 
+def _numpy_problem(numpy_version: str, numba_cuda_version: str | None) -> str | None:
+    """Why this NumPy breaks the CUDA target's compiler, or None: numba-cuda 0.30.4 and older
+    call ``numpy.row_stack``, which NumPy 2.5 removed, and then no kernel compiles
+    (``AttributeError: module 'numpy' has no attribute 'row_stack'``)."""
+
+    def version(text):
+        return tuple(int(p) for p in text.split("+")[0].split(".")[:3] if p.isdigit())
+
+    if numba_cuda_version is None or version(numpy_version)[:2] < (2, 5):
+        return None
+    if version(numba_cuda_version) > (0, 30, 4):
+        return None
+    return (
+        f"numba-cuda {numba_cuda_version} cannot compile kernels with NumPy {numpy_version} (it calls "
+        "numpy.row_stack, removed in NumPy 2.5): pip install 'numpy<2.5' (the gpu extra pins it)"
+    )
+
+
 def device_problem() -> str | None:
-    """Why the kernels cannot run here (numba.cuda missing, or no device), or None when a
-    CUDA device (or numba's CUDA simulator) is ready."""
+    """Why the kernels cannot run here (numba.cuda missing, a NumPy its compiler cannot use,
+    or no device), or None when a CUDA device (or numba's CUDA simulator) is ready."""
     try:
         from numba import cuda
     except ImportError as exc:  # a Numba without its CUDA target
         return f"numba.cuda cannot be imported ({exc}); pip install numba-cuda"
+    from importlib import metadata
+
+    try:
+        numba_cuda = metadata.version("numba-cuda")
+    except metadata.PackageNotFoundError:  # numba's own CUDA target (the simulator)
+        numba_cuda = None
+    problem = _numpy_problem(np.__version__, numba_cuda)
+    if problem is not None:
+        return problem
     if not cuda.is_available():
         return (
             "no CUDA device: numba.cuda found no usable NVIDIA GPU and driver on this machine; run on the CPU "
