@@ -196,7 +196,6 @@ def test_benchmark_targets_on_the_page_are_the_runners():
     rows = _section(_page("benchmarks.md"), "## Targets")
     shown = {
         "ensemble_vs_rebound": ("em on all threads", ">= {:g}x"),
-        "fraction_of_bound": ("em's fraction of the bound", ">= {:.0f} %"),
         "scene_vs_bare": ("a point-mass scene", ">= {:g}x"),
         "single_vs_rebound": ("em on one orbit", "<= {:g}x"),
         "warm_startup_s": ("warm-cache", "<= {:g} s"),

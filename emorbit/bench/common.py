@@ -63,11 +63,13 @@ class Config:
     orbits: int  # length of the work-precision runs
     divisions: tuple  # steps per orbit of the work-precision runs (paper's orbit)
     divisions_e09: tuple  # the same for the e = 0.9 orbit
+    divisions_e099: tuple  # the same for the e = 0.99 orbit
     ias15_eps: tuple
     heyoka_tol: tuple
     warm_runs: int  # repeats of the warm start-up
-    adaptive_orders: tuple = (4, 8)  # em with adaptive steps in the work-precision runs
-    adaptive_eta: tuple = (0.02, 0.01, 0.005, 0.0025, 0.00125)  # steps per Kepler time scale
+    adaptive_orders: tuple = (2, 4, 6, 8)  # em with adaptive steps in the work-precision runs
+    #: the adaptive steps' knob: h = eta 2 pi sqrt(r^3 / GM), a fraction of the local Kepler time scale
+    adaptive_eta: tuple = (0.04, 0.02, 0.0125, 0.008, 0.005, 0.003)
 
 
 #: "full", "quick" (``emorbit bench --quick``) and "tiny"
@@ -79,6 +81,7 @@ CONFIGS = {
         orbits=100,
         divisions=(25, 35, 50, 71, 100, 141, 200, 283, 400, 566, 800, 1131, 1600, 2263, 3200),
         divisions_e09=(100, 141, 200, 283, 400, 566, 800, 1131, 1600, 2263, 3200, 4525, 6400, 9051, 12800),
+        divisions_e099=(1600, 2263, 3200, 4525, 6400, 9051, 12800, 18102, 25600, 36204, 51200, 72408, 102400),
         ias15_eps=(1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10),
         heyoka_tol=(1e-6, 1e-8, 1e-10, 1e-12, 1e-14, 2.220446049250313e-16),
         warm_runs=5,
@@ -90,10 +93,11 @@ CONFIGS = {
         orbits=100,
         divisions=(25, 50, 100, 200, 400, 800, 1600),
         divisions_e09=(100, 200, 400, 800, 1600, 3200, 6400, 12800),
+        divisions_e099=(3200, 12800, 51200),
         ias15_eps=(1e-3, 1e-5, 1e-7, 1e-9),
         heyoka_tol=(1e-6, 1e-9, 1e-12, 2.220446049250313e-16),
         warm_runs=3,
-        adaptive_eta=(0.02, 0.005, 0.0025),
+        adaptive_eta=(0.04, 0.02, 0.008, 0.003),
     ),
     # a seconds-long smoke run for the tests: its timings mean nothing
     "tiny": Config(
@@ -103,11 +107,12 @@ CONFIGS = {
         orbits=2,
         divisions=(50, 100),
         divisions_e09=(200, 400),
-        ias15_eps=(1e-6,),
+        divisions_e099=(3200,),
+        ias15_eps=(1e-9,),
         heyoka_tol=(1e-9,),
         warm_runs=1,
-        adaptive_orders=(8,),
-        adaptive_eta=(0.02,),
+        adaptive_orders=(4, 8),
+        adaptive_eta=(0.02, 0.008),
     ),
 }
 

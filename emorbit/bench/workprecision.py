@@ -1,29 +1,46 @@
 """Work against precision: what accuracy costs in CPU time over 100 orbits.
 
-Two orbits around GM = 3.9478 m^3/s^2, each started at aphelion: the paper's (a = 6 m,
-e = 2/3) and an e = 0.9 one (a = 6 m). For every point: the CPU time of the run (the
-integrator's own loop; set-up and just-in-time compilation excluded, the best of three
-for runs under 50 ms), the final position error against the analytic Kepler solution
+Three orbits around GM = 3.9478 m^3/s^2, each started at aphelion: the paper's (a = 6 m,
+e = 2/3), an e = 0.9 one and an e = 0.99 one (a = 6 m). For every point: the CPU time of the
+run (the integrator's own loop; set-up and just-in-time compilation excluded, the best of
+three for runs under 50 ms), the final position error against the analytic Kepler solution
 (:func:`emorbit.orbits.propagate`) relative to a, and the max relative energy error over
 ten checkpoints per orbit. Engines:
 
 * emorbit em, midpoint and leapfrog at orders 2, 4, 6 and 8, dt = T/N for several N
-  (through ``PointMasses.advance``, checkpoints recorded by the kernel);
-* emorbit em with adaptive steps (``h = eta 2 pi sqrt(r^3/GM)``, :mod:`emorbit.kernels.pointmass.adaptive`)
-  at orders 4 and 8 for several eta;
+  (through ``PointMasses.advance``, checkpoints recorded by the kernel); points carry ``dt``;
+* emorbit em with adaptive, time-symmetric steps (:mod:`emorbit.kernels.pointmass.adaptive`,
+  ``h ~ eta 2 pi sqrt(r^3/GM)``) at orders 2-8 for several eta: points with ``method = "em"``,
+  ``adaptive = True`` and eta as ``tolerance``. They run in a child process that is stopped
+  when a run overruns (:data:`ADAPTIVE_TIMEOUT_S`): the point is then kept as failed;
 * REBOUND IAS15 at several epsilons (its adaptive step, exact finish time), WHFast (without
   safe mode) and leapfrog at the same dt as emorbit;
 * heyoka's Taylor integrator at tolerances from 1e-6 to machine precision, when it is
   installed (``pip install "emorbit[peers]"``); otherwise the section says it was skipped.
 
 Fixed-step runs whose step is too long for the orbit fail or blow up; they are kept in the
-JSON with their status and left out of the figures. The Pareto front of each panel (the
+JSON with their status and left out of the figures. A run estimated (from the one before in
+its series) to take over :data:`MAX_RUN_S` is skipped. The Pareto front of each panel (the
 points no other point beats in both time and error) is marked.
+
+Targets (:func:`reach`, :func:`accuracy_targets`): for each orbit and a final position error
+of 1e-6, 1e-9 and 1e-12 of a, the least CPU time each engine needs to reach it (emorbit em
+adaptive and em fixed-step, each at its best order, IAS15, WHFast, heyoka): the cheapest of
+its points that reach it and of the interpolations, linear in log(CPU time) against
+log(error), between two neighbouring points of one series (consecutive settings of one
+order) that bracket it; nothing is extrapolated past the measured points. The verdicts
+(:func:`verdicts`): em adaptive at the final position error of IAS15 at REBOUND's default
+epsilon (1e-9) within :data:`LIMIT_IAS15` times IAS15's CPU time, and within
+:data:`LIMIT_HEYOKA` times heyoka's at each of the three errors both reach.
 """
 
 from __future__ import annotations
 
 import math
+import os
+import socket
+import subprocess
+import sys
 import time
 import warnings
 
@@ -33,13 +50,34 @@ from ..integrators import coefficients
 from ..orbits import propagate, semi_major_axis
 from .common import GM, PAPER_V0, PAPER_X0, aphelion_state, period, point_masses, rebound_sim, rebound_state
 
-__all__ = ["run", "table", "plot"]
+__all__ = ["run", "table", "plot", "plot_orbits", "reach", "accuracy_targets", "verdicts"]
 
 METHODS = ("em", "midpoint", "leapfrog")
 ORDERS = (2, 4, 6, 8)
 CHECKPOINTS_PER_ORBIT = 10
-#: a fixed-step run that would take longer than this (estimated from the ones before) is left out
+#: a run that would take longer than this (estimated from the one before in its series) is left out
 MAX_RUN_S = 3.0
+#: an adaptive run gets at most this long (wall clock) before its process is stopped; less
+#: (20 times the estimate from the orbit's last adaptive run, at least 2 s) once there is one
+ADAPTIVE_TIMEOUT_S = 5 * MAX_RUN_S
+#: a new child process gets this long to load (or compile) the adaptive kernel
+ADAPTIVE_START_S = 600.0
+#: the final position errors (relative to a) of the targets table
+ACCURACIES = (1e-6, 1e-9, 1e-12)
+#: REBOUND's default IAS15 epsilon: the verdict compares at this point's final position error
+IAS15_EPSILON = 1e-9
+#: em adaptive's CPU time at IAS15's final position error over IAS15's, at most (by orbit)
+LIMIT_IAS15 = {"paper": 1.0, "e09": 1.0, "e099": 2.0}
+#: em adaptive's CPU time over heyoka's at the same final position error, at most
+LIMIT_HEYOKA = 5.0
+#: the engines of the targets table: (engine, method, adaptive, the setting that orders a series)
+ENGINES = {
+    "em adaptive": ("emorbit", "em", True, "tolerance"),
+    "em fixed": ("emorbit", "em", False, "dt"),
+    "ias15": ("rebound", "ias15", False, "epsilon"),
+    "whfast": ("rebound", "whfast", False, "dt"),
+    "heyoka": ("heyoka", "taylor", False, "tolerance"),
+}
 
 
 def _cpu(fn):
@@ -99,8 +137,9 @@ def _emorbit(x0, v0, method, order, N, T, orbits) -> dict:
 
 
 def _emorbit_adaptive(x0, v0, order, eta, T, orbits) -> dict:
-    """em with adaptive steps (h = eta 2 pi sqrt(r^3/GM), at most T / CHECKPOINTS_PER_ORBIT;
-    records on that grid)."""
+    """em with adaptive steps (``h ~ eta 2 pi sqrt(r^3/GM)``, not capped), recorded every
+    T / CHECKPOINTS_PER_ORBIT (the record grid only: a step that would pass a record is
+    replaced by one of the remaining time)."""
     nrec = CHECKPOINTS_PER_ORBIT * orbits
 
     def go():
@@ -121,6 +160,79 @@ def _emorbit_adaptive(x0, v0, order, eta, T, orbits) -> dict:
         "steps": pm.adaptive_steps,
         "newton": float(rec.iterations.sum()) / (pm.adaptive_steps * len(coefficients(order))),
     }
+
+
+def _adaptive_worker(fd: int) -> None:
+    """The child process of :class:`_Guard`, talking over the socket ``fd``: loads the kernel
+    (one orbit of the paper's orbit), says so, then runs ``_emorbit_adaptive(*job)`` for each
+    job it receives until None."""
+    from multiprocessing.connection import Connection
+
+    conn = Connection(fd)
+    _emorbit_adaptive(PAPER_X0, PAPER_V0, 2, 0.02, period(PAPER_X0, PAPER_V0), 1)
+    conn.send("ready")
+    while (job := conn.recv()) is not None:
+        conn.send(_emorbit_adaptive(*job))
+
+
+class _Guard:
+    """Adaptive em in a child process (a fresh interpreter: no threads, compiled state or
+    ``__main__`` copied), stopped and replaced when a run overruns its time: a step-size
+    control that stalls cannot hold up the bench."""
+
+    def __init__(self):
+        self.proc = self.conn = None
+
+    def _start(self) -> None:
+        from multiprocessing.connection import Connection
+
+        ours, theirs = socket.socketpair()
+        root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
+        code = (
+            "import sys; from emorbit.bench.workprecision import _adaptive_worker; _adaptive_worker(int(sys.argv[1]))"
+        )
+        fd = theirs.fileno()
+        self.proc = subprocess.Popen(
+            [sys.executable, "-c", code, str(fd)], pass_fds=(fd,), env=env, stdout=subprocess.DEVNULL
+        )
+        theirs.close()
+        self.conn = Connection(ours.detach())
+        if not self.conn.poll(ADAPTIVE_START_S):
+            raise TimeoutError(f"the kernel did not load within {ADAPTIVE_START_S:.0f} s")
+        self.conn.recv()
+
+    def __call__(self, job: tuple, timeout_s: float) -> dict:
+        """The result of ``_emorbit_adaptive(*job)``, or a failed point when it took longer
+        than ``timeout_s`` (wall clock) or its process ended."""
+        try:
+            if self.proc is None:
+                self._start()
+            self.conn.send(job)
+            if self.conn.poll(timeout_s):
+                return self.conn.recv()
+            status = f"failed: no result within {timeout_s:.1f} s (the run was stopped)"
+        except (EOFError, OSError, TimeoutError) as exc:
+            status = f"failed: the adaptive run's process ended ({type(exc).__name__}: {exc})"
+        self.close(stop=True)
+        return {"status": status}
+
+    def close(self, stop: bool = False) -> None:
+        """End the child process: ask it to (or, with ``stop``, kill it) and wait for it."""
+        if self.proc is None:
+            return
+        try:
+            if not stop:
+                self.conn.send(None)
+                self.proc.wait(10)
+        except (OSError, ValueError, subprocess.TimeoutExpired):
+            stop = True
+        if stop:
+            self.proc.kill()
+            self.proc.wait()
+        if self.conn is not None:
+            self.conn.close()
+        self.proc = self.conn = None
 
 
 def _rebound_fixed(x0, v0, integrator, N, T, orbits) -> dict:
@@ -217,7 +329,7 @@ def _pareto(points: list, key: str) -> list:
     return front
 
 
-def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
+def _orbit(name, x0, v0, divisions, cfg, heyoka_system, guard) -> dict:
     T = period(x0, v0)
     a = float(semi_major_axis(x0, v0, GM))
     orbits = cfg.orbits
@@ -225,8 +337,8 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
     e0 = _energy(x0, v0)
     points = []
 
-    def add(engine, method, order, param, param_name, res):
-        p = {"engine": engine, "method": method, "order": order, param_name: param}
+    def add(engine, method, order, param, param_name, res, **extra):
+        p = {"engine": engine, "method": method, "order": order, param_name: param, **extra}
         if "x_end" in res:
             err = _errors(res.pop("x_end"), x_ref, res.pop("energies"), e0, a)
             finite = math.isfinite(err["position_error"]) and math.isfinite(err["energy_error"])
@@ -235,6 +347,7 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
         p.update(res)
         points.append(p)
 
+    skipped = {"status": f"skipped: estimated over {MAX_RUN_S} s"}
     for method in METHODS:
         for order in ORDERS:
             point_masses(x0[:, None], v0[:, None]).advance(
@@ -243,28 +356,36 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
             per_step = None
             for N in divisions:
                 if per_step is not None and per_step * N * orbits > MAX_RUN_S:
-                    add("emorbit", method, order, T / N, "dt", {"status": f"skipped: estimated over {MAX_RUN_S} s"})
+                    add("emorbit", method, order, T / N, "dt", dict(skipped))
                     continue
                 res = _emorbit(x0, v0, method, order, N, T, orbits)
                 per_step = res["cpu_s"] / (N * orbits)
                 add("emorbit", method, order, T / N, "dt", res)
+    scale = None  # CPU s x eta / sub-steps of the last adaptive run that finished (steps ~ 1 / eta)
     for order in cfg.adaptive_orders:
-        _emorbit_adaptive(x0, v0, order, cfg.adaptive_eta[0], T, 1)  # warm-up: load the kernel
-        per_step = None
+        stages = len(coefficients(order))
         for eta in cfg.adaptive_eta:
-            steps = orbits * 2.0 * math.pi / eta  # a rough count (steps per Kepler time scale)
-            if per_step is not None and per_step * steps > MAX_RUN_S:
-                add("emorbit", "em adaptive", order, eta, "eta", {"status": f"skipped: estimated over {MAX_RUN_S} s"})
+            estimate = None if scale is None else scale * stages / eta
+            if estimate is not None and estimate > MAX_RUN_S:
+                add("emorbit", "em", order, eta, "tolerance", dict(skipped), adaptive=True)
                 continue
-            res = _emorbit_adaptive(x0, v0, order, eta, T, orbits)
-            per_step = res["cpu_s"] / steps
-            add("emorbit", "em adaptive", order, eta, "eta", res)
+            timeout = ADAPTIVE_TIMEOUT_S if estimate is None else min(ADAPTIVE_TIMEOUT_S, max(2.0, 20 * estimate))
+            res = guard((x0, v0, order, eta, T, orbits), timeout)
+            if "steps" in res:
+                scale = res["cpu_s"] * eta / stages
+            add("emorbit", "em", order, eta, "tolerance", res, adaptive=True)
     for integrator in ("leapfrog", "whfast"):
+        per_step = None
         for N in divisions:
-            add("rebound", integrator, 2, T / N, "dt", _rebound_fixed(x0, v0, integrator, N, T, orbits))
+            if per_step is not None and per_step * N * orbits > MAX_RUN_S:
+                add("rebound", integrator, 2, T / N, "dt", dict(skipped))
+                continue
+            res = _rebound_fixed(x0, v0, integrator, N, T, orbits)
+            per_step = res["cpu_s"] / (N * orbits)
+            add("rebound", integrator, 2, T / N, "dt", res)
     for eps in cfg.ias15_eps:
         add("rebound", "ias15", 15, eps, "epsilon", _ias15(x0, v0, eps, T, orbits))
-    heyoka = 'skipped: heyoka is not installed (pip install "emorbit[peers]")'
+    heyoka = 'skipped: heyoka not installed (pip install "emorbit[peers]")'
     if heyoka_system is not None:
         heyoka = "ok"
         for tol in cfg.heyoka_tol:
@@ -282,7 +403,7 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
     for key, flag in (("position_error", "pareto_position"), ("energy_error", "pareto_energy")):
         for i in _pareto(good, key):
             good[i][flag] = True
-    return {
+    orbit = {
         "name": name,
         "a": a,
         "e": float(np.linalg.norm(((np.dot(v0, v0) - GM / np.linalg.norm(x0)) * x0 - np.dot(x0, v0) * v0) / GM)),
@@ -291,32 +412,179 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
         "heyoka": heyoka,
         "points": points,
     }
+    orbit["targets"] = accuracy_targets(orbit)
+    return orbit
+
+
+def _series(points: list, name: str) -> list:
+    """The points of engine ``name`` of :data:`ENGINES` that ran, one series per order for
+    emorbit (one in all for a peer), each from its coarsest setting to its finest."""
+    engine, method, adaptive, setting = ENGINES[name]
+    out = {}
+    for p in points:
+        if (p["engine"], p["method"], bool(p.get("adaptive"))) == (engine, method, adaptive) and p.get(
+            "status"
+        ) == "ok":
+            out.setdefault(p["order"] if engine == "emorbit" else 0, []).append(p)  # heyoka's order follows tol
+    return [sorted(s, key=lambda p: -p[setting]) for _, s in sorted(out.items())]
+
+
+def reach(points: list, name: str, accuracy: float) -> dict | None:
+    """The least CPU time at which an engine reaches a final position error.
+
+    Parameters
+    ----------
+    points : list of dict
+        An orbit's ``points``.
+    name : str
+        A key of :data:`ENGINES` (emorbit's engines take their best order).
+    accuracy : float
+        The final position error, relative to a.
+
+    Returns
+    -------
+    dict or None
+        ``cpu_s``, ``order`` and ``setting`` (eta, dt, epsilon or tolerance) of the cheapest
+        point with an error <= ``accuracy``, or of the interpolation (linear in log-log) between
+        two neighbouring points of one series that bracket it, then with ``between`` (the
+        coarser and the finer setting); None when no point gets there.
+    """
+    setting = ENGINES[name][3]
+    best = None
+    for series in _series(points, name):
+        for i, p in enumerate(series):
+            cpu, between = None, None
+            if p["position_error"] <= accuracy:
+                cpu = p["cpu_s"]
+            if i > 0:
+                q = series[i - 1]
+                eq, ep = q["position_error"], p["position_error"]
+                if eq > accuracy >= ep > 0.0:
+                    f = math.log(eq / accuracy) / math.log(eq / ep)
+                    interp = math.exp((1.0 - f) * math.log(q["cpu_s"]) + f * math.log(p["cpu_s"]))
+                    if cpu is None or interp < cpu:
+                        cpu, between = interp, [q[setting], p[setting]]
+            if cpu is not None and (best is None or cpu < best["cpu_s"]):
+                best = {"cpu_s": cpu, "order": p["order"], "setting": p[setting]}
+                if between:
+                    best["between"] = between
+    return best
+
+
+def accuracy_targets(orbit: dict) -> list:
+    """For each of :data:`ACCURACIES`, the least CPU time of each engine of :data:`ENGINES`
+    (:func:`reach`; heyoka None when it did not run) and em adaptive's ratios to IAS15 and to
+    heyoka (None where either does not get there)."""
+    out = []
+    for accuracy in ACCURACIES:
+        engines = {name: reach(orbit["points"], name, accuracy) for name in ENGINES}
+        row = {"accuracy": accuracy, "engines": engines}
+        for peer in ("ias15", "heyoka"):
+            ours, theirs = engines["em adaptive"], engines[peer]
+            row[f"adaptive_over_{peer}"] = None if ours is None or theirs is None else ours["cpu_s"] / theirs["cpu_s"]
+        out.append(row)
+    return out
+
+
+def _label(orbit: dict) -> str:
+    return f"{orbit['name']} orbit (e = {orbit['e']:.3g})"
+
+
+def verdicts(orbits: list) -> list:
+    """The section's targets, one pair per orbit: em adaptive (best order) at the final
+    position error of IAS15 at epsilon :data:`IAS15_EPSILON` within :data:`LIMIT_IAS15` times
+    IAS15's CPU time, and within :data:`LIMIT_HEYOKA` times heyoka's at each accuracy of the
+    targets table that both reach (``met`` None when heyoka did not run).
+
+    Parameters
+    ----------
+    orbits : list of dict
+        The section's ``orbits``.
+
+    Returns
+    -------
+    list of dict
+        ``target``, ``limit``, ``met``, ``note`` and, where measured, ``measured`` (the ratio).
+    """
+    out = []
+    for orbit in orbits:
+        limit = LIMIT_IAS15.get(orbit["name"], 1.0)
+        t = {
+            "target": f"em adaptive at IAS15's final position error (epsilon {IAS15_EPSILON:g}) <= {limit:g}x "
+            f"IAS15's CPU time, {_label(orbit)}",
+            "limit": limit,
+            "met": False,
+        }
+        ias = [p for p in orbit["points"] if p["method"] == "ias15" and p.get("epsilon") == IAS15_EPSILON]
+        ias = [p for p in ias if p.get("status") == "ok"]
+        if not ias:
+            t.update(met=None, note=f"skipped: IAS15 at epsilon {IAS15_EPSILON:g} not measured")
+        else:
+            err, cpu = ias[0]["position_error"], ias[0]["cpu_s"]
+            ours = reach(orbit["points"], "em adaptive", err)
+            if ours is None:
+                t["note"] = f"em adaptive does not reach IAS15's {err:.1e} (IAS15: {1e3 * cpu:.1f} ms)"
+            else:
+                t.update(measured=ours["cpu_s"] / cpu, met=ours["cpu_s"] / cpu <= limit)
+                t["note"] = (
+                    f"{err:.1e} of a: em adaptive order {ours['order']} {1e3 * ours['cpu_s']:.1f} ms, "
+                    f"IAS15 {1e3 * cpu:.1f} ms" + ("" if t["met"] else f"; {t['measured'] / limit:.2f}x the limit")
+                )
+        out.append(t)
+        t = {
+            "target": f"em adaptive <= {LIMIT_HEYOKA:g}x heyoka's CPU time at a position error of "
+            f"{', '.join(f'{x:g}' for x in ACCURACIES)} (where both reach it), {_label(orbit)}",
+            "limit": LIMIT_HEYOKA,
+            "met": None,
+        }
+        ratios = {r["accuracy"]: r["adaptive_over_heyoka"] for r in orbit["targets"]}
+        ratios = {k: v for k, v in ratios.items() if v is not None}
+        if orbit["heyoka"] != "ok":
+            t["note"] = orbit["heyoka"]
+        elif not ratios:
+            t["note"] = "skipped: em adaptive and heyoka reach none of these errors both"
+        else:
+            worst = max(ratios.values())
+            t.update(measured=worst, met=worst <= LIMIT_HEYOKA)
+            t["note"] = ", ".join(f"{r:.2f}x at {k:g}" for k, r in ratios.items()) + (
+                "" if t["met"] else f"; {worst / LIMIT_HEYOKA:.2f}x the limit"
+            )
+        out.append(t)
+    return out
 
 
 def run(cfg) -> dict:
-    """Measure the section: both orbits, every engine.
+    """Measure the section: the three orbits, every engine, the targets.
 
     Parameters
     ----------
     cfg : Config
         A configuration of :data:`emorbit.bench.common.CONFIGS` (orbits, steps, epsilons,
-        tolerances).
+        tolerances, adaptive orders and etas).
 
     Returns
     -------
     dict
-        JSON-ready: per orbit its ``points`` (engine, method, order, parameter, CPU time,
-        position and energy errors, status, Pareto flags) and whether heyoka ran.
+        JSON-ready: per orbit its ``points`` (engine, method, order, setting, CPU time,
+        position and energy errors, status, Pareto flags) and ``targets`` (the least CPU time
+        of each engine at each of :data:`ACCURACIES`), whether heyoka ran, and the section's
+        ``targets`` (:func:`verdicts`).
     """
     try:
         system = _heyoka_system()
     except ImportError:
         system = None
     x9, v9 = aphelion_state(6.0, 0.9)
-    orbits = [
-        _orbit("paper", PAPER_X0, PAPER_V0, cfg.divisions, cfg, system),
-        _orbit("e09", x9, v9, cfg.divisions_e09, cfg, system),
-    ]
+    x99, v99 = aphelion_state(6.0, 0.99)
+    guard = _Guard()
+    try:
+        orbits = [
+            _orbit("paper", PAPER_X0, PAPER_V0, cfg.divisions, cfg, system, guard),
+            _orbit("e09", x9, v9, cfg.divisions_e09, cfg, system, guard),
+            _orbit("e099", x99, v99, cfg.divisions_e099, cfg, system, guard),
+        ]
+    finally:
+        guard.close()
     return {
         "case": (
             f"{cfg.orbits} orbits from aphelion: final position error / a against the Kepler solution, "
@@ -324,6 +592,7 @@ def run(cfg) -> dict:
         ),
         "orbits": orbits,
         "heyoka": orbits[0]["heyoka"],
+        "targets": verdicts(orbits),
     }
 
 
@@ -338,24 +607,26 @@ _PEERS = {
 _MARKERS = {2: "o", 4: "s", 6: "^", 8: "D"}
 
 
-def _style(engine, method, order):
+def _style(engine, method, adaptive, order):
     """(label, color, marker, line style) of a series."""
     if engine == "emorbit":
         import matplotlib
 
-        color = matplotlib.colormaps[_MAPS[method]](0.35 + 0.65 * (order - 2) / 6)
-        ls = {"em": "-", "em adaptive": "-."}.get(method, ":")
-        return f"emorbit {method} {order}", color, _MARKERS[order], ls
+        kind = "em adaptive" if adaptive else method
+        color = matplotlib.colormaps[_MAPS[kind]](0.35 + 0.65 * (order - 2) / 6)
+        ls = {"em": "-", "em adaptive": "-."}.get(kind, ":")
+        return f"emorbit {kind} {order}" + (" (eta)" if adaptive else ""), color, _MARKERS[order], ls
     return _PEERS[(engine, method)]
 
 
-def plot(orbit: dict, path: str) -> None:
-    """Draw one orbit's work-precision figure: position and energy error against CPU time.
+def plot_orbits(orbits: list, path: str) -> None:
+    """Draw the work-precision figure of some orbits: one column per orbit, the final position
+    error (top) and the energy error (bottom) against CPU time.
 
     Parameters
     ----------
-    orbit : dict
-        One entry of the section's ``orbits``.
+    orbits : list of dict
+        Entries of the section's ``orbits``.
     path : str
         The PNG to write.
     """
@@ -364,65 +635,114 @@ def plot(orbit: dict, path: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(13, 6.2), constrained_layout=True)
-    series = {}
-    for p in orbit["points"]:
-        if p.get("status") == "ok":
-            key = (p["engine"], p["method"], p["order"] if p["engine"] == "emorbit" else 0)
-            series.setdefault(key, []).append(p)
-    for ax, key, flag, label in (
-        (axes[0], "position_error", "pareto_position", "final position error / a"),
-        (axes[1], "energy_error", "pareto_energy", "max |dE/E| over the run"),
-    ):
-        for (engine, method, order), pts in sorted(series.items()):
-            pts = sorted(pts, key=lambda p: p["cpu_s"])
-            name, color, marker, ls = _style(engine, method, order)
-            xs, ys = [p["cpu_s"] for p in pts], [max(p[key], 1e-17) for p in pts]
-            ax.loglog(
-                xs,
-                ys,
-                ls=ls,
-                marker=marker,
-                color=color,
-                ms=5,
-                lw=1.2 if engine == "emorbit" else 1.5,
-                label=name if ax is axes[0] else None,
+    n = len(orbits)
+    fig, axes = plt.subplots(2, n, figsize=(6.2 * n, 10), constrained_layout=True, squeeze=False)
+    labelled = set()
+    for col, orbit in enumerate(orbits):
+        series = {}
+        for p in orbit["points"]:
+            if p.get("status") == "ok":
+                key = (p["engine"], p["method"], bool(p.get("adaptive")), p["order"] if p["engine"] == "emorbit" else 0)
+                series.setdefault(key, []).append(p)
+        for ax, key, flag, label in (
+            (axes[0, col], "position_error", "pareto_position", "final position error / a"),
+            (axes[1, col], "energy_error", "pareto_energy", "max |dE/E| over the run"),
+        ):
+            for (engine, method, adaptive, order), pts in sorted(series.items()):
+                pts = sorted(pts, key=lambda p: p["cpu_s"])
+                name, color, marker, ls = _style(engine, method, adaptive, order)
+                xs, ys = [p["cpu_s"] for p in pts], [max(p[key], 1e-17) for p in pts]
+                lw = 1.5 if engine != "emorbit" or adaptive else 1.2
+                ax.loglog(
+                    xs, ys, ls=ls, marker=marker, color=color, ms=5, lw=lw, label=None if name in labelled else name
+                )
+                labelled.add(name)
+                if engine != "emorbit" or adaptive:
+                    for p, x_, y_ in zip(pts, xs, ys):
+                        param = p.get("epsilon", p.get("tolerance"))
+                        if param is None:
+                            continue
+                        text = f"{param:g}" if adaptive else f"{param:.0e}"
+                        ax.annotate(text, (x_, y_), fontsize=6, color=color, xytext=(3, 3), textcoords="offset points")
+            front = sorted((p for pts in series.values() for p in pts if p[flag]), key=lambda p: p["cpu_s"])
+            fx, fy = [p["cpu_s"] for p in front], [max(p[key], 1e-17) for p in front]
+            pareto = "Pareto front (circled)"
+            ax.step(
+                fx,
+                fy,
+                where="post",
+                color="0.3",
+                lw=3,
+                alpha=0.3,
+                zorder=0,
+                label=None if pareto in labelled else pareto,
             )
-            if engine != "emorbit" or method == "em adaptive":
-                for p, x_, y_ in zip(pts, xs, ys):
-                    param = p.get("epsilon", p.get("tolerance", p.get("eta")))
-                    if param is not None:
-                        ax.annotate(
-                            f"{param:.0e}", (x_, y_), fontsize=6, color=color, xytext=(3, 3), textcoords="offset points"
-                        )
-        front = sorted((p for pts in series.values() for p in pts if p[flag]), key=lambda p: p["cpu_s"])
-        fx, fy = [p["cpu_s"] for p in front], [max(p[key], 1e-17) for p in front]
-        ax.step(
-            fx,
-            fy,
-            where="post",
-            color="0.3",
-            lw=3,
-            alpha=0.3,
-            zorder=0,
-            label="Pareto front (circled)" if ax is axes[0] else None,
-        )
-        ax.scatter(fx, fy, s=110, facecolors="none", edgecolors="0.15", lw=1.2, zorder=5)
-        ax.set_xlabel(f"CPU time for {orbit['orbits']} orbits [s]")
-        ax.set_ylabel(label)
-        ax.grid(True, which="major", alpha=0.3)
-    fig.legend(fontsize=7, ncol=6, loc="outside lower center")
+            labelled.add(pareto)
+            ax.scatter(fx, fy, s=110, facecolors="none", edgecolors="0.15", lw=1.2, zorder=5)
+            ax.set_xlabel(f"CPU time for {orbit['orbits']} orbits [s]")
+            ax.set_ylabel(label)
+            ax.grid(True, which="major", alpha=0.3)
+        axes[0, col].set_title(f"{orbit['name']}: a = {orbit['a']:.2f} m, e = {orbit['e']:.3g}", fontsize=10)
+    fig.legend(fontsize=7, ncol=2 * n, loc="outside lower center")
     fig.suptitle(
-        f"What accuracy costs: a = {orbit['a']:.2f} m, e = {orbit['e']:.3g}, {orbit['orbits']} orbits from "
-        "aphelion (one particle, one thread)",
-        fontsize=11,
+        f"What accuracy costs: {orbits[0]['orbits']} orbits from aphelion (one particle, one thread)", fontsize=11
     )
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=100)
     plt.close(fig)
 
 
+def plot(orbit: dict, path: str) -> None:
+    """Draw one orbit's work-precision figure: :func:`plot_orbits` of ``[orbit]``."""
+    plot_orbits([orbit], path)
+
+
+# -- the table -------------------------------------------------------------------------------
+def _what(p: dict) -> str:
+    """A point's engine and method, as the tables name them."""
+    if p["engine"] != "emorbit":
+        return f"{p['engine']} {p['method']}"
+    return f"emorbit {p['method']}{' adaptive' if p.get('adaptive') else ''} {p['order']}"
+
+
+def _setting(p: dict) -> str:
+    """A point's setting: eta, dt, epsilon or tolerance."""
+    if p.get("adaptive"):
+        return f"eta {p['tolerance']:g}"
+    return next(f"{k} {p[k]:.3g}" for k in ("dt", "epsilon", "tolerance") if k in p)
+
+
+def _cell(r: dict | None, emorbit: bool) -> str:
+    if r is None:
+        return "-"
+    return f"{1e3 * r['cpu_s']:.2f} ms" + (f" ({r['order']})" if emorbit else "")
+
+
+def targets_lines(orbit: dict) -> list[str]:
+    """An orbit's ``targets`` (:func:`accuracy_targets`) as printable lines."""
+    heyoka = orbit["heyoka"] == "ok"
+    lines = [
+        "    least CPU time to reach a final position error (best order in brackets; the cheapest point "
+        "or a log-log interpolation between two neighbouring points)"
+        + ("" if heyoka else f"; heyoka {orbit['heyoka']}"),
+        f"      {'error / a':<10}" + "".join(f"{n:>16}" for n in ENGINES) + f"{'x IAS15':>10}{'x heyoka':>10}",
+    ]
+    for row in orbit["targets"]:
+        cells = [
+            _cell(row["engines"][n], ENGINES[n][0] == "emorbit") if n != "heyoka" or heyoka else "skipped"
+            for n in ENGINES
+        ]
+        ratios = [
+            f"{r:.2f}x" if r is not None else "-" for r in (row["adaptive_over_ias15"], row["adaptive_over_heyoka"])
+        ]
+        lines.append(
+            f"      {row['accuracy']:<10g}" + "".join(f"{c:>16}" for c in cells) + "".join(f"{r:>10}" for r in ratios)
+        )
+    return lines
+
+
 def table(section: dict) -> list[str]:
-    """The section as printable lines: each orbit's Pareto front and em's best points.
+    """The section as printable lines: each orbit's Pareto front, em's best fixed-step points,
+    the adaptive runs, the targets table; then the verdicts.
 
     Parameters
     ----------
@@ -441,15 +761,13 @@ def table(section: dict) -> list[str]:
         )
         front = sorted((p for p in orbit["points"] if p.get("pareto_position")), key=lambda p: p["cpu_s"])
         for p in front:
-            what = f"{p['engine']} {p['method']}" + (f" {p['order']}" if p["engine"] == "emorbit" else "")
-            param = next(f"{k} {p[k]:.3g}" for k in ("dt", "epsilon", "tolerance", "eta") if k in p)
             lines.append(
-                f"    {what:<24} {param:<18} {1e3 * p['cpu_s']:>10.3f} ms  position {p['position_error']:.1e}"
+                f"    {_what(p):<28} {_setting(p):<18} {1e3 * p['cpu_s']:>10.3f} ms  position {p['position_error']:.1e}"
                 f"  energy {p['energy_error']:.1e}"
             )
         best = {}
         for p in orbit["points"]:
-            if p.get("status") == "ok" and p["engine"] == "emorbit" and p["method"] == "em":
+            if p.get("status") == "ok" and p["engine"] == "emorbit" and p["method"] == "em" and not p.get("adaptive"):
                 b = best.get(p["order"])
                 if b is None or p["position_error"] < b["position_error"]:
                     best[p["order"]] = p
@@ -459,10 +777,19 @@ def table(section: dict) -> list[str]:
                 f"(dt = T/{orbit['period_s'] / p['dt']:.0f}), energy {p['energy_error']:.1e}"
             )
         for p in orbit["points"]:
-            if p.get("status") == "ok" and p["method"] == "em adaptive":
+            if p.get("adaptive"):
+                head = f"    em adaptive order {p['order']}, eta {p['tolerance']:g}: "
+                if p.get("status") != "ok":
+                    lines.append(head + p.get("status", "?"))
+                    continue
                 lines.append(
-                    f"    em adaptive order {p['order']}, eta {p['eta']:g}: position {p['position_error']:.1e} "
-                    f"in {1e3 * p['cpu_s']:.1f} ms ({p['steps'] / orbit['orbits']:.0f} steps per orbit), "
-                    f"energy {p['energy_error']:.1e}"
+                    head + f"position {p['position_error']:.1e} in {1e3 * p['cpu_s']:.1f} ms "
+                    f"({p['steps'] / orbit['orbits']:.0f} steps per orbit), energy {p['energy_error']:.1e}"
                 )
+        lines += targets_lines(orbit)
+    lines.append("  targets:")
+    for t in section["targets"]:
+        verdict = {True: "met", False: "NOT met", None: "skipped"}[t["met"]]
+        measured = f": {t['measured']:.3g}" if "measured" in t else ""
+        lines.append(f"    {verdict:>8}  {t['target']}{measured} ({t['note']})")
     return lines

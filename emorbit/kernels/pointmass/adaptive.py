@@ -21,10 +21,13 @@ kick of the next read g at the same state: one evaluation per sub-step.
 
 Records land exactly on the grid ``k * interval``: a composed step that would pass the next
 record time (expected from the last step's length, :data:`PREDICT`, or found by taking it)
-is replaced by one composed step of the remaining time (fixed sub-steps, ``rho`` scaled by
-``s(x_0) / s(x_1)``): the energy stays exact, the symmetry is broken at the records only. A
-composed step whose solve fails, or whose kicks exceed :data:`KICK_MAX`, is retried with
-half the ``eps``, up to :data:`MAX_HALVINGS` times, before the point is reported as failed.
+is replaced by one composed step of the remaining time (fixed sub-steps), after which
+``rho = 1 / s(x)``: the energy stays exact, the symmetry is broken at the records only, and
+``rho s(x)``, which the kicks keep near 1 but which drifts from orbit to orbit (a drift that
+the way in to pericentre multiplies by (r_a / r_p)**(3/2)), starts each record interval at 1. A
+composed step whose solve fails, whose kicks exceed :data:`KICK_MAX` or that leaves
+``rho s(x)`` beyond :data:`U_MAX` is retried with half the ``eps``, up to :data:`MAX_HALVINGS`
+times, before the point is reported as failed.
 
 Data layout: ``x, v, cx, cv`` (3, n) state and Kahan compensations as in :mod:`.chunk`;
 ``rho`` (n,) the control variables (0 or less: set from ``s(x)`` at the first step), updated
@@ -46,9 +49,14 @@ from ..jit import kernel
 from .point_step import _implicit_point_em, _implicit_point_em_plain, _implicit_point_mid, _leapfrog_point
 from .roots import _tau
 
-__all__ = ["adaptive_chunk", "reversible_steps", "control", "MAX_HALVINGS", "KICK_MAX"]
+__all__ = ["adaptive_chunk", "reversible_steps", "control", "MAX_HALVINGS", "MAX_STEPS", "KICK_MAX", "U_MAX"]
 
 MAX_HALVINGS = 20
+#: composed steps per record interval beyond which a point fails (its control ran away)
+MAX_STEPS = 10_000_000
+#: a composed step that leaves rho s(x) beyond a factor U_MAX from 1 fails (and is retried
+#: with half the eps): the control no longer follows the motion
+U_MAX = 16.0
 #: a half-kick ``rho (1 + a) / (1 - a)`` with ``|a|`` beyond this (rho changing by more than a
 #: factor 1.5 in half a sub-step: the step is too long for the control) retries the composed
 #: step with half the eps
@@ -118,8 +126,8 @@ def _sub(method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, 
 def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter):
     """One composed step from the 15 values ``s`` (x, v, cx, cv, the leapfrog acceleration)
     and ``rho``: sub-steps ``gammas[k] eps`` in tau, or (``fixed`` > 0) of physical size
-    ``gammas[k] fixed``, with ``rho`` then carried as ``rho s(x)`` (what its kicks keep
-    near 1). Returns (new 15 values, rho, the physical duration as ``dur - dlo`` (a Kahan
+    ``gammas[k] fixed``, with ``rho`` then set to ``1 / s(x)`` at its end. Returns (new 15
+    values, rho, the physical duration as ``dur - dlo`` (a Kahan
     sum and its compensation), iterations, status); on a failure the values are meaningless.
 
     The kick closing one sub-step and the kick opening the next read g at the same state: it
@@ -128,9 +136,7 @@ def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter)
     its = 0
     dur = 0.0
     dlo = 0.0
-    if fixed > 0.0:
-        rho = rho / control(t0, t1, t2, c0, c1, c2, gm, eta)
-    else:
+    if fixed <= 0.0:
         g = _g(t0, t1, t2, u0, u1, u2, c0, c1, c2, gm, eta)
     for k in range(gammas.shape[0]):
         if fixed > 0.0:
@@ -156,7 +162,11 @@ def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter)
             rho = _kick(rho, a)
         dur, dlo = kahan_add(dur, dlo, h)
     if fixed > 0.0:
-        rho = rho * control(t0, t1, t2, c0, c1, c2, gm, eta)
+        rho = control(t0, t1, t2, c0, c1, c2, gm, eta)
+    else:
+        u = rho / control(t0, t1, t2, c0, c1, c2, gm, eta)
+        if not (u > 1.0 / U_MAX and u < U_MAX):  # the control ran away from 1 / s(x)
+            return s, rho, dur, dlo, its, STATUS_NO_CONVERGENCE
     return (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2), rho, dur, dlo, its, STATUS_OK
 
 
@@ -264,6 +274,12 @@ def adaptive_chunk(
                 s = q
                 r = rq
                 steps += 1
+                if steps > MAX_STEPS:  # the control ran away: fail rather than never return
+                    s = s_start
+                    r = r_start
+                    status = STATUS_NO_CONVERGENCE
+                    failed = True
+                    break
                 if not last:
                     elapsed, comp = kahan_add(elapsed, comp + dlo, dur)
                     prev = PREDICT * (dur - dlo)
