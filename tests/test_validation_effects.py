@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from emorbit.cli import main
+from emorbit.validation.body_case import body_case_names
 from emorbit.validation.cases import case_names, get_cases
 from emorbit.validation.effect_cases import EFFECT_CASES, J2, J4, R_EARTH
 from emorbit.validation.effect_runner import run_effect_case
@@ -105,8 +106,9 @@ def test_each_case_checks_what_it_is_for(quick):
 def test_list_names_the_effect_cases(capsys):
     assert main(["validate", "--list"]) == 0
     listed = capsys.readouterr().out.split()
-    assert listed == list(case_names()) and listed[-len(RIGID_BINARY_CASES) :] == list(RIGID_BINARY_CASES)
-    assert listed[-len(EFFECT_CASES) - len(RIGID_BINARY_CASES) : -len(RIGID_BINARY_CASES)] == list(EFFECT_CASES)
+    after = len(RIGID_BINARY_CASES) + len(body_case_names())  # the rigid binary, then the body cases
+    assert listed == list(case_names()) and listed[-after:][: len(RIGID_BINARY_CASES)] == list(RIGID_BINARY_CASES)
+    assert listed[-len(EFFECT_CASES) - after : -after] == list(EFFECT_CASES)
 
 
 @needs_reboundx

@@ -37,6 +37,9 @@ def test_the_quick_cases_pass_every_check(quick):
     assert {"roll-yaw-fast", "roll-yaw-slow", "basilisk-roll-yaw-fast", "basilisk-roll-yaw-slow"} <= roll_yaw
     # the measured pitch frequency is the linear one less the pendulum's correction (theta0 = 0.01 rad)
     assert pitch["pitch-linear"]["value"] == pytest.approx(0.01**2 / 4, rel=0.01)
+    if LR.basilisk_missing():  # CI: Basilisk's checks are skipped, the case still passes
+        assert pitch["basilisk-torque"]["skipped"].startswith("skipped: Basilisk not installed")
+        return
     # the grown boxes approach the first-order torque like (size / r)^2
     torque = [row["relative difference"] for row in cases["libration-pitch"]["metrics"]["sizes.torque"]["value"]]
     np.testing.assert_allclose(np.log2(np.array(torque[1:]) / np.array(torque[:-1])), 2.0, atol=1e-3)
@@ -68,7 +71,8 @@ def test_a_wrong_inertia_in_the_referee_fails(tmp_path, monkeypatch):
     pitch = L.run(reduced, "quick", str(tmp_path), figures=False)
     failed = failed_ids(pitch)
     assert {"same-inertia", "pitch-linear", "pitch-period-0.573deg", "pitch-period-30deg"} <= failed
-    assert {"basilisk-series-30deg", "basilisk-period-30deg", "basilisk-torque"} <= failed
+    if not LR.basilisk_missing():
+        assert {"basilisk-series-30deg", "basilisk-period-30deg", "basilisk-torque"} <= failed
     assert not failed & {"energy", "angular-momentum", "attitude-invariant"}
     roll_yaw = failed_ids(L.run(_reduced("libration-roll-yaw", orbits=6), "quick", str(tmp_path), figures=False))
     assert {"same-inertia", "roll-yaw-fast", "roll-yaw-slow"} <= roll_yaw
