@@ -24,6 +24,8 @@ import os
 import subprocess
 import sys
 
+from emorbit.bench.workprecision import point_label, point_setting
+
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 PAGE = os.path.join(ROOT, "docs", "benchmarks.md")
 JSON = os.path.join(ROOT, "docs", "data", "bench-quick.json")
@@ -164,18 +166,6 @@ def _ensemble(s: dict) -> list[str]:
     return out
 
 
-def _wp_what(p: dict) -> str:
-    if p["engine"] != "emorbit":
-        return f"{p['engine']} {p['method']}"
-    return f"emorbit {p['method']}{' adaptive' if p.get('adaptive') else ''} order {p['order']}"
-
-
-def _wp_setting(p: dict) -> str:
-    if p.get("adaptive"):
-        return f"eta {p['tolerance']:g}"
-    return next(f"{k} {p[k]:.3g}" for k in ("dt", "epsilon", "tolerance") if k in p) + (" s" if "dt" in p else "")
-
-
 def _wp_reach(r, emorbit: bool) -> str:
     """A cell of the targets table: CPU ms (best order; the settings interpolated between)."""
     if r is None:
@@ -226,7 +216,8 @@ def _work_precision(s: dict) -> list[str]:
         front = sorted((p for p in orbit["points"] if p.get("pareto_position")), key=lambda p: p["cpu_s"])
         for p in front:
             rows.append(
-                [_wp_what(p), _wp_setting(p), f"{1e3 * p['cpu_s']:.3f}", _e(p["position_error"]), _e(p["energy_error"])]
+                [point_label(p), point_setting(p), f"{1e3 * p['cpu_s']:.3f}"]
+                + [_e(p["position_error"]), _e(p["energy_error"])]
             )
         best = {}
         for p in orbit["points"]:

@@ -697,18 +697,18 @@ def plot(orbit: dict, path: str) -> None:
 
 
 # -- the table -------------------------------------------------------------------------------
-def _what(p: dict) -> str:
-    """A point's engine and method, as the tables name them."""
+def point_label(p: dict) -> str:
+    """A point's engine and method, as the tables (and the docs' tables) name them."""
     if p["engine"] != "emorbit":
         return f"{p['engine']} {p['method']}"
-    return f"emorbit {p['method']}{' adaptive' if p.get('adaptive') else ''} {p['order']}"
+    return f"emorbit {p['method']}{' adaptive' if p.get('adaptive') else ''} order {p['order']}"
 
 
-def _setting(p: dict) -> str:
-    """A point's setting: eta, dt, epsilon or tolerance."""
+def point_setting(p: dict) -> str:
+    """A point's setting: eta, dt (s), epsilon or tolerance."""
     if p.get("adaptive"):
         return f"eta {p['tolerance']:g}"
-    return next(f"{k} {p[k]:.3g}" for k in ("dt", "epsilon", "tolerance") if k in p)
+    return next(f"{k} {p[k]:.3g}" for k in ("dt", "epsilon", "tolerance") if k in p) + (" s" if "dt" in p else "")
 
 
 def _cell(r: dict | None, emorbit: bool) -> str:
@@ -762,8 +762,8 @@ def table(section: dict) -> list[str]:
         front = sorted((p for p in orbit["points"] if p.get("pareto_position")), key=lambda p: p["cpu_s"])
         for p in front:
             lines.append(
-                f"    {_what(p):<28} {_setting(p):<18} {1e3 * p['cpu_s']:>10.3f} ms  position {p['position_error']:.1e}"
-                f"  energy {p['energy_error']:.1e}"
+                f"    {point_label(p):<34} {point_setting(p):<18} {1e3 * p['cpu_s']:>10.3f} ms  "
+                f"position {p['position_error']:.1e}  energy {p['energy_error']:.1e}"
             )
         best = {}
         for p in orbit["points"]:
