@@ -11,8 +11,8 @@ ten checkpoints per orbit. Engines:
   (through ``PointMasses.advance``, checkpoints recorded by the kernel); points carry ``dt``;
 * emorbit em with adaptive, time-symmetric steps (:mod:`emorbit.kernels.pointmass.adaptive`,
   ``h ~ eta 2 pi sqrt(r^3/GM)``) at orders 2-8 for several eta: points with ``method = "em"``,
-  ``adaptive = True`` and eta as ``tolerance``. They run in a child process that is stopped
-  when a run overruns (:data:`ADAPTIVE_TIMEOUT_S`): the point is then kept as failed;
+  ``adaptive = True`` and eta as ``tolerance`` (a step too long for the control fails the run,
+  which is kept as a failed point);
 * REBOUND IAS15 at several epsilons (its adaptive step, exact finish time), WHFast (without
   safe mode) and leapfrog at the same dt as emorbit;
 * heyoka's Taylor integrator at tolerances from 1e-6 to machine precision, when it is
@@ -37,10 +37,6 @@ epsilon (1e-9) within :data:`LIMIT_IAS15` times IAS15's CPU time, and within
 from __future__ import annotations
 
 import math
-import os
-import socket
-import subprocess
-import sys
 import time
 import warnings
 
@@ -57,11 +53,6 @@ ORDERS = (2, 4, 6, 8)
 CHECKPOINTS_PER_ORBIT = 10
 #: a run that would take longer than this (estimated from the one before in its series) is left out
 MAX_RUN_S = 3.0
-#: an adaptive run gets at most this long (wall clock) before its process is stopped; less
-#: (20 times the estimate from the orbit's last adaptive run, at least 2 s) once there is one
-ADAPTIVE_TIMEOUT_S = 5 * MAX_RUN_S
-#: a new child process gets this long to load (or compile) the adaptive kernel
-ADAPTIVE_START_S = 600.0
 #: the final position errors (relative to a) of the targets table
 ACCURACIES = (1e-6, 1e-9, 1e-12)
 #: REBOUND's default IAS15 epsilon: the verdict compares at this point's final position error
@@ -162,79 +153,6 @@ def _emorbit_adaptive(x0, v0, order, eta, T, orbits) -> dict:
     }
 
 
-def _adaptive_worker(fd: int) -> None:
-    """The child process of :class:`_Guard`, talking over the socket ``fd``: loads the kernel
-    (one orbit of the paper's orbit), says so, then runs ``_emorbit_adaptive(*job)`` for each
-    job it receives until None."""
-    from multiprocessing.connection import Connection
-
-    conn = Connection(fd)
-    _emorbit_adaptive(PAPER_X0, PAPER_V0, 2, 0.02, period(PAPER_X0, PAPER_V0), 1)
-    conn.send("ready")
-    while (job := conn.recv()) is not None:
-        conn.send(_emorbit_adaptive(*job))
-
-
-class _Guard:
-    """Adaptive em in a child process (a fresh interpreter: no threads, compiled state or
-    ``__main__`` copied), stopped and replaced when a run overruns its time: a step-size
-    control that stalls cannot hold up the bench."""
-
-    def __init__(self):
-        self.proc = self.conn = None
-
-    def _start(self) -> None:
-        from multiprocessing.connection import Connection
-
-        ours, theirs = socket.socketpair()
-        root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-        env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
-        code = (
-            "import sys; from emorbit.bench.workprecision import _adaptive_worker; _adaptive_worker(int(sys.argv[1]))"
-        )
-        fd = theirs.fileno()
-        self.proc = subprocess.Popen(
-            [sys.executable, "-c", code, str(fd)], pass_fds=(fd,), env=env, stdout=subprocess.DEVNULL
-        )
-        theirs.close()
-        self.conn = Connection(ours.detach())
-        if not self.conn.poll(ADAPTIVE_START_S):
-            raise TimeoutError(f"the kernel did not load within {ADAPTIVE_START_S:.0f} s")
-        self.conn.recv()
-
-    def __call__(self, job: tuple, timeout_s: float) -> dict:
-        """The result of ``_emorbit_adaptive(*job)``, or a failed point when it took longer
-        than ``timeout_s`` (wall clock) or its process ended."""
-        try:
-            if self.proc is None:
-                self._start()
-            self.conn.send(job)
-            if self.conn.poll(timeout_s):
-                return self.conn.recv()
-            status = f"failed: no result within {timeout_s:.1f} s (the run was stopped)"
-        except (EOFError, OSError, TimeoutError) as exc:
-            status = f"failed: the adaptive run's process ended ({type(exc).__name__}: {exc})"
-        self.close(stop=True)
-        return {"status": status}
-
-    def close(self, stop: bool = False) -> None:
-        """End the child process: ask it to (or, with ``stop``, kill it) and wait for it."""
-        if self.proc is None:
-            return
-        try:
-            if not stop:
-                self.conn.send(None)
-                self.proc.wait(10)
-        except (OSError, ValueError, subprocess.TimeoutExpired):
-            stop = True
-        if stop:
-            self.proc.kill()
-            self.proc.wait()
-        if self.conn is not None:
-            self.conn.close()
-        self.proc = self.conn = None
-
-
 def _rebound_fixed(x0, v0, integrator, N, T, orbits) -> dict:
     steps = N * orbits
     dt = T / N
@@ -329,7 +247,7 @@ def _pareto(points: list, key: str) -> list:
     return front
 
 
-def _orbit(name, x0, v0, divisions, cfg, heyoka_system, guard) -> dict:
+def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
     T = period(x0, v0)
     a = float(semi_major_axis(x0, v0, GM))
     orbits = cfg.orbits
@@ -362,6 +280,7 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system, guard) -> dict:
                 per_step = res["cpu_s"] / (N * orbits)
                 add("emorbit", method, order, T / N, "dt", res)
     scale = None  # CPU s x eta / sub-steps of the last adaptive run that finished (steps ~ 1 / eta)
+    _emorbit_adaptive(x0, v0, 2, cfg.adaptive_eta[0], T, 1)  # warm-up: load the kernel (one for every order)
     for order in cfg.adaptive_orders:
         stages = len(coefficients(order))
         for eta in cfg.adaptive_eta:
@@ -369,8 +288,7 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system, guard) -> dict:
             if estimate is not None and estimate > MAX_RUN_S:
                 add("emorbit", "em", order, eta, "tolerance", dict(skipped), adaptive=True)
                 continue
-            timeout = ADAPTIVE_TIMEOUT_S if estimate is None else min(ADAPTIVE_TIMEOUT_S, max(2.0, 20 * estimate))
-            res = guard((x0, v0, order, eta, T, orbits), timeout)
+            res = _emorbit_adaptive(x0, v0, order, eta, T, orbits)
             if "steps" in res:
                 scale = res["cpu_s"] * eta / stages
             add("emorbit", "em", order, eta, "tolerance", res, adaptive=True)
@@ -576,15 +494,11 @@ def run(cfg) -> dict:
         system = None
     x9, v9 = aphelion_state(6.0, 0.9)
     x99, v99 = aphelion_state(6.0, 0.99)
-    guard = _Guard()
-    try:
-        orbits = [
-            _orbit("paper", PAPER_X0, PAPER_V0, cfg.divisions, cfg, system, guard),
-            _orbit("e09", x9, v9, cfg.divisions_e09, cfg, system, guard),
-            _orbit("e099", x99, v99, cfg.divisions_e099, cfg, system, guard),
-        ]
-    finally:
-        guard.close()
+    orbits = [
+        _orbit("paper", PAPER_X0, PAPER_V0, cfg.divisions, cfg, system),
+        _orbit("e09", x9, v9, cfg.divisions_e09, cfg, system),
+        _orbit("e099", x99, v99, cfg.divisions_e099, cfg, system),
+    ]
     return {
         "case": (
             f"{cfg.orbits} orbits from aphelion: final position error / a against the Kepler solution, "
