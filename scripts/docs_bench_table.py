@@ -2,6 +2,7 @@
 
     python scripts/docs_bench_table.py --run           # run `emorbit bench --quick`, keep its JSON, write the page
     python scripts/docs_bench_table.py --run --only work-precision   # measure that section again, merge it in
+    python scripts/docs_bench_table.py --run --only rigid-precision  # the same for the rigid-body one
     python scripts/docs_bench_table.py                 # rewrite the page from the JSON already there
     python scripts/docs_bench_table.py --check         # exit 1 if the page differs from the JSON
     python scripts/docs_bench_table.py FILE.json --print   # print the tables of any run
@@ -34,6 +35,8 @@ END = "<!-- END bench tables -->"
 COMMAND = "emorbit bench --quick --json docs/data/bench-quick.json"
 #: the work-precision figure, in docs/data, drawn from the JSON
 FIGURE = "work-precision.png"
+#: the rigid-body work-precision figure, in docs/data, drawn from the JSON
+RIGID_FIGURE = "rigid-work-precision.png"
 
 
 def _e(x) -> str:
@@ -280,6 +283,48 @@ def _work_precision(s: dict) -> list[str]:
     return out
 
 
+def _rigid_precision(s: dict) -> list[str]:
+    """The rigid-body work-precision section: per case its reference and the least CPU time of
+    each group at each attitude error, em's ratio to the best peer, and the energy errors."""
+    out = (
+        ["### Rigid bodies: work against precision", ""] + _wp_run(s) + [f"{s['case'][0].upper()}{s['case'][1:]}.", ""]
+    )
+    for case in s["cases"]:
+        ref = case["reference"]
+        note = f"reference {ref['method']}, its difference from rtol 1e-12 {ref['attitude_check']:.1e} rad (attitude)"
+        if "gradient_model_floor" in ref:
+            note += (
+                f"; Basilisk's first-order gravity gradient against the 8 mass points (both DOP853): "
+                f"{ref['gradient_model_floor']['attitude']:.1e} rad"
+            )
+        skipped = [f"{k} {v}" for k, v in case["peers"].items() if v != "ok"]
+        out += [
+            f"**{case['name']}** ({case['kind']}, {case['t_end']:g} s; {note}"
+            + "".join(f"; {x}" for x in skipped)
+            + ").",
+            "",
+        ]
+        rows = []
+        for row in case["reach"]:
+            cells = []
+            for r in row["engines"].values():
+                cells.append("-" if r is None else f"{1e3 * r['cpu_s']:.2f} ({r['series']})")
+            ratio = row["em_over_best_peer"]
+            rows.append([f"{row['accuracy']:g}"] + cells + ["-" if ratio is None else f"{ratio:.2f}x"])
+        names = list(case["reach"][0]["engines"])
+        out += _table(["attitude error, rad"] + [f"{n}, ms" for n in names] + ["em / best peer"], rows)
+        energy = {}
+        for p in case["points"]:
+            if p.get("status") == "ok":
+                energy.setdefault(p["series"], []).append(p["energy_error"])
+        rows = [[k, _e(min(v)), _e(max(v)), str(len(v))] for k, v in energy.items()]
+        out += _table(["series", "max \\|dE/E\\|, least", "max \\|dE/E\\|, most", "points"], rows)
+    for f in s.get("figures", []):
+        alt = "Rigid bodies: attitude, omega and energy errors against CPU time, by case"
+        out += [f"![{alt}](data/{os.path.basename(f)})", ""]
+    return out
+
+
 def _startup(s: dict) -> list[str]:
     return [
         "### Start-up",
@@ -420,6 +465,7 @@ def markdown(data: dict) -> str:
         ("work_precision", _work_precision),
         ("startup", _startup),
         ("rigid", _rigid),
+        ("rigid_precision", _rigid_precision),
         ("elastic", _elastic),
         ("effects", _effects),
     ):
@@ -477,6 +523,12 @@ def run_bench(path: str, only: str | None = None) -> None:
         figure = os.path.join(folder, FIGURE)
         plot_orbits(data["work_precision"]["orbits"], os.path.join(ROOT, figure))
         data["work_precision"]["figures"] = [figure]
+    if "rigid_precision" in data:
+        from emorbit.bench.rigid_precision import plot as plot_rigid
+
+        figure = os.path.join(folder, RIGID_FIGURE)
+        plot_rigid(data["rigid_precision"], os.path.join(ROOT, figure))
+        data["rigid_precision"]["figures"] = [figure]
     with open(os.path.join(ROOT, path), "w") as f:
         json.dump(data, f, indent=1)
         f.write("\n")

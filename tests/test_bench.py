@@ -236,7 +236,16 @@ def test_command_line(capsys):
     with pytest.raises(SystemExit):
         main(["bench", "--only", "nonsense"])
     assert "invalid choice" in capsys.readouterr().err
-    assert set(SECTIONS) == {"single", "ensemble", "work-precision", "startup", "rigid", "elastic", "effects"}
+    assert set(SECTIONS) == {
+        "single",
+        "ensemble",
+        "work-precision",
+        "startup",
+        "rigid",
+        "rigid-precision",
+        "elastic",
+        "effects",
+    }
 
 
 def test_precompile_parts_share_no_kernel(result):

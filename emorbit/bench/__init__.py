@@ -21,6 +21,9 @@ work-precision  final position error (against the analytic Kepler solution) and 
 startup         wall time of ``emorbit run paper-ellipse`` with an empty Numba cache (cold)
                 and with it filled (warm) (:mod:`.startup`)
 rigid           the rigid-body rows of :mod:`emorbit.bench.rigid`
+rigid-precision attitude, omega and energy errors against CPU time for rigid bodies: em and
+                midpoint at orders 2-8 beside Exudyn (generalized-alpha, RK44) and Basilisk
+                (RK4, RKF78), torque-free and in orbit (:mod:`.rigid_precision`)
 elastic         the elastic-body rows of :mod:`emorbit.bench.elastic` (cost per step against
                 degrees of freedom, up to a 10,000-DOF beam)
 effects         effects beyond the central field (:mod:`.effects`): central + J2 against
@@ -40,7 +43,7 @@ imported to build the command line; the sections import what they need when they
 from __future__ import annotations
 
 #: the sections, in the order they run
-SECTIONS = ("single", "ensemble", "work-precision", "startup", "rigid", "elastic", "effects")
+SECTIONS = ("single", "ensemble", "work-precision", "startup", "rigid", "rigid-precision", "elastic", "effects")
 
 __all__ = ["SECTIONS", "add_arguments", "run"]
 

@@ -101,8 +101,8 @@ def orbit_rate(gm: float) -> float:
     return math.sqrt(gm / R_ORBIT**3)
 
 
-def leo_sim(refinement: int, dt: float, gravity: str = "volume", order: int = 2):
-    """The orbiting box as a :class:`emorbit.Simulation` (em).
+def leo_sim(refinement: int, dt: float, gravity: str = "volume", order: int = 2, method: str = "em"):
+    """The orbiting box as a :class:`emorbit.Simulation` (em unless ``method`` says otherwise).
 
     Parameters
     ----------
@@ -114,6 +114,8 @@ def leo_sim(refinement: int, dt: float, gravity: str = "volume", order: int = 2)
         ``"volume"`` or ``"point"``.
     order : int
         The composition's order.
+    method : str
+        The method (``"em"`` or ``"midpoint"``).
 
     Returns
     -------
@@ -124,7 +126,7 @@ def leo_sim(refinement: int, dt: float, gravity: str = "volume", order: int = 2)
 
     field = earth_field()
     n = orbit_rate(field.gm)
-    sim = emorbit.Simulation(field, method="em", order=order, dt=dt)
+    sim = emorbit.Simulation(field, method=method, order=order, dt=dt)
     sim.add_rigid(
         "box",
         "box",
@@ -140,8 +142,9 @@ def leo_sim(refinement: int, dt: float, gravity: str = "volume", order: int = 2)
     return sim
 
 
-def free_sim(dt: float, omega=FREE_OMEGA):
-    """The torque-free box as a :class:`emorbit.Simulation` in free space (em, order 2).
+def free_sim(dt: float, omega=FREE_OMEGA, method: str = "em", order: int = 2):
+    """The torque-free box as a :class:`emorbit.Simulation` in free space (em, order 2 unless
+    ``method`` and ``order`` say otherwise).
 
     Parameters
     ----------
@@ -149,6 +152,10 @@ def free_sim(dt: float, omega=FREE_OMEGA):
         The step, s.
     omega : sequence of 3 floats
         Initial angular velocity, rad/s, body frame.
+    method : str
+        The method (``"em"`` or ``"midpoint"``).
+    order : int
+        The composition's order.
 
     Returns
     -------
@@ -157,7 +164,7 @@ def free_sim(dt: float, omega=FREE_OMEGA):
     """
     import emorbit
 
-    sim = emorbit.Simulation(None, method="em", dt=dt)
+    sim = emorbit.Simulation(None, method=method, order=order, dt=dt)
     sim.add_rigid(
         "box", "box", position=[0.0, 0.0, 0.0], velocity=[0.0, 0.0, 0.0], angular_velocity=list(omega), **FREE_BOX
     )

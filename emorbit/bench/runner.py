@@ -85,6 +85,8 @@ def targets(result: dict) -> list[dict]:
                 "met": w <= TARGETS["warm_startup_s"],
             }
         )
+    if result.get("rigid_precision"):
+        out += result["rigid_precision"]["targets"]
     if result.get("effects"):
         from .effects import targets as effects_targets
 
@@ -157,6 +159,11 @@ def run_bench(sections, quick: bool = False, json_path=None, plots_dir=None, con
 
             data = bench_rigid.run(config="tiny" if name == "tiny" else None, quick=name != "full")
             lines = bench_rigid.table(data).splitlines()
+        elif section == "rigid-precision":
+            from . import rigid_precision
+
+            data = rigid_precision.run(config=name)
+            lines = rigid_precision.table(data)
         elif section == "elastic":
             from . import elastic as bench_elastic
 
@@ -177,14 +184,23 @@ def run_bench(sections, quick: bool = False, json_path=None, plots_dir=None, con
         plot_orbits(result["work_precision"]["orbits"], path)
         result["work_precision"]["figures"] = [path]
         print(f"\nfigures: {path}")
+    if plots_dir and "rigid_precision" in result:
+        from .rigid_precision import plot as plot_rigid
+
+        os.makedirs(plots_dir, exist_ok=True)
+        path = os.path.join(plots_dir, "rigid-work-precision.png")
+        plot_rigid(result["rigid_precision"], path)
+        result["rigid_precision"]["figures"] = [path]
+        print(f"\nfigures: {path}")
     result["targets"] = targets(result)
     result["load_average"]["after"] = loadavg()
     result["seconds"]["total"] = round(time.perf_counter() - start, 1)
     print("\ntargets (ratios within this run):")
     for t in result["targets"]:
-        verdict = "met" if t["met"] else "NOT met"
+        verdict = {True: "met", False: "NOT met", None: "skipped"}[t["met"]]
         note = f"; {t['note']}" if "note" in t else ""
-        print(f"  {verdict:>8}  {t['target']}: {t['measured']:.3g} (limit {t['limit']:g}{note})")
+        measured = "-" if t.get("measured") is None else f"{t['measured']:.3g}"
+        print(f"  {verdict:>8}  {t['target']}: {measured} (limit {t['limit']:g}{note})")
     print(
         f"load average {result['load_average']['before']} -> {result['load_average']['after']}; "
         f"{result['seconds']['total']} s"
