@@ -330,8 +330,8 @@ class PointMasses(BodySystem):
     device: str = "cpu"
 
     def _advance_adaptive(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> ChunkRecords:
-        """Adaptive, time-symmetric steps (see :mod:`emorbit.kernels.pointmass.adaptive`),
-        recorded every ``every * dt`` seconds."""
+        """Adaptive, time-symmetric steps (see :mod:`emorbit.kernels.pointmass.adaptive`) that
+        land on every multiple of ``dt``, recorded every ``every * dt`` seconds."""
         n = len(self)
         steps = np.zeros((nrec, n), dtype=np.int64)
         rec = ChunkRecords(
@@ -352,7 +352,8 @@ class PointMasses(BodySystem):
             self.rho,
             float(gm),
             np.ascontiguousarray(center, float),
-            float(every * dt),
+            float(dt),
+            int(every),
             float(self.adaptive),
             np.ascontiguousarray(gammas, float),
             int(nrec),

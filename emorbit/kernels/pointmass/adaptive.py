@@ -19,12 +19,14 @@ exactly for any step sequence, so for this one too. ``eps`` is 1: ``eta`` alone 
 accuracy (``rho`` starts at ``1 / s(x_0)``). The closing kick of a sub-step and the opening
 kick of the next read g at the same state: one evaluation per sub-step.
 
-Records land exactly on the grid ``k * interval``: a composed step that would pass the next
-record time (expected from the last step's length, :data:`PREDICT`, or found by taking it)
-is replaced by one composed step of the remaining time (fixed sub-steps), after which
-``rho = 1 / s(x)``: the energy stays exact, the symmetry is broken at the records only, and
-``rho s(x)``, which the kicks keep near 1 but which drifts from orbit to orbit (a drift that
-the way in to pericentre multiplies by (r_a / r_p)**(3/2)), starts each record interval at 1. A
+Steps land exactly on the grid ``k * interval`` (the run's ``dt``; records fall on every
+``every``-th point of it): a composed step that would pass the next grid time (expected
+from the last step's length, :data:`PREDICT`, or found by taking it) is replaced by one
+composed step of the remaining time (fixed sub-steps), after which ``rho = 1 / s(x)``: the
+energy stays exact, the symmetry is broken at the grid points only, and ``rho s(x)``, which
+the kicks keep near 1 but which drifts from orbit to orbit (a drift that the way in to
+pericentre multiplies by (r_a / r_p)**(3/2)), starts each interval at 1. Each interval
+starts afresh from the state, so a run's steps do not depend on how it is cut into calls. A
 composed step whose solve fails, whose kicks exceed :data:`KICK_MAX` or that leaves
 ``rho s(x)`` beyond :data:`U_MAX` is retried with half the ``eps``, up to :data:`MAX_HALVINGS`
 times, before the point is reported as failed.
@@ -194,6 +196,55 @@ def _store(s, r, x, v, cx, cv, rho, i):
 
 
 @kernel
+def _interval(method, s, r, interval, gammas, gm, c0, c1, c2, eta, max_iter):
+    """Composed steps from ``s, r`` that end exactly ``interval`` seconds later: returns (s, r,
+    iterations, composed steps, status). It starts afresh (its first step is a trial one), so
+    what it does depends on the state alone, not on where a chunk started."""
+    its = 0
+    steps = 0
+    elapsed = 0.0
+    comp = 0.0
+    prev = 0.0
+    status = STATUS_OK
+    last = False
+    while not last:
+        rem = (interval - elapsed) + comp  # kahan_add's compensation: the sum is elapsed - comp
+        ok = False
+        eps = 1.0
+        q = s
+        rq = r
+        for _halving in range(MAX_HALVINGS + 1):
+            if prev >= rem:  # the last step was longer than what is left: no trial step
+                dur = rem
+                dlo = 0.0
+                status = STATUS_OK
+            else:
+                q, rq, dur, dlo, it, status = _composed(method, s, r, eps, 0.0, gammas, gm, c0, c1, c2, eta, max_iter)
+                its += it
+            if status == STATUS_OK and dur - dlo >= rem:
+                # the step passes the landing: one step of the remaining time instead
+                q, rq, dur, dlo, it, status = _composed(method, s, r, 1.0, rem, gammas, gm, c0, c1, c2, eta, max_iter)
+                its += it
+                last = True
+            if status == STATUS_OK:
+                ok = True
+                break
+            eps *= 0.5
+            last = False
+        if not ok:
+            return s, r, its, steps, status
+        s = q
+        r = rq
+        steps += 1
+        if steps > MAX_STEPS:  # the control ran away: fail rather than never return
+            return s, r, its, steps, STATUS_NO_CONVERGENCE
+        if not last:
+            elapsed, comp = kahan_add(elapsed, comp + dlo, dur)
+            prev = PREDICT * (dur - dlo)
+    return s, r, its, steps, STATUS_OK
+
+
+@kernel
 def adaptive_chunk(
     method,
     x,
@@ -204,6 +255,7 @@ def adaptive_chunk(
     gm,
     center,
     interval,
+    every,
     eta,
     gammas,
     nrec,
@@ -214,8 +266,9 @@ def adaptive_chunk(
     rec_steps,
     fail,
 ):
-    """Advance every point by ``nrec`` record intervals of ``interval`` seconds with adaptive,
-    time-symmetric steps, recording at the end of each.
+    """Advance every point by ``nrec`` records of ``every`` intervals of ``interval`` seconds
+    (the landing grid: steps end on every multiple of it) with adaptive, time-symmetric
+    steps, recording at the end of each record.
 
     method       METHOD_EM, METHOD_EM_PLAIN, METHOD_MIDPOINT or METHOD_LEAPFROG
     rho          (n,) control variables, updated in place (<= 0: set from the state)
@@ -231,59 +284,19 @@ def adaptive_chunk(
     c2 = center[2]
     for i in range(n):
         s, r = _start(method, x, v, cx, cv, rho, gm, c0, c1, c2, eta, i)
-        prev = 0.0
         for k in range(nrec):
             its = 0
             steps = 0
-            elapsed = 0.0
-            comp = 0.0
             s_start = s
             r_start = r
-            failed = False
             status = STATUS_OK
-            last = False
-            while not last:
-                rem = (interval - elapsed) + comp  # kahan_add's compensation: the sum is elapsed - comp
-                ok = False
-                eps = 1.0
-                for _halving in range(MAX_HALVINGS + 1):
-                    if prev >= rem:  # the last step was longer than what is left: no trial step
-                        dur = rem
-                        dlo = 0.0
-                        status = STATUS_OK
-                    else:
-                        q, rq, dur, dlo, it, status = _composed(
-                            method, s, r, eps, 0.0, gammas, gm, c0, c1, c2, eta, max_iter
-                        )
-                        its += it
-                    if status == STATUS_OK and dur - dlo >= rem:
-                        # the step passes the record: one step of the remaining time instead
-                        q, rq, dur, dlo, it, status = _composed(
-                            method, s, r, 1.0, rem, gammas, gm, c0, c1, c2, eta, max_iter
-                        )
-                        its += it
-                        last = True
-                    if status == STATUS_OK:
-                        ok = True
-                        break
-                    eps *= 0.5
-                    last = False
-                if not ok:
-                    failed = True
+            for _j in range(every):
+                s, r, it, st, status = _interval(method, s, r, interval, gammas, gm, c0, c1, c2, eta, max_iter)
+                its += it
+                steps += st
+                if status != STATUS_OK:
                     break
-                s = q
-                r = rq
-                steps += 1
-                if steps > MAX_STEPS:  # the control ran away: fail rather than never return
-                    s = s_start
-                    r = r_start
-                    status = STATUS_NO_CONVERGENCE
-                    failed = True
-                    break
-                if not last:
-                    elapsed, comp = kahan_add(elapsed, comp + dlo, dur)
-                    prev = PREDICT * (dur - dlo)
-            if failed:
+            if status != STATUS_OK:
                 s = s_start
                 r = r_start
                 fail[i, 0] = k
