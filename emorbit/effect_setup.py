@@ -159,6 +159,7 @@ class EffectSetup:
                         "bodies or on a structure of bodies under mutual gravity",
                     )  # fmt: skip
             self.structure = Structure(newton=self.newton)
+            self.structure.adaptive = self.adaptive
             self.structure.zonal = next((t for t in self._effects if t.kind == "zonal"), None)
             self.structure.drag = next((t for t in self._effects if t.kind == "drag"), None)
         if self.structure._built:

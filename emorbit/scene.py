@@ -147,8 +147,9 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("checkpoint_every", False, "integer", "by wall time: at most 5 s between checkpoints", ">= 1",
             "steps between checkpoints, rounded up to a multiple of output_every"),
         Key("adaptive", False, "number", "off (fixed steps of dt)", "in (0, 1]",
-            "point masses: the accuracy knob eta of adaptive, time-symmetric steps of about eta times the local "
-            "Kepler time 2 pi sqrt(r^3 / GM); records land on multiples of output_every dt"),
+            "the accuracy knob eta of adaptive, time-symmetric steps of about eta times the fastest time scale: "
+            "the local Kepler time 2 pi sqrt(r^3 / GM), and for bodies their rotation and highest elastic "
+            "frequency; records land on multiples of output_every dt; central field and bodies only (no effects)"),
         Key("roundoff", False, "string", '"brouwer"', _choices(ROUNDOFF),
             'em steps of point masses: "brouwer" keeps the energy error a random walk; "fast" is cheaper and '
             "drifts at round-off level"),

@@ -84,12 +84,17 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         ``"reuse"`` keeps sparse LU factors while they converge fast, ``"auto"`` (default)
         picks by size (see :class:`~emorbit.bodies.coupled.Structure`).
     adaptive : float, optional
-        Point masses only, with a field: the accuracy knob eta of adaptive, time-symmetric
-        steps of about eta times the local Kepler time scale, h ~ eta 2 pi sqrt(r^3 / GM),
-        chosen from both ends of each step (a reversible controller; errors fall as
-        eta**order). ``dt`` is then the unit of the record grid only: records land exactly
-        on multiples of ``every * dt`` (see :mod:`emorbit.kernels.pointmass.adaptive`). A
-        number in (0, 1]; default: fixed steps of ``dt``.
+        The accuracy knob eta of adaptive, time-symmetric steps of about eta times the
+        fastest time scale, chosen from both ends of each step (a reversible controller;
+        errors fall as eta**order): point masses follow the local Kepler time,
+        h ~ eta 2 pi sqrt(r^3 / GM) (:mod:`emorbit.kernels.pointmass.adaptive`); a rigid
+        body also its rotation, h ~ eta 2 pi / sqrt(GM / r^3 + |w|^2)
+        (:mod:`emorbit.kernels.rigid_adaptive`); a structure of elastic bodies also its
+        highest elastic frequency (:mod:`emorbit.bodies.coupled_adaptive`), which on stiff
+        structures makes it far dearer than fixed steps over those modes. ``dt`` is then the
+        unit of the record grid only: records land exactly on multiples of ``every * dt``.
+        The central field only: effects run with fixed steps. A number in (0, 1]; default:
+        fixed steps of ``dt``.
     roundoff : str
         Point masses with method ``"em"``: ``"brouwer"`` (default) keeps the energy error a
         random walk over many steps (Brouwer's law, no drift of one sign): a fixed step
@@ -163,8 +168,6 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
                 raise InputError(
                     "adaptive", f"must be a number in (0, 1] (steps per local Kepler time scale), got {adaptive!r}"
                 )
-            if field is None:
-                raise InputError("adaptive", "adaptive steps follow the Kepler time scale: they need a central field")
         self.adaptive = None if adaptive is None else float(adaptive)
         self.roundoff = check_roundoff(roundoff)
         self.points = PointMasses()
@@ -402,9 +405,10 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         Raises
         ------
         InputError
-            A bad shape or value, a taken name, adaptive steps, a mass point at the centre
-            or inside the central body, a radial fall into a centre without radius, or a
-            method without a rigid-body kernel.
+            A bad shape or value, a taken name, adaptive steps for a body that neither
+            orbits nor turns, a mass point at the centre or inside the central body, a
+            radial fall into a centre without radius, or a method without a rigid-body
+            kernel.
         """
         from .bodies.facets import surface_spec
         from .bodies.rigid import RigidBodies, build_rigid
@@ -426,11 +430,15 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
             strict=strict,
             key=key,
         )
-        if self.adaptive is not None:
-            raise InputError("adaptive", f"adaptive steps are for point masses only ({key} is a rigid body)")
+        if self.adaptive is not None and self.field is None and not np.any(spec["omega_space"]):
+            raise InputError(
+                f"{key}.angular_velocity",
+                "adaptive steps follow the orbit and the rotation; this body has neither (no field, no rotation)",
+            )
         surface = surface_spec(facets, facet, drag_coefficient, specular, diffuse, strict, key)
         if self.rigid is None:
             self.rigid = RigidBodies()
+            self.rigid.adaptive = self.adaptive
             self.rigid.zonal = next((t for t in self._effects if t.kind == "zonal"), None)
             self.rigid.effects = self._rigid_terms()
         self._check_method_supports(self.rigid, key)
@@ -528,7 +536,7 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         Raises
         ------
         InputError
-            A bad mesh, material or value, a taken name, adaptive steps, a node at the
+            A bad mesh, material or value, a taken name, a node at the
             centre or inside the central body, a radial fall into a centre without radius,
             or a method without an elastic kernel (em and midpoint have one).
         """
@@ -538,8 +546,6 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
         position, velocity, xkey, vkey = initial_state(position, velocity, orbit, self.field, strict=strict, key=key)
-        if self.adaptive is not None:
-            raise InputError("adaptive", f"adaptive steps are for point masses only ({key} is an elastic body)")
         if self.method not in ("em", "midpoint"):
             raise InputError(
                 "method", f"method {self.method!r} has no elastic-body kernel (needed by {key}); use em or midpoint"

@@ -63,6 +63,20 @@ velocity = ["0 m/s", "0.36276 m/s", "0 m/s"]
 """
 
 
+#: a rigid box on the paper's orbit with adaptive steps at order 4
+ADAPTIVE_RIGID = ADAPTIVE.replace("order = 8", "order = 4").replace(
+    'kind = "point"\nmass = "1 kg"',
+    'kind = "rigid"\nshape = "box"\nsize = ["0.5 m", "0.3 m", "0.2 m"]\ndensity = "1000 kg / m3"\n'
+    'angular_velocity = ["0.01 rad/s", "0 rad/s", "0.05 rad/s"]',
+)
+#: a tumbling elastic bar in free space with adaptive steps (they follow its elastic modes)
+ADAPTIVE_ELASTIC = (
+    reuse_structure("3 s").replace("order = 4", "adaptive = 0.2").replace("output_every = 3", "output_every = 5")
+)
+SCENES = {"reuse-structure": REUSE_STRUCTURE, "adaptive": ADAPTIVE, "adaptive-rigid": ADAPTIVE_RIGID}
+SCENES["adaptive-elastic"] = ADAPTIVE_ELASTIC
+
+
 @pytest.mark.parametrize(
     "scene, t1, t2",
     [
@@ -73,13 +87,15 @@ velocity = ["0 m/s", "0.36276 m/s", "0 m/s"]
         ("tethered-satellites", "300 s", "700 s"),
         ("reuse-structure", "1.7 s", "4 s"),
         ("adaptive", "200 s", "500 s"),
+        ("adaptive-rigid", "200 s", "500 s"),
+        ("adaptive-elastic", "1.3 s", "3 s"),
     ],
 )
 def test_resume_is_bit_identical(tmp_path, scene, t1, t2):
     """Run to t1 (off the checkpoint grid), resume to t2: every record equals a single run to t2."""
-    if scene in ("reuse-structure", "adaptive"):
+    if scene in SCENES:
         path = tmp_path / f"{scene}.toml"
-        path.write_text(REUSE_STRUCTURE if scene == "reuse-structure" else ADAPTIVE)
+        path.write_text(SCENES[scene])
         scene = str(path)
     full, part = tmp_path / "full.h5", tmp_path / "part.h5"
     assert main(["run", scene, "-o", str(full), "-q", "--t-end", t2, "--checkpoint-every", "60"]) == 0

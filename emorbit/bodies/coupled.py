@@ -37,6 +37,7 @@ from ..integrators.dispatch import method_code
 from ..kernels import coupled as kc
 from ..kernels import elastic as kel
 from ..kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from .coupled_adaptive import StructureAdaptive
 from .coupled_drag import StructureDrag
 from .coupled_layout import StructureLayout
 from .coupled_output import StructureRecords
@@ -50,7 +51,7 @@ _FLOOR2 = (2.0**20 * _EPS) ** 2  # a stall (see Structure.step) is accepted only
 _STALLS = 3  # iterations in a row without progress that make a stall
 
 
-class Structure(StructureDrag, StructureLayout):
+class Structure(StructureAdaptive, StructureDrag, StructureLayout):
     """A coupled structure of elastic bodies, rigid bodies and point masses: one system.
 
     Bodies are added, attachments declared, then :meth:`build` lays out the slots and the
@@ -119,11 +120,14 @@ class Structure(StructureDrag, StructureLayout):
         self._built = False
         self.zonal = None  # an EffectTerm of kind "zonal" at the gravity points, or None
         self.mutual: list = []  # EffectTerms of kind "mutual" between the bodies' mass points
+        self.rho = np.zeros(1)  # adaptive steps' control variable, 1/s (0: set from the state)
 
     @property
     def STATE_FIELDS(self) -> tuple:  # noqa: N802 (the name every body system uses)
-        """The whole state: :attr:`BASE_FIELDS`, and drag's work sums where it has drag."""
-        return self.BASE_FIELDS + (("work", "cwork") if self.drag is not None else ())
+        """The whole state: :attr:`BASE_FIELDS`, drag's work sums where it has drag, and the
+        control variable ``rho`` of adaptive steps."""
+        work = ("work", "cwork") if self.drag is not None else ()
+        return self.BASE_FIELDS + work + (("rho",) if self.adaptive is not None else ())
 
     # -- stepping ------------------------------------------------------------------------------
     def work_per_step(self) -> int:
@@ -239,7 +243,8 @@ class Structure(StructureDrag, StructureLayout):
         status = STATUS_NO_CONVERGENCE
         it = 0
         n = 3 * ns + 6 * nr
-        lu = None if self.newton == "full" or self._kept.its.get(h, 0) > 4 else self._kept.lus.get(h)
+        key = self.factor_key(h)
+        lu = None if self.newton == "full" or self._kept.its.get(key, 0) > 4 else self._kept.lus.get(key)
         back = None  # (du, nu, residual) before an update made with reused factors
         prev_r = np.inf
         stalls = 0
@@ -279,7 +284,7 @@ class Structure(StructureDrag, StructureLayout):
                     break
                 self.factorizations += 1
                 if self.newton == "reuse":
-                    self._kept.keep(h, lu, data)
+                    self._kept.keep(key, lu, data)
             R = np.concatenate([R1, R2])
             rnorm = lu.norm(R)
             if back is not None and rnorm > back[2]:
@@ -313,9 +318,9 @@ class Structure(StructureDrag, StructureLayout):
             if self.newton == "full" or (not fresh and d2 > self.SLOW**2 * prev2):
                 lu = None  # renew the factors at the next iterate
             prev2 = d2
-        self._kept.its[h] = it
+        self._kept.its[key] = it
         if status != STATUS_OK:
-            self._kept.drop(h)
+            self._kept.drop(key)
             return du, np.zeros_like(du), it, status, False
         u1 = u0 + du
         u05 = u0 + 0.5 * du
@@ -375,6 +380,10 @@ class Structure(StructureDrag, StructureLayout):
         )
         code = method_code(method)
         c = np.asarray(center, float)
+        if self.adaptive is not None:
+            rec.solves = np.zeros((nrec, 1), np.int64)
+            self.advance_adaptive(code, gm, c, dt, every, gammas, nrec, max_iter, rec)
+            return rec
         if self.drag is not None:
             rec.work = np.empty((nrec, 1))
         for r in range(nrec):
@@ -473,18 +482,18 @@ class Structure(StructureDrag, StructureLayout):
         )
 
     def snapshot(self):
-        """Copies of u, v, cu, cv, lam, acc, of the kept factors (:class:`KeptFactors`) and of
-        drag's work sums."""
-        state = tuple(a.copy() for a in (self.u, self.v, self.cu, self.cv, self.lam, self.acc))
+        """Copies of u, v, cu, cv, lam, acc, rho, of the kept factors (:class:`KeptFactors`) and
+        of drag's work sums."""
+        state = tuple(a.copy() for a in (self.u, self.v, self.cu, self.cv, self.lam, self.acc, self.rho))
         work = (self.work.copy(), self.cwork.copy()) if self.drag is not None else ()
         return state + (self._kept.copy(),) + work
 
     def restore(self, snap) -> None:
         """Put back the state of :meth:`snapshot`, kept factors and work sums included."""
-        self.u, self.v, self.cu, self.cv, self.lam, self.acc = (a.copy() for a in snap[:6])
-        self._kept = snap[6].copy()
-        if len(snap) > 7:
-            self.work, self.cwork = snap[7].copy(), snap[8].copy()
+        self.u, self.v, self.cu, self.cv, self.lam, self.acc, self.rho = (a.copy() for a in snap[:7])
+        self._kept = snap[7].copy()
+        if len(snap) > 8:
+            self.work, self.cwork = snap[8].copy(), snap[9].copy()
 
     def state_arrays(self) -> dict[str, np.ndarray]:
         """The arrays of :attr:`STATE_FIELDS` and, in "reuse" mode, the kept factors as the

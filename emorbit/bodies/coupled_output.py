@@ -37,6 +37,7 @@ class StructureRecords:
     fail: np.ndarray
     stalled: np.ndarray | None = None
     work: np.ndarray | None = None  # (nrec, 1) drag's work since the run's start, J
+    solves: np.ndarray | None = None  # (nrec, 1) sub-steps per interval, when the steps vary (adaptive)
     t: np.ndarray | None = None  # (nrec,) the records' times (set by the recorder)
 
     def first_failure(self):

@@ -52,6 +52,8 @@ class RigidRecords:
     work : ndarray or None
         (nrec, nb, k) the work each of k effects that do work (drag, radiation pressure,
         third bodies) has done on each body since the run's start, J.
+    solves : ndarray or None
+        (nrec, nb) sub-steps per interval, when the steps vary (adaptive).
     t : ndarray or None
         (nrec,) the records' times, s from the epoch (set by the recorder).
     """
@@ -62,6 +64,7 @@ class RigidRecords:
     fail: np.ndarray
     stalled: np.ndarray | None = None
     work: np.ndarray | None = None
+    solves: np.ndarray | None = None
     t: np.ndarray | None = None
 
     def first_failure(self):
@@ -144,6 +147,8 @@ class RigidBodies(RigidEffects, BodySystem):
         self.cq = np.zeros((0, 12))
         self.cv = np.zeros((0, 12))
         self.lam = np.zeros((0, 6))
+        self.rho = np.zeros(0)  # adaptive steps' control variables, 1/s (0: set from the state)
+        self.Jinv = np.zeros((0, 3, 3))  # inverse body-frame inertias, 1/(kg m^2)
         self.zonal = None  # an EffectTerm of kind "zonal" (emorbit.effects.zonal), or None
         self.effects: list = []  # drag, radiation pressure and third bodies (EffectTerm), set by the simulation
         self.surfaces: list = []  # per body: how its facets are made (see add), built on first use
@@ -213,6 +218,8 @@ class RigidBodies(RigidEffects, BodySystem):
         self.mass = np.append(self.mass, points.mass)
         self.E = np.concatenate([self.E, E[None]])
         self.Einv = np.concatenate([self.Einv, np.linalg.inv(E)[None]])
+        self.Jinv = np.concatenate([self.Jinv, np.linalg.inv(np.trace(E) * np.eye(3) - E)[None]])
+        self.rho = np.append(self.rho, 0.0)
         R = np.asarray(R, float)
         w = np.asarray(omega_space, float)
         q = np.concatenate([position, R[:, 0], R[:, 1], R[:, 2]])
@@ -265,7 +272,7 @@ class RigidBodies(RigidEffects, BodySystem):
         for attr in ("names", "shapes", "points", "params", "surfaces", "_facets"):
             lst = getattr(self, attr)
             del lst[b]
-        for attr in ("models", "mass", "E", "Einv", "q", "v", "cq", "cv", "lam"):
+        for attr in ("models", "mass", "E", "Einv", "Jinv", "q", "v", "cq", "cv", "lam", "rho"):
             setattr(self, attr, np.ascontiguousarray(getattr(self, attr)[keep]))
         self._pack()
         return out
@@ -319,14 +326,9 @@ class RigidBodies(RigidEffects, BodySystem):
         RigidRecords
             The records.
         """
-        nb = len(self)
-        rec = RigidRecords(
-            np.empty((nrec, nb, 12)),
-            np.empty((nrec, nb, 12)),
-            np.zeros((nrec, nb), np.int64),
-            np.full((nb, 2), -1, np.int64),
-            np.zeros((nrec, nb), np.int64),
-        )
+        if self.adaptive is not None:
+            return self._advance_adaptive(method, gm, center, dt, gammas, every, nrec, max_iter)
+        rec = self._records(nrec)
         kern.rigid_chunk(
             method_code(method),
             self.models,
@@ -356,6 +358,46 @@ class RigidBodies(RigidEffects, BodySystem):
             *self._zonal_args(),
             *self._effect_args(rec, nrec, clock),
         )
+        return rec
+
+    #: the accuracy knob eta of adaptive steps (None: fixed steps); set by the Simulation
+    adaptive: float | None = None
+    #: adaptive steps taken so far, summed over the bodies
+    adaptive_steps: int = 0
+
+    @property
+    def STATE_FIELDS(self) -> tuple:  # noqa: N802 (the name every body system uses)
+        """The whole state: that of :class:`~emorbit.bodies.rigid_effects.RigidEffects`, and
+        the control variables ``rho`` of adaptive steps."""
+        return super().STATE_FIELDS + (("rho",) if self.adaptive is not None else ())
+
+    def _records(self, nrec: int) -> RigidRecords:
+        """Empty records of ``nrec`` intervals (no failure, no stall yet)."""
+        nb = len(self)
+        z = np.zeros((nrec, nb), np.int64)
+        return RigidRecords(
+            np.empty((nrec, nb, 12)), np.empty((nrec, nb, 12)), z, np.full((nb, 2), -1, np.int64), z.copy()
+        )
+
+    def _advance_adaptive(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> RigidRecords:
+        """Adaptive, time-symmetric steps (:mod:`emorbit.kernels.rigid_adaptive`) that land on
+        every multiple of ``dt``, recorded every ``every * dt`` seconds."""
+        from ..kernels.rigid_adaptive import rigid_adaptive_chunk
+
+        nb = len(self)
+        rec = self._records(nrec)
+        if self.rho.shape != (nb,):  # the arrays were set directly: start the control from the state
+            self.rho = np.zeros(nb)
+        steps = np.zeros((nrec, nb), np.int64)
+        rigid_adaptive_chunk(
+            method_code(method), self.models, self.q, self.v, self.cq, self.cv, self.lam, self.rho, self.mass,
+            self.E, self.Einv, self.Jinv, self.offsets, self.X, self.mp, float(gm),
+            np.ascontiguousarray(center, float), float(dt), int(every), float(self.adaptive),
+            np.ascontiguousarray(gammas, float), int(nrec), int(max_iter), rec.q, rec.v, rec.iterations, steps,
+            rec.stalled, rec.fail, *self._zonal_args(),
+        )  # fmt: skip
+        rec.solves = steps * len(gammas)
+        self.adaptive_steps += int(steps.sum())
         return rec
 
     def _zonal_args(self) -> tuple:
@@ -399,12 +441,12 @@ class RigidBodies(RigidEffects, BodySystem):
         )
 
     def snapshot(self):
-        """Copies of q, v, cq, cv, lam and the work sums."""
-        return tuple(a.copy() for a in (self.q, self.v, self.cq, self.cv, self.lam, self.work, self.cwork))
+        """Copies of q, v, cq, cv, lam, the work sums and rho."""
+        return tuple(a.copy() for a in (self.q, self.v, self.cq, self.cv, self.lam, self.work, self.cwork, self.rho))
 
     def restore(self, snap) -> None:
-        """Put back q, v, cq, cv, lam and the work sums from :meth:`snapshot`."""
-        for a, s in zip((self.q, self.v, self.cq, self.cv, self.lam, self.work, self.cwork), snap):
+        """Put back q, v, cq, cv, lam, the work sums and rho from :meth:`snapshot`."""
+        for a, s in zip((self.q, self.v, self.cq, self.cv, self.lam, self.work, self.cwork, self.rho), snap):
             a[...] = s
 
     # -- diagnostics -----------------------------------------------------------------------
