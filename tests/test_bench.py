@@ -245,6 +245,7 @@ def test_command_line(capsys):
         "rigid-precision",
         "elastic",
         "effects",
+        "gpu",
     }
 
 

@@ -99,6 +99,89 @@ def compare(runs, every=4):
     }
 
 
+def resident_case():
+    """PointMasses with device "gpu" (the state kept on the device: DeviceEnsemble) against the
+    same points on the CPU, 32 points (one at the centre, which fails at once), em: three
+    chunks of 5, 1 and 3 records (the first in three pieces, so a record slot is used twice),
+    snapshot and restore, state_arrays into a fresh system, a write into the host arrays.
+    Returns what differs."""
+    import warnings
+
+    from emorbit.bodies.pointmasses import PointMasses
+    from emorbit.integrators import coefficients
+
+    rng = np.random.default_rng(5)
+    n, gm, center, dt = 32, 3.9478, np.array([0.5, -0.25, 0.1]), 0.46
+    r = rng.uniform(4.0, 10.0, n)
+    x = np.vstack([r, np.zeros(n), rng.uniform(-1, 1, n)]) + center[:, None]
+    v = np.vstack(
+        [rng.uniform(-0.02, 0.02, n), np.sqrt(gm / r) * rng.uniform(0.5, 1.15, n), rng.uniform(-0.05, 0.05, n)]
+    )
+    x[:, 7] = center
+    g = coefficients(2)
+
+    def system(device):
+        p = PointMasses()
+        p.names = [f"p{i}" for i in range(n)]
+        p.masses, p.x, p.v, p.cx, p.cv = np.ones(n), x.copy(), v.copy(), np.zeros((3, n)), np.zeros((3, n))
+        p.device = device
+        return p
+
+    def step(p, every, nrec):
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")  # the point at the centre divides by zero, as on the CPU
+            return p.advance("em", gm, center, dt, g, every, nrec, 50)
+
+    def same(a, b, every):  # records before each point's failure, failures; iterations after one are 0 on the GPU
+        ok = np.array_equal(a.fail, b.fail)
+        for i in range(n):
+            rows = a.x.shape[0] if a.fail[i, 0] < 0 else a.fail[i, 0] // every
+            for p, q in ((a.x, b.x), (a.v, b.v), (a.iterations, b.iterations)):
+                ok &= bool(np.array_equal(p[:rows, ..., i], q[:rows, ..., i]))
+            ok &= bool((b.iterations[rows:, i] == 0).all())
+        return ok
+
+    def states(p, q):
+        return all(
+            np.array_equal(a, b, equal_nan=True) for a, b in zip(p.state_arrays().values(), q.state_arrays().values())
+        )
+
+    cpu, gpu = system("cpu"), system("gpu")
+    out = {"records": [], "states": [], "failed": []}
+    held = []
+    for every, nrec in ((2, 5), (3, 1), (1, 3)):
+        a, b = step(cpu, every, nrec), step(gpu, every, nrec)
+        out["records"].append(same(a, b, every))
+        out["states"].append(states(cpu, gpu))
+        out["failed"].append(int((b.fail[:, 0] >= 0).sum()))
+        held.append((b, [b.x.copy(), b.v.copy(), b.iterations.copy()]))
+    out["resident"] = gpu._dev is not None
+    # records handed out are never overwritten by later chunks (their pinned buffers are not reused)
+    out["held_intact"] = all(
+        np.array_equal(p, q, equal_nan=True) for b, copies in held for p, q in zip((b.x, b.v, b.iterations), copies)
+    )
+    # snapshot and restore on the device: the chunk taken again from the snapshot gives the same bits
+    snap = gpu.snapshot()
+    first = step(gpu, 2, 1)
+    first = (first.x.copy(), first.v.copy(), first.iterations.copy(), first.fail.copy(), gpu.state_arrays())
+    gpu.restore(snap)
+    again = step(gpu, 2, 1)
+    out["snapshot_on_device"] = snap[1] is None
+    out["restore"] = same(type(again)(*first[:4]), again, 2) and all(
+        np.array_equal(p, q, equal_nan=True) for p, q in zip(first[4].values(), gpu.state_arrays().values())
+    )
+    step(cpu, 2, 1)
+    # state_arrays into a fresh system on the GPU, which continues with the CPU's bits
+    other = system("gpu")
+    other.set_state_arrays(gpu.state_arrays())
+    out["round_trip"] = same(step(cpu, 1, 2), step(other, 1, 2), 1) and states(cpu, other)
+    # a write into the host arrays reaches the device before the next chunk
+    for p in (cpu, other):
+        p.x[0, 3] += 0.25
+    out["host_write"] = same(step(cpu, 1, 1), step(other, 1, 1), 1) and states(cpu, other)
+    return out
+
+
 CHILD = (
     textwrap.dedent(r"""
     import json, sys, warnings
@@ -111,7 +194,7 @@ CHILD = (
     from emorbit.sweep import parse_sweep, run_sweep, use_device
     """)
     + f"CASES = {CASES!r}\n"
-    + "\n".join(textwrap.dedent(inspect.getsource(f)) for f in (run_case, compare))
+    + "\n".join(textwrap.dedent(inspect.getsource(f)) for f in (run_case, compare, resident_case))
     + textwrap.dedent(r'''
     out = {"available": K.available()}
     _, kernels = K._compile()
@@ -138,6 +221,58 @@ CHILD = (
               for k in rc.names)
     out["simulation"] = {"rel": rel, "energy_error": float(np.abs(rg.relative_energy_error()).max()),
                          "angular_momentum_error": float(rg.relative_angular_momentum_error().max())}
+
+    out["resident"] = resident_case()
+
+    # checkpointed runs on the GPU whose steps fail and are redone in sub-steps (from device
+    # snapshots): the CPU's file bit for bit, and a run resumed on the GPU from a checkpoint
+    import h5py
+    import emorbit.io.resume as resume_module
+
+    def eccentric(device):
+        sim = emorbit.Simulation(emorbit.CentralField(gm=gm), method="em", order=2, dt=3.0)
+        for i in range(6):
+            sim.add_point(f"q{i}", mass=1.0, position=[10.0 - i, 0.0, 0.1 * i], velocity=[0.0, 0.05 + 0.02 * i, 0.0])
+        sim.device = device
+        return sim
+
+    d = sys.argv[1]
+    retried = {}
+    for device in ("cpu", "gpu"):
+        sim = eccentric(device)
+        sim.run(steps=30, every=5, progress=False, output=f"{d}/{device}.h5", checkpoint_every=10)
+        retried[device] = sim.retried_steps
+        if device == "gpu":
+            resident = sim.points._dev is not None
+    sim = eccentric("gpu")
+    sim.run(steps=17, every=5, progress=False, output=f"{d}/part.h5", checkpoint_every=10)
+    load = resume_module._load
+
+    def load_on_gpu(path):  # resume() rebuilds the scene on the CPU: the same, with device "gpu"
+        loaded = load(path)
+        loaded.sim.device = "gpu"
+        return loaded
+
+    resume_module._load = load_on_gpu
+    resume_module.resume(f"{d}/part.h5", 90.0, progress=False)
+    resume_module._load = load
+
+    def differ(a, b):
+        bad = []
+        with h5py.File(a, "r") as fa, h5py.File(b, "r") as fb:
+            fa.visititems(lambda k, o: bad.append(k) if isinstance(o, h5py.Dataset) and not k.startswith("checkpoint")
+                          and not np.array_equal(o[()], fb[k][()]) else None)
+        return bad
+
+    out["checkpointed"] = {"retried": retried, "resident": resident, "cpu_vs_gpu": differ(f"{d}/cpu.h5", f"{d}/gpu.h5"),
+                           "resumed": differ(f"{d}/gpu.h5", f"{d}/part.h5")}
+
+    # the bench's gpu section says why it is skipped, and its rows run (timings meaningless here)
+    from emorbit.bench import gpu as bench_gpu
+    section = bench_gpu.run(config="tiny")
+    row = bench_gpu._row(4, "em", {"steps": 1, "repeats": 1})
+    out["bench"] = {"skipped": section["skipped"], "met": section["targets"][0]["met"],
+                    "row": [row[k] for k in ("gpu kernel", "gpu chunk", "gpu resident", "cpu ensemble")]}
 
     # a sweep with device = gpu, in this process
     sweep = parse_sweep("""
@@ -193,6 +328,52 @@ def test_simulation_on_the_simulated_gpu(simulated):
     assert sim["energy_error"] < 1e-13 and sim["angular_momentum_error"] < 1e-13
     assert simulated["sweep"]["status"] == ["completed", "completed"]
     assert simulated["sweep"]["rel"] == 0.0
+
+
+def test_resident_path_equals_the_cpu_kernels(simulated):
+    """The state kept on the (simulated) device across three chunks: states, records,
+    iteration counts and failures are the CPU's bits through PointMasses.advance; records
+    handed out stay intact; snapshots, restore, state_arrays and writes into the host arrays
+    keep the device's state in step."""
+    got = simulated["resident"]
+    assert got["resident"], got
+    assert got["records"] == [True, True, True] and got["states"] == [True, True, True], got
+    assert got["failed"] == [1, 1, 1], got  # the point at the centre, in every chunk
+    assert got["held_intact"], got
+    assert got["snapshot_on_device"] and got["restore"] and got["round_trip"] and got["host_write"], got
+
+
+def test_checkpointed_gpu_run_resumes_bit_for_bit(simulated):
+    """A run on the GPU with failed steps redone in sub-steps writes the CPU's file, and one
+    resumed on the GPU from a checkpoint continues it bit for bit."""
+    got = simulated["checkpointed"]
+    assert got["resident"]
+    assert got["retried"]["gpu"] == got["retried"]["cpu"] >= 1, got
+    assert got["cpu_vs_gpu"] == [] and got["resumed"] == [], got
+
+
+def test_bench_gpu_section_is_skipped_without_a_gpu(simulated, tmp_path, capsys):
+    """On the simulator and without a CUDA device the gpu section measures nothing, says why,
+    and its target is "skipped" (met None); its rows run on the simulator."""
+    bench = simulated["bench"]
+    assert "simulator" in bench["skipped"] and bench["met"] is None
+    assert all(x > 0 and np.isfinite(x) for x in bench["row"]), bench
+    from emorbit.bench import gpu as bench_gpu
+    from emorbit.bench.runner import run_bench
+    from emorbit.kernels.pointmass import cuda as kcuda
+
+    if kcuda.available():
+        pytest.skip("a CUDA device is present")
+    path = tmp_path / "gpu.json"
+    assert run_bench(["gpu"], json_path=str(path), config="tiny") == 0
+    data = json.loads(path.read_text())
+    assert data["gpu"]["skipped"] == kcuda.device_problem() and data["gpu"]["rows"] == []
+    assert data["targets"] == data["gpu"]["targets"] and data["targets"][0]["met"] is None
+    assert "skipped: no CUDA device" in capsys.readouterr().out
+    row = {"method": "em", "points": bench_gpu.TARGET_POINTS}
+    assert bench_gpu._target([dict(row, resident_over_kernel=0.6)], None)["met"] is True
+    assert bench_gpu._target([dict(row, resident_over_kernel=0.3)], None)["met"] is False
+    assert bench_gpu._target([dict(row, points=10, resident_over_kernel=0.9)], None)["met"] is None
 
 
 def test_asking_for_a_gpu_without_one_is_a_clear_error(tmp_path, capsys):

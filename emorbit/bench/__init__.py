@@ -32,6 +32,9 @@ effects         effects beyond the central field (:mod:`.effects`): central + J2
                 energy errors), the compile time of each effect set and the warm start-up of
                 ``emorbit run`` (fresh processes, an empty cache, then a filled one), and the
                 central-only path against the bare kernel
+gpu             point-mass ensembles on an NVIDIA GPU (:mod:`.gpu`): the kernel alone, the
+                path that copies the state every chunk, the resident path ``Simulation``
+                uses, the CPU ensemble, with the card's name; "skipped" without a GPU
 
 Ratios are always taken within the run, and the targets are ratios (:mod:`.runner`). The
 JSON (``--json``) records the CPU model, the core count, the load average and package
@@ -43,7 +46,7 @@ imported to build the command line; the sections import what they need when they
 from __future__ import annotations
 
 #: the sections, in the order they run
-SECTIONS = ("single", "ensemble", "work-precision", "startup", "rigid", "rigid-precision", "elastic", "effects")
+SECTIONS = ("single", "ensemble", "work-precision", "startup", "rigid", "rigid-precision", "elastic", "effects", "gpu")
 
 __all__ = ["SECTIONS", "add_arguments", "run"]
 

@@ -5,6 +5,14 @@ independently by the kernels in :mod:`emorbit.kernels.pointmass`; this module ke
 arrays and calls the kernel that :mod:`emorbit.integrators.dispatch` names. The state is
 (3, n) float64 arrays of positions ``x`` (m) and velocities ``v`` (m/s) with Kahan
 compensation terms ``cx`` and ``cv``: the exact state is ``x - cx``, ``v - cv``.
+
+On the GPU (``device = "gpu"``, fixed steps) the state lives in device memory between chunks
+(:class:`emorbit.kernels.pointmass.cuda_resident.DeviceEnsemble`): it is uploaded at the
+first chunk, and the host arrays are brought up to date only when something reads them
+(``x``, ``v``, ``cx``, ``cv``, :meth:`PointMasses.current`, :meth:`PointMasses.state_arrays`:
+checkpoints, the final state). Reading an array through its attribute also counts as a
+possible change (the caller may write into it), so the next chunk uploads the host arrays
+again; snapshots for redoing a failed step are copies on the device.
 """
 
 from __future__ import annotations
@@ -114,11 +122,30 @@ class PointMasses(BodySystem):
             self._index = {n: i for i, n in enumerate(self._names)}
         return name in self._index
 
+    #: the state on the GPU (a DeviceEnsemble) once a chunk ran there, else None
+    _dev = None
+    #: the device's state is newer than the host arrays (download before reading them)
+    _dev_newer = False
+    #: the host arrays may have changed since the device's copy (upload before the next chunk)
+    _host_newer = False
+
+    def _sync_host(self) -> None:
+        """Bring the host arrays up to date with the device's state, if that is newer."""
+        if self._dev_newer:
+            self._dev.download((self._x, self._v, self._cx, self._cv))
+            self._dev_newer = False
+
+    def _drop_device(self) -> None:
+        """Forget the device's copy (after the host arrays are current): the points change."""
+        self._sync_host()
+        self._dev, self._host_newer = None, False
+
     def _flush(self) -> None:
         """Append the points added since the arrays were last read, all at once (adding
         points one by one then costs O(1) each, not a copy of every array)."""
         if not self._pending:
             return
+        self._drop_device()
         m = np.array([p[0] for p in self._pending])
         x = np.array([p[1] for p in self._pending]).T
         v = np.array([p[2] for p in self._pending]).T
@@ -130,24 +157,36 @@ class PointMasses(BodySystem):
         self._cv = np.ascontiguousarray(np.concatenate([self._cv, np.zeros_like(v)], axis=1))
         self._rho = np.concatenate([self._rho, np.zeros(len(m))])
 
-    def _array(name: str, doc: str):
+    def _array(name: str, doc: str, state: bool = False):
         def get(self):
             self._flush()
+            if state and self._dev is not None:  # current on the host; the caller may write into it
+                self._sync_host()
+                self._host_newer = True
             return getattr(self, name)
 
         def set(self, value):
             self._flush()
+            if state and self._dev is not None:
+                self._sync_host()
+                self._host_newer = True
             setattr(self, name, value)
 
         return property(get, set, doc=doc)
 
     masses = _array("_masses", "(n,) masses (kg)")
-    x = _array("_x", "(3, n) positions (m)")
-    v = _array("_v", "(3, n) velocities (m/s)")
-    cx = _array("_cx", "(3, n) compensation terms of x (m)")
-    cv = _array("_cv", "(3, n) compensation terms of v (m/s)")
+    x = _array("_x", "(3, n) positions (m)", True)
+    v = _array("_v", "(3, n) velocities (m/s)", True)
+    cx = _array("_cx", "(3, n) compensation terms of x (m)", True)
+    cv = _array("_cv", "(3, n) compensation terms of v (m/s)", True)
     rho = _array("_rho", "(n,) adaptive steps' control variables (1/s; 0: set from the state at the next step)")
     del _array
+
+    def _state(self) -> tuple:
+        """(x, v, cx, cv), current, for reading only (the device's copy stays valid)."""
+        self._flush()
+        self._sync_host()
+        return self._x, self._v, self._cx, self._cv
 
     @property
     def names(self) -> list[str]:
@@ -226,6 +265,7 @@ class PointMasses(BodySystem):
             (mass in kg, position (3,) in m, velocity (3,) in m/s).
         """
         self._flush()
+        self._drop_device()
         i = self._names.index(name)
         out = (float(self._masses[i]), self._x[:, i].copy(), self._v[:, i].copy())
         keep = [j for j in range(len(self._names)) if j != i]
@@ -260,7 +300,9 @@ class PointMasses(BodySystem):
         :mod:`emorbit.kernels.pointmass.packed` (the same results as the reference kernels
         to round-off, leapfrog bit for bit), on all of Numba's threads from
         ``PARALLEL_MIN`` points on; a point's result does not depend on the thread count or
-        on the other points. With :attr:`adaptive` set, the adaptive kernel runs instead.
+        on the other points. With :attr:`adaptive` set, the adaptive kernel runs instead. On
+        the GPU the state stays on the device (see the module notes) and the records' arrays
+        are pinned host buffers, used again only once nothing holds them.
 
         Parameters
         ----------
@@ -293,6 +335,10 @@ class PointMasses(BodySystem):
         n = len(self)
         if self.adaptive is not None:
             return self._advance_adaptive(method, gm, center, dt, gammas, every, nrec, max_iter)
+        if self.device == "gpu" and n:
+            return self._advance_resident(method, gm, center, dt, gammas, every, nrec, max_iter)
+        if self._dev is not None:  # back on the CPU: the host arrays become the state
+            self._drop_device()
         rec = ChunkRecords(
             x=np.empty((nrec, 3, n)),
             v=np.empty((nrec, 3, n)),
@@ -328,6 +374,21 @@ class PointMasses(BodySystem):
     roundoff: str = "brouwer"
     #: a name of :data:`emorbit.integrators.DEVICES`; set by the Simulation
     device: str = "cpu"
+
+    def _advance_resident(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> ChunkRecords:
+        """Fixed steps on the GPU with the state kept there (:mod:`emorbit.kernels.pointmass.cuda_resident`):
+        uploaded at the first chunk (and again after the host arrays may have changed), records
+        copied back in pinned buffers, the state only when read."""
+        self._flush()
+        if self._dev is None or self._dev.n != len(self):
+            self._dev = dispatch.point_ensemble(self.device)(self._x, self._v, self._cx, self._cv)
+        elif self._host_newer:
+            self._dev.upload(self._x, self._v, self._cx, self._cv)
+        self._host_newer = False
+        code = dispatch.method_code(method, self.roundoff)
+        out = self._dev.advance(code, gm, center, dt, gammas, every, nrec, max_iter)
+        self._dev_newer = True
+        return ChunkRecords(out.x, out.v, out.iterations, out.fail)
 
     def _advance_adaptive(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> ChunkRecords:
         """Adaptive, time-symmetric steps (see :mod:`emorbit.kernels.pointmass.adaptive`) that
@@ -389,18 +450,39 @@ class PointMasses(BodySystem):
     def current(self) -> ChunkRecords:
         """The current state as one record."""
         n = len(self)
-        return ChunkRecords(
-            self.x[None].copy(), self.v[None].copy(), np.zeros((1, n), np.int64), np.full((n, 2), -1, np.int64)
-        )
+        x, v, _, _ = self._state()
+        return ChunkRecords(x[None].copy(), v[None].copy(), np.zeros((1, n), np.int64), np.full((n, 2), -1, np.int64))
 
     def snapshot(self):
-        """Copies of x, v, cx, cv and rho."""
+        """Copies of x, v, cx, cv and rho (x: a device-to-device copy of the four state arrays,
+        and v, cx, cv None, while the state is on the GPU)."""
+        self._flush()
+        if self._dev is not None and not self._host_newer:
+            return (self._dev.snapshot(), None, None, None, self.rho.copy())
         return tuple(a.copy() for a in (self.x, self.v, self.cx, self.cv, self.rho))
 
     def restore(self, snap) -> None:
         """Put back x, v, cx, cv and rho from :meth:`snapshot`."""
+        if snap[1] is None:  # a snapshot on the device
+            self._flush()
+            self._dev.restore(snap[0])
+            self._dev_newer, self._host_newer = True, False
+            self.rho[...] = snap[4]
+            return
         for a, s in zip((self.x, self.v, self.cx, self.cv, self.rho), snap):
             a[...] = s
+
+    def state_arrays(self) -> dict:
+        """Copies of :attr:`STATE_FIELDS` (the GPU's state downloaded first, where it is newer).
+
+        Returns
+        -------
+        dict
+            {name: array}, what a checkpoint stores.
+        """
+        x, v, cx, cv = self._state()
+        current = {"x": x, "v": v, "cx": cx, "cv": cv}
+        return {f: np.array(current[f] if f in current else getattr(self, f), copy=True) for f in self.STATE_FIELDS}
 
     def invariants(self, rec: ChunkRecords, nrec: int, gm: float, center):
         """Energy, momentum and angular momentum of the points at each record."""

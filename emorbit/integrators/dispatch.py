@@ -9,7 +9,10 @@ device      steps       kernel
 "cpu"       fixed       :func:`emorbit.kernels.pointmass.packed.ensemble_chunk`,
                         ``ensemble_chunk_parallel`` from ``PARALLEL_MIN`` points on
 "cpu"       adaptive    :func:`emorbit.kernels.pointmass.adaptive.adaptive_chunk`
-"gpu"       fixed       :func:`emorbit.kernels.pointmass.cuda.chunk`
+"gpu"       fixed       :func:`emorbit.kernels.pointmass.cuda.chunk` (state copied in and
+                        out per call), or the state kept on the device across chunks:
+                        :class:`emorbit.kernels.pointmass.cuda_resident.DeviceEnsemble`
+                        (:func:`point_ensemble`; what :class:`~emorbit.bodies.pointmasses.PointMasses` uses)
 ==========  ==========  ==========================================================
 
 The order of a method does not pick a kernel: every kernel takes the composition's
@@ -22,7 +25,7 @@ from ..errors import InputError
 from ..kernels import codes
 from . import check_device, check_roundoff, get_method
 
-__all__ = ["method_code", "point_chunk", "adaptive_chunk", "require_device"]
+__all__ = ["method_code", "point_chunk", "point_ensemble", "adaptive_chunk", "require_device"]
 
 _CODES = {"em": codes.METHOD_EM, "midpoint": codes.METHOD_MIDPOINT, "leapfrog": codes.METHOD_LEAPFROG}
 
@@ -118,6 +121,34 @@ def point_chunk(method: str, roundoff: str = "brouwer", device: str = "cpu", n: 
     if parallel is None:
         parallel = n >= packed.PARALLEL_MIN
     return code, packed.ensemble_chunk_parallel if parallel else packed.ensemble_chunk
+
+
+def point_ensemble(device: str = "gpu"):
+    """The class that keeps point masses on a device across chunks of fixed steps.
+
+    Parameters
+    ----------
+    device : str
+        ``"gpu"`` (the only device with one).
+
+    Returns
+    -------
+    type
+        :class:`emorbit.kernels.pointmass.cuda_resident.DeviceEnsemble`: built from (x, v,
+        cx, cv), advanced with a method code (:func:`method_code`).
+
+    Raises
+    ------
+    InputError
+        An unknown device, the CPU (whose kernels take the host arrays), or a GPU that
+        cannot be used.
+    """
+    if check_device(device) != "gpu":
+        raise InputError("device", f"only the GPU keeps point masses resident, got device {device!r}")
+    require_device(device)
+    from ..kernels.pointmass import cuda_resident
+
+    return cuda_resident.DeviceEnsemble
 
 
 def adaptive_chunk(method: str, roundoff: str = "brouwer", device: str = "cpu"):
