@@ -20,24 +20,24 @@ Newton solves for ``z = (dq, nu)`` with the constraint impulse ``nu = h lambda``
     R1 = M dq - h (M v0 + (h/2) F) + (h/2) G(q0 + dq/2)^T nu = 0      (12)
     R2 = g(q0 + dq) = 0                                                (6)
 
-on the 18 x 18 system with the unsymmetric load stiffness ``K = dF/dq1``, constraint rows scaled by
-``trace(E)/3``; then ``M dv = h F - G(q05)^T nu`` with ``F`` linearised at the final iterate.
+with the load stiffness ``K = dF/dq1`` (chord), constraint rows scaled by ``trace(E)/3``; then
+``M dv = h F - G(q05)^T nu``, ``F`` linearised at the final iterate. The linear solves (null
+space; Benzi, Golub & Liesen 2005), the predictor and K are :mod:`.rigid_solve`'s.
 
 No rounded constant may enter every step the same way, or the energy drifts: ``h*h/2``, ``2/h``
-and an explicit ``E^-1`` are never applied to the state; ``E dv = ...`` is solved with a stored
-inverse plus one step of iterative refinement (the inverse's rounding error to second order).
+and ``E^-1`` never touch the state; ``E dv = ...`` uses a stored inverse plus one refinement.
 
 Known limits (docs/methods.md): at 90 degrees of rotation per step the energy drifts (Newton
-zeroes the computed residual, whose rounding error has a nonzero mean along the velocity at such
-rotations); in a field the point-mass kernel's accurate finish (:func:`.pointmass.reference.em_finish`)
-is not here, and the plain sums over mass points, the director rows and the velocity solve
-leave a drift of the energy above the point-mass step's.
+zeroes the computed residual, whose rounding error has a nonzero mean along the velocity);
+in a field the point-mass kernel's accurate finish (:func:`.pointmass.reference.em_finish`) is
+not here, so the plain sums leave an energy drift above the point-mass step's; the stopping
+test weighs increments by mass: the axes stop at about 4 eps sqrt(m / E_kk) h |v| (orbit).
 
 Gravity models (per body): ``GRAVITY_VOLUME`` sums over the mass points (gravity-gradient
 torque included), ``GRAVITY_POINT`` puts all mass at the centre of mass (no torque),
 ``GRAVITY_NONE`` is free motion. Zonal harmonics (``zonal_p``, ``zonal_j``; None: none) add
-their discrete force (:mod:`.effects.zonal`) on the same points. Methods: ``METHOD_EM`` (g_em) and ``METHOD_MIDPOINT``
-(g at the midpoint configuration; energy then oscillates in a field).
+their discrete force (:mod:`.effects.zonal`) on the same points. Methods: ``METHOD_EM``
+(g_em) and ``METHOD_MIDPOINT`` (g at the midpoint configuration; energy oscillates in a field).
 """
 
 from __future__ import annotations
@@ -63,6 +63,7 @@ from .eft import kahan_add
 from .gravity import accel, accel_jacobian_coeffs, em_accel, em_jacobian_coeffs
 from .jit import kernel
 from .rigid_effects import facet_forces, facet_jacobian, third_body_forces, third_body_work
+from .rigid_solve import body_radius, central_stiffness, dense_kkt, dense_solve, kkt_solve, predict
 
 __all__ = [
     "GRAVITY_NONE",
@@ -78,6 +79,7 @@ __all__ = [
 _EPS = 2.220446049250313e-16
 _TOL2 = (4.0 * _EPS) ** 2
 _FLOOR2 = (1024.0 * _EPS) ** 2  # a stalled update is accepted as round-off below 1024 eps |scale|
+_CENTRAL_K = 1e-8  # the volume model takes the centre of mass's load stiffness up to this h^2 GM rho / r^4
 
 
 @kernel
@@ -281,42 +283,6 @@ def _gram(P, W):
 
 
 @kernel
-def _solve(A, b, n):
-    """Solve A x = b in place (b becomes x) by Gaussian elimination with partial pivoting.
-    Returns False if A is singular."""
-    for col in range(n):
-        p = col
-        big = abs(A[col, col])
-        for r in range(col + 1, n):
-            if abs(A[r, col]) > big:
-                big = abs(A[r, col])
-                p = r
-        if not (big > 0.0):
-            return False
-        if p != col:
-            for j in range(n):
-                t = A[col, j]
-                A[col, j] = A[p, j]
-                A[p, j] = t
-            t = b[col]
-            b[col] = b[p]
-            b[p] = t
-        inv = 1.0 / A[col, col]
-        for r in range(col + 1, n):
-            f = A[r, col] * inv
-            if f != 0.0:
-                for j in range(col + 1, n):
-                    A[r, j] -= f * A[col, j]
-                b[r] -= f * b[col]
-    for r in range(n - 1, -1, -1):
-        s = b[r]
-        for j in range(r + 1, n):
-            s -= A[r, j] * b[j]
-        b[r] = s / A[r, r]
-    return True
-
-
-@kernel
 def _sym(mu, S):
     """S (3, 3) from the six multipliers, so that (G^T mu)_{d_k} = sum_l S_kl d_l."""
     S[0, 0] = mu[0]
@@ -344,7 +310,9 @@ def _constraint_jacobian(q, G):
 
 def work_arrays(X):
     """Scratch arrays for :func:`rigid_step` for a body with mass points X (3, N), allocated
-    once per body and chunk; the block products of X are filled in (see :func:`rigid_forces`)."""
+    once per body and chunk; the block products of X are filled in (see :func:`rigid_forces`).
+    A tuple: [4] the block products P, [16] dq, [19] dv, [22] the body's radius (the farthest
+    mass point from the centre of mass), [24] the null-space solve's scratch; the rest scratch."""
     npoints = X.shape[1]
     P = np.empty((10, npoints))
     j = 0
@@ -376,6 +344,9 @@ def work_arrays(X):
         np.empty(12),
         np.empty((3, npoints)),
         np.zeros(2),
+        body_radius(X),
+        np.empty(12),
+        np.empty((9, 3, 3)),
     )
 
 
@@ -408,12 +379,19 @@ def rigid_step(
     grow (far from the solution) keep iterating up to ``max_iter``. The noise-level last
     update still matters to the multipliers, so the rule does not stop on a predicted next
     update.
-    The load stiffness K is exact at the first iterate and kept for the step (chord).
+    The load stiffness K is formed at the first iterate and kept for the step (chord): the sum
+    over the mass points, or the centre of mass's for a small body (module docstring).
     """
-    a0, r0, F, K, P, W, J, rhs, G05, G1, q1, q05, delta, Mv0, nu, wdiag, dq, gen, S, dv, G, wk = work
+    # the arrays every path uses; the others are taken from work where a path needs them
+    F, K, rhs, q1, q05, delta, Mv0, nu, wdiag, dq, gen, S, dv = (
+        work[2], work[3], work[7], work[10], work[11], work[12], work[13], work[14], work[15], work[16], work[17],
+        work[18], work[19],
+    )  # fmt: skip
+    sc = work[24]
     n = mp.shape[0]
     volume = model == GRAVITY_VOLUME
     if volume:
+        a0, r0 = work[0], work[1]
         for i in range(n):
             for d in range(3):
                 a0[d, i] = c[d] - (q0[d] + X[0, i] * q0[3 + d] + X[1, i] * q0[6 + d] + X[2, i] * q0[9 + d])
@@ -431,43 +409,8 @@ def rigid_step(
                 s += E[k, l] * v0[3 + 3 * l + d]
             Mv0[3 + 3 * k + d] = s
             wdiag[3 + 3 * k + d] = E[k, k]
-    # predictor: centre of mass by an explicit Taylor step with the centre's gravity; axes
-    # rotated about omega0 by the angle 2 atan(h |omega0| / 2) (the scheme's own rotation for a
-    # steady spin: (d1 - d0) = h/2 omega x (d0 + d1) gives tan(angle/2) = h |omega| / 2);
-    # multipliers from the last step
-    gx = gy = gz = 0.0
-    if model != GRAVITY_NONE:
-        gx, gy, gz, rr = accel(c[0] - q0[0], c[1] - q0[1], c[2] - q0[2], gm)
-        if not (rr > 0.0):
-            return 0, STATUS_SINGULAR, 0
-    dq[0] = h * (v0[0] + hf * gx)
-    dq[1] = h * (v0[1] + hf * gy)
-    dq[2] = h * (v0[2] + hf * gz)
-    wx = wy = wz = 0.0
-    for k in range(3):
-        dx, dy, dz = q0[3 + 3 * k], q0[4 + 3 * k], q0[5 + 3 * k]
-        ex, ey, ez = v0[3 + 3 * k], v0[4 + 3 * k], v0[5 + 3 * k]
-        wx += 0.5 * (dy * ez - dz * ey)
-        wy += 0.5 * (dz * ex - dx * ez)
-        wz += 0.5 * (dx * ey - dy * ex)
-    wn = math.sqrt(wx * wx + wy * wy + wz * wz)
-    f = 2.0 * math.atan(0.5 * h * wn) / wn if wn > 0.0 else h
-    tx, ty, tz = f * wx, f * wy, f * wz
-    th = math.sqrt(tx * tx + ty * ty + tz * tz)
-    if th > 1e-4:
-        s1 = math.sin(th) / th
-        s2 = (1.0 - math.cos(th)) / (th * th)
-    else:
-        s1 = 1.0 - th * th / 6.0
-        s2 = 0.5 - th * th / 24.0
-    for k in range(3):
-        dx, dy, dz = q0[3 + 3 * k], q0[4 + 3 * k], q0[5 + 3 * k]
-        cx = ty * dz - tz * dy
-        cy = tz * dx - tx * dz
-        cz = tx * dy - ty * dx
-        dq[3 + 3 * k] = s1 * cx + s2 * (ty * cz - tz * cy)
-        dq[4 + 3 * k] = s1 * cy + s2 * (tz * cx - tx * cz)
-        dq[5 + 3 * k] = s1 * cz + s2 * (tx * cy - ty * cx)
+    if not predict(model, q0, v0, lam, Einv, gm, c, h, dq):
+        return 0, STATUS_SINGULAR, 0
     for j in range(6):
         nu[j] = h * lam[j]
     # round-off scale of the increments (mass-weighted): h v0, dq, and |d_k| = 1
@@ -477,6 +420,19 @@ def rigid_step(
     floor2 += wdiag[3] + wdiag[6] + wdiag[9]
     for j in range(12):
         delta[j] = 0.0
+    # the load stiffness: the sum over the mass points, or, for a body small against its
+    # distance, the centre of mass's (E (x) K_c): the chord then contracts by ~ h^2 GM rho / r^4
+    central = False
+    if volume and gm != 0.0:
+        r2 = (c[0] - q0[0]) ** 2 + (c[1] - q0[1]) ** 2 + (c[2] - q0[2]) ** 2
+        central = h * h * gm * work[22][0] <= _CENTRAL_K * r2 * r2
+    kron = facets is None and not volume  # K only in the centre of mass's block
+    if model == GRAVITY_NONE:  # no field: F and K (its centre-of-mass block) stay zero
+        for r in range(12):
+            F[r] = 0.0
+        for r in range(3):
+            for j in range(3):
+                K[r, j] = 0.0
     prev2 = math.inf
     status = STATUS_NO_CONVERGENCE
     stalled = 0
@@ -488,20 +444,34 @@ def rigid_step(
             q05[j] = q0[j] + 0.5 * dq[j]
         # the load stiffness is assembled at the first iterate and kept for the step: it changes
         # by O(error) between iterates, so convergence stays quadratic to round-off
-        st = rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, G, it == 1, zonal_p, zonal_j)
-        if st != STATUS_OK:
-            status = st
-            break
+        want = it == 1
+        if model != GRAVITY_NONE:
+            if want and central:
+                st = rigid_forces(
+                    method, GRAVITY_POINT, q0, q1, X, mp, 1.0, gm, c, work[0], work[1], work[23], K, work[4], work[5],
+                    work[20], True, zonal_p, zonal_j,
+                )  # fmt: skip
+                central = st == STATUS_OK
+                if central:
+                    central_stiffness(K, m, E)
+            st = rigid_forces(
+                method, model, q0, q1, X, mp, m, gm, c, work[0], work[1], F, K, work[4], work[5], work[20],
+                want and not central, zonal_p, zonal_j,
+            )  # fmt: skip
+            if st != STATUS_OK:
+                status = st
+                break
         if facets is not None:
-            facet_forces(q0, q1, h, F, facets, f0, f1, drag_p, drag_t, drag_g, drag_gp, dsun, srp_p, sun, shade, wk)
+            facet_forces(
+                q0, q1, h, F, facets, f0, f1, drag_p, drag_t, drag_g, drag_gp, dsun, srp_p, sun, shade, work[21]
+            )
             if it == 1:  # the facets' torques depend on the attitude: their derivative joins K
                 facet_jacobian(
-                    q0, q1, h, K, facets, f0, f1, drag_p, drag_t, drag_g, drag_gp, dsun, srp_p, sun, shade, J[:3, :12]
-                )
+                    q0, q1, h, K, facets, f0, f1, drag_p, drag_t, drag_g, drag_gp, dsun, srp_p, sun, shade,
+                    work[6][:3, :12],
+                )  # fmt: skip
         if tb_p is not None and model != GRAVITY_NONE:
             third_body_forces(q0, q1, X, mp, m, model == GRAVITY_POINT, tb_p, tb_s, F)
-        _constraint_jacobian(q05, G05)
-        _constraint_jacobian(q1, G1)
         _sym(nu, S)
         # R1 = M dq - h (M v0 + (h/2) F) + (h/2) G05^T nu
         for d in range(3):
@@ -520,23 +490,21 @@ def rigid_step(
             for d in range(3):
                 s += q1[3 + 3 * k + d] * q1[3 + 3 * l + d]
             rhs[12 + j] = es * (0.5 * (s - 1.0) if k == l else s)
-        # Jacobian [[M - h^2/2 K + h/4 S (x) I, h/2 G05^T], [es G1, 0]]
-        hh = hf * h
-        for r in range(12):
-            for s_ in range(12):
-                J[r, s_] = -hh * K[r, s_]
-        for d in range(3):
-            J[d, d] += m
-            for k in range(3):
-                for l in range(3):
-                    J[3 + 3 * k + d, 3 + 3 * l + d] += E[k, l] + 0.5 * hf * S[k, l]
-        for j in range(6):
-            for r in range(12):
-                J[r, 12 + j] = hf * G05[j, r]
-                J[12 + j, r] = es * G1[j, r]
-            for r in range(6):
-                J[12 + j, 12 + r] = 0.0
-        if not _solve(J, rhs, 18):
+        ok = False
+        if kron:  # K only in the centre of mass's block: the null-space solve (rigid_solve)
+            ok = kkt_solve(rhs, m, E, K, S, q05, q1, h, es, sc)
+        if not ok:
+            if kron:  # K is zero outside its centre-of-mass block
+                for r in range(12):
+                    for j in range(12):
+                        if r >= 3 or j >= 3:
+                            K[r, j] = 0.0
+            J, G05, G1 = work[6], work[8], work[9]
+            _constraint_jacobian(q05, G05)
+            _constraint_jacobian(q1, G1)
+            dense_kkt(J, K, m, E, S, G05, G1, h, es)
+            ok = dense_solve(J, rhs, 18)
+        if not ok:
             status = STATUS_NO_CONVERGENCE
             break
         d2 = 0.0
@@ -560,10 +528,12 @@ def rigid_step(
     for j in range(12):
         q05[j] = q0[j] + 0.5 * dq[j]
     _sym(nu, S)
+    nk = 3 if kron else 12  # K's nonzero block
     for r in range(12):
         s = F[r]
-        for j in range(12):
-            s -= K[r, j] * delta[j]
+        if r < nk:
+            for j in range(nk):
+                s -= K[r, j] * delta[j]
         gen[r] = h * s
     for d in range(3):
         for k in range(3):
@@ -680,6 +650,8 @@ def rigid_chunk(
         Xb = X[:, offsets[b] : offsets[b + 1]]
         mb = mp[offsets[b] : offsets[b + 1]]
         work_b = _work_arrays(Xb)
+        Eb = E[b]
+        Eib = Einv[b]
         dq = work_b[16]
         dv = work_b[19]
         f0 = 0 if foff is None else foff[b]
@@ -689,11 +661,13 @@ def rigid_chunk(
             its = 0
             stl = 0
             for s in range(every):
-                tp[:] = q[b]
-                tu[:] = v[b]
-                te[:] = cq[b]
-                tf[:] = cv[b]
-                tl[:] = lam[b]
+                for j_ in range(12):  # element copies, no row views
+                    tp[j_] = q[b, j_]
+                    tu[j_] = v[b, j_]
+                    te[j_] = cq[b, j_]
+                    tf[j_] = cv[b, j_]
+                for j_ in range(6):
+                    tl[j_] = lam[b, j_]
                 if work is not None:
                     tw[:] = work[b]
                     tcw[:] = cwork[b]
@@ -724,7 +698,7 @@ def rigid_chunk(
                                     tb_s[jb, e, 1] = sy
                                     tb_s[jb, e, 2] = sz
                     it, status, stalled = rigid_step(
-                        method, models[b], tp, tu, tl, mass[b], E[b], Einv[b], Xb, mb, gm, center, h, max_iter, work_b,
+                        method, models[b], tp, tu, tl, mass[b], Eb, Eib, Xb, mb, gm, center, h, max_iter, work_b,
                         zonal_p, zonal_j, facets, f0, f1, drag_p, drag_t, drag_g, drag_gp, dsun, srp_p, sun, shade,
                         tb_p, tb_s,
                     )  # fmt: skip
@@ -763,11 +737,13 @@ def rigid_chunk(
                         break
                 if failed:
                     break
-                q[b] = tp
-                v[b] = tu
-                cq[b] = te
-                cv[b] = tf
-                lam[b] = tl
+                for j_ in range(12):
+                    q[b, j_] = tp[j_]
+                    v[b, j_] = tu[j_]
+                    cq[b, j_] = te[j_]
+                    cv[b, j_] = tf[j_]
+                for j_ in range(6):
+                    lam[b, j_] = tl[j_]
                 if work is not None:
                     work[b] = tw
                     cwork[b] = tcw
