@@ -206,12 +206,12 @@ MUTANTS = (
         ("tests/test_adaptive.py", "-k", "run_back"),
     ),
     Mutant(
-        "A2",
-        "a checkpoint of adaptive steps drops the control variables rho",
-        "emorbit/bodies/pointmasses.py",
-        'return self.BASE_FIELDS + (("rho",) if self.adaptive is not None else ())',
-        "return self.BASE_FIELDS",
-        ("tests/test_resume.py", "-k", "bit_identical and adaptive"),
+        "A3",
+        "a rigid body's adaptive closing kick reads g at the sub-step's start (not time-symmetric)",
+        "emorbit/kernels/rigid_adaptive.py",
+        "            r1, g = _control(tp, tu, E, Jinv, gm, c, eta)\n            a = ak * g\n",
+        "            r1, g1 = _control(tp, tu, E, Jinv, gm, c, eta)\n            a = ak * g\n",
+        ("tests/test_adaptive_bodies.py", "-k", "rigid_steps_run_back"),
     ),
     Mutant(
         "C1",
