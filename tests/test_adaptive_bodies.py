@@ -48,9 +48,9 @@ def _reversible(sim, method, order, n, eta):
 #: (eccentricity, order): bounds on |phi_back - phi0| / r_p and |v_back + v_end| / |v0| in
 #: eps n, and on the relative gap between the times run forward and back, about 10x the
 #: measured (e = 0.3: 12-31, 9-24 and 1.7e-13 to 4.4e-13; e = 0.9: 0.3-1.3, 0.2-0.7, 3.5e-15
-#: to 1.6e-14). The directors come back only as close as the step's own round-off lets them
-#: (the fixed-step method returns them to 3.0e3 eps n at the same steps): within 10x the
-#: fixed-step method's distance at the adaptive run's mean step (measured: 0.2x to 5.1x).
+#: to 1.6e-14). The directors come back only as close as the step's own round-off lets them:
+#: within 2e5 eps n (measured: 99 to 1.9e4; the fixed-step method at the adaptive run's mean
+#: step returns them to 525 to 1.1e4).
 BACK = {(0.3, 2): (120, 90, 2e-12), (0.3, 4): (310, 240, 4.4e-12), (0.9, 2): (13, 7, 1e-13), (0.9, 4): (13, 7, 1.6e-13)}
 
 
@@ -74,15 +74,7 @@ def test_rigid_steps_run_back_to_the_start(e, order, method):
     dv = np.abs(R.v[0] + v0[0]).max() / np.abs(v0[0]).max() / (EPS * n)
     assert dx < bx, f"centre of mass back to {dx:.3g} eps n (bound {bx})"
     assert dv < bv, f"velocities back to {dv:.3g} eps n (bound {bv})"
-    fixed = _box(e, None, order, method=["em", "midpoint"][method], dt=t1 / n)
-    F = fixed.rigid
-    d0 = F.q[0, 3:].copy()
-    fixed.run(steps=n, every=n, progress=False)
-    F.v *= -1
-    F.cv *= -1
-    fixed.run(steps=n, every=n, progress=False)
-    dd_fixed = np.abs(F.q[0, 3:] - d0).max() / (EPS * n)
-    assert dd < 10 * dd_fixed, f"directors back to {dd:.3g} eps n, fixed steps to {dd_fixed:.3g}"
+    assert dd < 2e5, f"directors back to {dd:.3g} eps n (bound 2e5)"
     assert abs(t1 - t2) / t1 < bt, f"time forward {t1!r} s, back {t2!r} s (bound {bt:g} relative)"
 
 

@@ -67,15 +67,16 @@ LEAST_WORK = {"drag": 1e-3, "srp": 2e-9, "third_body": 1e-8}
 @pytest.mark.parametrize("effects", ["drag", "srp", "third_body", "all"])
 def test_the_balance_closes_to_roundoff_over_1e5_large_steps(tmp_path, effects, kind):
     """1e5 em steps of T/50 (2000 orbits, 128 days): |E - E0 - W| / |E0| stays below 8e-14
-    (measured 4.2e-15 to 8.6e-15 for every effect and both body kinds; the issue asks 1e-12,
-    the limit is 10x what is measured), while each effect's work
+    (measured 4.2e-15 to 8.6e-15 for every effect and both body kinds, but 2.9e-14 for the
+    rigid box under drag, whose balance grows about linearly: the differenced facet stiffness
+    leaves a residual; the issue asks 1e-12), while each effect's work
     reaches 2e3 to 3e9 times that; the file holds the same balance, each work with its unit."""
     sim = _leo(effects, kind)
     path = tmp_path / "run.h5"
     res = sim.run(steps=100_000, every=1000, output=path, progress=False)
     e0 = abs(res.energy[0].value)
     balance = np.abs(res.energy_balance.value) / e0
-    assert balance.max() <= 8e-14, f"the balance reached {balance.max():.2e} of |E0|, measured <= 8.6e-15"
+    assert balance.max() <= 8e-14, f"the balance reached {balance.max():.2e} of |E0|, measured <= 2.9e-14"
     labels = {"drag": "drag", "srp": "srp", "third_body": "third_body"}
     for label, work in res.work.items():
         kind_ = next(k for k in labels if label.startswith(k))
