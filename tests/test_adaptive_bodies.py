@@ -38,8 +38,8 @@ def _reversible(sim, method, order, n, eta):
     R = sim.rigid
     elapsed = np.zeros(1)
     status = rigid_reversible_steps(
-        method, R.models, R.q, R.v, R.cq, R.cv, R.lam, R.rho, R.mass, R.E, R.Einv, R.Jinv, R.offsets, R.X, R.mp,
-        sim.gm, sim.center, eta, np.ascontiguousarray(coefficients(order)), n, 50, elapsed, None, None,
+        method, R.models, R.q, R.v, R.cq, R.cv, R.lam, R.rho, R.mass, R.E, R.Einv, R.inverse_inertias(), R.offsets,
+        R.X, R.mp, sim.gm, sim.center, eta, np.ascontiguousarray(coefficients(order)), n, 50, elapsed, None, None,
     )  # fmt: skip
     assert status == 0
     return elapsed[0]

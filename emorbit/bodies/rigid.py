@@ -148,7 +148,6 @@ class RigidBodies(RigidEffects, BodySystem):
         self.cv = np.zeros((0, 12))
         self.lam = np.zeros((0, 6))
         self.rho = np.zeros(0)  # adaptive steps' control variables, 1/s (0: set from the state)
-        self.Jinv = np.zeros((0, 3, 3))  # inverse body-frame inertias, 1/(kg m^2)
         self.zonal = None  # an EffectTerm of kind "zonal" (emorbit.effects.zonal), or None
         self.effects: list = []  # drag, radiation pressure and third bodies (EffectTerm), set by the simulation
         self.surfaces: list = []  # per body: how its facets are made (see add), built on first use
@@ -218,7 +217,6 @@ class RigidBodies(RigidEffects, BodySystem):
         self.mass = np.append(self.mass, points.mass)
         self.E = np.concatenate([self.E, E[None]])
         self.Einv = np.concatenate([self.Einv, np.linalg.inv(E)[None]])
-        self.Jinv = np.concatenate([self.Jinv, np.linalg.inv(np.trace(E) * np.eye(3) - E)[None]])
         self.rho = np.append(self.rho, 0.0)
         R = np.asarray(R, float)
         w = np.asarray(omega_space, float)
@@ -272,7 +270,7 @@ class RigidBodies(RigidEffects, BodySystem):
         for attr in ("names", "shapes", "points", "params", "surfaces", "_facets"):
             lst = getattr(self, attr)
             del lst[b]
-        for attr in ("models", "mass", "E", "Einv", "Jinv", "q", "v", "cq", "cv", "lam", "rho"):
+        for attr in ("models", "mass", "E", "Einv", "q", "v", "cq", "cv", "lam", "rho"):
             setattr(self, attr, np.ascontiguousarray(getattr(self, attr)[keep]))
         self._pack()
         return out
@@ -371,6 +369,11 @@ class RigidBodies(RigidEffects, BodySystem):
         the control variables ``rho`` of adaptive steps."""
         return super().STATE_FIELDS + (("rho",) if self.adaptive is not None else ())
 
+    def inverse_inertias(self) -> np.ndarray:
+        """(nb, 3, 3) the inverse body-frame inertias J^-1, J = tr(E) I - E, 1/(kg m^2)."""
+        tr = np.trace(self.E, axis1=1, axis2=2)[:, None, None]
+        return np.ascontiguousarray(np.linalg.inv(tr * np.eye(3) - self.E))
+
     def _records(self, nrec: int) -> RigidRecords:
         """Empty records of ``nrec`` intervals (no failure, no stall yet)."""
         nb = len(self)
@@ -391,7 +394,7 @@ class RigidBodies(RigidEffects, BodySystem):
         steps = np.zeros((nrec, nb), np.int64)
         rigid_adaptive_chunk(
             method_code(method), self.models, self.q, self.v, self.cq, self.cv, self.lam, self.rho, self.mass,
-            self.E, self.Einv, self.Jinv, self.offsets, self.X, self.mp, float(gm),
+            self.E, self.Einv, self.inverse_inertias(), self.offsets, self.X, self.mp, float(gm),
             np.ascontiguousarray(center, float), float(dt), int(every), float(self.adaptive),
             np.ascontiguousarray(gammas, float), int(nrec), int(max_iter), rec.q, rec.v, rec.iterations, steps,
             rec.stalled, rec.fail, *self._zonal_args(),

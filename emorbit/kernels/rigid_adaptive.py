@@ -30,8 +30,9 @@ energy-momentum step, whatever its size.
 
 Data layout: as :func:`.rigid.rigid_chunk` (``q, v, cq, cv`` (nb, 12), ``lam`` (nb, 6));
 ``rho`` (nb,) the control variables (0 or less: set from ``s(y)`` at the first step), updated
-in place and part of a checkpoint; ``Jinv`` (nb, 3, 3) the inverse body-frame inertias.
-Gravity and zonal harmonics only: effects that read the clock run with fixed steps.
+in place and part of a checkpoint; ``Jinv`` (nb, 3, 3) the inverse body-frame inertias
+(``RigidBodies.inverse_inertias``). The central field only: the Simulation refuses effects
+with adaptive steps (``zonal_p``, ``zonal_j`` are handed to :func:`.rigid.rigid_step` as given).
 
 References: E. Hairer, G. Soederlind, SIAM J. Sci. Comput. 26 (2005) 1838-1851; P. Betsch,
 P. Steinmann, Comput. Methods Appl. Mech. Engrg. 190 (2001) 6663-6692 (the director step).
@@ -69,7 +70,7 @@ def rigid_rates(q, v, E, Jinv, gm, c):
         w2 = gm / (r2 * r)
         W += w2
         dW += -3.0 * w2 * (a0 * v[0] + a1 * v[1] + a2 * v[2]) / r2
-    w = np.zeros(3)
+    w0 = w1 = w2 = 0.0  # w = 1/2 sum d_k x dd_k, in space
     for k in range(3):
         d0 = q[3 + 3 * k]
         d1 = q[4 + 3 * k]
@@ -77,22 +78,23 @@ def rigid_rates(q, v, E, Jinv, gm, c):
         e0 = v[3 + 3 * k]
         e1 = v[4 + 3 * k]
         e2 = v[5 + 3 * k]
-        w[0] += 0.5 * (d1 * e2 - d2 * e1)
-        w[1] += 0.5 * (d2 * e0 - d0 * e2)
-        w[2] += 0.5 * (d0 * e1 - d1 * e0)
-    om = np.zeros(3)  # body-frame rate
-    for k in range(3):
-        om[k] = q[3 + 3 * k] * w[0] + q[4 + 3 * k] * w[1] + q[5 + 3 * k] * w[2]
-    W += om[0] * om[0] + om[1] * om[1] + om[2] * om[2]
-    tr = E[0, 0] + E[1, 1] + E[2, 2]  # J Omega = tr(E) Omega - E Omega
-    L = np.empty(3)
-    for k in range(3):
-        L[k] = tr * om[k] - (E[k, 0] * om[0] + E[k, 1] * om[1] + E[k, 2] * om[2])
-    t0 = L[1] * om[2] - L[2] * om[1]
-    t1 = L[2] * om[0] - L[0] * om[2]
-    t2 = L[0] * om[1] - L[1] * om[0]
-    for k in range(3):
-        dW += 2.0 * om[k] * (Jinv[k, 0] * t0 + Jinv[k, 1] * t1 + Jinv[k, 2] * t2)
+        w0 += 0.5 * (d1 * e2 - d2 * e1)
+        w1 += 0.5 * (d2 * e0 - d0 * e2)
+        w2 += 0.5 * (d0 * e1 - d1 * e0)
+    o0 = q[3] * w0 + q[4] * w1 + q[5] * w2  # Omega = R^T w, the body-frame rate
+    o1 = q[6] * w0 + q[7] * w1 + q[8] * w2
+    o2 = q[9] * w0 + q[10] * w1 + q[11] * w2
+    W += o0 * o0 + o1 * o1 + o2 * o2
+    tr = E[0, 0] + E[1, 1] + E[2, 2]  # L = J Omega = tr(E) Omega - E Omega
+    l0 = tr * o0 - (E[0, 0] * o0 + E[0, 1] * o1 + E[0, 2] * o2)
+    l1 = tr * o1 - (E[1, 0] * o0 + E[1, 1] * o1 + E[1, 2] * o2)
+    l2 = tr * o2 - (E[2, 0] * o0 + E[2, 1] * o1 + E[2, 2] * o2)
+    t0 = l1 * o2 - l2 * o1  # (J Omega) x Omega
+    t1 = l2 * o0 - l0 * o2
+    t2 = l0 * o1 - l1 * o0
+    dW += 2.0 * o0 * (Jinv[0, 0] * t0 + Jinv[0, 1] * t1 + Jinv[0, 2] * t2)
+    dW += 2.0 * o1 * (Jinv[1, 0] * t0 + Jinv[1, 1] * t1 + Jinv[1, 2] * t2)
+    dW += 2.0 * o2 * (Jinv[2, 0] * t0 + Jinv[2, 1] * t1 + Jinv[2, 2] * t2)
     return W, dW
 
 
