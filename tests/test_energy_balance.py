@@ -68,8 +68,8 @@ LEAST_WORK = {"drag": 1e-3, "srp": 2e-9, "third_body": 1e-8}
 def test_the_balance_closes_to_roundoff_over_1e5_large_steps(tmp_path, effects, kind):
     """1e5 em steps of T/50 (2000 orbits, 128 days): |E - E0 - W| / |E0| stays below 8e-14
     (measured 4.2e-15 to 8.6e-15 for every effect and both body kinds, but 2.9e-14 for the
-    rigid box under drag, whose balance grows about linearly: the differenced facet stiffness
-    leaves a residual; the issue asks 1e-12), while each effect's work
+    rigid box under drag, whose balance grows about linearly, a trend whose cause is not
+    pinned down; the issue asks 1e-12), while each effect's work
     reaches 2e3 to 3e9 times that; the file holds the same balance, each work with its unit."""
     sim = _leo(effects, kind)
     path = tmp_path / "run.h5"

@@ -79,9 +79,9 @@ __all__ = [
 _EPS = 2.220446049250313e-16
 _TOL2 = (4.0 * _EPS) ** 2
 _FLOOR2 = (1024.0 * _EPS) ** 2  # a stalled update is accepted as round-off below 1024 eps |scale|
-#: with facets, an update must also fall below this fraction of the round-off test (their
-#: differenced stiffness leaves a residual that biased the energy balance: 8.4e-14 against
-#: 2.9e-14 over 1e5 LEO steps with drag, tests/test_energy_balance.py)
+#: with facets, an update must also fall below this fraction of the round-off test: stopping
+#: at the test alone let a box's energy balance under drag grow to 8.4e-14 over 1e5 LEO steps,
+#: 2.9e-14 with this (tests/test_energy_balance.py); why facets need it is not pinned down
 _FACET_TOL = 1e-4
 _CENTRAL_K = 1e-8  # the volume model takes the centre of mass's load stiffness up to this h^2 GM rho / r^4
 
@@ -520,7 +520,7 @@ def rigid_step(
             s2 += wdiag[j] * dq[j] * dq[j]
         for j in range(6):
             nu[j] -= rhs[12 + j]
-        # facets' load stiffness comes from differences: one more update once at round-off
+        # with facets, one more update once at round-off (see _FACET_TOL)
         if d2 <= _TOL2 * (floor2 + s2) and (facets is None or d2 <= _FACET_TOL * _TOL2 * (floor2 + s2)):
             status = STATUS_OK  # at round-off
             break
