@@ -206,6 +206,14 @@ MUTANTS = (
         ("tests/test_adaptive.py", "-k", "run_back"),
     ),
     Mutant(
+        "A4",
+        "em's adaptive composed step no longer restores the compensated state's energy",
+        "emorbit/kernels/pointmass/adaptive.py",
+        "        q, eh, el = _restore_energy(q, eh, el, gm, c0, c1, c2)\n",
+        "        pass\n",
+        ("tests/test_adaptive.py", "-k", "restores"),
+    ),
+    Mutant(
         "A3",
         "a rigid body's adaptive closing kick reads g at the sub-step's start (not time-symmetric)",
         "emorbit/kernels/rigid_adaptive.py",

@@ -1,43 +1,42 @@
 """Adaptive, time-symmetric steps for point masses: a reversible step-size controller
 (Hairer & Soederlind) around the symmetric em, midpoint or leapfrog step.
 
-Method. Each point carries a control variable ``rho`` besides its state ``y = (x, v)``; its
-step is ``h = eps / rho``. On the exact motion ``rho = 1 / s(x)``, ``s(x) = eta 2 pi
-sqrt(r**3 / GM)`` (``r = |x - c|``: a fraction ``eta`` of the local Kepler time scale, the
-Sundman-type rule dt ~ r**(3/2)), so in the step variable tau (dt = d tau / rho)
-``d ln rho / d tau = g(y) = -3/2 (x - c).v s(x) / r**2``. One step of size ``eps`` is the
-symmetric splitting
+Method. Each point carries a control variable ``rho``; its step is ``h = eps / rho``. On the
+exact motion ``rho = 1 / s(x)``, ``s(x) = eta 2 pi sqrt(r**3 / GM)`` (``r = |x - c|``; the
+Sundman-type rule dt ~ r**(3/2)), so in tau (dt = d tau / rho) ``d ln rho / d tau = g(y) =
+-3/2 (x - c).v s(x) / r**2``. One step of size ``eps`` is the symmetric splitting
 
     rho_1/2 = rho_0 C(eps/4 g(y_0)),   y_1 = Phi_h(y_0), h = eps / rho_1/2,   rho_1 = rho_1/2 C(eps/4 g(y_1)),
 
-``C(a) = (1 + a) / (1 - a)`` (exp(2 a) to third order, positive, ``C(-a) = 1 / C(a)``),
-``Phi_h`` the symmetric one-step method (``Phi_-h`` is the inverse of ``Phi_h``) and g odd in
-v: the step of size ``-eps`` undoes the step of size ``eps``. The scheme is time-symmetric
-and of order 2 in tau, and the symmetric compositions of :mod:`emorbit.integrators` (orders
-4-8) apply to it (sub-steps ``gammas[k] eps``). em keeps the energy and the angular momentum
-exactly for any step sequence, so for this one too. ``eps`` is 1: ``eta`` alone sets the
-accuracy (``rho`` starts at ``1 / s(x_0)``). The closing kick of a sub-step and the opening
-kick of the next read g at the same state: one evaluation per sub-step.
+``C(a) = (1 + a) / (1 - a)`` (exp(2 a) to third order, ``C(-a) = 1 / C(a)``), ``Phi_h`` the
+symmetric method and g odd in v: the step of size ``-eps`` undoes the step of size ``eps``.
+It is of order 2 in tau; the compositions of :mod:`emorbit.integrators` (sub-steps ``gammas[k]
+eps``) raise it to 4-8. em keeps E and L exactly for any step sequence. ``eps`` is 1: ``eta``
+alone sets the accuracy. Closing and opening kicks of neighbouring sub-steps share one g.
 
-Steps land exactly on the grid ``k * interval`` (the run's ``dt``; records fall on every
-``every``-th point of it): a composed step that would pass the next grid time (expected
-from the last step's length, :data:`PREDICT`, or found by taking it) is replaced by one
-composed step of the remaining time (fixed sub-steps), after which ``rho = 1 / s(x)``: the
-energy stays exact, the symmetry is broken at the grid points only, and ``rho s(x)``, which
-the kicks keep near 1 but which drifts from orbit to orbit (a drift that the way in to
-pericentre multiplies by (r_a / r_p)**(3/2)), starts each interval at 1. Each interval
-starts afresh from the state, so a run's steps do not depend on how it is cut into calls. A
-composed step whose solve fails, whose kicks exceed :data:`KICK_MAX` or that leaves
-``rho s(x)`` beyond :data:`U_MAX` is retried with half the ``eps``, up to :data:`MAX_HALVINGS`
-times, before the point is reported as failed.
+Round-off: the sub-steps read rounded positions, which moves the energy of the compensated
+state (x - cx, v - cv) by about eps times the energy a sub-step exchanges (a walk of 1e-14 of
+E over 100 orbits of e = 0.9, 1e-12 of a along the track). em's composed step ends by
+restoring it (:func:`_restore_energy`): ``cv += (dE / |v|^2) v``, ``dE`` the end state's
+energy minus the interval's first, both double-double; zero in exact arithmetic, skipped
+beyond :data:`RESTORE_MAX` of ``|v|^2 + GM/r``, and not applied to midpoint or leapfrog.
+
+Steps land exactly on the grid ``k * interval`` (the run's ``dt``; records on every ``every``-th
+point): a composed step that would pass the next grid time (expected from the last step,
+:data:`PREDICT`, or found by taking it) is replaced by one composed step of the remaining time
+(fixed sub-steps), after which ``rho = 1 / s(x)``: the symmetry is broken at the grid points
+only, and ``rho s(x)``, which drifts from orbit to orbit, starts each interval at 1. Each
+interval starts afresh from the state, so a run does not depend on how it is cut into calls.
+A composed step whose solve fails, whose kicks exceed :data:`KICK_MAX` or that leaves ``rho
+s(x)`` beyond :data:`U_MAX` is retried with half the ``eps`` (at most :data:`MAX_HALVINGS`
+times) before the point fails.
 
 Data layout: ``x, v, cx, cv`` (3, n) state and Kahan compensations as in :mod:`.chunk`;
-``rho`` (n,) the control variables (0 or less: set from ``s(x)`` at the first step), updated
-in place and part of a checkpoint, so a restart is bit for bit.
+``rho`` (n,) the control variables (<= 0: set from ``s(x)``), part of a checkpoint.
 
-References: E. Hairer, G. Soederlind, Explicit, time reversible, adaptive step size control,
-SIAM J. Sci. Comput. 26 (2005) 1838-1851; E. Hairer, C. Lubich, G. Wanner, Geometric Numerical
-Integration, 2nd ed. (Springer 2006), sec. VIII.3; K. Sundman, Acta Math. 36 (1913) 105-179.
+References: E. Hairer, G. Soederlind, SIAM J. Sci. Comput. 26 (2005) 1838-1851; E. Hairer,
+C. Lubich, G. Wanner, Geometric Numerical Integration, 2nd ed. (Springer 2006), sec. VIII.3;
+K. Sundman, Acta Math. 36 (1913) 105-179.
 """
 
 from __future__ import annotations
@@ -45,7 +44,7 @@ from __future__ import annotations
 import math
 
 from ..codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_LEAPFROG, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
-from ..eft import kahan_add
+from ..eft import dd_add, dd_div, dd_sqrt, kahan_add, two_prod
 from ..gravity import accel
 from ..jit import kernel
 from .point_step import _implicit_point_em, _implicit_point_em_plain, _implicit_point_mid, _leapfrog_point
@@ -66,6 +65,9 @@ KICK_MAX = 0.2
 #: a step after one of duration d is expected to last at most PREDICT d: where less than that
 #: is left to the record, the step of the remaining time is taken without a trial step
 PREDICT = 1.1
+#: em's round-off correction of the energy (:func:`_restore_energy`) applies to a composed
+#: step whose energy moved by less than this fraction of |v|^2 + GM / r
+RESTORE_MAX = 2.0**-36
 _TWO_PI = 2.0 * math.pi
 
 
@@ -125,12 +127,58 @@ def _sub(method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, 
 
 
 @kernel
-def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter):
+def _sq_dd(h, c):
+    """(h - c)**2 as a double-double, for a value h whose compensation is c."""
+    p, e = two_prod(h, h)
+    return p, e - 2.0 * h * c
+
+
+@kernel
+def _energy_dd(s, gm, c0, c1, c2):
+    """(energy per unit mass of the compensated state (x - cx, v - cv), as a double-double;
+    |v|^2 + GM / r, its scale)."""
+    kh, kl = _sq_dd(s[3], s[9])
+    ph, pl = _sq_dd(s[4], s[10])
+    kh, kl = dd_add(kh, kl, ph, pl)
+    ph, pl = _sq_dd(s[5], s[11])
+    kh, kl = dd_add(kh, kl, ph, pl)
+    rh, rl = _sq_dd(s[0] - c0, s[6])
+    ph, pl = _sq_dd(s[1] - c1, s[7])
+    rh, rl = dd_add(rh, rl, ph, pl)
+    ph, pl = _sq_dd(s[2] - c2, s[8])
+    rh, rl = dd_add(rh, rl, ph, pl)
+    rh, rl = dd_sqrt(rh, rl)
+    qh, ql = dd_div(gm, 0.0, rh, rl)
+    eh, el = dd_add(0.5 * kh, 0.5 * kl, -qh, -ql)
+    return eh, el, kh + qh
+
+
+@kernel
+def _restore_energy(s, eh, el, gm, c0, c1, c2):
+    """em's round-off correction: the composed step's end state ``s`` with the compensation
+    of its velocity changed so that the compensated state's energy is ``eh + el`` (the
+    energy the step started from) to double-double precision. Applied only where the
+    difference is round-off (below :data:`RESTORE_MAX` of the energy's scale); otherwise
+    ``s`` is kept and its own energy becomes the target. Returns (s, target energy)."""
+    fh, fl, scale = _energy_dd(s, gm, c0, c1, c2)
+    dh, dl = dd_add(fh, fl, -eh, -el)
+    de = dh + dl
+    v2 = s[3] * s[3] + s[4] * s[4] + s[5] * s[5]
+    if not (v2 > 0.0 and abs(de) < RESTORE_MAX * scale):
+        return s, fh, fl
+    k = de / v2  # (v - cv)(1 - k) has the kinetic energy 1/2 |v - cv|^2 - de, to first order in k
+    t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2 = s
+    return (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0 + k * u0, f1 + k * u1, f2 + k * u2, n0, n1, n2), eh, el
+
+
+@kernel
+def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter, eh, el):
     """One composed step from the 15 values ``s`` (x, v, cx, cv, the leapfrog acceleration)
     and ``rho``: sub-steps ``gammas[k] eps`` in tau, or (``fixed`` > 0) of physical size
     ``gammas[k] fixed``, with ``rho`` then set to ``1 / s(x)`` at its end. Returns (new 15
-    values, rho, the physical duration as ``dur - dlo`` (a Kahan
-    sum and its compensation), iterations, status); on a failure the values are meaningless.
+    values, rho, the physical duration as ``dur - dlo`` (a Kahan sum and its compensation),
+    iterations, status, the energy target); on a failure the values are meaningless. em's
+    end state gets :func:`_restore_energy` towards the energy ``eh + el``.
 
     The kick closing one sub-step and the kick opening the next read g at the same state: it
     is evaluated once per sub-step."""
@@ -147,7 +195,7 @@ def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter)
             ak = 0.25 * eps * gammas[k]
             a = ak * g
             if not abs(a) < KICK_MAX:
-                return s, rho, dur, dlo, its, STATUS_NO_CONVERGENCE
+                return s, rho, dur, dlo, its, STATUS_NO_CONVERGENCE, eh, el
             rho = _kick(rho, a)
             h = (4.0 * ak) / rho
         (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, it, status) = _sub(
@@ -155,12 +203,12 @@ def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter)
         )
         its += it
         if status != STATUS_OK:
-            return s, rho, dur, dlo, its, status
+            return s, rho, dur, dlo, its, status, eh, el
         if fixed <= 0.0:
             g = _g(t0, t1, t2, u0, u1, u2, c0, c1, c2, gm, eta)
             a = ak * g
             if not abs(a) < KICK_MAX:
-                return s, rho, dur, dlo, its, STATUS_NO_CONVERGENCE
+                return s, rho, dur, dlo, its, STATUS_NO_CONVERGENCE, eh, el
             rho = _kick(rho, a)
         dur, dlo = kahan_add(dur, dlo, h)
     if fixed > 0.0:
@@ -168,8 +216,11 @@ def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter)
     else:
         u = rho / control(t0, t1, t2, c0, c1, c2, gm, eta)
         if not (u > 1.0 / U_MAX and u < U_MAX):  # the control ran away from 1 / s(x)
-            return s, rho, dur, dlo, its, STATUS_NO_CONVERGENCE
-    return (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2), rho, dur, dlo, its, STATUS_OK
+            return s, rho, dur, dlo, its, STATUS_NO_CONVERGENCE, eh, el
+    q = (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2)
+    if method == METHOD_EM:
+        q, eh, el = _restore_energy(q, eh, el, gm, c0, c1, c2)
+    return q, rho, dur, dlo, its, STATUS_OK, eh, el
 
 
 @kernel
@@ -207,23 +258,30 @@ def _interval(method, s, r, interval, gammas, gm, c0, c1, c2, eta, max_iter):
     prev = 0.0
     status = STATUS_OK
     last = False
+    eh, el, _scale = _energy_dd(s, gm, c0, c1, c2)
     while not last:
         rem = (interval - elapsed) + comp  # kahan_add's compensation: the sum is elapsed - comp
         ok = False
         eps = 1.0
         q = s
         rq = r
+        qh = eh
+        ql = el
         for _halving in range(MAX_HALVINGS + 1):
             if prev >= rem:  # the last step was longer than what is left: no trial step
                 dur = rem
                 dlo = 0.0
                 status = STATUS_OK
             else:
-                q, rq, dur, dlo, it, status = _composed(method, s, r, eps, 0.0, gammas, gm, c0, c1, c2, eta, max_iter)
+                q, rq, dur, dlo, it, status, qh, ql = _composed(
+                    method, s, r, eps, 0.0, gammas, gm, c0, c1, c2, eta, max_iter, eh, el
+                )
                 its += it
             if status == STATUS_OK and dur - dlo >= rem:
                 # the step passes the landing: one step of the remaining time instead
-                q, rq, dur, dlo, it, status = _composed(method, s, r, 1.0, rem, gammas, gm, c0, c1, c2, eta, max_iter)
+                q, rq, dur, dlo, it, status, qh, ql = _composed(
+                    method, s, r, 1.0, rem, gammas, gm, c0, c1, c2, eta, max_iter, eh, el
+                )
                 its += it
                 last = True
             if status == STATUS_OK:
@@ -235,6 +293,8 @@ def _interval(method, s, r, interval, gammas, gm, c0, c1, c2, eta, max_iter):
             return s, r, its, steps, status
         s = q
         r = rq
+        eh = qh
+        el = ql
         steps += 1
         if steps > MAX_STEPS:  # the control ran away: fail rather than never return
             return s, r, its, steps, STATUS_NO_CONVERGENCE
@@ -328,8 +388,11 @@ def reversible_steps(method, x, v, cx, cv, rho, gm, center, eta, gammas, nsteps,
         s, r = _start(method, x, v, cx, cv, rho, gm, c0, c1, c2, eta, i)
         t = 0.0
         tc = 0.0
+        eh, el, _scale = _energy_dd(s, gm, c0, c1, c2)
         for _ in range(nsteps):
-            s, r, dur, dlo, it, status = _composed(method, s, r, 1.0, 0.0, gammas, gm, c0, c1, c2, eta, max_iter)
+            s, r, dur, dlo, it, status, eh, el = _composed(
+                method, s, r, 1.0, 0.0, gammas, gm, c0, c1, c2, eta, max_iter, eh, el
+            )
             if status != STATUS_OK:
                 return status
             t, tc = kahan_add(t, tc + dlo, dur)
