@@ -581,9 +581,7 @@ def targets(section: dict) -> list:
             else:
                 r = row["em_over_best_peer"]
                 t.update(measured=r, met=r <= LIMIT)
-                t["note"] = (
-                    f"em {em['series']} {1e3 * em['cpu_s']:.2f} ms, {peer['series']} {1e3 * peer['cpu_s']:.2f} ms"
-                )
+                t["note"] = f"{em['series']} {1e3 * em['cpu_s']:.2f} ms, {peer['series']} {1e3 * peer['cpu_s']:.2f} ms"
             out.append(t)
     em = [p for c in section["cases"] for p in c["points"] if p["engine"] == "emorbit" and p["method"] == "em"]
     em = [p for p in em if p.get("status") == "ok"]
