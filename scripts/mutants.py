@@ -214,6 +214,14 @@ MUTANTS = (
         ("tests/test_adaptive.py", "-k", "restores"),
     ),
     Mutant(
+        "A5",
+        "a failed adaptive step halves at once, never starting its control afresh",
+        "emorbit/kernels/pointmass/adaptive.py",
+        "            if not reset:\n",
+        "            if False:\n",
+        ("tests/test_adaptive.py", "-k", "e099"),
+    ),
+    Mutant(
         "A3",
         "a rigid body's adaptive closing kick reads g at the sub-step's start (not time-symmetric)",
         "emorbit/kernels/rigid_adaptive.py",

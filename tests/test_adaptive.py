@@ -155,3 +155,32 @@ def test_hundred_eccentric_orbits_reach_the_truncation_error():
     sim, res = _run(0.9, 8, 0.005, 100, every=100, per_orbit=1)
     err = _error(res, 0.9)[-1]
     assert err <= 1e-13, f"position error after 100 orbits {err:.3g} of a"
+
+
+@pytest.mark.parametrize("order, eta", [(4, 0.04), (4, 0.06), (2, 0.06), (8, 0.06)])
+def test_long_steps_at_e099_do_not_fail(order, eta):
+    """40 orbits of the bench's e = 0.99 orbit (a = 6 m, GM = 3.9478 m^3/s^2, from aphelion)
+    at a coarse eta, landing ten times an orbit, on ``PointMasses.advance`` as the bench runs
+    it. Where a step fails (its kicks too large, the control run away from 1 / s(x), a landing
+    step too long for its solve), the point starts its control afresh from the state and
+    tries again before it halves the step, and a failed landing step is followed by trial
+    steps: the run finishes, E and L at round-off. With the triple jump at eta = 0.04 it
+    failed in the 12th orbit (a landing step failed and its retries repeated it) and, that
+    fixed, in the 30th (the control ran away at pericentre; halving did not bring it back).
+    Measured: |dE/E0| <= 5.9e-14, |dL|/|L0| <= 3.1e-14 (from the rounded records)."""
+    from emorbit.bench.common import GM as gm
+    from emorbit.bench.common import aphelion_state, period, point_masses
+
+    x0, v0 = aphelion_state(6.0, 0.99)
+    T = period(x0, v0)
+    pm = point_masses(x0[:, None], v0[:, None])
+    pm.adaptive = eta
+    rec = pm.advance("em", gm, np.zeros(3), T / 10, coefficients(order), 1, 400, 50)
+    assert rec.first_failure() is None, f"failed: {rec.first_failure()}"
+    x, v = rec.x[:, :, 0], rec.v[:, :, 0]
+    e = 0.5 * np.einsum("rk,rk->r", v, v) - gm / np.linalg.norm(x, axis=1)
+    L = np.cross(x, v)
+    dE = np.abs(e / (0.5 * v0 @ v0 - gm / np.linalg.norm(x0)) - 1).max()
+    dL = (np.linalg.norm(L - np.cross(x0, v0), axis=1) / np.linalg.norm(np.cross(x0, v0))).max()
+    assert dE <= 1e-12, f"|dE/E0| = {dE:.3g}"
+    assert dL <= 1e-13, f"|dL|/|L0| = {dL:.3g}"

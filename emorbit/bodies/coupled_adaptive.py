@@ -20,7 +20,8 @@ change, ``-3 GM (x - c).v / r**5`` (the other terms' is left out: it only moves 
 symmetric splitting ``rho_1/2 = rho_0 C(eps/4 g(y_0))``, ``y_1 = Phi_h(y_0)`` with ``h = eps
 / rho_1/2``, ``rho_1 = rho_1/2 C(eps/4 g(y_1))``, ``C(a) = (1 + a) / (1 - a)``, composed for
 orders 4-8; steps land on every multiple of the run's ``dt`` (each interval starting
-afresh) and failed steps are retried with half the ``eps``, as for point masses. Every
+afresh) and failed steps are retried with the control started afresh, then with half the
+``eps``, as for point masses. Every
 sub-step is an energy-momentum step, so energy and angular momentum stay exact. Stiff
 structures make the step short: em is stable at any step, and fixed steps over the elastic
 modes cost far less where only the orbit matters.
@@ -184,9 +185,12 @@ class StructureAdaptive:
             rem = interval - elapsed
             ok = False
             eps = 1.0
-            for _ in range(MAX_HALVINGS + 1):
+            reset = False
+            for _ in range(MAX_HALVINGS + 2):
                 dur, status = rem, STATUS_OK
-                if prev < rem:  # a trial step (none when the last one was longer than what is left)
+                if prev < rem or eps < 1.0 or reset:
+                    # a trial step (none when the last one was longer than what is left, unless
+                    # the landing step failed)
                     state = self._state_copy()
                     rq, dur, it, st, status = self._composed(code, state, rho, eps, 0.0, gammas, gm, c, max_iter)
                     its += it
@@ -200,8 +204,12 @@ class StructureAdaptive:
                 if status == STATUS_OK:
                     ok = True
                     break
-                eps *= 0.5
                 last = False
+                if not reset:  # first failure: start the control afresh from the state, try again
+                    reset = True
+                    rho = self.control(self.u - self.cu, self.v - self.cv, gm, c)[0]
+                    continue
+                eps *= 0.5
             steps += 1
             if not ok or steps > MAX_STEPS:
                 return rho, its, stl, steps, status if status != STATUS_OK else STATUS_NO_CONVERGENCE

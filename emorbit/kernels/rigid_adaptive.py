@@ -24,9 +24,9 @@ One step of size ``eps`` is the symmetric splitting
 ``C(a) = (1 + a) / (1 - a)``, with the compositions of orders 4-8 applied to it, the steps
 landing on every multiple of the run's ``dt`` (each interval starting afresh, so that a
 run does not depend on how it is cut into calls) and a failed composed step retried with
-half the ``eps``, exactly as for point masses (:mod:`.pointmass.adaptive`, where the
-constants are defined). Energy and angular momentum stay exact: each sub-step is an
-energy-momentum step, whatever its size.
+its control started afresh, then with half the ``eps``, exactly as for point masses
+(:mod:`.pointmass.adaptive`, where the constants are defined). Energy and angular momentum
+stay exact: each sub-step is an energy-momentum step, whatever its size.
 
 Data layout: as :func:`.rigid.rigid_chunk` (``q, v, cq, cv`` (nb, 12), ``lam`` (nb, 6));
 ``rho`` (nb,) the control variables (0 or less: set from ``s(y)`` at the first step), updated
@@ -191,11 +191,14 @@ def _interval(
         ok = False
         eps = 1.0
         rq = r
-        for _halving in range(MAX_HALVINGS + 1):
+        reset = False
+        for _attempt in range(MAX_HALVINGS + 2):
             dur = rem
             dlo = 0.0
             status = STATUS_OK
-            if prev < rem:  # a trial step (none when the last one was longer than what is left)
+            if prev < rem or eps < 1.0 or reset:
+                # a trial step (none when the last one was longer than what is left, unless
+                # the landing step failed)
                 tp[:] = q
                 tu[:] = v
                 te[:] = cq
@@ -223,8 +226,12 @@ def _interval(
             if status == STATUS_OK:
                 ok = True
                 break
-            eps *= 0.5
             last = False
+            if not reset:  # first failure: start the control afresh from the state, try again
+                reset = True
+                r, g = _control(q, v, E, Jinv, gm, c, eta)
+                continue
+            eps *= 0.5
         if not ok:
             return r, its, stl, steps, status
         q[:] = tp

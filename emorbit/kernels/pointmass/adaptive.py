@@ -24,12 +24,12 @@ beyond :data:`RESTORE_MAX` of ``|v|^2 + GM/r``, and not applied to midpoint or l
 Steps land exactly on the grid ``k * interval`` (the run's ``dt``; records on every ``every``-th
 point): a composed step that would pass the next grid time (expected from the last step,
 :data:`PREDICT`, or found by taking it) is replaced by one composed step of the remaining time
-(fixed sub-steps), after which ``rho = 1 / s(x)``: the symmetry is broken at the grid points
-only, and ``rho s(x)``, which drifts from orbit to orbit, starts each interval at 1. Each
-interval starts afresh from the state, so a run does not depend on how it is cut into calls.
-A composed step whose solve fails, whose kicks exceed :data:`KICK_MAX` or that leaves ``rho
-s(x)`` beyond :data:`U_MAX` is retried with half the ``eps`` (at most :data:`MAX_HALVINGS`
-times) before the point fails.
+(fixed sub-steps), after which ``rho = 1 / s(x)``, and ``rho s(x)``, which drifts from orbit
+to orbit, starts each interval at 1. Each interval starts afresh from the state, so a run does
+not depend on how it is cut into calls. A composed step whose solve fails, whose kicks exceed
+:data:`KICK_MAX` or that leaves ``rho s(x)`` beyond :data:`U_MAX` is retried once with ``rho =
+1 / s(x)``, then with trial steps of half the ``eps`` (at most :data:`MAX_HALVINGS` times)
+before the point fails. The symmetry is broken at those resets and at the grid points only.
 
 Data layout: ``x, v, cx, cv`` (3, n) state and Kahan compensations as in :mod:`.chunk`;
 ``rho`` (n,) the control variables (<= 0: set from ``s(x)``), part of a checkpoint.
@@ -267,8 +267,11 @@ def _interval(method, s, r, interval, gammas, gm, c0, c1, c2, eta, max_iter):
         rq = r
         qh = eh
         ql = el
-        for _halving in range(MAX_HALVINGS + 1):
-            if prev >= rem:  # the last step was longer than what is left: no trial step
+        reset = False
+        for _attempt in range(MAX_HALVINGS + 2):
+            if prev >= rem and eps == 1.0 and not reset:
+                # the last step was longer than what is left: no trial step (but after a
+                # failed landing step, trial steps)
                 dur = rem
                 dlo = 0.0
                 status = STATUS_OK
@@ -287,8 +290,15 @@ def _interval(method, s, r, interval, gammas, gm, c0, c1, c2, eta, max_iter):
             if status == STATUS_OK:
                 ok = True
                 break
-            eps *= 0.5
             last = False
+            if not reset:
+                # first failure: the control may have run away from the motion (kicks too
+                # large, rho s(x) beyond U_MAX): start it afresh from the state, as at a
+                # landing, and try again before halving
+                reset = True
+                r = control(s[0], s[1], s[2], c0, c1, c2, gm, eta)
+                continue
+            eps *= 0.5
         if not ok:
             return s, r, its, steps, status
         s = q
