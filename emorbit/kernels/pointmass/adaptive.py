@@ -19,7 +19,8 @@ state (x - cx, v - cv) by about eps times the energy a sub-step exchanges (a wal
 E over 100 orbits of e = 0.9, 1e-12 of a along the track). em's composed step ends by
 restoring it (:func:`_restore_energy`): ``cv += (dE / |v|^2) v``, ``dE`` the end state's
 energy minus the interval's first, both double-double; zero in exact arithmetic, skipped
-beyond :data:`RESTORE_MAX` of ``|v|^2 + GM/r``, and not applied to midpoint or leapfrog.
+beyond :data:`RESTORE_MAX` of ``|v|^2 + GM/r``, applied to em (either roundoff), not to
+midpoint or leapfrog.
 
 Steps land exactly on the grid ``k * interval`` (the run's ``dt``; records on every ``every``-th
 point): a composed step that would pass the next grid time (expected from the last step,
@@ -218,7 +219,7 @@ def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter,
         if not (u > 1.0 / U_MAX and u < U_MAX):  # the control ran away from 1 / s(x)
             return s, rho, dur, dlo, its, STATUS_NO_CONVERGENCE, eh, el
     q = (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2)
-    if method == METHOD_EM:
+    if method == METHOD_EM or method == METHOD_EM_PLAIN:
         q, eh, el = _restore_energy(q, eh, el, gm, c0, c1, c2)
     return q, rho, dur, dlo, its, STATUS_OK, eh, el
 
