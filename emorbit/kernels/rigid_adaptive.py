@@ -229,7 +229,7 @@ def _interval(
             last = False
             if not reset:  # first failure: start the control afresh from the state, try again
                 reset = True
-                r, g = _control(q, v, E, Jinv, gm, c, eta)
+                r = _control(q, v, E, Jinv, gm, c, eta)[0]
                 continue
             eps *= 0.5
         if not ok:

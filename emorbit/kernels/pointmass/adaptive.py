@@ -45,7 +45,7 @@ from __future__ import annotations
 import math
 
 from ..codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_LEAPFROG, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
-from ..eft import dd_add, dd_div, dd_sqrt, kahan_add, two_prod
+from ..eft import dd_add, dd_div, dd_mul, dd_sqrt, kahan_add
 from ..gravity import accel
 from ..jit import kernel
 from .point_step import _implicit_point_em, _implicit_point_em_plain, _implicit_point_mid, _leapfrog_point
@@ -128,25 +128,19 @@ def _sub(method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, 
 
 
 @kernel
-def _sq_dd(h, c):
-    """(h - c)**2 as a double-double, for a value h whose compensation is c."""
-    p, e = two_prod(h, h)
-    return p, e - 2.0 * h * c
-
-
-@kernel
 def _energy_dd(s, gm, c0, c1, c2):
     """(energy per unit mass of the compensated state (x - cx, v - cv), as a double-double;
     |v|^2 + GM / r, its scale)."""
-    kh, kl = _sq_dd(s[3], s[9])
-    ph, pl = _sq_dd(s[4], s[10])
+    kh, kl = dd_mul(s[3], -s[9], s[3], -s[9])
+    ph, pl = dd_mul(s[4], -s[10], s[4], -s[10])
     kh, kl = dd_add(kh, kl, ph, pl)
-    ph, pl = _sq_dd(s[5], s[11])
+    ph, pl = dd_mul(s[5], -s[11], s[5], -s[11])
     kh, kl = dd_add(kh, kl, ph, pl)
-    rh, rl = _sq_dd(s[0] - c0, s[6])
-    ph, pl = _sq_dd(s[1] - c1, s[7])
+    a0, a1, a2 = s[0] - c0, s[1] - c1, s[2] - c2
+    rh, rl = dd_mul(a0, -s[6], a0, -s[6])
+    ph, pl = dd_mul(a1, -s[7], a1, -s[7])
     rh, rl = dd_add(rh, rl, ph, pl)
-    ph, pl = _sq_dd(s[2] - c2, s[8])
+    ph, pl = dd_mul(a2, -s[8], a2, -s[8])
     rh, rl = dd_add(rh, rl, ph, pl)
     rh, rl = dd_sqrt(rh, rl)
     qh, ql = dd_div(gm, 0.0, rh, rl)
