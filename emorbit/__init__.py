@@ -13,7 +13,15 @@ Scenes (TOML) are loaded with :func:`load_scene`; files are read with :func:`rea
 """
 
 from ._version import __version__
-from .errors import EmorbitError, InputError, IntegrationError, RoundoffError, RoundoffWarning
+from .errors import (
+    EmorbitError,
+    EmorbitWarning,
+    EpochWarning,
+    InputError,
+    IntegrationError,
+    RoundoffError,
+    RoundoffWarning,
+)
 from .field import BODIES, CentralField
 from .integrators import METHODS, ORDERS
 from .io.reader import read
@@ -27,6 +35,8 @@ __all__ = [
     "BODIES",
     "CentralField",
     "EmorbitError",
+    "EmorbitWarning",
+    "EpochWarning",
     "InputError",
     "IntegrationError",
     "METHODS",

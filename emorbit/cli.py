@@ -28,7 +28,7 @@ import time
 import warnings
 
 from ._version import __version__
-from .errors import EmorbitError, InputError, IntegrationError, RoundoffError, RoundoffWarning
+from .errors import EmorbitError, EmorbitWarning, InputError, IntegrationError, RoundoffError
 
 __all__ = ["main", "console_main"]
 
@@ -114,17 +114,30 @@ def _plugin(module: str):
 
 @contextlib.contextmanager
 def _warnings_on_stderr():
-    """Print each RoundoffWarning of the block as one paragraph, ``emorbit: warning: ...``."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", RoundoffWarning)
-        try:
+    """Print the block's warnings on stderr once each, after the block.
+
+    An emorbit warning (a RoundoffWarning, an EpochWarning) is one paragraph,
+    ``emorbit: warning: ...``; any other warning (NumPy's, astropy's) is printed in Python's
+    own format, once per message and category. The warnings
+    are printed after ``catch_warnings`` has restored the previous ``showwarning``: printing
+    them inside it would record them again into the list being read, without end.
+    """
+    caught: list[warnings.WarningMessage] = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", EmorbitWarning)
             yield
-        finally:
-            for w in caught:
-                if issubclass(w.category, RoundoffWarning):
-                    print(f"emorbit: warning: {w.message}", file=sys.stderr)
-                else:
-                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    finally:
+        seen: set[tuple[type, str]] = set()
+        for w in caught:
+            key = (w.category, str(w.message))
+            if key in seen:
+                continue
+            seen.add(key)
+            if issubclass(w.category, EmorbitWarning):
+                print(f"emorbit: warning: {w.message}", file=sys.stderr)
+            else:
+                sys.stderr.write(warnings.formatwarning(w.message, w.category, w.filename, w.lineno))
 
 
 def _run(args) -> int:

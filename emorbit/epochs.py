@@ -12,7 +12,9 @@ is rounded to the nanosecond when it is read, so the text reads back to the same
 
 from __future__ import annotations
 
-from .errors import InputError
+import warnings
+
+from .errors import EpochWarning, InputError
 
 __all__ = ["SCALES", "to_epoch", "epoch_text"]
 
@@ -58,17 +60,31 @@ def to_epoch(value, key: str = "epoch"):
             key, f"unknown time scale {words[-1]!r} in {value!r}; known: {', '.join(s.upper() for s in SCALES)}"
         )
     try:
-        if words[0].upper() == "JD" and len(words) == 2:
-            t = Time(float(words[1]), format="jd", scale=scale)
-        elif len(words) == 1:
-            t = Time(words[0], scale=scale)
-        else:
-            t = Time(" ".join(words), scale=scale)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            if words[0].upper() == "JD" and len(words) == 2:
+                t = Time(float(words[1]), format="jd", scale=scale)
+            elif len(words) == 1:
+                t = Time(words[0], scale=scale)
+            else:
+                t = Time(" ".join(words), scale=scale)
+            if t.isscalar:
+                t = _rounded(t)
     except (ValueError, TypeError) as exc:
         raise InputError(key, f"{value!r} is not a date and time astropy reads: {exc}") from None
     if not t.isscalar:
         raise InputError(key, f"one instant expected, got {value!r}")
-    return _rounded(t)
+    said = " ".join(str(w.message) for w in caught)
+    if "after end of day" in said:
+        raise InputError(key, f"{value!r} is not a time of that day: second 60 exists only in a leap second")
+    if "dubious year" in said:
+        warnings.warn(
+            f"{key}: {value!r} lies outside the years of the leap-second table, so its offset "
+            "between UTC and TDB is extrapolated and may be off by a minute or more",
+            EpochWarning,
+            stacklevel=2,
+        )
+    return t
 
 
 def _rounded(t):

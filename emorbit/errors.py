@@ -2,7 +2,15 @@
 
 from __future__ import annotations
 
-__all__ = ["EmorbitError", "InputError", "IntegrationError", "RoundoffError", "RoundoffWarning"]
+__all__ = [
+    "EmorbitError",
+    "EmorbitWarning",
+    "EpochWarning",
+    "InputError",
+    "IntegrationError",
+    "RoundoffError",
+    "RoundoffWarning",
+]
 
 
 class EmorbitError(Exception):
@@ -66,7 +74,18 @@ class IntegrationError(EmorbitError, RuntimeError):
         super().__init__(f"step at t = {time!r} s failed for body {body!r}: {reason}")
 
 
-class RoundoffWarning(UserWarning):
+class EmorbitWarning(UserWarning):
+    """Base class of every warning emorbit issues; ``emorbit run`` prints each once, as
+    ``emorbit: warning: ...``."""
+
+
+class EpochWarning(EmorbitWarning):
+    """An epoch lies where its time scale is extrapolated: a UTC date outside the years that
+    the leap-second table covers, so its offset from TDB (and the Sun's and the Moon's
+    positions at it) is a guess by up to a minute or more."""
+
+
+class RoundoffWarning(EmorbitWarning):
     """A conserved invariant drifted further from its first record than round-off explains.
 
     Issued once at the end of a run (its file complete and closed); the message names the

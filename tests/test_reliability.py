@@ -1,0 +1,91 @@
+"""Bad and edge-case input meets a clean error or a clean run: never a hang, a traceback or lost data.
+
+Each test reproduces one failure found by running generated bad input through the command
+line, the API and damaged run files, and fails on the code before its fix.
+"""
+
+import subprocess
+import sys
+
+import pytest
+
+POINT_SCENE = """
+[field]
+body = "earth"
+[integrator]
+method = "em"
+dt = "60 s"
+t_end = "600 s"
+epoch = "{epoch}"
+[[body]]
+name = "sat"
+kind = "point"
+position = ["7000 km", "0 km", "0 km"]
+velocity = ["0 km/s", "7.5 km/s", "0 km/s"]
+mass = "1 kg"
+"""
+
+
+def _emorbit(args, cwd, timeout=120):
+    return subprocess.run(
+        [sys.executable, "-m", "emorbit.cli", *args], cwd=cwd, capture_output=True, text=True, timeout=timeout
+    )
+
+
+def test_a_warning_during_a_run_is_printed_once_and_the_run_returns(tmp_path):
+    """astropy's "dubious year" inside `emorbit run` used to loop without end: the CLI printed
+    recorded warnings inside the very recording block, appending to the list it read."""
+    (tmp_path / "s.toml").write_text(POINT_SCENE.format(epoch="2200-01-01T00:00:00 UTC"))
+    out = _emorbit(["run", "s.toml", "-o", "s.h5", "-q"], tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert out.stderr.count("leap-second table") == 1, out.stderr
+    assert "Traceback" not in out.stderr
+
+
+def test_any_python_warning_in_the_block_is_printed_once(capsys):
+    """A warning that is not emorbit's own (NumPy's RuntimeWarning) is printed once, in Python's
+    format, after the block; the block returns."""
+    import warnings
+
+    import numpy as np
+
+    from emorbit.cli import _warnings_on_stderr
+
+    with warnings.catch_warnings(), _warnings_on_stderr():
+        warnings.simplefilter("always")  # as a plain process would; pytest makes warnings errors
+        for _ in range(3):
+            with np.errstate(divide="warn"):
+                np.float64(1.0) / np.float64(0.0)
+        warnings.warn("plain", UserWarning, stacklevel=1)
+    err = capsys.readouterr().err
+    assert err.count("RuntimeWarning") == 1 and err.count("UserWarning: plain") == 1
+
+
+def test_a_second_that_does_not_exist_is_an_input_error(tmp_path):
+    (tmp_path / "s.toml").write_text(POINT_SCENE.format(epoch="2015-12-31T23:59:60 UTC"))
+    out = _emorbit(["run", "s.toml", "-o", "s.h5", "-q"], tmp_path)
+    assert out.returncode == 2, out.stderr
+    assert "epoch" in out.stderr and "leap second" in out.stderr and "Traceback" not in out.stderr
+    assert not (tmp_path / "s.h5").exists()
+
+
+def test_a_real_leap_second_is_accepted():
+    from emorbit.epochs import to_epoch
+
+    t = to_epoch("2016-12-31T23:59:60 UTC")
+    assert t.utc.isot.startswith("2016-12-31T23:59:60")
+
+
+def test_an_epoch_beyond_the_leap_second_table_warns_naming_the_key():
+    from emorbit.epochs import to_epoch
+    from emorbit.errors import EpochWarning
+
+    with pytest.warns(EpochWarning, match="integrator.epoch: '2200-01-01T00:00:00 UTC'"):
+        to_epoch("2200-01-01T00:00:00 UTC", "integrator.epoch")
+
+
+def test_a_tdb_epoch_far_away_does_not_warn():
+    from emorbit.epochs import to_epoch
+
+    t = to_epoch("3000-01-01T00:00:00 TDB")  # TDB needs no leap-second table
+    assert t.tdb.isot.startswith("3000-01-01T00:00:00")
