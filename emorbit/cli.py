@@ -148,7 +148,7 @@ def _run(args) -> int:
         stop_on_signals() as stop,
         _warnings_on_stderr(),
     ):  # a signal while the scene builds stops the run before its file exists
-        scene = load_scene(args.scene).with_overrides(
+        scene = load_scene(args.scene, check=False).with_overrides(
             t_end=args.t_end,
             dt=args.dt,
             method=args.method,
@@ -156,8 +156,9 @@ def _run(args) -> int:
             output_every=args.every,
             checkpoint_every=args.checkpoint_every,
             max_output=args.max_output,
+            check=False,
         )
-        sim = scene.build()
+        sim = scene.build()  # checked and built once
         if stop.is_set():
             raise RunInterrupted(stop.signum)
         start = time.perf_counter()

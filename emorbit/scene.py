@@ -32,7 +32,7 @@ import numbers
 import os
 import re
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -168,12 +168,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
     ),
     "body.point": (
         *_IDENTITY,
-        Key("mass", True, "mass (kg)", "", "> 0", "the point's mass (a test particle: it feels only the field)"),
+        Key("mass", True, "mass (kg)", "", "> 0", "the point's mass"),
         *_motion("the point's position", "the point's velocity", "the point"),
-        Key("ballistic_coefficient", False, "area per mass (m2 / kg)", "", ">= 0 (0: no drag); required with drag",
-            "Cd A / m: how strongly the drag effect acts on the point"),
-        Key("radiation_coefficient", False, "area per mass (m2 / kg)", "", ">= 0 (0: none); required with srp",
-            "Cr A / m: how strongly solar radiation pressure pushes the point (a cannonball)"),
     ),
     "body.rigid": (
         *_IDENTITY,
@@ -283,6 +279,10 @@ for _kind in effect_kinds():
         Key("kind", True, "string", "", _choices(effect_kinds()), "the effect"),
         *EFFECTS[_kind].KEYS,
     )
+for _body in BODY_KINDS:  # the keys the shipped effects attach to bodies (drag's ballistic_coefficient)
+    KEYS[f"body.{_body}"] += tuple(
+        dict.fromkeys(bk.key for cls in EFFECTS.values() for bk in cls.BODY_KEYS if _body in bk.kinds)
+    )
 
 #: allowed keys per table: {table: {key: required?}}, derived from :data:`KEYS`
 SCHEMA: dict[str, dict[str, bool]] = {table: {k.name: k.required for k in keys} for table, keys in KEYS.items()}
@@ -334,7 +334,15 @@ def check_table(table, allowed: dict, where: str, root: str = "scene") -> dict:
 
 
 def _check_keys(table, schema_name: str, where: str) -> None:
-    check_table(table, SCHEMA[schema_name], where)
+    allowed = SCHEMA[schema_name]
+    if schema_name.startswith("body."):  # and the keys of effects registered since (a user's)
+        allowed = allowed | {k: False for k in _effect_body_keys(schema_name[len("body.") :])}
+    check_table(table, allowed, where)
+
+
+def _effect_body_keys(kind: str) -> list[str]:
+    """The keys registered effects attach to bodies of a kind."""
+    return list(dict.fromkeys(bk.name for cls in EFFECTS.values() for bk in cls.BODY_KEYS if kind in bk.kinds))
 
 
 def _int(value, key: str, minimum: int, maximum: int = 2**63 - 1) -> int:
@@ -365,6 +373,8 @@ class Scene:
     data: dict
     text: str
     source: str = "<string>"
+    #: the simulation :meth:`check` built, handed out by the next :meth:`build`
+    _checked: Simulation | None = field(default=None, repr=False, compare=False)
 
     # -- the integrator settings, in SI ---------------------------------------------------
     @property
@@ -404,6 +414,12 @@ class Scene:
         value = self.data["integrator"].get("max_output", MAX_OUTPUT)
         return to_si(value, "information", "integrator.max_output", strict=True, positive=True)
 
+    def _folder(self) -> str:
+        """The folder of the scene's file, where relative paths in it are found ("" for text)."""
+        if self.source != "<string>" and os.path.isfile(self.source):
+            return os.path.dirname(os.path.abspath(self.source))
+        return ""
+
     def with_overrides(
         self,
         *,
@@ -414,6 +430,7 @@ class Scene:
         output_every=None,
         checkpoint_every=None,
         max_output=None,
+        check: bool = True,
     ) -> Scene:
         """A copy with integrator settings replaced, checked again.
 
@@ -422,6 +439,8 @@ class Scene:
         t_end, dt, method, order, output_every, checkpoint_every, max_output : optional
             New values of the ``[integrator]`` keys, written as in the TOML (strings with
             units for ``t_end``, ``dt`` and ``max_output``); ``None`` keeps the scene's.
+        check : bool
+            Check it now (:meth:`check`); False leaves that to :meth:`build`.
 
         Returns
         -------
@@ -444,21 +463,24 @@ class Scene:
                 changed[key] = value
         note = "".join(f"# override: integrator.{k} = {v!r}\n" for k, v in changed.items())
         scene = Scene(data, note + self.text, self.source)
-        scene.check()
+        if check:
+            scene.check()
         return scene
 
     def check(self) -> None:
-        """Validate everything, as building a simulation does.
+        """Validate everything by building the simulation, which the next :meth:`build` returns
+        (a scene checked and then run is built once).
 
         Raises
         ------
         InputError
             Naming the first key that is wrong.
         """
-        self.build()
+        self._checked = self._build_named()
 
     def build(self) -> Simulation:
-        """A new simulation with this scene's field, method and bodies.
+        """A new simulation with this scene's field, method and bodies (the one :meth:`check`
+        built, the first time after a check).
 
         Returns
         -------
@@ -470,6 +492,10 @@ class Scene:
         InputError
             Naming the first key that is wrong.
         """
+        sim, self._checked = self._checked, None
+        return sim if sim is not None else self._build_named()
+
+    def _build_named(self) -> Simulation:
         try:
             return self._build()
         except InputError as exc:
@@ -529,7 +555,7 @@ class Scene:
         bodies = d["body"]
         if not isinstance(bodies, list) or not bodies:
             raise InputError("body", "a scene needs at least one [[body]] table")
-        _add_effects(sim, d.get("effect", []), bodies)
+        _add_effects(sim, d.get("effect", []), self._folder())
         for i, b in enumerate(bodies):
             where = f"body[{i}]"
             if not isinstance(b, dict):
@@ -543,20 +569,17 @@ class Scene:
                 sim.add_point(
                     b["name"],
                     mass=b["mass"],
-                    ballistic_coefficient=b.get("ballistic_coefficient"),
-                    radiation_coefficient=b.get("radiation_coefficient"),
                     **_placement(b),
                     strict=True,
                     key=where,
+                    **{k: b[k] for k in _effect_body_keys("point") if k in b},
                 )
             elif kind == "elastic":
                 mesh_params = {k: v for k, v in b.items() if k not in _ELASTIC_COMMON}
                 if "file" in mesh_params and not isinstance(mesh_params["file"], str):
                     raise InputError(f"{where}.file", f"a path (a string) expected, got {mesh_params['file']!r}")
-                if "file" in mesh_params and self.source not in ("<string>",) and os.path.isfile(self.source):
-                    mesh_params["file"] = os.path.join(
-                        os.path.dirname(os.path.abspath(self.source)), mesh_params["file"]
-                    )
+                if "file" in mesh_params and self._folder():
+                    mesh_params["file"] = os.path.join(self._folder(), mesh_params["file"])
                 sim.add_elastic(
                     b["name"],
                     b["mesh"],
@@ -609,6 +632,7 @@ class Scene:
                 )
             sim.attach(cpl["elastic"], cpl["nodes"], cpl["to"], key=where)
         _check_couplings(sim, couplings)
+        sim.check_effects()
         if "energy_range" in integ:
             try:
                 sim.energy_range = integ["energy_range"]
@@ -655,18 +679,15 @@ def scene_overrides(text: str) -> dict:
     return found
 
 
-def _add_effects(sim: Simulation, tables, bodies: list) -> None:
+def _add_effects(sim: Simulation, tables, folder: str) -> None:
     """The scene's [[effect]] tables, added before its bodies (mutual gravity lets point masses
-    move in free space); names of bodies are checked against the scene's [[body]] tables."""
-    from .effects import build
-
+    move in free space; the names of bodies they give are checked once the bodies are there),
+    a relative ``file`` found in the scene's folder."""
     if not isinstance(tables, list) or not all(isinstance(t, dict) for t in tables):
         raise InputError("effect", f"[[effect]] tables expected, got {tables!r}")
-    names = [b.get("name") for b in bodies if isinstance(b, dict)]
     for i, table in enumerate(tables):
-        where = f"effect[{i}]"
-        build(table, sim.field, where, names, strict=True)  # checks the kind, keys and values first
-        sim.add_effect(table["kind"], key=where, strict=True, **{k: v for k, v in table.items() if k != "kind"})
+        keys = {k: v for k, v in table.items() if k != "kind"}
+        sim.add_effect(table.get("kind"), key=f"effect[{i}]", strict=True, folder=folder, **keys)
 
 
 def _check_couplings(sim: Simulation, couplings: list) -> None:
@@ -689,7 +710,7 @@ def _placement(body: dict) -> dict:
     return {k: body.get(k) for k in ("position", "velocity", "orbit")}
 
 
-def parse_scene(text: str, source: str = "<string>") -> Scene:
+def parse_scene(text: str, source: str = "<string>", check: bool = True) -> Scene:
     """Parse and check a scene from TOML text.
 
     Parameters
@@ -698,11 +719,13 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
         The TOML text.
     source : str
         Where it came from (named in errors; a file's path also locates mesh files).
+    check : bool
+        Check it now (:meth:`Scene.check`); False leaves that to :meth:`Scene.build`.
 
     Returns
     -------
     Scene
-        The checked scene.
+        The scene, checked where ``check``.
 
     Raises
     ------
@@ -714,7 +737,8 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
     except tomllib.TOMLDecodeError as exc:
         raise InputError(source, f"not valid TOML: {exc}") from None
     scene = Scene(data, text, source)
-    scene.check()
+    if check:
+        scene.check()
     return scene
 
 
@@ -761,18 +785,20 @@ def read_text(path: str, what: str) -> str:
         raise InputError(path, f"a {what} file must be UTF-8 text") from None
 
 
-def load_scene(name_or_path) -> Scene:
+def load_scene(name_or_path, check: bool = True) -> Scene:
     """Load and check a shipped scene by name or a TOML file by path.
 
     Parameters
     ----------
     name_or_path : str or os.PathLike
         A file, or the name of a shipped scene (see :func:`list_scenes`).
+    check : bool
+        Check it now (:meth:`Scene.check`); False leaves that to :meth:`Scene.build`.
 
     Returns
     -------
     Scene
-        The checked scene.
+        The scene, checked where ``check``.
 
     Raises
     ------
@@ -781,8 +807,8 @@ def load_scene(name_or_path) -> Scene:
     """
     path = os.fspath(name_or_path)
     if os.path.isfile(path):
-        return parse_scene(read_text(path, "scene"), path)
+        return parse_scene(read_text(path, "scene"), path, check)
     shipped = _shipped() / f"{path}.toml"
     if shipped.is_file():
-        return parse_scene(shipped.read_text(encoding="utf-8"), path)
+        return parse_scene(shipped.read_text(encoding="utf-8"), path, check)
     raise InputError("scene", f"{path!r} is neither a file nor a shipped scene; shipped: {', '.join(list_scenes())}")

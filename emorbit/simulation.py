@@ -20,9 +20,10 @@ import sys
 
 import numpy as np
 
+from .bodies.effect_binding import EffectBinding
 from .bodies.pointmasses import PointMasses
 from .bodies.system import check_body_name, check_output
-from .effect_setup import EffectSetup
+from .effects.effectset import EffectSet
 from .epochs import to_epoch
 from .errors import InputError
 from .field import CentralField
@@ -59,7 +60,7 @@ def _steps_between(t_start: float, t_end: float, dt: float, key: str, dt_key: st
     return int(n)
 
 
-class Simulation(EffectSetup, StateQueries, ChunkDriver):
+class Simulation(StateQueries, ChunkDriver):
     """Bodies in a central field (or in free space), advanced by one method at a fixed step.
 
     Bodies are added with :meth:`add_point`, :meth:`add_rigid` and :meth:`add_elastic`,
@@ -132,6 +133,10 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         ``integrator.drift_tolerance`` sets it).
     epoch : astropy.time.Time or None
         The run's epoch in TDB (None: none given).
+    effects : EffectSet
+        The effects the bodies feel: the central field's (where there is a field), then those
+        of :meth:`add_effect`; iterating gives each :class:`~emorbit.effects.base.Effect`
+        (``.kind``, ``.label``, ``.table``).
 
     Raises
     ------
@@ -170,9 +175,11 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
                 )
         self.adaptive = None if adaptive is None else float(adaptive)
         self.roundoff = check_roundoff(roundoff)
+        self.effects = EffectSet(field)
         self.points = PointMasses()
         self.points.adaptive = self.adaptive
         self.points.roundoff = roundoff
+        self.points.effects = EffectBinding(self.effects, "point")
         self.rigid = None  # created on the first rigid body, so point-mass runs never import it
         self.structure = None  # elastic bodies and what they are attached to
         self._t_base = 0.0
@@ -181,7 +188,6 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         self.t_end_requested: float | None = None
         self.keys = {k: k for k in ("t_end", "dt", "every", "max_output")}
         self.max_output = MAX_OUTPUT
-        self._effects: list = []  # the effects beyond the central field, in the order added
         self.epoch = None if epoch is None else to_epoch(epoch, "epoch")
 
     # -- set-up -----------------------------------------------------------------------
@@ -256,12 +262,12 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         position=None,
         velocity=None,
         orbit=None,
-        ballistic_coefficient=None,
-        radiation_coefficient=None,
         strict: bool = False,
         key: str | None = None,
+        **effect_keys,
     ) -> None:
-        """Add a point mass: a test particle that feels the field and nothing else.
+        """Add a point mass: it feels the field and the simulation's effects (other bodies too,
+        under mutual gravity).
 
         Parameters
         ----------
@@ -279,54 +285,45 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
             (``periapsis_radius`` / ``_altitude`` ...), ``i``, ``raan``, ``argp``, and ``nu``
             or ``mean_anomaly``; lengths and angles as Quantities, strings or SI numbers
             (:func:`emorbit.orbits.orbit_state`).
-        ballistic_coefficient : Quantity, str or float, optional
-            ``Cd A / m``, m^2/kg (>= 0; 0: no drag): how strongly drag
-            (``add_effect("drag")``) acts on the point; required when the simulation has drag.
-        radiation_coefficient : Quantity, str or float, optional
-            ``Cr A / m``, m^2/kg (>= 0; 0: none): how strongly solar radiation pressure
-            (``add_effect("srp")``) pushes the point, a cannonball; required with srp.
         strict : bool
             Require units on every value.
         key : str, optional
             Prefix of the keys that error messages name (default ``body['<name>']``).
+        **effect_keys
+            The keys effects attach to point masses (:attr:`emorbit.effects.base.Effect.BODY_KEYS`),
+            e.g. ``ballistic_coefficient`` (``Cd A / m``, m^2/kg, for drag) or
+            ``radiation_coefficient`` (``Cr A / m``, for srp); required where the simulation
+            has the effect.
 
         Raises
         ------
         InputError
             A bad value, a taken name, no field, a position at the centre or inside the
             central body, a radial fall into a centre without radius (see
-            :meth:`CentralField.check_start`), a method without a point-mass kernel, or no
-            ballistic coefficient under drag.
+            :meth:`CentralField.check_start`), a method without a point-mass kernel, or an
+            unknown effect key, or none where an effect of the simulation requires it.
         """
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
-        if self.field is None and not any(t.kind == "mutual" for t in self._effects):
+        if self.field is None and not self.effects.pair_effects():
             raise InputError(
                 "field",
                 f"{key} is a point mass, which needs a central field or mutual gravity (add_effect('mutual')); "
                 "this simulation has neither",
             )
         m = to_si(mass, "mass", f"{key}.mass", strict=strict, positive=True)
-        bc, rc = self._point_coefficients(ballistic_coefficient, radiation_coefficient, strict, key)
+        values = self._body_values("point", effect_keys, strict, key)
         position, velocity, xkey, vkey = initial_state(position, velocity, orbit, self.field, strict=strict, key=key)
         x = vector_to_si(position, "length", xkey, strict=strict)
         v = vector_to_si(velocity, "speed", vkey, strict=strict)
         self._check_method_supports(self.points, key)
         if self.field is not None:
             self.field.check_start(x, x, v, gravity=True, key=xkey, what=f"{x.tolist()} m", motion_key=vkey)
-        if self.structure is not None and self.structure.mutual:  # mutual gravity with other bodies
-            for given, which in ((bc, "ballistic_coefficient"), (rc, "radiation_coefficient")):
-                if given is not None:
-                    raise InputError(
-                        f"{key}.{which}", "drag and radiation pressure act on point masses outside a structure"
-                    )
-            self._structure().add_point(name, m, x, v)
+        if self.structure is not None and self.effects.pair_effects():  # pairs with other bodies
+            self._structure().add_point(name, m, x, v, values)
             return
         self.points.add(name, m, x, v)
-        if bc is not None:
-            self.points.ballistic[name] = bc
-        if rc is not None:
-            self.points.radiation[name] = rc
+        self.points.values[name] = values
 
     def add_rigid(
         self,
@@ -439,8 +436,7 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         if self.rigid is None:
             self.rigid = RigidBodies()
             self.rigid.adaptive = self.adaptive
-            self.rigid.zonal = next((t for t in self._effects if t.kind == "zonal"), None)
-            self.rigid.effects = self._rigid_terms()
+            self.rigid.effects = EffectBinding(self.effects, "rigid")
         self._check_method_supports(self.rigid, key)
         if self.field is not None:
             self.field.check_start(
@@ -464,7 +460,7 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
             spec["params"],
             surface,
         )
-        if any(t.kind == "mutual" for t in self._effects):
+        if self.effects.pair_effects():
             self._gather()
 
     def add_elastic(
@@ -584,7 +580,7 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
                 motion_key=vkey,
             )
         self._structure().add_elastic(spec, facet_coefficients(drag_coefficient, 0.0, 0.0, key)[0])
-        if any(t.kind == "mutual" for t in self._effects):
+        if self.effects.pair_effects():
             self._gather()
 
     def attach(self, elastic: str, nodes, to: str, key: str = "coupling") -> None:
@@ -624,13 +620,8 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         if to == elastic:
             raise InputError(f"{key}.to", "a body cannot be attached to itself")
         if to in self.points:
-            if self.points.ballistic.get(to, 0.0) != 0.0 and any(t.kind == "drag" for t in self._effects):
-                raise InputError(
-                    f"body[{to!r}].ballistic_coefficient",
-                    "a point mass attached to an elastic body joins its structure, where drag acts on the elastic "
-                    "bodies' surfaces and the rigid bodies' facets: give it 0",
-                )
-            st.add_point(to, *self.points.pop_onto(to, idx, spec.nodes[idx], f"{key}.nodes"))
+            values = self.points.values.get(to, {})
+            st.add_point(to, *self.points.pop_onto(to, idx, spec.nodes[idx], f"{key}.nodes"), values)
         elif self.rigid is not None and to in self.rigid.names:
             st.add_rigid(to, **self.rigid.pop(to))
         elif to in st.names and st._body(to)["kind"] in ("point", "rigid"):
@@ -638,6 +629,131 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         else:
             raise InputError(f"{key}.to", f"no point mass or rigid body named {to!r}")
         st.attach(elastic, idx, to)
+
+    # -- effects ------------------------------------------------------------------------
+    def add_effect(self, kind: str, *, key: str | None = None, strict: bool = False, folder: str = "", **keys):
+        """Add an effect beyond the central field (:mod:`emorbit.effects` lists the shipped ones
+        and their keys; a user's own is registered with :func:`emorbit.effects.register`, or
+        named by its ``file``).
+
+        Every body kind the effect acts on feels it (point masses at their positions, rigid
+        bodies at their mass points or facets, elastic bodies at their gravity points or
+        surfaces), with every method it allows; its potential energy is recorded as
+        ``invariants/potential_<label>``, or, for an effect that does work, its work as
+        ``invariants/work_<label>``.
+
+        Parameters
+        ----------
+        kind : str
+            The effect.
+        key : str, optional
+            The name errors give the effect (default ``effect[<i>]``).
+        strict : bool
+            Require units on every dimensional value (scenes do).
+        folder : str
+            Where a relative ``file`` key is found (a scene's folder).
+        **keys
+            The effect's keys, e.g. ``model="earth", degree=2``, ``bodies=["a", "b"]`` or
+            ``atmosphere="exponential", density=..., reference_altitude=..., scale_height=...``
+            (Quantities, strings with units or SI numbers).
+
+        Returns
+        -------
+        Effect
+            The effect added.
+
+        Raises
+        ------
+        InputError
+            An unknown effect or key, a value the effect refuses, a second one of a kind a
+            scene names once, a method it cannot run with, bodies that lack a key it requires,
+            an effect of a central field in free space, or bodies that started running.
+        """
+        key = key or f"effect[{len(self.effects.named)}]"
+        if self.structure is not None and self.structure._built:
+            raise InputError(key, "effects cannot be added after the structure has started running")
+        effect = self.effects.add({"kind": kind, **keys}, key, None, strict, folder)
+        try:
+            self.effects.check_method(self.method)
+            for system in self.systems:
+                for name in system.names:
+                    self._require_values(system, name, getattr(system, "values", {}).get(name, {}))
+        except InputError:
+            self.effects.remove(effect)
+            raise
+        if self.effects.pair_effects() and ((self.rigid is not None and len(self.rigid)) or self.structure):
+            self._gather()
+        return effect
+
+    def _body_values(self, body_kind: str, given: dict, strict: bool, key: str) -> dict:
+        """The effect keys given for a new body, in SI (each checked by the key's declaration)."""
+        from .effects import EFFECTS
+
+        known = {bk.name: bk for cls in EFFECTS.values() for bk in cls.BODY_KEYS if body_kind in bk.kinds}
+        values = {}
+        for name, raw in given.items():
+            if name not in known:
+                raise InputError(
+                    f"{key}.{name}",
+                    f"unknown key of a {body_kind} body; effect keys: {', '.join(sorted(known)) or 'none'}",
+                )
+            if raw is not None:
+                values[name] = known[name].value(raw, f"{key}.{name}", strict)
+        missing = [bk for bk in self.effects.body_keys(body_kind) if bk.name not in values]
+        if missing:
+            bk = missing[0]
+            raise InputError(f"{key}.{bk.name}", f"{bk.key.meaning}; the simulation's effects require it")
+        return values
+
+    def _require_values(self, system, name: str, values: dict) -> None:
+        """A body already added has every key the effects require of its kind."""
+        kind = "point" if system is self.points else system.kind
+        for bk in self.effects.body_keys(kind):
+            if bk.name not in values:
+                raise InputError(f"body[{name!r}].{bk.name}", f"{bk.key.meaning}; the simulation's effects require it")
+
+    def _structure(self):
+        """The simulation's structure, created with the first elastic body (or when an effect
+        between pairs of bodies reaches a rigid or elastic one)."""
+        if self.structure is None:
+            from .bodies.coupled import Structure
+
+            self.structure = Structure(newton=self.newton)
+            self.structure.adaptive = self.adaptive
+            self.structure.effects = EffectBinding(self.effects, "elastic")
+        if self.structure._built:
+            raise InputError("body", "bodies and couplings cannot be added after the structure has started running")
+        return self.structure
+
+    def _gather(self) -> None:
+        """An effect between pairs of bodies that reaches a rigid or elastic body: every point
+        mass and rigid body joins the structure (one system, one Newton iteration per step)."""
+        st = self._structure()
+        for name in list(self.points.names):
+            values = self.points.values.get(name, {})
+            st.add_point(name, *self.points.pop(name), values)
+        for name in list(self.rigid.names) if self.rigid is not None else ():
+            st.add_rigid(name, **self.rigid.pop(name))
+
+    def check_effects(self) -> None:
+        """Check the effects against the bodies, the method and the device (a scene does it
+        when built, :meth:`run` before it starts).
+
+        Raises
+        ------
+        InputError
+            An effect names a body that does not exist or that it does not act on, an effect
+            between pairs reaches fewer than two bodies, a method it cannot run with, or point
+            masses under effects on the GPU; naming the key.
+        """
+        kinds = {s.kind if s is not self.points else "point": list(s.names) for s in self.systems}
+        self.effects.check_bodies(kinds)
+        self.effects.check_method(self.method)
+        if self.device == "gpu" and self.points.under_effects():
+            e = self.effects.named[0]
+            raise InputError(
+                "device", f"point masses under effects run on the CPU: {e.key} ({e.kind}); use device 'cpu'"
+            )
 
     # -- running ----------------------------------------------------------------------
     def steps_until(self, t_end) -> int:
@@ -746,8 +862,7 @@ class Simulation(EffectSetup, StateQueries, ChunkDriver):
         """
         if not self.systems:
             raise InputError("body", "the simulation has no bodies; add one with add_point() or add_rigid()")
-        if self._effects:
-            self._check_effects()
+        self.check_effects()
         if (t_end is None) == (steps is None):
             raise InputError("t_end", "give exactly one of t_end and steps")
         n_steps = to_count(steps, "steps", 1, MAX_STEPS) if steps is not None else self.steps_until(t_end)

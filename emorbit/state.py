@@ -57,7 +57,7 @@ class StateQueries:
 
     def _invariants_now(self):
         recs = [(s, s.current()) for s in self._measured()]
-        if any(t.time_dependent for t in getattr(self, "_effects", ())):  # potentials that follow the clock
+        if self.effects.time_dependent():  # potentials that follow the clock
             from .integrators import coefficients
 
             self._prepare_effects(1, coefficients(self.order))

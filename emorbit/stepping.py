@@ -222,8 +222,11 @@ class ChunkDriver:
         self._energy_range = value
 
     def _axisymmetric(self) -> bool:
-        """Whether an effect leaves the field symmetric about an axis only (zonal harmonics)."""
-        return any(t.kind == "zonal" for t in getattr(self, "_effects", ()))
+        """Whether an effect keeps the angular momentum about an axis only (zonal harmonics):
+        it keeps none about the centre."""
+        return not self.effects.conserves("angular momentum about the centre") and any(
+            "angular momentum about the pole" in type(e).CONSERVES for e in self.effects
+        )
 
     def _ranges_energy(self) -> bool:
         """Whether this run measures the energy between records."""
@@ -233,10 +236,7 @@ class ChunkDriver:
 
     def _working_labels(self) -> list:
         """The labels of the effects that do work (drag): their work is recorded, not conserved."""
-        from .effects import EFFECTS
-        from .effects.compose import does_work
-
-        return [t.label for t in getattr(self, "_effects", ()) if does_work(EFFECTS[t.kind])]
+        return [e.label for e in self.effects.working()]
 
     def _start_drift(self, tolerance) -> None:
         """A new drift monitor for a run whose first record is the reference. Under an effect
@@ -250,17 +250,15 @@ class ChunkDriver:
         self._drift = DriftMonitor(tol, coefficients(self.order).size, kept)
 
     def _prepare_effects(self, n_steps: int, gammas) -> None:
-        """Effects that depend on time (:meth:`~emorbit.effects.base.EffectTerm.prepare`) sample
+        """Effects that depend on time (:meth:`~emorbit.effects.base.Effect.prepare`) sample
         the paths they follow over the next ``n_steps`` steps, with a margin for the
         composition's sub-steps, which reach outside the step."""
-        terms = [t for t in getattr(self, "_effects", ()) if t.time_dependent]
-        if not terms:
+        if not self.effects.time_dependent():
             return
         reach = np.concatenate([[0.0], np.cumsum(gammas)])
         lo = self.time + (min(0.0, reach.min()) - 1.0) * self._dt
         hi = self.time + (n_steps + max(1.0, reach.max()) + 1.0) * self._dt
-        for term in terms:
-            term.prepare(lo, hi, getattr(self, "epoch", None))
+        self.effects.prepare(lo, hi, self.epoch)
 
     # -- state, for checkpoints and restarts -------------------------------------------
     def state_arrays(self) -> dict[str, np.ndarray]:
@@ -332,8 +330,8 @@ class ChunkDriver:
             "adaptive": self.adaptive if self.adaptive is not None else 0.0,
             "roundoff": self.roundoff,
             "scene": self.scene_text if self.scene_text is not None else self.to_toml(),
-            "effects": json.dumps([{"kind": t.kind, "label": t.label} for t in getattr(self, "effects", ())]),
-            "epoch": epoch_text(self.epoch) if getattr(self, "epoch", None) is not None else "",
+            "effects": json.dumps([{"kind": e.kind, "label": e.label} for e in self.effects]),
+            "epoch": epoch_text(self.epoch) if self.epoch is not None else "",
         }
 
     def _start_run(self, n_steps, every, output, overwrite, keep, checkpoint_every, progress, tolerance) -> Result:
@@ -352,11 +350,7 @@ class ChunkDriver:
             ]
             attrs = self._file_attrs(every, n_steps)
             attrs["checkpoint_every"] = cp
-            from .effects import EFFECTS, has_potential
-
-            labels = [t.label for t in getattr(self, "_effects", ()) if has_potential(EFFECTS[t.kind])]
-            if getattr(self, "_effects", ()) and self.field is not None:
-                labels.insert(0, "central")
+            labels = [e.label for e in self.effects.with_potential()] if self.effects.beyond_field() else []
             writer = Writer(output, bodies, attrs, overwrite=overwrite, potentials=labels, works=self._working_labels())
         for s in self.systems:  # the work of non-conservative effects counts from the run's start
             if hasattr(s, "reset_work"):

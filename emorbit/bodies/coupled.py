@@ -20,13 +20,13 @@ with one step of iterative refinement: a fixed rounded inverse of M would make t
 error in every step, which adds up as a drift instead of a random walk. A step that fails
 is redone in two halves, down to 2**MAX_SPLIT sub-steps.
 
-Mutual gravity (:mod:`emorbit.effects.mutual`) between bodies that are not all point masses
-makes them one structure, attached or not: its pair forces act between the mass points of
-different bodies (a point mass's node, a rigid body's mass points, an elastic body's gravity
-points), each mass point's own 3 x 3 block of their Jacobian joins the matrix, and the
-blocks between bodies stay out (the pattern stays that of the bodies alone; the iteration
-converges on those couplings at the rate h^2/2 |dF/dx| per iteration). What a structure records is
-:mod:`emorbit.bodies.coupled_output`.
+The simulation's effects act at the structure's gravity points, between the mass points of
+different bodies (an effect between pairs, such as mutual gravity, makes bodies that are not
+all point masses one structure, attached or not) and on its surfaces
+(:mod:`emorbit.bodies.coupled_effects`): each point's own 3 x 3 block of their Jacobian joins
+the matrix, and the blocks between bodies stay out (the pattern stays that of the bodies
+alone; the iteration converges on those couplings at the rate h^2/2 |dF/dx| per iteration).
+What a structure records is :mod:`emorbit.bodies.coupled_output`.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from ..kernels import coupled as kc
 from ..kernels import elastic as kel
 from ..kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
 from .coupled_adaptive import StructureAdaptive
-from .coupled_drag import StructureDrag
+from .coupled_effects import StructureEffects
 from .coupled_layout import StructureLayout
 from .coupled_output import StructureRecords
 from .coupled_sparse import EquilibratedLU, KeptFactors
@@ -51,7 +51,7 @@ _FLOOR2 = (2.0**20 * _EPS) ** 2  # a stall (see Structure.step) is accepted only
 _STALLS = 3  # iterations in a row without progress that make a stall
 
 
-class Structure(StructureAdaptive, StructureDrag, StructureLayout):
+class Structure(StructureAdaptive, StructureLayout):
     """A coupled structure of elastic bodies, rigid bodies and point masses: one system.
 
     Bodies are added, attachments declared, then :meth:`build` lays out the slots and the
@@ -91,6 +91,8 @@ class Structure(StructureAdaptive, StructureDrag, StructureLayout):
     BASE_FIELDS = ("u", "v", "cu", "cv", "lam", "acc")
     #: units of the state arrays beyond emorbit.io.reader.STATE_UNITS
     STATE_UNITS = {"work": "J", "cwork": "J"}
+    #: the state that effects doing work add: their work so far and its compensation
+    WORK_FIELDS = ("work", "cwork")
     NEWTON = ("auto", "reuse", "full")
     #: unknowns from which "auto" reuses factors
     AUTO_FULL = 500
@@ -118,55 +120,64 @@ class Structure(StructureAdaptive, StructureDrag, StructureLayout):
         self._rb_es: list[float] = []
         self._rb_omega: list[np.ndarray] = []
         self._built = False
-        self.zonal = None  # an EffectTerm of kind "zonal" at the gravity points, or None
-        self.mutual: list = []  # EffectTerms of kind "mutual" between the bodies' mass points
+        self.effects = None  # the simulation's EffectBinding, set by the simulation
+        self.values: dict[str, dict] = {}  # {name: {body key: SI value}} of the effects' body keys
+        self.fx: StructureEffects | None = None  # the effects on the built structure
+        self.work = np.zeros(0)  # the work of each effect that does work since the run's start, J
+        self.cwork = np.zeros(0)
         self.rho = np.zeros(1)  # adaptive steps' control variable, 1/s (0: set from the state)
 
     @property
     def STATE_FIELDS(self) -> tuple:  # noqa: N802 (the name every body system uses)
-        """The whole state: :attr:`BASE_FIELDS`, drag's work sums where it has drag, and the
-        control variable ``rho`` of adaptive steps."""
-        work = ("work", "cwork") if self.drag is not None else ()
+        """The whole state: :attr:`BASE_FIELDS`, the work sums where an effect does work, and
+        the control variable ``rho`` of adaptive steps."""
+        work = self.WORK_FIELDS if self._working() else ()
         return self.BASE_FIELDS + work + (("rho",) if self.adaptive is not None else ())
+
+    def _working(self) -> list:
+        """The effects whose work the step sums (none before the structure joins a simulation)."""
+        return self.effects.working() if self.effects is not None else []
 
     # -- stepping ------------------------------------------------------------------------------
     def work_per_step(self) -> int:
         """Slots, elements and gravity points touched per step (and pairs of mass points)."""
-        pairs = self.mp_m.size**2 // 2 * len(self.mutual)
+        pairs = self.mp_m.size**2 // 2 if self.fx is not None and self.fx.any_pairs else 0
         return int(20 * (self.u.shape[0] + self.tet_node.shape[0] + self.gp_m.size) + pairs)
 
-    def _forces(self, code, u0, u1, gm, c, h, with_jacobian: bool, with_stiffness: bool | None = None):
+    def _nodes_at(self, u0, u1):
         x0n = np.empty((self.node_slot.shape[0], 3))
         x1n = np.empty_like(x0n)
         kel.combine_rows(u0, self.node_slot, self.node_coef, x0n)
         kel.combine_rows(u1, self.node_slot, self.node_coef, x1n)
-        xg0 = np.empty((self.gp_m.size, 3))
-        xg1 = np.empty_like(xg0)
-        kel.combine_rows(x0n, self.gp_node, self.gp_w, xg0)
-        kel.combine_rows(x1n, self.gp_node, self.gp_w, xg1)
+        return x0n, x1n
+
+    def _element_forces(self, code, u0, u1):
+        """The elements' generalised forces alone at u0 -> u1, (n_slots, 3) N."""
+        x0n, x1n = self._nodes_at(u0, u1)
+        F = np.empty_like(u0)
+        elements = (self.bar_node, self.bar_EA, self.bar_L, self.tet_node, self.tet_g, self.tet_V, self.tet_lam)
+        kc.fill_forces(
+            code, 0.0, x0n, x1n, self.node_slot, self.node_coef, *elements, self.tet_mu, False, self.J.indptr,
+            self.J.indices, self._nodata, F, self._fn, self._kb, self._kt,
+        )  # fmt: skip
+        return F
+
+    def _forces(self, code, u0, u1, ref, h, with_jacobian: bool, first: bool = True):
+        """The generalised forces over the step u0 -> u1 (relative to ``ref``) and, if
+        ``with_jacobian``, the Jacobian's values: (status, F (n_slots, 3), data)."""
+        x0n, x1n = self._nodes_at(u0, u1)
         data = self.J_mass.data.copy() if with_jacobian else self._nodata
         F = np.empty_like(u0)
         hf = 0.5 * h
-        zonal = (None, None)  # zonal harmonics at the gravity points, centred like them
-        if self.zonal is not None:
-            zonal = (np.concatenate([c, self.zonal.params["zonal_p"][3:]]), self.zonal.params["zonal_j"])
         elements = (self.bar_node, self.bar_EA, self.bar_L, self.tet_node, self.tet_g, self.tet_V, self.tet_lam)
         status = kc.fill_forces(
-            code, hf * h, hf, x0n, x1n, self.node_slot, self.node_coef, *elements, self.tet_mu, self.gp_node,
-            self.gp_w, self.gp_m, xg0, xg1, gm, c, gm != 0.0, with_jacobian, self.J.indptr, self.J.indices, data,
-            F, self._fn, self._kb, self._kt, self._fg, self._kg, *zonal,
+            code, hf * h, x0n, x1n, self.node_slot, self.node_coef, *elements, self.tet_mu, with_jacobian,
+            self.J.indptr, self.J.indices, data, F, self._fn, self._kb, self._kt,
         )  # fmt: skip
-        for term, on in zip(self.mutual, self.mp_on):
-            st = kc.fill_mutual(
-                term.params["mutual_p"][0], hf * h, x0n, x1n, self.mp_node, self.mp_w, self.mp_m, self.mp_body, on,
-                self.node_slot, self.node_coef, with_jacobian, self.J.indptr, self.J.indices, data, F, self._xm0,
-                self._xm1, self._fm, self._km, self._fnm, self.mp_cross, self.mp_coef, self.body_slots,
-                self._cross_acc,
-            )  # fmt: skip
+        if self.fx.active():
+            st = self.fx.forces(code, x0n, x1n, u0, u1, ref, h, F, data if with_jacobian else None, first)
             if st != STATUS_OK:
                 status = st
-        if self.drag is not None:
-            self._drag_forces(u0, u1, c, h, F)
         return status, F, data
 
     def _solve_mass(self, b):
@@ -198,7 +209,7 @@ class Structure(StructureAdaptive, StructureDrag, StructureLayout):
         ref = u[int(np.argmax(self.slot_pos))] * (1.0 if self.slot_pos.any() else 0.0)
         return (u - ref[None, :] * self.slot_pos[:, None]) - cu, ref
 
-    def step(self, code: int, u0, v0, lam, acc, gm, c, h, max_iter):
+    def step(self, code: int, u0, v0, lam, acc, ref, h, max_iter):
         """One step of the energy-momentum (or midpoint) scheme by Newton's method.
 
         Parameters
@@ -211,10 +222,8 @@ class Structure(StructureAdaptive, StructureDrag, StructureLayout):
             (6 n_rigid,) constraint forces, the warm start; updated in place.
         acc : ndarray
             (n_slots, 3) the last step's mean acceleration, the predictor; updated in place.
-        gm : float
-            GM, m^3/s^2.
-        c : ndarray
-            (3,) the field's centre, relative to the same reference, m.
+        ref : ndarray
+            (3,) the reference point of the relative coordinates (:meth:`relative`), m.
         h : float
             The step, s.
         max_iter : int
@@ -255,7 +264,7 @@ class Structure(StructureAdaptive, StructureDrag, StructureLayout):
             u1 = u0 + du
             u05 = u0 + 0.5 * du
             fresh = lu is None
-            st, F, data = self._forces(code, u0, u1, gm, c, h, fresh)
+            st, F, data = self._forces(code, u0, u1, ref, h, fresh, it == 1)
             if st != STATUS_OK:
                 status = st
                 break
@@ -324,7 +333,7 @@ class Structure(StructureAdaptive, StructureDrag, StructureLayout):
             return du, np.zeros_like(du), it, status, False
         u1 = u0 + du
         u05 = u0 + 0.5 * du
-        st, F, _ = self._forces(code, u0, u1, gm, c, h, False)
+        st, F, _ = self._forces(code, u0, u1, ref, h, False, False)
         gen = h * F
         pairs = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
         for r in range(nr):
@@ -380,24 +389,23 @@ class Structure(StructureAdaptive, StructureDrag, StructureLayout):
         )
         code = method_code(method)
         c = np.asarray(center, float)
+        self.fx.begin()
         if self.adaptive is not None:
             rec.solves = np.zeros((nrec, 1), np.int64)
             self.advance_adaptive(code, gm, c, dt, every, gammas, nrec, max_iter, rec)
             return rec
-        if self.drag is not None:
-            rec.work = np.empty((nrec, 1))
+        nw = self.work.size
+        rec.work = np.empty((nrec, nw)) if nw else None
         for r in range(nrec):
             its = stl = 0
             for s in range(every):
                 u, v, cu, cv = self.u.copy(), self.v.copy(), self.cu.copy(), self.cv.copy()
                 lam, acc = self.lam.copy(), self.acc.copy()
-                state = (u, v, cu, cv, lam, acc)
-                if self.drag is not None:
-                    state += (self.work.copy(), self.cwork.copy())
+                state = (u, v, cu, cv, lam, acc, self.work.copy(), self.cwork.copy())
                 ok = True
-                starts = self._clock_times(clock, dt, gammas, r * every + s)
+                starts = clock_times(clock, dt, gammas, r * every + s)
                 for g, t0 in zip(gammas, starts):
-                    status, its_g, stl_g = self._substeps(code, dt * g, state, gm, c, max_iter, 0, t0)
+                    status, its_g, stl_g = self._substeps(code, dt * g, state, max_iter, 0, t0)
                     its += its_g
                     stl += stl_g
                     if status != STATUS_OK:
@@ -407,8 +415,7 @@ class Structure(StructureAdaptive, StructureDrag, StructureLayout):
                     rec.fail[0] = (r * every + s, status)
                     return rec
                 self.u, self.v, self.cu, self.cv, self.lam, self.acc = u, v, cu, cv, lam, acc
-                if self.drag is not None:
-                    self.work, self.cwork = state[6], state[7]
+                self.work, self.cwork = state[6], state[7]
                 self.retries_total += self.retries_step
                 self.retries_step = 0
             rec.u[r] = self.u
@@ -422,25 +429,25 @@ class Structure(StructureAdaptive, StructureDrag, StructureLayout):
     #: how often a failed step may be halved (2**MAX_SPLIT sub-steps at most)
     MAX_SPLIT = 4
 
-    def _substeps(self, code, h, state, gm, c, max_iter, depth, t0=0.0):
-        """Advance ``state`` = (u, v, cu, cv, lam, acc[, work, cwork]) (arrays updated in place)
+    def _substeps(self, code, h, state, max_iter, depth, t0=0.0):
+        """Advance ``state`` = (u, v, cu, cv, lam, acc, work, cwork) (arrays updated in place)
         by one step of size h from time ``t0``; a step whose Newton iteration fails is retried
         as two steps of h/2, down to 2**MAX_SPLIT sub-steps. Every sub-step is an
-        energy-momentum step, so conservation is untouched (and drag's work is summed).
+        energy-momentum step, so conservation is untouched (and the effects' work is summed).
         Returns (status, iterations, sub-steps accepted at a stall)."""
         u, v, cu, cv, lam, acc = state[:6]
         saved = tuple(a.copy() for a in state)
         urel, ref = self.relative(u, cu)
-        if self.drag is not None:
-            self._drag_clock(t0 + 0.5 * h)
-        du, dv, it, status, stalled = self.step(code, urel, v, lam, acc, gm, c - ref, h, max_iter)
+        self.fx.prepare(t0, t0 + 0.5 * h, t0 + h)
+        du, dv, it, status, stalled = self.step(code, urel, v, lam, acc, ref, h, max_iter)
         if status == STATUS_OK:
             u2, cu2 = _kahan(u, cu, du)
             v2, cv2 = _kahan(v, cv, dv)
             if np.all(np.isfinite(u2)) and np.all(np.isfinite(v2)):
-                if self.drag is not None:  # the work of the converged step
-                    w = self._drag_forces(urel, urel + du, c - ref, h, np.zeros_like(u))
-                    state[6][...], state[7][...] = _kahan(state[6], state[7], np.array([w]))
+                if state[6].size:  # the work of the converged step
+                    x0n, x1n = self._nodes_at(urel, urel + du)
+                    w = self.fx.work(code, x0n, x1n, urel, urel + du, ref, h)
+                    state[6][...], state[7][...] = _kahan(state[6], state[7], w)
                 u[...], cu[...], v[...], cv[...] = u2, cu2, v2, cv2
                 return status, it, int(stalled)
             status = STATUS_SINGULAR
@@ -451,7 +458,7 @@ class Structure(StructureAdaptive, StructureDrag, StructureLayout):
         self.retries_step += 1
         total, stl = it, 0
         for half in range(2):
-            status, k, n = self._substeps(code, 0.5 * h, state, gm, c, max_iter, depth + 1, t0 + half * 0.5 * h)
+            status, k, n = self._substeps(code, 0.5 * h, state, max_iter, depth + 1, t0 + half * 0.5 * h)
             total += k
             stl += n
             if status != STATUS_OK:
@@ -461,39 +468,43 @@ class Structure(StructureAdaptive, StructureDrag, StructureLayout):
         return status, total, stl
 
     def _scratch(self) -> None:
-        nb, nt, ng = self.bar_node.shape[0], self.tet_node.shape[0], self.gp_m.size
+        nb, nt = self.bar_node.shape[0], self.tet_node.shape[0]
         self._fn = np.empty((self.node_slot.shape[0], 3))
         self._kb = np.empty((nb, 3, 3))
         self._kt = np.empty((nt, 4, 4, 3, 3))
-        self._fg = np.empty((ng, 3))
-        self._kg = np.empty((ng, 3, 3))
-        nm = self.mp_m.size
-        self._xm0, self._xm1, self._fm = np.empty((nm, 3)), np.empty((nm, 3)), np.empty((nm, 3))
-        self._km = np.empty((nm, 3, 3))
-        self._fnm = np.empty((self.node_slot.shape[0], 3))
         self._nodata = np.zeros(self.J.data.size)
 
+    def reset_work(self) -> None:
+        """Start the work sums at 0 (a new run; a resumed run restores them instead)."""
+        self.work = np.zeros(len(self._working()))
+        self.cwork = np.zeros(len(self._working()))
+
+    def effect_work(self, rec, nrec: int) -> dict:
+        """The work of each effect that does work on the structure since the run's start:
+        {``work_<label>``: (nrec,) J}; {} without such effects."""
+        if rec.work is None:
+            return {}
+        return {f"work_{e.label}": rec.work[:nrec, k].copy() for k, e in enumerate(self._working())}
+
     def current(self) -> StructureRecords:
-        """The current state as one record (with drag's work so far)."""
+        """The current state as one record (with the effects' work so far)."""
         z = np.zeros((1, 1), np.int64)
-        work = self.work[None].copy() if self.drag is not None else None
+        work = self.work[None].copy() if self.work.size else None
         return StructureRecords(
             self.u[None].copy(), self.v[None].copy(), z, np.full((1, 2), -1, np.int64), z.copy(), work
         )
 
     def snapshot(self):
         """Copies of u, v, cu, cv, lam, acc, rho, of the kept factors (:class:`KeptFactors`) and
-        of drag's work sums."""
+        of the work sums."""
         state = tuple(a.copy() for a in (self.u, self.v, self.cu, self.cv, self.lam, self.acc, self.rho))
-        work = (self.work.copy(), self.cwork.copy()) if self.drag is not None else ()
-        return state + (self._kept.copy(),) + work
+        return state + (self._kept.copy(), self.work.copy(), self.cwork.copy())
 
     def restore(self, snap) -> None:
         """Put back the state of :meth:`snapshot`, kept factors and work sums included."""
         self.u, self.v, self.cu, self.cv, self.lam, self.acc, self.rho = (a.copy() for a in snap[:7])
         self._kept = snap[7].copy()
-        if len(snap) > 8:
-            self.work, self.cwork = snap[8].copy(), snap[9].copy()
+        self.work, self.cwork = snap[8].copy(), snap[9].copy()
 
     def state_arrays(self) -> dict[str, np.ndarray]:
         """The arrays of :attr:`STATE_FIELDS` and, in "reuse" mode, the kept factors as the
@@ -528,3 +539,14 @@ def _kahan(s, c, d):
     y = d - c
     t = s + y
     return t, (t - s) - y
+
+
+def clock_times(clock, dt: float, gammas, step: int) -> list:
+    """The start of each sub-step of chunk step ``step`` (s from the epoch): the composition's
+    partial sums, as the point-mass and rigid kernels take them."""
+    j = float(clock[1]) + step
+    out, acc = [], 0.0
+    for k, g in enumerate(gammas):
+        out.append(float(clock[0]) + (j + acc if k > 0 else j) * dt)
+        acc += g
+    return out

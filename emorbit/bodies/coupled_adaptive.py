@@ -93,8 +93,8 @@ class StructureAdaptive:
         for _ in range(POWER_ITERATIONS):
             x /= np.max(np.abs(x))
             d = 1e-6 * np.where(pos > 0, size, 1.0) * x
-            _, fp, _ = self._forces(METHOD_MIDPOINT, u + d, u + d, 0.0, np.zeros(3), 1.0, False)
-            _, fm, _ = self._forces(METHOD_MIDPOINT, u - d, u - d, 0.0, np.zeros(3), 1.0, False)
+            fp = self._element_forces(METHOD_MIDPOINT, u + d, u + d)
+            fm = self._element_forces(METHOD_MIDPOINT, u - d, u - d)
             kx = -(fp - fm) / (2e-6 * np.where(pos > 0, size, 1.0))
             mx = self._Mmul @ x
             lam = max(lam, float(np.sum(x * kx) / np.sum(x * mx)))
@@ -154,7 +154,7 @@ class StructureAdaptive:
                     return rho, dur, its, stl, STATUS_NO_CONVERGENCE
                 rho = rho * (1.0 + a) / (1.0 - a)
                 h = (4.0 * ak) / rho
-            status, it, st = self._substeps(code, h, state, gm, c, max_iter, self.MAX_SPLIT)
+            status, it, st = self._substeps(code, h, state, max_iter, self.MAX_SPLIT)
             its += it
             stl += st
             if status != STATUS_OK:
@@ -213,7 +213,7 @@ class StructureAdaptive:
             steps += 1
             if not ok or steps > MAX_STEPS:
                 return rho, its, stl, steps, status if status != STATUS_OK else STATUS_NO_CONVERGENCE
-            self.u, self.v, self.cu, self.cv, self.lam, self.acc = state
+            self.u, self.v, self.cu, self.cv, self.lam, self.acc, self.work, self.cwork = state
             rho = rq
             if not last:
                 elapsed += dur
@@ -274,10 +274,10 @@ class StructureAdaptive:
             rho, dur, _, _, status = self._composed(code, state, rho, 1.0, 0.0, gammas, gm, c, max_iter)
             if status != STATUS_OK:
                 raise RuntimeError(f"an adaptive step failed with status {status}")
-            self.u, self.v, self.cu, self.cv, self.lam, self.acc = state
+            self.u, self.v, self.cu, self.cv, self.lam, self.acc, self.work, self.cwork = state
             t += dur
         self.rho[0] = rho
         return t
 
     def _state_copy(self) -> tuple:
-        return tuple(a.copy() for a in (self.u, self.v, self.cu, self.cv, self.lam, self.acc))
+        return tuple(a.copy() for a in (self.u, self.v, self.cu, self.cv, self.lam, self.acc, self.work, self.cwork))

@@ -5,10 +5,11 @@ Unknowns are 3-vector *slots*: a point mass has one, an elastic body one per fre
 body four (its centre of mass and three axes). A *node* is a combination of at most four slots
 with coefficients (``node_slot``, ``node_coef`` (n_nodes, 4)): a free node is its slot, a node
 riding on a rigid body is the material point ``phi + X^k d_k``. Elements (bars, tetrahedra)
-join nodes; *gravity points* (``gp_node``, ``gp_w``, ``gp_m``) are where the field acts; the
-*mass points* of mutual gravity (``mp_node``, ``mp_w``, ``mp_m``, ``mp_body``) are where the
-bodies attract each other. :meth:`StructureLayout.build` freezes all of it into arrays, with the
-scalar mass matrix over slots and the sparse Jacobian's pattern.
+join nodes; *gravity points* (``gp_node``, ``gp_w``, ``gp_m``, ``gp_body``) are where the
+effects at points act; the *mass points* (``mp_node``, ``mp_w``, ``mp_m``, ``mp_body``) are
+where effects between pairs of bodies (mutual gravity) act. :meth:`StructureLayout.build`
+freezes all of it into arrays, with the scalar mass matrix over slots and the sparse
+Jacobian's pattern.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import InputError
+from .coupled_effects import StructureEffects
 from .coupled_output import StructureOutput
 from .coupled_sparse import jacobian_pattern, slot_pairs
 from .elastic import ElasticSpec
@@ -57,7 +59,7 @@ class StructureLayout(StructureOutput):
         self._node_coef.append(list(coefs) + [0.0] * (4 - len(coefs)))
         return len(self._node_slot) - 1
 
-    def add_point(self, name, mass, x, v) -> int:
+    def add_point(self, name, mass, x, v, values=None) -> int:
         """Add a point mass.
 
         Parameters
@@ -68,6 +70,8 @@ class StructureLayout(StructureOutput):
             kg.
         x, v : array_like
             (3,) position (m) and velocity (m/s).
+        values : dict, optional
+            Its effect keys (SI), e.g. a ballistic coefficient.
 
         Returns
         -------
@@ -76,11 +80,25 @@ class StructureLayout(StructureOutput):
         """
         (s,) = self._new_slots([x], [v], [1], [[mass]])
         n = self._new_node([s], [1.0])
-        self._gp.append(([n], [1.0], mass))
+        self._gp.append(([n], [1.0], mass, len(self.bodies)))
         self.bodies.append({"name": name, "kind": "point", "slot": s, "node": n, "mass": float(mass)})
+        self.values[name] = dict(values or {})
         return n
 
-    def add_rigid(self, name, points, gravity, position, velocity, R, omega_space, shape="", params=None, surface=None):
+    def add_rigid(
+        self,
+        name,
+        points,
+        gravity,
+        position,
+        velocity,
+        R,
+        omega_space,
+        shape="",
+        params=None,
+        surface=None,
+        values=None,
+    ):
         """Add a rigid body: four slots (centre of mass and three axes) with 6 constraints.
 
         Parameters
@@ -102,7 +120,9 @@ class StructureLayout(StructureOutput):
         params : dict, optional
             The shape's parameters, for the output.
         surface : tuple, optional
-            Its facets for drag (:func:`emorbit.bodies.facets.surface_spec`).
+            Its facets for surface effects (:func:`emorbit.bodies.facets.surface_spec`).
+        values : dict, optional
+            Its effect keys (SI).
 
         Returns
         -------
@@ -123,10 +143,10 @@ class StructureLayout(StructureOutput):
             for i in range(len(points)):
                 X = points.X[:, i]
                 n = self._new_node(slots, [1.0, X[0], X[1], X[2]])
-                self._gp.append(([n], [1.0], float(points.m[i])))
+                self._gp.append(([n], [1.0], float(points.m[i]), len(self.bodies)))
         elif gravity == "point":
             n = self._new_node([slots[0]], [1.0])
-            self._gp.append(([n], [1.0], m))
+            self._gp.append(([n], [1.0], m, len(self.bodies)))
         self.bodies.append(
             {
                 "name": name,
@@ -140,6 +160,7 @@ class StructureLayout(StructureOutput):
                 "surface": surface,
             }
         )
+        self.values[name] = dict(values or {})
         return slots
 
     def rigid_node(self, body: str, X) -> int:
@@ -248,11 +269,12 @@ class StructureLayout(StructureOutput):
         self._tet_V.extend(spec.tet_V.tolist())
         self._tet_lam.extend(spec.tet_lam.tolist())
         self._tet_mu.extend(spec.tet_mu.tolist())
+        body = self._body(spec.name)
         if spec.gravity:
+            index = self.bodies.index(body)
             for q in range(spec.gp_m.size):
                 nodes = [int(node_of[a]) for a in spec.gp_node[q] if a >= 0]
-                self._gp.append((nodes, [float(w) for w in spec.gp_w[q][: len(nodes)]], float(spec.gp_m[q])))
-        body = self._body(spec.name)
+                self._gp.append((nodes, [float(w) for w in spec.gp_w[q][: len(nodes)]], float(spec.gp_m[q]), index))
         body["nodes"] = node_of
         body["free_slots"] = slots
 
@@ -334,10 +356,12 @@ class StructureLayout(StructureOutput):
         self.gp_node = -np.ones((ng, 4), dtype=np.int64)
         self.gp_w = np.zeros((ng, 4))
         self.gp_m = np.zeros(ng)
-        for q, (nodes, w, m) in enumerate(self._gp):
+        self.gp_body = np.zeros(ng, dtype=np.int64)
+        for q, (nodes, w, m, b) in enumerate(self._gp):
             self.gp_node[q, : len(nodes)] = nodes
             self.gp_w[q, : len(nodes)] = w
             self.gp_m[q] = m
+            self.gp_body[q] = b
         nm = len(self._mp)
         self.mp_node = -np.ones((nm, 4), dtype=np.int64)
         self.mp_w = np.zeros((nm, 4))
@@ -348,28 +372,32 @@ class StructureLayout(StructureOutput):
             self.mp_w[q, : len(nodes)] = w
             self.mp_m[q] = m
             self.mp_body[q] = b
-        self.mp_on = [self.mutual_flags(t) for t in self.mutual]
-        self._layout_cross()
         self.rb_slots = np.array(self._rb_slots, dtype=np.int64).reshape(-1, 4)
         self.rb_es = np.array(self._rb_es, dtype=float)
         self.lam = np.zeros(6 * len(self.rb_slots))
         self.acc = np.zeros_like(self.u)  # the last step's mean acceleration (predictor warm start)
-        gp_all = np.vstack([self.gp_node, self.mp_node, self._cross_rows])  # mutual gravity's blocks too
+        gp_all = np.vstack([self.gp_node, self.mp_node])  # the pair effects' own blocks too
         self.J, self._indices32, self._indptr32, self.J_mass = jacobian_pattern(
             self.Ms, self.node_slot, self.bar_node, self.tet_node, gp_all, self.rb_slots
         )
         if self.newton_option == "auto":
             self.newton = "full" if self.J.shape[0] < self.AUTO_FULL else "reuse"
-        if getattr(self, "drag", None) is not None:
-            self._layout_surfaces()
+        if self.effects is None:  # a structure of its own, outside a simulation: the field alone
+            from ..effects.effectset import EffectSet
+            from .effect_binding import EffectBinding
+
+            self.effects = EffectBinding(EffectSet(None), "elastic")
+        self.fx = StructureEffects(self.effects, self)
+        self.reset_work()
         self._built = True
 
     def _layout_mutual(self) -> None:
-        """The mass points of mutual gravity, where the structure has it: a point mass's node,
-        every mass point of a rigid body (a node riding on it, whatever its gravity model in
-        the field) and an elastic body's gravity points (its quadrature points)."""
+        """The mass points of the effects between pairs (mutual gravity), where the structure
+        has one: a point mass's node, every mass point of a rigid body (a node riding on it,
+        whatever its gravity model in the field) and an elastic body's gravity points (its
+        quadrature points)."""
         self._mp = []  # (nodes, weights, mass, body index)
-        if not self.mutual:
+        if self.effects is None or not self.effects.effects.pair_effects():
             return
         for i, b in enumerate(self.bodies):
             if b["kind"] == "point":
@@ -385,40 +413,3 @@ class StructureLayout(StructureOutput):
                 for q in range(spec.gp_m.size):
                     nodes = [int(b["nodes"][a]) for a in spec.gp_node[q] if a >= 0]
                     self._mp.append((nodes, [float(w) for w in spec.gp_w[q][: len(nodes)]], float(spec.gp_m[q]), i))
-
-    #: the most bodies whose mutual gravity's blocks between bodies join the Jacobian
-    MAX_CROSS_BODIES = 64
-
-    def _layout_cross(self) -> None:
-        """Where the blocks of mutual gravity between compact bodies (point masses, rigid
-        bodies; up to :attr:`MAX_CROSS_BODIES` bodies) go: each mass point's slot coefficients
-        (``mp_coef``), each body's slots (``body_slots``), whether a point is on a compact body
-        (``mp_cross``), and pattern rows (two nodes each) that couple every two such bodies'
-        slots. Elastic bodies' blocks stay out: the iteration converges on them."""
-        nb = len(self.bodies)
-        compact = np.array([b["kind"] in ("point", "rigid") for b in self.bodies], bool)
-        use = bool(self.mutual) and 1 < nb <= self.MAX_CROSS_BODIES and int(compact.sum()) > 1
-        nm = self.mp_m.size
-        self.mp_cross = np.zeros(nm)
-        self.mp_coef = np.zeros((nm, 4))
-        self.body_slots = -np.ones((nb, 4), dtype=np.int64)
-        self._cross_acc = np.zeros((nb if use else 0, nb, 4, 4, 3, 3))
-        rows, first = [], {}
-        if use:
-            for q in range(nm):
-                b = int(self.mp_body[q])
-                if compact[b]:
-                    n = int(self.mp_node[q, 0])
-                    self.mp_cross[q] = 1.0
-                    self.mp_coef[q] = self.node_coef[n]
-                    self.body_slots[b] = self.node_slot[n]
-                    first.setdefault(b, n)
-            bodies = sorted(first)
-            rows = [[first[a], first[c], -1, -1] for i, a in enumerate(bodies) for c in bodies[i + 1 :]]
-        self._cross_rows = np.array(rows, dtype=np.int64).reshape(-1, 4)
-
-    def mutual_flags(self, term) -> np.ndarray:
-        """(q,) float64: 1 for the mass points of the bodies a mutual-gravity term acts on."""
-        names = self.names if term.bodies is None else term.bodies
-        on = np.array([b["name"] in names for b in self.bodies], dtype=float)
-        return on[self.mp_body] if self.mp_body.size else np.zeros(0)

@@ -2,7 +2,8 @@
 file attributes (the output half of :class:`~emorbit.bodies.coupled.Structure`).
 
 Energy is kinetic (1/2 v^T M v over the slots) plus the St. Venant-Kirchhoff strain energy
-of the elements plus the field's potential at the gravity points; linear momentum is the
+of the elements plus every effect's potential energy (the field's at the gravity points,
+mutual gravity's over the pairs of mass points); linear momentum is the
 mass matrix times the velocities of the position slots; angular momentum sums u x (M v)
 over all slots (for a rigid body's director slots, its spin) and is taken about the field's
 centre. A rigid body's attitude and body-frame angular velocity come from its director
@@ -17,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..kernels import elastic as kel
-from ..kernels.effects.pairs import mutual_potential
 from .rigid import body_angular_velocity
 from .rotations import matrix_to_quaternion
 from .system import BodySystem, roundoff_scales
@@ -29,14 +29,15 @@ __all__ = ["StructureRecords", "StructureOutput"]
 class StructureRecords:
     """States recorded by one call: u, v (nrec, n_slots, 3), iterations (nrec, 1), fail (1, 2),
     stalled (nrec, 1): the sub-steps of each interval whose Newton iteration was accepted at a
-    stall, above round-off, and with drag its work since the run's start (nrec, 1) J."""
+    stall, above round-off, and under effects that do work each one's work since the run's
+    start (nrec, w) J."""
 
     u: np.ndarray
     v: np.ndarray
     iterations: np.ndarray
     fail: np.ndarray
     stalled: np.ndarray | None = None
-    work: np.ndarray | None = None  # (nrec, 1) drag's work since the run's start, J
+    work: np.ndarray | None = None  # (nrec, w) the work of the effects that do work since the run's start, J
     solves: np.ndarray | None = None  # (nrec, 1) sub-steps per interval, when the steps vary (adaptive)
     t: np.ndarray | None = None  # (nrec,) the records' times (set by the recorder)
 
@@ -60,9 +61,10 @@ class StructureOutput(BodySystem):
     """
 
     # -- diagnostics ------------------------------------------------------------------------------
-    def _energies(self, u, v, gm, c):
-        """Kinetic, strain and potential energy (J) of one state, M v, and the node positions
-        relative to the reference point (:meth:`relative`)."""
+    def _energies(self, u, v, t=None):
+        """Kinetic, strain and potential energy (J) of one state at time ``t``, M v, the node
+        positions relative to the reference point (:meth:`relative`), and each effect's
+        potential energy ({``potential_<label>``: J})."""
         Mv = self.Ms @ v
         T = 0.5 * float(np.sum(v * Mv))
         xn, ref = self._nodes(u)
@@ -77,13 +79,8 @@ class StructureOutput(BodySystem):
             self.tet_lam,
             self.tet_mu,
         )
-        V = 0.0
-        if gm != 0.0 and self.gp_m.size:
-            V, zonal = self._potentials(xn, ref, gm, c)
-            if zonal is not None:
-                V += zonal
-        V += sum(self._mutual_potentials(xn))
-        return T, W, V, Mv, xn
+        potentials = self.fx.potentials(xn, ref, 0.0 if t is None else float(t))
+        return T, W, sum(potentials.values()), Mv, xn, potentials
 
     def _nodes(self, u):
         """The node positions relative to the reference point (:meth:`relative`), and that point."""
@@ -92,48 +89,25 @@ class StructureOutput(BodySystem):
         kel.combine_rows(urel, self.node_slot, self.node_coef, xn)
         return xn, ref
 
-    def _potentials(self, xn, ref, gm, c):
-        """The central field's and the zonal harmonics' potential energy of the gravity points
-        (J; zonal None without zonal harmonics), from the nodes xn relative to ``ref``."""
-        xg = np.empty((self.gp_m.size, 3))
-        kel.combine_rows(xn, self.gp_node, self.gp_w, xg)
-        central = -gm * float(np.sum(self.gp_m / np.linalg.norm(xg - (c - ref), axis=1)))
-        if getattr(self, "zonal", None) is None:
-            return central, None
-        active = np.ones(self.gp_m.size, bool)
-        return central, float(self.zonal.potential((xg + ref).T[None], self.gp_m, active)[0])
-
-    def _mutual_potentials(self, xn) -> list:
-        """Each mutual-gravity term's potential energy over its pairs of mass points, J."""
-        if not self.mutual:
-            return []
-        xm = np.empty((self.mp_m.size, 3))
-        kel.combine_rows(xn, self.mp_node, self.mp_w, xm)
-        return [
-            mutual_potential(t.params["mutual_p"][0], xm, self.mp_m, self.mp_body, on)
-            for t, on in zip(self.mutual, self.mp_on)
-        ]
+    def _record_energies(self, rec, nrec) -> list:
+        """:meth:`_energies` of every record (cached: invariants, scales and the file ask for the same)."""
+        cached = self.__dict__.get("_last_energies")
+        if cached is not None and cached[0] is rec and cached[1] == nrec:
+            return cached[2]
+        t = rec.t
+        out = [self._energies(rec.u[r], rec.v[r], None if t is None else t[r]) for r in range(nrec)]
+        self._last_energies = (rec, nrec, out)
+        return out
 
     def effect_energies(self, rec, nrec, gm, center) -> dict:
         """Each effect's potential energy at each record where the structure feels effects
-        beyond the central field: {``potential_central`` (with a field), ``potential_zonal``,
-        ``potential_<mutual label>``: (nrec,) J}; else {}."""
-        zonal = getattr(self, "zonal", None) is not None and gm != 0.0 and self.gp_m.size
-        if not zonal and not self.mutual and getattr(self, "drag", None) is None:
+        beyond the central field ({``potential_<label>``: (nrec,) J}); else {}."""
+        if not self.effects.effects.beyond_field():
             return {}
-        c = np.asarray(center, float)
-        out = {}
-        for r in range(nrec):
-            xn, ref = self._nodes(rec.u[r])
-            values = {}
-            if gm != 0.0 and self.gp_m.size:
-                values["potential_central"], z = self._potentials(xn, ref, gm, c)
-                if z is not None:
-                    values[f"potential_{self.zonal.label}"] = z
-            for t, e in zip(self.mutual, self._mutual_potentials(xn)):
-                values[f"potential_{t.label}"] = e
-            for name, e in values.items():
-                out.setdefault(name, np.empty(nrec))[r] = e
+        out: dict = {}
+        for r, (*_, potentials) in enumerate(self._record_energies(rec, nrec)):
+            for name, e in potentials.items():
+                out.setdefault(name, np.zeros(nrec))[r] = e
         return out
 
     def invariants(self, rec, nrec, gm, center):
@@ -143,9 +117,8 @@ class StructureOutput(BodySystem):
         P = np.empty((nrec, 3))
         L = np.empty((nrec, 3))
         pos = self.slot_pos
-        for r in range(nrec):
+        for r, (T, W, V, Mv, _, _) in enumerate(self._record_energies(rec, nrec)):
             u = rec.u[r]
-            T, W, V, Mv, _ = self._energies(u, rec.v[r], gm, c)
             E[r] = T + W + V
             P[r] = np.sum(pos[:, None] * Mv, axis=0)
             L[r] = np.sum(np.cross(u, Mv), axis=0) - np.cross(c, P[r])
@@ -161,8 +134,7 @@ class StructureOutput(BodySystem):
         out = np.empty((nrec, 3))
         pos = self.slot_pos
         mass = float(pos @ (self.Ms @ pos))
-        for r in range(nrec):
-            T, W, V, _, xn = self._energies(rec.u[r], rec.v[r], gm, c)
+        for r, (T, W, V, _, xn, _) in enumerate(self._record_energies(rec, nrec)):
             stress = kel.stress_scale(
                 xn,
                 self.bar_node,
@@ -187,12 +159,11 @@ class StructureOutput(BodySystem):
 
         snap = self.snapshot()
         urel, ref = self.relative(self.u, self.cu)
-        c = np.asarray(center, float) - ref
         steps = [(h * (self.v + 0.5 * h * self.acc), 0)]  # the predictor: the iterate before the first
         try:
             for n in range(max(1, max_iter - 1), max_iter + 1):
                 du, _, _, status, _ = self.step(
-                    method_code(method), urel, self.v, self.lam.copy(), self.acc.copy(), gm, c, h, n
+                    method_code(method), urel, self.v, self.lam.copy(), self.acc.copy(), ref, h, n
                 )
                 steps.append((du, status))
                 self.restore(snap)

@@ -1,10 +1,17 @@
-"""Point masses (test particles): names, masses and their structure-of-arrays state.
+"""Point masses: names, masses and their structure-of-arrays state.
 
-The points neither disturb the field nor attract each other, so they are advanced
-independently by the kernels in :mod:`emorbit.kernels.pointmass`; this module keeps their
-arrays and calls the kernel that :mod:`emorbit.integrators.dispatch` names. The state is
-(3, n) float64 arrays of positions ``x`` (m) and velocities ``v`` (m/s) with Kahan
-compensation terms ``cx`` and ``cv``: the exact state is ``x - cx``, ``v - cv``.
+In the central field alone the points are independent and advanced by the kernels in
+:mod:`emorbit.kernels.pointmass` that :mod:`emorbit.integrators.dispatch` names. Under a set
+of effects (:mod:`emorbit.effects`: zonal harmonics, drag, third bodies, mutual gravity, a
+user's) they are advanced by :func:`emorbit.kernels.pointmass.effect_step.effect_chunk` with
+the set compiled (:class:`~emorbit.bodies.effect_binding.EffectBinding`), or by a packed kernel
+an effect declares for exactly its set (:meth:`emorbit.effects.base.Effect.packed`). The state
+is (3, n) float64 arrays of positions ``x`` (m) and velocities ``v`` (m/s) with Kahan
+compensation terms ``cx`` and ``cv``: the exact state is ``x - cx``, ``v - cv``. Under
+effects it adds the Newton iteration's warm start (``wp`` (3, n), ``hp`` (1,)) and, where an
+effect does work, the work each has done on each point since the run's start (``work``,
+``cwork`` (k, n), J, Kahan-compensated); each point's effect keys (a ``ballistic_coefficient``)
+are in :attr:`PointMasses.values`.
 
 On the GPU (``device = "gpu"``, fixed steps) the state lives in device memory between chunks
 (:class:`emorbit.kernels.pointmass.cuda_resident.DeviceEnsemble`): it is uploaded at the
@@ -24,7 +31,7 @@ import numpy as np
 from ..errors import InputError
 from ..integrators import dispatch
 from ..kernels import invariants as inv
-from .system import BodySystem, roundoff_scales
+from .system import BodySystem, WorkSums, roundoff_scales
 
 __all__ = ["PointMasses", "ChunkRecords", "earliest_failure"]
 
@@ -91,12 +98,20 @@ class ChunkRecords:
         return earliest_failure(self.fail)
 
 
-class PointMasses(BodySystem):
-    """A set of independent point masses, the point-mass system of a simulation.
+class PointMasses(WorkSums, BodySystem):
+    """The point masses of a simulation.
 
     The state lives in (3, n) float64 arrays ``x``, ``v`` with Kahan compensation terms
     ``cx``, ``cv`` (the part of the exact sum that the rounded arrays miss); all SI. Points
     added one by one are appended to the arrays at once, when the arrays are next read.
+
+    Attributes
+    ----------
+    effects : EffectBinding or None
+        The simulation's effects (set by the simulation): with more than the central field,
+        the points advance under them.
+    values : dict
+        {name: {body key: SI value}}: the effect keys given for each point.
     """
 
     kind = "point"
@@ -111,8 +126,12 @@ class PointMasses(BodySystem):
         self._cx = np.zeros((3, 0))
         self._cv = np.zeros((3, 0))
         self._rho = np.zeros(0)
-        self.ballistic: dict[str, float] = {}  # name -> Cd A / m, m^2/kg, where given (drag)
-        self.radiation: dict[str, float] = {}  # name -> Cr A / m, m^2/kg, where given (radiation pressure)
+        self.effects = None
+        self.values: dict[str, dict] = {}
+        self._wp = np.zeros((3, 0))
+        self.hp = np.zeros(1)
+        self._work = np.zeros((0, 0))
+        self._cwork = np.zeros((0, 0))
 
     def __len__(self) -> int:
         return len(self._names)
@@ -270,8 +289,7 @@ class PointMasses(BodySystem):
         out = (float(self._masses[i]), self._x[:, i].copy(), self._v[:, i].copy())
         keep = [j for j in range(len(self._names)) if j != i]
         del self._names[i]
-        self.ballistic.pop(name, None)
-        self.radiation.pop(name, None)
+        self.values.pop(name, None)
         self._index = None
         self._masses = self._masses[keep]
         self._x = np.ascontiguousarray(self._x[:, keep])
@@ -279,6 +297,8 @@ class PointMasses(BodySystem):
         self._cx = np.ascontiguousarray(self._cx[:, keep])
         self._cv = np.ascontiguousarray(self._cv[:, keep])
         self._rho = np.ascontiguousarray(self._rho[keep])
+        if self._wp.shape[1] == len(keep) + 1:
+            self._wp = np.ascontiguousarray(self._wp[:, keep])
         return out
 
     def advance(
@@ -333,6 +353,8 @@ class PointMasses(BodySystem):
             The records; on a failure, the point's state stops at the failing step.
         """
         n = len(self)
+        if self.under_effects():
+            return self._advance_effects(method, dt, gammas, every, nrec, max_iter, clock)
         if self.adaptive is not None:
             return self._advance_adaptive(method, gm, center, dt, gammas, every, nrec, max_iter)
         if self.device == "gpu" and n:
@@ -374,6 +396,63 @@ class PointMasses(BodySystem):
     roundoff: str = "brouwer"
     #: a name of :data:`emorbit.integrators.DEVICES`; set by the Simulation
     device: str = "cpu"
+
+    def under_effects(self) -> bool:
+        """Whether the points move under effects beyond the central field."""
+        return self.effects is not None and self.effects.effects.beyond_field()
+
+    @property
+    def wp(self) -> np.ndarray:
+        """(3, n) the second-order part w of each point's last sub-step increment under effects,
+        m (the next iteration starts from it, scaled by (h / :attr:`hp`)^2); zeros for new points."""
+        if self._wp.shape != (3, len(self)):
+            self._wp, self.hp = np.zeros((3, len(self))), np.zeros(1)
+        return self._wp
+
+    @wp.setter
+    def wp(self, value) -> None:
+        self._wp = np.ascontiguousarray(value, dtype=float)
+
+    def _work_shape(self) -> tuple:
+        return (len(self.effects.working()) if self.under_effects() else 0, len(self))
+
+    def coefficients(self) -> np.ndarray:
+        """(k, n) each point's coefficient for each effect of the set."""
+        return self.effects.coefficients(self.names, self.values)
+
+    def _advance_effects(self, method, dt, gammas, every, nrec, max_iter, clock) -> ChunkRecords:
+        """Fixed steps under the simulation's effects: the packed kernel an effect declares for
+        exactly this set (em), else :func:`~emorbit.kernels.pointmass.effect_step.effect_chunk`
+        with the set compiled."""
+        from ..kernels.pointmass.effect_step import effect_chunk
+
+        n = len(self)
+        rec = ChunkRecords(
+            x=np.empty((nrec, 3, n)),
+            v=np.empty((nrec, 3, n)),
+            iterations=np.zeros((nrec, n), dtype=np.int64),
+            fail=np.full((n, 2), -1, dtype=np.int64),
+        )
+        wp = self.wp
+        args = (float(dt), np.ascontiguousarray(gammas, float), int(every), int(nrec), int(max_iter))
+        records = (rec.x, rec.v, rec.iterations, rec.fail)
+        packed = self.effects.effects.packed_points() if method == "em" else None
+        if packed is not None:
+            chunk, params = packed
+            chunk(self.x, self.v, self.cx, self.cv, wp, self.hp, self.masses, *params, *args, *records)
+            return rec
+        prog = self.effects.program
+        P, I, T, S = self.effects.arrays(n)
+        work = self.work
+        rec.work = np.empty((nrec,) + work.shape)
+        effect_chunk(
+            prog.forces, prog.prepare, prog.work, dispatch.method_code(method, "fast"), self.x, self.v, self.cx,
+            self.cv, wp, self.hp, self.masses, np.arange(n, dtype=np.int64), self.coefficients(), P, I, T, S, work,
+            self.cwork, rec.work, float(clock[0]), float(clock[1]), *args, *records,
+        )  # fmt: skip
+        if not work.shape[0]:
+            rec.work = None
+        return rec
 
     def _advance_resident(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> ChunkRecords:
         """Fixed steps on the GPU with the state kept there (:mod:`emorbit.kernels.pointmass.cuda_resident`):
@@ -439,37 +518,46 @@ class PointMasses(BodySystem):
 
     @property
     def STATE_FIELDS(self) -> tuple:  # noqa: N802 (the name every body system uses)
-        """The whole state: :attr:`BASE_FIELDS`, and the control variables ``rho`` of
-        adaptive steps (a fixed-step run's checkpoints hold what they always held)."""
-        return self.BASE_FIELDS + (("rho",) if self.adaptive is not None else ())
+        """The whole state: :attr:`BASE_FIELDS`; under effects the warm start ``wp``, ``hp``
+        and, where an effect does work, its sums ``work``, ``cwork``; the control variables
+        ``rho`` of adaptive steps."""
+        effects = ("wp", "hp") if self.under_effects() else ()
+        work = ("work", "cwork") if self.under_effects() and self.effects.working() else ()
+        return self.BASE_FIELDS + effects + work + (("rho",) if self.adaptive is not None else ())
 
     def work_per_step(self) -> int:
-        """Point updates per step."""
-        return len(self)
+        """Point updates per step: n, or n^2 under an effect between pairs."""
+        n = len(self)
+        return n * n if self.under_effects() and self.effects.effects.pair_effects() else n
 
     def current(self) -> ChunkRecords:
-        """The current state as one record."""
+        """The current state as one record (with the work so far, where an effect does work)."""
         n = len(self)
         x, v, _, _ = self._state()
-        return ChunkRecords(x[None].copy(), v[None].copy(), np.zeros((1, n), np.int64), np.full((n, 2), -1, np.int64))
+        rec = ChunkRecords(x[None].copy(), v[None].copy(), np.zeros((1, n), np.int64), np.full((n, 2), -1, np.int64))
+        if self.under_effects() and self.work.shape[0]:
+            rec.work = self.work[None].copy()
+        return rec
 
     def snapshot(self):
         """Copies of x, v, cx, cv and rho (x: a device-to-device copy of the four state arrays,
-        and v, cx, cv None, while the state is on the GPU)."""
+        and v, cx, cv None, while the state is on the GPU), and of the effects' state."""
         self._flush()
+        extra = (self.wp.copy(), self.hp.copy(), self.work.copy(), self.cwork.copy())
         if self._dev is not None and not self._host_newer:
-            return (self._dev.snapshot(), None, None, None, self.rho.copy())
-        return tuple(a.copy() for a in (self.x, self.v, self.cx, self.cv, self.rho))
+            return (self._dev.snapshot(), None, None, None, self.rho.copy()) + extra
+        return tuple(a.copy() for a in (self.x, self.v, self.cx, self.cv, self.rho)) + extra
 
     def restore(self, snap) -> None:
-        """Put back x, v, cx, cv and rho from :meth:`snapshot`."""
+        """Put back x, v, cx, cv, rho and the effects' state from :meth:`snapshot`."""
+        self.wp[...], self.hp[...], self.work[...], self.cwork[...] = snap[5:]
         if snap[1] is None:  # a snapshot on the device
             self._flush()
             self._dev.restore(snap[0])
             self._dev_newer, self._host_newer = True, False
             self.rho[...] = snap[4]
             return
-        for a, s in zip((self.x, self.v, self.cx, self.cv, self.rho), snap):
+        for a, s in zip((self.x, self.v, self.cx, self.cv, self.rho), snap[:5]):
             a[...] = s
 
     def state_arrays(self) -> dict:
@@ -485,13 +573,45 @@ class PointMasses(BodySystem):
         return {f: np.array(current[f] if f in current else getattr(self, f), copy=True) for f in self.STATE_FIELDS}
 
     def invariants(self, rec: ChunkRecords, nrec: int, gm: float, center):
-        """Energy, momentum and angular momentum of the points at each record."""
+        """Energy (under effects: kinetic plus every effect's potential), momentum and angular
+        momentum about the field's centre of the points at each record."""
         x, v = rec.x[:nrec], rec.v[:nrec]
-        return (
-            inv.energy(self.masses, x, v, gm, center),
-            inv.momentum(self.masses, v),
-            inv.angular_momentum(self.masses, x, v, center),
-        )
+        if self.under_effects():
+            energy = inv.kinetic_energy(self.masses, v) + sum(self.effect_energies(rec, nrec).values())
+        else:
+            energy = inv.energy(self.masses, x, v, gm, center)
+        return energy, inv.momentum(self.masses, v), inv.angular_momentum(self.masses, x, v, center)
+
+    def effect_energies(self, rec: ChunkRecords, nrec: int, gm: float = 0.0, center=None) -> dict:
+        """Each effect's potential energy at each record ({} without effects).
+
+        Returns
+        -------
+        dict
+            {``potential_<label>``: (nrec,) J}.
+        """
+        if not self.under_effects():
+            return {}
+        cached = self.__dict__.get("_last_energies")  # invariants, scales and the file ask for the same
+        if cached is not None and cached[0] is rec and cached[1] == nrec:
+            return cached[2]
+        t = None if rec.t is None else rec.t[:nrec]
+        n = len(self)
+        out = self.effects.potentials(rec.x[:nrec], t, self.masses, np.arange(n, dtype=np.int64), self.coefficients())
+        self._last_energies = (rec, nrec, out)
+        return out
+
+    def effect_work(self, rec: ChunkRecords, nrec: int) -> dict:
+        """The work of each effect that does work on all points since the run's start.
+
+        Returns
+        -------
+        dict
+            {``work_<label>``: (nrec,) J}; {} where no effect does work.
+        """
+        if rec.work is None or not self.under_effects():
+            return {}
+        return {f"work_{e.label}": rec.work[:nrec, k].sum(axis=1) for k, e in enumerate(self.effects.working())}
 
     def invariant_scales(self, rec: ChunkRecords, nrec: int, gm: float, center) -> np.ndarray:
         """Round-off scales of the invariants at each record (:func:`~emorbit.bodies.system.roundoff_scales`)
@@ -504,7 +624,10 @@ class PointMasses(BodySystem):
         x, v = rec.x[:nrec], rec.v[:nrec]
         c = np.asarray(center, float)[:, None]
         r2 = np.einsum("...kn,...kn->...n", x - c, x - c)
-        V = gm * np.einsum("...n,n->...", 1.0 / np.sqrt(r2), self.masses) if gm != 0.0 else 0.0
+        if self.under_effects():
+            V = sum(np.abs(e) for e in self.effect_energies(rec, nrec).values())
+        else:
+            V = gm * np.einsum("...n,n->...", 1.0 / np.sqrt(r2), self.masses) if gm != 0.0 else 0.0
         moment = np.einsum("...n,n->...", r2, self.masses)
         return roundoff_scales(inv.kinetic_energy(self.masses, v), np.abs(V), self.masses.sum(), moment)
 
@@ -515,7 +638,7 @@ class PointMasses(BodySystem):
         from ..kernels import gravity
         from ..kernels.pointmass import reference
 
-        if method == "leapfrog":
+        if method == "leapfrog" or self.under_effects():  # the sweeps have no per-point account
             return None
         x, v, c = self.x[:, index], self.v[:, index], np.asarray(center, float)
         args = (x[0], x[1], x[2], v[0], v[1], v[2], h, gm, c[0], c[1], c[2])

@@ -8,6 +8,13 @@ in space); it is recorded as a unit quaternion (scalar first) and the angular ve
 the body frame, Omega = J^-1 R^T L from the spin angular momentum
 (:func:`body_angular_velocity`). The director mass matrix is E = sum m X X^T over the mass
 points (:mod:`emorbit.bodies.shapes`), the inertia J = tr(E) I - E.
+
+Effects (the simulation's set, :class:`~emorbit.bodies.effect_binding.EffectBinding`) act at
+a body's mass points (its centre of mass for the point gravity model) and on its flat facets
+(:mod:`emorbit.bodies.facets`: the shape's surface and any facet tables, built on first use);
+the work of the effects that do work is summed per body into ``work`` (nb, k) J with Kahan
+terms ``cwork`` (state, checkpointed, zeroed at a run's start); records carry it
+(``RigidRecords.work``).
 """
 
 from __future__ import annotations
@@ -23,10 +30,9 @@ from ..kernels import rigid as kern
 from ..units import to_si, vector_to_si
 from . import shapes
 from .pointmasses import earliest_failure
-from .rigid_effects import RigidEffects
 from .rotations import attitude_matrix, matrix_to_quaternion
 from .shapes import MassPoints
-from .system import BodySystem, roundoff_scales
+from .system import BodySystem, WorkSums, roundoff_scales
 
 __all__ = ["RigidBodies", "RigidRecords", "GRAVITY_MODELS", "body_angular_velocity", "build_rigid"]
 
@@ -110,11 +116,18 @@ def body_angular_velocity(E, D, dD):
     return np.linalg.solve(np.broadcast_to(J, body.shape[:-1] + (3, 3)), body[..., None])[..., 0]
 
 
-class RigidBodies(RigidEffects, BodySystem):
+class RigidBodies(WorkSums, BodySystem):
     """A set of rigid bodies, each with its own mass points and gravity model.
 
     The rigid-body system of a simulation; the arrays hold every body's state in rows and
     all mass points packed into one (3, N) array with ``offsets`` per body.
+
+    Attributes
+    ----------
+    effects : EffectBinding or None
+        The simulation's effects (set by the simulation).
+    values : dict
+        {name: {body key: SI value}}: the effect keys given for each body.
     """
 
     kind = "rigid"
@@ -148,8 +161,8 @@ class RigidBodies(RigidEffects, BodySystem):
         self.cv = np.zeros((0, 12))
         self.lam = np.zeros((0, 6))
         self.rho = np.zeros(0)  # adaptive steps' control variables, 1/s (0: set from the state)
-        self.zonal = None  # an EffectTerm of kind "zonal" (emorbit.effects.zonal), or None
-        self.effects: list = []  # drag, radiation pressure and third bodies (EffectTerm), set by the simulation
+        self.effects = None
+        self.values: dict[str, dict] = {}
         self.surfaces: list = []  # per body: how its facets are made (see add), built on first use
         self._facets: list = []  # per body: Facets or None, once built
         self._work = np.zeros((0, 0))
@@ -225,7 +238,7 @@ class RigidBodies(RigidEffects, BodySystem):
         self.q = np.ascontiguousarray(np.vstack([self.q, q]))
         self.v = np.ascontiguousarray(np.vstack([self.v, v]))
         # the bodies already there keep their compensation terms, warm starts and work
-        k = len(self.working_terms())
+        k = self._work_shape()[1]
         if self._work.shape == (len(self.names) - 1, k):  # the others' work so far is kept
             self._work = np.vstack([self._work, np.zeros((1, k))])
             self._cwork = np.vstack([self._cwork, np.zeros((1, k))])
@@ -246,7 +259,7 @@ class RigidBodies(RigidEffects, BodySystem):
         -------
         dict
             ``shape``, ``points``, ``gravity``, ``position``, ``velocity``, ``R``,
-            ``omega_space``, ``params`` and ``surface``.
+            ``omega_space``, ``params``, ``surface`` and ``values`` (its effect keys).
         """
         b = self.names.index(name)
         q, v = self.q[b], self.v[b]
@@ -263,10 +276,12 @@ class RigidBodies(RigidEffects, BodySystem):
             "omega_space": 0.5 * np.cross(D, dD).sum(axis=0),
             "params": self.params[b],
             "surface": self.surfaces[b],
+            "values": self.values.get(name, {}),
         }
         keep = [j for j in range(len(self.names)) if j != b]
         if self._work.shape[0] == len(self.names):
             self._work, self._cwork = self._work[keep], self._cwork[keep]
+        self.values.pop(name, None)
         for attr in ("names", "shapes", "points", "params", "surfaces", "_facets"):
             lst = getattr(self, attr)
             del lst[b]
@@ -327,36 +342,80 @@ class RigidBodies(RigidEffects, BodySystem):
         if self.adaptive is not None:
             return self._advance_adaptive(method, gm, center, dt, gammas, every, nrec, max_iter)
         rec = self._records(nrec)
+        prog = self.effects.program
+        P, I, T, S = self.effects.arrays(self.mp.size)
+        coef, pcoef = self.coefficients()
+        foff, facets = self.packed_facets()
+        work = self.work
+        rec.work = np.empty((nrec,) + work.shape)
         kern.rigid_chunk(
-            method_code(method),
-            self.models,
-            self.q,
-            self.v,
-            self.cq,
-            self.cv,
-            self.lam,
-            self.mass,
-            self.E,
-            self.Einv,
-            self.offsets,
-            self.X,
-            self.mp,
-            float(gm),
-            center,
-            float(dt),
-            gammas,
-            int(every),
-            int(nrec),
-            int(max_iter),
-            rec.q,
-            rec.v,
-            rec.iterations,
-            rec.stalled,
-            rec.fail,
-            *self._zonal_args(),
-            *self._effect_args(rec, nrec, clock),
-        )
+            prog.forces, prog.prepare, prog.work, prog.facets, method_code(method), self.models, self.q, self.v,
+            self.cq, self.cv, self.lam, self.mass, self.E, self.Einv, self.offsets, self.X, self.mp, coef, pcoef, foff,
+            facets, float(gm), np.ascontiguousarray(center, float), float(dt), np.ascontiguousarray(gammas, float),
+            int(every), int(nrec), int(max_iter), rec.q, rec.v, rec.iterations, rec.stalled, rec.fail, P, I, T, S,
+            work, self.cwork, rec.work, float(clock[0]), float(clock[1]),
+        )  # fmt: skip
+        if not work.shape[1]:
+            rec.work = None
         return rec
+
+    # -- effects ---------------------------------------------------------------------------
+    def _work_shape(self) -> tuple:
+        return (len(self), len(self.effects.working()) if self.effects is not None else 0)
+
+    def coefficients(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each effect's coefficient at the bodies' points: (k, N) for the mass points, (k, nb)
+        for the centres of mass (the point gravity model)."""
+        counts = np.diff(self.offsets)
+        coef = self.effects.coefficients(self.names, self.values, counts)
+        pcoef = self.effects.coefficients(self.names, self.values)
+        return coef, pcoef
+
+    def facets(self, b: int):
+        """Body b's facets (:class:`~emorbit.bodies.facets.Facets`), or None where it has none
+        (``facets = "none"`` and no facet tables), built on first use.
+
+        Raises
+        ------
+        InputError
+            The shape has no surface (a dumbbell) and no facet tables were given.
+        """
+        if self._facets[b] is None and self.surfaces[b] is not None:
+            from .facets import Facets, shape_facets
+
+            mode, extra, defaults, key = self.surfaces[b]
+            parts = [shape_facets(self.shapes[b], self.params[b], key=key, **defaults)] if mode == "shape" else []
+            if extra is not None and len(extra):
+                parts.append(extra)
+            self._facets[b] = Facets.concatenate(parts) if parts else None
+            if self._facets[b] is None or not len(self._facets[b]):
+                self._facets[b] = None
+                self.surfaces[b] = None
+        return self._facets[b]
+
+    def packed_facets(self) -> tuple[np.ndarray, np.ndarray]:
+        """The facets of the bodies that surface effects reach, packed: ``foff`` (nb + 1,) int64
+        and the rows (nf, 11) (:mod:`emorbit.kernels.rigid_surface`); no rows where none does."""
+        rows, counts = [], []
+        for b, name in enumerate(self.names):
+            f = self.facets(b) if self.effects.effects.surface_mask("rigid", name).any() else None
+            counts.append(0 if f is None else len(f))
+            if f is not None:
+                rows.append(f.packed())
+        foff = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        return foff, np.ascontiguousarray(np.vstack(rows)) if rows else np.zeros((0, 11))
+
+    def effect_work(self, rec, nrec: int) -> dict:
+        """The work of each effect that does work on all bodies since the run's start.
+
+        Returns
+        -------
+        dict
+            {``work_<label>``: (nrec,) J}; {} without such effects.
+        """
+        if rec.work is None:
+            return {}
+        return {f"work_{e.label}": rec.work[:nrec, :, k].sum(axis=1) for k, e in enumerate(self.effects.working())}
 
     #: the accuracy knob eta of adaptive steps (None: fixed steps); set by the Simulation
     adaptive: float | None = None
@@ -365,9 +424,10 @@ class RigidBodies(RigidEffects, BodySystem):
 
     @property
     def STATE_FIELDS(self) -> tuple:  # noqa: N802 (the name every body system uses)
-        """The whole state: that of :class:`~emorbit.bodies.rigid_effects.RigidEffects`, and
-        the control variables ``rho`` of adaptive steps."""
-        return super().STATE_FIELDS + (("rho",) if self.adaptive is not None else ())
+        """The whole state: :attr:`BASE_FIELDS`, :attr:`WORK_FIELDS` where an effect does work,
+        and the control variables ``rho`` of adaptive steps."""
+        work = self.WORK_FIELDS if self._work_shape()[1] else ()
+        return self.BASE_FIELDS + work + (("rho",) if self.adaptive is not None else ())
 
     def inverse_inertias(self) -> np.ndarray:
         """(nb, 3, 3) the inverse body-frame inertias J^-1, J = tr(E) I - E, 1/(kg m^2)."""
@@ -392,46 +452,34 @@ class RigidBodies(RigidEffects, BodySystem):
         if self.rho.shape != (nb,):  # the arrays were set directly: start the control from the state
             self.rho = np.zeros(nb)
         steps = np.zeros((nrec, nb), np.int64)
+        prog = self.effects.program
+        P, I, T, S = self.effects.arrays(self.mp.size)
+        coef, pcoef = self.coefficients()
+        foff, facets = self.packed_facets()
         rigid_adaptive_chunk(
             method_code(method), self.models, self.q, self.v, self.cq, self.cv, self.lam, self.rho, self.mass,
             self.E, self.Einv, self.inverse_inertias(), self.offsets, self.X, self.mp, float(gm),
             np.ascontiguousarray(center, float), float(dt), int(every), float(self.adaptive),
             np.ascontiguousarray(gammas, float), int(nrec), int(max_iter), rec.q, rec.v, rec.iterations, steps,
-            rec.stalled, rec.fail, *self._zonal_args(),
+            rec.stalled, rec.fail, prog.forces, prog.facets, coef, pcoef, foff, facets, P, I, T, S,
         )  # fmt: skip
         rec.solves = steps * len(gammas)
         self.adaptive_steps += int(steps.sum())
         return rec
 
-    def _zonal_args(self) -> tuple:
-        """(zonal_p, zonal_j) of the zonal harmonics the bodies feel, or (None, None)."""
-        if self.zonal is None:
-            return None, None
-        return self.zonal.params["zonal_p"], self.zonal.params["zonal_j"]
-
-    def zonal_energy(self, q: np.ndarray) -> np.ndarray:
-        """The zonal harmonics' potential energy of the bodies' mass points (their centres of
-        mass for the point model) at recorded states q (rows, nb, 12): (rows,) J."""
-        out = np.zeros(q.shape[0])
-        if self.zonal is None:
-            return out
-        for x, mb in self.gravity_points(q):
-            out += self.zonal.potential(x, mb, np.ones(mb.shape[0], bool))
-        return out
-
     def gravity_points(self, q: np.ndarray):
-        """Where the field acts on each body at recorded states q (rows, nb, 12): for each body
-        that feels gravity, its mass points' positions (rows, 3, N) and masses (N,) (the centre
-        of mass and the body's mass for the point model)."""
+        """Where the point effects act on each body at recorded states q (rows, nb, 12): for
+        each body that feels them, (b, its mass points' positions (rows, 3, N), their masses
+        (N,)) (the centre of mass and the body's mass for the point model)."""
         D = q[..., 3:].reshape(q.shape[:-1] + (3, 3))
         for b in range(len(self)):
             if self.models[b] == kern.GRAVITY_NONE:
                 continue
             if self.models[b] == kern.GRAVITY_POINT:
-                yield q[:, b, 0:3, None], np.array([self.mass[b]])
+                yield b, q[:, b, 0:3, None], np.array([self.mass[b]])
             else:
                 Xb, mb = self.points[b].X, self.points[b].m
-                yield q[:, b, 0:3, None] + np.einsum("kn,rki->rin", Xb, D[:, b]), mb
+                yield b, q[:, b, 0:3, None] + np.einsum("kn,rki->rin", Xb, D[:, b]), mb
 
     def current(self) -> RigidRecords:
         """The current state as one record, with the work so far where an effect does work."""
@@ -440,7 +488,7 @@ class RigidBodies(RigidEffects, BodySystem):
             self.v[None].copy(),
             np.zeros((1, len(self)), np.int64),
             np.full((len(self), 2), -1, np.int64),
-            work=self.work[None].copy() if self.effects else None,
+            work=self.work[None].copy() if self._work_shape()[1] else None,
         )
 
     def snapshot(self):
@@ -454,8 +502,8 @@ class RigidBodies(RigidEffects, BodySystem):
 
     # -- diagnostics -----------------------------------------------------------------------
     def invariants(self, rec: RigidRecords, nrec: int, gm: float, center):
-        """Energy, momentum and angular momentum (orbital plus spin) at each record, each body
-        with its own gravity model."""
+        """Energy (kinetic plus every effect's potential), momentum and angular momentum
+        (orbital plus spin) about the field's centre at each record."""
         q, v = rec.q[:nrec], rec.v[:nrec]
         c = np.asarray(center, float)
         m = self.mass
@@ -467,41 +515,41 @@ class RigidBodies(RigidEffects, BodySystem):
         L = np.cross(phi - c, P) + np.einsum(
             "bkl,rbklj->rbj", self.E, np.cross(D[:, :, :, None, :], dD[:, :, None, :, :])
         )
-        energy = (T + self._central_energy(q, gm, c)).sum(axis=1)
-        if self.zonal is not None:
-            energy = energy + self.zonal_energy(q)
-        if any(t_.kind == "third_body" for t_ in self.effects):
-            energy = energy + sum(self.third_body_energy(q, rec.t[:nrec]).values())
+        energy = T.sum(axis=1) + sum(self._potentials(rec, nrec).values())
         return energy, P.sum(axis=1), L.sum(axis=1)
 
-    def _central_energy(self, q: np.ndarray, gm: float, c: np.ndarray) -> np.ndarray:
-        """The central field's potential energy of each body at recorded states q: (rows, nb) J."""
-        m = self.mass
-        phi = q[..., 0:3]
-        D = q[..., 3:].reshape(q.shape[:-1] + (3, 3))
-        V = np.zeros(q.shape[:2])
-        for b in range(len(self)):
-            if self.models[b] == kern.GRAVITY_POINT:
-                V[:, b] = -gm * m[b] / np.linalg.norm(phi[:, b] - c, axis=-1)
-            elif self.models[b] == kern.GRAVITY_VOLUME:
-                Xb, mb = self.points[b].X, self.points[b].m
-                x = phi[:, b, :, None] + np.einsum("kn,rki->rin", Xb, D[:, b])
-                V[:, b] = -gm * np.einsum("n,rn->r", mb, 1.0 / np.linalg.norm(x - c[None, :, None], axis=1))
-        return V
+    def _potentials(self, rec: RigidRecords, nrec: int) -> dict:
+        """Every effect's potential energy at each record, of the bodies' points:
+        {``potential_<label>``: (nrec,) J}."""
+        cached = self.__dict__.get("_last_energies")  # invariants, scales and the file ask for the same
+        if cached is not None and cached[0] is rec and cached[1] == nrec:
+            return cached[2]
+        q = rec.q[:nrec]
+        parts = list(self.gravity_points(q))
+        coef, pcoef = self.coefficients()
+        cols, xs, ms, bodies = [], [], [], []
+        for b, x, mb in parts:
+            o0, o1 = self.offsets[b], self.offsets[b + 1]
+            cols.append(pcoef[:, b : b + 1] if self.models[b] == kern.GRAVITY_POINT else coef[:, o0:o1])
+            xs.append(x)
+            ms.append(mb)
+            bodies.append(np.full(mb.shape[0], b, np.int64))
+        if not xs:
+            out = {f"potential_{e.label}": np.zeros(nrec) for e in self.effects.effects.with_potential()}
+        else:
+            out = self.effects.potentials(
+                np.concatenate(xs, axis=2), None if rec.t is None else rec.t[:nrec], np.concatenate(ms),
+                np.concatenate(bodies), np.ascontiguousarray(np.concatenate(cols, axis=1)),
+            )  # fmt: skip
+        self._last_energies = (rec, nrec, out)
+        return out
 
     def effect_energies(self, rec: RigidRecords, nrec: int, gm: float, center) -> dict:
         """Each effect's potential energy at each record, where the bodies feel effects beyond
-        the central field: {``potential_central``, ``potential_zonal``, ``potential_<third
-        body>``: (nrec,) J}; else {}."""
-        if self.zonal is None and not self.effects:
+        the central field ({} otherwise: the energy alone is recorded)."""
+        if not self.effects.effects.beyond_field():
             return {}
-        q = rec.q[:nrec]
-        out = {"potential_central": self._central_energy(q, gm, np.asarray(center, float)).sum(axis=1)}
-        if self.zonal is not None:
-            out[f"potential_{self.zonal.label}"] = self.zonal_energy(q)
-        if any(t_.kind == "third_body" for t_ in self.effects):
-            out.update(self.third_body_energy(q, rec.t[:nrec]))
-        return out
+        return self._potentials(rec, nrec)
 
     def invariant_scales(self, rec: RigidRecords, nrec: int, gm: float, center) -> np.ndarray:
         """Round-off scales of the invariants at each record (:func:`~emorbit.bodies.system.roundoff_scales`):
@@ -518,17 +566,27 @@ class RigidBodies(RigidEffects, BodySystem):
         return roundoff_scales(T, np.abs(energy - T), self.mass.sum(), moment)
 
     def newton_facts(self, index: int, method: str, gm: float, center, h: float, max_iter: int):
-        """:func:`emorbit.kernels.rigid.rigid_step` on the body's next step: status and its last
-        update relative to the mass-weighted scale of the increments (residual: None)."""
+        """:func:`emorbit.kernels.rigid.rigid_step` on the body's next step (under the effects
+        prepared for the last step's times): status and its last update relative to the
+        mass-weighted scale of the increments (residual: None)."""
+        from ..kernels.rigid_surface import facet_scratch
+
         b = index
         sl = slice(self.offsets[b], self.offsets[b + 1])
         Xb, mb = np.ascontiguousarray(self.X[:, sl]), np.ascontiguousarray(self.mp[sl])
         work = kern.work_arrays(Xb)
         q0, v0 = self.q[b].copy(), self.v[b].copy()
         c = np.asarray(center, float)
-        args = (method_code(method), self.models[b], q0, v0, self.lam[b].copy(), self.mass[b], self.E[b])
+        prog = self.effects.program
+        P, I, T, S = self.effects.arrays(self.mp.size)
+        coef, pcoef = self.coefficients()
+        foff, facets = self.packed_facets()
+        f0, f1 = int(foff[b]), int(foff[b + 1])
         _, status, _ = kern.rigid_step(
-            *args, self.Einv[b], Xb, mb, float(gm), c, float(h), int(max_iter), work, *self._zonal_args()
+            prog.forces, prog.facets, method_code(method), self.models[b], q0, v0, self.lam[b].copy(),
+            self.mass[b], self.E[b], self.Einv[b], Xb, mb, float(gm), c, float(h), int(max_iter), work,
+            np.ascontiguousarray(coef[:, sl]), np.ascontiguousarray(pcoef[:, b : b + 1]), P, I, T, S, facets, f0, f1,
+            facet_scratch(f1 - f0, 0),
         )  # fmt: skip
         w, delta, dq = work[15], work[12], work[16]
         scale = float(np.sum(w * (h * v0) ** 2) + w[3] + w[6] + w[9] + np.sum(w * dq * dq))

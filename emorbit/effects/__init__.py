@@ -1,55 +1,42 @@
 """Effects: the forces a scene names, one module per effect, each registered here by name.
 
 A scene's bodies move in the central field of ``[field]`` (the effect ``central``) and in
-whatever ``[[effect]]`` tables add (``zonal``, ``mutual``, ``drag``, ``srp``, ``third_body``). Each
-effect module declares:
+whatever ``[[effect]]`` tables add (``zonal``, ``mutual``, ``drag``, ``srp``,
+``third_body``, or an effect of the user's own). Each effect is one subclass of
+:class:`~emorbit.effects.base.Effect` that declares everything about itself (its keys, the
+body keys it owns, the bodies it acts on and how, what it conserves, its kernel pieces); the
+body kinds' step kernels take any set of them compiled by :mod:`emorbit.effects.program`,
+and :class:`~emorbit.effects.effectset.EffectSet` holds a simulation's.
 
-``NAME``, ``SUMMARY``
-    its ``kind`` in scenes and one line on what it is;
-``KEYS``
-    its scene keys (:class:`~emorbit.keys.Key`: units, defaults, allowed values), checked
-    by :func:`build` and listed in docs/effects.md, which is generated from these
-    declarations (``scripts/docs_effects.py``);
-``POTENTIAL``, ``DISCRETE_FORCE``, ``JACOBIAN``, ``CONSERVES``, ``BODY_KINDS``
-    its potential energy, its force over a step (the g_em analogue: its work equals the
-    drop in its potential exactly; a non-conservative force such as drag has no potential
-    (``HAS_POTENTIAL = False``), keeps nothing and declares the ``work`` code that sums its
-    discrete work; a potential that changes in time sums the work of that change), the
-    Jacobian of that force for Newton, what an em step with it conserves, and the body kinds
-    it acts on;
-``build(table, field, key)``
-    a checked :class:`~emorbit.effects.base.EffectTerm` from the scene table (or the Python
-    API's keywords, :meth:`emorbit.Simulation.add_effect`);
-``KERNEL``
-    the kernel functions and the code that :mod:`emorbit.effects.compose` puts into the
-    step compiled for a scene's set of effects, so that a scene pays only for the effects it
-    names; an effect that depends on time has ``substep`` code, which reads the sub-step's
-    start, middle and end times ``ta``, ``tm``, ``tb``, and its term samples its path in
-    :meth:`~emorbit.effects.base.EffectTerm.prepare` before the steps.
-
-To add an effect: write its force, potential and Jacobian as kernels in
-``emorbit/kernels/effects/`` (with tests that the work equals the potential drop and the
-Jacobian matches finite differences), write its module here with the names above, and add
-it to :data:`EFFECTS`.
+To add an effect to emorbit: write its pieces in ``emorbit/kernels/effects/<name>.py`` (with
+tests that the work equals the potential drop and the Jacobian matches finite differences),
+its class in ``emorbit/effects/<name>.py``, and add the class to :data:`SHIPPED`. A user adds
+one without editing emorbit: :func:`register` a subclass whose pieces live in the user's own
+file, or name the file in a scene (``[[effect]] kind = "<name>", file = "<path>.py"``, see
+:func:`register_file`).
 """
 
 from __future__ import annotations
 
+import os
+
 from ..errors import InputError
-from . import central, drag, mutual, srp, third_body, zonal
-from .base import EffectTerm
+from .base import BuildContext, Effect
+from .central import Central
+from .drag import Drag
+from .mutual import Mutual
+from .srp import RadiationPressure
+from .third_body import ThirdBody
+from .zonal import Zonal
 
-__all__ = ["EFFECTS", "EffectTerm", "build", "effect_kinds", "has_potential"]
+__all__ = ["EFFECTS", "SHIPPED", "Effect", "build", "effect_kinds", "register", "register_file", "unregister"]
 
-#: every effect by its ``kind``, in the order a step adds their forces (third bodies last: a
-#: scene may name several, whose work the step sums in consecutive slots)
-EFFECTS = {m.NAME: m for m in (central, zonal, mutual, drag, srp, third_body)}
-
-
-def has_potential(module) -> bool:
-    """Whether an effect has a potential energy, recorded as ``invariants/potential_<label>``
-    (drag and radiation pressure have none: only their work is recorded)."""
-    return getattr(module, "HAS_POTENTIAL", True)
+#: the shipped effects, in the order a step sums their forces (third bodies last: a scene may
+#: name several, whose work the step sums in consecutive slots)
+SHIPPED = (Central, Zonal, Mutual, Drag, RadiationPressure, ThirdBody)
+#: every registered effect by its ``kind``: the shipped ones, then the user's in the order
+#: they were registered (the order a step sums their forces)
+EFFECTS: dict[str, type[Effect]] = {cls.NAME: cls for cls in SHIPPED}
 
 
 def effect_kinds() -> tuple[str, ...]:
@@ -57,14 +44,108 @@ def effect_kinds() -> tuple[str, ...]:
     return tuple(k for k in EFFECTS if k != "central")
 
 
-def build(table: dict, field, key: str, bodies=None, strict: bool = False) -> EffectTerm:
+def register(cls: type[Effect]) -> type[Effect]:
+    """Register an effect class, so that scenes and :meth:`emorbit.Simulation.add_effect` may
+    name its kind. Usable as a decorator.
+
+    Parameters
+    ----------
+    cls : type
+        A subclass of :class:`~emorbit.effects.base.Effect` with ``NAME``, ``PIECES`` and
+        :meth:`~emorbit.effects.base.Effect.from_table`.
+
+    Returns
+    -------
+    type
+        ``cls``.
+
+    Raises
+    ------
+    InputError
+        Not an Effect subclass, no name or pieces, a conservative effect without a potential,
+        or a name that a different class already has.
+    """
+    if not (isinstance(cls, type) and issubclass(cls, Effect)):
+        raise InputError("effect", f"an Effect subclass expected, got {cls!r}")
+    name = getattr(cls, "NAME", "")
+    if not isinstance(name, str) or not name.isidentifier():
+        raise InputError("effect.NAME", f"an identifier expected, got {name!r}")
+    pieces = cls.PIECES
+    if pieces is None or not (pieces.force or pieces.pairs or pieces.facet):
+        raise InputError(f"effect[{name!r}].PIECES", "give at least its force (or its facet or pair forces)")
+    if "energy" in cls.CONSERVES and not cls.has_potential():
+        raise InputError(f"effect[{name!r}].PIECES", "an effect that keeps the energy gives its potential")
+    known = EFFECTS.get(name)
+    if known is not None and known is not cls and _origin(known) != _origin(cls):
+        raise InputError(f"effect[{name!r}]", f"the kind {name!r} is taken by {known.__module__}.{known.__name__}")
+    EFFECTS[name] = cls
+    return cls
+
+
+def _origin(cls) -> tuple:
+    """Where a class was defined (a user file loaded twice defines equal classes)."""
+    return (cls.__module__, cls.__qualname__, cls.PIECES)
+
+
+def unregister(name: str) -> None:
+    """Remove a user's effect from the registry (a shipped effect stays)."""
+    if name in EFFECTS and EFFECTS[name] not in SHIPPED:
+        del EFFECTS[name]
+
+
+def register_file(path, key: str = "file") -> list[type[Effect]]:
+    """Import a user's effect file and register every Effect subclass it defines.
+
+    The file is ordinary Python: it imports :class:`~emorbit.effects.base.Effect` and
+    :class:`~emorbit.effects.base.Pieces`, defines its pieces with
+    :func:`emorbit.kernels.jit.kernel` (or ``numba.njit``), and a subclass whose
+    ``PIECES.module`` is ``__file__``. Importing runs the file's code, as any Python module.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    key : str
+        Its name in errors.
+
+    Returns
+    -------
+    list of type
+        The registered classes.
+
+    Raises
+    ------
+    InputError
+        No such file, a file that fails to import (its error named), or one that defines no
+        effect.
+    """
+    from .program import load_user_module
+
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise InputError(key, f"no effect file {path!r}")
+    try:
+        module = load_user_module(path)
+    except Exception as exc:  # the user's code: any error it raises is reported, not raised
+        raise InputError(key, f"{path!r} failed to import: {type(exc).__name__}: {exc}") from None
+    found = [
+        obj
+        for obj in vars(module).values()
+        if isinstance(obj, type) and issubclass(obj, Effect) and obj.__module__ == module.__name__
+    ]
+    if not found:
+        raise InputError(key, f"{path!r} defines no subclass of emorbit.effects.base.Effect")
+    return [register(cls) for cls in found]
+
+
+def build(table: dict, field, key: str, bodies=None, strict: bool = False, folder: str = "") -> Effect:
     """A checked effect from an ``[[effect]]`` table or :meth:`~emorbit.Simulation.add_effect`.
 
     Parameters
     ----------
     table : dict
         ``kind`` and the effect's keys (values with units, as scenes give them, or
-        Quantities and SI numbers from Python).
+        Quantities and SI numbers from Python); ``file`` names a user's effect file.
     field : CentralField or None
         The scene's central field.
     key : str
@@ -74,29 +155,40 @@ def build(table: dict, field, key: str, bodies=None, strict: bool = False) -> Ef
         simulation runs).
     strict : bool
         Require units on every dimensional value (scenes do).
+    folder : str
+        The folder a relative ``file`` is found in (the scene's).
 
     Returns
     -------
-    EffectTerm
+    Effect
         The effect, its parameters in SI.
 
     Raises
     ------
     InputError
-        An unknown kind, an unknown key, or a value that the effect refuses, naming the key.
+        An unknown kind, an unknown key, an effect of a central field in free space, or a value
+        that the effect refuses, naming the key.
     """
     if not isinstance(table, dict):
         raise InputError(key, f"an effect is a table with a kind, got {table!r}")
+    table = dict(table)
+    if "file" in table:
+        file = table["file"]
+        if not isinstance(file, str) or not file.strip():
+            raise InputError(f"{key}.file", f"the path of a Python file expected, got {file!r}")
+        register_file(os.path.join(folder, file) if folder and not os.path.isabs(file) else file, f"{key}.file")
     kind = table.get("kind")
     if kind not in effect_kinds():
         raise InputError(f"{key}.kind", f"unknown effect {kind!r}; known: {', '.join(effect_kinds())}")
-    module = EFFECTS[kind]
-    allowed = {"kind"} | {k.name for k in module.KEYS}
+    cls = EFFECTS[kind]
+    allowed = {"kind", "file"} | {k.name for k in cls.KEYS}
     for name in table:
         if name not in allowed:
             raise InputError(
                 f"{key}.{name}", f"unknown key of a {kind!r} effect; its keys: {', '.join(sorted(allowed))}"
             )
-    term = module.build(table, field, key, bodies, strict)
-    term.key = key
-    return term
+    if cls.NEEDS_FIELD and field is None:
+        raise InputError(key, f"{kind} belongs to a central body: the scene needs a [field]")
+    effect = cls.from_table(table, BuildContext(field, key, bodies, strict))
+    effect.key = key
+    return effect

@@ -1,54 +1,252 @@
-"""What every effect gives a simulation once it is built: :class:`EffectTerm`.
+"""The effect contract: :class:`Effect`, the one declaration of a force a scene may name.
 
-A term holds the effect's parameters in SI, packed as float64 arrays in the order its kernel
-code reads them (:attr:`EffectTerm.params`), the scene table it came from (written back into
-scenes and into the run file's ``effects`` attribute), and the potential energy of the bodies
-it acts on at recorded states, which the run records as ``invariants/potential_<label>``.
+An effect is one module (``emorbit/effects/<name>.py``, or a user's own file) with one
+subclass of :class:`Effect` and one kernel module of plain Numba functions, its *pieces*
+(:mod:`emorbit.kernels.effects.signatures` gives their arguments). The class declares
+everything about the effect; nothing else in emorbit names it:
+
+- its scene keys (:attr:`Effect.KEYS`) and the keys it attaches to bodies
+  (:attr:`Effect.BODY_KEYS`: drag's ``ballistic_coefficient`` on point masses);
+- the body kinds it acts on and how (:attr:`Effect.ACTS`: at a body's points, on its
+  surfaces, or not), whether a scene may name it more than once, what an em step with it
+  conserves, whether it does work, whether it needs a central field, an epoch, or changes
+  in time, and whether its force is explicit (a function of position and time alone, so
+  leapfrog's kicks may use it);
+- its pieces (:class:`Pieces`): the force on a point over a step with its Jacobian, its
+  potential, what it prepares per sub-step, the work of its change in time, its force on a
+  facet, or its pair forces;
+- any times that steps must land on (:meth:`Effect.landing_times`).
+
+An instance is one effect of one simulation: its parameters in SI, packed as float64 arrays
+in the order its pieces read them (``p``, the flat tables ``tab``, and the scratch size),
+built from its scene table by :meth:`Effect.from_table`. The body kinds' step kernels take a
+set of effects compiled into five functions (:mod:`emorbit.effects.program`), so an effect
+reaches point masses, rigid bodies' mass points and facets and elastic bodies' gravity points
+and surfaces, with every method and with adaptive steps, from this one declaration.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
-__all__ = ["EffectTerm"]
+from ..errors import InputError
+from ..keys import Key
+
+__all__ = ["Effect", "Pieces", "BodyKey", "AT_POINTS", "ON_SURFACES", "BODY_KINDS"]
+
+#: the body kinds an effect may act on
+BODY_KINDS = ("point", "rigid", "elastic")
+#: an effect acts on a body kind at its points (a point mass; a rigid body's mass points; an
+#: elastic body's gravity points)
+AT_POINTS = "points"
+#: an effect acts on a body kind through its surfaces (a rigid body's facets, an elastic
+#: body's surface triangles)
+ON_SURFACES = "surfaces"
 
 
-@dataclass
-class EffectTerm:
-    """One effect of a simulation.
+@dataclass(frozen=True)
+class Pieces:
+    """Where an effect's kernel functions are and what they are called.
+
+    Attributes
+    ----------
+    module : str
+        The importable module that defines them (``"emorbit.kernels.effects.zonal"``), or
+        the path of a Python file (a user's effect).
+    force : str
+        The force on a point over a step and its Jacobian (every effect that acts at points).
+    potential : str
+        The potential per unit mass (a conservative effect).
+    prepare : str
+        What every point's force reads over a sub-step (positions on a path at given times).
+    time_work : str
+        The work per unit mass of the potential's change in time over a sub-step.
+    facet : str
+        The force on a flat facet (an effect that acts on surfaces).
+    pairs : str
+        The pair forces between points of different bodies (mutual gravity).
+    pair_potential : str
+        Each point's half of its pairs' potential energy.
+    """
+
+    module: str
+    force: str = ""
+    potential: str = ""
+    prepare: str = ""
+    time_work: str = ""
+    facet: str = ""
+    pairs: str = ""
+    pair_potential: str = ""
+
+
+@dataclass(frozen=True)
+class BodyKey:
+    """A key an effect attaches to the bodies it acts on, e.g. drag's ``ballistic_coefficient``.
+
+    Attributes
+    ----------
+    key : Key
+        The key as the scene tables of the body kinds below document it.
+    kinds : tuple of str
+        The body kinds that take it.
+    quantity : str
+        Its kind of quantity for :func:`emorbit.units.to_si` (e.g. ``"area_per_mass"``).
+    unit : str
+        Its SI unit as scenes write it (``"m2 / kg"``).
+    required : bool
+        Whether a body the effect acts on must give it (where the simulation has the effect).
+    """
+
+    key: Key
+    kinds: tuple[str, ...]
+    quantity: str
+    unit: str
+    required: bool = True
+
+    @property
+    def name(self) -> str:
+        """The key's name."""
+        return self.key.name
+
+    def value(self, raw, key: str, strict: bool) -> float:
+        """The key's value in SI: a float >= 0 (raises InputError naming ``key``)."""
+        from ..units import to_si
+
+        return to_si(raw, self.quantity, key, strict=strict, nonnegative=True)
+
+
+class Effect:
+    """One force a scene may name: the declaration (class attributes) and, as an instance,
+    one effect of one simulation.
+
+    Subclasses set the class attributes below, write :meth:`from_table`, and register with
+    :func:`emorbit.effects.register` (the shipped ones are registered by
+    :mod:`emorbit.effects`).
 
     Attributes
     ----------
     kind : str
-        The effect's name in :data:`emorbit.effects.EFFECTS`.
+        Its ``NAME``.
     label : str
-        Its name in the run file's datasets (``invariants/potential_<label>``): the kind,
-        numbered where a scene names a kind twice.
-    table : dict
-        The scene table that made it (values as given, plain TOML values).
-    params : dict
-        {argument name: float64 array}: the parameters its kernel code reads, SI.
-    bodies : list of str or None
-        The bodies it acts on (None: every body of a kind it supports).
+        Its name in the run file's datasets (``invariants/potential_<label>``,
+        ``work_<label>``): the kind, numbered where a scene names a kind twice.
     key : str
         Its name in errors (``effect[0]``).
+    table : dict
+        The scene table that made it (plain TOML values), written back into scenes.
+    bodies : list of str or None
+        The bodies it acts on (None: every body of a kind it acts on).
+    p : ndarray
+        Its parameters (float64), in the order its pieces read them.
+    tab : ndarray
+        Its tables, flat (float64).
     """
 
-    kind: str
-    label: str
-    table: dict
-    params: dict = field(default_factory=dict)
-    bodies: list | None = None
-    key: str = ""
-    #: whether the effect depends on time: then :meth:`prepare` runs before the steps and
-    #: :meth:`potential` takes the records' times
-    time_dependent = False
+    #: its ``kind`` in scenes
+    NAME: ClassVar[str] = ""
+    #: one line on what it is
+    SUMMARY: ClassVar[str] = ""
+    #: its scene keys (beyond ``kind``)
+    KEYS: ClassVar[tuple[Key, ...]] = ()
+    #: the keys it attaches to bodies
+    BODY_KEYS: ClassVar[tuple[BodyKey, ...]] = ()
+    #: how it acts on each body kind: AT_POINTS or ON_SURFACES (absent: not at all)
+    ACTS: ClassVar[dict] = {"point": AT_POINTS, "rigid": AT_POINTS, "elastic": AT_POINTS}
+    #: what an em step with it keeps exactly ("energy", "momentum", "angular momentum ...")
+    CONSERVES: ClassVar[tuple[str, ...]] = ("energy",)
+    #: whether a scene may name it more than once (each then adds its force)
+    MULTIPLE: ClassVar[bool] = False
+    #: whether it belongs to a central field (a scene in free space may not name it)
+    NEEDS_FIELD: ClassVar[bool] = False
+    #: whether its force is a function of position (and time) alone: leapfrog may kick with it
+    EXPLICIT: ClassVar[bool] = True
+    #: its pieces
+    PIECES: ClassVar[Pieces | None] = None
+    #: the equations, for the docs (effects.md is generated from them)
+    POTENTIAL: ClassVar[str] = ""
+    DISCRETE_FORCE: ClassVar[str] = ""
+    JACOBIAN: ClassVar[str] = ""
+
+    def __init__(self, table: dict, p=(), tab=(), bodies: list | None = None):
+        self.kind = self.NAME
+        self.label = self.NAME
+        self.key = ""
+        self.table = dict(table)
+        self.bodies = bodies
+        self.p = np.ascontiguousarray(p, dtype=float).ravel()
+        self.tab = np.ascontiguousarray(tab, dtype=float).ravel()
+
+    # -- what the declaration implies --------------------------------------------------------
+    @classmethod
+    def does_work(cls) -> bool:
+        """Whether its force does work that the step sums: it keeps no energy (drag,
+        radiation pressure), or its potential changes in time (a third body on its path)."""
+        return "energy" not in cls.CONSERVES or bool(cls.PIECES and cls.PIECES.time_work)
+
+    @classmethod
+    def has_potential(cls) -> bool:
+        """Whether it has a potential energy, recorded as ``invariants/potential_<label>``."""
+        return bool(cls.PIECES and (cls.PIECES.potential or cls.PIECES.pair_potential))
+
+    @classmethod
+    def pairs(cls) -> bool:
+        """Whether it acts between pairs of points (it then couples the bodies it reaches)."""
+        return bool(cls.PIECES and cls.PIECES.pairs)
+
+    @classmethod
+    def acts_on(cls, body_kind: str) -> str:
+        """How it acts on a body kind: AT_POINTS, ON_SURFACES or "" (not at all)."""
+        return cls.ACTS.get(body_kind, "")
+
+    @property
+    def time_dependent(self) -> bool:
+        """Whether :meth:`prepare` must sample something over a run's span before its steps."""
+        return False
+
+    @property
+    def needs_epoch(self) -> bool:
+        """Whether it needs the run's epoch (an ephemeris, a dated atmosphere)."""
+        return False
+
+    # -- an instance ---------------------------------------------------------------------------
+    @classmethod
+    def from_table(cls, table: dict, context: BuildContext) -> Effect:
+        """The effect from its scene table (or :meth:`emorbit.Simulation.add_effect`'s keywords).
+
+        Parameters
+        ----------
+        table : dict
+            Its keys (``kind`` already checked; unknown keys already refused).
+        context : BuildContext
+            The central field, the body names, where errors point, strict units.
+
+        Returns
+        -------
+        Effect
+
+        Raises
+        ------
+        InputError
+            A value it refuses, naming the key.
+        """
+        raise NotImplementedError
+
+    @staticmethod
+    def packed(effects):
+        """A packed point-mass kernel of the effect's own for exactly the set ``effects`` (em,
+        fixed steps), with its parameter arrays, or None (the step kernels of every set run)."""
+        return None
+
+    def scratch_size(self, n_points: int) -> int:
+        """The length of its scratch for a set of ``n_points`` points (what ``prepare`` fills)."""
+        return 0
 
     def prepare(self, t0: float, t1: float, epoch) -> None:
-        """Make the parameters cover the times ``t0`` to ``t1`` (s from the epoch): an effect
-        that follows a path in time samples it (nothing to do for the others).
+        """Make the tables cover the times ``t0`` to ``t1`` (s from the epoch): an effect that
+        follows a path in time samples it (nothing to do for the others).
 
         Parameters
         ----------
@@ -58,23 +256,74 @@ class EffectTerm:
             The run's epoch.
         """
 
-    def potential(self, x: np.ndarray, masses: np.ndarray, active: np.ndarray, t=None) -> np.ndarray:
-        """The effect's potential energy at recorded states.
-
-        Parameters
-        ----------
-        x : ndarray
-            (rows, 3, n) positions, m.
-        masses : ndarray
-            (n,) kg.
-        active : ndarray
-            (n,) bool: the points it acts on.
-        t : ndarray, optional
-            (rows,) the records' times, s from the epoch (read where :attr:`time_dependent`).
+    def landing_times(self, t0: float, t1: float) -> np.ndarray:
+        """The times in ``(t0, t1]`` that steps must end on (an effect switching on or off).
 
         Returns
         -------
         ndarray
-            (rows,) J.
+            Sorted times, s (none by default).
         """
-        raise NotImplementedError
+        return np.zeros(0)
+
+    def same_as(self, other: Effect) -> bool:
+        """Whether ``other`` (of the same kind) is the same effect named twice (a second third
+        body must be another body)."""
+        return True
+
+    def coefficient(self, body_kind: str, values: dict) -> float:
+        """The coefficient of a body's points for this effect (0: it does not act on them).
+
+        Parameters
+        ----------
+        body_kind : str
+            ``"point"``, ``"rigid"`` or ``"elastic"``.
+        values : dict
+            The body's effect keys (:attr:`BODY_KEYS` values given for it, SI).
+
+        Returns
+        -------
+        float
+            The value of its body key (the first that applies), 1 where it has none, 0 where
+            it does not act at the body's points.
+        """
+        if self.acts_on(body_kind) != AT_POINTS:
+            return 0.0
+        for bk in self.BODY_KEYS:
+            if body_kind in bk.kinds:
+                return float(values.get(bk.name, 0.0))
+        return 1.0
+
+    def reaches(self, name: str) -> bool:
+        """Whether it acts on the body ``name`` (its ``bodies`` list, or every body)."""
+        return self.bodies is None or name in self.bodies
+
+    def __repr__(self) -> str:
+        return f"<effect {self.label} ({self.key or 'no key'})>"
+
+
+@dataclass
+class BuildContext:
+    """What an effect's :meth:`Effect.from_table` may read.
+
+    Attributes
+    ----------
+    field : CentralField or None
+        The scene's central field.
+    key : str
+        The table's name in errors (``effect[0]``).
+    bodies : list of str or None
+        The scene's body names, where known (None: checked when the simulation runs).
+    strict : bool
+        Require units on every dimensional value (scenes do).
+    """
+
+    field: object
+    key: str
+    bodies: list | None = None
+    strict: bool = False
+    extra: dict = field(default_factory=dict)
+
+    def error(self, name: str, message: str) -> InputError:
+        """An InputError naming ``<key>.<name>`` (or the table, with ``name`` empty)."""
+        return InputError(f"{self.key}.{name}" if name else self.key, message)

@@ -11,10 +11,9 @@ force over the step whose work is exactly the potential drop, and which lies in 
 of ``d0 + d1`` and p: an em step keeps the energy and the angular momentum about the pole
 (:mod:`emorbit.kernels.effects.zonal` has the equations). A coordinate discrete gradient
 (Gonzalez's midpoint form) would keep the energy but not that angular momentum. Rigid bodies
-feel it on their mass points, in the rigid step's own force sum
-(:func:`emorbit.kernels.rigid.rigid_forces`), so its torque arises as the gravity gradient's
-does; elastic bodies and coupled structures at their gravity points
-(:func:`emorbit.kernels.elastic.gravity_forces`).
+feel it on their mass points, so its torque arises as the gravity gradient's does; elastic
+bodies at their gravity points. Point masses under the central field and zonal harmonics
+alone run the packed kernel :mod:`emorbit.kernels.effects.zonal_packed` (:meth:`Zonal.packed`).
 
 GM and the centre are the field's; R and J_n are the model's: "earth" is EGM2008's zonal
 part (tide-free; :data:`emorbit.kernels.effects.zonal.MODELS`), or ``j`` and ``radius``
@@ -32,123 +31,86 @@ from ..errors import InputError
 from ..kernels.effects.zonal import MODELS, NMAX
 from ..keys import Key
 from ..units import to_si, vector_to_si
-from .base import EffectTerm
+from .base import Effect, Pieces
 
-__all__ = ["NAME", "SUMMARY", "KEYS", "CONSERVES", "BODY_KINDS", "KERNEL", "build", "Zonal"]
-
-NAME = "zonal"
-SUMMARY = "zonal harmonics J2..J6 of the central body, about its pole"
-KEYS = (
-    Key("model", False, "string", "", '"earth" (EGM2008); or give j and radius',
-        "the shipped zonal coefficients and reference radius"),
-    Key("j", False, "array of numbers", "", "1 to 5 finite numbers: J2, J3, ... J6",
-        "the zonal coefficients J_n (unnormalized), instead of model"),
-    Key("radius", False, "length (m)", "the model's", "> 0", "the reference radius R of the coefficients"),
-    Key("degree", False, "integer", "every degree given", f"2 to {NMAX}", "use J2..J<degree>"),
-    Key("pole", False, "3 numbers", "[0, 0, 1]", "a vector other than 0 (normalised)",
-        "the body's axis of symmetry, in the scene's axes"),
-)  # fmt: skip
-POTENTIAL = "V = (GM m / r) sum_n J_n (R / r)^n P_n(z / r), z = (x - c) . p"
-DISCRETE_FORCE = "F = -m (A (d0 + d1) / (r0 + r1) + B p): A, B the averaged discrete derivatives in r and z"
-JACOBIAN = "dF/dx1 = -m (u dA/dx1^T + A du/dx1 + p dB/dx1^T), u = (d0 + d1) / (r0 + r1)"
-CONSERVES = ("energy", "angular momentum about the pole")
-BODY_KINDS = ("point", "rigid", "elastic")
-
-KERNEL = {
-    "imports": "from emorbit.kernels.effects.zonal import zonal_force, zonal_jacobian",
-    "own": """
-gx, gy, gz = zonal_force(
-    x0, y0, z0, x1, y1, z1, zonal_p[0], zonal_p[1], zonal_p[2], zonal_p[3], zonal_p[4], zonal_p[5],
-    zonal_p[6], zonal_p[7], zonal_j,
-)
-fx += gx
-fy += gy
-fz += gz
-zonal_jacobian(
-    x0, y0, z0, x1, y1, z1, zonal_p[0], zonal_p[1], zonal_p[2], zonal_p[3], zonal_p[4], zonal_p[5],
-    zonal_p[6], zonal_p[7], zonal_j, J,
-)
-""",
-    "pairs": "",
-}
-
-#: coefficients of the Legendre polynomials P_0..P_6 in powers of s (records' potential)
-_LEGENDRE = [np.polynomial.legendre.leg2poly([0] * n + [1]) for n in range(NMAX + 1)]
+__all__ = ["Zonal"]
 
 
-class Zonal(EffectTerm):
-    """Zonal harmonics as an effect term: ``params["zonal_p"] = [c0, c1, c2, p0, p1, p2, GM, R]``,
-    ``params["zonal_j"] = [J2, ..., J_degree]``."""
+class Zonal(Effect):
+    """Zonal harmonics as an effect: ``p = [c0, c1, c2, p0, p1, p2, GM, R, J2, ..., J_degree]``."""
 
-    def potential(self, x, masses, active, t=None):
-        c, p, (gm, R) = self.params["zonal_p"][:3], self.params["zonal_p"][3:6], self.params["zonal_p"][6:]
-        d = x - c[None, :, None]
-        r = np.sqrt(np.einsum("rkn,rkn->rn", d, d))
-        s = np.einsum("rkn,k->rn", d, p) / r
-        total = np.zeros_like(r)
-        for n, jn in enumerate(self.params["zonal_j"], start=2):
-            total += jn * (R / r) ** n * np.polynomial.polynomial.polyval(s, _LEGENDRE[n])
-        return np.einsum("rn,n->r", gm / r * total, np.where(active, masses, 0.0))
+    NAME = "zonal"
+    SUMMARY = "zonal harmonics J2..J6 of the central body, about its pole"
+    KEYS = (
+        Key("model", False, "string", "", '"earth" (EGM2008); or give j and radius',
+            "the shipped zonal coefficients and reference radius"),
+        Key("j", False, "array of numbers", "", "1 to 5 finite numbers: J2, J3, ... J6",
+            "the zonal coefficients J_n (unnormalized), instead of model"),
+        Key("radius", False, "length (m)", "the model's", "> 0", "the reference radius R of the coefficients"),
+        Key("degree", False, "integer", "every degree given", f"2 to {NMAX}", "use J2..J<degree>"),
+        Key("pole", False, "3 numbers", "[0, 0, 1]", "a vector other than 0 (normalised)",
+            "the body's axis of symmetry, in the scene's axes"),
+    )  # fmt: skip
+    CONSERVES = ("energy", "angular momentum about the pole")
+    NEEDS_FIELD = True
+    PIECES = Pieces("emorbit.kernels.effects.zonal", force="zonal_piece", potential="zonal_potential_piece")
+    POTENTIAL = "V = (GM m / r) sum_n J_n (R / r)^n P_n(z / r), z = (x - c) . p"
+    DISCRETE_FORCE = "F = -m (A (d0 + d1) / (r0 + r1) + B p): A, B the averaged discrete derivatives in r and z"
+    JACOBIAN = "dF/dx1 = -m (u dA/dx1^T + A du/dx1 + p dB/dx1^T), u = (d0 + d1) / (r0 + r1)"
 
+    @staticmethod
+    def packed(effects):
+        """The packed point-mass kernel for exactly the central field and these harmonics about
+        the same centre (:func:`emorbit.kernels.effects.zonal_packed.chunk`), with its parameter
+        arrays; None for any other set."""
+        if [e.kind for e in effects] != ["central", "zonal"] or not np.array_equal(effects[0].p[:3], effects[1].p[:3]):
+            return None
+        from ..kernels.effects.zonal_packed import chunk
 
-def build(table, field, key: str, bodies, strict: bool = False) -> Zonal:
-    """Zonal harmonics from their table.
+        return chunk, (effects[0].p, effects[1].p[:8].copy(), effects[1].p[8:].copy())
 
-    Parameters
-    ----------
-    table : dict
-        ``model`` or ``j`` with ``radius``; ``degree``, ``pole`` (see :data:`KEYS`).
-    field : CentralField or None
-        The central field: its GM and centre.
-    key : str
-        The table's name in errors.
-    bodies : list of str or None
-        Unused.
-    strict : bool
-        Require a unit on ``radius``.
+    @classmethod
+    def from_table(cls, table, context) -> Zonal:
+        """Zonal harmonics from ``model`` or ``j`` with ``radius``; ``degree``, ``pole``.
 
-    Returns
-    -------
-    Zonal
-
-    Raises
-    ------
-    InputError
-        No field, neither or both of ``model`` and ``j``, an unknown model, coefficients
-        or a radius that are not finite, a degree out of range, a pole of length 0.
-    """
-    if field is None:
-        raise InputError(key, "zonal harmonics belong to a central body: the scene needs a [field]")
-    model, given = table.get("model"), table.get("j")
-    if (model is None) == (given is None):
-        raise InputError(key, 'give exactly one of model (e.g. "earth") and j (with radius)')
-    if model is not None:
-        if not isinstance(model, str) or model.lower() not in MODELS:
-            raise InputError(f"{key}.model", f"unknown zonal model {model!r}; known: {', '.join(MODELS)}")
-        jn = list(MODELS[model.lower()]["jn"])
-        radius = MODELS[model.lower()]["radius"]
-    else:
-        if (
-            not isinstance(given, (list, tuple))
-            or not 1 <= len(given) <= NMAX - 1
-            or not all(isinstance(v, numbers.Real) and not isinstance(v, bool) and np.isfinite(v) for v in given)
-        ):
-            raise InputError(f"{key}.j", f"1 to {NMAX - 1} finite numbers (J2, J3, ...) expected, got {given!r}")
-        jn = [float(v) for v in given]
-        if "radius" not in table:
-            raise InputError(f"{key}.radius", "j needs the reference radius of its coefficients")
-        radius = None
-    if "radius" in table:
-        radius = to_si(table["radius"], "length", f"{key}.radius", strict=strict, positive=True)
-    degree = table.get("degree", len(jn) + 1)
-    if isinstance(degree, bool) or not isinstance(degree, numbers.Integral) or not 2 <= degree <= len(jn) + 1:
-        raise InputError(f"{key}.degree", f"an integer from 2 to {len(jn) + 1} expected, got {degree!r}")
-    pole = np.asarray(vector_to_si(table.get("pole", [0.0, 0.0, 1.0]), "dimensionless", f"{key}.pole"), float)
-    norm = float(np.linalg.norm(pole))
-    if not norm > 0.0:
-        raise InputError(f"{key}.pole", f"a vector other than 0 expected, got {table.get('pole')!r}")
-    params = {
-        "zonal_p": np.array([*field.center, *(pole / norm), field.gm, radius], float),
-        "zonal_j": np.array(jn[: degree - 1], float),
-    }
-    return Zonal("zonal", "zonal", dict(table), params)
+        Raises
+        ------
+        InputError
+            Neither or both of ``model`` and ``j``, an unknown model, coefficients or a
+            radius that are not finite, a degree out of range, a pole of length 0.
+        """
+        key, field, strict = context.key, context.field, context.strict
+        model, given = table.get("model"), table.get("j")
+        if (model is None) == (given is None):
+            raise InputError(key, 'give exactly one of model (e.g. "earth") and j (with radius)')
+        if model is not None:
+            if not isinstance(model, str) or model.lower() not in MODELS:
+                raise InputError(f"{key}.model", f"unknown zonal model {model!r}; known: {', '.join(MODELS)}")
+            jn = list(MODELS[model.lower()]["jn"])
+            radius = MODELS[model.lower()]["radius"]
+        else:
+            if (
+                not isinstance(given, (list, tuple))
+                or not 1 <= len(given) <= NMAX - 1
+                or not all(isinstance(v, numbers.Real) and not isinstance(v, bool) and np.isfinite(v) for v in given)
+            ):
+                raise InputError(f"{key}.j", f"1 to {NMAX - 1} finite numbers (J2, J3, ...) expected, got {given!r}")
+            jn = [float(v) for v in given]
+            if "radius" not in table:
+                raise InputError(f"{key}.radius", "j needs the reference radius of its coefficients")
+            radius = None
+        if "radius" in table:
+            radius = to_si(table["radius"], "length", f"{key}.radius", strict=strict, positive=True)
+            if field.radius > 0.0 and not 1e-3 <= radius / field.radius <= 1e3:
+                raise InputError(
+                    f"{key}.radius",
+                    f"{radius!r} m is not within a factor 1000 of the central body's radius {field.radius!r} m",
+                )
+        degree = table.get("degree", len(jn) + 1)
+        if isinstance(degree, bool) or not isinstance(degree, numbers.Integral) or not 2 <= degree <= len(jn) + 1:
+            raise InputError(f"{key}.degree", f"an integer from 2 to {len(jn) + 1} expected, got {degree!r}")
+        pole = np.asarray(vector_to_si(table.get("pole", [0.0, 0.0, 1.0]), "dimensionless", f"{key}.pole"), float)
+        norm = float(np.linalg.norm(pole))
+        if not norm > 0.0:
+            raise InputError(f"{key}.pole", f"a vector other than 0 expected, got {table.get('pole')!r}")
+        return cls(table, [*field.center, *(pole / norm), field.gm, radius, *jn[: degree - 1]])

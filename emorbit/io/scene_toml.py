@@ -89,13 +89,13 @@ def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -
         lines.append(f"energy_range = {'true' if sim.energy_range else 'false'}")
     if sim.drift_tolerance != DRIFT_TOLERANCE:
         lines.append(f"drift_tolerance = {float(sim.drift_tolerance)!r}")
-    if getattr(sim, "epoch", None) is not None:
+    if sim.epoch is not None:
         from ..epochs import epoch_text
 
         lines.append(f'epoch = "{epoch_text(sim.epoch)}"')
-    for term in getattr(sim, "_effects", ()):
-        lines += ["", "[[effect]]", f'kind = "{term.kind}"']
-        lines += [f"{k} = {_value(v)}" for k, v in term.table.items() if k != "kind"]
+    for effect in sim.effects.named:
+        lines += ["", "[[effect]]", f'kind = "{effect.kind}"']
+        lines += [f"{k} = {_value(v)}" for k, v in effect.table.items() if k != "kind"]
     pts = sim.points
     for i, name in enumerate(pts.names):
         lines += [
@@ -107,10 +107,7 @@ def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -
             f"position = {_v(pts.x[:, i], 'm')}",
             f"velocity = {_v(pts.v[:, i], 'm / s')}",
         ]
-        if name in getattr(pts, "ballistic", {}):
-            lines.append(f"ballistic_coefficient = {_q(pts.ballistic[name], 'm2 / kg')}")
-        if name in getattr(pts, "radiation", {}):
-            lines.append(f"radiation_coefficient = {_q(pts.radiation[name], 'm2 / kg')}")
+        lines += _effect_key_lines(pts.values.get(name, {}))
     if sim.rigid is not None:
         rb = sim.rigid
         now = rb.datasets(rb.current(), 1)
@@ -193,3 +190,11 @@ def _surface_lines(surface) -> list[str]:
             f"diffuse = {float(extra.diffuse[j])!r}",
         ]
     return out
+
+
+def _effect_key_lines(values: dict) -> list[str]:
+    """A body's effect keys (:class:`emorbit.effects.base.BodyKey`), each with its SI unit."""
+    from ..effects import EFFECTS
+
+    units = {bk.name: bk.unit for cls in EFFECTS.values() for bk in cls.BODY_KEYS}
+    return [f"{k} = {_q(v, units[k])}" for k, v in values.items()]

@@ -7,12 +7,11 @@ The Jacobian of one step, in compressed sparse columns (``indptr``, ``indices``,
 has a pattern built once by :class:`emorbit.bodies.coupled.Structure`; these kernels add
 values into it:
 
-* :func:`fill_forces`: the element and gravity forces F mapped to the slots and, for
-  Newton, ``-h**2/2 K`` of the element stiffness and the gravity load stiffness;
-* :func:`fill_mutual`: mutual gravity between the mass points of different bodies
-  (:mod:`.effects.pairs`), mapped to the slots, and ``-h**2/2`` times each mass point's own
-  block of its load stiffness (the blocks between bodies stay out of the matrix, which keeps
-  its pattern that of the bodies alone: the iteration converges on them);
+* :func:`fill_forces`: the element forces F mapped to the slots and, for Newton,
+  ``-h**2/2 K`` of the element stiffness;
+* :func:`add_point_blocks`: the own blocks of the effects' forces at points (gravity points,
+  mass points: :mod:`.structure_effects`), mapped to the slots (the blocks between points stay
+  out of the matrix, which keeps its pattern that of the bodies alone);
 * :func:`fill_constraints`: the rigid bodies' orthonormality constraints
   ``d_k . d_l = delta_kl``: ``(h/2) G(u05)^T nu`` in the momentum rows, ``g(u1)`` scaled by
   ``es`` in the constraint rows, and their derivatives;
@@ -29,66 +28,27 @@ from __future__ import annotations
 import numpy as np
 
 from .codes import STATUS_OK
-from .effects.pairs import mutual_cross, mutual_forces
-from .elastic import bar_forces, combine_rows, csc_find, gravity_forces, spread_rows, tet_forces
+from .elastic import bar_forces, csc_find, spread_rows, tet_forces
 from .jit import kernel
 
-__all__ = ["fill_forces", "fill_mutual", "add_point_blocks", "add_block", "fill_constraints", "equilibrate", "scatter"]
+__all__ = ["fill_forces", "add_point_blocks", "add_block", "fill_constraints", "equilibrate", "scatter"]
 
 
 @kernel
 def fill_forces(
-    method,
-    hh,
-    hf,
-    x0n,
-    x1n,
-    node_slot,
-    node_coef,
-    bar_node,
-    bar_EA,
-    bar_L,
-    tet_node,
-    tet_g,
-    tet_V,
-    tet_lam,
-    tet_mu,
-    gp_node,
-    gp_w,
-    gp_m,
-    xg0,
-    xg1,
-    gm,
-    c,
-    want_gravity,
-    want_K,
-    indptr,
-    indices,
-    data,
-    Fslot,
-    fn,
-    kb,
-    kt,
-    fg,
-    kg,
-    zonal_p,
-    zonal_j,
-):
-    """The generalised forces into Fslot (n_slots, 3) and, if ``want_K``, -hh K (elements and
-    gravity) added into the Jacobian values ``data``. Returns a status. ``zonal_p``,
-    ``zonal_j``: zonal harmonics at the gravity points (None: none, pruned)."""
+    method, hh, x0n, x1n, node_slot, node_coef, bar_node, bar_EA, bar_L, tet_node, tet_g, tet_V, tet_lam, tet_mu,
+    want_K, indptr, indices, data, Fslot, fn, kb, kt,
+):  # fmt: skip
+    """The elements' generalised forces into Fslot (n_slots, 3) and, if ``want_K``, -hh K of
+    their stiffness added into the Jacobian values ``data``. Returns a status."""
     fn[:, :] = 0.0
     bar_forces(method, x0n, x1n, bar_node, bar_EA, bar_L, fn, kb)
     tet_forces(method, x0n, x1n, tet_node, tet_g, tet_V, tet_lam, tet_mu, fn, kt)
-    status = STATUS_OK
-    if want_gravity and gp_m.shape[0] > 0:
-        status = gravity_forces(method, gm, c, xg0, xg1, gp_m, fg, kg, zonal_p, zonal_j)
-        spread_rows(fg, gp_node, gp_w, fn)
     # node forces -> slot forces
     Fslot[:, :] = 0.0
     spread_rows(fn, node_slot, node_coef, Fslot)
     if not want_K:
-        return status
+        return STATUS_OK
     # stiffness blocks -> J
     for e in range(bar_node.shape[0]):
         a = bar_node[e, 0]
@@ -101,9 +61,7 @@ def fill_forces(
         for a in range(4):
             for b in range(4):
                 add_block(tet_node[e, a], tet_node[e, b], kt[e, a, b], -hh, node_slot, node_coef, indptr, indices, data)
-    if want_gravity:
-        add_point_blocks(gp_node, gp_w, kg, -hh, node_slot, node_coef, indptr, indices, data)
-    return status
+    return STATUS_OK
 
 
 @kernel
@@ -120,49 +78,6 @@ def add_point_blocks(p_node, p_w, K, scale, node_slot, node_coef, indptr, indice
                 if nb < 0:
                     break
                 add_block(na, nb, K[q], scale * p_w[q, a] * p_w[q, b], node_slot, node_coef, indptr, indices, data)
-
-
-@kernel
-def fill_mutual(
-    g, hh, x0n, x1n, mp_node, mp_w, mp_m, mp_body, on, node_slot, node_coef, want_K, indptr, indices, data, Fslot,
-    xm0, xm1, fm, km, fnm, cross, coef, body_slots, acc,
-):  # fmt: skip
-    """Mutual gravity between the mass points (mp_node, mp_w: (q, 4) nodes and weights; mp_m
-    masses; mp_body their bodies; ``on`` 1 where a point takes part) added into Fslot and, if
-    ``want_K``, ``-hh`` times each point's own block into ``data``, and the blocks between
-    compact bodies (``cross``, ``coef`` (q, 4) of the slots ``body_slots`` (nb, 4) of each
-    body; ``acc`` (nb, nb, 4, 4, 3, 3) scratch, size 0 along the first axis: none) summed per
-    pair of bodies (:func:`~.effects.pairs.mutual_cross`). xm0, xm1 (q, 3), fm (q, 3),
-    km (q, 3, 3) and fnm (n_nodes, 3) are scratch. Returns the status of
-    :func:`~.effects.pairs.mutual_forces`."""
-    combine_rows(x0n, mp_node, mp_w, xm0)
-    combine_rows(x1n, mp_node, mp_w, xm1)
-    status = mutual_forces(g, xm0, xm1, mp_m, mp_body, on, fm, km)
-    fnm[:, :] = 0.0
-    spread_rows(fm, mp_node, mp_w, fnm)
-    spread_rows(fnm, node_slot, node_coef, Fslot)
-    if want_K:
-        add_point_blocks(mp_node, mp_w, km, -hh, node_slot, node_coef, indptr, indices, data)  # zero where off
-        if acc.shape[0] > 0:
-            mutual_cross(g, xm0, xm1, mp_m, mp_body, on, cross, coef, acc)
-            nb = acc.shape[0]
-            for A in range(nb):
-                for B in range(A + 1, nb):
-                    for i in range(4):
-                        si = body_slots[A, i]
-                        if si < 0:
-                            break
-                        for j in range(4):
-                            sj = body_slots[B, j]
-                            if sj < 0:
-                                break
-                            for d in range(3):
-                                for e in range(3):
-                                    v = hh * acc[A, B, i, j, d, e]  # -hh K, K = -G m_a m_b J summed
-                                    if v != 0.0:
-                                        data[csc_find(indptr, indices, 3 * si + d, 3 * sj + e)] += v
-                                        data[csc_find(indptr, indices, 3 * sj + d, 3 * si + e)] += v
-    return status
 
 
 @kernel

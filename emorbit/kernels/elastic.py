@@ -1,5 +1,6 @@
-"""Elastic elements and coupled structures: internal forces, gravity at quadrature points and
-their derivatives, assembled into the residual and a fixed sparse (CSC) Jacobian pattern.
+"""Elastic elements and coupled structures: internal forces and their derivatives, the
+combination of slots into nodes and nodes into gravity points, assembled into the residual and
+a fixed sparse (CSC) Jacobian pattern.
 
 Unknowns are *slots*: 3-vectors that are FE node coordinates, point-mass positions, or a rigid
 body's centre of mass ``phi`` and axes ``d_k``. Every mass matrix in the structure is a scalar
@@ -18,8 +19,9 @@ Elements (St. Venant-Kirchhoff, Green strain E = (F^T F - I)/2, S = lambda tr(E)
   node a ``-V F05 S g_a`` with ``S = C : (E00 + E10)/2`` (Simo & Tarnow) or ``S(E(F05))``.
 
 Because E is quadratic in the nodes, ``E10 - E00 = sym(F05^T (F10 - F00))`` exactly, so the
-algorithmic stress does work equal to minus the change in strain energy; with g_em at the
-gravity points (linear in the nodes) the discrete energy balance is exact. Jacobians are the
+algorithmic stress does work equal to minus the change in strain energy; with the effects'
+discrete forces at the gravity points (linear in the nodes; :mod:`.structure_effects`) the
+discrete energy balance is exact. Jacobians are the
 exact derivatives with respect to the end-of-step configuration (unsymmetric).
 
 Everything here is plain arrays; :mod:`emorbit.bodies.coupled` builds them.
@@ -31,9 +33,7 @@ import math
 
 import numpy as np
 
-from .codes import METHOD_EM, STATUS_OK, STATUS_SINGULAR
-from .effects.zonal import zonal_force, zonal_jacobian
-from .gravity import accel, accel_jacobian_coeffs, em_accel, em_jacobian_coeffs
+from .codes import METHOD_EM
 from .jit import kernel
 
 __all__ = [
@@ -41,7 +41,6 @@ __all__ = [
     "spread_rows",
     "bar_forces",
     "tet_forces",
-    "gravity_forces",
     "strain_energy",
     "stress_scale",
     "csc_find",
@@ -200,72 +199,6 @@ def tet_forces(method, x0, x1, tet_node, tet_g, tet_V, tet_lam, tet_mu, fn, kt):
                     for k in range(3):
                         s = Fm[i, 0] * E[0, k] + Fm[i, 1] * E[1, k] + Fm[i, 2] * E[2, k]
                         kt[e, a, b, i, k] = -0.5 * V * (s + (gsg if i == k else 0.0))
-
-
-@kernel
-def gravity_forces(method, gm, c, xg0, xg1, gp_m, fg, kg, zonal_p, zonal_j):
-    """Gravity at the gravity points: fg (n_gp, 3) = m g_* and kg (n_gp, 3, 3) = d fg / d x1.
-    Returns STATUS_SINGULAR if a point reached the centre. ``zonal_p``, ``zonal_j``: the zonal
-    harmonics' parameters (:mod:`.effects.zonal`, centre in the frame of ``xg``) or None, where
-    Numba prunes the zonal code; with them (em only) each point adds the zonal force over the
-    step and its Jacobian."""
-    check = 0.0
-    if zonal_p is not None:
-        Jz = np.zeros((3, 3))
-    for q in range(gp_m.shape[0]):
-        ax = c[0] - xg0[q, 0]
-        ay = c[1] - xg0[q, 1]
-        az = c[2] - xg0[q, 2]
-        bx = c[0] - xg1[q, 0]
-        by = c[1] - xg1[q, 1]
-        bz = c[2] - xg1[q, 2]
-        m = gp_m[q]
-        if method == METHOD_EM:
-            r0 = math.sqrt(ax * ax + ay * ay + az * az)
-            gx, gy, gz, r1, k = em_accel(ax, ay, az, r0, bx, by, bz, gm)
-            cc, w = em_jacobian_coeffs(r0, r1, k)
-            ux, uy, uz = ax + bx, ay + by, az + bz
-            check += 1.0 / r0 + 1.0 / r1
-        else:
-            ux = 0.5 * (ax + bx)
-            uy = 0.5 * (ay + by)
-            uz = 0.5 * (az + bz)
-            gx, gy, gz, r1 = accel(ux, uy, uz, gm)
-            cc, w = accel_jacobian_coeffs(r1, gm)
-            cc *= 0.5
-            w *= 0.5
-            bx, by, bz = ux, uy, uz
-            check += 1.0 / r1
-        fg[q, 0] = m * gx
-        fg[q, 1] = m * gy
-        fg[q, 2] = m * gz
-        u3 = (ux, uy, uz)
-        b3 = (bx, by, bz)
-        for i in range(3):
-            for j in range(3):
-                kg[q, i, j] = m * w * u3[i] * b3[j]
-            kg[q, i, i] += m * cc
-        if zonal_p is not None:
-            zx, zy, zz = zonal_force(
-                xg0[q, 0], xg0[q, 1], xg0[q, 2], xg1[q, 0], xg1[q, 1], xg1[q, 2], zonal_p[0], zonal_p[1],
-                zonal_p[2], zonal_p[3], zonal_p[4], zonal_p[5], zonal_p[6], zonal_p[7], zonal_j,
-            )  # fmt: skip
-            fg[q, 0] += m * zx
-            fg[q, 1] += m * zy
-            fg[q, 2] += m * zz
-            for i in range(3):
-                for j in range(3):
-                    Jz[i, j] = 0.0
-            zonal_jacobian(
-                xg0[q, 0], xg0[q, 1], xg0[q, 2], xg1[q, 0], xg1[q, 1], xg1[q, 2], zonal_p[0], zonal_p[1],
-                zonal_p[2], zonal_p[3], zonal_p[4], zonal_p[5], zonal_p[6], zonal_p[7], zonal_j, Jz,
-            )  # fmt: skip
-            for i in range(3):
-                for j in range(3):
-                    kg[q, i, j] += m * Jz[i, j]
-    if not (abs(check) < math.inf):
-        return STATUS_SINGULAR
-    return STATUS_OK
 
 
 @kernel

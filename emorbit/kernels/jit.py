@@ -36,7 +36,15 @@ import sys
 
 import numba
 
-__all__ = ["JIT_OPTIONS", "kernel", "cache_enabled", "cache_dir", "user_cache_dir", "cache_location"]
+__all__ = [
+    "JIT_OPTIONS",
+    "kernel",
+    "cache_enabled",
+    "cache_dir",
+    "user_cache_dir",
+    "cache_location",
+    "cached_sources_digest",
+]
 
 #: the emorbit package folder
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -203,6 +211,31 @@ def cache_location() -> str | None:
     return folders[0] if folders else None
 
 
+def _cached_files() -> list[str]:
+    return sorted(f for pattern in _CACHED_SOURCES for f in glob.glob(os.path.join(_ROOT, pattern)))
+
+
+_DIGEST: list[str] = []
+
+
+def cached_sources_digest() -> str:
+    """A digest (hex) of every kernel source whose compiled code is cached: code compiled
+    elsewhere that inlines kernels (an effect set's functions) is valid while it is the same.
+
+    Returns
+    -------
+    str
+        The SHA-1 of the sources' paths and contents, computed once per process.
+    """
+    if not _DIGEST:
+        digest = hashlib.sha1()
+        for name in _cached_files():
+            with open(name, "rb") as fh:
+                digest.update(os.path.relpath(name, _ROOT).encode() + b"\0" + fh.read())
+        _DIGEST.append(digest.hexdigest())
+    return _DIGEST[0]
+
+
 def _drop_stale_cache() -> None:
     """Delete emorbit's cached kernels when any cached kernel source changed since they were
     written.
@@ -213,11 +246,8 @@ def _drop_stale_cache() -> None:
     ``kernels/``), catches that. With the per-user folder, clearing also removes cache
     files that older versions left in the package's ``__pycache__`` folders. Folders that
     cannot be written are left alone."""
-    files = sorted(f for pattern in _CACHED_SOURCES for f in glob.glob(os.path.join(_ROOT, pattern)))
-    digest = hashlib.sha1()
-    for name in files:
-        with open(name, "rb") as fh:
-            digest.update(os.path.relpath(name, _ROOT).encode() + b"\0" + fh.read())
+    files = _cached_files()
+    digest = cached_sources_digest()
     dirs = sorted({os.path.dirname(f) for f in files})
     folders = _cache_folders(dirs)
     if not folders:
@@ -225,7 +255,7 @@ def _drop_stale_cache() -> None:
     stamp_path = os.path.join(folders[dirs.index(os.path.join(_ROOT, "kernels"))], _STAMP)
     try:
         with open(stamp_path) as fh:
-            if fh.readline().strip() == digest.hexdigest():
+            if fh.readline().strip() == digest:
                 return
     except OSError:
         pass
@@ -246,7 +276,7 @@ def _drop_stale_cache() -> None:
         os.makedirs(os.path.dirname(stamp_path), exist_ok=True)
         tmp = f"{stamp_path}.{os.getpid()}"
         with open(tmp, "w") as fh:
-            fh.write(f"{digest.hexdigest()}\n{os.path.realpath(_ROOT)}\n")
+            fh.write(f"{digest}\n{os.path.realpath(_ROOT)}\n")
         os.replace(tmp, stamp_path)
     except OSError:  # a read-only folder
         pass

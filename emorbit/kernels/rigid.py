@@ -33,11 +33,15 @@ in a field the point-mass kernel's accurate finish (:func:`.pointmass.reference.
 not here, so the plain sums leave an energy drift above the point-mass step's; the stopping
 test weighs increments by mass: the axes stop at about 4 eps sqrt(m / E_kk) h |v| (orbit).
 
-Gravity models (per body): ``GRAVITY_VOLUME`` sums over the mass points (gravity-gradient
-torque included), ``GRAVITY_POINT`` puts all mass at the centre of mass (no torque),
-``GRAVITY_NONE`` is free motion. Zonal harmonics (``zonal_p``, ``zonal_j``; None: none) add
-their discrete force (:mod:`.effects.zonal`) on the same points. Methods: ``METHOD_EM``
-(g_em) and ``METHOD_MIDPOINT`` (g at the midpoint configuration; energy oscillates in a field).
+Forces: the effect set's (:mod:`.effects.signatures`), compiled once per set and taken as
+arguments: ``forces`` at the mass points (the central field's g_em, zonal harmonics, third
+bodies, a user's effect; each point's coefficients ``coef``), ``facets`` on the body's flat
+facets (drag, radiation pressure; :mod:`.rigid_surface`). Gravity models (per body):
+``GRAVITY_VOLUME`` applies the point effects at every mass point (gravity-gradient torque
+included), ``GRAVITY_POINT`` at the centre of mass with all the mass (no torque),
+``GRAVITY_NONE`` not at all (free motion; the facets still feel theirs). Methods:
+``METHOD_EM`` (each effect's discrete force over the step) and ``METHOD_MIDPOINT`` (the
+conservative effects at the midpoint configuration; energy oscillates in a field).
 """
 
 from __future__ import annotations
@@ -56,14 +60,12 @@ from .codes import (
     STATUS_OK,
     STATUS_SINGULAR,
 )
-from .effects.radiation import shadow_cylindrical
-from .effects.third_body import table_position
-from .effects.zonal import zonal_force, zonal_jacobian
+from .effects.signatures import MODE_MIDPOINT, MODE_STEP
 from .eft import kahan_add
-from .gravity import accel, accel_jacobian_coeffs, em_accel, em_jacobian_coeffs
 from .jit import kernel
-from .rigid_effects import facet_forces, facet_jacobian, third_body_forces, third_body_work
+from .pointmass.effect_step import substep_times
 from .rigid_solve import body_radius, central_stiffness, dense_kkt, dense_solve, kkt_solve, predict
+from .rigid_surface import facet_forces, facet_jacobian, facet_scratch
 
 __all__ = [
     "GRAVITY_NONE",
@@ -87,25 +89,20 @@ _CENTRAL_K = 1e-8  # the volume model takes the centre of mass's load stiffness 
 
 
 @kernel
-def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, G, want_K, zonal_p, zonal_j):
-    """Generalised gravity force F (12) and, if ``want_K``, its derivative K = dF/dq1 (12, 12).
+def rigid_forces(forces, mode, model, q0, q1, X, mp, m, h, coef, pcoef, P, I, T, S, F, K, Pb, W, G, work, want_K):
+    """Generalised force F (12) of the set's point effects and, if ``want_K``, its derivative
+    K = dF/dq1 (12, 12).
 
-    ``zonal_p`` and ``zonal_j`` are the zonal harmonics' parameters (:mod:`.effects.zonal`:
-    centre, pole, GM, R; J2...), or None: Numba prunes the zonal code where they are None, so
-    a body without zonal harmonics runs no zonal code. With them (em only), each mass point
-    (the centre of mass, for ``GRAVITY_POINT``) adds the zonal force over the step and its
-    Jacobian to g_em's: the torque of the zonal field comes from the mass points, as the
-    gravity gradient's does.
+    X (3, N) body coordinates and mp (N,) masses of the mass points, coef (k, N) their
+    coefficients for each effect, pcoef (k, 1) the centre of mass's (the point gravity model);
+    Pb (10, N) the block products (see :func:`work_arrays`), W (10, N) and G (3, N) scratch;
+    ``work`` the body's work arrays. Returns the set's status (STATUS_SINGULAR where a force
+    is not finite).
 
-    X (3, N) body coordinates and mp (N,) masses of the mass points; a0 (3, N) and r0 (N,)
-    hold ``c - x_i0`` and its length (computed once per step by the caller); P (10, N) holds
-    the block products (see :func:`work_arrays`), W (10, N) and G (3, N) are scratch. Returns a
-    status: STATUS_SINGULAR if a point reached the centre.
-
-    For the volume model, with c_i = (1, X_i) and K_i = d g / d x10 = cc_i I + w_i u_i b_i^T,
-    K = sum_i m_i (c_i c_i^T) (x) K_i. The 10 distinct blocks (A <= B) are one matrix product,
-    P W^T, of the products c_iA c_iB (rows of P, fixed per body) and the 9 entries of
-    m_i w_i u_i b_i^T plus m_i cc_i (rows of W), computed by :func:`_gram`.
+    For the volume model, with c_i = (1, X_i) and K_i = dg_i / dx1_i (3 x 3, the set's
+    diagonal block per unit mass), K = sum_i m_i (c_i c_i^T) (x) K_i. The 10 distinct blocks
+    (A <= B) are one matrix product, Pb W^T, of the products c_iA c_iB (rows of Pb, fixed per
+    body) and the 9 entries of m_i K_i (rows of W), computed by :func:`_gram`.
     """
     F[:] = 0.0
     if want_K:
@@ -113,152 +110,59 @@ def rigid_forces(method, model, q0, q1, X, mp, m, gm, c, a0, r0, F, K, P, W, G, 
     if model == GRAVITY_NONE:
         return STATUS_OK
     if model == GRAVITY_POINT:
-        ax = c[0] - q0[0]
-        ay = c[1] - q0[1]
-        az = c[2] - q0[2]
-        bx = c[0] - q1[0]
-        by = c[1] - q1[1]
-        bz = c[2] - q1[2]
-        if method == METHOD_EM:
-            ra = math.sqrt(ax * ax + ay * ay + az * az)
-            gx, gy, gz, rb, k = em_accel(ax, ay, az, ra, bx, by, bz, gm)
-            if not (rb > 0.0 and ra > 0.0):
-                return STATUS_SINGULAR
-            cc, w = em_jacobian_coeffs(ra, rb, k)
-            ux, uy, uz = ax + bx, ay + by, az + bz
-        else:
-            ux = 0.5 * (ax + bx)
-            uy = 0.5 * (ay + by)
-            uz = 0.5 * (az + bz)
-            gx, gy, gz, r = accel(ux, uy, uz, gm)
-            if not (r > 0.0):
-                return STATUS_SINGULAR
-            cc, w = accel_jacobian_coeffs(r, gm)
-            cc *= 0.5
-            w *= 0.5
-            bx, by, bz = ux, uy, uz
-        F[0] = m * gx
-        F[1] = m * gy
-        F[2] = m * gz
-        if want_K:
-            uu = (ux, uy, uz)
-            bb = (bx, by, bz)
-            for d in range(3):
-                for e in range(3):
-                    K[d, e] = m * w * uu[d] * bb[e]
-                K[d, d] += m * cc
-        if zonal_p is not None:
-            zx, zy, zz = zonal_force(
-                q0[0], q0[1], q0[2], q1[0], q1[1], q1[2], zonal_p[0], zonal_p[1], zonal_p[2], zonal_p[3],
-                zonal_p[4], zonal_p[5], zonal_p[6], zonal_p[7], zonal_j,
-            )  # fmt: skip
-            F[0] += m * zx
-            F[1] += m * zy
-            F[2] += m * zz
+        xa, xb, f1, w1, r1, m1, b1 = work[30], work[31], work[32], work[33], work[34], work[35], work[36]
+        for d in range(3):
+            xa[d, 0] = q0[d]
+            xb[d, 0] = q1[d]
+        m1[0] = m
+        status = forces(xa, xb, m1, b1, pcoef, h, mode, P, I, T, S, f1, w1, r1, want_K, True)
+        for d in range(3):
+            F[d] = m * f1[d, 0]
             if want_K:
-                Jz = np.zeros((3, 3))
-                zonal_jacobian(
-                    q0[0], q0[1], q0[2], q1[0], q1[1], q1[2], zonal_p[0], zonal_p[1], zonal_p[2], zonal_p[3],
-                    zonal_p[4], zonal_p[5], zonal_p[6], zonal_p[7], zonal_j, Jz,
-                )  # fmt: skip
-                for d in range(3):
-                    for e in range(3):
-                        K[d, e] += m * Jz[d, e]
-        return STATUS_OK
+                for e in range(3):
+                    K[d, e] = m * w1[3 * d + e, 0]
+        return status
     n = mp.shape[0]
+    xa, xb, fp, wp, rr, bb = work[25], work[26], work[27], work[28], work[29], work[37]
     d1x, d1y, d1z = q1[3], q1[4], q1[5]
     d2x, d2y, d2z = q1[6], q1[7], q1[8]
     d3x, d3y, d3z = q1[9], q1[10], q1[11]
-    nbad = 0
-    if zonal_p is not None:
-        Jz = np.zeros((3, 3))
-    # one pass without floating-point reductions (so LLVM can vectorise the square roots and
-    # divisions): the force m_i g_i of every point, and the rows of W; the sums come after
     for i in range(n):
         X1 = X[0, i]
         X2 = X[1, i]
         X3 = X[2, i]
-        bx = c[0] - (q1[0] + X1 * d1x + X2 * d2x + X3 * d3x)
-        by = c[1] - (q1[1] + X1 * d1y + X2 * d2y + X3 * d3y)
-        bz = c[2] - (q1[2] + X1 * d1z + X2 * d2z + X3 * d3z)
-        bx1, by1, bz1 = bx, by, bz
-        ax = a0[0, i]
-        ay = a0[1, i]
-        az = a0[2, i]
-        if method == METHOD_EM:
-            gx, gy, gz, rb, k = em_accel(ax, ay, az, r0[i], bx, by, bz, gm)
-        else:
-            ux = 0.5 * (ax + bx)
-            uy = 0.5 * (ay + by)
-            uz = 0.5 * (az + bz)
-            gx, gy, gz, rb = accel(ux, uy, uz, gm)
-        nbad += 0 if rb > 0.0 else 1  # a point at the centre (or nan)
+        xb[0, i] = q1[0] + X1 * d1x + X2 * d2x + X3 * d3x
+        xb[1, i] = q1[1] + X1 * d1y + X2 * d2y + X3 * d3y
+        xb[2, i] = q1[2] + X1 * d1z + X2 * d2z + X3 * d3z
+    status = forces(xa, xb, mp, bb, coef, h, mode, P, I, T, S, fp, wp, rr, want_K, True)
+    if status != STATUS_OK:
+        return status
+    for i in range(n):
         mi = mp[i]
-        G[0, i] = mi * gx
-        G[1, i] = mi * gy
-        G[2, i] = mi * gz
+        G[0, i] = mi * fp[0, i]
+        G[1, i] = mi * fp[1, i]
+        G[2, i] = mi * fp[2, i]
         if want_K:
-            if method == METHOD_EM:
-                cc, w = em_jacobian_coeffs(r0[i], rb, k)
-                ux = ax + bx
-                uy = ay + by
-                uz = az + bz
-            else:
-                cc, w = accel_jacobian_coeffs(rb, gm)
-                cc *= 0.5
-                w *= 0.5
-                bx, by, bz = ux, uy, uz
-            w *= mi
-            W[0, i] = w * ux * bx
-            W[1, i] = w * ux * by
-            W[2, i] = w * ux * bz
-            W[3, i] = w * uy * bx
-            W[4, i] = w * uy * by
-            W[5, i] = w * uy * bz
-            W[6, i] = w * uz * bx
-            W[7, i] = w * uz * by
-            W[8, i] = w * uz * bz
-            W[9, i] = mi * cc
-        if zonal_p is not None:
-            x0x, x0y, x0z = c[0] - ax, c[1] - ay, c[2] - az
-            x1x, x1y, x1z = c[0] - bx1, c[1] - by1, c[2] - bz1
-            zx, zy, zz = zonal_force(
-                x0x, x0y, x0z, x1x, x1y, x1z, zonal_p[0], zonal_p[1], zonal_p[2], zonal_p[3], zonal_p[4],
-                zonal_p[5], zonal_p[6], zonal_p[7], zonal_j,
-            )  # fmt: skip
-            G[0, i] += mi * zx
-            G[1, i] += mi * zy
-            G[2, i] += mi * zz
-            if want_K:
-                for d in range(3):
-                    for e in range(3):
-                        Jz[d, e] = 0.0
-                zonal_jacobian(
-                    x0x, x0y, x0z, x1x, x1y, x1z, zonal_p[0], zonal_p[1], zonal_p[2], zonal_p[3], zonal_p[4],
-                    zonal_p[5], zonal_p[6], zonal_p[7], zonal_j, Jz,
-                )  # fmt: skip
-                for d in range(3):
-                    for e in range(3):
-                        W[3 * d + e, i] += mi * Jz[d, e]
-    if nbad:
-        return STATUS_SINGULAR
-    # F_(A, d) = sum_i c_iA m_i g_id: rows 0..3 of P are c_A = (1, X1, X2, X3)
-    Fm = _gram(P[:4], G)
+            for e in range(9):
+                W[e, i] = mi * wp[e, i]
+            W[9, i] = 0.0
+    # F_(A, d) = sum_i c_iA m_i g_id: rows 0..3 of Pb are c_A = (1, X1, X2, X3)
+    Fm = _gram(Pb[:4], G)
     for A in range(4):
         for d in range(3):
             F[3 * A + d] = Fm[A, d]
     if want_K:
-        T = _gram(P, W)  # (10, 10): [pair, (d, e) entry or the identity part]
+        Tk = _gram(Pb, W)  # (10, 10): [pair, (d, e) entry or the identity part]
         j = 0
         for A in range(4):
             for B in range(A, 4):
                 for d in range(3):
                     for e in range(3):
-                        K[3 * A + d, 3 * B + e] = T[j, 3 * d + e]
-                        K[3 * B + d, 3 * A + e] = T[j, 3 * d + e]
-                    K[3 * A + d, 3 * B + d] += T[j, 9]
+                        K[3 * A + d, 3 * B + e] = Tk[j, 3 * d + e]
+                        K[3 * B + d, 3 * A + e] = Tk[j, 3 * d + e]
+                    K[3 * A + d, 3 * B + d] += Tk[j, 9]
                     if B != A:
-                        K[3 * B + d, 3 * A + d] += T[j, 9]
+                        K[3 * B + d, 3 * A + d] += Tk[j, 9]
                 j += 1
     return STATUS_OK
 
@@ -316,7 +220,9 @@ def work_arrays(X):
     """Scratch arrays for :func:`rigid_step` for a body with mass points X (3, N), allocated
     once per body and chunk; the block products of X are filled in (see :func:`rigid_forces`).
     A tuple: [4] the block products P, [16] dq, [19] dv, [22] the body's radius (the farthest
-    mass point from the centre of mass), [24] the null-space solve's scratch; the rest scratch."""
+    mass point from the centre of mass), [24] the null-space solve's scratch, [25] the mass
+    points at the step's start, [26..29] and [37] the set's arguments at the mass points, [30..36]
+    at the centre of mass; the rest scratch."""
     npoints = X.shape[1]
     P = np.empty((10, npoints))
     j = 0
@@ -351,6 +257,19 @@ def work_arrays(X):
         body_radius(X),
         np.empty(12),
         np.empty((9, 3, 3)),
+        np.empty((3, npoints)),
+        np.empty((3, npoints)),
+        np.empty((3, npoints)),
+        np.empty((9, npoints)),
+        np.zeros(npoints),
+        np.empty((3, 1)),
+        np.empty((3, 1)),
+        np.empty((3, 1)),
+        np.empty((9, 1)),
+        np.zeros(1),
+        np.empty(1),
+        np.zeros(1, np.int64),
+        np.zeros(npoints, np.int64),
     )
 
 
@@ -359,17 +278,18 @@ _work_arrays = kernel(work_arrays)
 
 @kernel
 def rigid_step(
-    method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter, work, zonal_p, zonal_j,
-    facets=None, f0=0, f1=0, drag_p=None, drag_t=None, drag_g=None, drag_gp=None, dsun=None, srp_p=None, sun=None,
-    shade=1.0, tb_p=None, tb_s=None,
+    forces, facets_fn, method, model, q0, v0, lam, m, E, Einv, X, mp, gm, c, h, max_iter, work, coef, pcoef, fP, fI, fT,
+    fS, facets, f0, f1, fscratch,
 ):  # fmt: skip
     """One step of size ``h`` for one rigid body.
 
-    Beyond gravity (None: none, pruned): drag and radiation pressure on the facet rows
-    ``f0 .. f1`` of ``facets`` with the Sun at ``sun`` and the shadow fraction ``shade``, and
-    third bodies ``tb_p`` at ``tb_s`` (:mod:`.rigid_effects`). The facets' derivative joins the
-    load stiffness (by differences, :func:`.rigid_effects.facet_jacobian`); the third bodies'
-    stays out (below 1e-6 of the gravity gradient's), so the iteration converges on it.
+    The set's point effects act at the mass points (``forces``, coefficients ``coef``, the
+    centre of mass's ``pcoef``), its surface effects on the facet rows ``f0 .. f1`` of
+    ``facets`` (``facets_fn``, scratch ``fscratch`` from
+    :func:`.rigid_surface.facet_scratch`); ``fP, fI, fT, fS`` are the set's arrays ``P, I, T,
+    S``, prepared for the step's times. The facets' derivative joins the load stiffness (by differences,
+    :func:`.rigid_surface.facet_jacobian`). GM and the centre ``c`` of the central field
+    (0: none) serve the predictor and the choice of the load stiffness only.
 
     q0, v0 (12,) the state; lam (6,) the multipliers' warm start lambda (updated in place
     with this step's value); work from :func:`work_arrays`. Returns (iterations, status,
@@ -393,15 +313,13 @@ def rigid_step(
     )  # fmt: skip
     sc = work[24]
     n = mp.shape[0]
+    mode = MODE_MIDPOINT if method == METHOD_MIDPOINT else MODE_STEP
     volume = model == GRAVITY_VOLUME
     if volume:
-        a0, r0 = work[0], work[1]
+        xa = work[25]
         for i in range(n):
             for d in range(3):
-                a0[d, i] = c[d] - (q0[d] + X[0, i] * q0[3 + d] + X[1, i] * q0[6 + d] + X[2, i] * q0[9 + d])
-            r0[i] = math.sqrt(a0[0, i] ** 2 + a0[1, i] ** 2 + a0[2, i] ** 2)
-            if not (r0[i] > 0.0):
-                return 0, STATUS_SINGULAR, 0
+                xa[d, i] = q0[d] + X[0, i] * q0[3 + d] + X[1, i] * q0[6 + d] + X[2, i] * q0[9 + d]
     es = (E[0, 0] + E[1, 1] + E[2, 2]) / 3.0  # scale of the constraint rows and multipliers
     hf = 0.5 * h
     for d in range(3):
@@ -430,7 +348,8 @@ def rigid_step(
     if volume and gm != 0.0:
         r2 = (c[0] - q0[0]) ** 2 + (c[1] - q0[1]) ** 2 + (c[2] - q0[2]) ** 2
         central = h * h * gm * work[22][0] <= _CENTRAL_K * r2 * r2
-    kron = facets is None and not volume  # K only in the centre of mass's block
+    surfaces = f1 > f0
+    kron = not surfaces and not volume  # K only in the centre of mass's block
     if model == GRAVITY_NONE:  # no field: F and K (its centre-of-mass block) stay zero
         for r in range(12):
             F[r] = 0.0
@@ -449,33 +368,32 @@ def rigid_step(
         # the load stiffness is assembled at the first iterate and kept for the step: it changes
         # by O(error) between iterates, so convergence stays quadratic to round-off
         want = it == 1
-        if model != GRAVITY_NONE:
+        if model == GRAVITY_NONE:
+            for r in range(12):
+                F[r] = 0.0
+        else:
             if want and central:
                 st = rigid_forces(
-                    method, GRAVITY_POINT, q0, q1, X, mp, 1.0, gm, c, work[0], work[1], work[23], K, work[4], work[5],
-                    work[20], True, zonal_p, zonal_j,
+                    forces, mode, GRAVITY_POINT, q0, q1, X, mp, 1.0, h, coef, pcoef, fP, fI, fT, fS, work[23], K,
+                    work[4], work[5], work[20], work, True,
                 )  # fmt: skip
                 central = st == STATUS_OK
                 if central:
                     central_stiffness(K, m, E)
             st = rigid_forces(
-                method, model, q0, q1, X, mp, m, gm, c, work[0], work[1], F, K, work[4], work[5], work[20],
-                want and not central, zonal_p, zonal_j,
+                forces, mode, model, q0, q1, X, mp, m, h, coef, pcoef, fP, fI, fT, fS, F, K, work[4], work[5], work[20],
+                work, want and not central,
             )  # fmt: skip
             if st != STATUS_OK:
                 status = st
                 break
-        if facets is not None:
-            facet_forces(
-                q0, q1, h, F, facets, f0, f1, drag_p, drag_t, drag_g, drag_gp, dsun, srp_p, sun, shade, work[21]
-            )
+        if surfaces:
+            st = facet_forces(facets_fn, q0, q1, h, F, facets, f0, f1, fP, fI, fT, fS, fscratch, False)
+            if st != STATUS_OK:
+                status = st
+                break
             if it == 1:  # the facets' torques depend on the attitude: their derivative joins K
-                facet_jacobian(
-                    q0, q1, h, K, facets, f0, f1, drag_p, drag_t, drag_g, drag_gp, dsun, srp_p, sun, shade,
-                    work[6][:3, :12],
-                )  # fmt: skip
-        if tb_p is not None and model != GRAVITY_NONE:
-            third_body_forces(q0, q1, X, mp, m, model == GRAVITY_POINT, tb_p, tb_s, F)
+                facet_jacobian(facets_fn, q0, q1, h, K, facets, f0, f1, fP, fI, fT, fS, fscratch)
         _sym(nu, S)
         # R1 = M dq - h (M v0 + (h/2) F) + (h/2) G05^T nu
         for d in range(3):
@@ -521,7 +439,7 @@ def rigid_step(
         for j in range(6):
             nu[j] -= rhs[12 + j]
         # with facets, one more update once at round-off (see _FACET_TOL)
-        if d2 <= _TOL2 * (floor2 + s2) and (facets is None or d2 <= _FACET_TOL * _TOL2 * (floor2 + s2)):
+        if d2 <= _TOL2 * (floor2 + s2) and (not surfaces or d2 <= _FACET_TOL * _TOL2 * (floor2 + s2)):
             status = STATUS_OK  # at round-off
             break
         if d2 >= prev2 and d2 <= _FLOOR2 * (floor2 + s2):
@@ -565,102 +483,56 @@ def rigid_step(
 
 @kernel
 def rigid_chunk(
-    method,
-    models,
-    q,
-    v,
-    cq,
-    cv,
-    lam,
-    mass,
-    E,
-    Einv,
-    offsets,
-    X,
-    mp,
-    gm,
-    center,
-    dt,
-    gammas,
-    every,
-    nrec,
-    max_iter,
-    rec_q,
-    rec_v,
-    rec_iters,
-    rec_stalled,
-    fail,
-    zonal_p,
-    zonal_j,
-    clock_base=0.0,
-    clock_n0=0.0,
-    facets=None,
-    foff=None,
-    drag_p=None,
-    drag_t=None,
-    drag_g=None,
-    drag_gp=None,
-    drag_s=None,
-    srp_p=None,
-    srp_tab=None,
-    tb_p=None,
-    tb_tab=None,
-    work=None,
-    cwork=None,
-    rec_work=None,
-):
+    forces, prepare, work_of, facets_fn, method, models, q, v, cq, cv, lam, mass, E, Einv, offsets, X, mp, coef,
+    pcoef, foff, facets, gm, center, dt, gammas, every, nrec, max_iter, rec_q, rec_v, rec_iters, rec_stalled, fail, P,
+    I, T, S, work, cwork, rec_work, clock_base, clock_n0,
+):  # fmt: skip
     """Advance every rigid body ``nrec * every`` composed steps, recording every ``every``.
 
-    models (nb,) gravity model per body; q, v, cq, cv (nb, 12) state and Kahan compensation;
-    lam (nb, 6) multiplier warm starts; mass (nb,), E and Einv (nb, 3, 3); body b's mass
-    points are X[:, offsets[b]:offsets[b+1]] (3, N) with masses mp. rec_q/rec_v (nrec, nb, 12),
-    rec_iters (nrec, nb), fail (nb, 2) as in :func:`emorbit.kernels.pointmass.reference.implicit_chunk`;
-    rec_stalled (nrec, nb) counts each interval's sub-steps that :func:`rigid_step` accepted at
-    its floor, above round-off.
-
-    Effects beyond gravity (None: none): body b's facets are rows ``foff[b] .. foff[b+1]`` of
-    ``facets`` (drag with ``drag_p``, ``drag_t`` or NRLMSIS's ``drag_g``, ``drag_gp`` and the Sun's
-    table ``drag_s``; radiation pressure with ``srp_p`` and the
-    Sun's table ``srp_tab``); third bodies ``tb_p`` with their tables ``tb_tab``
-    (:mod:`.rigid_effects`, :mod:`emorbit.effects.third_body`). Step j starts at
-    ``clock_base + (clock_n0 + j) dt``. With them, ``work`` and ``cwork`` (nb, k) sum each
-    effect's work on each body (slots: drag, srp, then the third bodies; Kahan), recorded in
-    ``rec_work`` (nrec, nb, k).
+    ``forces``, ``prepare``, ``work_of``, ``facets_fn``: the effect set's compiled functions
+    (:mod:`.effects.signatures`) and ``P, I, T, S`` its arrays; models (nb,) gravity model per
+    body; q, v, cq, cv (nb, 12) state and Kahan compensation; lam (nb, 6) multiplier warm
+    starts; mass (nb,), E and Einv (nb, 3, 3); body b's mass points are
+    X[:, offsets[b]:offsets[b+1]] (3, N) with masses mp and coefficients coef (k, N) columns,
+    its centre of mass's coefficients pcoef[:, b]; its facets rows ``foff[b] .. foff[b+1]``
+    of ``facets`` (:mod:`.rigid_surface`). rec_q/rec_v (nrec, nb, 12), rec_iters (nrec, nb),
+    fail (nb, 2) as in :func:`emorbit.kernels.pointmass.reference.implicit_chunk`;
+    rec_stalled (nrec, nb) counts each interval's sub-steps that :func:`rigid_step` accepted
+    at its floor, above round-off. Step j starts at ``clock_base + (clock_n0 + j) dt``.
+    ``work`` and ``cwork`` (nb, w) sum each working effect's work on each body (Kahan),
+    recorded in ``rec_work`` (nrec, nb, w).
     """
     nb = q.shape[0]
     ns = gammas.shape[0]
+    nw = work.shape[1]
     tp = np.empty(12)
     tu = np.empty(12)
     te = np.empty(12)
     tf = np.empty(12)
     tl = np.empty(6)
-    q1 = np.empty(12)
-    Fs = np.empty(12)
-    wk = np.zeros(2)
-    sun = np.zeros(3)
-    dsun = np.zeros(3)
+    tw = np.zeros(nw)
+    tcw = np.zeros(nw)
     tcum = np.empty(ns + 1)
     tcum[0] = 0.0
     for k in range(ns):
         tcum[k + 1] = tcum[k] + gammas[k]
-    nw = 0 if work is None else work.shape[1]
-    tw = np.zeros(nw)
-    tcw = np.zeros(nw)
-    slot_drag = 0
-    slot_srp = 1 if drag_p is not None else 0
-    slot_tb = (1 if drag_p is not None else 0) + (1 if srp_p is not None else 0)
-    ntb = 0 if tb_p is None else tb_p.shape[0]
-    tb_s = np.zeros((ntb, 3, 3))
+    mode = MODE_MIDPOINT if method == METHOD_MIDPOINT else MODE_STEP
     for b in range(nb):
-        Xb = X[:, offsets[b] : offsets[b + 1]]
-        mb = mp[offsets[b] : offsets[b + 1]]
+        o0, o1 = offsets[b], offsets[b + 1]
+        Xb = X[:, o0:o1]
+        mb = np.ascontiguousarray(mp[o0:o1])
+        cb = np.ascontiguousarray(coef[:, o0:o1])
+        pb = np.ascontiguousarray(pcoef[:, b : b + 1])
         work_b = _work_arrays(Xb)
         Eb = E[b]
         Eib = Einv[b]
         dq = work_b[16]
         dv = work_b[19]
-        f0 = 0 if foff is None else foff[b]
-        f1 = 0 if foff is None else foff[b + 1]
+        f0 = foff[b]
+        f1 = foff[b + 1]
+        fscratch = facet_scratch(f1 - f0, nw)
+        q1 = np.empty(12)
+        wpts = _point_scratch(models[b], o1 - o0, nw)
         failed = False
         for r in range(nrec):
             its = 0
@@ -673,63 +545,27 @@ def rigid_chunk(
                     tf[j_] = cv[b, j_]
                 for j_ in range(6):
                     tl[j_] = lam[b, j_]
-                if work is not None:
-                    tw[:] = work[b]
-                    tcw[:] = cwork[b]
+                for j_ in range(nw):
+                    tw[j_] = work[b, j_]
+                    tcw[j_] = cwork[b, j_]
                 for k in range(ns):
                     h = dt * gammas[k]
-                    shade = 1.0
-                    if srp_p is not None or tb_p is not None or drag_p is not None:
-                        j = clock_n0 + r * every + s
-                        ta = clock_base + (j + tcum[k] if k > 0 else j) * dt
-                        tb = clock_base + (j + 1.0 if k == ns - 1 else j + tcum[k + 1]) * dt
-                        tm = 0.5 * (ta + tb)
-                        if drag_p is not None and drag_p[7] != 0.0:  # NRLMSIS's local time
-                            dsun[0], dsun[1], dsun[2] = table_position(tm, drag_p[8], drag_p[9], drag_s)
-                        if srp_p is not None:
-                            sun[0], sun[1], sun[2] = table_position(tm, srp_p[8], srp_p[9], srp_tab)
-                            if srp_p[4] == 1.0:  # the cylindrical shadow at the predicted midpoint
-                                px = tp[0] + 0.5 * h * tu[0] - srp_p[5]
-                                py = tp[1] + 0.5 * h * tu[1] - srp_p[6]
-                                pz = tp[2] + 0.5 * h * tu[2] - srp_p[7]
-                                shade = shadow_cylindrical(px, py, pz, sun[0], sun[1], sun[2], srp_p[2])
-                        if tb_p is not None:
-                            for jb in range(ntb):
-                                o = int(tb_p[jb, 7])
-                                tab = tb_tab[o : o + int(tb_p[jb, 8])]
-                                for e, te_ in ((0, ta), (1, tm), (2, tb)):
-                                    sx, sy, sz = table_position(te_, tb_p[jb, 5], tb_p[jb, 6], tab)
-                                    tb_s[jb, e, 0] = sx
-                                    tb_s[jb, e, 1] = sy
-                                    tb_s[jb, e, 2] = sz
+                    ta, tm, tb = substep_times(clock_base, clock_n0 + r * every + s, k, tcum, dt)
+                    prepare(ta, tm, tb, P, I, T, S)
                     it, status, stalled = rigid_step(
-                        method, models[b], tp, tu, tl, mass[b], Eb, Eib, Xb, mb, gm, center, h, max_iter, work_b,
-                        zonal_p, zonal_j, facets, f0, f1, drag_p, drag_t, drag_g, drag_gp, dsun, srp_p, sun, shade,
-                        tb_p, tb_s,
+                        forces, facets_fn, method, models[b], tp, tu, tl, mass[b], Eb, Eib, Xb, mb, gm, center, h,
+                        max_iter, work_b, cb, pb, P, I, T, S, facets, f0, f1, fscratch,
                     )  # fmt: skip
                     its += it
                     stl += stalled
                     ok = status == STATUS_OK
-                    if ok and work is not None:  # the effects' work over the converged sub-step
+                    if ok and nw > 0:  # the effects' work over the converged sub-step
                         for jj in range(12):
                             q1[jj] = tp[jj] + dq[jj]
-                        if facets is not None:
-                            wk[0] = 0.0
-                            wk[1] = 0.0
-                            facet_forces(
-                                tp, q1, h, Fs, facets, f0, f1, drag_p, drag_t, drag_g, drag_gp, dsun, srp_p, sun, shade,
-                                wk,
-                            )  # fmt: skip
-                            if drag_p is not None:
-                                tw[slot_drag], tcw[slot_drag] = kahan_add(tw[slot_drag], tcw[slot_drag], wk[0])
-                            if srp_p is not None:
-                                tw[slot_srp], tcw[slot_srp] = kahan_add(tw[slot_srp], tcw[slot_srp], wk[1])
-                        if tb_p is not None and models[b] != GRAVITY_NONE:
-                            for jb in range(ntb):
-                                w_ = third_body_work(
-                                    tp, q1, Xb, mb, mass[b], models[b] == GRAVITY_POINT, tb_p, tb_s, jb
-                                )
-                                tw[slot_tb + jb], tcw[slot_tb + jb] = kahan_add(tw[slot_tb + jb], tcw[slot_tb + jb], w_)
+                        _body_work(
+                            work_of, facets_fn, mode, models[b], tp, q1, Xb, mb, mass[b], h, cb, pb, P, I, T, S,
+                            facets, f0, f1, fscratch, wpts, tw, tcw,
+                        )  # fmt: skip
                     for j_ in range(12):
                         tp[j_], te[j_] = kahan_add(tp[j_], te[j_], dq[j_])
                         tu[j_], tf[j_] = kahan_add(tu[j_], tf[j_], dv[j_])
@@ -749,14 +585,70 @@ def rigid_chunk(
                     cv[b, j_] = tf[j_]
                 for j_ in range(6):
                     lam[b, j_] = tl[j_]
-                if work is not None:
-                    work[b] = tw
-                    cwork[b] = tcw
+                for j_ in range(nw):
+                    work[b, j_] = tw[j_]
+                    cwork[b, j_] = tcw[j_]
             if failed:
                 break
             rec_q[r, b, :] = q[b]
             rec_v[r, b, :] = v[b]
             rec_iters[r, b] = its
             rec_stalled[r, b] = stl
-            if work is not None:
-                rec_work[r, b, :] = work[b]
+            rec_work[r, b, :] = work[b]
+
+
+@kernel
+def _point_scratch(model, npoints, nw):
+    """Scratch for :func:`_body_work`: the points at the start, their increments, the body
+    index (zeros) and the work per point (nw, n); one point (the centre of mass) for the point
+    gravity model, none for free motion."""
+    n = 0 if model == GRAVITY_NONE else (1 if model == GRAVITY_POINT else npoints)
+    return np.empty((3, n)), np.empty((3, n)), np.zeros(n, np.int64), np.zeros((nw, n)), np.empty(n)
+
+
+@kernel
+def body_points(model, q, X, m, mp, out, mout):
+    """Where the point effects act on a body in configuration q: its mass points (volume), its
+    centre of mass with all the mass (point), or none; into ``out`` (3, n) and ``mout`` (n,)."""
+    if model == GRAVITY_POINT:
+        for d in range(3):
+            out[d, 0] = q[d]
+        mout[0] = m
+        return
+    for i in range(out.shape[1]):
+        for d in range(3):
+            out[d, i] = q[d] + X[0, i] * q[3 + d] + X[1, i] * q[6 + d] + X[2, i] * q[9 + d]
+        mout[i] = mp[i]
+
+
+@kernel
+def _body_work(
+    work_of, facets_fn, mode, model, q0, q1, X, mp, m, h, coef, pcoef, P, I, T, S, facets, f0, f1, fscratch,
+    wpts, tw, tcw,
+):  # fmt: skip
+    """Add each working effect's work on the body over the step (its points' and its facets')
+    into ``tw`` with Kahan compensation ``tcw``."""
+    x0, dx, bb, out, mm = wpts
+    n = x0.shape[1]
+    nw = tw.shape[0]
+    if n > 0:
+        body_points(model, q0, X, m, mp, x0, mm)
+        body_points(model, q1, X, m, mp, dx, mm)
+        for i in range(n):
+            for d in range(3):
+                dx[d, i] -= x0[d, i]
+        work_of(x0, dx, mm, bb, pcoef if model == GRAVITY_POINT else coef, h, mode, P, I, T, S, out)
+        for k in range(nw):
+            total = 0.0
+            for i in range(n):
+                total += out[k, i]
+            tw[k], tcw[k] = kahan_add(tw[k], tcw[k], total)
+    if f1 > f0:
+        F = np.zeros(12)
+        facet_forces(facets_fn, q0, q1, h, F, facets, f0, f1, P, I, T, S, fscratch, True)
+        fo = fscratch[6]
+        for k in range(nw):
+            total = 0.0
+            for j in range(f1 - f0):
+                total += fo[k, j]
+            tw[k], tcw[k] = kahan_add(tw[k], tcw[k], total)

@@ -32,7 +32,8 @@ Data layout: as :func:`.rigid.rigid_chunk` (``q, v, cq, cv`` (nb, 12), ``lam`` (
 ``rho`` (nb,) the control variables (0 or less: set from ``s(y)`` at the first step), updated
 in place and part of a checkpoint; ``Jinv`` (nb, 3, 3) the inverse body-frame inertias
 (``RigidBodies.inverse_inertias``). The central field only: the Simulation refuses effects
-with adaptive steps (``zonal_p``, ``zonal_j`` are handed to :func:`.rigid.rigid_step` as given).
+with adaptive steps (the effect set's ``forces`` and ``facets`` are handed to
+:func:`.rigid.rigid_step` as given).
 
 References: E. Hairer, G. Soederlind, SIAM J. Sci. Comput. 26 (2005) 1838-1851; P. Betsch,
 P. Steinmann, Comput. Methods Appl. Mech. Engrg. 190 (2001) 6663-6692 (the director step).
@@ -49,6 +50,7 @@ from .eft import kahan_add
 from .jit import kernel
 from .pointmass.adaptive import KICK_MAX, MAX_HALVINGS, MAX_STEPS, PREDICT, U_MAX
 from .rigid import _work_arrays, rigid_step
+from .rigid_surface import facet_scratch
 
 __all__ = ["rigid_rates", "rigid_adaptive_chunk", "rigid_reversible_steps"]
 
@@ -110,7 +112,7 @@ def _control(q, v, E, Jinv, gm, c, eta):
 @kernel
 def _composed(
     method, model, tp, tu, te, tf, tl, rho, eps, fixed, gammas, m, E, Einv, Jinv, X, mp, gm, c, eta, max_iter,
-    work, zonal_p, zonal_j,
+    work, fx,
 ):  # fmt: skip
     """One composed step of the state ``tp, tu, te, tf, tl`` (q, v, their compensations, the
     multipliers' warm start; updated in place): sub-steps ``gammas[k] eps`` in tau, or
@@ -139,8 +141,9 @@ def _composed(
             rho = rho * (1.0 + a) / (1.0 - a)
             h = (4.0 * ak) / rho
         it, status, stalled = rigid_step(
-            method, model, tp, tu, tl, m, E, Einv, X, mp, gm, c, h, max_iter, work, zonal_p, zonal_j
-        )
+            fx[0], fx[1], method, model, tp, tu, tl, m, E, Einv, X, mp, gm, c, h, max_iter, work, fx[2], fx[3],
+            fx[4], fx[5], fx[6], fx[7], fx[8], fx[9], fx[10], fx[11],
+        )  # fmt: skip
         its += it
         stl += stalled
         if status != STATUS_OK:
@@ -172,7 +175,7 @@ def _composed(
 @kernel
 def _interval(
     method, model, q, v, cq, cv, lam, r, interval, gammas, m, E, Einv, Jinv, X, mp, gm, c, eta, max_iter, work,
-    zonal_p, zonal_j, tp, tu, te, tf, tl,
+    fx, tp, tu, te, tf, tl,
 ):  # fmt: skip
     """Composed steps of one body's state ``q, v, cq, cv, lam`` (updated in place) that end
     exactly ``interval`` seconds later; ``tp .. tl`` are scratch. Returns (rho, iterations,
@@ -206,7 +209,7 @@ def _interval(
                 tl[:] = lam
                 rq, dur, dlo, it, st, status = _composed(
                     method, model, tp, tu, te, tf, tl, r, eps, 0.0, gammas, m, E, Einv, Jinv, X, mp, gm, c, eta,
-                    max_iter, work, zonal_p, zonal_j,
+                    max_iter, work, fx,
                 )  # fmt: skip
                 its += it
                 stl += st
@@ -218,7 +221,7 @@ def _interval(
                 tl[:] = lam
                 rq, dur, dlo, it, st, status = _composed(
                     method, model, tp, tu, te, tf, tl, r, 1.0, rem, gammas, m, E, Einv, Jinv, X, mp, gm, c, eta,
-                    max_iter, work, zonal_p, zonal_j,
+                    max_iter, work, fx,
                 )  # fmt: skip
                 its += it
                 stl += st
@@ -250,9 +253,20 @@ def _interval(
 
 
 @kernel
+def _effects(forces, facets_fn, coef, pcoef, foff, facets, P, I, T, S, offsets, b):
+    """Body b's share of the effect set, as :func:`.rigid.rigid_step` takes it."""
+    f0, f1 = foff[b], foff[b + 1]
+    return (
+        forces, facets_fn, np.ascontiguousarray(coef[:, offsets[b] : offsets[b + 1]]),
+        np.ascontiguousarray(pcoef[:, b : b + 1]), P, I, T, S, facets, f0, f1, facet_scratch(f1 - f0, 0),
+    )  # fmt: skip
+
+
+@kernel
 def rigid_adaptive_chunk(
     method, models, q, v, cq, cv, lam, rho, mass, E, Einv, Jinv, offsets, X, mp, gm, center, interval, every,
-    eta, gammas, nrec, max_iter, rec_q, rec_v, rec_iters, rec_steps, rec_stalled, fail, zonal_p, zonal_j,
+    eta, gammas, nrec, max_iter, rec_q, rec_v, rec_iters, rec_steps, rec_stalled, fail, forces, facets_fn, coef,
+    pcoef, foff, facets, P, I, T, S,
 ):  # fmt: skip
     """Advance every rigid body by ``nrec`` records of ``every`` intervals of ``interval``
     seconds (the landing grid: steps end on every multiple of it) with adaptive,
@@ -279,8 +293,9 @@ def rigid_adaptive_chunk(
     sl = np.empty(6)
     for b in range(nb):
         Xb = X[:, offsets[b] : offsets[b + 1]]
-        mb = mp[offsets[b] : offsets[b + 1]]
+        mb = np.ascontiguousarray(mp[offsets[b] : offsets[b + 1]])
         work = _work_arrays(Xb)
+        fx = _effects(forces, facets_fn, coef, pcoef, foff, facets, P, I, T, S, offsets, b)
         r = rho[b]
         if not r > 0.0:
             r, g = _control(q[b], v[b], E[b], Jinv[b], gm, center, eta)
@@ -298,7 +313,7 @@ def rigid_adaptive_chunk(
             for _j in range(every):
                 r, it, st, ns, status = _interval(
                     method, models[b], q[b], v[b], cq[b], cv[b], lam[b], r, interval, gammas, mass[b], E[b],
-                    Einv[b], Jinv[b], Xb, mb, gm, center, eta, max_iter, work, zonal_p, zonal_j, tp, tu, te, tf, tl,
+                    Einv[b], Jinv[b], Xb, mb, gm, center, eta, max_iter, work, fx, tp, tu, te, tf, tl,
                 )  # fmt: skip
                 its += it
                 stl += st
@@ -326,7 +341,7 @@ def rigid_adaptive_chunk(
 @kernel
 def rigid_reversible_steps(
     method, models, q, v, cq, cv, lam, rho, mass, E, Einv, Jinv, offsets, X, mp, gm, center, eta, gammas,
-    nsteps, max_iter, elapsed, zonal_p, zonal_j,
+    nsteps, max_iter, elapsed, forces, facets_fn, coef, pcoef, foff, facets, P, I, T, S,
 ):  # fmt: skip
     """Take exactly ``nsteps`` composed steps of size 1 in tau from every body (no records, no
     landing on a time): the scheme alone, for its time symmetry. ``elapsed`` (nb,) gets the
@@ -335,8 +350,9 @@ def rigid_reversible_steps(
     nb = q.shape[0]
     for b in range(nb):
         Xb = X[:, offsets[b] : offsets[b + 1]]
-        mb = mp[offsets[b] : offsets[b + 1]]
+        mb = np.ascontiguousarray(mp[offsets[b] : offsets[b + 1]])
         work = _work_arrays(Xb)
+        fx = _effects(forces, facets_fn, coef, pcoef, foff, facets, P, I, T, S, offsets, b)
         r = rho[b]
         if not r > 0.0:
             r, g = _control(q[b], v[b], E[b], Jinv[b], gm, center, eta)
@@ -345,7 +361,7 @@ def rigid_reversible_steps(
         for _ in range(nsteps):
             r, dur, dlo, it, st, status = _composed(
                 method, models[b], q[b], v[b], cq[b], cv[b], lam[b], r, 1.0, 0.0, gammas, mass[b], E[b], Einv[b],
-                Jinv[b], Xb, mb, gm, center, eta, max_iter, work, zonal_p, zonal_j,
+                Jinv[b], Xb, mb, gm, center, eta, max_iter, work, fx,
             )  # fmt: skip
             if status != STATUS_OK:
                 return status

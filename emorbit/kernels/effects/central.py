@@ -40,6 +40,8 @@ __all__ = [
     "central_potential",
     "central_force",
     "central_jacobian",
+    "central_piece",
+    "central_potential_piece",
     "pair_unit",
     "pair_force",
     "pair_sums",
@@ -149,6 +151,21 @@ def central_jacobian(x0, y0, z0, x1, y1, z1, c0, c1, c2, gm, J):
     J[2, 0] += s2 * b0
     J[2, 1] += s2 * b1
     J[2, 2] += s2 * b2 - k
+
+
+@_inline
+def central_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
+    """The effect-set piece (:mod:`.signatures`): :func:`central_force` and, where ``jac``,
+    :func:`central_jacobian`, with ``p = [c0, c1, c2, gm]``."""
+    if jac:
+        central_jacobian(x0, y0, z0, x1, y1, z1, p[0], p[1], p[2], p[3], J)
+    return central_force(x0, y0, z0, x1, y1, z1, p[0], p[1], p[2], p[3])
+
+
+@_inline
+def central_potential_piece(x, y, z, c, p, tab, s):
+    """The effect-set piece: :func:`central_potential` with ``p = [c0, c1, c2, gm]``."""
+    return central_potential(x, y, z, p[0], p[1], p[2], p[3])
 
 
 @_inline

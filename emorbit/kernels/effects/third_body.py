@@ -46,6 +46,10 @@ __all__ = [
     "third_body_jacobian",
     "third_body_potentials",
     "table_positions",
+    "third_body_piece",
+    "third_body_prepare",
+    "third_body_time_work",
+    "third_body_potential_piece",
 ]
 
 _inline = kernel(inline="always")
@@ -216,3 +220,54 @@ def third_body_potentials(x, t, masses, c, gm, indirect, step, k0, tab):
                 e += masses[i] * u
         out[r] = e
     return out
+
+
+# -- the pieces of an effect set (.signatures): p = [gm, indirect, c0, c1, c2, step, k0, rows],
+# tab the body's table (rows, 6), s (9,) its positions at the sub-step's start, middle and end
+
+
+@_inline
+def _table(p, tab):
+    rows = int(p[7])
+    return tab[0 : 6 * rows].reshape((rows, 6))
+
+
+@_inline
+def third_body_prepare(ta, tm, tb, p, tab, s):
+    """The body at the sub-step's start, middle and end (into s[0:3], s[3:6], s[6:9])."""
+    t = _table(p, tab)
+    s[0], s[1], s[2] = table_position(ta, p[5], p[6], t)
+    s[3], s[4], s[5] = table_position(tm, p[5], p[6], t)
+    s[6], s[7], s[8] = table_position(tb, p[5], p[6], t)
+
+
+@_inline
+def third_body_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
+    """:func:`third_body_force` at the body's position at the sub-step's middle time, and its
+    Jacobian where ``jac``."""
+    if jac:
+        third_body_jacobian(x0, y0, z0, x1, y1, z1, p[2], p[3], p[4], s[3], s[4], s[5], p[0], J)
+    return third_body_force(x0, y0, z0, x1, y1, z1, p[2], p[3], p[4], s[3], s[4], s[5], p[0], p[1] != 0.0)
+
+
+@_inline
+def third_body_time_work(x0, y0, z0, x1, y1, z1, c, p, tab, s):
+    """The work per unit mass of the potential's change in time over the sub-step: the body
+    at the end against its middle at x1, the middle against the start at x0."""
+    gm = p[0]
+    ind = p[1] != 0.0
+    a0 = x0 - p[2]
+    a1 = y0 - p[3]
+    a2 = z0 - p[4]
+    b0 = x1 - p[2]
+    b1 = y1 - p[3]
+    b2 = z1 - p[4]
+    ue = tidal_potential(b0, b1, b2, s[6], s[7], s[8], gm, ind) - tidal_potential(b0, b1, b2, s[3], s[4], s[5], gm, ind)
+    us = tidal_potential(a0, a1, a2, s[3], s[4], s[5], gm, ind) - tidal_potential(a0, a1, a2, s[0], s[1], s[2], gm, ind)
+    return ue + us
+
+
+@_inline
+def third_body_potential_piece(x, y, z, c, p, tab, s):
+    """:func:`tidal_potential` with the body at the prepared middle position."""
+    return tidal_potential(x - p[2], y - p[3], z - p[4], s[3], s[4], s[5], p[0], p[1] != 0.0)

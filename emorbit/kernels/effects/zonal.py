@@ -44,7 +44,16 @@ import numpy as np
 
 from ..jit import kernel
 
-__all__ = ["zonal_potential", "zonal_force", "zonal_jacobian", "zonal_sums", "MODELS", "NMAX"]
+__all__ = [
+    "zonal_potential",
+    "zonal_force",
+    "zonal_jacobian",
+    "zonal_sums",
+    "zonal_piece",
+    "zonal_potential_piece",
+    "MODELS",
+    "NMAX",
+]
 
 _inline = kernel(inline="always")
 
@@ -356,3 +365,20 @@ def zonal_jacobian(x0, y0, z0, x1, y1, z1, c0, c1, c2, p0, p1, p2, gm, R, jn, J)
     J[2, 0] -= e2 * b0 + h2 * p0
     J[2, 1] -= e2 * b1 + h2 * p1
     J[2, 2] -= e2 * b2 + h2 * p2 + ai
+
+
+@_inline
+def zonal_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
+    """The effect-set piece (:mod:`.signatures`): :func:`zonal_force` and, where ``jac``,
+    :func:`zonal_jacobian`, with ``p = [c0, c1, c2, p0, p1, p2, gm, R, J2, ...]``."""
+    jn = p[8:]
+    fx, fy, fz = zonal_force(x0, y0, z0, x1, y1, z1, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], jn)
+    if jac:
+        zonal_jacobian(x0, y0, z0, x1, y1, z1, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], jn, J)
+    return fx, fy, fz
+
+
+@_inline
+def zonal_potential_piece(x, y, z, c, p, tab, s):
+    """The effect-set piece: :func:`zonal_potential` with :func:`zonal_piece`'s ``p``."""
+    return zonal_potential(x, y, z, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8:])

@@ -1,0 +1,267 @@
+"""A simulation's effects: :class:`EffectSet`, what every body system reads of them.
+
+The set holds the central field's effect (where there is a field) and those a scene names,
+checks them against each other and against the run (once or many times, an epoch, the
+method), orders them (:data:`emorbit.effects.EFFECTS`' order, a kind named twice in the
+order named), compiles them (:func:`emorbit.effects.program.compile_set`) and lays out
+their parameters for the step kernels (:meth:`EffectSet.arrays`). Body systems ask it for
+their points' coefficients (:meth:`EffectSet.coefficients`) and for the slots of the
+effects whose work the step sums (:meth:`EffectSet.working`). Nothing here names an effect:
+what differs between effects is each one's declaration.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from ..kernels.effects.signatures import SLICES
+from .base import AT_POINTS, ON_SURFACES, Effect
+
+__all__ = ["EffectSet"]
+
+
+class EffectSet:
+    """The effects of one simulation.
+
+    Parameters
+    ----------
+    field : CentralField or None
+        The central field; its effect is the set's first.
+    """
+
+    def __init__(self, field):
+        self.field = field
+        self._named: list[Effect] = []  # the effects of add(), in the order named
+        self._central = None
+        if field is not None:
+            from . import EFFECTS
+
+            self._central = EFFECTS["central"].from_table({}, _Context(field))
+            self._central.key = "field"
+
+    # -- membership ----------------------------------------------------------------------
+    def add(self, table: dict, key: str, bodies=None, strict: bool = False, folder: str = "") -> Effect:
+        """Build an effect from its table and add it.
+
+        Parameters
+        ----------
+        table : dict
+            ``kind`` and its keys.
+        key : str
+            Its name in errors.
+        bodies : list of str, optional
+            The scene's body names (for effects that name bodies).
+        strict : bool
+            Require units.
+        folder : str
+            Where a relative ``file`` is found.
+
+        Returns
+        -------
+        Effect
+
+        Raises
+        ------
+        InputError
+            What :func:`emorbit.effects.build` refuses; a second effect of a kind a scene may
+            name once, or the same one twice (a third body named twice).
+        """
+        from . import build
+
+        effect = build(table, self.field, key, bodies, strict, folder)
+        same = [e for e in self._named if e.kind == effect.kind]
+        if same and not type(effect).MULTIPLE:
+            raise InputError(key, f"a scene names {effect.kind!r} once; this simulation has it already ({same[0].key})")
+        for other in same:
+            if effect.same_as(other):
+                raise InputError(key, f"this simulation has the same {effect.kind!r} already ({other.key})")
+        if same:
+            effect.label = f"{effect.kind}_{len(same) + 1}"
+        self._named.append(effect)
+        return effect
+
+    def remove(self, effect: Effect) -> None:
+        """Take an effect out again (one that a check refused after it was added)."""
+        self._named = [e for e in self._named if e is not effect]
+
+    @property
+    def named(self) -> tuple[Effect, ...]:
+        """The effects beyond the central field, in the order named."""
+        return tuple(self._named)
+
+    @property
+    def all(self) -> tuple[Effect, ...]:
+        """Every effect, the central field's first, in the order a step sums their forces."""
+        from . import EFFECTS
+
+        rank = {k: i for i, k in enumerate(EFFECTS)}
+        named = sorted(self._named, key=lambda e: rank.get(e.kind, len(rank)))
+        return ((self._central,) if self._central is not None else ()) + tuple(named)
+
+    def __iter__(self):
+        return iter(self.all)
+
+    def __len__(self) -> int:
+        return len(self.all)
+
+    def kinds(self) -> tuple[str, ...]:
+        """The kinds of :attr:`all`."""
+        return tuple(e.kind for e in self.all)
+
+    def beyond_field(self) -> bool:
+        """Whether the set holds more than the central field (a scene named an effect)."""
+        return bool(self._named)
+
+    def acting_on(self, body_kind: str, how: str | None = None) -> list[Effect]:
+        """The effects that act on a body kind (at its points or on its surfaces, or ``how``)."""
+        return [e for e in self.all if e.acts_on(body_kind) and (how is None or e.acts_on(body_kind) == how)]
+
+    def working(self) -> list[Effect]:
+        """The effects whose work the step sums (their slots' order)."""
+        return [e for e in self.all if type(e).does_work()]
+
+    def with_potential(self) -> list[Effect]:
+        """The effects with a potential energy (recorded as ``invariants/potential_<label>``)."""
+        return [e for e in self.all if type(e).has_potential()]
+
+    def pair_effects(self) -> list[Effect]:
+        """The effects between pairs of points: they couple the bodies they reach."""
+        return [e for e in self.all if type(e).pairs()]
+
+    def conserves(self, what: str) -> bool:
+        """Whether every effect of the set keeps ``what`` (e.g. ``"energy"``)."""
+        return all(what in type(e).CONSERVES for e in self.all)
+
+    def time_dependent(self) -> list[Effect]:
+        """The effects that sample a path over a run's span before its steps."""
+        return [e for e in self.all if e.time_dependent]
+
+    def needs_epoch(self) -> list[Effect]:
+        """The effects that need the run's epoch."""
+        return [e for e in self.all if e.needs_epoch]
+
+    # -- checks against the run ----------------------------------------------------------------
+    def check_method(self, method: str, key: str = "method") -> None:
+        """Refuse a method an effect cannot run with: leapfrog kicks with forces that depend on
+        the velocity (drag) or that act between pairs of bodies of other kinds.
+
+        Raises
+        ------
+        InputError
+            Naming the method's key and the effect.
+        """
+        if method != "leapfrog":
+            return
+        for e in self._named:
+            if not type(e).EXPLICIT:
+                raise InputError(
+                    key,
+                    f"leapfrog kicks with forces at points, but {e.key} ({e.kind}) depends on the velocity; "
+                    "use em or midpoint",
+                )
+
+    def check_bodies(self, names_by_kind: dict) -> None:
+        """Refuse effects that name bodies that do not exist or act on body kinds they do not
+        reach, and pair effects between fewer than two bodies.
+
+        Parameters
+        ----------
+        names_by_kind : dict
+            {body kind: list of names} of the simulation's bodies.
+
+        Raises
+        ------
+        InputError
+            Naming the effect's key.
+        """
+        every = [n for names in names_by_kind.values() for n in names]
+        kind_of = {n: k for k, names in names_by_kind.items() for n in names}
+        for e in self._named:
+            for name in e.bodies or ():
+                if name not in kind_of:
+                    raise InputError(f"{e.key}.bodies", f"no body named {name!r}; bodies: {', '.join(every)}")
+                if not e.acts_on(kind_of[name]):
+                    raise InputError(f"{e.key}.bodies", f"{e.kind} does not act on {kind_of[name]} bodies ({name!r})")
+            if type(e).pairs():
+                reached = [n for n in every if e.reaches(n)]
+                if len(reached) < 2:
+                    raise InputError(
+                        e.key, f"{e.kind} acts between bodies, and the scene has {len(reached)} it reaches: add another"
+                    )
+
+    def prepare(self, t0: float, t1: float, epoch) -> None:
+        """Let every effect that follows a path sample it over ``t0`` to ``t1`` (s from the epoch)."""
+        for e in self.time_dependent():
+            e.prepare(t0, t1, epoch)
+
+    def landing_times(self, t0: float, t1: float) -> np.ndarray:
+        """The times in ``(t0, t1]`` that steps must end on, over every effect (sorted)."""
+        times = [e.landing_times(t0, t1) for e in self.all]
+        return np.unique(np.concatenate(times)) if times else np.zeros(0)
+
+    # -- what the kernels take -------------------------------------------------------------------
+    def program(self, announce=None):
+        """The set compiled (:func:`emorbit.effects.program.compile_set`)."""
+        from .program import compile_set
+
+        return compile_set([type(e) for e in self.all], announce)
+
+    def coefficients(self, body_kind: str, name: str, values: dict) -> np.ndarray:
+        """(k,) a body's points' coefficient for each effect of :attr:`all` (0: not at its
+        points; surface effects act through its facets)."""
+        return np.array([e.coefficient(body_kind, values) if e.reaches(name) else 0.0 for e in self.all], float)
+
+    def surface_mask(self, body_kind: str, name: str) -> np.ndarray:
+        """(k,) 1 where an effect acts on the surfaces of this body, else 0."""
+        return np.array(
+            [1.0 if e.acts_on(body_kind) == ON_SURFACES and e.reaches(name) else 0.0 for e in self.all], float
+        )
+
+    def arrays(self, n_points: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The set's parameters, slices, tables and scratch for ``n_points`` points.
+
+        Returns
+        -------
+        P, I, T, S : ndarray
+            As :mod:`emorbit.kernels.effects.signatures` lays them out (S zeroed).
+        """
+        effects = self.all
+        I = np.zeros((len(effects), SLICES), np.int64)
+        p = t = s = 0
+        for e, effect in enumerate(effects):
+            I[e] = [p, p + effect.p.size, t, t + effect.tab.size, s, s + effect.scratch_size(n_points)]
+            p, t, s = I[e, 1], I[e, 3], I[e, 5]
+        P = np.concatenate([e.p for e in effects]) if effects else np.zeros(0)
+        T = np.concatenate([e.tab for e in effects]) if effects else np.zeros(0)
+        return (
+            np.ascontiguousarray(P, float),
+            I,
+            np.ascontiguousarray(T if T.size else np.zeros(1), float),
+            np.zeros(max(int(s), 1)),
+        )
+
+    def packed_points(self):
+        """A packed point-mass kernel that an effect of the set declares for exactly this set
+        (:meth:`~emorbit.effects.base.Effect.packed`): (chunk, parameter arrays), or None."""
+        for cls in dict.fromkeys(type(e) for e in self.all):
+            found = cls.packed(self.all)
+            if found is not None:
+                return found
+        return None
+
+    def body_keys(self, body_kind: str) -> list:
+        """The body keys (:class:`~emorbit.effects.base.BodyKey`) the set's effects require of
+        bodies of a kind."""
+        return [bk for e in self.all for bk in type(e).BODY_KEYS if body_kind in bk.kinds and bk.required]
+
+    def acts_at_points(self, body_kind: str) -> bool:
+        """Whether any effect of the set acts at the points of a body kind."""
+        return any(e.acts_on(body_kind) == AT_POINTS for e in self.all)
+
+
+class _Context:
+    """The build context of the central field's own effect."""
+
+    def __init__(self, field):
+        self.field, self.key, self.bodies, self.strict = field, "field", None, False

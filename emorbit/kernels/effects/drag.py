@@ -1,0 +1,106 @@
+"""Drag's pieces for an effect set (:mod:`.signatures`): on a point mass and on a flat facet.
+
+The air co-rotates with the central body (rotation vector w about its centre c); its density
+at the step's midpoint ``x_m = (x0 + x1) / 2`` is a band table's (:mod:`.atmosphere`) or an
+NRLMSIS grid's (:mod:`.atmosphere_grid`, with the Sun at the sub-step's middle time for the
+local time). On a point of ballistic coefficient ``c = Cd A / m`` (m^2/kg)::
+
+    v = (x1 - x0) / h - w x (x_m - c),   F = -1/2 rho c |v| v
+
+(:func:`.atmosphere.drag_force`; its Jacobian :func:`.atmosphere.drag_jacobian`). On a facet
+of area A, drag coefficient Cd and unit normal n (at the step's middle) whose centre moves
+a -> b, the free-molecular plate force :func:`.radiation.drag_plate` with
+``v = (b - a) / h - w x (m - c)``. Both do work ``F . (x1 - x0)``, which the step sums.
+
+Data layout: ``p = [c0, c1, c2, w0, w1, w2, R, grid, sun_step, sun_k0, p0, p1, p2, nb, na,
+nphi, nlam1, nsun]`` (grid 1 for NRLMSIS: the Sun's table's sampling interval and first
+sample, the pole p; table sizes); ``tab`` the band table's rows h0, rho0, H (3 nb), then the
+grid's axes (5), the grid ``log rho`` (na, nphi, nlam1) and the Sun's table (nsun, 6); ``s``
+(3,) the Sun at the sub-step's middle time (NRLMSIS).
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..jit import kernel
+from .atmosphere import drag_force, drag_force_rho, drag_jacobian, drag_jacobian_rho, ussa1976_density
+from .atmosphere_grid import grid_density
+from .radiation import drag_plate
+from .third_body import table_position
+
+__all__ = ["drag_piece", "drag_prepare", "drag_facet"]
+
+_inline = kernel(inline="always")
+
+
+@_inline
+def _grid(p, tab):
+    """The NRLMSIS grid's axes and its values (views into ``tab``)."""
+    nb = int(p[13])
+    na, nphi, nl = int(p[14]), int(p[15]), int(p[16])
+    o = 3 * nb
+    return tab[o : o + 5], tab[o + 5 : o + 5 + na * nphi * nl].reshape((na, nphi, nl))
+
+
+@_inline
+def _sun(p, tab):
+    """The Sun's table (nsun, 6), a view into ``tab``."""
+    nb = int(p[13])
+    o = 3 * nb + 5 + int(p[14]) * int(p[15]) * int(p[16])
+    ns = int(p[17])
+    return tab[o : o + 6 * ns].reshape((ns, 6))
+
+
+@_inline
+def _density(mx, my, mz, p, tab, s):
+    """The density at the point m (absolute coordinates), kg/m^3."""
+    d0 = mx - p[0]
+    d1 = my - p[1]
+    d2 = mz - p[2]
+    if p[7] == 0.0:
+        nb = int(p[13])
+        a = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) - p[6]
+        return ussa1976_density(a, tab[0:nb], tab[nb : 2 * nb], tab[2 * nb : 3 * nb])
+    gp, grid = _grid(p, tab)
+    rho, _ = grid_density(d0, d1, d2, s[0], s[1], s[2], p[10], p[11], p[12], p[6], gp, grid)
+    return rho
+
+
+@_inline
+def drag_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
+    """Drag on a point of ballistic coefficient ``c`` over the step (per unit mass)."""
+    if p[7] == 0.0:
+        nb = int(p[13])
+        t0, t1, t2 = tab[0:nb], tab[nb : 2 * nb], tab[2 * nb : 3 * nb]
+        fx, fy, fz = drag_force(x0, y0, z0, x1, y1, z1, h, p[0], p[1], p[2], p[3], p[4], p[5], c, p[6], t0, t1, t2)
+        if jac:
+            drag_jacobian(x0, y0, z0, x1, y1, z1, h, p[0], p[1], p[2], p[3], p[4], p[5], c, p[6], t0, t1, t2, J)
+        return fx, fy, fz
+    gp, grid = _grid(p, tab)
+    rho, drho = grid_density(
+        0.5 * (x0 + x1) - p[0], 0.5 * (y0 + y1) - p[1], 0.5 * (z0 + z1) - p[2], s[0], s[1], s[2], p[10], p[11],
+        p[12], p[6], gp, grid,
+    )  # fmt: skip
+    fx, fy, fz = drag_force_rho(x0, y0, z0, x1, y1, z1, h, p[0], p[1], p[2], p[3], p[4], p[5], c, rho)
+    if jac:
+        drag_jacobian_rho(x0, y0, z0, x1, y1, z1, h, p[0], p[1], p[2], p[3], p[4], p[5], c, rho, drho, J)
+    return fx, fy, fz
+
+
+@_inline
+def drag_prepare(ta, tm, tb, p, tab, s):
+    """NRLMSIS's local time follows the Sun: its position at the sub-step's middle time."""
+    if p[7] != 0.0:
+        s[0], s[1], s[2] = table_position(tm, p[8], p[9], _sun(p, tab))
+
+
+@_inline
+def drag_facet(ax, ay, az, bx, by, bz, nx, ny, nz, area, k0, k1, k2, k3, h, p, tab, s):
+    """Drag on a flat facet (drag coefficient k0, two-sided where k3 > 0.5), N."""
+    mx, my, mz = 0.5 * (ax + bx), 0.5 * (ay + by), 0.5 * (az + bz)
+    d0, d1, d2 = mx - p[0], my - p[1], mz - p[2]
+    vx = (bx - ax) / h - (p[4] * d2 - p[5] * d1)
+    vy = (by - ay) / h - (p[5] * d0 - p[3] * d2)
+    vz = (bz - az) / h - (p[3] * d1 - p[4] * d0)
+    return drag_plate(nx, ny, nz, vx, vy, vz, area, k0, _density(mx, my, mz, p, tab, s), k3)

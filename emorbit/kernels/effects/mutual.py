@@ -1,0 +1,145 @@
+"""Mutual gravity's pieces for an effect set (:mod:`.signatures`): pair forces between points.
+
+Every pair (a, b) of points of different bodies that both take part (coefficient not 0)
+attracts with Greenspan's conserving pair force (:func:`.central.pair_unit`), per unit mass
+of a: ``F_a = -G m_b (d0 + d1) / (r0 r1 (r0 + r1))``, ``d = x_a - x_b``; its work over the
+step is the drop of the pair's potential ``-G m_a m_b / r``.
+
+Where every point is a body of its own (point masses) the pairs are summed by
+:func:`.central.pair_pass`: the first evaluation of a sub-step forms every pair in
+vectorised loops, later ones only the pairs of the points that moved; the diagonal blocks of
+the strongly coupled points (6 h^2/2 times their coupling bound above 1e-4) join their Newton
+matrices (:func:`.central.pair_blocks`, :func:`.central.pair_block`). Where points share
+bodies (the mass points of rigid and elastic bodies), every pair of different bodies is
+summed directly, with every point's diagonal block.
+
+Data layout: ``p = [G]``; the scratch ``s`` holds, for the K points that take part, the
+packed rows of :func:`.central.pair_pass` (17, K), their diagonal blocks (9, K) and whether
+each is strongly coupled (K,): 27 K values (:func:`scratch_size`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..jit import kernel
+from .central import pair_block, pair_blocks, pair_pass, pair_unit
+
+__all__ = ["mutual_pairs", "mutual_pair_potential", "scratch_size"]
+
+#: a point's pair block joins its Newton matrix above this coupling, 6 h^2/2 rho
+STRONG = 1e-4
+
+
+def scratch_size(k: int) -> int:
+    """The scratch values of K points that take part."""
+    return 27 * k
+
+
+@kernel
+def _distinct(idx, body):
+    """Whether the points ``idx`` all belong to different bodies."""
+    seen = np.zeros(body.max() + 1 if body.shape[0] else 1, np.bool_)
+    for i in idx:
+        if seen[body[i]]:
+            return False
+        seen[body[i]] = True
+    return True
+
+
+@kernel
+def mutual_pairs(x0, x1, m, body, c, h, p, s, F, W, R, jac, first):
+    """Add the pair forces (per unit mass) into F, their diagonal blocks into W where ``jac``
+    (point masses: only the strongly coupled points'), and set the coupling bounds R."""
+    n = m.shape[0]
+    idx = np.flatnonzero(c != 0.0)
+    k = idx.shape[0]
+    g = p[0]
+    if not _distinct(idx, body):
+        _bodies_pairs(x0, x1, m, body, idx, g, F, W, jac)
+        return
+    hh = 0.5 * h * h
+    w = s[0 : 17 * k].reshape((17, k))
+    b = s[17 * k : 26 * k].reshape((9, k))
+    strong = s[26 * k : 27 * k]
+    if first:
+        for q in range(k):
+            w[6, q] = g * m[idx[q]]
+    dx = np.empty((3, n))
+    for q in range(k):
+        i = idx[q]
+        for d in range(3):
+            dx[d, i] = x1[d, i] - x0[d, i]
+    fp = np.zeros((3, n))
+    pair_pass(first, hh, x0, dx, idx, w, np.empty(k, np.int64), fp, R)
+    for q in range(k):
+        i = idx[q]
+        for d in range(3):
+            F[d, i] += fp[d, i]
+    if not jac:
+        return
+    count = 0
+    for q in range(k):
+        strong[q] = 1.0 if 6.0 * hh * w[10, q] > STRONG else 0.0
+        count += int(strong[q])
+    if 8 * count > k:
+        pair_blocks(w[0], w[1], w[2], w[3], w[4], w[5], w[6], b)
+    elif count > 0:
+        for q in range(k):
+            if strong[q] != 0.0:
+                pair_block(q, w[0], w[1], w[2], w[3], w[4], w[5], w[6], b)
+    for q in range(k):
+        if strong[q] != 0.0:
+            for e in range(9):
+                W[e, idx[q]] += b[e, q]
+
+
+@kernel
+def _bodies_pairs(x0, x1, m, body, idx, g, F, W, jac):
+    """Every pair of points of different bodies: forces per unit mass and diagonal blocks."""
+    J = np.empty((3, 3))
+    k = idx.shape[0]
+    for qa in range(k):
+        a = idx[qa]
+        for qb in range(qa + 1, k):
+            b = idx[qb]
+            if body[a] == body[b]:
+                continue
+            sx, sy, sz, _ = pair_unit(
+                x0[0, a] - x0[0, b], x0[1, a] - x0[1, b], x0[2, a] - x0[2, b],
+                x1[0, a] - x1[0, b], x1[1, a] - x1[1, b], x1[2, a] - x1[2, b], J,
+            )  # fmt: skip
+            ga = g * m[b]
+            gb = g * m[a]
+            F[0, a] += ga * sx
+            F[1, a] += ga * sy
+            F[2, a] += ga * sz
+            F[0, b] -= gb * sx
+            F[1, b] -= gb * sy
+            F[2, b] -= gb * sz
+            if jac:
+                for e in range(3):
+                    for f in range(3):
+                        W[3 * e + f, a] += ga * J[e, f]
+                        W[3 * e + f, b] += gb * J[e, f]
+
+
+@kernel
+def mutual_pair_potential(x, m, body, c, p, out):
+    """Each point's half of its pairs' potential energy ``-G m_a m_b / r``, J, into ``out`` (n,)."""
+    n = m.shape[0]
+    g = p[0]
+    for a in range(n):
+        if c[a] == 0.0:
+            continue
+        for b in range(a + 1, n):
+            if c[b] == 0.0 or body[b] == body[a]:
+                continue
+            dx = x[0, a] - x[0, b]
+            dy = x[1, a] - x[1, b]
+            dz = x[2, a] - x[2, b]
+            e = 0.5 * g * m[a] * m[b] / math.sqrt(dx * dx + dy * dy + dz * dz)
+            out[a] -= e
+            out[b] -= e

@@ -1,0 +1,70 @@
+"""Solar radiation pressure's pieces for an effect set (:mod:`.signatures`): on a cannonball
+point mass and on a flat facet, with the central body's shadow.
+
+The Sun is at its position on its sampled path at the sub-step's middle time (``prepare``).
+The shadow function nu (:mod:`.radiation`: none, cylindrical or conical with penumbra) and the
+pressure ``P = P_au (au / r)^2`` are evaluated at the step's midpoint ``(x0 + x1) / 2``
+(a facet's: its centre's), so the step stays symmetric in time. A point of radiation
+coefficient ``c = Cr A / m`` gets ``a = nu P c u`` (u from the Sun to the point,
+:func:`.radiation.srp_cannonball`); a facet the flat-plate force :func:`.radiation.srp_plate`
+with its specular (k1) and diffuse (k2) coefficients. Both do work ``F . (x1 - x0)``. The
+cannonball force is a function of position alone, so leapfrog's kicks may use it; its
+derivative (below 1e-12 of the central field's) stays out of Newton's matrix.
+
+Data layout: ``p = [P_au, au, R_occ, R_sun, shadow (0 none, 1 cylindrical, 2 conical), c0,
+c1, c2, table_step, k0, nsun]``, ``tab`` the Sun's table relative to the central body (nsun,
+6), ``s`` (3,) the Sun at the sub-step's middle time.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..jit import kernel
+from .radiation import shadow_conical, shadow_cylindrical, srp_cannonball, srp_plate
+from .third_body import table_position
+
+__all__ = ["srp_piece", "srp_prepare", "srp_facet"]
+
+_inline = kernel(inline="always")
+
+
+@_inline
+def _shade(dx, dy, dz, p, s):
+    """The visible fraction of the Sun at d (relative to the central body)."""
+    if p[4] == 2.0:
+        return shadow_conical(dx, dy, dz, s[0], s[1], s[2], p[2], p[3])
+    if p[4] == 1.0:
+        return shadow_cylindrical(dx, dy, dz, s[0], s[1], s[2], p[2])
+    return 1.0
+
+
+@_inline
+def srp_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
+    """Radiation pressure on a cannonball of coefficient ``c`` at the step's midpoint (per unit mass)."""
+    mx = 0.5 * (x0 + x1) - p[5]
+    my = 0.5 * (y0 + y1) - p[6]
+    mz = 0.5 * (z0 + z1) - p[7]
+    return srp_cannonball(mx, my, mz, s[0], s[1], s[2], p[0], p[1], c, _shade(mx, my, mz, p, s))
+
+
+@_inline
+def srp_prepare(ta, tm, tb, p, tab, s):
+    """The Sun at the sub-step's middle time."""
+    ns = int(p[10])
+    s[0], s[1], s[2] = table_position(tm, p[8], p[9], tab[0 : 6 * ns].reshape((ns, 6)))
+
+
+@_inline
+def srp_facet(ax, ay, az, bx, by, bz, nx, ny, nz, area, k0, k1, k2, k3, h, p, tab, s):
+    """Radiation pressure on a flat facet (specular k1, diffuse k2, two-sided where k3 > 0.5), N."""
+    mx = 0.5 * (ax + bx) - p[5]
+    my = 0.5 * (ay + by) - p[6]
+    mz = 0.5 * (az + bz) - p[7]
+    nu = _shade(mx, my, mz, p, s)
+    if not nu > 0.0:
+        return 0.0, 0.0, 0.0
+    ex, ey, ez = s[0] - mx, s[1] - my, s[2] - mz
+    r = math.sqrt(ex * ex + ey * ey + ez * ez)
+    pressure = nu * p[0] * (p[1] / r) ** 2
+    return srp_plate(nx, ny, nz, ex / r, ey / r, ez / r, area, pressure, k1, k2, k3)
