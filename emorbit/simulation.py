@@ -674,6 +674,12 @@ class Simulation(StateQueries, ChunkDriver):
             raise InputError(key, "effects cannot be added after the structure has started running")
         effect = self.effects.add({"kind": kind, **keys}, key, None, strict, folder)
         try:
+            if effect.needs_epoch and self.epoch is None:
+                raise InputError(
+                    "epoch",
+                    f"{key} ({kind}) follows the calendar (an ephemeris, a dated atmosphere): give the run's "
+                    'epoch, e.g. epoch = "2026-01-01T00:00:00 TDB"',
+                )
             self.effects.check_method(self.method)
             for system in self.systems:
                 for name in system.names:
@@ -746,7 +752,9 @@ class Simulation(StateQueries, ChunkDriver):
             between pairs reaches fewer than two bodies, a method it cannot run with, or point
             masses under effects on the GPU; naming the key.
         """
-        kinds = {s.kind if s is not self.points else "point": list(s.names) for s in self.systems}
+        kinds: dict = {"point": list(self.points.names), "rigid": list(self.rigid.names) if self.rigid else []}
+        for b in self.structure.bodies if self.structure is not None else ():
+            kinds.setdefault(b["kind"], []).append(b["name"])
         self.effects.check_bodies(kinds)
         self.effects.check_method(self.method)
         if self.device == "gpu" and self.points.under_effects():

@@ -157,7 +157,7 @@ def test_a_run_records_work_and_balance_with_units_and_resumes_bit_for_bit(tmp_p
         for k, a in unbroken.items():
             np.testing.assert_array_equal(f[k][()], a, err_msg=k)
     again = emorbit.parse_scene(sim.to_toml(), "again").build()  # the coefficient is written back
-    assert again.points.ballistic == {"sat": 0.02}
+    assert again.points.values == {"sat": {"ballistic_coefficient": 0.02}}
 
 
 def test_a_scene_without_drag_records_no_work(tmp_path):
@@ -168,8 +168,8 @@ def test_a_scene_without_drag_records_no_work(tmp_path):
     with h5py.File(tmp_path / "z.h5", "r") as f:
         assert not any(k.startswith("work_") or k == "energy_balance" for k in f["invariants"])
         assert "work" not in f["checkpoint/point"]
-    assert sim.points.independent()  # the packed zonal kernel
-    assert not _leo(60.0, zonal=True).points.independent()  # drag: the compiled step
+    assert sim.effects.packed_points() is not None  # the packed zonal kernel
+    assert _leo(60.0, zonal=True).effects.packed_points() is None  # drag: the effect step
 
 
 def test_ballistic_coefficient_zero_means_no_drag():
@@ -239,7 +239,7 @@ def test_drag_in_free_space_and_a_point_without_coefficient_are_refused():
     assert exc.value.key == "body['sat'].ballistic_coefficient"
     sim = emorbit.Simulation(EARTH, method="em", dt=1.0)
     sim.add_effect("drag", atmosphere="vallado")
-    with pytest.raises(InputError, match="one atmosphere"):
+    with pytest.raises(InputError, match="names 'drag' once"):
         sim.add_effect("drag", atmosphere="vallado")
 
 

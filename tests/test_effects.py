@@ -15,7 +15,7 @@ import pytest
 
 import emorbit
 import emorbit.effects.mutual
-from emorbit.effects.compose import step_source
+from emorbit.effects.program import set_source
 from emorbit.errors import InputError
 
 EARTH = emorbit.CentralField(body="earth")
@@ -135,13 +135,20 @@ def test_sun_synchronous_node_advances_as_first_order_theory_says():
 
 
 def test_a_scene_compiles_only_the_effects_it_names():
-    central_only, _ = step_source(["central"])
-    with_mutual, names = step_source(["central", "mutual"])
-    with_zonal, _ = step_source(["central", "zonal"])
-    assert "zonal" not in with_mutual.split('"""', 2)[2] and "mutual_p" not in with_zonal
-    assert "zonal_force" in with_zonal and "mutual_p" in with_mutual
-    assert "zonal" not in central_only.split('"""', 2)[2]
-    assert names == ["central_p", "mutual_p", "mutual_on"]
+    from emorbit.effects import EFFECTS
+
+    def code(*kinds):
+        source, working = set_source([EFFECTS[k] for k in kinds])
+        return source.split('"""', 2)[2], working
+
+    central_only, _ = code("central")
+    with_mutual, _ = code("central", "mutual")
+    with_zonal, _ = code("central", "zonal")
+    with_drag, working = code("central", "zonal", "drag")
+    assert "zonal" not in with_mutual and "mutual" not in with_zonal
+    assert "zonal_piece" in with_zonal and "mutual_pairs" in with_mutual
+    assert "zonal" not in central_only and "mutual" not in central_only
+    assert working == (2,) and "drag_facet" in with_drag  # drag does work (slot 0) and acts on surfaces
 
 
 SCENE = """
@@ -209,7 +216,7 @@ def test_a_scene_with_effects_runs_records_each_potential_and_resumes(tmp_path):
 def test_to_toml_writes_the_effects_back():
     sim = emorbit.parse_scene(SCENE, "test").build()
     again = emorbit.parse_scene(sim.to_toml(), "again").build()
-    assert [(t.kind, t.table) for t in again._effects] == [(t.kind, t.table) for t in sim._effects]
+    assert [(t.kind, t.table) for t in again.effects.named] == [(t.kind, t.table) for t in sim.effects.named]
 
 
 def test_python_quantities_are_written_as_strings_with_units():
@@ -219,7 +226,7 @@ def test_python_quantities_are_written_as_strings_with_units():
     sim.add_effect("zonal", j=[1.08e-3], radius=6378 * u.km)
     sim.add_point("s", mass=1.0, position=[R_SSO, 0, 0], velocity=[0, V_SSO, 0])
     again = emorbit.parse_scene(sim.to_toml(), "again").build()
-    np.testing.assert_array_equal(again._effects[0].params["zonal_p"], sim._effects[0].params["zonal_p"])
+    np.testing.assert_array_equal(again.effects.named[0].p, sim.effects.named[0].p)
 
 
 @pytest.mark.parametrize(
@@ -245,16 +252,15 @@ def test_bad_effect_tables_name_their_key(table, key, message):
     assert exc.value.key == key and message in exc.value.message, str(exc.value)
 
 
-def test_zonal_needs_a_field_and_em():
+def test_zonal_needs_a_field_and_is_named_once():
     with pytest.raises(InputError, match="needs a \\[field\\]"):
         emorbit.Simulation(None, dt=1.0).add_effect("zonal", model="earth")
-    with pytest.raises(InputError, match="method 'em'"):
-        emorbit.Simulation(EARTH, dt=1.0, method="midpoint").add_effect("zonal", model="earth")
     sim = emorbit.Simulation(EARTH, dt=1.0)
     sim.add_rigid("box", "box", size=[1, 1, 1], density=1.0, position=[R_SSO, 0, 0], velocity=[0, V_SSO, 0])
-    with pytest.raises(InputError, match="one set of zonal harmonics"):
+    sim.add_effect("zonal", model="earth")
+    with pytest.raises(InputError, match="names 'zonal' once") as exc:
         sim.add_effect("zonal", model="earth")
-        sim.add_effect("zonal", model="earth")
+    assert exc.value.key == "effect[1]" and len(sim.effects.named) == 1
     with pytest.raises(InputError, match="central field or mutual gravity"):
         emorbit.Simulation(None, dt=1.0).add_point("p", mass=1.0, position=[1, 0, 0], velocity=[0, 0, 0])
 
@@ -363,7 +369,7 @@ def test_the_energy_error_with_j2_is_a_random_walk():
     v = np.stack([res.velocities[n] for n in res.names], axis=-1)
     ones = np.ones(1)
     energy = 0.5 * np.sum(v * v, axis=1) - EARTH.gm / np.linalg.norm(x, axis=1)
-    energy += np.stack([zonal.potential(x[:, :, [j]], ones, ones > 0) for j in range(members)], axis=-1)
+    energy += np.stack([zonal.potential_energy(x[:, :, [j]], ones) for j in range(members)], axis=-1)
     rel = (energy - energy[:1]) / np.abs(energy[:1])
     rms, mean = np.sqrt(np.mean(rel**2, axis=1)), np.mean(rel, axis=1)
     n = np.arange(records + 1) * (steps // records)

@@ -1,5 +1,5 @@
 """The vectorised pair pass of mutual gravity (emorbit.kernels.effects.central) and the em step
-that uses it (emorbit.effects.compose).
+that uses it (emorbit.kernels.pointmass.effect_step).
 
 Checked: every point's pair sum is the sum of Greenspan's pair forces and its coupling bound
 holds; the diagonal Jacobian blocks are the pair kernels'; a later sweep that forms only the

@@ -253,6 +253,19 @@ def test_large_rotations_per_step_conserve(degrees):
     np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-12)
 
 
+def _effects(sim):
+    """The effect set's functions and arrays as :func:`kr.rigid_step` takes them, for body 0:
+    (forces, facets, coef, pcoef, P, I, T, S, facet rows, f0, f1, facet scratch)."""
+    from emorbit.kernels.rigid_surface import facet_scratch
+
+    rb = sim.rigid
+    prog = sim.effects.program()
+    coef, pcoef = rb.coefficients()
+    P, I, T, S = sim.effects.arrays(rb.mp.size)
+    return (prog.forces, prog.facets, coef, np.ascontiguousarray(pcoef[:, :1]), P, I, T, S, np.zeros((0, 11)), 0, 0,
+            facet_scratch(0, 0))  # fmt: skip
+
+
 def test_newton_converges_quadratically():
     """The iterates of one step in the field: each error is at most a constant times the
     square of the previous one until round-off (measured 6.7e-6, 1.9e-11, 0)."""
@@ -273,24 +286,9 @@ def test_newton_converges_quadratically():
     for k in range(1, 6):
         w = kr.work_arrays(rb.X)
         kr.rigid_step(
-            kr.METHOD_EM,
-            kr.GRAVITY_VOLUME,
-            rb.q[0].copy(),
-            rb.v[0].copy(),
-            rb.lam[0].copy(),
-            rb.mass[0],
-            rb.E[0],
-            rb.Einv[0],
-            rb.X,
-            rb.mp,
-            PAPER_GM,
-            np.zeros(3),
-            sim.dt,
-            k,
-            w,
-            None,  # no zonal harmonics
-            None,
-        )
+            *_effects(sim)[:2], kr.METHOD_EM, kr.GRAVITY_VOLUME, rb.q[0].copy(), rb.v[0].copy(), rb.lam[0].copy(),
+            rb.mass[0], rb.E[0], rb.Einv[0], rb.X, rb.mp, PAPER_GM, np.zeros(3), sim.dt, k, w, *_effects(sim)[2:],
+        )  # fmt: skip
         iterates.append(w[16].copy())
     err = [np.abs(x - iterates[-1]).max() for x in iterates[:-1]]
     assert err[0] > 1e-8  # a real first correction
@@ -369,20 +367,20 @@ def test_the_step_solves_the_discrete_equations(case):
     rb = sim.rigid
     q0, v0, lam = rb.q[0].copy(), rb.v[0].copy(), rb.lam[0].copy()
     w = kr.work_arrays(rb.X)
+    forces, facets, *rest = _effects(sim)
     its, status, stalled = kr.rigid_step(
-        kr.METHOD_EM, model, q0, v0, lam, rb.mass[0], rb.E[0], rb.Einv[0], rb.X, rb.mp, gm, np.zeros(3), sim.dt, 50,
-        w, None, None,
+        forces, facets, kr.METHOD_EM, model, q0, v0, lam, rb.mass[0], rb.E[0], rb.Einv[0], rb.X, rb.mp, gm,
+        np.zeros(3), sim.dt, 50, w, *rest,
     )  # fmt: skip
     assert (its, status, stalled) == (2, 0, 0)
     dq = w[16].copy()
     F = np.zeros(12)
     if model == kr.GRAVITY_VOLUME:  # the em force of the converged step, summed afresh
-        a0, r0 = w[0], w[1]
         for d in range(3):
-            a0[d] = -(q0[d] + rb.X[0] * q0[3 + d] + rb.X[1] * q0[6 + d] + rb.X[2] * q0[9 + d])
-        r0[:] = np.sqrt((a0**2).sum(axis=0))
-        kr.rigid_forces(kr.METHOD_EM, model, q0, q0 + dq, rb.X, rb.mp, rb.mass[0], gm, np.zeros(3), a0, r0, F,
-                        w[3], w[4], w[5], w[20], False, None, None)  # fmt: skip
+            w[25][d] = q0[d] + rb.X[0] * q0[3 + d] + rb.X[1] * q0[6 + d] + rb.X[2] * q0[9 + d]
+        coef, pcoef, P, I, T, S = rest[:6]
+        kr.rigid_forces(forces, 0, model, q0, q0 + dq, rb.X, rb.mp, rb.mass[0], sim.dt, coef, pcoef, P, I, T, S, F,
+                        w[3], w[4], w[5], w[20], w, False)  # fmt: skip
     R1, g = _step_residual(q0, v0, lam, rb.mass[0], rb.E[0], F, sim.dt, dq)
     scale = np.abs(sim.dt * np.concatenate([rb.mass[0] * v0[:3], np.kron(rb.E[0], np.eye(3)) @ v0[3:]])).max()
     assert np.abs(R1).max() < 1e-14 * scale, np.abs(R1).max() / scale

@@ -1,13 +1,14 @@
 """The packed kernel of point masses under the central field plus zonal harmonics
 (emorbit.kernels.effects.zonal_packed).
 
-It is the kernel a simulation of central + zonal runs (mutual gravity keeps the compiled
-effect step); it solves the effect step's equations with the same discrete force (its runs
-agree with the effect step's to round-off, its Newton update is the effect step's Newton
-update); it keeps the energy and the angular momentum about the pole exactly, at the bench's
-step (one packed update per sub-step) and at steps large enough to need the second packed
-update and the scalar pass; a point that fails stops alone; and a point's result depends on
-neither the other points of its block, nor the thread count, nor how a run is cut into chunks.
+It is the kernel a simulation of central + zonal runs (mutual gravity keeps the effect step
+of :mod:`emorbit.kernels.pointmass.effect_step`); it solves the effect step's equations with
+the same discrete force (its runs agree with the effect step's to round-off, its Newton
+update is the effect step's Newton update); it keeps the energy and the angular momentum
+about the pole exactly, at the bench's step (one packed update per sub-step) and at steps
+large enough to need the second packed update and the scalar pass; a point that fails stops
+alone; and a point's result depends on neither the other points of its block, nor the thread
+count, nor how a run is cut into chunks.
 """
 
 from __future__ import annotations
@@ -19,13 +20,13 @@ import pytest
 
 import emorbit
 from emorbit.bench.effects import earth_orbits
-from emorbit.effects.compose import compile_step
 from emorbit.integrators import coefficients
 from emorbit.kernels.codes import STATUS_NO_CONVERGENCE, STATUS_SINGULAR
 from emorbit.kernels.effects import zonal_packed as zp
 from emorbit.kernels.effects.central import central_force, central_jacobian
 from emorbit.kernels.effects.newton import newton_update
 from emorbit.kernels.effects.zonal import zonal_force, zonal_jacobian, zonal_sums
+from emorbit.kernels.pointmass.effect_step import effect_chunk
 
 EARTH = emorbit.CentralField(body="earth")
 R_LOW = 6878.1366e3
@@ -36,7 +37,25 @@ EPS = np.finfo(float).eps
 def _params(degree=2, pole=None):
     sim = emorbit.Simulation(EARTH, method="em", dt=1.0)
     sim.add_effect("zonal", model="earth", degree=degree, **({} if pole is None else {"pole": pole}))
-    return sim, [a for t in sim.effects for a in t.params.values()]
+    return sim, list(sim.effects.packed_points()[1])
+
+
+def _effect_step(sim):
+    """The effect step of the simulation's set (:func:`effect_chunk`) as a chunk of the packed
+    kernel's arguments (the set's own parameters; the packed ones are ignored)."""
+    prog = sim.effects.program()
+
+    def chunk(x, v, cx, cv, wp, hp, m, cp, zpar, zj, dt, gammas, every, nrec, max_iter, rx, rv, ri, fail):
+        n = x.shape[1]
+        P, I, T, S = sim.effects.arrays(n)
+        work = np.zeros((0, n))
+        effect_chunk(
+            prog.forces, prog.prepare, prog.work, 0, x, v, cx, cv, wp, hp, m, np.arange(n, dtype=np.int64),
+            np.ones((len(sim.effects), n)), P, I, T, S, work, work.copy(), np.zeros((nrec, 0, n)), 0.0, 0.0, dt,
+            gammas, every, nrec, max_iter, rx, rv, ri, fail,
+        )  # fmt: skip
+
+    return chunk
 
 
 def _run(kernel, params, x, v, dt, order=2, steps=100, nrec=1, max_iter=50, state=None, **kw):
@@ -52,18 +71,18 @@ def _run(kernel, params, x, v, dt, order=2, steps=100, nrec=1, max_iter=50, stat
 def _energy(sim, x, v):
     """Each point's specific energy, kinetic plus every effect's potential, (n,) J/kg."""
     rows = np.ascontiguousarray(x.T)[:, :, None]
-    one, on = np.ones(1), np.ones(1, bool)
-    return 0.5 * np.einsum("kn,kn->n", v, v) + sum(t.potential(rows, one, on) for t in sim.effects)
+    one = np.ones(1)
+    return 0.5 * np.einsum("kn,kn->n", v, v) + sum(t.potential_energy(rows, one) for t in sim.effects)
 
 
 def test_central_plus_zonal_runs_the_packed_kernel():
     sim = emorbit.Simulation(EARTH, method="em", dt=10.0)
     sim.add_point("a", mass=1.0, position=[7e6, 0, 0], velocity=[0, 7.5e3, 0])
     sim.add_effect("zonal", model="earth")
-    assert sim.points.independent() and sim.points.step_kernel() is zp.chunk
+    assert sim.effects.packed_points()[0] is zp.chunk
     sim.add_point("b", mass=1.0, position=[-7e6, 0, 0], velocity=[0, -7.5e3, 0])
     sim.add_effect("mutual")  # the points attract each other: one coupled system
-    assert not sim.points.independent() and sim.points.step_kernel() is compile_step(["central", "zonal", "mutual"])
+    assert sim.effects.packed_points() is None
 
 
 @pytest.mark.parametrize(
@@ -83,7 +102,7 @@ def test_runs_agree_with_the_effect_step(order, degree, pole, per_orbit):
     x, v = earth_orbits(100, EARTH.gm)
     dt = T_LOW / per_orbit
     (xa, va, *_), (_, _, iters, fail) = _run(zp.chunk, params, x, v, dt, order, steps=200)
-    (xb, vb, *_), _ = _run(compile_step(["central", "zonal"]), params, x, v, dt, order, steps=200)
+    (xb, vb, *_), _ = _run(_effect_step(sim), params, x, v, dt, order, steps=200)
     assert np.all(fail == -1)
     assert np.max(np.abs(xa - xb)) <= 1e-13 * np.max(np.abs(x))
     assert np.max(np.abs(va - vb)) <= 1e-13 * np.max(np.abs(v))

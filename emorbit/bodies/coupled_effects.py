@@ -30,7 +30,13 @@ from ..kernels.codes import METHOD_MIDPOINT, STATUS_OK
 from ..kernels.coupled import add_point_blocks
 from ..kernels.effects.signatures import MODE_MIDPOINT, MODE_STEP
 from ..kernels.rigid_surface import facet_forces, facet_scratch
-from ..kernels.structure_effects import point_effects, point_effects_work, prepare_set, triangle_effects
+from ..kernels.structure_effects import (
+    cross_blocks,
+    point_effects,
+    point_effects_work,
+    prepare_set,
+    triangle_effects,
+)
 
 __all__ = ["StructureEffects"]
 
@@ -144,6 +150,11 @@ class StructureEffects:
             kel.spread_rows(f, node, w, fn)
             if want_K:
                 add_point_blocks(node, w, k, -hh, st.node_slot, st.node_coef, st.J.indptr, st.J.indices, data)
+                if node is st.mp_node and st.cross_acc.shape[0]:  # the pairs' blocks between compact bodies
+                    cross_blocks(
+                        prog.cross, x0, x1, ref, m, body, coef, st.mp_cross, st.mp_coef, st.cross_acc,
+                        st.body_slots, hh, P, I, T, S, st.J.indptr, st.J.indices, data,
+                    )  # fmt: skip
         if self.tris.shape[0]:
             s = triangle_effects(
                 prog.facets, x0n, x1n, ref, self.tris, self.tri_kf, h, P, I, T, S, fn, np.zeros(self.nw), False

@@ -372,11 +372,12 @@ class StructureLayout(StructureOutput):
             self.mp_w[q, : len(nodes)] = w
             self.mp_m[q] = m
             self.mp_body[q] = b
+        self._layout_cross()
         self.rb_slots = np.array(self._rb_slots, dtype=np.int64).reshape(-1, 4)
         self.rb_es = np.array(self._rb_es, dtype=float)
         self.lam = np.zeros(6 * len(self.rb_slots))
         self.acc = np.zeros_like(self.u)  # the last step's mean acceleration (predictor warm start)
-        gp_all = np.vstack([self.gp_node, self.mp_node])  # the pair effects' own blocks too
+        gp_all = np.vstack([self.gp_node, self.mp_node, self._cross_rows])  # the pair effects' blocks too
         self.J, self._indices32, self._indptr32, self.J_mass = jacobian_pattern(
             self.Ms, self.node_slot, self.bar_node, self.tet_node, gp_all, self.rb_slots
         )
@@ -413,3 +414,35 @@ class StructureLayout(StructureOutput):
                 for q in range(spec.gp_m.size):
                     nodes = [int(b["nodes"][a]) for a in spec.gp_node[q] if a >= 0]
                     self._mp.append((nodes, [float(w) for w in spec.gp_w[q][: len(nodes)]], float(spec.gp_m[q]), i))
+
+    #: the most bodies whose pair effects' blocks between bodies join the Jacobian
+    MAX_CROSS_BODIES = 64
+
+    def _layout_cross(self) -> None:
+        """Where the blocks of the pair effects between compact bodies (point masses, rigid
+        bodies; up to :attr:`MAX_CROSS_BODIES` bodies) go: each mass point's slot coefficients
+        (``mp_coef``), each body's slots (``body_slots``), whether a point is on a compact body
+        (``mp_cross``), and pattern rows (two nodes each) that couple every two such bodies'
+        slots. Elastic bodies' blocks stay out: the iteration converges on them."""
+        nb = len(self.bodies)
+        compact = np.array([b["kind"] in ("point", "rigid") for b in self.bodies], bool)
+        pairs = self.effects is not None and bool(self.effects.effects.pair_effects())
+        use = pairs and 1 < nb <= self.MAX_CROSS_BODIES and int(compact.sum()) > 1
+        nm = self.mp_m.size
+        self.mp_cross = np.zeros(nm)
+        self.mp_coef = np.zeros((4, nm))
+        self.body_slots = -np.ones((nb, 4), dtype=np.int64)
+        self.cross_acc = np.zeros((nb if use else 0, nb, 4, 4, 3, 3))
+        rows, first = [], {}
+        if use:
+            for q in range(nm):
+                b = int(self.mp_body[q])
+                if compact[b]:
+                    n = int(self.mp_node[q, 0])
+                    self.mp_cross[q] = 1.0
+                    self.mp_coef[:, q] = self.node_coef[n]
+                    self.body_slots[b] = self.node_slot[n]
+                    first.setdefault(b, n)
+            bodies = sorted(first)
+            rows = [[first[a], first[c], -1, -1] for i, a in enumerate(bodies) for c in bodies[i + 1 :]]
+        self._cross_rows = np.array(rows, dtype=np.int64).reshape(-1, 4)

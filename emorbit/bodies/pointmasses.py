@@ -515,6 +515,8 @@ class PointMasses(WorkSums, BodySystem):
     METHODS = ("em", "midpoint", "leapfrog")
     #: the state of fixed steps: what their checkpoints store
     BASE_FIELDS = ("x", "v", "cx", "cv")
+    #: units of the state arrays beyond emorbit.io.reader.STATE_UNITS
+    STATE_UNITS = {"wp": "m", "hp": "s", "work": "J", "cwork": "J"}
 
     @property
     def STATE_FIELDS(self) -> tuple:  # noqa: N802 (the name every body system uses)

@@ -188,7 +188,7 @@ def build(table: dict, field, key: str, bodies=None, strict: bool = False, folde
                 f"{key}.{name}", f"unknown key of a {kind!r} effect; its keys: {', '.join(sorted(allowed))}"
             )
     if cls.NEEDS_FIELD and field is None:
-        raise InputError(key, f"{kind} belongs to a central body: the scene needs a [field]")
+        raise InputError(key, f"{kind} needs a central body: the scene needs a [field]")
     effect = cls.from_table(table, BuildContext(field, key, bodies, strict))
     effect.key = key
     return effect

@@ -20,7 +20,7 @@ everything about the effect; nothing else in emorbit names it:
 An instance is one effect of one simulation: its parameters in SI, packed as float64 arrays
 in the order its pieces read them (``p``, the flat tables ``tab``, and the scratch size),
 built from its scene table by :meth:`Effect.from_table`. The body kinds' step kernels take a
-set of effects compiled into five functions (:mod:`emorbit.effects.program`), so an effect
+set of effects compiled into six functions (:mod:`emorbit.effects.program`), so an effect
 reaches point masses, rigid bodies' mass points and facets and elastic bodies' gravity points
 and surfaces, with every method and with adaptive steps, from this one declaration.
 """
@@ -70,6 +70,8 @@ class Pieces:
         The pair forces between points of different bodies (mutual gravity).
     pair_potential : str
         Each point's half of its pairs' potential energy.
+    pair_block : str
+        The block between two points of a pair (a structure's Newton matrix joins bodies).
     """
 
     module: str
@@ -80,6 +82,7 @@ class Pieces:
     facet: str = ""
     pairs: str = ""
     pair_potential: str = ""
+    pair_block: str = ""
 
 
 @dataclass(frozen=True)
@@ -159,6 +162,9 @@ class Effect:
     CONSERVES: ClassVar[tuple[str, ...]] = ("energy",)
     #: whether a scene may name it more than once (each then adds its force)
     MULTIPLE: ClassVar[bool] = False
+    #: the key that tells two of them apart where a scene may name it more than once
+    #: (:meth:`same_as`), named in the error for a second one that is the same
+    SAME_KEY: ClassVar[str] = ""
     #: whether it belongs to a central field (a scene in free space may not name it)
     NEEDS_FIELD: ClassVar[bool] = False
     #: whether its force is a function of position (and time) alone: leapfrog may kick with it
@@ -293,6 +299,41 @@ class Effect:
             if body_kind in bk.kinds:
                 return float(values.get(bk.name, 0.0))
         return 1.0
+
+    def potential_energy(self, x, masses, t=None) -> np.ndarray:
+        """This effect's potential energy of points at recorded states, through its own pieces
+        (the compiled set of this effect alone).
+
+        Parameters
+        ----------
+        x : array_like
+            (rows, 3, n) positions, m.
+        masses : array_like
+            (n,) kg.
+        t : array_like, optional
+            (rows,) the records' times, s from the epoch (an effect that follows a path:
+            :meth:`prepare` must have covered them).
+
+        Returns
+        -------
+        ndarray
+            (rows,) J (zeros for an effect without a potential).
+        """
+        from ..kernels.effects.records import record_potentials
+        from ..kernels.effects.signatures import SLICES
+        from .program import compile_set
+
+        x = np.ascontiguousarray(x, dtype=float)
+        rows, n = x.shape[0], x.shape[2]
+        prog = compile_set([type(self)])
+        I = np.array([[0, self.p.size, 0, self.tab.size, 0, self.scratch_size(n)]], np.int64).reshape(1, SLICES)
+        out = np.zeros((rows, 1))
+        record_potentials(
+            prog.prepare, prog.potential, x, np.zeros(rows) if t is None else np.ascontiguousarray(t, float),
+            np.ascontiguousarray(masses, float), np.arange(n, dtype=np.int64), np.ones((1, n)), self.p, I,
+            self.tab if self.tab.size else np.zeros(1), np.zeros(max(self.scratch_size(n), 1)), out,
+        )  # fmt: skip
+        return out[:, 0]
 
     def reaches(self, name: str) -> bool:
         """Whether it acts on the body ``name`` (its ``bodies`` list, or every body)."""

@@ -75,7 +75,8 @@ class EffectSet:
             raise InputError(key, f"a scene names {effect.kind!r} once; this simulation has it already ({same[0].key})")
         for other in same:
             if effect.same_as(other):
-                raise InputError(key, f"this simulation has the same {effect.kind!r} already ({other.key})")
+                where = f"{key}.{type(effect).SAME_KEY}" if type(effect).SAME_KEY else key
+                raise InputError(where, f"this simulation has the same {effect.kind!r} already ({other.key})")
         if same:
             effect.label = f"{effect.kind}_{len(same) + 1}"
         self._named.append(effect)
@@ -104,6 +105,9 @@ class EffectSet:
 
     def __len__(self) -> int:
         return len(self.all)
+
+    def __getitem__(self, i) -> Effect:
+        return self.all[i]
 
     def kinds(self) -> tuple[str, ...]:
         """The kinds of :attr:`all`."""

@@ -68,7 +68,12 @@ class Mutual(Effect):
     )  # fmt: skip
     ACTS = {"point": AT_POINTS, "rigid": AT_POINTS, "elastic": AT_POINTS}
     CONSERVES = ("energy", "momentum", "angular momentum")
-    PIECES = Pieces("emorbit.kernels.effects.mutual", pairs="mutual_pairs", pair_potential="mutual_pair_potential")
+    PIECES = Pieces(
+        "emorbit.kernels.effects.mutual",
+        pairs="mutual_pairs",
+        pair_potential="mutual_pair_potential",
+        pair_block="mutual_pair_block",
+    )
     POTENTIAL = "V = -sum_{i<j} G m_i m_j / |x_i - x_j|"
     DISCRETE_FORCE = "F_ij = -G m_i m_j (d0 + d1) / (r0 r1 (r0 + r1)), d = x_i - x_j (Greenspan; g_em of each pair)"
     JACOBIAN = (

@@ -1,15 +1,16 @@
-"""An effect set compiled into the five functions every body kind's step kernel takes.
+"""An effect set compiled into the six functions every body kind's step kernel takes.
 
 :func:`compile_set` writes, for an ordered set of effect classes, a small Python module that
-imports each effect's pieces (:class:`~emorbit.effects.base.Pieces`) and defines the five
+imports each effect's pieces (:class:`~emorbit.effects.base.Pieces`) and defines the six
 functions of :mod:`emorbit.kernels.effects.signatures` as Numba ``cfunc`` s of those types:
 ``forces`` (each point's summed force over the step per unit mass, its diagonal Jacobian
 blocks, the pair coupling), ``prepare`` (each effect's per-sub-step values), ``work`` (each
 working effect's work on each point), ``potential`` (each effect's potential energy at each
-point) and ``facets`` (the surface effects' force on each facet and its work). The step
+point), ``facets`` (the surface effects' force on each facet and its work) and ``cross``
+(the pair effects' blocks between bodies, for a structure's Newton matrix). The step
 kernels of point masses, rigid bodies and elastic structures take these as first-class
 function arguments, so they compile once per install; a new effect set compiles only these
-five small functions, whatever body kinds it reaches.
+six small functions, whatever body kinds it reaches.
 
 The module goes into the per-user kernel cache (:func:`emorbit.kernels.jit.cache_dir`,
 folder ``effects``), named by the set's kinds and a digest of its source, of every kernel
@@ -41,11 +42,11 @@ __all__ = ["Program", "compile_set", "set_source"]
 
 @dataclass(frozen=True)
 class Program:
-    """The five compiled functions of an effect set and what they were made from.
+    """The six compiled functions of an effect set and what they were made from.
 
     Attributes
     ----------
-    forces, prepare, work, potential, facets
+    forces, prepare, work, potential, facets, cross
         The compiled functions (Numba cfuncs of :mod:`emorbit.kernels.effects.signatures`).
     kinds : tuple of str
         The effect kinds, in the set's order (a kind named twice appears twice).
@@ -60,6 +61,7 @@ class Program:
     work: object
     potential: object
     facets: object
+    cross: object
     kinds: tuple
     working: tuple
     compiled: bool
@@ -77,7 +79,8 @@ import numba
 import numpy as np
 
 from emorbit.kernels.codes import STATUS_OK, STATUS_SINGULAR
-from emorbit.kernels.effects.signatures import FACETS, FORCES, MODE_MIDPOINT, POTENTIAL, PREPARE, WORK
+from emorbit.kernels.effects.signatures import CROSS, FACETS, FORCES, MODE_MIDPOINT, MODE_WEIGHTED
+from emorbit.kernels.effects.signatures import POTENTIAL, PREPARE, WORK
 {imports}
 
 _OPTIONS = {options}
@@ -97,7 +100,7 @@ def _import_line(index: int, pieces) -> tuple[str, list[str]]:
     """The import of one effect's pieces (as ``<piece>_<index>``), and the names imported."""
     names = [
         (attr, getattr(pieces, attr))
-        for attr in ("force", "potential", "prepare", "time_work", "facet", "pairs", "pair_potential")
+        for attr in ("force", "potential", "prepare", "time_work", "facet", "pairs", "pair_potential", "pair_block")
         if getattr(pieces, attr)
     ]
     aliases = ", ".join(f"{name} as {attr}_{index}" for attr, name in names)
@@ -153,7 +156,7 @@ def set_source(effects) -> tuple[str, tuple[int, ...]]:
 
     # forces: pairs first, then every point's own effects in order
     pairs = "\n".join(
-        f"pairs_{e}(x0, x1, m, body, coef[{e}], h, p{e}, s{e}, F, W, R, jac, first)"
+        f"pairs_{e}(x0, x1, m, body, coef[{e}], h, p{e}, s{e}, F, W, R, jac, first, weighted)"
         for e in range(len(effects))
         if "pairs" in has[e]
     )
@@ -172,6 +175,8 @@ def set_source(effects) -> tuple[str, tuple[int, ...]]:
 @numba.cfunc(FORCES, **_OPTIONS)
 def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
     n = m.shape[0]
+    weighted = (mode & MODE_WEIGHTED) != 0
+    mode = mode & (MODE_WEIGHTED - 1)
 {_indent(views, 4)}
     for i in range(n):
         for c in range(3):
@@ -205,21 +210,27 @@ def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
             w0 = b0
             w1 = b1
             w2 = b2
-        fx = F[0, i]
-        fy = F[1, i]
-        fz = F[2, i]
+        # weighted, the own effects' sum times the mass joins the pair forces (N)
+        fx = 0.0 if weighted else F[0, i]
+        fy = 0.0 if weighted else F[1, i]
+        fz = 0.0 if weighted else F[2, i]
         if jac:
             for a in range(3):
                 for b in range(3):
-                    J[a, b] = W[3 * a + b, i]
+                    J[a, b] = 0.0 if weighted else W[3 * a + b, i]
 {_indent(chr(10).join(own), 8) if own else "        pass"}
+        if weighted:
+            mi = m[i]
+            fx = F[0, i] + mi * fx
+            fy = F[1, i] + mi * fy
+            fz = F[2, i] + mi * fz
         F[0, i] = fx
         F[1, i] = fy
         F[2, i] = fz
         if jac:
             for a in range(3):
                 for b in range(3):
-                    W[3 * a + b, i] = J[a, b]
+                    W[3 * a + b, i] = W[3 * a + b, i] + m[i] * J[a, b] if weighted else J[a, b]
         if not (abs(fx) + abs(fy) + abs(fz) < math.inf):
             bad = True
     return STATUS_SINGULAR if bad else STATUS_OK
@@ -350,6 +361,43 @@ def facets(a, b, nrm, area, kf, h, P, I, T, S, F, out, want_work):
             bad = True
     return STATUS_SINGULAR if bad else STATUS_OK
 """
+    blocks = []
+    for e in range(len(effects)):
+        if "pair_block" not in has[e]:
+            continue
+        blocks.append(f"""
+for a in range(n):
+    if coef[{e}, a] == 0.0 or on[a] == 0.0:
+        continue
+    for b in range(a + 1, n):
+        if coef[{e}, b] == 0.0 or on[b] == 0.0 or body[b] == body[a]:
+            continue
+        pair_block_{e}(
+            x0[0, a] - x0[0, b], x0[1, a] - x0[1, b], x0[2, a] - x0[2, b], x1[0, a] - x1[0, b],
+            x1[1, a] - x1[1, b], x1[2, a] - x1[2, b], m[a], m[b], p{e}, J,
+        )
+        A = body[a]
+        B = body[b]
+        for i in range(4):
+            ca = sc[i, a]
+            if ca == 0.0:
+                continue
+            for j in range(4):
+                cab = ca * sc[j, b]
+                if cab == 0.0:
+                    continue
+                for d in range(3):
+                    for f in range(3):
+                        acc[A, B, i, j, d, f] += cab * J[d, f]""")
+    cross = f"""
+@numba.cfunc(CROSS, **_OPTIONS)
+def cross(x0, x1, m, body, coef, on, sc, acc, P, I, T, S):
+    n = m.shape[0]
+{_indent(views, 4)}
+    acc[...] = 0.0
+    J = np.empty((3, 3))
+{_indent(chr(10).join(blocks), 4) if blocks else "    pass"}
+"""
     options = {"cache": cache_enabled(), "error_model": "numpy", "fastmath": False}
     header = _HEADER.format(
         names=", ".join(cls.NAME for cls in effects) or "none",
@@ -357,7 +405,7 @@ def facets(a, b, nrm, area, kf, h, P, I, T, S, F, out, want_work):
         imports="\n".join(imports),
         options=repr(options),
     )
-    return header + forces + prepare + work + potential + facets, tuple(working)
+    return header + forces + prepare + work + potential + facets + cross, tuple(working)
 
 
 def _digest(source: str, effects) -> str:
@@ -427,7 +475,15 @@ def compile_set(effects, announce=None) -> Program:
     sys.modules[name] = module
     spec.loader.exec_module(module)
     program = Program(
-        module.forces, module.prepare, module.work, module.potential, module.facets, kinds, working, fresh
+        module.forces,
+        module.prepare,
+        module.work,
+        module.potential,
+        module.facets,
+        module.cross,
+        kinds,
+        working,
+        fresh,
     )
     _LOADED[key] = program
     return program

@@ -93,6 +93,7 @@ class ThirdBody(Effect):
     ACTS = {"point": AT_POINTS, "rigid": AT_POINTS, "elastic": AT_POINTS}
     CONSERVES: tuple[str, ...] = ()
     MULTIPLE = True
+    SAME_KEY = "body"
     NEEDS_FIELD = True
     PIECES = Pieces(
         "emorbit.kernels.effects.third_body",

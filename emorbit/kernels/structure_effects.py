@@ -22,9 +22,11 @@ import math
 
 import numpy as np
 
+from .effects.signatures import MODE_WEIGHTED
+from .elastic import csc_find
 from .jit import kernel
 
-__all__ = ["point_effects", "point_effects_work", "triangle_effects", "prepare_set"]
+__all__ = ["point_effects", "point_effects_work", "triangle_effects", "prepare_set", "cross_blocks"]
 
 
 @kernel
@@ -42,21 +44,21 @@ def _absolute(x0, x1, ref):
 
 @kernel
 def point_effects(forces, mode, x0, x1, ref, m, body, coef, h, P, I, T, S, R, f, k, want_K, first):
-    """The set's forces at the points (f = m F, N) and, where ``want_K``, their own blocks
-    (k = m dF/dx1, N/m); R (q,) the pair coupling bounds, kept between calls. Returns the set's
-    status."""
+    """The set's forces at the points (f, N; weighted, so that a pair's two forces are bitwise
+    opposite) and, where ``want_K``, their own blocks (k, N/m); R (q,) the pair coupling
+    bounds, kept between calls. Returns the set's status."""
     q = x0.shape[0]
     a, b = _absolute(x0, x1, ref)
     F = np.empty((3, q))
     W = np.empty((9, q))
-    status = forces(a, b, m, body, coef, h, mode, P, I, T, S, F, W, R, want_K, first)
+    status = forces(a, b, m, body, coef, h, mode | MODE_WEIGHTED, P, I, T, S, F, W, R, want_K, first)
     for i in range(q):
         for d in range(3):
-            f[i, d] = m[i] * F[d, i]
+            f[i, d] = F[d, i]
         if want_K:
             for d in range(3):
                 for e in range(3):
-                    k[i, d, e] = m[i] * W[3 * d + e, i]
+                    k[i, d, e] = W[3 * d + e, i]
     return status
 
 
@@ -131,3 +133,29 @@ def triangle_effects(facets_fn, x0n, x1n, ref, tris, kf, h, P, I, T, S, fn, out,
 def prepare_set(prepare, ta, tm, tb, P, I, T, S):
     """The set's ``prepare`` for a sub-step from ``ta`` to ``tb`` (callable from Python)."""
     prepare(ta, tm, tb, P, I, T, S)
+
+
+@kernel
+def cross_blocks(cross, x0, x1, ref, m, body, coef, on, sc, acc, body_slots, hh, P, I, T, S, indptr, indices, data):
+    """The pair effects' blocks between compact bodies (``cross``, the set's compiled function,
+    into ``acc`` (nb, nb, 4, 4, 3, 3)), added as ``-hh K`` onto each pair of bodies' slots
+    (``body_slots`` (nb, 4), -1 ends a row) in the Jacobian's values ``data``."""
+    a, b = _absolute(x0, x1, ref)
+    cross(a, b, m, body, coef, on, sc, acc, P, I, T, S)
+    nb = acc.shape[0]
+    for A in range(nb):
+        for B in range(A + 1, nb):
+            for i in range(4):
+                si = body_slots[A, i]
+                if si < 0:
+                    break
+                for j in range(4):
+                    sj = body_slots[B, j]
+                    if sj < 0:
+                        break
+                    for d in range(3):
+                        for e in range(3):
+                            v = hh * acc[A, B, i, j, d, e]  # -hh K, K = -J summed
+                            if v != 0.0:
+                                data[csc_find(indptr, indices, 3 * si + d, 3 * sj + e)] += v
+                                data[csc_find(indptr, indices, 3 * sj + d, 3 * si + e)] += v

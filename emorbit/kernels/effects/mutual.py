@@ -27,7 +27,7 @@ import numpy as np
 from ..jit import kernel
 from .central import pair_block, pair_blocks, pair_pass, pair_unit
 
-__all__ = ["mutual_pairs", "mutual_pair_potential", "scratch_size"]
+__all__ = ["mutual_pairs", "mutual_pair_potential", "mutual_pair_block", "scratch_size"]
 
 #: a point's pair block joins its Newton matrix above this coupling, 6 h^2/2 rho
 STRONG = 1e-4
@@ -50,15 +50,16 @@ def _distinct(idx, body):
 
 
 @kernel
-def mutual_pairs(x0, x1, m, body, c, h, p, s, F, W, R, jac, first):
-    """Add the pair forces (per unit mass) into F, their diagonal blocks into W where ``jac``
-    (point masses: only the strongly coupled points'), and set the coupling bounds R."""
+def mutual_pairs(x0, x1, m, body, c, h, p, s, F, W, R, jac, first, weighted):
+    """Add the pair forces (per unit mass; ``weighted``: N) into F, their diagonal blocks into
+    W where ``jac`` (point masses: only the strongly coupled points'), and set the coupling
+    bounds R."""
     n = m.shape[0]
     idx = np.flatnonzero(c != 0.0)
     k = idx.shape[0]
     g = p[0]
-    if not _distinct(idx, body):
-        _bodies_pairs(x0, x1, m, body, idx, g, F, W, jac)
+    if weighted or not _distinct(idx, body):
+        _bodies_pairs(x0, x1, m, body, idx, g, F, W, jac, weighted)
         return
     hh = 0.5 * h * h
     w = s[0 : 17 * k].reshape((17, k))
@@ -97,8 +98,9 @@ def mutual_pairs(x0, x1, m, body, c, h, p, s, F, W, R, jac, first):
 
 
 @kernel
-def _bodies_pairs(x0, x1, m, body, idx, g, F, W, jac):
-    """Every pair of points of different bodies: forces per unit mass and diagonal blocks."""
+def _bodies_pairs(x0, x1, m, body, idx, g, F, W, jac, weighted):
+    """Every pair of points of different bodies: forces per unit mass (``weighted``: N, the
+    pair's two bitwise opposite) and diagonal blocks."""
     J = np.empty((3, 3))
     k = idx.shape[0]
     for qa in range(k):
@@ -111,8 +113,11 @@ def _bodies_pairs(x0, x1, m, body, idx, g, F, W, jac):
                 x0[0, a] - x0[0, b], x0[1, a] - x0[1, b], x0[2, a] - x0[2, b],
                 x1[0, a] - x1[0, b], x1[1, a] - x1[1, b], x1[2, a] - x1[2, b], J,
             )  # fmt: skip
-            ga = g * m[b]
-            gb = g * m[a]
+            if weighted:
+                ga = gb = g * m[a] * m[b]
+            else:
+                ga = g * m[b]
+                gb = g * m[a]
             F[0, a] += ga * sx
             F[1, a] += ga * sy
             F[2, a] += ga * sz
@@ -143,3 +148,14 @@ def mutual_pair_potential(x, m, body, c, p, out):
             e = 0.5 * g * m[a] * m[b] / math.sqrt(dx * dx + dy * dy + dz * dz)
             out[a] -= e
             out[b] -= e
+
+
+@kernel(inline="always")
+def mutual_pair_block(a0, a1, a2, b0, b1, b2, ma, mb, p, J):
+    """The block between two points a, b: ``J = G m_a m_b dS/d(x1_a - x1_b)``, which is
+    ``-d F_a / d x1_b`` (N/m), from their separation at the step's start (a) and end (b)."""
+    pair_unit(a0, a1, a2, b0, b1, b2, J)
+    gab = p[0] * ma * mb
+    for e in range(3):
+        for f in range(3):
+            J[e, f] *= gab

@@ -3,9 +3,9 @@ and the Numba types of the functions an effect set compiles into.
 
 An effect gives plain kernel functions of float64 scalars and arrays, its *pieces*
 (:mod:`emorbit.effects.base` declares them, :mod:`emorbit.effects.program` compiles a set of
-effects into the five functions below). The step kernels of every body kind (point masses,
+effects into the six functions below). The step kernels of every body kind (point masses,
 rigid bodies' mass points and facets, elastic bodies' gravity points and surfaces) take
-those five as arguments of the types defined here, so a step kernel is compiled once per
+those six as arguments of the types defined here, so a step kernel is compiled once per
 install, whatever effects a scene names, and an effect set compiles only its own small
 functions.
 
@@ -31,12 +31,19 @@ Pieces, per unit mass of a point (all optional but ``force``)::
         a -> b over the step, with unit normal n at the step's middle and the facet
         coefficients k (drag coefficient Cd, specular and diffuse reflectivity, two-sided
         flag).
-    pairs(x0, x1, m, body, c, p, s, F, W, R, jac, first)
+    pairs(x0, x1, m, body, c, h, p, s, F, W, R, jac, first, weighted)
         an effect between pairs of points (mutual gravity): adds its forces per unit mass
-        into F (3, n), the diagonal blocks of their Jacobian into W (9, n) where ``jac``, and
-        each point's coupling bound ``sum_j |dF_i / dx1_j|`` (1/s^2) into R (n,), between
-        points of different ``body`` where ``c`` is not 0; ``first`` is the first
-        evaluation of a sub-step (the piece may keep what it formed in s).
+        (``weighted``: the forces, N) into F (3, n), the diagonal blocks of their Jacobian
+        into W (9, n) where ``jac``, and each point's coupling bound ``sum_j |dF_i / dx1_j|``
+        (1/s^2) into R (n,), between points of different ``body`` where ``c`` is not 0;
+        ``first`` is the first evaluation of a sub-step (the piece may keep what it formed in
+        s). Weighted, the two forces of a pair are bitwise opposite, so that a system that
+        steps masses (a structure) keeps momentum and angular momentum to round-off.
+
+    pair_block(a0, a1, a2, b0, b1, b2, ma, mb, p, J)
+        a pair effect's block between two points: ``J = -d F_a / d x1_b`` (N/m; F_a the force
+        on point a, N) from their separation ``x_a - x_b`` at the step's start (a) and end (b)
+        and their masses.
 
 p is the effect's parameter vector, tab its tables (flat; the piece reshapes them from sizes
 in p), s its scratch (what ``prepare`` fills, and a pair effect's working rows).
@@ -54,21 +61,27 @@ Data layout of an effect set, k effects (the order in which their forces are sum
 
 The compiled functions, with ``mode`` :data:`MODE_STEP` (the em step's discrete forces),
 :data:`MODE_MIDPOINT` (conservative effects at the midpoint (x0 + x1) / 2, others over the
-step) or :data:`MODE_EXPLICIT` (x0 = x1 = x: the force at a point, leapfrog's kicks)::
+step) or :data:`MODE_EXPLICIT` (x0 = x1 = x: the force at a point, leapfrog's kicks), plus
+:data:`MODE_WEIGHTED` for forces rather than forces per unit mass::
 
     forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first) -> status
         F (3, n) per unit mass, W (9, n) its diagonal Jacobian blocks ``W[3 a + b, i] =
-        dF_a,i / dx1_b,i`` where ``jac``, R (n,) the pair coupling bounds; status
-        :data:`~emorbit.kernels.codes.STATUS_SINGULAR` where a force is not finite.
+        dF_a,i / dx1_b,i`` where ``jac``, R (n,) the pair coupling bounds; weighted, F and W
+        are the pair effects' own plus the point's mass times the others' sum (N, N/m);
+        status :data:`~emorbit.kernels.codes.STATUS_SINGULAR` where a force is not finite.
     prepare(ta, tm, tb, P, I, T, S)
-    work(x0, x1, m, body, coef, h, mode, P, I, T, S, out)
-        out (w, n): each working effect's work on each point over the step (J): ``m F . (x1
-        - x0)`` for a force that does work, the ``time_work`` of a potential that changes in
-        time; w is the number of working effects, in the set's order.
+    work(x0, dx, m, body, coef, h, mode, P, I, T, S, out)
+        out (w, n): each working effect's work on each point over the step from x0 to
+        x0 + dx (J): ``m F . dx`` for a force that does work, the ``time_work`` of a potential
+        that changes in time; w is the number of working effects, in the set's order.
     potential(x, m, body, coef, P, I, T, S, out)
         out (k, n): each effect's potential energy at each point (J; 0 for effects without
         one; a pair effect puts half of each pair's energy on each point), after ``prepare``
         at the time of x.
+    cross(x0, x1, m, body, coef, on, sc, acc, P, I, T, S)
+        the pair effects' blocks between bodies, summed onto each pair of bodies' slots: for
+        points a, b of bodies A < B (``on`` not 0 for both), with slot coefficients ``sc``
+        (4, n), ``acc[A, B, i, j] += sc[i, a] sc[j, b] J_ab`` (acc (nb, nb, 4, 4, 3, 3)).
     facets(a, b, nrm, area, kf, h, P, I, T, S, F, out, want_work) -> status
         a, b, nrm (3, nf): facet centres at the step's start and end, unit normals at its
         middle; area (nf,); kf (4, nf) the facet coefficients; F (3, nf) the surface
@@ -87,9 +100,11 @@ __all__ = [
     "WORK",
     "POTENTIAL",
     "FACETS",
+    "CROSS",
     "MODE_STEP",
     "MODE_MIDPOINT",
     "MODE_EXPLICIT",
+    "MODE_WEIGHTED",
     "SLICES",
 ]
 
@@ -99,6 +114,8 @@ MODE_STEP = 0
 MODE_MIDPOINT = 1
 #: the force at a point (x0 = x1): the explicit kicks of leapfrog
 MODE_EXPLICIT = 2
+#: a flag added to a mode: forces (N) rather than forces per unit mass
+MODE_WEIGHTED = 4
 #: the columns of ``I``: parameter, table and scratch slices (start, end)
 SLICES = 6
 
@@ -112,9 +129,11 @@ _F, _I, _B = types.float64, types.int64, types.boolean
 FORCES = _I(_F2, _F2, _F1, _I1, _F2, _F, _I, _F1, _I2, _F1, _F1, _F2, _F2, _F1, _B, _B)
 #: prepare(ta, tm, tb, P, I, T, S)
 PREPARE = types.void(_F, _F, _F, _F1, _I2, _F1, _F1)
-#: work(x0, x1, m, body, coef, h, mode, P, I, T, S, out)
+#: work(x0, dx, m, body, coef, h, mode, P, I, T, S, out)
 WORK = types.void(_F2, _F2, _F1, _I1, _F2, _F, _I, _F1, _I2, _F1, _F1, _F2)
 #: potential(x, m, body, coef, P, I, T, S, out)
 POTENTIAL = types.void(_F2, _F1, _I1, _F2, _F1, _I2, _F1, _F1, _F2)
+#: cross(x0, x1, m, body, coef, on, sc, acc, P, I, T, S)
+CROSS = types.void(_F2, _F2, _F1, _I1, _F2, _F1, _F2, types.Array(types.float64, 6, "C"), _F1, _I2, _F1, _F1)
 #: facets(a, b, nrm, area, kf, h, P, I, T, S, F, out, want_work) -> status
 FACETS = _I(_F2, _F2, _F2, _F1, _F2, _F, _F1, _I2, _F1, _F1, _F2, _F2, _B)
