@@ -3,8 +3,10 @@
     python scripts/docs_effects.py            # rewrite docs/effects.md
     python scripts/docs_effects.py --check    # exit 1 if the page differs from what it would write
 
-Every effect module declares its summary, keys, potential, discrete force, Jacobian, what it
-conserves and the body kinds it acts on; this page is those declarations, so it cannot drift
+Every effect is one :class:`emorbit.effects.base.Effect` subclass that declares its summary,
+keys, the keys it attaches to bodies, potential, discrete force, Jacobian, what it conserves,
+the body kinds it acts on and how, and whether leapfrog may kick with it; this page is those
+declarations (and the second paragraph of each effect module's docstring), so it cannot drift
 from the code. tests/test_docs.py checks that the committed page equals what this writes.
 """
 
@@ -17,6 +19,7 @@ import re
 import sys
 
 from emorbit.effects import EFFECTS
+from emorbit.effects.base import AT_POINTS, BODY_KINDS, ON_SURFACES
 
 PAGE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs", "effects.md")
 
@@ -32,12 +35,16 @@ round-off), and each keeps what it lists under *conserves*. Each effect's potent
 recorded as `invariants/potential_<kind>` (J) beside the total in `invariants/energy`, and the
 root attribute `effects` names them ([HDF5 layout](hdf5.md)). Drag and radiation pressure have
 no potential: the step sums their discrete work `F . (x1 - x0)` on every point (on every facet
-of a rigid body), the run records it as `invariants/work_<label>` (J, since the run's start).
+of a rigid body, every surface triangle of an elastic one), the run records it as
+`invariants/work_<label>` (J, since the run's start).
 A third body's potential changes in time: the step sums the work of that change
 (`invariants/work_third_body`) beside its potential. Either way `invariants/energy_balance`
 = E - E0 - W stays at round-off, and the drift monitor checks it where the energy itself is
 not conserved. The Sun and the Moon are where the ephemeris puts them at the run's epoch
-(`[integrator] epoch = "2026-01-01T00:00:00 TDB"`) plus the clock.
+(`[integrator] epoch = "2026-01-01T00:00:00 TDB"`) plus the clock. Every effect acts with
+the methods em and midpoint, and with leapfrog where its force is a function of position and
+time alone (*methods* below); point masses, rigid and elastic bodies feel each effect as its
+*acts on* row says, at fixed and at adaptive steps.
 
 ```toml
 [field]
@@ -52,14 +59,14 @@ degree = 2                 # use J2..J<degree> of the model
 kind = "mutual"            # gravity between all bodies of the scene (or: bodies = ["a", "b"])
 
 [[effect]]
-kind = "drag"              # on point masses with a ballistic_coefficient (Cd A / m), rigid bodies' facets
+kind = "drag"              # on point masses with a ballistic_coefficient (Cd A / m), bodies' surfaces
 atmosphere = "exponential" # or "ussa1976", "vallado"
 density = "3.7e-12 kg/m3"
 reference_altitude = "400 km"
 scale_height = "58 km"
 
 [[effect]]
-kind = "srp"               # on point masses with a radiation_coefficient (Cr A / m), rigid bodies' facets
+kind = "srp"               # on point masses with a radiation_coefficient (Cr A / m), bodies' surfaces
 shadow = "conical"         # or "cylindrical", "none"
 
 [[effect]]
@@ -92,29 +99,71 @@ def _markdown(text: str) -> str:
     return text.replace("``", "`")
 
 
+#: how the pages name the body kinds, and where an effect acts on each (AT_POINTS, ON_SURFACES)
+KINDS = {
+    "point": ("point masses", {AT_POINTS: "", ON_SURFACES: ""}),
+    "rigid": ("rigid bodies", {AT_POINTS: "at their mass points", ON_SURFACES: "on their facets"}),
+    "elastic": ("elastic bodies", {AT_POINTS: "at their gravity points", ON_SURFACES: "on their surface triangles"}),
+}
+
+
+def _acts(cls) -> str:
+    """Where an effect acts, from its ``ACTS``: "point masses; rigid bodies on their facets; ..."."""
+    parts = []
+    for kind in BODY_KINDS:
+        how = cls.acts_on(kind)
+        if how:
+            name, where = KINDS[kind]
+            parts.append(f"{name} {where[how]}".strip())
+    return "; ".join(parts) or "no body"
+
+
+def _methods(cls) -> str:
+    """The methods a step with the effect may use, from ``EXPLICIT``."""
+    if cls.EXPLICIT:
+        return "em, midpoint, leapfrog"
+    return "em, midpoint (its force depends on the velocity: leapfrog's kicks cannot take it)"
+
+
 def markdown() -> str:
     """The page."""
     out = [HEAD]
-    for name, m in EFFECTS.items():
-        out += [f"## `{name}`", "", m.SUMMARY[0].upper() + m.SUMMARY[1:] + ".", ""]
+    for name, cls in EFFECTS.items():
+        out += [f"## `{name}`", "", cls.SUMMARY[0].upper() + cls.SUMMARY[1:] + ".", ""]
+        conserves = ", ".join(cls.CONSERVES) or "nothing exactly: it does work, recorded as invariants/work_<label>"
         out += [
             "| | |",
             "|---|---|",
-            f"| potential | `{_pipes(m.POTENTIAL)}` |",
-            f"| force over a step | `{_pipes(m.DISCRETE_FORCE)}` |",
-            f"| Jacobian | `{_pipes(m.JACOBIAN)}` |",
-            f"| conserves | {', '.join(m.CONSERVES) or 'nothing: it does work, recorded as invariants/work_<label>'} |",
-            f"| acts on | {', '.join(m.BODY_KINDS)} bodies |",
+            f"| potential | `{_pipes(cls.POTENTIAL)}` |",
+            f"| force over a step | `{_pipes(cls.DISCRETE_FORCE)}` |",
+            f"| Jacobian | `{_pipes(cls.JACOBIAN)}` |",
+            f"| conserves | {conserves} |",
+            f"| acts on | {_acts(cls)} |",
+            f"| methods | {_methods(cls)} |",
+            f"| in a scene | {'any number of times' if cls.MULTIPLE else 'once'} |",
             "",
         ]
-        if m.KEYS:
+        if cls.KEYS:
             out += ["| key | required | value | default | allowed | meaning |", "|---|---|---|---|---|---|"]
-            for k in m.KEYS:
+            for k in cls.KEYS:
                 cells = [f"`{k.name}`", "yes" if k.required else "no"]
                 cells += [_cell(c) for c in (k.unit, k.default, k.allowed, k.meaning)]
                 out.append("| " + " | ".join(cells) + " |")
             out.append("")
-        doc = (sys.modules[m.__name__].__doc__ or "").strip().split("\n\n")
+        if cls.BODY_KEYS:
+            out += [
+                "Keys it attaches to the bodies it acts on:",
+                "",
+                "| body key | bodies | required | value | allowed | meaning |",
+                "|---|---|---|---|---|---|",
+            ]
+            for bk in cls.BODY_KEYS:
+                cells = [f"`{bk.name}`", ", ".join(KINDS[k][0] for k in bk.kinds)]
+                cells += ["yes, under this effect" if bk.required else "no"]
+                cells += [_cell(c) for c in (bk.key.unit, bk.key.allowed, bk.key.meaning)]
+                out.append("| " + " | ".join(cells) + " |")
+            out.append("")
+        doc = (sys.modules[cls.__module__].__doc__ or "").strip().split("\n\n")
         out += [_markdown("\n".join(line.strip() for line in part.splitlines())) for part in doc[1:2]]
         out.append("")
     return "\n".join(out).rstrip() + "\n"

@@ -30,8 +30,11 @@ def test_central_and_j2_rows(data):
         "central + J2 one point",
         "central, bare kernel",
     }
-    # a central-only scene keeps the packed kernels; J2 runs the effect step
-    assert (z["central_system"], z["j2_system"]) == ("PointMasses", "EffectPoints")
+    # a central-only scene keeps the packed central-field kernels; under J2 the same point
+    # masses run the packed central + zonal kernel the zonal effect declares for that set
+    assert (z["central_system"], z["j2_system"]) == ("PointMasses", "PointMasses")
+    assert not z["central_under_effects"] and z["j2_under_effects"]
+    assert z["j2_kernel"] == "emorbit.kernels.effects.zonal_packed.chunk"
     assert data["central_path"]["reference"] == "ensemble.scene_over_bare"
     for name, row in z["rows"].items():
         assert row["steps"] > 0 and row["ns_per_particle_step"] > 0, name

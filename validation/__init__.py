@@ -19,7 +19,8 @@ units and reasons), :mod:`.runner` (one case: runs, checks, convergence study),
 (Markdown and JSON), :mod:`.suite` (the whole suite), :mod:`.cli` (``emorbit validate``).
 The cases of the effects (zonal harmonics, mutual gravity): :mod:`.effect_cases`,
 :mod:`.effect_runs`, :mod:`.effect_runner`, :mod:`.effect_checks`, :mod:`.secular`,
-:mod:`.effect_figures`. The rigid-rigid binary against scipy's DOP853: :mod:`.rigid_binary_case`,
+:mod:`.effect_figures`; :mod:`.effect_eval` evaluates emorbit's effects at given states through
+a simulation's compiled effect set. The rigid-rigid binary against scipy's DOP853: :mod:`.rigid_binary_case`,
 :mod:`.rigid_binary`, :mod:`.rigid_binary_figures`. Drag, radiation pressure with the Earth's
 shadow, and the Moon and the Sun against IAS15 carrying the same force model:
 :mod:`.perturbation_cases`, :mod:`.perturbation_model`, :mod:`.perturbation_runs`,

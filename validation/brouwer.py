@@ -29,6 +29,7 @@ from emorbit.analysis import relative_energy_change_exact
 
 from .cases import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 from .checks import RANDOM_WALK_SLOPE, Check
+from .effect_eval import point_potentials
 from .runner import CaseOutcome
 
 __all__ = ["run_brouwer", "run_brouwer_j2", "run_study", "STUDIES", "SIZES", "SIZES_J2", "DIVS_J2", "J2_ORBIT"]
@@ -113,14 +114,12 @@ def _relative_zonal(sim, x, v):
     (:func:`emorbit.analysis.relative_energy_change_exact`): in float64 the rounding of E0,
     the same in every copy, would offset the ensemble mean by about one eps, and the rounding
     of each evaluation would add a floor of about one eps that the walk at T/1000 reaches only
-    after millions of steps. The zonal potential (``Zonal.potential``), about 1e-3 of the
-    energy, is evaluated in float64. The field's centre is the origin.
+    after millions of steps. The zonal potential, about 1e-3 of the
+    energy, is evaluated in float64 by the simulation's compiled effect set
+    (:func:`.effect_eval.point_potentials`). The field's centre is the origin.
     """
     gm = sim.field.gm
-    zonal = next(t for t in sim.effects if t.kind == "zonal")  # an emorbit.effects.zonal.Zonal
-    ones = np.ones(1)
-    # the term sums over the points it is given: one point at a time, x as (records, 3, 1)
-    vz = np.stack([zonal.potential(xj[:, :, None], ones, ones > 0) for xj in x])  # (members, records + 1)
+    vz = point_potentials(sim, x)["zonal"]  # (members, records + 1), J/kg
     ek0 = 0.5 * np.sum(v[:, 0] ** 2, axis=-1) - gm / np.linalg.norm(x[:, 0], axis=-1)
     rk = np.stack(
         [relative_energy_change_exact(x[:, 0].T, v[:, 0].T, x[:, k].T, v[:, k].T, gm) for k in range(x.shape[1])],

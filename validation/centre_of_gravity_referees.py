@@ -96,9 +96,11 @@ DIGITS = 40
 def kernel_resultant(X, m, gm: float, position, R) -> tuple[np.ndarray, np.ndarray]:
     """The resultant force and the torque about the centre of mass from emorbit's kernel.
 
-    :func:`emorbit.kernels.rigid.rigid_forces` (em, gravity summed over the mass points) at
-    q0 = q1 = (x_c, d1, d2, d3), the field's centre at the origin: its generalised force is
-    (F, F_1, F_2, F_3) with F_k = sum_i m_i X_i^k g_i, and tau = sum_k d_k x F_k.
+    :func:`emorbit.kernels.rigid.rigid_forces` (em's discrete forces, gravity summed over the
+    mass points) at q0 = q1 = (x_c, d1, d2, d3), with the compiled effect set of a central
+    field of GM at the origin (:meth:`emorbit.effects.effectset.EffectSet.program`, the set
+    every rigid body's step takes): its generalised force is (F, F_1, F_2, F_3) with
+    F_k = sum_i m_i X_i^k g_i, and tau = sum_k d_k x F_k.
 
     Parameters
     ----------
@@ -123,7 +125,10 @@ def kernel_resultant(X, m, gm: float, position, R) -> tuple[np.ndarray, np.ndarr
     ValueError
         Arrays of the wrong shape, or a mass point at the centre (the kernel's status).
     """
-    from emorbit.kernels.codes import GRAVITY_VOLUME, METHOD_EM
+    import emorbit
+    from emorbit.effects.effectset import EffectSet
+    from emorbit.kernels.codes import GRAVITY_VOLUME
+    from emorbit.kernels.effects.signatures import MODE_STEP
     from emorbit.kernels.rigid import rigid_forces, work_arrays
 
     X = np.ascontiguousarray(X, float)
@@ -133,19 +138,24 @@ def kernel_resultant(X, m, gm: float, position, R) -> tuple[np.ndarray, np.ndarr
         raise ValueError(f"X must be (3, N) and m (N,), got X {X.shape} and m {m.shape}")
     if phi.shape != (3,) or R.shape != (3, 3):
         raise ValueError(f"position must be (3,) and R (3, 3), got {phi.shape} and {R.shape}")
+    n = X.shape[1]
     q = np.concatenate([phi, R[:, 0], R[:, 1], R[:, 2]])
-    centre = np.zeros(3)
-    a0 = np.empty((3, X.shape[1]))
-    for d in range(3):  # as the step kernel forms c - x_i0
-        a0[d] = centre[d] - (q[d] + X[0] * q[3 + d] + X[1] * q[6 + d] + X[2] * q[9 + d])
-    r0 = np.sqrt(a0[0] ** 2 + a0[1] ** 2 + a0[2] ** 2)
-    P = work_arrays(X)[4]
+    effects = EffectSet(emorbit.CentralField(gm=float(gm)))  # its centre at the origin
+    prog = effects.program()
+    P, I, T, S = effects.arrays(n)
+    each = effects.coefficients("rigid", "body", {})  # (k,): 1 for the central field
+    coef = np.ascontiguousarray(np.repeat(each[:, None], n, axis=1))
+    pcoef = np.ascontiguousarray(each[:, None])
+    work = work_arrays(X)
+    for d in range(3):  # the mass points at the step's start, as the step kernel forms them
+        work[25][d] = q[d] + X[0] * q[3 + d] + X[1] * q[6 + d] + X[2] * q[9 + d]
     F = np.empty(12)
     K = np.empty((12, 12))
-    W, G = np.empty((10, X.shape[1])), np.empty((3, X.shape[1]))
+    W, G = np.empty((10, n)), np.empty((3, n))
     status = rigid_forces(
-        METHOD_EM, GRAVITY_VOLUME, q, q, X, m, float(m.sum()), gm, centre, a0, r0, F, K, P, W, G, False, None, None
-    )
+        prog.forces, MODE_STEP, GRAVITY_VOLUME, q, q, X, m, float(m.sum()), 1.0, coef, pcoef, P, I, T, S, F, K,
+        work[4], W, G, work, False,
+    )  # fmt: skip
     if status != 0:
         raise ValueError(f"emorbit's force kernel returned status {status} (a mass point at the centre)")
     tau = np.cross(q[3:6], F[3:6]) + np.cross(q[6:9], F[6:9]) + np.cross(q[9:12], F[9:12])

@@ -197,7 +197,7 @@ class PerturbationRun:
             if term.kind == "third_body":
                 paths[term.body] = sample_path(term.body, term.step, self.case.span, sim.epoch)
             elif term.kind == "srp":
-                paths["sun"] = sample_path("sun", float(term.params["srp_p"][8]), self.case.span, sim.epoch)
+                paths["sun"] = sample_path("sun", term.step, self.case.span, sim.epoch)
         return paths
 
     # -- the same force model ------------------------------------------------------------------
@@ -216,7 +216,7 @@ class PerturbationRun:
                 "same-paths",
                 f"the reference's Sun and Moon (its own Hermite interpolation of sample_table's samples) at {len(t)} "
                 "times, max |s_ref - s_emorbit| / |s|",
-                "emorbit's tables after its run (`term.positions(t)`, `table_positions` on `srp_tab`)",
+                "emorbit's tables after its run (the third body's and radiation pressure's `positions(t)`)",
                 worst,
                 8 * C.EPS,
                 "1",
@@ -234,11 +234,11 @@ class PerturbationRun:
             f"the reference's acceleration at {len(states)} states along the orbit"
             + (" (half of them in and near the penumbra)" if c.kind == "srp" else "")
             + ", max |a_ref - a_emorbit| / max |a_ref|",
-            "emorbit's kernels at the same states ("
+            "emorbit's compiled effect set without the central field at the same states ("
             + {
-                "drag": "`drag_force` on the chord x -+ v h/2, h = 1000 s",
-                "srp": "`srp_cannonball` with `shadow_conical`",
-                "third_body": "`third_body_force` on a chord of length 0",
+                "drag": "drag on the chord x -+ v h/2, h = 1000 s",
+                "srp": "the cannonball with the conical shadow",
+                "third_body": "the third bodies at the point itself",
             }[c.kind]
             + ")",
             rel,

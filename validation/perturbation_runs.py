@@ -39,6 +39,7 @@ import numpy as np
 import emorbit
 from emorbit import orbits
 
+from .effect_eval import accelerations
 from .perturbation_cases import DAY, PerturbationCase
 from .perturbation_model import ReferenceModel
 
@@ -328,7 +329,7 @@ def kernel_paths(sim, body: str, t) -> np.ndarray:
     Parameters
     ----------
     sim : emorbit.Simulation
-        After its run (its effect terms hold the sampled tables).
+        After its run (its effects hold the sampled tables).
     body : str
         ``"sun"`` or ``"moon"``.
     t : array_like
@@ -337,24 +338,26 @@ def kernel_paths(sim, body: str, t) -> np.ndarray:
     Returns
     -------
     ndarray
-        (n, 3) m: ``term.positions(t)`` of the third body, or the radiation term's
-        ``srp_tab`` through :func:`emorbit.kernels.effects.third_body.table_positions`.
+        (n, 3) m: ``effect.positions(t)`` of the third body, or of radiation pressure's Sun.
     """
-    from emorbit.kernels.effects.third_body import table_positions
-
-    t = np.ascontiguousarray(np.atleast_1d(np.asarray(t, float)))
-    for term in sim.effects:
-        if term.kind == "third_body" and term.body == body:
-            return term.positions(t)
-    for term in sim.effects:
-        if term.kind == "srp" and body == "sun":
-            p = term.params["srp_p"]
-            return table_positions(t, float(p[8]), float(p[9]), term.params["srp_tab"])
+    t = np.atleast_1d(np.asarray(t, float))
+    for effect in sim.effects:
+        if effect.kind == "third_body" and effect.body == body:
+            return effect.positions(t)
+    for effect in sim.effects:
+        if effect.kind == "srp" and body == "sun":
+            return effect.positions(t)
     raise KeyError(f"no table of {body!r} in this simulation")
 
 
 def kernel_accelerations(run, sim, states):
-    """The reference's and emorbit's kernels' accelerations at the same states.
+    """The reference's and emorbit's accelerations at the same states.
+
+    emorbit's is the perturbation its step integrates: the simulation's compiled effect set
+    without the central field (:func:`.effect_eval.accelerations`), at the satellite's
+    coefficients, on the chord ``x -+ v h / 2``, h = 1000 s, for drag (its midpoint x, its mean
+    velocity v) and at the point itself for the others, with the Sun and the Moon where the
+    run's tables put them.
 
     Parameters
     ----------
@@ -370,42 +373,23 @@ def kernel_accelerations(run, sim, states):
     ref, kern : ndarray
         (n, 3) m/s^2.
     nu_diff : float or None
-        The largest |nu_ref - nu_kernel| of the conical shadow (radiation case).
+        The largest |nu_ref - nu_kernel| of the conical shadow (radiation case), emorbit's
+        shadow function (:func:`emorbit.kernels.effects.radiation.shadow_conical`) with the
+        srp effect's radii at its Sun.
     """
-    from emorbit.kernels.effects.atmosphere import drag_force
-    from emorbit.kernels.effects.radiation import shadow_conical, srp_cannonball
-    from emorbit.kernels.effects.third_body import third_body_force
+    from emorbit.kernels.effects.radiation import shadow_conical
 
     from .perturbation_model import shadow_conical as shadow_ref
 
     case, model = run.case, run.model
+    states = np.asarray(states, float)
     ref = np.array([model.evaluate(*s[1:], s[0])[:3] for s in states])
-    kern = np.zeros_like(ref)
-    nu_diff = None
-    terms = {term.kind: term for term in sim.effects}
-    if case.kind == "drag":
-        p, tab = terms["drag"].params["drag_p"], terms["drag"].params["drag_t"]
-        b = float(case.coefficients["ballistic_coefficient"])
-        h = 1000.0  # the chord x -+ v h / 2 has the midpoint x and the mean velocity v, rounded at eps |x| / h
-        for i, (_, *xv) in enumerate(states):
-            x, v = np.array(xv[:3]), np.array(xv[3:])
-            x0, x1 = x - 0.5 * h * v, x + 0.5 * h * v
-            kern[i] = drag_force(*x0, *x1, h, *p[:6], b, p[6], tab[0], tab[1], tab[2])
-    elif case.kind == "srp":
-        p = terms["srp"].params["srp_p"]
-        sun = kernel_paths(sim, "sun", states[:, 0])
-        cram = float(case.coefficients["radiation_coefficient"])
-        nu_diff = 0.0
-        for i, (_, *xv) in enumerate(states):
-            d, s = np.array(xv[:3]) - p[5:8], sun[i]
-            nu = shadow_conical(*d, *s, p[2], p[3]) if model.shadow == "conical" else 1.0
-            if model.shadow == "conical":
-                nu_diff = max(nu_diff, abs(nu - shadow_ref(*d, *s, p[2], p[3])))
-            kern[i] = srp_cannonball(*d, *s, p[0], p[1], cram, nu)
-    else:
-        for term in (t for t in sim.effects if t.kind == "third_body"):
-            s = term.positions(states[:, 0])
-            for i, (_, *xv) in enumerate(states):
-                x = xv[:3]
-                kern[i] += third_body_force(*x, *x, *term.center, *s[i], term.gm, True)
+    kern = accelerations(sim, "satellite", states[:, 1:4], states[:, 4:7], states[:, 0])
+    nu_diff = 0.0 if case.kind == "srp" else None
+    if case.kind == "srp" and model.shadow == "conical":
+        srp = next(e for e in sim.effects if e.kind == "srp")
+        p, sun = srp.p, srp.positions(states[:, 0])  # p = [P_au, au, R_occ, R_sun, shadow, c, ...]
+        for (_, *xv), s in zip(states, sun):
+            d = np.array(xv[:3]) - p[5:8]
+            nu_diff = max(nu_diff, abs(shadow_conical(*d, *s, p[2], p[3]) - shadow_ref(*d, *s, p[2], p[3])))
     return ref, kern, nu_diff

@@ -1,4 +1,4 @@
-"""Effects beyond the central field: what the em step of :mod:`emorbit.effects.compose` costs.
+"""Effects beyond the central field: what point masses' em step under an effect set costs.
 
 Four rows, each a ratio within the run (the engines of a comparison interleaved repeat by
 repeat, medians of the per-repeat ratios in CPU time, :mod:`.timing`):
@@ -9,18 +9,20 @@ central + J2 against central only
     the lowest orbit), em order 2, through the scene's body systems: the point masses of a
     central-only simulation (:class:`~emorbit.bodies.pointmasses.PointMasses`, the packed
     kernels; one thread below ``PARALLEL_MIN`` points) and the same points after
-    ``add_effect("zonal", model="earth", degree=2)``
-    (:class:`~emorbit.bodies.effectpoints.EffectPoints`, the packed central + zonal kernel
-    :mod:`emorbit.kernels.effects.zonal_packed`, on all threads from its ``PARALLEL_MIN``
-    points).
+    ``add_effect("zonal", model="earth", degree=2)`` (``PointMasses`` under the simulation's
+    effects: the packed central + zonal kernel that the zonal effect declares for exactly that
+    set, :mod:`emorbit.kernels.effects.zonal_packed`, on all threads from its
+    ``PARALLEL_MIN`` points).
     ns per particle-step of each and their ratio; the same for one point (the lowest orbit);
     each run's largest relative energy error over the particles (kinetic plus every
-    effect's potential energy) after the steps it took.
+    effect's potential energy, from the simulation's compiled effect set) after the steps it
+    took.
 1000 mutually attracting point masses
     a Plummer sphere (1000 stars of one solar mass, scale radius 1 pc, velocities scaled to
     virial equilibrium 2K = |W|, no softening; G of astropy, SI) in free space, dt =
     1e-4 sqrt(a^3 / (G M)): em time per step (``add_effect("mutual")``, the serial effect
-    step) against REBOUND's leapfrog with direct summation (``gravity = "basic"``, the
+    step, :func:`emorbit.kernels.pointmass.effect_step.effect_chunk` with the set compiled)
+    against REBOUND's leapfrog with direct summation (``gravity = "basic"``, the
     same G and initial conditions), and each one's relative energy error over the steps it
     took (em's at round-off; REBOUND's about 1e-9 at this dt, while at 1e-3 a close
     encounter in other draws of the cluster costs it up to 1e-3).
@@ -29,12 +31,12 @@ compile time per effect set, and the warm start-up
     central only, central + zonal, central + mutual, central + zonal + mutual. Each set
     first with an empty cache (``XDG_CACHE_HOME``, ``LOCALAPPDATA`` and, on macOS,
     ``HOME`` point into a new temporary folder and ``NUMBA_CACHE_DIR`` is unset, so the
-    kernel cache of :func:`emorbit.kernels.jit.cache_dir` and the effect steps of
-    :func:`~emorbit.effects.compose.compile_step` go there; the user's own cache is neither
+    kernel cache of :func:`emorbit.kernels.jit.cache_dir` and the compiled effect sets of
+    :func:`~emorbit.effects.program.compile_set` go there; the user's own cache is neither
     used nor touched), then warm; compile time = cold - warm (median of the warm runs).
 the central-only path
-    a central-only scene does not go through the effect step: its point masses stay
-    :class:`~emorbit.bodies.pointmasses.PointMasses`, and the first row times them against
+    a central-only scene does not go through the effect step: its point masses run the
+    packed central-field kernels, and the first row times them against
     the bare packed kernel on one thread. The ``ensemble`` section's "scene / bare kernel"
     row measures the same at 1e5 particles on all threads (``ensemble.scene_over_bare``).
 
@@ -180,11 +182,22 @@ def earth_orbits(n: int, gm: float, seed: int = 3):
     return ensemble_states(n, seed, a=(_R_LOW, _R_HIGH), e=(0.0, 0.02), gm=gm)
 
 
-def _point_energies(terms, x, v) -> np.ndarray:
-    """Each point's specific energy: v^2/2 plus every effect's potential, (n,) J/kg."""
-    rows = np.ascontiguousarray(x.T)[:, :, None]  # one point per row: each term's potential per point
-    one, on = np.ones(1), np.ones(1, bool)
-    return 0.5 * np.einsum("kn,kn->n", v, v) + sum(t.potential(rows, one, on) for t in terms)
+def _point_energies(sim, x, v) -> np.ndarray:
+    """Each point's specific energy: v^2/2 plus every effect's potential, (n,) J/kg, from the
+    simulation's compiled effect set (each point one record of a point of unit mass)."""
+    binding = sim.points.effects
+    rows = np.ascontiguousarray(x.T)[:, :, None]
+    coef = binding.coefficients([""], {})  # a point that gives no effect keys
+    potentials = binding.potentials(rows, None, np.ones(1), np.zeros(1, np.int64), coef)
+    return 0.5 * np.einsum("kn,kn->n", v, v) + sum(potentials.values())
+
+
+def _points_of(sim, x, v):
+    """Put point masses of unit mass at (x, v) into ``sim``, under its effects."""
+    pm = point_masses(x, v)
+    pm.effects, pm.adaptive, pm.roundoff = sim.points.effects, sim.points.adaptive, sim.points.roundoff
+    sim.points = pm
+    return pm
 
 
 def zonal_rows(cfg, n: int) -> dict:
@@ -217,22 +230,26 @@ def zonal_rows(cfg, n: int) -> dict:
     for suffix, (xs, vs) in ensembles.items():
         for label, zonal in (("central", False), ("central + J2", True)):
             sim = emorbit.Simulation(field, method="em", dt=dt)
-            sim.points = point_masses(xs, vs)
+            _points_of(sim, xs, vs)
             if zonal:
                 sim.add_effect("zonal", model="earth", degree=2)
             systems[label + suffix] = sim
     runners = {name: _SystemRunner(sim.points, gm, center, dt) for name, sim in systems.items()}
     runners["central, bare kernel"] = _BareRunner(x, v, gm, center, dt)
-    e0 = {name: _point_energies(sim.effects, sim.points.x, sim.points.v) for name, sim in systems.items()}
+    e0 = {name: _point_energies(sim, sim.points.x, sim.points.v) for name, sim in systems.items()}
     e0["central, bare kernel"] = e0["central"]
     times = timed(runners, cfg)
-    j2_kernel = systems["central + J2"].points.step_kernel()
+    packed = systems["central + J2"].effects.packed_points()
+    if packed is None:
+        from ..kernels.pointmass.effect_step import effect_chunk as j2_kernel
+    else:
+        j2_kernel = packed[0]
     rows = {}
     for name, r in runners.items():
         stats, bare = times[name], isinstance(r, _BareRunner)
         xs, vs = (r.x, r.v) if bare else (r.points.x, r.points.v)
         m = xs.shape[1]
-        terms = systems.get(name, systems["central"]).effects  # the bare kernel: the central field's
+        sim = systems.get(name, systems["central"])  # the bare kernel: the central field's
         rows[name] = {
             "system": "packed kernel" if bare else type(r.points).__name__,
             "n": m,
@@ -240,7 +257,7 @@ def zonal_rows(cfg, n: int) -> dict:
             "ns_per_particle_step_wall": 1e3 * stats["us_per_step"] / m,
             "steps": r.steps,
             "newton_per_substep": float(np.median(r.sweeps)) if getattr(r, "sweeps", None) else None,
-            "max_energy_error": float(np.abs(_point_energies(terms, xs, vs) / e0[name] - 1.0).max()),
+            "max_energy_error": float(np.abs(_point_energies(sim, xs, vs) / e0[name] - 1.0).max()),
             "samples_cpu_us": stats[CPU],
             "steps_per_call": stats["steps"],
         }
@@ -258,6 +275,8 @@ def zonal_rows(cfg, n: int) -> dict:
         "scene_over_bare": 1.0 / paired_ratio(times["central"], times["central, bare kernel"]),
         "central_system": type(systems["central"].points).__name__,
         "j2_system": type(systems["central + J2"].points).__name__,
+        "central_under_effects": systems["central"].points.under_effects(),
+        "j2_under_effects": systems["central + J2"].points.under_effects(),
         "j2_kernel": f"{j2_kernel.__module__}.{j2_kernel.__name__}",
     }
 
@@ -318,12 +337,18 @@ def plummer(n: int, seed: int = 8):
 
 
 def _nbody_energy(m, x, v) -> tuple:
-    """Kinetic and mutual potential energy of point masses, J (the mutual effect's own potential)."""
-    from ..effects.mutual import G, Mutual
+    """Kinetic and mutual potential energy of point masses, J (the mutual effect's own
+    potential, from its compiled set in free space; each point a body of its own)."""
+    from ..bodies.effect_binding import EffectBinding
+    from ..effects.effectset import EffectSet
 
-    term = Mutual("mutual", "mutual", {"kind": "mutual"}, {"mutual_p": np.array([G])})
+    effects = EffectSet(None)
+    effects.add({"kind": "mutual"}, "mutual")
+    n = m.size
+    x, m = np.ascontiguousarray(x, float)[None], np.ascontiguousarray(m, float)
+    potentials = EffectBinding(effects, "point").potentials(x, None, m, np.arange(n, dtype=np.int64), np.ones((1, n)))
     kinetic = 0.5 * float(np.einsum("kn,kn,n->", v, v, m))
-    return kinetic, float(term.potential(x[None], m, np.ones(m.size, bool))[0])
+    return kinetic, float(potentials["potential_mutual"][0])
 
 
 def _timed_slow(runners: dict, cfg) -> dict:
@@ -404,7 +429,6 @@ def mutual_rows(cfg, n: int) -> dict:
     """
     import emorbit
 
-    from ..bodies.effectpoints import EffectPoints
     from ..effects.mutual import G
 
     m, x, v, a, total = plummer(n)
@@ -412,9 +436,8 @@ def mutual_rows(cfg, n: int) -> dict:
     dt = 1e-4 * t_dyn
     sim = emorbit.Simulation(None, method="em", dt=dt)
     sim.add_effect("mutual")
-    pm = point_masses(x, v)
-    pm.masses = m.copy()
-    points = EffectPoints.taking_over(pm, sim.effects)
+    points = _points_of(sim, x, v)
+    points.masses = m.copy()
     runners = {"em": _SystemRunner(points, 0.0, np.zeros(3), dt)}
     rows = {}
     try:
