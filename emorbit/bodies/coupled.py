@@ -390,12 +390,12 @@ class Structure(StructureAdaptive, StructureLayout):
         code = method_code(method)
         c = np.asarray(center, float)
         self.fx.begin()
-        if self.adaptive is not None:
-            rec.solves = np.zeros((nrec, 1), np.int64)
-            self.advance_adaptive(code, gm, c, dt, every, gammas, nrec, max_iter, rec)
-            return rec
         nw = self.work.size
         rec.work = np.empty((nrec, nw)) if nw else None
+        if self.adaptive is not None:
+            rec.solves = np.zeros((nrec, 1), np.int64)
+            self.advance_adaptive(code, gm, c, dt, every, gammas, nrec, max_iter, rec, clock)
+            return rec
         for r in range(nrec):
             its = stl = 0
             for s in range(every):

@@ -1,6 +1,6 @@
 """Adaptive, time-symmetric steps for a coupled structure (elastic bodies, with the rigid
 bodies and point masses attached to them): the reversible controller of
-:mod:`emorbit.kernels.pointmass.adaptive` around the structure's energy-momentum step.
+:mod:`emorbit.kernels.adaptive` around the structure's energy-momentum step.
 
 Method. The structure carries one control variable ``rho``; its step is ``h = eps / rho``.
 On the exact motion ``rho = 1 / s(y)`` with
@@ -16,13 +16,11 @@ the element forces; :data:`POWER_ITERATIONS` steps of the power method, whose Ra
 quotient approaches it from below), fixed for the run. In the step variable tau,
 ``d ln rho / d tau = g(y) = pi eta W' W**(-3/2)`` with ``W'`` the orbit term's rate of
 change, ``-3 GM (x - c).v / r**5`` (the other terms' is left out: it only moves how closely
-``rho`` follows ``1 / s``, and ``rho`` is reset to ``1 / s`` at each landing). A step is the
-symmetric splitting ``rho_1/2 = rho_0 C(eps/4 g(y_0))``, ``y_1 = Phi_h(y_0)`` with ``h = eps
-/ rho_1/2``, ``rho_1 = rho_1/2 C(eps/4 g(y_1))``, ``C(a) = (1 + a) / (1 - a)``, composed for
-orders 4-8; steps land on every multiple of the run's ``dt`` (each interval starting
-afresh) and failed steps are retried with the control started afresh, then with half the
-``eps``, as for point masses. Every
-sub-step is an energy-momentum step, so energy and angular momentum stay exact. Stiff
+``rho`` follows ``1 / s``, and ``rho`` is reset to ``1 / s`` at each landing). The splitting,
+the compositions, the landing on every multiple of the run's ``dt`` and the retries are
+those of :func:`emorbit.kernels.adaptive.interval`: the structure runs the same loop, as
+Python (its step is Python). Every sub-step is an energy-momentum step, so energy and
+angular momentum stay exact (under effects that do work, the energy balance). Stiff
 structures make the step short: em is stable at any step, and fixed steps over the elastic
 modes cost far less where only the orbit matters.
 
@@ -42,8 +40,9 @@ import math
 
 import numpy as np
 
+from ..kernels.adaptive import KICK_MAX, U_MAX, interval
 from ..kernels.codes import METHOD_MIDPOINT, STATUS_NO_CONVERGENCE, STATUS_OK
-from ..kernels.pointmass.adaptive import KICK_MAX, MAX_HALVINGS, MAX_STEPS, PREDICT, U_MAX
+from ..kernels.eft import kahan_add
 
 __all__ = ["StructureAdaptive", "POWER_ITERATIONS", "SIZE_CLASSES"]
 
@@ -132,18 +131,19 @@ class StructureAdaptive:
             self._scratch()
             self.elastic_rate2 = self.highest_elastic_rate2()
 
-    def _composed(self, code, state, rho, eps, fixed, gammas, gm, c, max_iter):
-        """One composed step of ``state`` (updated in place): sub-steps ``gammas[k] eps`` in
-        tau, or (``fixed`` > 0) of physical size ``gammas[k] fixed`` with ``rho`` then
-        ``1 / s``. Returns (rho, duration, iterations, stalled sub-steps, status)."""
+    def _composed(self, code, state, rho, eps, fixed, gammas, gm, c, max_iter, t=0.0):
+        """One composed step of ``state`` (updated in place) from time ``t``: sub-steps
+        ``gammas[k] eps`` in tau, or (``fixed`` > 0) of physical size ``gammas[k] fixed`` with
+        ``rho`` then ``1 / s``. Returns (rho, duration as a Kahan pair ``dur - dlo``,
+        iterations, stalled sub-steps, status)."""
         u, v = state[0], state[1]
         its = stl = 0
-        dur = 0.0
+        dur = dlo = 0.0
         g = 0.0
         if fixed <= 0.0:
             r0, g = self.control(u - state[2], v - state[3], gm, c)
             if not r0 > 0.0:
-                return rho, dur, its, stl, STATUS_NO_CONVERGENCE
+                return rho, dur, dlo, its, stl, STATUS_NO_CONVERGENCE
         for gk in gammas:
             ak = 0.25 * eps * gk
             if fixed > 0.0:
@@ -151,80 +151,65 @@ class StructureAdaptive:
             else:
                 a = ak * g
                 if not abs(a) < KICK_MAX:
-                    return rho, dur, its, stl, STATUS_NO_CONVERGENCE
+                    return rho, dur, dlo, its, stl, STATUS_NO_CONVERGENCE
                 rho = rho * (1.0 + a) / (1.0 - a)
                 h = (4.0 * ak) / rho
-            status, it, st = self._substeps(code, h, state, max_iter, self.MAX_SPLIT)
+            status, it, st = self._substeps(code, h, state, max_iter, self.MAX_SPLIT, t + (dur - dlo))
             its += it
             stl += st
             if status != STATUS_OK:
-                return rho, dur, its, stl, status
+                return rho, dur, dlo, its, stl, status
             if fixed <= 0.0:
                 r1, g = self.control(u - state[2], v - state[3], gm, c)
                 a = ak * g
                 if not (r1 > 0.0 and abs(a) < KICK_MAX):
-                    return rho, dur, its, stl, STATUS_NO_CONVERGENCE
+                    return rho, dur, dlo, its, stl, STATUS_NO_CONVERGENCE
                 rho = rho * (1.0 + a) / (1.0 - a)
-            dur += h
+            dur, dlo = kahan_add(dur, dlo, h)
         r1, _ = self.control(u - state[2], v - state[3], gm, c)
         if fixed > 0.0:
             rho = r1
         elif not (r1 > 0.0 and 1.0 / U_MAX < rho / r1 < U_MAX):  # the control ran away from 1 / s
-            return rho, dur, its, stl, STATUS_NO_CONVERGENCE
-        return rho, dur, its, stl, STATUS_OK
+            return rho, dur, dlo, its, stl, STATUS_NO_CONVERGENCE
+        return rho, dur, dlo, its, stl, STATUS_OK
 
-    def _interval(self, code, rho, interval, gammas, gm, c, max_iter):
-        """Composed steps that end exactly ``interval`` seconds later (the state updated in
+    # the structure's three functions for the controller's loop (emorbit.kernels.adaptive.interval),
+    # with ctx = (structure, method code, gammas, gm, c, max_iter)
+    @staticmethod
+    def _step(ctx, s, rho, eps, fixed, t):
+        st, code, gammas, gm, c, max_iter = ctx
+        q = tuple(a.copy() for a in s)
+        rho, dur, dlo, its, stl, status = st._composed(code, q, rho, eps, fixed, gammas, gm, c, max_iter, t)
+        st._stalled += stl
+        return q, rho, dur, dlo, its, status
+
+    @staticmethod
+    def _control_of(ctx, s):
+        st, code, gammas, gm, c, max_iter = ctx
+        return st.control(s[0] - s[2], s[1] - s[3], gm, c)[0]
+
+    @staticmethod
+    def _accept(ctx, s, q):
+        return q
+
+    def _interval(self, code, rho, length, gammas, gm, c, max_iter, t0=0.0):
+        """Composed steps that end exactly ``length`` seconds later (the state updated in
         place). Returns (rho, iterations, stalled sub-steps, composed steps, status). It starts
         afresh (a trial first step), so it depends on the state alone."""
-        its = stl = steps = 0
-        elapsed = prev = 0.0
-        last = False
-        status = STATUS_OK
-        while not last:
-            rem = interval - elapsed
-            ok = False
-            eps = 1.0
-            reset = False
-            for _ in range(MAX_HALVINGS + 2):
-                dur, status = rem, STATUS_OK
-                if prev < rem or eps < 1.0 or reset:
-                    # a trial step (none when the last one was longer than what is left, unless
-                    # the landing step failed)
-                    state = self._state_copy()
-                    rq, dur, it, st, status = self._composed(code, state, rho, eps, 0.0, gammas, gm, c, max_iter)
-                    its += it
-                    stl += st
-                if status == STATUS_OK and dur >= rem:  # it passes the landing: the remaining time
-                    state = self._state_copy()
-                    rq, dur, it, st, status = self._composed(code, state, rho, 1.0, rem, gammas, gm, c, max_iter)
-                    its += it
-                    stl += st
-                    last = True
-                if status == STATUS_OK:
-                    ok = True
-                    break
-                last = False
-                if not reset:  # first failure: start the control afresh from the state, try again
-                    reset = True
-                    rho = self.control(self.u - self.cu, self.v - self.cv, gm, c)[0]
-                    continue
-                eps *= 0.5
-            steps += 1
-            if not ok or steps > MAX_STEPS:
-                return rho, its, stl, steps, status if status != STATUS_OK else STATUS_NO_CONVERGENCE
-            self.u, self.v, self.cu, self.cv, self.lam, self.acc, self.work, self.cwork = state
-            rho = rq
-            if not last:
-                elapsed += dur
-                prev = PREDICT * dur
-        return rho, its, stl, steps, STATUS_OK
+        self._stalled = 0
+        ctx = (self, code, gammas, gm, c, max_iter)
+        s, rho, its, steps, status = interval.py_func(
+            self._step, self._control_of, self._accept, ctx, self._state_copy(), rho, length, t0
+        )
+        self.u, self.v, self.cu, self.cv, self.lam, self.acc, self.work, self.cwork = s
+        return rho, its, self._stalled, steps, status
 
-    def advance_adaptive(self, code, gm, c, dt, every, gammas, nrec, max_iter, rec) -> None:
+    def advance_adaptive(self, code, gm, c, dt, every, gammas, nrec, max_iter, rec, clock=(0.0, 0)) -> None:
         """``nrec`` records of ``every`` intervals of ``dt`` seconds (steps land on each) with
         adaptive steps, into ``rec`` (a :class:`~emorbit.bodies.coupled_output.StructureRecords`;
-        ``rec.solves`` gets the sub-steps per record). On a failure the state is that at the
-        failing record's start and ``rec.fail`` holds (record index, status)."""
+        ``rec.solves`` gets the sub-steps per record). Interval j of the chunk starts at
+        ``clock[0] + (clock[1] + j) dt``. On a failure the state is that at the failing record's
+        start and ``rec.fail`` holds (record index, status)."""
         self.start_adaptive()
         rho = float(self.rho[0])
         if not rho > 0.0:
@@ -232,8 +217,9 @@ class StructureAdaptive:
         for r in range(nrec):
             its = stl = steps = 0
             start = (self.snapshot(), rho)
-            for _ in range(every):
-                rho, it, st, ns, status = self._interval(code, rho, dt, gammas, gm, c, max_iter)
+            for j in range(every):
+                t0 = float(clock[0]) + (float(clock[1]) + r * every + j) * dt
+                rho, it, st, ns, status = self._interval(code, rho, dt, gammas, gm, c, max_iter, t0)
                 its += it
                 stl += st
                 steps += ns
@@ -245,6 +231,8 @@ class StructureAdaptive:
             self.rho[0] = rho
             self.adaptive_steps += steps
             rec.u[r], rec.v[r] = self.u, self.v
+            if rec.work is not None:
+                rec.work[r] = self.work
             rec.iterations[r, 0] = its
             rec.stalled[r, 0] = stl
             rec.solves[r, 0] = steps * len(gammas)
@@ -271,11 +259,11 @@ class StructureAdaptive:
         t = 0.0
         for _ in range(nsteps):
             state = self._state_copy()
-            rho, dur, _, _, status = self._composed(code, state, rho, 1.0, 0.0, gammas, gm, c, max_iter)
+            rho, dur, dlo, _, _, status = self._composed(code, state, rho, 1.0, 0.0, gammas, gm, c, max_iter, t)
             if status != STATUS_OK:
                 raise RuntimeError(f"an adaptive step failed with status {status}")
             self.u, self.v, self.cu, self.cv, self.lam, self.acc, self.work, self.cwork = state
-            t += dur
+            t += dur - dlo
         self.rho[0] = rho
         return t
 

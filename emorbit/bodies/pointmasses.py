@@ -421,11 +421,14 @@ class PointMasses(WorkSums, BodySystem):
         return self.effects.coefficients(self.names, self.values)
 
     def _advance_effects(self, method, dt, gammas, every, nrec, max_iter, clock) -> ChunkRecords:
-        """Fixed steps under the simulation's effects: the packed kernel an effect declares for
-        exactly this set (em), else :func:`~emorbit.kernels.pointmass.effect_step.effect_chunk`
-        with the set compiled."""
+        """Steps under the simulation's effects: adaptive steps of the whole set
+        (:func:`~emorbit.kernels.pointmass.effect_adaptive.effect_adaptive_chunk`); fixed ones
+        by the packed kernel an effect declares for exactly this set (em), else
+        :func:`~emorbit.kernels.pointmass.effect_step.effect_chunk` with the set compiled."""
         from ..kernels.pointmass.effect_step import effect_chunk
 
+        if self.adaptive is not None:
+            return self._advance_effects_adaptive(method, dt, gammas, every, nrec, max_iter, clock)
         n = len(self)
         rec = ChunkRecords(
             x=np.empty((nrec, 3, n)),
@@ -453,6 +456,69 @@ class PointMasses(WorkSums, BodySystem):
         if not work.shape[0]:
             rec.work = None
         return rec
+
+    def _advance_effects_adaptive(self, method, dt, gammas, every, nrec, max_iter, clock) -> ChunkRecords:
+        """Adaptive, time-symmetric steps of all points together under the effects, landing on
+        every multiple of ``dt``; the set's control variable is ``rho[0]`` (every entry holds it)."""
+        from ..kernels.pointmass.effect_adaptive import effect_adaptive_chunk
+
+        n = len(self)
+        steps = np.zeros((nrec, n), dtype=np.int64)
+        rec = ChunkRecords(
+            np.empty((nrec, 3, n)), np.empty((nrec, 3, n)), np.zeros((nrec, n), np.int64), np.full((n, 2), -1, np.int64)
+        )
+        if self.rho.shape != (n,):
+            self.rho = np.zeros(n)
+        rho = self.rho[:1].copy()
+        prog = self.effects.program
+        P, I, T, S = self.effects.arrays(n)
+        work = self.work
+        rec.work = np.empty((nrec,) + work.shape)
+        effect_adaptive_chunk(
+            prog.forces, prog.prepare, prog.work, prog.rate, dispatch.method_code(method, "fast"), self.x, self.v,
+            self.cx, self.cv, self.wp, self.hp, rho, self.masses, np.arange(n, dtype=np.int64), self.coefficients(),
+            P, I, T, S, work, self.cwork, rec.work, float(clock[0]), float(clock[1]),
+            float(dt), int(every), float(self.adaptive), np.ascontiguousarray(gammas, float), int(nrec),
+            int(max_iter), rec.x, rec.v, rec.iterations, steps, rec.fail,
+        )  # fmt: skip
+        self.rho[:] = rho[0]
+        if not work.shape[0]:
+            rec.work = None
+        rec.solves = steps * len(gammas)
+        self.adaptive_steps += int(steps[:, 0].sum()) if n else 0
+        return rec
+
+    def reversible_steps(self, method: str, gammas, nsteps: int, max_iter: int, t0: float = 0.0, direction=1.0):
+        """Take exactly ``nsteps`` adaptive composed steps of size 1 in tau of the points under
+        effects from time ``t0`` (the clock running backwards with ``direction`` -1), without
+        landing: the scheme alone, for its time symmetry.
+
+        Returns
+        -------
+        float
+            The physical time advanced, s.
+
+        Raises
+        ------
+        RuntimeError
+            A step failed (its status in the message).
+        """
+        from ..kernels.pointmass.effect_adaptive import effect_reversible_steps
+
+        n = len(self)
+        rho = self.rho[:1].copy() if self.rho.shape == (n,) else np.zeros(1)
+        prog = self.effects.program
+        P, I, T, S = self.effects.arrays(n)
+        elapsed, status = effect_reversible_steps(
+            prog.forces, prog.prepare, prog.work, prog.rate, dispatch.method_code(method, "fast"), self.x, self.v,
+            self.cx, self.cv, self.wp, self.hp, rho, self.masses, np.arange(n, dtype=np.int64), self.coefficients(),
+            P, I, T, S, self.work, self.cwork, float(t0), float(direction),
+            float(self.adaptive), np.ascontiguousarray(gammas, float), int(nsteps), int(max_iter),
+        )  # fmt: skip
+        if status != 0:
+            raise RuntimeError(f"an adaptive step failed with status {status}")
+        self.rho = np.full(n, rho[0])
+        return elapsed
 
     def _advance_resident(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> ChunkRecords:
         """Fixed steps on the GPU with the state kept there (:mod:`emorbit.kernels.pointmass.cuda_resident`):

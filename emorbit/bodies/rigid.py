@@ -340,7 +340,7 @@ class RigidBodies(WorkSums, BodySystem):
             The records.
         """
         if self.adaptive is not None:
-            return self._advance_adaptive(method, gm, center, dt, gammas, every, nrec, max_iter)
+            return self._advance_adaptive(method, gm, center, dt, gammas, every, nrec, max_iter, clock)
         rec = self._records(nrec)
         prog = self.effects.program
         P, I, T, S = self.effects.arrays(self.mp.size)
@@ -442,7 +442,7 @@ class RigidBodies(WorkSums, BodySystem):
             np.empty((nrec, nb, 12)), np.empty((nrec, nb, 12)), z, np.full((nb, 2), -1, np.int64), z.copy()
         )
 
-    def _advance_adaptive(self, method, gm, center, dt, gammas, every, nrec, max_iter) -> RigidRecords:
+    def _advance_adaptive(self, method, gm, center, dt, gammas, every, nrec, max_iter, clock) -> RigidRecords:
         """Adaptive, time-symmetric steps (:mod:`emorbit.kernels.rigid_adaptive`) that land on
         every multiple of ``dt``, recorded every ``every * dt`` seconds."""
         from ..kernels.rigid_adaptive import rigid_adaptive_chunk
@@ -456,16 +456,54 @@ class RigidBodies(WorkSums, BodySystem):
         P, I, T, S = self.effects.arrays(self.mp.size)
         coef, pcoef = self.coefficients()
         foff, facets = self.packed_facets()
+        work = self.work
+        rec.work = np.empty((nrec,) + work.shape)
         rigid_adaptive_chunk(
-            method_code(method), self.models, self.q, self.v, self.cq, self.cv, self.lam, self.rho, self.mass,
-            self.E, self.Einv, self.inverse_inertias(), self.offsets, self.X, self.mp, float(gm),
-            np.ascontiguousarray(center, float), float(dt), int(every), float(self.adaptive),
-            np.ascontiguousarray(gammas, float), int(nrec), int(max_iter), rec.q, rec.v, rec.iterations, steps,
-            rec.stalled, rec.fail, prog.forces, prog.facets, coef, pcoef, foff, facets, P, I, T, S,
+            prog.forces, prog.facets, prog.prepare, prog.work, method_code(method), self.models, self.q, self.v,
+            self.cq, self.cv, self.lam, self.rho, self.mass, self.E, self.Einv, self.inverse_inertias(), self.offsets,
+            self.X, self.mp, coef, pcoef, foff, facets, float(gm), np.ascontiguousarray(center, float), float(dt),
+            int(every), float(self.adaptive), np.ascontiguousarray(gammas, float), int(nrec), int(max_iter), rec.q,
+            rec.v, rec.iterations, steps, rec.stalled, rec.fail, P, I, T, S, work, self.cwork, rec.work,
+            float(clock[0]), float(clock[1]),
         )  # fmt: skip
+        if not work.shape[1]:
+            rec.work = None
         rec.solves = steps * len(gammas)
         self.adaptive_steps += int(steps.sum())
         return rec
+
+    def reversible_steps(self, method: str, gm: float, center, gammas, nsteps: int, max_iter: int) -> np.ndarray:
+        """Take exactly ``nsteps`` adaptive composed steps of size 1 in tau from every body (no
+        landing on a time): the scheme alone, for its time symmetry. Reversing ``v`` and ``cv``
+        and calling it again runs the same steps back.
+
+        Returns
+        -------
+        ndarray
+            (nb,) the physical time each body advanced, s.
+
+        Raises
+        ------
+        RuntimeError
+            A step failed (its status in the message).
+        """
+        from ..kernels.rigid_adaptive import rigid_reversible_steps
+
+        prog = self.effects.program
+        P, I, T, S = self.effects.arrays(self.mp.size)
+        coef, pcoef = self.coefficients()
+        foff, facets = self.packed_facets()
+        elapsed = np.zeros(len(self))
+        status = rigid_reversible_steps(
+            prog.forces, prog.facets, prog.prepare, prog.work, method_code(method), self.models, self.q, self.v,
+            self.cq, self.cv, self.lam, self.rho, self.mass, self.E, self.Einv, self.inverse_inertias(), self.offsets,
+            self.X, self.mp, coef, pcoef, foff, facets, float(gm), np.ascontiguousarray(center, float),
+            float(self.adaptive), np.ascontiguousarray(gammas, float), int(nsteps), int(max_iter), elapsed, P, I, T,
+            S, self.work, self.cwork,
+        )  # fmt: skip
+        if status != 0:
+            raise RuntimeError(f"an adaptive step failed with status {status}")
+        return elapsed
 
     def gravity_points(self, q: np.ndarray):
         """Where the point effects act on each body at recorded states q (rows, nb, 12): for

@@ -20,7 +20,7 @@ everything about the effect; nothing else in emorbit names it:
 An instance is one effect of one simulation: its parameters in SI, packed as float64 arrays
 in the order its pieces read them (``p``, the flat tables ``tab``, and the scratch size),
 built from its scene table by :meth:`Effect.from_table`. The body kinds' step kernels take a
-set of effects compiled into six functions (:mod:`emorbit.effects.program`), so an effect
+set of effects compiled into seven functions (:mod:`emorbit.effects.program`), so an effect
 reaches point masses, rigid bodies' mass points and facets and elastic bodies' gravity points
 and surfaces, with every method and with adaptive steps, from this one declaration.
 """
@@ -72,6 +72,10 @@ class Pieces:
         Each point's half of its pairs' potential energy.
     pair_block : str
         The block between two points of a pair (a structure's Newton matrix joins bodies).
+    rate, pair_rate : str
+        The squared rate that sets adaptive steps' time scale at a point (a pair), and its
+        rate of change along the motion: an effect that dominates the motion gives one (the
+        central field's Kepler rate, a pair's).
     """
 
     module: str
@@ -83,6 +87,8 @@ class Pieces:
     pairs: str = ""
     pair_potential: str = ""
     pair_block: str = ""
+    rate: str = ""
+    pair_rate: str = ""
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,12 @@ class Central(Effect):
     ACTS = {"point": AT_POINTS, "rigid": AT_POINTS, "elastic": AT_POINTS}
     CONSERVES = ("energy", "angular momentum about the centre")
     NEEDS_FIELD = True
-    PIECES = Pieces("emorbit.kernels.effects.central", force="central_piece", potential="central_potential_piece")
+    PIECES = Pieces(
+        "emorbit.kernels.effects.central",
+        force="central_piece",
+        potential="central_potential_piece",
+        rate="central_rate",
+    )
     POTENTIAL = "V = -GM m / r, r = |x - c|"
     DISCRETE_FORCE = "F = -GM m (d0 + d1) / (r0 r1 (r0 + r1)), d = x - c (g_em)"
     JACOBIAN = "dF/dx1 = -GM m [I / (r0 r1 (r0 + r1)) - (d0 + d1) d1^T (r0 + 2 r1) / (r0 r1^3 (r0 + r1)^2)]"

@@ -73,6 +73,7 @@ class Mutual(Effect):
         pairs="mutual_pairs",
         pair_potential="mutual_pair_potential",
         pair_block="mutual_pair_block",
+        pair_rate="mutual_pair_rate",
     )
     POTENTIAL = "V = -sum_{i<j} G m_i m_j / |x_i - x_j|"
     DISCRETE_FORCE = "F_ij = -G m_i m_j (d0 + d1) / (r0 r1 (r0 + r1)), d = x_i - x_j (Greenspan; g_em of each pair)"

@@ -1,16 +1,17 @@
-"""An effect set compiled into the six functions every body kind's step kernel takes.
+"""An effect set compiled into the seven functions every body kind's step kernel takes.
 
 :func:`compile_set` writes, for an ordered set of effect classes, a small Python module that
-imports each effect's pieces (:class:`~emorbit.effects.base.Pieces`) and defines the six
+imports each effect's pieces (:class:`~emorbit.effects.base.Pieces`) and defines the seven
 functions of :mod:`emorbit.kernels.effects.signatures` as Numba ``cfunc`` s of those types:
 ``forces`` (each point's summed force over the step per unit mass, its diagonal Jacobian
 blocks, the pair coupling), ``prepare`` (each effect's per-sub-step values), ``work`` (each
 working effect's work on each point), ``potential`` (each effect's potential energy at each
 point), ``facets`` (the surface effects' force on each facet and its work) and ``cross``
-(the pair effects' blocks between bodies, for a structure's Newton matrix). The step
+(the pair effects' blocks between bodies, for a structure's Newton matrix) and ``rate``
+(the time scale of adaptive steps, from the effects that set one). The step
 kernels of point masses, rigid bodies and elastic structures take these as first-class
 function arguments, so they compile once per install; a new effect set compiles only these
-six small functions, whatever body kinds it reaches.
+seven small functions, whatever body kinds it reaches.
 
 The module goes into the per-user kernel cache (:func:`emorbit.kernels.jit.cache_dir`,
 folder ``effects``), named by the set's kinds and a digest of its source, of every kernel
@@ -42,11 +43,11 @@ __all__ = ["Program", "compile_set", "set_source"]
 
 @dataclass(frozen=True)
 class Program:
-    """The six compiled functions of an effect set and what they were made from.
+    """The seven compiled functions of an effect set and what they were made from.
 
     Attributes
     ----------
-    forces, prepare, work, potential, facets, cross
+    forces, prepare, work, potential, facets, cross, rate
         The compiled functions (Numba cfuncs of :mod:`emorbit.kernels.effects.signatures`).
     kinds : tuple of str
         The effect kinds, in the set's order (a kind named twice appears twice).
@@ -62,6 +63,7 @@ class Program:
     potential: object
     facets: object
     cross: object
+    rate: object
     kinds: tuple
     working: tuple
     compiled: bool
@@ -80,7 +82,7 @@ import numpy as np
 
 from emorbit.kernels.codes import STATUS_OK, STATUS_SINGULAR
 from emorbit.kernels.effects.signatures import CROSS, FACETS, FORCES, MODE_MIDPOINT, MODE_WEIGHTED
-from emorbit.kernels.effects.signatures import POTENTIAL, PREPARE, WORK
+from emorbit.kernels.effects.signatures import POTENTIAL, PREPARE, RATE, WORK
 {imports}
 
 _OPTIONS = {options}
@@ -100,7 +102,18 @@ def _import_line(index: int, pieces) -> tuple[str, list[str]]:
     """The import of one effect's pieces (as ``<piece>_<index>``), and the names imported."""
     names = [
         (attr, getattr(pieces, attr))
-        for attr in ("force", "potential", "prepare", "time_work", "facet", "pairs", "pair_potential", "pair_block")
+        for attr in (
+            "force",
+            "potential",
+            "prepare",
+            "time_work",
+            "facet",
+            "pairs",
+            "pair_potential",
+            "pair_block",
+            "rate",
+            "pair_rate",
+        )  # fmt: skip
         if getattr(pieces, attr)
     ]
     aliases = ", ".join(f"{name} as {attr}_{index}" for attr, name in names)
@@ -398,6 +411,41 @@ def cross(x0, x1, m, body, coef, on, sc, acc, P, I, T, S):
     J = np.empty((3, 3))
 {_indent(chr(10).join(blocks), 4) if blocks else "    pass"}
 """
+    rates = []
+    for e in range(len(effects)):
+        if "rate" in has[e]:
+            rates.append(f"""
+for i in range(n):
+    if coef[{e}, i] != 0.0:
+        w, dw = rate_{e}(x[0, i], x[1, i], x[2, i], v[0, i], v[1, i], v[2, i], coef[{e}, i], p{e})
+        if w > best:
+            best = w
+            slope = dw""")
+        if "pair_rate" in has[e]:
+            rates.append(f"""
+for a in range(n):
+    if coef[{e}, a] == 0.0:
+        continue
+    for b in range(a + 1, n):
+        if coef[{e}, b] == 0.0 or body[b] == body[a]:
+            continue
+        w, dw = pair_rate_{e}(
+            x[0, a] - x[0, b], x[1, a] - x[1, b], x[2, a] - x[2, b], v[0, a] - v[0, b], v[1, a] - v[1, b],
+            v[2, a] - v[2, b], m[a], m[b], p{e},
+        )
+        if w > best:
+            best = w
+            slope = dw""")
+    rate = f"""
+@numba.cfunc(RATE, **_OPTIONS)
+def rate(x, v, m, body, coef, P, I, T, S):
+    n = m.shape[0]
+{_indent(views, 4)}
+    best = 0.0
+    slope = 0.0
+{_indent(chr(10).join(rates), 4) if rates else ""}
+    return best, slope
+"""
     options = {"cache": cache_enabled(), "error_model": "numpy", "fastmath": False}
     header = _HEADER.format(
         names=", ".join(cls.NAME for cls in effects) or "none",
@@ -405,7 +453,7 @@ def cross(x0, x1, m, body, coef, on, sc, acc, P, I, T, S):
         imports="\n".join(imports),
         options=repr(options),
     )
-    return header + forces + prepare + work + potential + facets + cross, tuple(working)
+    return header + forces + prepare + work + potential + facets + cross + rate, tuple(working)
 
 
 def _digest(source: str, effects) -> str:
@@ -481,6 +529,7 @@ def compile_set(effects, announce=None) -> Program:
         module.potential,
         module.facets,
         module.cross,
+        module.rate,
         kinds,
         working,
         fresh,

@@ -33,8 +33,16 @@ import glob
 import hashlib
 import os
 import sys
+import warnings
 
 import numba
+from numba.core.errors import NumbaExperimentalFeatureWarning
+
+# the step kernels take an effect set's compiled functions as first-class function values
+# (emorbit.kernels.effects.signatures), which Numba labels experimental: deliberate here
+warnings.filterwarnings(
+    "ignore", message=".*First-class function type feature is experimental", category=NumbaExperimentalFeatureWarning
+)
 
 __all__ = [
     "JIT_OPTIONS",

@@ -1,6 +1,6 @@
 """Adaptive, time-symmetric steps for rigid bodies: the reversible step-size controller of
-:mod:`.pointmass.adaptive` (Hairer & Soederlind) around the symmetric energy-momentum (or
-midpoint) step :func:`.rigid.rigid_step`.
+:mod:`.adaptive` (Hairer & Soederlind) around the symmetric energy-momentum (or midpoint)
+step :func:`.rigid.rigid_step`, under any effect set.
 
 Method. Each body carries a control variable ``rho``; its step is ``h = eps / rho``. The
 step follows the fastest of the body's two motions, the orbit and the rotation: on the exact
@@ -17,23 +17,17 @@ variable tau (dt = d tau / rho), ``d ln rho / d tau = g(y) = pi eta W' W**(-3/2)
 ``Omega = R^T w`` the body-frame rate and J the inertia: the rate's change is that of Euler's
 torque-free equations (the gravity-gradient torque's share is left out of g; it only moves
 how closely ``rho`` follows ``1 / s``, and ``rho`` is reset to ``1 / s`` at each landing on the ``dt`` grid).
-One step of size ``eps`` is the symmetric splitting
+The splitting, the compositions, the landing on every multiple of the run's ``dt`` and the
+retries are those of :func:`.adaptive.interval`, which runs each body. Energy and angular
+momentum stay exact (or the energy balance, under effects that do work: each converged
+sub-step adds their work, as the fixed steps do): each sub-step is an energy-momentum step,
+whatever its size. Effects that depend on time read each sub-step's own times.
 
-    rho_1/2 = rho_0 C(eps/4 g(y_0)),   y_1 = Phi_h(y_0), h = eps / rho_1/2,   rho_1 = rho_1/2 C(eps/4 g(y_1)),
-
-``C(a) = (1 + a) / (1 - a)``, with the compositions of orders 4-8 applied to it, the steps
-landing on every multiple of the run's ``dt`` (each interval starting afresh, so that a
-run does not depend on how it is cut into calls) and a failed composed step retried with
-its control started afresh, then with half the ``eps``, exactly as for point masses
-(:mod:`.pointmass.adaptive`, where the constants are defined). Energy and angular momentum
-stay exact: each sub-step is an energy-momentum step, whatever its size.
-
-Data layout: as :func:`.rigid.rigid_chunk` (``q, v, cq, cv`` (nb, 12), ``lam`` (nb, 6));
-``rho`` (nb,) the control variables (0 or less: set from ``s(y)`` at the first step), updated
-in place and part of a checkpoint; ``Jinv`` (nb, 3, 3) the inverse body-frame inertias
-(``RigidBodies.inverse_inertias``). The central field only: the Simulation refuses effects
-with adaptive steps (the effect set's ``forces`` and ``facets`` are handed to
-:func:`.rigid.rigid_step` as given).
+Data layout: as :func:`.rigid.rigid_chunk` (``q, v, cq, cv`` (nb, 12), ``lam`` (nb, 6), the
+effect set's functions and arrays, the work sums); ``rho`` (nb,) the control variables (0 or
+less: set from ``s(y)`` at the first step), updated in place and part of a checkpoint;
+``Jinv`` (nb, 3, 3) the inverse body-frame inertias (``RigidBodies.inverse_inertias``). A
+body's state in the controller is the tuple (q, v, cq, cv, lam, work, cwork) of its rows.
 
 References: E. Hairer, G. Soederlind, SIAM J. Sci. Comput. 26 (2005) 1838-1851; P. Betsch,
 P. Steinmann, Comput. Methods Appl. Mech. Engrg. 190 (2001) 6663-6692 (the director step).
@@ -45,11 +39,12 @@ import math
 
 import numpy as np
 
-from .codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from .adaptive import KICK_MAX, U_MAX, interval, kick
+from .codes import METHOD_MIDPOINT, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from .effects.signatures import MODE_MIDPOINT, MODE_STEP
 from .eft import kahan_add
 from .jit import kernel
-from .pointmass.adaptive import KICK_MAX, MAX_HALVINGS, MAX_STEPS, PREDICT, U_MAX
-from .rigid import _work_arrays, rigid_step
+from .rigid import _body_work, _point_scratch, _work_arrays, rigid_step
 from .rigid_surface import facet_scratch
 
 __all__ = ["rigid_rates", "rigid_adaptive_chunk", "rigid_reversible_steps"]
@@ -110,26 +105,38 @@ def _control(q, v, E, Jinv, gm, c, eta):
 
 
 @kernel
-def _composed(
-    method, model, tp, tu, te, tf, tl, rho, eps, fixed, gammas, m, E, Einv, Jinv, X, mp, gm, c, eta, max_iter,
-    work, fx,
-):  # fmt: skip
-    """One composed step of the state ``tp, tu, te, tf, tl`` (q, v, their compensations, the
-    multipliers' warm start; updated in place): sub-steps ``gammas[k] eps`` in tau, or
-    (``fixed`` > 0) of physical size ``gammas[k] fixed`` with ``rho`` then set to ``1 / s``.
-    Returns (rho, duration ``dur - dlo`` as a Kahan pair, iterations, stalled sub-steps,
-    status); after a failure the state is meaningless."""
+def _composed(ctx, s, rho, eps, fixed, t):
+    """One composed step of a body (:func:`.adaptive.interval`): its state ``s`` = (q, v, cq,
+    cv, lam, work, cwork) is copied into the context's buffers, which are stepped and returned
+    (``s`` itself is left as it was). Sub-steps ``gammas[k] eps`` in tau, or (``fixed`` > 0)
+    of physical size ``gammas[k] fixed`` with ``rho`` then set to ``1 / s``. Returns (state,
+    rho, duration ``dur - dlo`` as a Kahan pair, iterations, status); the stalled sub-steps are
+    counted into ``ctx``'s counter."""
+    (method, model, m, E, Einv, Jinv, X, mp, gm, c, eta, gammas, max_iter, work, fx, wpts, buf, counter) = ctx
+    forces, facets_fn, prepare, work_of, coef, pcoef, P, I, T, S, facets, f0, f1, fscratch = fx
+    tp, tu, te, tf, tl, tw, tcw = buf
+    for j in range(12):
+        tp[j] = s[0][j]
+        tu[j] = s[1][j]
+        te[j] = s[2][j]
+        tf[j] = s[3][j]
+    for j in range(6):
+        tl[j] = s[4][j]
+    for j in range(tw.shape[0]):
+        tw[j] = s[5][j]
+        tcw[j] = s[6][j]
+    mode = MODE_MIDPOINT if method == METHOD_MIDPOINT else MODE_STEP
     dq = work[16]
     dv = work[19]
+    q1 = np.empty(12)
     its = 0
-    stl = 0
     dur = 0.0
     dlo = 0.0
     g = 0.0
     if fixed <= 0.0:
         r0, g = _control(tp, tu, E, Jinv, gm, c, eta)
         if not r0 > 0.0:
-            return rho, dur, dlo, its, stl, STATUS_SINGULAR
+            return buf, rho, dur, dlo, its, STATUS_SINGULAR
     for k in range(gammas.shape[0]):
         ak = 0.25 * eps * gammas[k]
         if fixed > 0.0:
@@ -137,235 +144,187 @@ def _composed(
         else:
             a = ak * g
             if not abs(a) < KICK_MAX:
-                return rho, dur, dlo, its, stl, STATUS_NO_CONVERGENCE
-            rho = rho * (1.0 + a) / (1.0 - a)
+                return buf, rho, dur, dlo, its, STATUS_NO_CONVERGENCE
+            rho = kick(rho, a)
             h = (4.0 * ak) / rho
+        ta = t + (dur - dlo)
+        prepare(ta, ta + 0.5 * h, ta + h, P, I, T, S)
         it, status, stalled = rigid_step(
-            fx[0], fx[1], method, model, tp, tu, tl, m, E, Einv, X, mp, gm, c, h, max_iter, work, fx[2], fx[3],
-            fx[4], fx[5], fx[6], fx[7], fx[8], fx[9], fx[10], fx[11],
+            forces, facets_fn, method, model, tp, tu, tl, m, E, Einv, X, mp, gm, c, h, max_iter, work, coef, pcoef,
+            P, I, T, S, facets, f0, f1, fscratch,
         )  # fmt: skip
         its += it
-        stl += stalled
+        counter[0] += stalled
         if status != STATUS_OK:
-            return rho, dur, dlo, its, stl, status
+            return buf, rho, dur, dlo, its, status
+        if tw.shape[0] > 0:  # the effects' work over the converged sub-step
+            for j in range(12):
+                q1[j] = tp[j] + dq[j]
+            _body_work(
+                work_of, facets_fn, mode, model, tp, q1, X, mp, m, h, coef, pcoef, P, I, T, S, facets, f0, f1,
+                fscratch, wpts, tw, tcw,
+            )  # fmt: skip
         for j in range(12):
             tp[j], te[j] = kahan_add(tp[j], te[j], dq[j])
             tu[j], tf[j] = kahan_add(tu[j], tf[j], dv[j])
             if not (abs(tp[j]) < math.inf and abs(tu[j]) < math.inf):
-                return rho, dur, dlo, its, stl, STATUS_SINGULAR
+                return buf, rho, dur, dlo, its, STATUS_SINGULAR
         if fixed <= 0.0:
             r1, g = _control(tp, tu, E, Jinv, gm, c, eta)
             a = ak * g
             if not (r1 > 0.0 and abs(a) < KICK_MAX):
-                return rho, dur, dlo, its, stl, STATUS_NO_CONVERGENCE
-            rho = rho * (1.0 + a) / (1.0 - a)
+                return buf, rho, dur, dlo, its, STATUS_NO_CONVERGENCE
+            rho = kick(rho, a)
         dur, dlo = kahan_add(dur, dlo, h)
     r1, g = _control(tp, tu, E, Jinv, gm, c, eta)
     if not r1 > 0.0:
-        return rho, dur, dlo, its, stl, STATUS_SINGULAR
+        return buf, rho, dur, dlo, its, STATUS_SINGULAR
     if fixed > 0.0:
         rho = r1
     else:
         u = rho / r1
         if not (u > 1.0 / U_MAX and u < U_MAX):  # the control ran away from 1 / s(y)
-            return rho, dur, dlo, its, stl, STATUS_NO_CONVERGENCE
-    return rho, dur, dlo, its, stl, STATUS_OK
+            return buf, rho, dur, dlo, its, STATUS_NO_CONVERGENCE
+    return buf, rho, dur, dlo, its, STATUS_OK
 
 
 @kernel
-def _interval(
-    method, model, q, v, cq, cv, lam, r, interval, gammas, m, E, Einv, Jinv, X, mp, gm, c, eta, max_iter, work,
-    fx, tp, tu, te, tf, tl,
-):  # fmt: skip
-    """Composed steps of one body's state ``q, v, cq, cv, lam`` (updated in place) that end
-    exactly ``interval`` seconds later; ``tp .. tl`` are scratch. Returns (rho, iterations,
-    stalled sub-steps, composed steps, status); on a failure the state is where it stopped.
-    It starts afresh (a trial first step), so it depends on the state alone."""
-    its = 0
-    stl = 0
-    steps = 0
-    elapsed = 0.0
-    comp = 0.0
-    prev = 0.0
-    last = False
-    status = STATUS_OK
-    while not last:
-        rem = (interval - elapsed) + comp
-        ok = False
-        eps = 1.0
-        rq = r
-        reset = False
-        for _attempt in range(MAX_HALVINGS + 2):
-            dur = rem
-            dlo = 0.0
-            status = STATUS_OK
-            if prev < rem or eps < 1.0 or reset:
-                # a trial step (none when the last one was longer than what is left, unless
-                # the landing step failed)
-                tp[:] = q
-                tu[:] = v
-                te[:] = cq
-                tf[:] = cv
-                tl[:] = lam
-                rq, dur, dlo, it, st, status = _composed(
-                    method, model, tp, tu, te, tf, tl, r, eps, 0.0, gammas, m, E, Einv, Jinv, X, mp, gm, c, eta,
-                    max_iter, work, fx,
-                )  # fmt: skip
-                its += it
-                stl += st
-            if status == STATUS_OK and dur - dlo >= rem:  # it passes the landing: the remaining time
-                tp[:] = q
-                tu[:] = v
-                te[:] = cq
-                tf[:] = cv
-                tl[:] = lam
-                rq, dur, dlo, it, st, status = _composed(
-                    method, model, tp, tu, te, tf, tl, r, 1.0, rem, gammas, m, E, Einv, Jinv, X, mp, gm, c, eta,
-                    max_iter, work, fx,
-                )  # fmt: skip
-                its += it
-                stl += st
-                last = True
-            if status == STATUS_OK:
-                ok = True
-                break
-            last = False
-            if not reset:  # first failure: start the control afresh from the state, try again
-                reset = True
-                r = _control(q, v, E, Jinv, gm, c, eta)[0]
-                continue
-            eps *= 0.5
-        if not ok:
-            return r, its, stl, steps, status
-        q[:] = tp
-        v[:] = tu
-        cq[:] = te
-        cv[:] = tf
-        lam[:] = tl
-        r = rq
-        steps += 1
-        if steps > MAX_STEPS:
-            return r, its, stl, steps, STATUS_NO_CONVERGENCE
-        if not last:
-            elapsed, comp = kahan_add(elapsed, comp + dlo, dur)
-            prev = PREDICT * (dur - dlo)
-    return r, its, stl, steps, STATUS_OK
+def _control_of(ctx, s):
+    return _control(s[0], s[1], ctx[3], ctx[5], ctx[8], ctx[9], ctx[10])[0]
 
 
 @kernel
-def _effects(forces, facets_fn, coef, pcoef, foff, facets, P, I, T, S, offsets, b):
-    """Body b's share of the effect set, as :func:`.rigid.rigid_step` takes it."""
+def _accept(ctx, s, q):
+    for i in range(7):
+        s[i][:] = q[i]
+    return s
+
+
+@kernel
+def _effects(forces, facets_fn, prepare, work_of, coef, pcoef, foff, facets, P, I, T, S, offsets, b, nw):
+    """Body b's share of the effect set, as :func:`_composed` reads it."""
     f0, f1 = foff[b], foff[b + 1]
     return (
-        forces, facets_fn, np.ascontiguousarray(coef[:, offsets[b] : offsets[b + 1]]),
-        np.ascontiguousarray(pcoef[:, b : b + 1]), P, I, T, S, facets, f0, f1, facet_scratch(f1 - f0, 0),
+        forces, facets_fn, prepare, work_of, np.ascontiguousarray(coef[:, offsets[b] : offsets[b + 1]]),
+        np.ascontiguousarray(pcoef[:, b : b + 1]), P, I, T, S, facets, f0, f1, facet_scratch(f1 - f0, nw),
     )  # fmt: skip
 
 
 @kernel
+def _body(method, models, mass, E, Einv, Jinv, offsets, X, mp, gm, center, eta, gammas, max_iter, fx, b, nw):
+    """Body b's context for :func:`_composed` and its state buffers."""
+    Xb = X[:, offsets[b] : offsets[b + 1]]
+    mb = np.ascontiguousarray(mp[offsets[b] : offsets[b + 1]])
+    buf = (np.empty(12), np.empty(12), np.empty(12), np.empty(12), np.empty(6), np.empty(nw), np.empty(nw))
+    wpts = _point_scratch(models[b], offsets[b + 1] - offsets[b], nw)
+    return (
+        method, models[b], mass[b], E[b], Einv[b], Jinv[b], Xb, mb, gm, center, eta, gammas, max_iter,
+        _work_arrays(Xb), fx, wpts, buf, np.zeros(1, np.int64),
+    )  # fmt: skip
+
+
+@kernel
+def _state(q, v, cq, cv, lam, work, cwork, b):
+    """Body b's state as copies of its rows."""
+    return (q[b].copy(), v[b].copy(), cq[b].copy(), cv[b].copy(), lam[b].copy(), work[b].copy(), cwork[b].copy())
+
+
+@kernel
+def _store(s, q, v, cq, cv, lam, work, cwork, b):
+    q[b] = s[0]
+    v[b] = s[1]
+    cq[b] = s[2]
+    cv[b] = s[3]
+    lam[b] = s[4]
+    work[b] = s[5]
+    cwork[b] = s[6]
+
+
+@kernel
 def rigid_adaptive_chunk(
-    method, models, q, v, cq, cv, lam, rho, mass, E, Einv, Jinv, offsets, X, mp, gm, center, interval, every,
-    eta, gammas, nrec, max_iter, rec_q, rec_v, rec_iters, rec_steps, rec_stalled, fail, forces, facets_fn, coef,
-    pcoef, foff, facets, P, I, T, S,
+    forces, facets_fn, prepare, work_of, method, models, q, v, cq, cv, lam, rho, mass, E, Einv, Jinv, offsets, X, mp,
+    coef, pcoef, foff, facets, gm, center, interval_length, every, eta, gammas, nrec, max_iter, rec_q, rec_v,
+    rec_iters, rec_steps, rec_stalled, fail, P, I, T, S, work, cwork, rec_work, clock_base, clock_n0,
 ):  # fmt: skip
-    """Advance every rigid body by ``nrec`` records of ``every`` intervals of ``interval``
-    seconds (the landing grid: steps end on every multiple of it) with adaptive,
-    time-symmetric steps, recording at the end of each record.
+    """Advance every rigid body by ``nrec`` records of ``every`` intervals of
+    ``interval_length`` seconds (the landing grid: steps end on every multiple of it) with
+    adaptive, time-symmetric steps, recording at the end of each record.
 
     rho          (nb,) control variables, updated in place (<= 0: set from the state)
     Jinv         (nb, 3, 3) inverse inertias in the body frame
     eta          the accuracy knob: steps of eta times the body's fastest time scale
     rec_steps    (nrec, nb) composed steps each body took in each record
-    Other arguments as in :func:`.rigid.rigid_chunk`; ``fail[b]`` holds (record index,
-    status) of a body that failed even after halving its step :data:`MAX_HALVINGS` times (it
-    then stops at the start of that record).
+    Other arguments as in :func:`.rigid.rigid_chunk`; interval j of the chunk starts at
+    ``clock_base + (clock_n0 + j) interval_length``; ``fail[b]`` holds (record index, status)
+    of a body that failed even after halving its step (it then stops at the start of that
+    record).
     """
     nb = q.shape[0]
-    tp = np.empty(12)
-    tu = np.empty(12)
-    te = np.empty(12)
-    tf = np.empty(12)
-    tl = np.empty(6)
-    sq = np.empty(12)
-    sv = np.empty(12)
-    scq = np.empty(12)
-    scv = np.empty(12)
-    sl = np.empty(6)
+    nw = work.shape[1]
     for b in range(nb):
-        Xb = X[:, offsets[b] : offsets[b + 1]]
-        mb = np.ascontiguousarray(mp[offsets[b] : offsets[b + 1]])
-        work = _work_arrays(Xb)
-        fx = _effects(forces, facets_fn, coef, pcoef, foff, facets, P, I, T, S, offsets, b)
+        fx = _effects(forces, facets_fn, prepare, work_of, coef, pcoef, foff, facets, P, I, T, S, offsets, b, nw)
+        ctx = _body(method, models, mass, E, Einv, Jinv, offsets, X, mp, gm, center, eta, gammas, max_iter, fx, b, nw)
+        s = _state(q, v, cq, cv, lam, work, cwork, b)
         r = rho[b]
         if not r > 0.0:
-            r, g = _control(q[b], v[b], E[b], Jinv[b], gm, center, eta)
+            r = _control_of(ctx, s)
         for k in range(nrec):
             its = 0
-            stl = 0
             steps = 0
+            ctx[17][0] = 0
+            start = _state(q, v, cq, cv, lam, work, cwork, b)
             r_start = r
-            sq[:] = q[b]
-            sv[:] = v[b]
-            scq[:] = cq[b]
-            scv[:] = cv[b]
-            sl[:] = lam[b]
             status = STATUS_OK
-            for _j in range(every):
-                r, it, st, ns, status = _interval(
-                    method, models[b], q[b], v[b], cq[b], cv[b], lam[b], r, interval, gammas, mass[b], E[b],
-                    Einv[b], Jinv[b], Xb, mb, gm, center, eta, max_iter, work, fx, tp, tu, te, tf, tl,
-                )  # fmt: skip
+            for j in range(every):
+                t0 = clock_base + (clock_n0 + k * every + j) * interval_length
+                s, r, it, ns, status = interval(_composed, _control_of, _accept, ctx, s, r, interval_length, t0)
                 its += it
-                stl += st
                 steps += ns
                 if status != STATUS_OK:
                     break
             if status != STATUS_OK:
-                q[b] = sq
-                v[b] = sv
-                cq[b] = scq
-                cv[b] = scv
-                lam[b] = sl
+                _store(start, q, v, cq, cv, lam, work, cwork, b)
                 r = r_start
                 fail[b, 0] = k
                 fail[b, 1] = status
                 break
+            _store(s, q, v, cq, cv, lam, work, cwork, b)
             rec_q[k, b, :] = q[b]
             rec_v[k, b, :] = v[b]
             rec_iters[k, b] = its
-            rec_stalled[k, b] = stl
+            rec_stalled[k, b] = ctx[17][0]
             rec_steps[k, b] = steps
+            rec_work[k, b, :] = work[b]
         rho[b] = r
 
 
 @kernel
 def rigid_reversible_steps(
-    method, models, q, v, cq, cv, lam, rho, mass, E, Einv, Jinv, offsets, X, mp, gm, center, eta, gammas,
-    nsteps, max_iter, elapsed, forces, facets_fn, coef, pcoef, foff, facets, P, I, T, S,
+    forces, facets_fn, prepare, work_of, method, models, q, v, cq, cv, lam, rho, mass, E, Einv, Jinv, offsets, X, mp,
+    coef, pcoef, foff, facets, gm, center, eta, gammas, nsteps, max_iter, elapsed, P, I, T, S, work, cwork,
 ):  # fmt: skip
     """Take exactly ``nsteps`` composed steps of size 1 in tau from every body (no records, no
     landing on a time): the scheme alone, for its time symmetry. ``elapsed`` (nb,) gets the
     physical time each body advanced. Reversing the velocities and their compensations and
     calling it again runs the same steps back. Returns the first failure's status (0: none)."""
     nb = q.shape[0]
+    nw = work.shape[1]
     for b in range(nb):
-        Xb = X[:, offsets[b] : offsets[b + 1]]
-        mb = np.ascontiguousarray(mp[offsets[b] : offsets[b + 1]])
-        work = _work_arrays(Xb)
-        fx = _effects(forces, facets_fn, coef, pcoef, foff, facets, P, I, T, S, offsets, b)
+        fx = _effects(forces, facets_fn, prepare, work_of, coef, pcoef, foff, facets, P, I, T, S, offsets, b, nw)
+        ctx = _body(method, models, mass, E, Einv, Jinv, offsets, X, mp, gm, center, eta, gammas, max_iter, fx, b, nw)
+        s = _state(q, v, cq, cv, lam, work, cwork, b)
         r = rho[b]
         if not r > 0.0:
-            r, g = _control(q[b], v[b], E[b], Jinv[b], gm, center, eta)
+            r = _control_of(ctx, s)
         t = 0.0
         tc = 0.0
         for _ in range(nsteps):
-            r, dur, dlo, it, st, status = _composed(
-                method, models[b], q[b], v[b], cq[b], cv[b], lam[b], r, 1.0, 0.0, gammas, mass[b], E[b], Einv[b],
-                Jinv[b], Xb, mb, gm, center, eta, max_iter, work, fx,
-            )  # fmt: skip
+            out, r, dur, dlo, it, status = _composed(ctx, s, r, 1.0, 0.0, t - tc)
             if status != STATUS_OK:
                 return status
+            s = _accept(ctx, s, out)
             t, tc = kahan_add(t, tc + dlo, dur)
         elapsed[b] = t - tc
         rho[b] = r
+        _store(s, q, v, cq, cv, lam, work, cwork, b)
     return STATUS_OK

@@ -42,6 +42,7 @@ __all__ = [
     "central_jacobian",
     "central_piece",
     "central_potential_piece",
+    "central_rate",
     "pair_unit",
     "pair_force",
     "pair_sums",
@@ -160,6 +161,19 @@ def central_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     if jac:
         central_jacobian(x0, y0, z0, x1, y1, z1, p[0], p[1], p[2], p[3], J)
     return central_force(x0, y0, z0, x1, y1, z1, p[0], p[1], p[2], p[3])
+
+
+@_inline
+def central_rate(x, y, z, vx, vy, vz, c, p):
+    """The effect-set piece that sets adaptive steps' time scale: ``W = gm / r**3`` (the
+    squared Kepler rate, 1/s^2) and its rate of change along the motion, ``-3 W (d . v) /
+    r**2`` (1/s^3)."""
+    d0 = x - p[0]
+    d1 = y - p[1]
+    d2 = z - p[2]
+    r2 = d0 * d0 + d1 * d1 + d2 * d2
+    w = p[3] / (r2 * math.sqrt(r2))
+    return w, -3.0 * w * (d0 * vx + d1 * vy + d2 * vz) / r2
 
 
 @_inline

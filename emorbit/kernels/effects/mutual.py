@@ -27,7 +27,7 @@ import numpy as np
 from ..jit import kernel
 from .central import pair_block, pair_blocks, pair_pass, pair_unit
 
-__all__ = ["mutual_pairs", "mutual_pair_potential", "mutual_pair_block", "scratch_size"]
+__all__ = ["mutual_pairs", "mutual_pair_potential", "mutual_pair_block", "mutual_pair_rate", "scratch_size"]
 
 #: a point's pair block joins its Newton matrix above this coupling, 6 h^2/2 rho
 STRONG = 1e-4
@@ -159,3 +159,12 @@ def mutual_pair_block(a0, a1, a2, b0, b1, b2, ma, mb, p, J):
     for e in range(3):
         for f in range(3):
             J[e, f] *= gab
+
+
+@kernel(inline="always")
+def mutual_pair_rate(d0, d1, d2, u0, u1, u2, ma, mb, p):
+    """The squared Kepler rate of a pair, ``W = G (m_a + m_b) / r**3`` (1/s^2), and its rate of
+    change along the relative motion (separation d, relative velocity u), 1/s^3."""
+    r2 = d0 * d0 + d1 * d1 + d2 * d2
+    w = p[0] * (ma + mb) / (r2 * math.sqrt(r2))
+    return w, -3.0 * w * (d0 * u0 + d1 * u1 + d2 * u2) / r2

@@ -3,9 +3,9 @@ and the Numba types of the functions an effect set compiles into.
 
 An effect gives plain kernel functions of float64 scalars and arrays, its *pieces*
 (:mod:`emorbit.effects.base` declares them, :mod:`emorbit.effects.program` compiles a set of
-effects into the six functions below). The step kernels of every body kind (point masses,
+effects into the seven functions below). The step kernels of every body kind (point masses,
 rigid bodies' mass points and facets, elastic bodies' gravity points and surfaces) take
-those six as arguments of the types defined here, so a step kernel is compiled once per
+those seven as arguments of the types defined here, so a step kernel is compiled once per
 install, whatever effects a scene names, and an effect set compiles only its own small
 functions.
 
@@ -40,6 +40,11 @@ Pieces, per unit mass of a point (all optional but ``force``)::
         s). Weighted, the two forces of a pair are bitwise opposite, so that a system that
         steps masses (a structure) keeps momentum and angular momentum to round-off.
 
+    rate(x, y, z, vx, vy, vz, c, p) -> (W, dW)
+        the squared rate that sets adaptive steps' time scale at a point (1/s^2: a Kepler rate
+        GM / r**3), and its rate of change along the motion (1/s^3).
+    pair_rate(d0, d1, d2, u0, u1, u2, ma, mb, p) -> (W, dW)
+        the same for a pair of points from their separation and relative velocity.
     pair_block(a0, a1, a2, b0, b1, b2, ma, mb, p, J)
         a pair effect's block between two points: ``J = -d F_a / d x1_b`` (N/m; F_a the force
         on point a, N) from their separation ``x_a - x_b`` at the step's start (a) and end (b)
@@ -78,6 +83,9 @@ step) or :data:`MODE_EXPLICIT` (x0 = x1 = x: the force at a point, leapfrog's ki
         out (k, n): each effect's potential energy at each point (J; 0 for effects without
         one; a pair effect puts half of each pair's energy on each point), after ``prepare``
         at the time of x.
+    rate(x, v, m, body, coef, P, I, T, S) -> (W, dW)
+        the largest squared rate over the points, the effects' ``rate`` and pairs'
+        ``pair_rate`` (0 where none gives one), and its rate of change.
     cross(x0, x1, m, body, coef, on, sc, acc, P, I, T, S)
         the pair effects' blocks between bodies, summed onto each pair of bodies' slots: for
         points a, b of bodies A < B (``on`` not 0 for both), with slot coefficients ``sc``
@@ -101,6 +109,7 @@ __all__ = [
     "POTENTIAL",
     "FACETS",
     "CROSS",
+    "RATE",
     "MODE_STEP",
     "MODE_MIDPOINT",
     "MODE_EXPLICIT",
@@ -133,6 +142,8 @@ PREPARE = types.void(_F, _F, _F, _F1, _I2, _F1, _F1)
 WORK = types.void(_F2, _F2, _F1, _I1, _F2, _F, _I, _F1, _I2, _F1, _F1, _F2)
 #: potential(x, m, body, coef, P, I, T, S, out)
 POTENTIAL = types.void(_F2, _F1, _I1, _F2, _F1, _I2, _F1, _F1, _F2)
+#: rate(x, v, m, body, coef, P, I, T, S) -> (W, dW)
+RATE = types.UniTuple(_F, 2)(_F2, _F2, _F1, _I1, _F2, _F1, _I2, _F1, _F1)
 #: cross(x0, x1, m, body, coef, on, sc, acc, P, I, T, S)
 CROSS = types.void(_F2, _F2, _F1, _I1, _F2, _F1, _F2, types.Array(types.float64, 6, "C"), _F1, _I2, _F1, _F1)
 #: facets(a, b, nrm, area, kf, h, P, I, T, S, F, out, want_work) -> status

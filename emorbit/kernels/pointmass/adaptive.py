@@ -1,49 +1,29 @@
-"""Adaptive, time-symmetric steps for point masses: a reversible step-size controller
-(Hairer & Soederlind) around the symmetric em, midpoint or leapfrog step.
+"""Adaptive, time-symmetric steps for point masses in the central field: the reversible
+controller of :mod:`emorbit.kernels.adaptive` around the symmetric em, midpoint or leapfrog
+step of one point.
 
-Method. Each point carries a control variable ``rho``; its step is ``h = eps / rho``. On the
-exact motion ``rho = 1 / s(x)``, ``s(x) = eta 2 pi sqrt(r**3 / GM)`` (``r = |x - c|``; the
-Sundman-type rule dt ~ r**(3/2)), so in tau (dt = d tau / rho) ``d ln rho / d tau = g(y) =
--3/2 (x - c).v s(x) / r**2``. One step of size ``eps`` is the symmetric splitting
-
-    rho_1/2 = rho_0 C(eps/4 g(y_0)),   y_1 = Phi_h(y_0), h = eps / rho_1/2,   rho_1 = rho_1/2 C(eps/4 g(y_1)),
-
-``C(a) = (1 + a) / (1 - a)`` (exp(2 a) to third order, ``C(-a) = 1 / C(a)``), ``Phi_h`` the
-symmetric method and g odd in v: the step of size ``-eps`` undoes the step of size ``eps``.
-It is of order 2 in tau; the compositions of :mod:`emorbit.integrators` (sub-steps ``gammas[k]
-eps``) raise it to 4-8. em keeps E and L exactly for any step sequence. ``eps`` is 1: ``eta``
-alone sets the accuracy. Closing and opening kicks of neighbouring sub-steps share one g.
+Control. On the exact motion ``rho = 1 / s(x)``, ``s(x) = eta 2 pi sqrt(r**3 / GM)`` (``r =
+|x - c|``; the Sundman-type rule dt ~ r**(3/2)), so ``g(y) = -3/2 (x - c).v s(x) / r**2``.
 
 Round-off: the sub-steps read rounded positions, which moves the energy of the compensated
 state (x - cx, v - cv) by about eps times the energy a sub-step exchanges (a walk of 1e-14 of
 E over 100 orbits of e = 0.9, 1e-12 of a along the track). em's composed step ends by
 restoring it (:func:`_restore_energy`): ``cv += (dE / |v|^2) v``, ``dE`` the end state's
 energy minus the interval's first, both double-double; zero in exact arithmetic, skipped
-beyond :data:`RESTORE_MAX` of ``|v|^2 + GM/r``, applied to em (either roundoff), not to
-midpoint or leapfrog.
-
-Steps land exactly on the grid ``k * interval`` (the run's ``dt``; records on every ``every``-th
-point): a composed step that would pass the next grid time (expected from the last step,
-:data:`PREDICT`, or found by taking it) is replaced by one composed step of the remaining time
-(fixed sub-steps), after which ``rho = 1 / s(x)``, and ``rho s(x)``, which drifts from orbit
-to orbit, starts each interval at 1. Each interval starts afresh from the state, so a run does
-not depend on how it is cut into calls. A composed step whose solve fails, whose kicks exceed
-:data:`KICK_MAX` or that leaves ``rho s(x)`` beyond :data:`U_MAX` is retried once with ``rho =
-1 / s(x)``, then with trial steps of half the ``eps`` (at most :data:`MAX_HALVINGS` times)
-before the point fails. The symmetry is broken at those resets and at the grid points only.
+beyond :data:`~emorbit.kernels.adaptive.RESTORE_MAX` of ``|v|^2 + GM/r``, applied to em
+(either roundoff), not to midpoint or leapfrog. The energy target travels with the state.
 
 Data layout: ``x, v, cx, cv`` (3, n) state and Kahan compensations as in :mod:`.chunk`;
-``rho`` (n,) the control variables (<= 0: set from ``s(x)``), part of a checkpoint.
-
-References: E. Hairer, G. Soederlind, SIAM J. Sci. Comput. 26 (2005) 1838-1851; E. Hairer,
-C. Lubich, G. Wanner, Geometric Numerical Integration, 2nd ed. (Springer 2006), sec. VIII.3;
-K. Sundman, Acta Math. 36 (1913) 105-179.
+``rho`` (n,) the control variables (<= 0: set from ``s(x)``), part of a checkpoint. A point's
+state in the controller is a tuple of 17 floats: x, v, cx, cv, the leapfrog acceleration and
+the energy target (a double-double).
 """
 
 from __future__ import annotations
 
 import math
 
+from ..adaptive import KICK_MAX, RESTORE_MAX, U_MAX, interval, kick
 from ..codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_LEAPFROG, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
 from ..eft import dd_add, dd_div, dd_mul, dd_sqrt, kahan_add
 from ..gravity import accel
@@ -51,24 +31,8 @@ from ..jit import kernel
 from .point_step import _implicit_point_em, _implicit_point_em_plain, _implicit_point_mid, _leapfrog_point
 from .roots import _tau
 
-__all__ = ["adaptive_chunk", "reversible_steps", "control", "MAX_HALVINGS", "MAX_STEPS", "KICK_MAX", "U_MAX"]
+__all__ = ["adaptive_chunk", "reversible_steps", "control"]
 
-MAX_HALVINGS = 20
-#: composed steps per record interval beyond which a point fails (its control ran away)
-MAX_STEPS = 10_000_000
-#: a composed step that leaves rho s(x) beyond a factor U_MAX from 1 fails (and is retried
-#: with half the eps): the control no longer follows the motion
-U_MAX = 16.0
-#: a half-kick ``rho (1 + a) / (1 - a)`` with ``|a|`` beyond this (rho changing by more than a
-#: factor 1.5 in half a sub-step: the step is too long for the control) retries the composed
-#: step with half the eps
-KICK_MAX = 0.2
-#: a step after one of duration d is expected to last at most PREDICT d: where less than that
-#: is left to the record, the step of the remaining time is taken without a trial step
-PREDICT = 1.1
-#: em's round-off correction of the energy (:func:`_restore_energy`) applies to a composed
-#: step whose energy moved by less than this fraction of |v|^2 + GM / r
-RESTORE_MAX = 2.0**-36
 _TWO_PI = 2.0 * math.pi
 
 
@@ -90,12 +54,6 @@ def _g(x0, x1, x2, y0, y1, y2, c0, c1, c2, gm, eta):
     az = x2 - c2
     r = math.sqrt(ax * ax + ay * ay + az * az)
     return (-1.5 * eta * _TWO_PI) * (ax * y0 + ay * y1 + az * y2) / math.sqrt(r * gm)
-
-
-@kernel
-def _kick(rho, a):
-    """rho (1 + a) / (1 - a): exp(2 a) to third order, and its own inverse with -a."""
-    return rho * (1.0 + a) / (1.0 - a)
 
 
 @kernel
@@ -191,7 +149,7 @@ def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter,
             a = ak * g
             if not abs(a) < KICK_MAX:
                 return s, rho, dur, dlo, its, STATUS_NO_CONVERGENCE, eh, el
-            rho = _kick(rho, a)
+            rho = kick(rho, a)
             h = (4.0 * ak) / rho
         (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, it, status) = _sub(
             method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2, max_iter
@@ -204,7 +162,7 @@ def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter,
             a = ak * g
             if not abs(a) < KICK_MAX:
                 return s, rho, dur, dlo, its, STATUS_NO_CONVERGENCE, eh, el
-            rho = _kick(rho, a)
+            rho = kick(rho, a)
         dur, dlo = kahan_add(dur, dlo, h)
     if fixed > 0.0:
         rho = control(t0, t1, t2, c0, c1, c2, gm, eta)
@@ -242,71 +200,37 @@ def _store(s, r, x, v, cx, cv, rho, i):
 
 
 @kernel
-def _interval(method, s, r, interval, gammas, gm, c0, c1, c2, eta, max_iter):
-    """Composed steps from ``s, r`` that end exactly ``interval`` seconds later: returns (s, r,
+def _step(ctx, s, rho, eps, fixed, t):
+    """The controller's composed step of one point (:func:`emorbit.kernels.adaptive.interval`):
+    the 17 values of ``s`` (the state and the energy target) and the context ``ctx``
+    (method, gm, c0, c1, c2, eta, gammas, max_iter)."""
+    method, gm, c0, c1, c2, eta, gammas, max_iter = ctx
+    q, rq, dur, dlo, its, status, eh, el = _composed(
+        method, s[:15], rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter, s[15], s[16]
+    )
+    return q + (eh, el), rq, dur, dlo, its, status
+
+
+@kernel
+def _control(ctx, s):
+    method, gm, c0, c1, c2, eta, gammas, max_iter = ctx
+    return control(s[0], s[1], s[2], c0, c1, c2, gm, eta)
+
+
+@kernel
+def _accept(ctx, s, q):
+    return q
+
+
+@kernel
+def _interval(method, s, r, length, gammas, gm, c0, c1, c2, eta, max_iter):
+    """Composed steps from ``s, r`` that end exactly ``length`` seconds later: returns (s, r,
     iterations, composed steps, status). It starts afresh (its first step is a trial one), so
     what it does depends on the state alone, not on where a chunk started."""
-    its = 0
-    steps = 0
-    elapsed = 0.0
-    comp = 0.0
-    prev = 0.0
-    status = STATUS_OK
-    last = False
     eh, el, _scale = _energy_dd(s, gm, c0, c1, c2)
-    while not last:
-        rem = (interval - elapsed) + comp  # kahan_add's compensation: the sum is elapsed - comp
-        ok = False
-        eps = 1.0
-        q = s
-        rq = r
-        qh = eh
-        ql = el
-        reset = False
-        for _attempt in range(MAX_HALVINGS + 2):
-            if prev >= rem and eps == 1.0 and not reset:
-                # the last step was longer than what is left: no trial step (but after a
-                # failed landing step, trial steps)
-                dur = rem
-                dlo = 0.0
-                status = STATUS_OK
-            else:
-                q, rq, dur, dlo, it, status, qh, ql = _composed(
-                    method, s, r, eps, 0.0, gammas, gm, c0, c1, c2, eta, max_iter, eh, el
-                )
-                its += it
-            if status == STATUS_OK and dur - dlo >= rem:
-                # the step passes the landing: one step of the remaining time instead
-                q, rq, dur, dlo, it, status, qh, ql = _composed(
-                    method, s, r, 1.0, rem, gammas, gm, c0, c1, c2, eta, max_iter, eh, el
-                )
-                its += it
-                last = True
-            if status == STATUS_OK:
-                ok = True
-                break
-            last = False
-            if not reset:
-                # first failure: the control may have run away from the motion (kicks too
-                # large, rho s(x) beyond U_MAX): start it afresh from the state, as at a
-                # landing, and try again before halving
-                reset = True
-                r = control(s[0], s[1], s[2], c0, c1, c2, gm, eta)
-                continue
-            eps *= 0.5
-        if not ok:
-            return s, r, its, steps, status
-        s = q
-        r = rq
-        eh = qh
-        el = ql
-        steps += 1
-        if steps > MAX_STEPS:  # the control ran away: fail rather than never return
-            return s, r, its, steps, STATUS_NO_CONVERGENCE
-        if not last:
-            elapsed, comp = kahan_add(elapsed, comp + dlo, dur)
-            prev = PREDICT * (dur - dlo)
-    return s, r, its, steps, STATUS_OK
+    ctx = (method, gm, c0, c1, c2, eta, gammas, max_iter)
+    q, r, its, steps, status = interval(_step, _control, _accept, ctx, s + (eh, el), r, length, 0.0)
+    return q[:15], r, its, steps, status
 
 
 @kernel
@@ -340,7 +264,8 @@ def adaptive_chunk(
     eta          the accuracy knob: steps of eta times the local Kepler time scale
     rec_steps    (nrec, n) composed steps each point took in each interval
     Other arguments as in :func:`~.chunk._run_point`; ``fail[i]`` holds (record interval
-    index, status) of a point that failed even after halving its step :data:`MAX_HALVINGS`
+    index, status) of a point that failed even after halving its step
+    :data:`~emorbit.kernels.adaptive.MAX_HALVINGS`
     times (the point then stops at the start of that interval).
     """
     n = x.shape[1]

@@ -53,7 +53,7 @@ from ..effects.newton import newton_update
 from ..effects.signatures import MODE_EXPLICIT, MODE_MIDPOINT, MODE_STEP
 from ..jit import kernel
 
-__all__ = ["effect_chunk", "substep_times"]
+__all__ = ["effect_chunk", "effect_substep", "step_scratch", "method_mode", "substep_times"]
 
 _EPS = 2.0**-52
 
@@ -83,6 +83,119 @@ def _add_work(work, cwork, out):
 
 
 @kernel
+def step_scratch(n, nw):
+    """Scratch for :func:`effect_substep` of n points and nw working effects: dx, x1, w, F, G
+    (3, n), W (9, n), R (n,) (the pair coupling bounds, kept between sweeps), J (3, 3) and the
+    work per point (nw, n)."""
+    return (
+        np.empty((3, n)), np.empty((3, n)), np.empty((3, n)), np.empty((3, n)), np.empty((3, n)),
+        np.empty((9, n)), np.zeros(n), np.empty((3, 3)), np.empty((nw, n)),
+    )  # fmt: skip
+
+
+@kernel
+def method_mode(method):
+    """The effect set's mode of a method code."""
+    if method == METHOD_MIDPOINT:
+        return MODE_MIDPOINT
+    if method == METHOD_LEAPFROG:
+        return MODE_EXPLICIT
+    return MODE_STEP
+
+
+@kernel
+def effect_substep(
+    forces, prepare, work_of, mode, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork, h, ta, tb, max_iter,
+    scratch,
+):  # fmt: skip
+    """One sub-step of size h from time ``ta`` to ``tb`` of every point (the state, the warm
+    start and the work sums updated in place where it succeeds; left as they were where not).
+    Returns (Newton sweeps, status)."""
+    dx, x1, w, F, G, W, R, J, out = scratch
+    n = x.shape[1]
+    hh = 0.5 * h * h
+    prepare(ta, 0.5 * (ta + tb), tb, P, I, T, S)
+    status = STATUS_OK
+    sweeps = 0
+    if mode == MODE_EXPLICIT:
+        status = forces(x, x, m, body, coef, h, mode, P, I, T, S, F, W, R, False, True)
+        for i in range(n):
+            for c in range(3):
+                dx[c, i] = h * (v[c, i] + 0.5 * h * F[c, i])
+                x1[c, i] = x[c, i] + dx[c, i]
+        if status == STATUS_OK:
+            status = forces(x1, x1, m, body, coef, h, mode, P, I, T, S, G, W, R, False, True)
+        sweeps = 1
+        for i in range(n):
+            for c in range(3):
+                w[c, i] = 0.25 * h * h * (F[c, i] + G[c, i])  # v1 = v0 + 2 w / h
+    else:
+        scale = (h / hp[0]) ** 2 if hp[0] != 0.0 else 0.0  # the last sub-step's w, rescaled
+        for i in range(n):
+            for c in range(3):
+                w[c, i] = wp[c, i] * scale
+                dx[c, i] = h * v[c, i] + w[c, i]
+        prev = math.inf
+        status = STATUS_NO_CONVERGENCE
+        for it in range(max_iter):
+            for i in range(n):
+                for c in range(3):
+                    x1[c, i] = x[c, i] + dx[c, i]
+            st = forces(x, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, True, it == 0)
+            worst = 0.0
+            coupling = 0.0
+            for i in range(n):
+                for a in range(3):
+                    for b in range(3):
+                        J[a, b] = W[3 * a + b, i]
+                d0, d1, d2 = newton_update(
+                    J, hh, w[0, i] - hh * F[0, i], w[1, i] - hh * F[1, i], w[2, i] - hh * F[2, i]
+                )
+                w[0, i] -= d0
+                w[1, i] -= d1
+                w[2, i] -= d2
+                size = math.sqrt(
+                    (h * v[0, i] + w[0, i]) ** 2 + (h * v[1, i] + w[1, i]) ** 2 + (h * v[2, i] + w[2, i]) ** 2
+                )
+                upd = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) / max(size, 1e-300)
+                if not upd < math.inf:
+                    upd = math.inf
+                worst = max(worst, upd)
+                coupling = max(coupling, 6.0 * hh * R[i])
+            sweeps += 1
+            for i in range(n):  # Jacobi: the next sweep's forces see every update
+                for c in range(3):
+                    dx[c, i] = h * v[c, i] + w[c, i]
+            if st != STATUS_OK or not worst < math.inf:
+                status = STATUS_SINGULAR
+                break
+            # at round-off; or stalled there; or small enough that the next update, the larger
+            # of the measured contraction (worst / prev: quadratic or linear) and the pair
+            # coupling times worst, is a thousandth of round-off: an error that every step
+            # leaves with the same sign adds up, so the bound is far below eps
+            if (
+                worst <= 4.0 * _EPS
+                or (worst <= 128.0 * _EPS and worst > 0.5 * prev)
+                or (prev < math.inf and worst <= 1e-8 and worst * max(worst / prev, coupling) <= 1e-3 * _EPS)
+            ):
+                status = STATUS_OK
+                break
+            prev = worst
+    if status != STATUS_OK:
+        return sweeps, status
+    if work.shape[0] > 0:
+        work_of(x, dx, m, body, coef, h, mode, P, I, T, S, out)
+        _add_work(work, cwork, out)
+    for i in range(n):
+        for c in range(3):
+            x[c, i], cx[c, i] = _kahan(x[c, i], cx[c, i], dx[c, i])
+            v[c, i], cv[c, i] = _kahan(v[c, i], cv[c, i], 2.0 * w[c, i] / h)
+            wp[c, i] = w[c, i]
+    hp[0] = h
+    return sweeps, STATUS_OK
+
+
+@kernel
 def effect_chunk(
     forces, prepare, work_of, method, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork, rec_work,
     clock_base, clock_n0, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
@@ -96,21 +209,9 @@ def effect_chunk(
     """
     n = x.shape[1]
     ns = gammas.shape[0]
-    mode = MODE_STEP
-    if method == METHOD_MIDPOINT:
-        mode = MODE_MIDPOINT
-    elif method == METHOD_LEAPFROG:
-        mode = MODE_EXPLICIT
+    mode = method_mode(method)
     nw = work.shape[0]
-    dx = np.empty((3, n))
-    x1 = np.empty((3, n))
-    w = np.empty((3, n))
-    F = np.empty((3, n))
-    G = np.empty((3, n))
-    W = np.empty((9, n))
-    R = np.zeros(n)  # pair coupling bounds: kept by the pair effects between sweeps
-    J = np.empty((3, 3))
-    out = np.empty((nw, n))
+    scratch = step_scratch(n, nw)
     sx = np.empty((5, 3, n))  # the state at the start of a composed step: x, v, cx, cv, wp
     sw = np.empty((2, nw, n))  # work, cwork at the composed step's start
     tcum = np.empty(ns + 1)
@@ -131,78 +232,13 @@ def effect_chunk(
             sw[1, :, :] = cwork
             hp0 = hp[0]
             for k in range(ns):
-                h = dt * gammas[k]
-                hh = 0.5 * h * h
                 ta, tm, tb = substep_times(clock_base, clock_n0 + r * every + s, k, tcum, dt)
-                prepare(ta, tm, tb, P, I, T, S)
-                status = STATUS_OK
-                if mode == MODE_EXPLICIT:
-                    status = forces(x, x, m, body, coef, h, mode, P, I, T, S, F, W, R, False, True)
-                    for i in range(n):
-                        for c in range(3):
-                            dx[c, i] = h * (v[c, i] + 0.5 * h * F[c, i])
-                            x1[c, i] = x[c, i] + dx[c, i]
-                    if status == STATUS_OK:
-                        status = forces(x1, x1, m, body, coef, h, mode, P, I, T, S, G, W, R, False, True)
-                    for i in range(n):
-                        rec_iters[r, i] += 1
-                        for c in range(3):
-                            w[c, i] = 0.25 * h * h * (F[c, i] + G[c, i])  # v1 = v0 + 2 w / h
-                else:
-                    scale = (h / hp[0]) ** 2 if hp[0] != 0.0 else 0.0  # the last sub-step's w, rescaled
-                    for i in range(n):
-                        for c in range(3):
-                            w[c, i] = wp[c, i] * scale
-                            dx[c, i] = h * v[c, i] + w[c, i]
-                    prev = math.inf
-                    status = STATUS_NO_CONVERGENCE
-                    for it in range(max_iter):
-                        for i in range(n):
-                            for c in range(3):
-                                x1[c, i] = x[c, i] + dx[c, i]
-                        st = forces(x, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, True, it == 0)
-                        worst = 0.0
-                        coupling = 0.0
-                        for i in range(n):
-                            for a in range(3):
-                                for b in range(3):
-                                    J[a, b] = W[3 * a + b, i]
-                            d0, d1, d2 = newton_update(
-                                J, hh, w[0, i] - hh * F[0, i], w[1, i] - hh * F[1, i], w[2, i] - hh * F[2, i]
-                            )
-                            w[0, i] -= d0
-                            w[1, i] -= d1
-                            w[2, i] -= d2
-                            size = math.sqrt(
-                                (h * v[0, i] + w[0, i]) ** 2 + (h * v[1, i] + w[1, i]) ** 2
-                                + (h * v[2, i] + w[2, i]) ** 2
-                            )  # fmt: skip
-                            upd = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) / max(size, 1e-300)
-                            if not upd < math.inf:
-                                upd = math.inf
-                            worst = max(worst, upd)
-                            coupling = max(coupling, 6.0 * hh * R[i])
-                            rec_iters[r, i] += 1
-                        for i in range(n):  # Jacobi: the next sweep's forces see every update
-                            for c in range(3):
-                                dx[c, i] = h * v[c, i] + w[c, i]
-                        if st != STATUS_OK or not worst < math.inf:
-                            status = STATUS_SINGULAR
-                            break
-                        # at round-off; or stalled there; or small enough that the next update, the
-                        # larger of the measured contraction (worst / prev: quadratic or linear) and
-                        # the pair coupling times worst, is a thousandth of round-off: an error that
-                        # every step leaves with the same sign adds up, so the bound is far below eps
-                        if (
-                            worst <= 4.0 * _EPS
-                            or (worst <= 128.0 * _EPS and worst > 0.5 * prev)
-                            or (
-                                prev < math.inf and worst <= 1e-8 and worst * max(worst / prev, coupling) <= 1e-3 * _EPS
-                            )
-                        ):
-                            status = STATUS_OK
-                            break
-                        prev = worst
+                sweeps, status = effect_substep(
+                    forces, prepare, work_of, mode, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork,
+                    dt * gammas[k], ta, tb, max_iter, scratch,
+                )  # fmt: skip
+                for i in range(n):
+                    rec_iters[r, i] += sweeps
                 if status != STATUS_OK:
                     x[:, :] = sx[0]
                     v[:, :] = sx[1]
@@ -220,15 +256,6 @@ def effect_chunk(
                         rec_v[rr, :, :] = v
                         rec_work[rr, :, :] = work
                     return
-                if nw > 0:
-                    work_of(x, dx, m, body, coef, h, mode, P, I, T, S, out)
-                    _add_work(work, cwork, out)
-                for i in range(n):
-                    for c in range(3):
-                        x[c, i], cx[c, i] = _kahan(x[c, i], cx[c, i], dx[c, i])
-                        v[c, i], cv[c, i] = _kahan(v[c, i], cv[c, i], 2.0 * w[c, i] / h)
-                        wp[c, i] = w[c, i]
-                hp[0] = h
         rec_x[r, :, :] = x
         rec_v[r, :, :] = v
         rec_work[r, :, :] = work
