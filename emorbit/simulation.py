@@ -757,6 +757,12 @@ class Simulation(StateQueries, ChunkDriver):
             kinds.setdefault(b["kind"], []).append(b["name"])
         self.effects.check_bodies(kinds)
         self.effects.check_method(self.method)
+        if self.adaptive is not None and self.points.under_effects() and not self.effects.sets_time_scale("point"):
+            raise InputError(
+                "adaptive",
+                "adaptive steps of point masses follow the time scale an effect sets (the central field's, mutual "
+                "gravity's); these effects set none: give a [field] or use fixed steps",
+            )
         if self.device == "gpu" and self.points.under_effects():
             e = self.effects.named[0]
             raise InputError(

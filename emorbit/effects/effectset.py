@@ -254,6 +254,13 @@ class EffectSet:
                 return found
         return None
 
+    def sets_time_scale(self, body_kind: str) -> bool:
+        """Whether an effect of the set that acts at the points of a body kind declares the
+        rate that sets adaptive steps' time scale."""
+        return any(
+            e.acts_on(body_kind) == AT_POINTS and (type(e).PIECES.rate or type(e).PIECES.pair_rate) for e in self.all
+        )
+
     def body_keys(self, body_kind: str) -> list:
         """The body keys (:class:`~emorbit.effects.base.BodyKey`) the set's effects require of
         bodies of a kind."""
