@@ -162,7 +162,7 @@ def _run(args) -> int:
             raise RunInterrupted(stop.signum)
         start = time.perf_counter()
         progress = False if args.quiet else None
-        result = sim.run(
+        sim.run(
             t_end=scene.t_end,
             every=scene.output_every,
             output=args.output,
@@ -173,14 +173,83 @@ def _run(args) -> int:
             strict=args.strict,
         )
     if not args.quiet:
-        err = abs(result.relative_energy_error()[-1])
-        balance = result.relative_energy_balance()
-        kept = "" if balance is None else f", |E - E0 - W|/|E0| = {abs(balance[-1]):.3e}"  # effects that do work
         print(
             f"{args.output}: {sim.method} order {sim.order}, dt = {sim.dt:.6g} s, t = {sim.time:.6g} s, "
-            f"|dE/E0| at end = {err:.3e}{kept}, wall {time.perf_counter() - start:.2f} s"
+            f"{_run_summary(args.output)}, wall {time.perf_counter() - start:.2f} s"
         )
     return 0
+
+
+def _run_summary(path) -> str:
+    """What ``emorbit run`` says of a run file's records (:func:`summary_text`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A run file, closed by its writer.
+
+    Returns
+    -------
+    str
+        The energy error, largest and at the end, and the solves that did not reach round-off.
+    """
+    from .io.reader import open_run_file, optional_rows
+
+    with open_run_file(path) as f:
+        n = f["time"].shape[0]
+        return summary_text(
+            f["invariants/energy"][:n],
+            optional_rows(f, "invariants/energy_range", n),
+            f["invariants/energy_balance"][:n] if "energy_balance" in f["invariants"] else None,
+            int(optional_rows(f, "diagnostics/stalled_solves", n).sum()),
+            int(optional_rows(f, "diagnostics/split_steps", n).sum()),
+        )
+
+
+def summary_text(energy, energy_range, balance, stalled: int, split: int) -> str:
+    """A run's energy error, largest and at the end, and its stalled solves and split steps.
+
+    The largest error includes the steps between records where the run measured them
+    (``energy_range``): a midpoint run's energy oscillates around each orbit, and its error
+    at the end can be far below its largest. Under effects that do work (drag, radiation
+    pressure, third bodies) the energy changes with the physics, and the balance
+    ``E - E0 - W`` is what an em step keeps: its largest value is named too. Stalled solves
+    (sub-steps whose Newton iteration was accepted at a stall, above round-off) and split
+    steps (steps redone in sub-steps after Newton failed) are named where there are any.
+
+    Parameters
+    ----------
+    energy : array_like
+        (n,) the records' total energy, J.
+    energy_range : array_like
+        (n, 2) the least and greatest energy over each record's interval, J.
+    balance : array_like or None
+        (n,) ``E - E0 - W``, J, under effects that do work; None otherwise.
+    stalled, split : int
+        Stalled solves and split steps over the run.
+
+    Returns
+    -------
+    str
+        For example ``"max |dE/E0| = 8.012e-02, at end 2.412e-06; 1889 stalled solves"``.
+    """
+    import numpy as np
+
+    energy = np.asarray(energy, float)
+    if energy.size == 0:
+        return "no records"
+    scale = abs(energy[0]) if energy[0] != 0 else 1.0
+    rel = np.abs(energy - energy[0]) / scale
+    largest = max(float(rel.max()), float(np.abs(np.asarray(energy_range, float) - energy[0]).max() / scale))
+    text = f"max |dE/E0| = {largest:.3e}, at end {rel[-1]:.3e}"
+    if balance is not None:  # effects that do work: the balance is what an em step keeps
+        text += f"; max |E - E0 - W|/|E0| = {float(np.abs(np.asarray(balance, float)).max()) / scale:.3e}"
+    troubles = [
+        f"{count} {what}{'s' if count != 1 else ''}"
+        for count, what in ((stalled, "stalled solve"), (split, "split step"))
+        if count
+    ]
+    return text + ("; " + ", ".join(troubles) if troubles else "")
 
 
 def _resume(args) -> int:

@@ -125,7 +125,7 @@ def test_quiet_when_stderr_is_not_a_terminal(tmp_path, capsys):
     assert main(["run", "paper-ellipse", "-o", str(tmp_path / "q.h5"), "--t-end", "46.4758 s"]) == 0
     captured = capsys.readouterr()
     assert captured.err == ""
-    assert "|dE/E0| at end" in captured.out
+    assert "max |dE/E0| = " in captured.out and ", at end " in captured.out
 
 
 def test_console_entry_point_in_a_fresh_process(tmp_path, paper_file):
@@ -136,7 +136,7 @@ def test_console_entry_point_in_a_fresh_process(tmp_path, paper_file):
     cmd = [sys.executable, "-m", "emorbit.cli", "run", "paper-ellipse", "-o", str(out)]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
-    assert "|dE/E0| at end" in proc.stdout
+    assert "max |dE/E0| = " in proc.stdout
     with h5py.File(out, "r") as f, h5py.File(paper_file, "r") as g:
         assert f.attrs["status"] == "completed"
         for name in ("time", "invariants/energy", "bodies/satellite/position", "bodies/satellite/velocity"):
@@ -159,3 +159,32 @@ def test_max_output_limits_the_run_before_a_file_exists(tmp_path, capsys):
         assert f.attrs["status"] == "completed"
     assert main(["run", "paper-ellipse", "-o", str(tmp_path / "x.h5"), "-q", "--max-output", "ten"]) == 2
     assert "max_output" in capsys.readouterr().err
+
+
+def test_summary_gives_the_largest_energy_error_not_the_last(tmp_path, capsys):
+    """The midpoint rule's energy oscillates around each orbit: after one orbit its error is
+    back near 2e-8, but it reached 8e-2 at perihelion, between records; the summary says both."""
+    out = tmp_path / "mid.h5"
+    assert main(["run", "paper-ellipse-midpoint", "-o", str(out), "--t-end", "46.4758 s"]) == 0
+    line = capsys.readouterr().out
+    with h5py.File(out, "r") as f:
+        e0 = f["invariants/energy"][0]
+        largest = np.abs(f["invariants/energy_range"][()] / e0 - 1).max()
+        last = abs(f["invariants/energy"][-1] / e0 - 1)
+    assert largest > 1e-2 and last < 1e-6
+    assert f"max |dE/E0| = {largest:.3e}, at end {last:.3e}" in line
+    assert "stalled" not in line and "split" not in line
+
+
+def test_summary_names_stalled_solves_and_split_steps():
+    from emorbit.cli import summary_text
+
+    tiny = 2.0**-46  # 1.42e-14, exact steps of -1.0's neighbours
+    energy = np.array([-1.0, -1.0 + tiny, -1.0 - 2 * tiny])
+    span = np.stack([energy - 4 * tiny, energy], axis=-1)  # the least energy between records: -1 - 6 tiny
+    plain = f"max |dE/E0| = {6 * tiny:.3e}, at end {2 * tiny:.3e}"
+    assert summary_text(energy, span, None, 1889, 3) == plain + "; 1889 stalled solves, 3 split steps"
+    assert summary_text(energy, span, None, 1, 0) == plain + "; 1 stalled solve"
+    assert summary_text(energy, span, None, 0, 0) == plain
+    balance = np.array([0.0, 3e-15, -4e-15])  # drag: the energy balance E - E0 - W
+    assert "; max |E - E0 - W|/|E0| = 4.000e-15" in summary_text(energy, span, balance, 0, 0)
