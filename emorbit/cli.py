@@ -270,8 +270,9 @@ def _resume(args) -> int:
 
 
 def _plot(args) -> int:
-    from .plot import plot_runs
+    from .plot import check_figure_path, plot_runs
 
+    check_figure_path(args.output, args.files, key="-o/--output")
     plot_runs(args.files, args.output, title=args.title)
     return 0
 

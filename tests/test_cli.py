@@ -101,6 +101,85 @@ def test_plot(tmp_path, paper_file):
     assert main(["plot", str(tmp_path / "missing.h5"), "-o", str(fig)]) == 2
 
 
+@pytest.mark.parametrize(
+    "figure, what",
+    [
+        ("f.xyz", "has the extension .xyz, which matplotlib cannot write"),
+        ("nodir/f.png", "the folder 'nodir' does not exist"),
+        ("run.h5", "is one of the run files being plotted"),
+        (".", "is a folder"),
+        ("sub", "is a folder"),
+        ("fig", "has no extension"),
+    ],
+)
+def test_plot_refuses_a_figure_path_and_writes_nothing(tmp_path, monkeypatch, capsys, paper_file, figure, what):
+    monkeypatch.chdir(tmp_path)
+    run = tmp_path / "run.h5"
+    run.write_bytes(paper_file.read_bytes())
+    (tmp_path / "sub").mkdir()
+    before = {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*")}
+    assert main(["plot", "run.h5", "-o", figure]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("emorbit: error: -o/--output: ") and what in err and len(err.splitlines()) == 1, err
+    assert {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*")} == before  # nothing written or replaced
+
+
+def test_plot_draws_the_paths_of_a_free_space_run(tmp_path):
+    """Three bodies under their mutual gravity, no central field: the figure draws their paths
+    (and the angular-momentum error), not only the energy error."""
+    import matplotlib.pyplot as plt
+
+    from emorbit.plot import draw_runs
+
+    path = tmp_path / "eight.h5"
+    assert main(["run", "three-body-figure-eight", "-o", str(path), "-q", "--t-end", "40 s"]) == 0
+    assert main(["plot", str(path), "-o", str(tmp_path / "eight.png")]) == 0
+    res = emorbit.read(path).si
+    fig = draw_runs([(str(path), res)])
+    try:
+        titles = [ax.get_title() for ax in fig.axes]
+        paths = fig.axes[titles.index("paths (x-y projection, dot = end)")]
+        drawn = {line.get_label(): line.get_xydata() for line in paths.lines}
+        for name in ("a", "b", "c"):
+            np.testing.assert_array_equal(drawn[name], res.positions[name][:, :2])
+        assert "relative angular-momentum error (log)" in titles
+    finally:
+        plt.close(fig)
+
+
+def test_plot_draws_the_energy_balance_as_the_error_under_work():
+    """Under drag the energy falls with the physics: the error drawn is the balance
+    (E - E0 - W) / |E0|, labelled so, and the energy's change is drawn beside it as what it is."""
+    import matplotlib.pyplot as plt
+
+    from emorbit.plot import draw_runs
+    from emorbit.result import ResultSI
+
+    n = 5
+    t = np.arange(n, dtype=float)
+    energy = -1e7 * (1 + 1e-6 * t)  # drag takes energy: J
+    work = energy - energy[0] + np.array([0, 1e-9, -2e-9, 3e-9, 0])  # W, up to round-off of the balance
+    x = np.stack([7e6 * np.cos(t / 100), 7e6 * np.sin(t / 100), 0 * t], axis=1)
+    res = ResultSI(
+        time=t, energy=energy, momentum=np.zeros((n, 3)), angular_momentum=np.ones((n, 3)),
+        newton_iterations=np.zeros(n), bodies={"sat": {"position": x, "velocity": x}}, masses={"sat": 1.0},
+        kinds={"sat": "point"}, method="em", order=2, dt=1.0, gm=3.986e14, center=np.zeros(3),
+        work={"drag": work}, energy_balance=energy - energy[0] - work,
+    )  # fmt: skip
+    fig = draw_runs([("drag.h5", res)])
+    try:
+        ax_lin, ax_log = fig.axes[:2]
+        assert ax_lin.get_title().startswith("energy balance error") and ax_lin.get_ylabel() == "(E - E0 - W) / |E0|"
+        (line,) = ax_lin.lines
+        assert line.get_label().endswith(": (E - E0 - W) / |E0|")
+        np.testing.assert_array_equal(line.get_ydata(), res.relative_energy_balance())
+        change = next(ln for ln in ax_log.lines if ln.get_label().endswith("|E - E0| / |E0|, the work done"))
+        np.testing.assert_allclose(change.get_ydata()[1:], np.abs(res.relative_energy_error())[1:])
+        assert change.get_linestyle() == ":"
+    finally:
+        plt.close(fig)
+
+
 def test_scenes_command(capsys):
     """One line per shipped scene: its name, what it is (from its leading comment), its method."""
     assert main(["scenes"]) == 0
