@@ -96,18 +96,23 @@ class StateQueries:
         """
         return self._invariants_now()[2]
 
-    def elements(self, name: str) -> OrbitalElements:
-        """Osculating elements of a body's centre of mass now.
+    def elements(self, name: str, si: bool = False) -> OrbitalElements:
+        """Osculating elements of a body's centre of mass now, as :meth:`Result.elements
+        <emorbit.result.Result.elements>` gives them for every record.
 
         Parameters
         ----------
         name : str
             The body.
+        si : bool
+            Plain floats in m and rad instead of Quantities.
 
         Returns
         -------
         OrbitalElements
-            Scalars in m and rad (see :mod:`emorbit.orbits`).
+            Scalar Quantities (see :mod:`emorbit.orbits`): ``a`` in m (negative for a
+            hyperbolic state), ``e`` dimensionless, ``i``, ``raan``, ``argp``, ``nu`` and ``M``
+            in rad; with ``si`` plain floats.
 
         Raises
         ------
@@ -117,4 +122,5 @@ class StateQueries:
         if self.field is None:
             raise InputError("field", "orbital elements need a central field")
         x, v = self.state(name)
-        return elements(x, v, self.field.gm, self.field.center)
+        el = OrbitalElements(*map(float, elements(x, v, self.field.gm, self.field.center)))
+        return el if si else el.with_units()

@@ -90,7 +90,7 @@ def _one_by_one(speeds, dts, t_end):
             scene = Scene(data, base.text)
             sim = scene.build()
             res = sim.run(t_end=scene.t_end, every=1, progress=False)
-            el = sim.elements("satellite")
+            el = sim.elements("satellite", si=True)
             rows.append(
                 {
                     "integrator.dt": dt,
