@@ -140,11 +140,45 @@ def _warnings_on_stderr():
                 sys.stderr.write(warnings.formatwarning(w.message, w.category, w.filename, w.lineno))
 
 
+#: the options of ``emorbit run`` and ``resume`` that override a scene's keys: {the key an
+#: error names: (the option, its attribute in the parsed arguments)}
+OVERRIDES = {
+    **{
+        f"{prefix}{key}": (option, attr)
+        for key, option, attr in (
+            ("t_end", "--t-end", "t_end"),
+            ("dt", "--dt", "dt"),
+            ("method", "--method", "method"),
+            ("order", "--order", "order"),
+            ("output_every", "--every", "every"),
+            ("checkpoint_every", "--checkpoint-every", "checkpoint_every"),
+            ("max_output", "--max-output", "max_output"),
+        )
+        for prefix in ("integrator.", "")
+    },
+    "every": ("--every", "every"),
+}
+
+
+@contextlib.contextmanager
+def _options_named(args):
+    """An input error about a key that an option of the command line set names that option
+    (``--t-end``, not ``integrator.t_end``): the value is the one the user typed."""
+    try:
+        yield
+    except InputError as exc:
+        option, attr = OVERRIDES.get(exc.key, (None, None))
+        if option is None or getattr(args, attr, None) is None:
+            raise
+        raise InputError(option, exc.message) from None
+
+
 def _run(args) -> int:
     from .scene import load_scene
     from .stepping import RunInterrupted, stop_on_signals
 
     with (
+        _options_named(args),
         stop_on_signals() as stop,
         _warnings_on_stderr(),
     ):  # a signal while the scene builds stops the run before its file exists
@@ -257,7 +291,7 @@ def _resume(args) -> int:
     from .stepping import stop_on_signals
 
     start = time.perf_counter()
-    with stop_on_signals(), _warnings_on_stderr():
+    with _options_named(args), stop_on_signals(), _warnings_on_stderr():
         result = resume(args.file, args.t_end, progress=False if args.quiet else None, truncate=args.truncate)
     if not args.quiet:
         si = result.si

@@ -180,6 +180,34 @@ def test_plot_draws_the_energy_balance_as_the_error_under_work():
         plt.close(fig)
 
 
+@pytest.mark.parametrize(
+    "option, value",
+    [
+        ("--t-end", "100"),
+        ("--dt", "1"),
+        ("--method", "foo"),
+        ("--order", "3"),
+        ("--every", "0"),
+        ("--checkpoint-every", "0"),
+        ("--max-output", "5"),
+    ],
+)
+def test_a_bad_override_names_the_option_typed(tmp_path, capsys, option, value):
+    out = tmp_path / "o.h5"
+    assert main(["run", "paper-ellipse", "-o", str(out), option, value]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"emorbit: error: {option}: ") and "integrator." not in err, err
+    assert not out.exists()
+
+
+def test_resume_names_its_t_end_option(tmp_path, capsys, paper_file):
+    run = tmp_path / "run.h5"
+    run.write_bytes(paper_file.read_bytes())
+    assert main(["resume", str(run), "--t-end", "100"]) == 2
+    assert capsys.readouterr().err.startswith("emorbit: error: --t-end: '100' has no unit")
+    assert run.read_bytes() == paper_file.read_bytes()
+
+
 def test_scenes_command(capsys):
     """One line per shipped scene: its name, what it is (from its leading comment), its method."""
     assert main(["scenes"]) == 0
@@ -237,7 +265,7 @@ def test_max_output_limits_the_run_before_a_file_exists(tmp_path, capsys):
     with h5py.File(out, "r") as f:
         assert f.attrs["status"] == "completed"
     assert main(["run", "paper-ellipse", "-o", str(tmp_path / "x.h5"), "-q", "--max-output", "ten"]) == 2
-    assert "max_output" in capsys.readouterr().err
+    assert "error: --max-output: " in capsys.readouterr().err
 
 
 def test_summary_gives_the_largest_energy_error_not_the_last(tmp_path, capsys):
