@@ -312,8 +312,8 @@ def _plot(args) -> int:
 
 
 def scene_description(name: str) -> str:
-    """One line that says what a shipped scene is: the first clause of its leading comment
-    (without what is in parentheses), then its method and order.
+    """One line that says what a shipped scene is: the first clause of its leading comment in
+    full (without what is in parentheses), then its method and order.
 
     Parameters
     ----------
@@ -323,7 +323,7 @@ def scene_description(name: str) -> str:
     Returns
     -------
     str
-        The line (without the name), at most about 120 characters.
+        The line (without the name).
     """
     import importlib.resources
     import re
@@ -343,9 +343,6 @@ def scene_description(name: str) -> str:
     while (shorter := re.sub(r"\s*\([^()]*\)", "", first)) != first:
         first = shorter
     first = re.split(r"[:;]|\.(?:\s|$)", first, maxsplit=1)[0].strip()
-    if len(first) > 100:  # at the last clause that fits, else at a word
-        clause = first[:100].rsplit(", ", 1)[0]
-        first = clause if len(clause) >= 40 else first[:100].rsplit(" ", 1)[0] + " ..."
     integ = tomllib.loads(text).get("integrator", {})
     how = f"[{integ.get('method', 'em')}, order {integ.get('order', 2)}]"
     return f"{first} {how}" if first else how

@@ -217,7 +217,10 @@ def test_scenes_command(capsys):
     assert "The satellite on an ellipse from Goettlicher & Schweizerhof [em, order 2]" in paper
     midpoint = next(line for line in lines if line.startswith("paper-ellipse-midpoint "))
     assert midpoint.endswith("[midpoint, order 2]")
-    assert all(len(line) < 160 and len(line.split()) > 3 for line in lines)
+    assert all(len(line.split()) > 3 and "..." not in line for line in lines)
+    # the first clause in full, however long
+    eight = next(line for line in lines if line.startswith("three-body-figure-eight "))
+    assert eight.endswith("figure-eight under their mutual gravity, in free space [em, order 4]")
 
 
 def test_summary_prints_dt_with_six_significant_digits(tmp_path, capsys):
