@@ -55,6 +55,18 @@ class StateQueries:
         d = s.datasets(s.current(), 1)[name]
         return d["position"][0].copy(), d["velocity"][0].copy()
 
+    def _rigid_pose(self, name: str):
+        """A rigid body's centre (m), attitude (body to space) and mass points now, in its own
+        system or in a structure; None where ``name`` is no rigid body."""
+        rigid, st = getattr(self, "rigid", None), getattr(self, "structure", None)
+        if rigid is not None and name in rigid.names:
+            b = rigid.names.index(name)
+            return rigid.q[b, :3], rigid.q[b, 3:].reshape(3, 3).T, rigid.points[b]
+        if st is not None and name in st.names and st._body(name)["kind"] == "rigid":
+            centre, *axes = (st._u[k] for k in st._body(name)["slots"])
+            return centre, np.column_stack(axes), st._body(name)["points"]
+        return None
+
     def _invariants_now(self):
         recs = [(s, s.current()) for s in self._measured()]
         if any(t.time_dependent for t in getattr(self, "_effects", ())):  # potentials that follow the clock
