@@ -307,11 +307,55 @@ def _mkdocs(config: Path, site: Path) -> subprocess.CompletedProcess:
     )
 
 
+#: the HTML elements a page may hold without attributes; any other bare <name> was text
+#: that Markdown passed through as a tag (``invariants/work_<label>``)
+HTML_ELEMENTS = set(
+    "a abbr article aside b blockquote body br caption code dd del details div dl dt em figcaption figure footer "
+    "h1 h2 h3 h4 h5 h6 head header hr html i img ins kbd li main mark nav ol p pre s script section small span "
+    "strong style sub summary sup table tbody td tfoot th thead title tr tt u ul".split()
+)
+
+
+def site_defects(site: Path) -> list[str]:
+    """What the built pages show where their source was not Markdown: an RST literal block's
+    ``::`` left in a paragraph, a pipe's escape shown as ``\\|``, text read as an HTML tag."""
+    found = []
+    for page in sorted(site.rglob("*.html")):
+        text = page.read_text(encoding="utf-8")
+        where = page.relative_to(site)
+        found += [f"{where}: '::' ends a paragraph" for _ in re.finditer(r"::</p>", text)]
+        found += [f"{where}: {m.group(0)!r} shows its backslash" for m in re.finditer(r".{0,30}\\\|", text)]
+        found += [
+            f"{where}: {m.group(0)!r} became a tag"
+            for m in re.finditer(r".{0,30}<([A-Za-z_][\w-]*)>", text)
+            if m.group(1).lower() not in HTML_ELEMENTS
+        ]
+    return found
+
+
 def test_site_builds_in_strict_mode(tmp_path):
+    """The site builds, and its pages show no Markdown left unconverted (:func:`site_defects`):
+    the effects page's formulas are code blocks, its tables' pipes plain, its <label> text."""
     done = _mkdocs(REPO / "mkdocs.yml", tmp_path / "site")
     assert done.returncode == 0, done.stderr[-4000:]
     assert (tmp_path / "site" / "api" / "emorbit" / "index.html").is_file()
     assert "emorbit.Simulation.run" in (tmp_path / "site" / "api" / "emorbit" / "index.html").read_text()
+    assert site_defects(tmp_path / "site") == []
+    effects = (tmp_path / "site" / "effects" / "index.html").read_text(encoding="utf-8")
+    assert "invariants/work_&lt;label&gt;" in effects and "<code>V = -GM m / r, r = |x - c|</code>" in effects
+    assert re.search(r"<pre>.*V = \(GM m / r\) sum_\{n=2\}\^\{N\}", effects)
+
+
+def test_the_effects_page_carries_no_rst():
+    """scripts/docs_effects.py writes Markdown: an RST literal block (``::`` and its indented
+    lines) as a code block, pipes in code spans as they are, ``<label>`` in code or escaped."""
+    page = _script("docs_effects").markdown()
+    assert not [line for line in page.splitlines() if line.rstrip().endswith("::")]
+    for formula in ("V = (GM m / r) sum_{n=2}^{N} J_n (R / r)^n P_n(z / r)", "F_ij = -G m_i m_j (d0 + d1)"):
+        assert f"```text\n{formula}" in page, formula
+    assert not [span for span in re.findall(r"`[^`]*`", page) if "\\|" in span]
+    outside = re.sub(r"`[^`]*`", "", page)
+    assert "<label>" not in outside and "`invariants/work_<label>`" in page
 
 
 def test_strict_build_fails_on_a_broken_link(tmp_path):
