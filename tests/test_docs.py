@@ -113,6 +113,27 @@ def test_every_shipped_scene_is_on_the_scenes_page():
         assert f"| `{name}` |" in page, name
 
 
+def test_scenes_page_names_every_rigid_shape():
+    from emorbit.bodies.shapes import SHAPES
+
+    section = _section(_page("scenes.md"), "## A rigid body")
+    (comment,) = re.findall(r'^shape = "box" +# (.*)$', section, re.M)
+    assert comment.split(" | ") == list(SHAPES)
+    shapes = " ".join(section[section.index("Shapes: ") :].split("\n\n")[0].split())
+    assert [name for name in SHAPES if f"`{name}` (" not in shapes] == []
+
+
+def test_no_page_says_bodies_feel_only_the_field():
+    """Point masses feel the effects a scene names, and with ``mutual`` every body attracts
+    every other: no page may say otherwise."""
+    stale = ("the field and nothing else", "bodies do not attract each other.", "and bodies do not attract")
+    for path in [REPO / "README.md", *sorted(DOCS.glob("*.md"))]:
+        text = " ".join(path.read_text(encoding="utf-8").split())
+        assert not [phrase for phrase in stale if phrase in text], path.name
+    scenes = " ".join(_page("scenes.md").split())
+    assert 'with `kind = "mutual"` every body attracts every other' in scenes
+
+
 def test_complete_scenes_and_sweeps_on_the_pages_parse():
     from emorbit.sweep import parse_sweep
 
