@@ -157,6 +157,7 @@ def test_readme_has_the_two_commands():
         " && .venv/bin/python -m pytest -n auto --dist loadfile && .venv/bin/python scripts/mutants.py"
     )
     assert test_command in ci and f"    {test_command}\n" in README
+    assert f"    {test_command}\n" in _page("getting-started.md")  # the same command on the site
     assert "    python3 -m venv .venv && .venv/bin/pip install . && .venv/bin/emorbit run paper-ellipse" in README
     assert len(README.splitlines()) <= 200
 
