@@ -140,11 +140,45 @@ def _warnings_on_stderr():
                 sys.stderr.write(warnings.formatwarning(w.message, w.category, w.filename, w.lineno))
 
 
+#: the options of ``emorbit run`` and ``resume`` that override a scene's keys: {the key an
+#: error names: (the option, its attribute in the parsed arguments)}
+OVERRIDES = {
+    **{
+        f"{prefix}{key}": (option, attr)
+        for key, option, attr in (
+            ("t_end", "--t-end", "t_end"),
+            ("dt", "--dt", "dt"),
+            ("method", "--method", "method"),
+            ("order", "--order", "order"),
+            ("output_every", "--every", "every"),
+            ("checkpoint_every", "--checkpoint-every", "checkpoint_every"),
+            ("max_output", "--max-output", "max_output"),
+        )
+        for prefix in ("integrator.", "")
+    },
+    "every": ("--every", "every"),
+}
+
+
+@contextlib.contextmanager
+def _options_named(args):
+    """An input error about a key that an option of the command line set names that option
+    (``--t-end``, not ``integrator.t_end``): the value is the one the user typed."""
+    try:
+        yield
+    except InputError as exc:
+        option, attr = OVERRIDES.get(exc.key, (None, None))
+        if option is None or getattr(args, attr, None) is None:
+            raise
+        raise InputError(option, exc.message) from None
+
+
 def _run(args) -> int:
     from .scene import load_scene
     from .stepping import RunInterrupted, stop_on_signals
 
     with (
+        _options_named(args),
         stop_on_signals() as stop,
         _warnings_on_stderr(),
     ):  # a signal while the scene builds stops the run before its file exists
@@ -163,7 +197,7 @@ def _run(args) -> int:
             raise RunInterrupted(stop.signum)
         start = time.perf_counter()
         progress = False if args.quiet else None
-        result = sim.run(
+        sim.run(
             t_end=scene.t_end,
             every=scene.output_every,
             output=args.output,
@@ -174,14 +208,83 @@ def _run(args) -> int:
             strict=args.strict,
         )
     if not args.quiet:
-        err = abs(result.relative_energy_error()[-1])
-        balance = result.relative_energy_balance()
-        kept = "" if balance is None else f", |E - E0 - W|/|E0| = {abs(balance[-1]):.3e}"  # effects that do work
         print(
             f"{args.output}: {sim.method} order {sim.order}, dt = {sim.dt:.6g} s, t = {sim.time:.6g} s, "
-            f"|dE/E0| at end = {err:.3e}{kept}, wall {time.perf_counter() - start:.2f} s"
+            f"{_run_summary(args.output)}, wall {time.perf_counter() - start:.2f} s"
         )
     return 0
+
+
+def _run_summary(path) -> str:
+    """What ``emorbit run`` says of a run file's records (:func:`summary_text`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A run file, closed by its writer.
+
+    Returns
+    -------
+    str
+        The energy error, largest and at the end, and the solves that did not reach round-off.
+    """
+    from .io.reader import open_run_file, optional_rows
+
+    with open_run_file(path) as f:
+        n = f["time"].shape[0]
+        return summary_text(
+            f["invariants/energy"][:n],
+            optional_rows(f, "invariants/energy_range", n),
+            f["invariants/energy_balance"][:n] if "energy_balance" in f["invariants"] else None,
+            int(optional_rows(f, "diagnostics/stalled_solves", n).sum()),
+            int(optional_rows(f, "diagnostics/split_steps", n).sum()),
+        )
+
+
+def summary_text(energy, energy_range, balance, stalled: int, split: int) -> str:
+    """A run's energy error, largest and at the end, and its stalled solves and split steps.
+
+    The largest error includes the steps between records where the run measured them
+    (``energy_range``): a midpoint run's energy oscillates around each orbit, and its error
+    at the end can be far below its largest. Under effects that do work (drag, radiation
+    pressure, third bodies) the energy changes with the physics, and the balance
+    ``E - E0 - W`` is what an em step keeps: its largest value is named too. Stalled solves
+    (sub-steps whose Newton iteration was accepted at a stall, above round-off) and split
+    steps (steps redone in sub-steps after Newton failed) are named where there are any.
+
+    Parameters
+    ----------
+    energy : array_like
+        (n,) the records' total energy, J.
+    energy_range : array_like
+        (n, 2) the least and greatest energy over each record's interval, J.
+    balance : array_like or None
+        (n,) ``E - E0 - W``, J, under effects that do work; None otherwise.
+    stalled, split : int
+        Stalled solves and split steps over the run.
+
+    Returns
+    -------
+    str
+        For example ``"max |dE/E0| = 8.012e-02, at end 2.412e-06; 1889 stalled solves"``.
+    """
+    import numpy as np
+
+    energy = np.asarray(energy, float)
+    if energy.size == 0:
+        return "no records"
+    scale = abs(energy[0]) if energy[0] != 0 else 1.0
+    rel = np.abs(energy - energy[0]) / scale
+    largest = max(float(rel.max()), float(np.abs(np.asarray(energy_range, float) - energy[0]).max() / scale))
+    text = f"max |dE/E0| = {largest:.3e}, at end {rel[-1]:.3e}"
+    if balance is not None:  # effects that do work: the balance is what an em step keeps
+        text += f"; max |E - E0 - W|/|E0| = {float(np.abs(np.asarray(balance, float)).max()) / scale:.3e}"
+    troubles = [
+        f"{count} {what}{'s' if count != 1 else ''}"
+        for count, what in ((stalled, "stalled solve"), (split, "split step"))
+        if count
+    ]
+    return text + ("; " + ", ".join(troubles) if troubles else "")
 
 
 def _resume(args) -> int:
@@ -189,7 +292,7 @@ def _resume(args) -> int:
     from .stepping import stop_on_signals
 
     start = time.perf_counter()
-    with stop_on_signals(), _warnings_on_stderr():
+    with _options_named(args), stop_on_signals(), _warnings_on_stderr():
         result = resume(args.file, args.t_end, progress=False if args.quiet else None, truncate=args.truncate)
     if not args.quiet:
         si = result.si
@@ -202,15 +305,16 @@ def _resume(args) -> int:
 
 
 def _plot(args) -> int:
-    from .plot import plot_runs
+    from .plot import check_figure_path, plot_runs
 
+    check_figure_path(args.output, args.files, key="-o/--output")
     plot_runs(args.files, args.output, title=args.title)
     return 0
 
 
 def scene_description(name: str) -> str:
-    """One line that says what a shipped scene is: the first clause of its leading comment
-    (without what is in parentheses), then its method and order.
+    """One line that says what a shipped scene is: the first clause of its leading comment in
+    full (without what is in parentheses), then its method and order.
 
     Parameters
     ----------
@@ -220,7 +324,7 @@ def scene_description(name: str) -> str:
     Returns
     -------
     str
-        The line (without the name), at most about 120 characters.
+        The line (without the name).
     """
     import importlib.resources
     import re
@@ -240,9 +344,6 @@ def scene_description(name: str) -> str:
     while (shorter := re.sub(r"\s*\([^()]*\)", "", first)) != first:
         first = shorter
     first = re.split(r"[:;]|\.(?:\s|$)", first, maxsplit=1)[0].strip()
-    if len(first) > 100:  # at the last clause that fits, else at a word
-        clause = first[:100].rsplit(", ", 1)[0]
-        first = clause if len(clause) >= 40 else first[:100].rsplit(" ", 1)[0] + " ..."
     integ = tomllib.loads(text).get("integrator", {})
     how = f"[{integ.get('method', 'em')}, order {integ.get('order', 2)}]"
     return f"{first} {how}" if first else how

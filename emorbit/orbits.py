@@ -72,6 +72,22 @@ class OrbitalElements(NamedTuple):
     nu: np.ndarray
     M: np.ndarray
 
+    def with_units(self) -> OrbitalElements:
+        """The same elements as astropy Quantities (sharing their memory where they are arrays).
+
+        Returns
+        -------
+        OrbitalElements
+            ``a`` in m, ``e`` dimensionless, ``i``, ``raan``, ``argp``, ``nu`` and ``M`` in rad.
+        """
+        import astropy.units as u
+
+        rad = u.rad
+        return OrbitalElements(
+            self.a << u.m, self.e << u.dimensionless_unscaled, self.i << rad, self.raan << rad,
+            self.argp << rad, self.nu << rad, self.M << rad,
+        )  # fmt: skip
+
 
 def _dot(a, b):
     return np.einsum("...k,...k->...", a, b)

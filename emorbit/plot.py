@@ -5,10 +5,12 @@ The energy error of each run is its recorded points joined by a line over a shad
 least and greatest error over the steps between records
 (:meth:`emorbit.Result.relative_energy_error_range`), so a run recorded every k-th step shows
 where it went between records, and a decimated record never looks like a dip the run did not
-have. Under effects that do work (drag) the log panel adds each run's energy balance,
-``|E - E0 - W| / |E0|``, as a dashed line in its colour. Legends sit beside the axes, never over the
-curves. A run in a central field gets an orbit panel (x-y projection with the centre marked); a
-free-space run gets the relative angular-momentum error instead. Rigid bodies add their
+have. Under effects that do work (drag, radiation pressure, third bodies) the energy changes
+with the physics: the error is then the energy balance ``(E - E0 - W) / |E0|``, labelled so,
+and the log panel adds the energy's own change ``|E - E0| / |E0|`` as a dotted line in the
+run's colour. Legends sit under the axes, never over the curves. Every run's bodies are drawn
+along their paths (x-y projection; a central field's centre is marked); a free-space run adds
+its relative angular-momentum error. Rigid bodies add their
 attitude angles and body-frame angular velocity; elastic bodies add their deformation: the
 largest distance of a node from the best rigid placement of the mesh's reference nodes
 (:func:`deformation`), which is the tip deflection of a beam relative to its rigid motion and
@@ -25,7 +27,7 @@ import numpy as np
 from .errors import InputError
 from .io.reader import read
 
-__all__ = ["plot_runs", "euler_angles", "deformation"]
+__all__ = ["plot_runs", "draw_runs", "check_figure_path", "euler_angles", "deformation"]
 
 
 def _label(path, res) -> str:
@@ -47,22 +49,45 @@ def _band(res) -> np.ndarray | None:
     return band
 
 
+#: the energy panels' titles and labels: every run conservative, every run under effects that
+#: do work (its error is the energy balance), or some of each
+ENERGY_TITLES = {
+    "energy": ("relative energy error", "(E - E0) / |E0|", "|E - E0| / |E0|"),
+    "balance": (
+        "energy balance error, W the work of drag, radiation, third bodies",
+        "(E - E0 - W) / |E0|",
+        "|E - E0 - W| / |E0| (dotted: |E - E0| / |E0|)",
+    ),
+    "both": (
+        "relative energy error; the balance E - E0 - W where effects do work",
+        "(E - E0) / |E0| or (E - E0 - W) / |E0|",
+        "|E - E0| / |E0| or |E - E0 - W| / |E0|",
+    ),
+}
+
+
 def _plot_energy(runs, ax_lin, ax_log, floor: float) -> None:
     """Each run's relative energy error, linear and in magnitude on a log scale: the records
     as a line over a band of the extremes between records, in the line's colour. Each band
-    spans the interval that ends at its record (a step drawn before the record)."""
+    spans the interval that ends at its record (a step drawn before the record). Under
+    effects that do work the error is the energy balance ``(E - E0 - W) / |E0|``, labelled
+    so, and the energy's own change, what the physics did, is a dotted line beside it."""
     banded = False
     for path, res in runs:
-        err = res.relative_energy_error()
         label = _label(path, res)
+        balance = res.relative_energy_balance()
+        if balance is not None:  # effects do work: the balance is the error, the change is physics
+            label = f"{label}: (E - E0 - W) / |E0|"
+            ax_lin.plot(res.time, balance, lw=0.8, label=label, zorder=3)
+            (log_line,) = ax_log.semilogy(res.time, np.maximum(np.abs(balance), floor), lw=0.8, label=label, zorder=3)
+            ax_log.semilogy(
+                res.time, np.maximum(np.abs(res.relative_energy_error()), floor), lw=0.8, ls=":",
+                color=log_line.get_color(), label=f"{_label(path, res)}: |E - E0| / |E0|, the work done", zorder=3,
+            )  # fmt: skip
+            continue
+        err = res.relative_energy_error()
         (line,) = ax_lin.plot(res.time, err, lw=0.8, label=label, zorder=3)
         (log_line,) = ax_log.semilogy(res.time, np.maximum(np.abs(err), floor), lw=0.8, label=label, zorder=3)
-        balance = res.relative_energy_balance()
-        if balance is not None:  # under drag: the balance E - E0 - W beside the energy, dashed
-            ax_log.semilogy(
-                res.time, np.maximum(np.abs(balance), floor), lw=0.8, ls="--", color=log_line.get_color(),
-                label=f"{label}: |E - E0 - W| / |E0|", zorder=3,
-            )  # fmt: skip
         band = _band(res)
         if band is None:
             continue
@@ -199,39 +224,75 @@ def _read(path):
     return res
 
 
-def plot_runs(paths, output, *, title: str | None = None) -> str:
-    """Plot run files: energy error, orbits or angular momentum, attitudes and deformations.
+def _formats() -> dict:
+    """{extension: format name} that matplotlib can write."""
+    from matplotlib.backend_bases import FigureCanvasBase
 
-    The relative energy error of every file goes on shared axes (linear, as in the paper,
-    and its magnitude on a log scale), its records as a line over a shaded band of the
-    extremes between records (:meth:`emorbit.Result.relative_energy_error_range`; absent
-    where it adds nothing: every step recorded, or a file that holds no extremes). Runs in a
-    central field add their orbits in an x-y projection with the centre marked; free-space
-    runs the relative angular-momentum error.
-    A second row shows rigid bodies' attitude angles and body-frame angular velocity and
-    elastic bodies' :func:`deformation`. Legends sit under their axes.
+    return FigureCanvasBase.get_supported_filetypes()
+
+
+def check_figure_path(output, inputs=(), key: str = "output") -> str:
+    """Refuse a figure path that would not give a new figure file, before anything is drawn.
 
     Parameters
     ----------
-    paths : list of str
-        HDF5 run files.
     output : str or os.PathLike
-        The figure to write, in any format matplotlib knows by its extension.
+        The figure to write.
+    inputs : iterable of str or os.PathLike
+        The run files being plotted: the figure may not replace one.
+    key : str
+        The name the errors give the path (``"-o/--output"`` on the command line).
+
+    Returns
+    -------
+    str
+        The path.
+
+    Raises
+    ------
+    InputError
+        The path is a folder (or ends like one), would replace one of ``inputs`` or another
+        thing that is not a regular file, lies in a folder that does not exist, or has no
+        extension or one matplotlib cannot write (it would otherwise append ``.png`` itself,
+        or fail after drawing).
+    """
+    path = os.fspath(output)
+    name = os.path.basename(path)
+    if os.path.isdir(path) or name in ("", ".", ".."):
+        raise InputError(key, f"{path!r} is a folder; give a figure file, such as {os.path.join(path, 'fig.png')!r}")
+    for run_file in inputs:
+        if os.path.exists(path) and os.path.exists(run_file) and os.path.samefile(path, run_file):
+            raise InputError(key, f"{path!r} is one of the run files being plotted; the figure would replace it")
+    if os.path.exists(path) and not os.path.isfile(path):
+        raise InputError(key, f"{path!r} exists and is not a regular file")
+    folder = os.path.dirname(path)
+    if folder and not os.path.isdir(folder):
+        raise InputError(key, f"the folder {folder!r} does not exist")
+    ext = os.path.splitext(name)[1].lstrip(".").lower()
+    formats = _formats()
+    if ext not in formats:
+        known = ", ".join(f".{e}" for e in sorted(formats))
+        what = "has no extension" if not ext else f"has the extension .{ext}, which matplotlib cannot write"
+        raise InputError(key, f"{path!r} {what}; give one of {known}")
+    return path
+
+
+def draw_runs(runs, *, title: str | None = None):
+    """Draw the figure of :func:`plot_runs` from runs in memory.
+
+    Parameters
+    ----------
+    runs : list of tuple
+        (name, :class:`~emorbit.result.ResultSI`) pairs: a label for each run (a file's path)
+        and its records in SI units (``Result.si``).
     title : str, optional
         A title over the figure.
 
     Returns
     -------
-    str
-        The path of the figure.
-
-    Raises
-    ------
-    InputError
-        A file does not exist, is not an HDF5 file, is not an emorbit run file or holds no
-        records.
+    matplotlib.figure.Figure
+        The figure (matplotlib's Agg backend); close it with ``matplotlib.pyplot.close``.
     """
-    runs = [(p, _read(p).si) for p in paths]  # plain SI arrays
     import matplotlib
 
     matplotlib.use("Agg")
@@ -240,29 +301,38 @@ def plot_runs(paths, output, *, title: str | None = None) -> str:
     rigid = any(res.attitudes for _, res in runs)
     elastic = any(_elastic(res) for _, res in runs)
     field = any(res.gm != 0.0 for _, res in runs)
+    free = [(path, res) for path, res in runs if res.gm == 0.0]
     rows = 2 if rigid or elastic else 1
-    fig, axes = plt.subplots(rows, 3, figsize=(16, 5.6 * rows), constrained_layout=True, squeeze=False)
-    ax_lin, ax_log, ax_third = axes[0]
+    cols = 4 if free else 3
+    fig, axes = plt.subplots(rows, cols, figsize=(5.3 * cols, 5.6 * rows), constrained_layout=True, squeeze=False)
+    ax_lin, ax_log, ax_paths = axes[0][:3]
     floor = np.finfo(float).eps / 4
     _plot_energy(runs, ax_lin, ax_log, floor)
+    kinds = {res.relative_energy_balance() is not None for _, res in runs}
+    title_lin, ylabel_lin, ylabel_log = ENERGY_TITLES[
+        "both" if len(kinds) == 2 else "balance" if True in kinds else "energy"
+    ]
+    ax_lin.set(xlabel="time [s]", ylabel=ylabel_lin, title=title_lin)
+    ax_log.set(xlabel="time [s]", ylabel=ylabel_log, title=f"{title_lin} (log)")
     for path, res in runs:
-        label = _label(path, res)
-        if field:
-            for name in res.names:
-                x = res.positions[name]
-                ax_third.plot(x[:, 0], x[:, 1], lw=0.6, label=f"{_who(path, runs)}{name}")
-            ax_third.plot(res.center[0], res.center[1], "k+", ms=10)
-        else:
+        for name in res.names:
+            x = res.positions[name]
+            ax_paths.plot(x[:, 0], x[:, 1], lw=0.6, label=f"{_who(path, runs)}{name}")
+            ax_paths.plot(x[-1, 0], x[-1, 1], "o", ms=3, color=ax_paths.lines[-1].get_color())
+        if res.gm != 0.0:
+            ax_paths.plot(res.center[0], res.center[1], "k+", ms=10)
+    where = "orbit (x-y projection, + = centre" if field else "paths (x-y projection"
+    ax_paths.set(xlabel="x [m]", ylabel="y [m]", title=f"{where}, dot = end)")
+    ax_paths.set_aspect("equal", adjustable="datalim")
+    panels = [ax_lin, ax_log, ax_paths]
+    if free:
+        ax_L = axes[0][3]
+        for path, res in free:
             dL = res.relative_angular_momentum_error() if np.any(res.angular_momentum[0]) else np.zeros(len(res))
-            ax_third.semilogy(res.time, np.maximum(dL, floor), lw=0.8, label=label)
-    ax_lin.set(xlabel="time [s]", ylabel="(E - E0) / |E0|", title="relative energy error")
-    ax_log.set(xlabel="time [s]", ylabel="|E - E0| / |E0|", title="relative energy error (log)")
-    if field:
-        ax_third.set(xlabel="x [m]", ylabel="y [m]", title="orbit (x-y projection, + = centre)")
-        ax_third.set_aspect("equal", adjustable="datalim")
-    else:
-        ax_third.set(xlabel="time [s]", ylabel="|L - L0| / |L0|", title="relative angular-momentum error (log)")
-    for ax in (ax_lin, ax_log, ax_third):
+            ax_L.semilogy(res.time, np.maximum(dL, floor), lw=0.8, label=_label(path, res))
+        ax_L.set(xlabel="time [s]", ylabel="|L - L0| / |L0|", title="relative angular-momentum error (log)")
+        panels.append(ax_L)
+    for ax in panels:
         ax.grid(True, alpha=0.3)
         _legend(ax)
     if rows == 2:
@@ -275,6 +345,50 @@ def plot_runs(paths, output, *, title: str | None = None) -> str:
             ax.axis("off")
     if title:
         fig.suptitle(title)
+    return fig
+
+
+def plot_runs(paths, output, *, title: str | None = None) -> str:
+    """Plot run files: energy error, paths, angular momentum, attitudes and deformations.
+
+    The relative energy error of every file goes on shared axes (linear, as in the paper,
+    and its magnitude on a log scale), its records as a line over a shaded band of the
+    extremes between records (:meth:`emorbit.Result.relative_energy_error_range`; absent
+    where it adds nothing: every step recorded, or a file that holds no extremes). Under
+    effects that do work (drag, radiation pressure, third bodies) the error drawn is the
+    energy balance ``(E - E0 - W) / |E0|``, and the energy's change beside it. Every body is
+    drawn along its path in an x-y projection (a central field's centre marked); free-space
+    runs add their relative angular-momentum error.
+    A second row shows rigid bodies' attitude angles and body-frame angular velocity and
+    elastic bodies' :func:`deformation`. Legends sit under their axes.
+
+    Parameters
+    ----------
+    paths : list of str
+        HDF5 run files.
+    output : str or os.PathLike
+        The figure to write, in a format matplotlib knows by its extension
+        (:func:`check_figure_path`).
+    title : str, optional
+        A title over the figure.
+
+    Returns
+    -------
+    str
+        The path of the figure.
+
+    Raises
+    ------
+    InputError
+        The figure's path is refused (:func:`check_figure_path`: nothing is written), or a
+        file does not exist, is not an HDF5 file, is not an emorbit run file or holds no
+        records.
+    """
+    check_figure_path(output, paths)
+    runs = [(p, _read(p).si) for p in paths]  # plain SI arrays
+    import matplotlib.pyplot as plt
+
+    fig = draw_runs(runs, title=title)
     fig.savefig(output, dpi=120)
     plt.close(fig)
     return os.fspath(output)

@@ -481,17 +481,7 @@ class Result:
             ``M`` in rad; with ``si`` plain arrays.
         """
         el = self._si.elements(name)
-        if si:
-            return el
-        return orbits.OrbitalElements(
-            a=el.a << u.m,
-            e=el.e << u.dimensionless_unscaled,
-            i=el.i << u.rad,
-            raan=el.raan << u.rad,
-            argp=el.argp << u.rad,
-            nu=el.nu << u.rad,
-            M=el.M << u.rad,
-        )
+        return el if si else el.with_units()
 
     # -- plain numbers ---------------------------------------------------------------------------
     @property

@@ -607,10 +607,12 @@ class Simulation(StateQueries, ChunkDriver):
         Raises
         ------
         InputError
-            No such bodies, bad node indices or selector, or a node that does not start on
-            the point mass.
+            No such bodies, bad node indices or selector, a node that does not start on
+            the point mass, or nodes not on or in the rigid body
+            (:func:`~emorbit.bodies.shapes.check_on_body`); nothing is attached then.
         """
         from .bodies.elastic import select_nodes
+        from .bodies.shapes import check_on_body
 
         st = self._structure()
         if elastic not in st.names or st._body(elastic)["kind"] != "elastic":
@@ -619,6 +621,9 @@ class Simulation(StateQueries, ChunkDriver):
         idx = select_nodes(spec.ref, nodes, f"{key}.nodes")
         if to == elastic:
             raise InputError(f"{key}.to", "a body cannot be attached to itself")
+        pose = self._rigid_pose(to)  # None unless `to` is a rigid body
+        if pose is not None:  # the nodes must start on or in it
+            check_on_body(spec.nodes[idx], idx, *pose, key=f"{key}.nodes", elastic=elastic, to=to)
         if to in self.points:
             values = self.points.values.get(to, {})
             st.add_point(to, *self.points.pop_onto(to, idx, spec.nodes[idx], f"{key}.nodes"), values)

@@ -55,6 +55,18 @@ class StateQueries:
         d = s.datasets(s.current(), 1)[name]
         return d["position"][0].copy(), d["velocity"][0].copy()
 
+    def _rigid_pose(self, name: str):
+        """A rigid body's centre (m), attitude (body to space) and mass points now, in its own
+        system or in a structure; None where ``name`` is no rigid body."""
+        rigid, st = getattr(self, "rigid", None), getattr(self, "structure", None)
+        if rigid is not None and name in rigid.names:
+            b = rigid.names.index(name)
+            return rigid.q[b, :3], rigid.q[b, 3:].reshape(3, 3).T, rigid.points[b]
+        if st is not None and name in st.names and st._body(name)["kind"] == "rigid":
+            centre, *axes = (st._u[k] for k in st._body(name)["slots"])
+            return centre, np.column_stack(axes), st._body(name)["points"]
+        return None
+
     def _invariants_now(self):
         recs = [(s, s.current()) for s in self._measured()]
         if self.effects.time_dependent():  # potentials that follow the clock
@@ -96,18 +108,23 @@ class StateQueries:
         """
         return self._invariants_now()[2]
 
-    def elements(self, name: str) -> OrbitalElements:
-        """Osculating elements of a body's centre of mass now.
+    def elements(self, name: str, si: bool = False) -> OrbitalElements:
+        """Osculating elements of a body's centre of mass now, as :meth:`Result.elements
+        <emorbit.result.Result.elements>` gives them for every record.
 
         Parameters
         ----------
         name : str
             The body.
+        si : bool
+            Plain floats in m and rad instead of Quantities.
 
         Returns
         -------
         OrbitalElements
-            Scalars in m and rad (see :mod:`emorbit.orbits`).
+            Scalar Quantities (see :mod:`emorbit.orbits`): ``a`` in m (negative for a
+            hyperbolic state), ``e`` dimensionless, ``i``, ``raan``, ``argp``, ``nu`` and ``M``
+            in rad; with ``si`` plain floats.
 
         Raises
         ------
@@ -117,4 +134,5 @@ class StateQueries:
         if self.field is None:
             raise InputError("field", "orbital elements need a central field")
         x, v = self.state(name)
-        return elements(x, v, self.field.gm, self.field.center)
+        el = OrbitalElements(*map(float, elements(x, v, self.field.gm, self.field.center)))
+        return el if si else el.with_units()

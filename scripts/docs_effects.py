@@ -17,6 +17,7 @@ import html
 import os
 import re
 import sys
+import textwrap
 
 from emorbit.effects import EFFECTS
 from emorbit.effects.base import AT_POINTS, BODY_KINDS, ON_SURFACES
@@ -85,18 +86,73 @@ surface and any `facet=[...]` tables (`add_rigid(..., specular=0.3, facet=[{"cen
 """
 
 
+#: what the table says of an effect that conserves nothing
+WORKS = "nothing: it does work, recorded as `invariants/work_<label>`"
+
+
 def _cell(text: str) -> str:
-    return html.escape(text, quote=False).replace("|", "\\\\|") if text else "-"
+    """A table cell of plain text: HTML escaped, its pipes escaped (a pipe ends a cell)."""
+    return html.escape(text, quote=False).replace("|", "\\|") if text else "-"
 
 
-def _pipes(text: str) -> str:
-    return text.replace("|", "\\|")
+def _code(text: str) -> str:
+    """A table cell as one code span. A pipe inside a code span does not end the cell in
+    Python-Markdown's tables (the site's), so it stays as it is: escaped, it would show
+    its backslash."""
+    return f"`{text}`"
+
+
+def _prose(text: str) -> str:
+    """Text with its ``<`` outside code spans escaped: ``<label>`` is text, not a tag."""
+    parts = re.split(r"(`[^`]*`)", text)
+    return "".join(part if part.startswith("`") else part.replace("<", "&lt;") for part in parts)
 
 
 def _markdown(text: str) -> str:
-    """A docstring paragraph as Markdown: ``code`` -> `code`, :role:`~a.b` -> `b`."""
+    """A docstring paragraph as Markdown: ``code`` -> `code`, :role:`~a.b` -> `b`, and the
+    rest escaped (:func:`_prose`)."""
     text = re.sub(r":\w+:`~?([^`]*)`", lambda m: "`" + m.group(1).split(".")[-1] + "`", text)
-    return text.replace("``", "`")
+    return _prose(text.replace("``", "`"))
+
+
+def _literal(text: str) -> bool:
+    """Whether a docstring paragraph is an RST literal block: every line indented."""
+    return all(line.startswith((" ", "\t")) for line in text.splitlines() if line.strip())
+
+
+def docstring_markdown(doc: str) -> list[str]:
+    """The page's text of an effect module's docstring: its second paragraph, in Markdown.
+
+    A paragraph that ends in ``::`` introduces an RST literal block (the indented paragraphs
+    after it): the block becomes a fenced code block, the ``::`` a colon, and the paragraph
+    after the block, which goes on with the text, is taken too.
+
+    Parameters
+    ----------
+    doc : str
+        The module's docstring.
+
+    Returns
+    -------
+    list of str
+        Markdown paragraphs.
+    """
+    parts = (doc or "").strip().split("\n\n")
+    out, k = [], 1
+    while k < len(parts):
+        text = "\n".join(line.strip() for line in parts[k].splitlines())
+        k += 1
+        if not text.endswith("::"):
+            out.append(_markdown(text))
+            break
+        text = text[:-2].rstrip()
+        out.append(_markdown(text + ":" if text else ""))  # "text::" reads "text:"; a lone "::" goes
+        block = []
+        while k < len(parts) and _literal(parts[k]):
+            block.append(textwrap.dedent(parts[k]).strip("\n"))
+            k += 1
+        out.append("```text\n" + "\n\n".join(block) + "\n```")
+    return [p for p in out if p]
 
 
 #: how the pages name the body kinds, and where an effect acts on each (AT_POINTS, ON_SURFACES)
@@ -134,9 +190,9 @@ def markdown() -> str:
         out += [
             "| | |",
             "|---|---|",
-            f"| potential | `{_pipes(cls.POTENTIAL)}` |",
-            f"| force over a step | `{_pipes(cls.DISCRETE_FORCE)}` |",
-            f"| Jacobian | `{_pipes(cls.JACOBIAN)}` |",
+            f"| potential | {_code(cls.POTENTIAL)} |",
+            f"| force over a step | {_code(cls.DISCRETE_FORCE)} |",
+            f"| Jacobian | {_code(cls.JACOBIAN)} |",
             f"| conserves | {conserves} |",
             f"| acts on | {_acts(cls)} |",
             f"| methods | {_methods(cls)} |",
@@ -163,9 +219,8 @@ def markdown() -> str:
                 cells += [_cell(c) for c in (bk.key.unit, bk.key.allowed, bk.key.meaning)]
                 out.append("| " + " | ".join(cells) + " |")
             out.append("")
-        doc = (sys.modules[cls.__module__].__doc__ or "").strip().split("\n\n")
-        out += [_markdown("\n".join(line.strip() for line in part.splitlines())) for part in doc[1:2]]
-        out.append("")
+        for paragraph in docstring_markdown(sys.modules[cls.__module__].__doc__):
+            out += [paragraph, ""]
     return "\n".join(out).rstrip() + "\n"
 
 

@@ -45,7 +45,7 @@ def test_the_projected_output_names_the_keys_and_the_size(tmp_path, capsys):
     out = tmp_path / "out.h5"
     assert main(["run", "paper-ellipse", "-o", str(out), "-q", "--t-end", "1e15 s"]) == 2
     err = capsys.readouterr().err
-    for needle in ("integrator.t_end", "integrator.dt", "integrator.output_every", "integrator.max_output", "PB"):
+    for needle in ("error: --t-end: ", "integrator.dt", "integrator.output_every", "integrator.max_output", "PB"):
         assert needle in err, (needle, err)
     assert not out.exists()
 
@@ -236,19 +236,19 @@ def test_diagnostics_before_the_first_run_with_an_elastic_body():
 
 
 def test_attach_takes_the_selectors_of_scenes():
-    def build(nodes):
+    def build(nodes, x=1.5):
         sim = emorbit.Simulation(None, dt=0.01)
         sim.add_rigid("bus", "box", size=[1, 1, 1], density=100.0, position=[0, 0, 0], velocity=[0, 0, 0])
         sim.add_elastic(
             "boom", "beam", size=[2, 0.2, 0.2], elements=[2, 1, 1], young=1e7, poisson=0.3, density=100.0,
-            position=[1.5, 0, 0], velocity=[0, 0, 0],
+            position=[x, 0, 0], velocity=[0, 0, 0],
         )  # fmt: skip
         sim.attach("boom", nodes, "bus")
         return sim
 
     ref = build("x-min").structure._attach[0][1]
     assert ref == [0, 1, 2, 3] and build([0, 1, 2, 3]).structure._attach[0][1] == ref
-    assert build("last").structure._attach[0][1] == [11]
+    assert build("last", x=-1.5).structure._attach[0][1] == [11]  # the boom on the -x side: its last node on the bus
     for bad, match in (
         ("side", "unknown node selector"),
         ([0, 1.5], "integers"),
@@ -257,3 +257,30 @@ def test_attach_takes_the_selectors_of_scenes():
     ):
         with pytest.raises(InputError, match=match):
             build(bad)
+
+
+def test_attaching_nodes_far_outside_a_rigid_body_is_refused():
+    """A boom whose clamped face lies 10 m beyond the bus's face: refused, naming the nodes and
+    the distance, and nothing is attached (the bus stays a rigid body of its own); the same
+    where the bus is already in the structure through another boom."""
+
+    def sim_with(*booms):
+        sim = emorbit.Simulation(None, dt=0.01)
+        sim.add_rigid("bus", "box", size=[1, 1, 1], density=100.0, position=[0, 0, 0], velocity=[0, 0, 0])
+        for name, x in booms:
+            sim.add_elastic(
+                name, "beam", size=[2, 0.2, 0.2], elements=[2, 1, 1], young=1e7, poisson=0.3, density=100.0,
+                position=[x, 0, 0], velocity=[0, 0, 0],
+            )  # fmt: skip
+        return sim
+
+    sim = sim_with(("boom", 11.5))  # its x-min face at 10.5 m, the bus's +x face at 0.5 m
+    with pytest.raises(InputError, match=r"^coupling\.nodes: node\(s\) 0, 1, 2, 3 of 'boom' lie up to 10\.2") as err:
+        sim.attach("boom", "x-min", "bus")
+    assert "nearest mass point of 'bus'" in str(err.value)
+    assert sim.rigid.names == ["bus"] and not getattr(sim.structure, "_attach", [])
+    sim = sim_with(("near", 1.5), ("far", 11.5))
+    sim.attach("near", "x-min", "bus")  # on the face: accepted, and the bus joins the structure
+    with pytest.raises(InputError, match="of 'far' lie up to 10.2"):
+        sim.attach("far", "x-min", "bus")
+    assert [a[0] for a in sim.structure._attach] == ["near"]

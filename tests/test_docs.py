@@ -113,6 +113,55 @@ def test_every_shipped_scene_is_on_the_scenes_page():
         assert f"| `{name}` |" in page, name
 
 
+def test_scenes_page_names_every_rigid_shape():
+    from emorbit.bodies.shapes import SHAPES
+
+    section = _section(_page("scenes.md"), "## A rigid body")
+    (comment,) = re.findall(r'^shape = "box" +# (.*)$', section, re.M)
+    assert comment.split(" | ") == list(SHAPES)
+    shapes = " ".join(section[section.index("Shapes: ") :].split("\n\n")[0].split())
+    assert [name for name in SHAPES if f"`{name}` (" not in shapes] == []
+
+
+def test_the_elastic_example_is_the_shipped_boom_scene():
+    """The scenes page's bus-and-boom example is complete: the shipped scene that
+    tests/test_elastic.py runs."""
+    (block,) = _blocks(_section(_page("scenes.md"), "## An elastic body"), "toml")
+    assert parse_scene(block).data == load_scene("satellite-flexible-boom").data
+
+
+def test_the_nadir_pointing_recipe_stays_nadir_pointing():
+    """The recipe's body keeps its x axis on the direction to the centre over one orbit:
+    within 1.3e-10 rad (measured), checked to 1e-9 rad; it turns at n = sqrt(GM / a^3)."""
+    import numpy as np
+
+    from emorbit.bodies.rotations import quaternion_to_matrix
+
+    rigid = _section(_page("scenes.md"), "## A rigid body")
+    (block,) = _blocks(_section(rigid, "### A nadir-pointing start"), "toml")
+    scene = parse_scene(block)
+    sim = scene.build()
+    n = float(scene.data["body"][0]["angular_velocity"][2].split()[0])
+    assert n == pytest.approx(np.sqrt(sim.gm / 7e6**3), rel=1e-15)
+    res = sim.run(t_end=scene.t_end, every=1, progress=False).si
+    assert res.time[-1] >= 2 * np.pi / n  # one orbit
+    x = res.positions["sat"]
+    axis = np.array([quaternion_to_matrix(q)[:, 0] for q in res.attitudes["sat"]])
+    off = np.linalg.norm(np.cross(axis, -x / np.linalg.norm(x, axis=1)[:, None]), axis=1)  # sin of the angle
+    assert off.max() < 1e-9 and np.all(np.einsum("ij,ij->i", axis, x) < 0)
+
+
+def test_no_page_says_bodies_feel_only_the_field():
+    """Point masses feel the effects a scene names, and with ``mutual`` every body attracts
+    every other: no page may say otherwise."""
+    stale = ("the field and nothing else", "bodies do not attract each other.", "and bodies do not attract")
+    for path in [REPO / "README.md", *sorted(DOCS.glob("*.md"))]:
+        text = " ".join(path.read_text(encoding="utf-8").split())
+        assert not [phrase for phrase in stale if phrase in text], path.name
+    scenes = " ".join(_page("scenes.md").split())
+    assert 'with `kind = "mutual"` every body attracts every other' in scenes
+
+
 def test_complete_scenes_and_sweeps_on_the_pages_parse():
     from emorbit.sweep import parse_sweep
 
@@ -136,6 +185,7 @@ def test_readme_has_the_two_commands():
         " && .venv/bin/python -m pytest -n auto --dist loadfile && .venv/bin/python scripts/mutants.py"
     )
     assert test_command in ci and f"    {test_command}\n" in README
+    assert f"    {test_command}\n" in _page("getting-started.md")  # the same command on the site
     assert "    python3 -m venv .venv && .venv/bin/pip install . && .venv/bin/emorbit run paper-ellipse" in README
     assert len(README.splitlines()) <= 200
 
@@ -307,11 +357,55 @@ def _mkdocs(config: Path, site: Path) -> subprocess.CompletedProcess:
     )
 
 
+#: the HTML elements a page may hold without attributes; any other bare <name> was text
+#: that Markdown passed through as a tag (``invariants/work_<label>``)
+HTML_ELEMENTS = set(
+    "a abbr article aside b blockquote body br caption code dd del details div dl dt em figcaption figure footer "
+    "h1 h2 h3 h4 h5 h6 head header hr html i img ins kbd li main mark nav ol p pre s script section small span "
+    "strong style sub summary sup table tbody td tfoot th thead title tr tt u ul".split()
+)
+
+
+def site_defects(site: Path) -> list[str]:
+    """What the built pages show where their source was not Markdown: an RST literal block's
+    ``::`` left in a paragraph, a pipe's escape shown as ``\\|``, text read as an HTML tag."""
+    found = []
+    for page in sorted(site.rglob("*.html")):
+        text = page.read_text(encoding="utf-8")
+        where = page.relative_to(site)
+        found += [f"{where}: '::' ends a paragraph" for _ in re.finditer(r"::</p>", text)]
+        found += [f"{where}: {m.group(0)!r} shows its backslash" for m in re.finditer(r".{0,30}\\\|", text)]
+        found += [
+            f"{where}: {m.group(0)!r} became a tag"
+            for m in re.finditer(r".{0,30}<([A-Za-z_][\w-]*)>", text)
+            if m.group(1).lower() not in HTML_ELEMENTS
+        ]
+    return found
+
+
 def test_site_builds_in_strict_mode(tmp_path):
+    """The site builds, and its pages show no Markdown left unconverted (:func:`site_defects`):
+    the effects page's formulas are code blocks, its tables' pipes plain, its <label> text."""
     done = _mkdocs(REPO / "mkdocs.yml", tmp_path / "site")
     assert done.returncode == 0, done.stderr[-4000:]
     assert (tmp_path / "site" / "api" / "emorbit" / "index.html").is_file()
     assert "emorbit.Simulation.run" in (tmp_path / "site" / "api" / "emorbit" / "index.html").read_text()
+    assert site_defects(tmp_path / "site") == []
+    effects = (tmp_path / "site" / "effects" / "index.html").read_text(encoding="utf-8")
+    assert "invariants/work_&lt;label&gt;" in effects and "<code>V = -GM m / r, r = |x - c|</code>" in effects
+    assert re.search(r"<pre>.*V = \(GM m / r\) sum_\{n=2\}\^\{N\}", effects)
+
+
+def test_the_effects_page_carries_no_rst():
+    """scripts/docs_effects.py writes Markdown: an RST literal block (``::`` and its indented
+    lines) as a code block, pipes in code spans as they are, ``<label>`` in code or escaped."""
+    page = _script("docs_effects").markdown()
+    assert not [line for line in page.splitlines() if line.rstrip().endswith("::")]
+    for formula in ("V = (GM m / r) sum_{n=2}^{N} J_n (R / r)^n P_n(z / r)", "F_ij = -G m_i m_j (d0 + d1)"):
+        assert f"```text\n{formula}" in page, formula
+    assert not [span for span in re.findall(r"`[^`]*`", page) if "\\|" in span]
+    outside = re.sub(r"`[^`]*`", "", page)
+    assert "<label>" not in outside and "`invariants/work_<label>`" in page
 
 
 def test_strict_build_fails_on_a_broken_link(tmp_path):

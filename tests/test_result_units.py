@@ -285,3 +285,17 @@ def test_analysis_takes_the_quantities_of_a_result():
     )
     with pytest.raises(u.UnitConversionError):
         period_from_apses(res.time, v, x, res.gm)  # velocities where positions belong
+
+
+def test_a_simulations_elements_are_quantities_as_a_results():
+    """``Simulation.elements`` gives the units ``Result.elements`` gives, and the same values at
+    the first record; ``si=True`` gives the plain floats of both."""
+    sim = emorbit.load_scene("paper-ellipse").build()
+    now, plain = sim.elements("satellite"), sim.elements("satellite", si=True)
+    res = sim.run("0.929516 s", every=1, progress=False)
+    recorded = res.elements("satellite")
+    for name, q in now._asdict().items():
+        r = getattr(recorded, name)
+        assert isinstance(q, u.Quantity) and q.unit == r.unit and q.isscalar, name
+        assert q.value == r.value[0] == getattr(plain, name) and isinstance(getattr(plain, name), float), name
+    assert now.a.unit == u.m and now.i.unit == u.rad and now.e.unit == u.dimensionless_unscaled

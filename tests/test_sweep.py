@@ -90,7 +90,7 @@ def _one_by_one(speeds, dts, t_end):
             scene = Scene(data, base.text)
             sim = scene.build()
             res = sim.run(t_end=scene.t_end, every=1, progress=False)
-            el = sim.elements("satellite")
+            el = sim.elements("satellite", si=True)
             rows.append(
                 {
                     "integrator.dt": dt,
@@ -461,20 +461,41 @@ values = [2]
         assert cells[4] == f"{t.values['body[satellite].position[0]']!r} m" and cells[5] == "2"
 
 
-def _mpi_missing():
-    """Why the MPI backend cannot run here (None if it can)."""
+#: the longest an MPI sweep of the tests may take (seconds) before its process group is killed
+MPI_TIMEOUT = 300
+
+
+def _run_in_own_session(args, timeout: float):
+    """Run a command in a session (and process group) of its own; kill that group at the end.
+
+    MPI starts helpers (MPICH's ``mpiexec`` and ``hydra_pmi_proxy``, the spawned workers)
+    beside the process that loads it. The tests never load MPI themselves: a pytest worker that
+    did would start them in the terminal's process group, and their cleanup at its exit could
+    kill the test run. Here they live in the command's own group, which is killed when the
+    command ends or runs past ``timeout`` (the test then fails).
+
+    Returns
+    -------
+    tuple
+        (exit code, stdout and stderr together).
+    """
+    proc = subprocess.Popen(args, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
-        from mpi4py import MPI  # noqa: F401 - loads the MPI library
-        from mpi4py.futures import MPIPoolExecutor  # noqa: F401
-    except Exception as exc:  # not installed, or installed without an MPI library
-        return f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
-    return None
+        out, _ = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, _ = proc.communicate()
+        pytest.fail(f"{' '.join(map(str, args))} ran past {timeout} s; its process group was killed\n{out[-2000:]}")
+    finally:
+        try:  # helpers left behind in the group (the leader has exited; the group may live on)
+            os.killpg(proc.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+    return proc.returncode, out
 
 
 def test_mpi_backend_says_what_is_missing(tmp_path, capsys, monkeypatch):
-    if _mpi_missing() is None:  # installed (the test extra has it): make the import fail here
-        monkeypatch.setitem(sys.modules, "mpi4py", None)
-    assert _mpi_missing() is not None
+    monkeypatch.setitem(sys.modules, "mpi4py", None)  # import mpi4py raises ImportError, installed or not
     f = tmp_path / "s.toml"
     f.write_text(FAILING)
     assert main(["sweep", str(f), "-o", str(tmp_path / "o"), "--mpi"]) == 2
@@ -527,13 +548,18 @@ def test_dask_local_cluster_equals_one_by_one_and_the_process_backend(grid_refer
 
 
 def test_mpi_backend_equals_the_process_backend(process_summary, tmp_path):
-    why = _mpi_missing()
-    if why is not None:
-        pytest.skip(f"the MPI backend needs mpi4py with an MPI library ({why})")
-    sweep = parse_sweep(GRID)
-    res = run_sweep(sweep, tmp_path / "out", backend="mpi", workers=2)
-    assert res.counts["completed"] == 200
+    """``emorbit sweep --mpi`` in a subprocess of its own session, as a user runs it: an MPI
+    singleton that spawns two workers. MPI is never loaded into the pytest process."""
+    f = tmp_path / "grid.toml"
+    f.write_text(GRID)
+    args = [sys.executable, "-m", "emorbit.cli", "sweep", str(f), "-o", str(tmp_path / "out")]
+    code, out = _run_in_own_session([*args, "--mpi", "--workers", "2", "-q"], MPI_TIMEOUT)
+    if code == 2 and "the MPI backend needs mpi4py" in out:
+        pytest.skip(f"the MPI backend needs mpi4py with an MPI library: {out.strip()[-300:]}")
+    assert code == 0, out[-2000:]
+    assert "mpi4py.MPI" not in sys.modules  # MPI was never loaded into this pytest process
     assert _same(_strip(read_summary(tmp_path / "out")), _strip(process_summary[1]))
+    assert len(read_summary(tmp_path / "out")) == 200
 
 
 # -- a worker killed in the middle of a sweep -----------------------------------------------

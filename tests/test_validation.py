@@ -10,7 +10,7 @@ import pytest
 from emorbit import orbits
 from emorbit.cli import main
 from emorbit.validation.body_case import body_case_names
-from emorbit.validation.cases import STUDY_CASES, case_names
+from emorbit.validation.cases import STUDY_CASES, case_names, get_cases
 from emorbit.validation.rigid_binary_case import RIGID_BINARY_CASES
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -119,7 +119,12 @@ def test_existing_report_is_not_replaced(tmp_path, capsys):
 
 def test_list(capsys):
     assert main(["validate", "--list"]) == 0
-    assert capsys.readouterr().out.split() == list(case_names())
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in lines] == list(case_names())
+    titles = {c.name: c.title for c in get_cases("quick")}
+    for line in lines:  # each case with its title, in full
+        name, title = line.split(maxsplit=1)
+        assert title == titles[name] and len(title.split()) > 2, line
 
 
 @pytest.mark.parametrize("e", [0.99, 0.999])

@@ -105,7 +105,7 @@ def test_each_case_checks_what_it_is_for(quick):
 
 def test_list_names_the_effect_cases(capsys):
     assert main(["validate", "--list"]) == 0
-    listed = capsys.readouterr().out.split()
+    listed = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
     after = len(RIGID_BINARY_CASES) + len(body_case_names())  # the rigid binary, then the body cases
     assert listed == list(case_names()) and listed[-after:][: len(RIGID_BINARY_CASES)] == list(RIGID_BINARY_CASES)
     assert listed[-len(EFFECT_CASES) - after : -after] == list(EFFECT_CASES)
@@ -148,13 +148,56 @@ def test_a_wrong_period_fails_the_figure_eight_return(tmp_path):
     assert failed == {"return-after-one-period"}
 
 
-def test_without_reboundx_the_j2_cases_say_how_to_install_it(tmp_path, monkeypatch):
+#: the checks of the J2 cases that need REBOUNDx
+REBOUNDX_CHECKS = {
+    "j2-reboundx": {f"order-em{p}" for p in (2, 4, 6, 8)}
+    | {"zonal-potential-convention", "referee-ias15-epsilon"}
+    | {"position-em8-vs-reboundx", "position-em8-j4-vs-reboundx"},
+    "j2-secular": {"rates-em8-vs-reboundx"},
+}
+
+
+def test_without_reboundx_the_j2_cases_skip_their_reboundx_checks(tmp_path, monkeypatch, capsys):
+    """After a plain ``pip install .`` REBOUNDx is missing: the checks against it say so and are
+    skipped, the J2 cases run em and check the rest (j2-secular against secular theory), and
+    the suite passes."""
     import sys
 
     monkeypatch.setitem(sys.modules, "reboundx", None)  # import reboundx raises ImportError
-    out = run_effect_case(_case("j2-reboundx"), "quick", str(tmp_path), figures=False)
-    assert not out["passed"] and "case-error" in _failed(out)
-    assert "pip install" in out["error"] and "reboundx" in out["error"]
+    out = tmp_path / "report"
+    assert main(["validate", "--quick", "--cases", "j2-reboundx,j2-secular", "--report", str(out)]) == 0
+    console = capsys.readouterr().out
+    assert console.count("skipped: REBOUNDx not installed") == 2 and "SKIP 8 check(s)" in console
+    suite = json.loads((out / "results.json").read_text())
+    assert suite["passed"] and suite["environment"]["versions"]["reboundx"] == "not installed"
+    for case in suite["cases"]:
+        skipped = {ch["id"] for ch in case["checks"] if ch["skipped"]}
+        assert skipped == REBOUNDX_CHECKS[case["name"]]
+        whys = {ch["skipped"] for ch in case["checks"] if ch["skipped"]}
+        assert whys == {"skipped: REBOUNDx not installed; pip install 'emorbit[validation]'"}
+        ran = {ch["id"] for ch in case["checks"] if not ch["skipped"]}
+        assert {"energy-em2", "energy-em8"} <= ran
+    secular = {ch["id"] for c in suite["cases"] if c["name"] == "j2-secular" for ch in c["checks"] if not ch["skipped"]}
+    assert {"sun-synchronous-node", "secular-residual-order"} <= secular
+    assert "| SKIP | rates-em8-vs-reboundx |" in (out / "report.md").read_text()
+
+
+def test_a_case_that_stops_prints_its_error_on_one_line(tmp_path, monkeypatch, capsys):
+    """A case that raises fails with its error on one console line; no traceback in the report."""
+    from emorbit.validation import effect_runner
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("the referee is broken\n  on a second line")
+
+    monkeypatch.setattr(effect_runner, "run_em", broken)
+    out = tmp_path / "report"
+    assert main(["validate", "--quick", "--cases", "mutual-two-body", "--report", str(out)]) == 1
+    console = capsys.readouterr().out
+    assert "  FAIL case-error: RuntimeError: the referee is broken on a second line\n" in console
+    report = (out / "report.md").read_text()
+    assert "Traceback" not in report and "File " not in report
+    row = next(line for line in report.splitlines() if "| case-error |" in line)
+    assert "RuntimeError: the referee is broken on a second line" in row
 
 
 def test_the_sun_synchronous_inclination_gives_the_tropical_year():
@@ -186,7 +229,8 @@ def test_brouwer_with_j2_passes_in_its_quick_form(tmp_path, capsys):
     error, the zonal potential included, grows with slope 0.5 +- 0.1 and the mean stays
     below half of it."""
     assert main(["validate", "--list"]) == 0
-    assert "brouwer-j2" in capsys.readouterr().out.split()
+    listed = dict(line.split(maxsplit=1) for line in capsys.readouterr().out.splitlines())
+    assert listed["brouwer-j2"].startswith("Brouwer's law with J2..J6")
     assert main(["validate", "--quick", "--cases", "brouwer-j2", "--report", str(tmp_path), "-q"]) == 0
     (case,) = json.loads((tmp_path / "results.json").read_text())["cases"]
     assert case["name"] == "brouwer-j2" and case["passed"], _failed(case)

@@ -64,7 +64,7 @@ def test_the_case_is_listed_after_the_effect_cases_and_before_the_body_cases(cap
     from emorbit.validation.effect_cases import EFFECT_CASES
 
     assert main(["validate", "--list"]) == 0
-    listed = capsys.readouterr().out.split()
+    listed = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
     bodies = list(body_case_names())
     assert listed == list(case_names())
     assert listed[len(listed) - len(bodies) - 1 :] == ["rigid-binary", *bodies]

@@ -27,7 +27,7 @@ import emorbit
 from emorbit import orbits
 from emorbit.analysis import relative_energy_change_exact
 
-from .cases import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
+from .cases import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0, STUDY_TITLES
 from .checks import RANDOM_WALK_SLOPE, Check
 from .effect_eval import point_potentials
 from .runner import CaseOutcome
@@ -349,7 +349,7 @@ def run_brouwer_j2(mode: str, outdir: str, *, scale: float = 1.0, figures: bool 
         _metrics(metrics, div, rms, ens.cpu, steps, members)
     figs = []
     if figures:
-        title = "Brouwer's law with J2..J6: em energy error over many steps"
+        title = STUDY_TITLES["brouwer-j2"]
         figs.append(_figure(series, steps, os.path.join(outdir, "brouwer-j2.png"), title))
     a, e, inc = J2_ORBIT[:3]
     return _outcome(

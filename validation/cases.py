@@ -36,6 +36,7 @@ __all__ = [
     "Case",
     "CASES",
     "STUDY_CASES",
+    "STUDY_TITLES",
     "Study",
     "case_names",
     "get_cases",
@@ -204,6 +205,11 @@ class Study:
 
     name: str
     mode: str
+
+    @property
+    def title(self) -> str:
+        """What the study checks, in one line (:data:`STUDY_TITLES`)."""
+        return STUDY_TITLES[self.name]
 
 
 def _single(
@@ -493,6 +499,8 @@ def _cloud(n_quick: int = 200, n_full: int = 1000, seed: int = 20240607) -> dict
 
 #: the studies that are cases of the suite (their runs: :data:`.brouwer.STUDIES`)
 STUDY_CASES = ("brouwer-j2",)
+#: each study's title (the report's heading, its figure's title, ``emorbit validate --list``)
+STUDY_TITLES = {"brouwer-j2": "Brouwer's law with J2..J6: em energy error over many steps"}
 
 
 def _all_cases(mode: str) -> dict[str, Case | EffectCase | PerturbationCase | RigidBinaryCase | BodyCase | Study]:

@@ -16,6 +16,7 @@ from emorbit import analysis
 
 __all__ = [
     "run_checked",
+    "one_line_error",
     "Check",
     "EPS",
     "ENERGY_ORDER2",
@@ -330,14 +331,15 @@ def run_checked(case_run) -> str | None:
     Returns
     -------
     str or None
-        The exception's one-line text, after the check "case-error" (with its traceback) was
-        appended to ``case_run.checks``; None when the case ran to the end.
+        The exception's text on one line (``"RuntimeError: ..."``), after the check
+        "case-error" carrying that line was appended to ``case_run.checks``; None when the
+        case ran to the end. No traceback goes into the check, so the report's table stays
+        one line a check; rerun the case from Python to see where it stopped.
     """
-    import traceback
-
     try:
         case_run.run()
-    except Exception as exc:  # noqa: BLE001 - reported as a failed check with its traceback
+    except Exception as exc:  # noqa: BLE001 - reported as a failed check, its error on one line
+        error = one_line_error(exc)
         case_run.checks.append(
             Check(
                 "case-error",
@@ -347,8 +349,25 @@ def run_checked(case_run) -> str | None:
                 0.0,
                 "",
                 "a case that cannot run has failed",
-                traceback.format_exc(limit=4),
+                error,
             )
         )
-        return "".join(traceback.format_exception_only(type(exc), exc)).strip()
+        return error
     return None
+
+
+def one_line_error(exc: BaseException) -> str:
+    """An exception as one line: its type and message, newlines and runs of blanks folded.
+
+    Parameters
+    ----------
+    exc : BaseException
+        The exception.
+
+    Returns
+    -------
+    str
+        ``"TypeName: message"`` (the type alone when the message is empty).
+    """
+    message = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {message}" if message else type(exc).__name__

@@ -44,7 +44,7 @@ def add_arguments(parser) -> None:
         help="multiply every tolerance by S > 0 (S < 1 tightens; default 1)",
     )
     parser.add_argument("--overwrite", action="store_true", help="replace an existing report in DIR")
-    parser.add_argument("--list", action="store_true", help="list the cases and exit")
+    parser.add_argument("--list", action="store_true", help="list the cases, each with its title, and exit")
     parser.add_argument("-q", "--quiet", action="store_true", help="print only the final line")
 
 
@@ -97,11 +97,13 @@ def run(args) -> int:
     InputError
         Bad options or a report folder that holds a report (exit code 2).
     """
-    from .cases import case_names
+    if args.list:  # each case with its title, in full
+        from .cases import get_cases
 
-    if args.list:
-        for name in case_names():
-            print(name)
+        cases = get_cases("quick")
+        width = max(len(c.name) for c in cases)
+        for case in cases:
+            print(f"{case.name:<{width}}  {case.title}")
         return 0
     scale = _scale(args.tolerance_scale)
     names = _cases(args.cases)

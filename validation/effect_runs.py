@@ -39,6 +39,7 @@ __all__ = [
     "two_body_analytic",
     "reboundx_potential",
     "require_reboundx",
+    "reboundx_missing",
     "kepler_test_particles",
 ]
 
@@ -224,6 +225,21 @@ def require_reboundx():
             "this case needs REBOUNDx (the J2 referee): pip install reboundx, or pip install 'emorbit[validation]'"
         ) from exc
     return reboundx
+
+
+def reboundx_missing() -> str:
+    """'' when REBOUNDx imports, else why its checks are skipped.
+
+    Returns
+    -------
+    str
+        ``""``, or ``"skipped: REBOUNDx not installed; pip install 'emorbit[validation]'"``.
+    """
+    try:
+        require_reboundx()
+    except RuntimeError:
+        return "skipped: REBOUNDx not installed; pip install 'emorbit[validation]'"
+    return ""
 
 
 def zonal_potential(x, gm: float, harmonics: dict) -> np.ndarray:

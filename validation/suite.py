@@ -132,8 +132,15 @@ def run_suite(outdir: str, *, quick: bool = False, names=None, scale: float = 1.
                 f"{name}: {'PASS' if out['passed'] else 'FAIL'} {n_ok}/{len(out['checks'])} checks "
                 f"({out['wall_s']:.1f} s)"
             )
+            skipped = [ch["skipped"] for ch in out["checks"] if ch.get("skipped")]
+            for why in dict.fromkeys(skipped):  # one line per reason: "skipped: REBOUNDx not installed; ..."
+                log(f"  SKIP {skipped.count(why)} check(s), {why}")
             for ch in out["checks"]:
-                if not ch["passed"]:
+                if ch["passed"]:
+                    continue
+                if ch["id"] == "case-error":  # the case stopped: its error, on one line
+                    log(f"  FAIL {ch['id']}: {out.get('error') or ch['detail']}")
+                else:
                     log(f"  FAIL {ch['id']}: {ch['value']:.3g} > {ch['tolerance']:.3g} {ch['unit']} ({ch['what']})")
     checks = [ch for r in results for ch in r["checks"]]
     suite = {

@@ -38,6 +38,7 @@ __all__ = [
     "tetra_mesh",
     "mesh_coordinates",
     "mesh_indices",
+    "check_on_body",
     "SHAPES",
     "MAX_POINTS",
 ]
@@ -97,6 +98,52 @@ class MassPoints:
 
     def __len__(self) -> int:
         return self.m.size
+
+
+def check_on_body(nodes, which, centre, R, points: MassPoints, *, key: str, elastic: str, to: str) -> None:
+    """Refuse nodes of an elastic body that would be attached to a rigid body they do not touch.
+
+    A node attached to a rigid body rides at the material point where it starts, so it must
+    start on or in the body. A node farther from every mass point than the extent of the mass
+    points (the largest side of their bounding box, in the body frame) is not: a boom placed
+    10 m from its bus, say.
+
+    Parameters
+    ----------
+    nodes : array_like
+        (k, 3) the nodes' positions, m.
+    which : sequence of int
+        (k,) their indices in the elastic body's mesh, for the message.
+    centre : array_like
+        (3,) the rigid body's centre of mass, m.
+    R : array_like
+        (3, 3) its attitude, body to space.
+    points : MassPoints
+        Its mass points.
+    key : str
+        The key the error names.
+    elastic, to : str
+        The elastic and the rigid body's names, for the message.
+
+    Raises
+    ------
+    InputError
+        Naming the nodes too far away and the largest distance.
+    """
+    from scipy.spatial import cKDTree
+
+    X = points.X
+    gap = cKDTree((np.asarray(centre, float)[:, None] + np.asarray(R, float) @ X).T).query(nodes)[0]
+    tolerance = float(np.ptp(X, axis=1).max())
+    far = np.flatnonzero(gap > tolerance)
+    if far.size:
+        raise InputError(
+            key,
+            f"node(s) {', '.join(str(int(which[k])) for k in far)} of {elastic!r} lie up to {gap[far].max():.6g} m "
+            f"from the nearest mass point of {to!r}, more than {tolerance:.6g} m (the extent of its mass points): "
+            "an attached node rides at the material point where it is, so it must lie on or in the body; place "
+            "the elastic body there or attach other nodes",
+        )
 
 
 def _finish(X, m, volume, analytic, key) -> MassPoints:
