@@ -186,7 +186,7 @@ def markdown() -> str:
     out = [HEAD]
     for name, cls in EFFECTS.items():
         out += [f"## `{name}`", "", cls.SUMMARY[0].upper() + cls.SUMMARY[1:] + ".", ""]
-        conserves = ", ".join(cls.CONSERVES) or "nothing exactly: it does work, recorded as invariants/work_<label>"
+        conserves = ", ".join(cls.CONSERVES) or WORKS
         out += [
             "| | |",
             "|---|---|",
