@@ -49,15 +49,19 @@ def test_the_state_is_rebounds(a, e, inc, raan, argp, nu):
 
 @pytest.mark.parametrize("a, e, inc, raan, argp, nu", CASES[:3])
 def test_the_elements_come_back(a, e, inc, raan, argp, nu):
+    """State from elements and back, and the state again from the mean anomaly. Measured over
+    the three orbits: a 5.6e-16 and e 9.5e-15 relative, |sin(angle - given)| 2.9e-14, the state
+    from the mean anomaly 2.9e-14 of |x| and 2.8e-14 of |v|, the worst at e = 0.001, where the
+    periapsis is defined to eps / e; the bounds are about 10x."""
     x, v = orbit_state({"a": a * u.m, "e": e, "i": inc * u.rad, "raan": raan, "argp": argp, "nu": nu}, GM, [0, 0, 0])
     el = elements(x, v, GM)
-    assert el.a == pytest.approx(a, rel=1e-12) and el.e == pytest.approx(e, rel=1e-10)
+    assert el.a == pytest.approx(a, rel=5e-15) and el.e == pytest.approx(e, rel=1e-13)
     for got, want in ((el.i, inc), (el.raan, raan), (el.argp, argp), (el.nu, nu)):
-        assert np.cos(got - want) == pytest.approx(1.0, abs=1e-20) and abs(np.sin(got - want)) < 1e-9
+        assert np.cos(got - want) == pytest.approx(1.0, abs=1e-20) and abs(np.sin(got - want)) < 3e-13
     # the mean anomaly gives the same state
     x2, v2 = orbit_state({"a": a, "e": e, "i": inc, "raan": raan, "argp": argp, "mean_anomaly": float(el.M)}, GM, 0)
-    np.testing.assert_allclose(x2, x, rtol=0, atol=1e-8 * np.linalg.norm(x))
-    np.testing.assert_allclose(v2, v, rtol=0, atol=1e-8 * np.linalg.norm(v))
+    np.testing.assert_allclose(x2, x, rtol=0, atol=3e-13 * np.linalg.norm(x))
+    np.testing.assert_allclose(v2, v, rtol=0, atol=3e-13 * np.linalg.norm(v))
 
 
 def test_elements_about_a_centre_off_the_origin(tmp_path):
