@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+from validation_support import failures, number
 
 from emorbit import orbits
 from emorbit.cli import main
@@ -35,14 +36,32 @@ def _checks(suite):
 
 def test_quick_validation_passes(quick):
     code, _, suite = quick
-    failed = [
-        f"{c['name']}: {ch['id']} = {ch['value']:.3g} > {ch['tolerance']:.3g} {ch['unit']} ({ch['what']})"
-        for c in suite["cases"]
-        for ch in c["checks"]
-        if not ch["passed"]
-    ]
+    failed = failures(suite["cases"])
     assert not failed, "\n".join(failed)
     assert code == 0 and suite["passed"]
+
+
+def test_a_case_that_raised_is_reported_not_a_crash_of_the_message(tmp_path, monkeypatch):
+    """A case that raises fails with the check "case-error" of value inf, which results.json
+    writes as the string "inf": the failure message says so, with the case's error and
+    traceback, instead of stopping at a format code ("{:.3g}".format("inf") raises
+    ValueError: Unknown format code 'g'); a skipped check's "nan" reads as nan."""
+    from emorbit.validation import runner
+
+    def broken(self):
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(runner._CaseRun, "run", broken)
+    assert main(["validate", "--quick", "--cases", "paper", "--report", str(tmp_path), "-q"]) == 1
+    cases = json.loads((tmp_path / "results.json").read_text())["cases"]
+    assert cases[0]["checks"][-1]["value"] == "inf"
+    lines = failures(cases)
+    assert lines[0] == "paper: case-error = inf > 0 (the case ran to the end)", lines
+    assert "ZeroDivisionError: float division by zero" in lines[1] and "Traceback" in lines[1]
+    skipped = {"id": "basilisk-torque", "value": "nan", "tolerance": 5e-9, "unit": "", "what": "torque"}
+    skipped["passed"] = False
+    assert failures([{"name": "x", "checks": [skipped]}]) == ["x: basilisk-torque = nan > 5e-09 (torque)"]
+    assert number(None) == "None" and number("n/a") == "'n/a'"
 
 
 def test_report_files_and_figures(quick):

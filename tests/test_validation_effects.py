@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from validation_support import failures
 
 from emorbit.cli import main
 from emorbit.validation.body_case import body_case_names
@@ -47,12 +48,7 @@ def quick(tmp_path_factory):
 
 def test_the_effect_cases_pass_in_their_quick_form(quick):
     code, _, suite = quick
-    failed = [
-        f"{c['name']}: {ch['id']} = {ch['value']:.3g} > {ch['tolerance']:.3g} {ch['unit']} ({ch['what']})"
-        for c in suite["cases"]
-        for ch in c["checks"]
-        if not ch["passed"]
-    ]
+    failed = failures(suite["cases"])
     assert not failed, "\n".join(failed)
     assert code == 0 and suite["passed"]
     assert [c["name"] for c in suite["cases"]] == list(RUNNABLE)
