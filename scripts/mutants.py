@@ -9,7 +9,8 @@ checkout), and runs the test files (and ``-k`` selection) that claim to test tha
 stopping at the first failure. A mutant is *killed* when a test fails with an assertion;
 it is *alive* when every selected test passes, and an *error* (a collection error, a
 crash) counts as alive too, since it proves nothing about the tests. The script prints
-which test killed each mutant and exits with 1 when any mutant is alive.
+which test killed each mutant as soon as that mutant's run ends (in the order they finish, not
+the order of the list) and exits with 1 when any mutant is alive.
 
 Every scratch copy is a new install path, so its kernels compile afresh (emorbit's JIT
 cache is per install and cleared when a kernel source changes): a mutant in a function
@@ -35,7 +36,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -230,6 +231,38 @@ MUTANTS = (
         ("tests/test_adaptive_bodies.py", "-k", "rigid_steps_run_back"),
     ),
     Mutant(
+        "EP1",
+        "an epoch without a time scale read as TDB, not UTC (69 s off in 2026)",
+        "emorbit/epochs.py",
+        '    scale = "utc"\n',
+        '    scale = "tdb"\n',
+        ("tests/test_epochs.py",),
+    ),
+    Mutant(
+        "MU1",
+        "a rigid mesh's mesh_unit scale passed positionally as the message argument: mm read as m",
+        "emorbit/bodies/rigid.py",
+        'nodes = shapes.mesh_coordinates(nodes, f"{key}.nodes") * scale',
+        'nodes = shapes.mesh_coordinates(nodes, f"{key}.nodes", scale)',
+        ("tests/test_mesh_units.py", "-k", "starts_as"),
+    ),
+    Mutant(
+        "MU2",
+        "an HDF5 mesh file's unit scale passed positionally as the message argument: mm read as m",
+        "emorbit/bodies/elastic.py",
+        'X = mesh_coordinates(arrays["nodes"], where, f"/nodes of {path!r}", scale)',
+        'X = mesh_coordinates(arrays["nodes"], where, scale)',
+        ("tests/test_mesh_units.py", "-k", "elastic"),
+    ),
+    Mutant(
+        "EL1",
+        "a result's elements about the origin, the field's centre dropped",
+        "emorbit/result.py",
+        "return orbits.elements(self.positions[name], self.velocities[name], self.gm, self.center)",
+        "return orbits.elements(self.positions[name], self.velocities[name], self.gm)",
+        ("tests/test_elements.py", "-k", "off_the_origin"),
+    ),
+    Mutant(
         "C1",
         "the CUDA kernel leaves the last point of an ensemble unstepped",
         "emorbit/kernels/pointmass/cuda.py",
@@ -360,18 +393,22 @@ def main(argv: list[str] | None = None) -> int:
     scratch = Path(tempfile.mkdtemp(prefix="emorbit-mutants-"))
     threads = max(1, (os.cpu_count() or 1) // args.jobs)
     t0 = time.perf_counter()
+    print(f"{len(chosen)} mutants, {args.jobs} at a time; each line as its mutant finishes", flush=True)
+    results = []
     try:
         with ThreadPoolExecutor(max_workers=args.jobs) as pool:
-            results = list(pool.map(lambda m: run_one(m, scratch, threads), chosen))
+            running = {pool.submit(run_one, m, scratch, threads): m for m in chosen}
+            for done in as_completed(running):
+                m, r = running[done], done.result()
+                results.append(r)
+                secs = f"{r['seconds']:6.1f} s" if "seconds" in r else "       "
+                print(f"{m.name:4} {r['status']:6} {secs}  {m.what}\n     by {r['by']}", flush=True)
     finally:
         if args.keep:
             print(f"scratch copies in {scratch}")
         else:
             shutil.rmtree(scratch, ignore_errors=True)
     alive = [r for r in results if r["status"] != "killed"]
-    for m, r in zip(chosen, results):
-        secs = f"{r['seconds']:6.1f} s" if "seconds" in r else "       "
-        print(f"{m.name:4} {r['status']:6} {secs}  {m.what}\n     by {r['by']}")
     print(
         f"{len(results) - len(alive)} of {len(results)} mutants killed in {time.perf_counter() - t0:.0f} s"
         + (f"; alive: {', '.join(r['name'] for r in alive)}" if alive else "")

@@ -272,21 +272,24 @@ def test_central_jacobian_matches_finite_differences(kind):
     worst = 0.0
     for a, b in zip(x0, x1):
         worst = max(worst, _jacobian_error(lambda u, v, J: _jc(u, v, c, J), lambda u, v: _fc(u, v, c), a, b))
-    # measured: 1.8e-10 (finite-difference error)
-    assert worst <= 1e-6, worst
+    # measured: 1.3e-10 to 1.8e-10 over the kinds (finite-difference error)
+    assert worst <= 2e-9, worst
 
 
 @pytest.mark.parametrize("pole_kind", ["z", "random"])
 @pytest.mark.parametrize("kind", KINDS)
-@pytest.mark.parametrize("jn", [EARTH_JN[:1], EARTH_JN, STRESS_JN], ids=["J2", "earth", "stress"])
-def test_zonal_jacobian_matches_finite_differences(kind, pole_kind, jn):
+@pytest.mark.parametrize(
+    "jn, bound", [(EARTH_JN[:1], 1e-8), (EARTH_JN, 3e-8), (STRESS_JN, 2e-7)], ids=["J2", "earth", "stress"]
+)
+def test_zonal_jacobian_matches_finite_differences(kind, pole_kind, jn, bound):
     x0, x1, c, p = _setup(kind, pole_kind, 10)
     worst = 0.0
     for a, b in zip(x0[:100], x1[:100]):
         err = _jacobian_error(lambda u, v, J: _jz(u, v, c, p, jn, J), lambda u, v: _fz(u, v, c, p, jn), a, b)
         worst = max(worst, err)
-    # measured: 1e-9 (J2), 3e-9 (earth), 2e-8 (stress): finite-difference error
-    assert worst <= 1e-6, worst
+    # measured over the kinds and poles: 9.9e-10 (J2), 3.0e-9 (earth), 2.1e-8 (stress): the
+    # finite-difference error; bounds about 10x
+    assert worst <= bound, worst
 
 
 def test_jacobian_check_fails_for_a_wrong_jacobian():
@@ -296,7 +299,7 @@ def test_jacobian_check_fails_for_a_wrong_jacobian():
         _jz(u, v, c, p, STRESS_JN, J)
         J[0, 1] += 1e-4 * np.abs(J).max()
 
-    assert _jacobian_error(wrong, lambda u, v: _fz(u, v, c, p, STRESS_JN), x0[0], x1[0]) > 1e-6
+    assert _jacobian_error(wrong, lambda u, v: _fz(u, v, c, p, STRESS_JN), x0[0], x1[0]) > 2e-7
 
 
 # --- the zonal potential and the model --------------------------------------------------------
@@ -339,7 +342,7 @@ def test_pole_direction_is_a_rotation():
         v_rot, v = _vz(Q @ a, c, p, STRESS_JN), _vz(a, c, ez, STRESS_JN)
         assert abs(v_rot - v) <= 64 * EPS * _zonal_scale(a, b, c, ez, STRESS_JN)
         f_rot, f = _fz(Q @ a, Q @ b, c, p, STRESS_JN), Q @ _fz(a, b, c, ez, STRESS_JN)
-        assert np.linalg.norm(f_rot - f) <= 1e-10 * np.linalg.norm(f)
+        assert np.linalg.norm(f_rot - f) <= 1e-12 * np.linalg.norm(f)  # measured 8.7e-14
 
 
 def test_earth_model():

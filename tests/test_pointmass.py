@@ -142,9 +142,18 @@ def test_roundoff_fast_is_the_same_step_to_round_off():
 
 @pytest.mark.parametrize("method", list(emorbit.METHODS))
 def test_angular_momentum_exact_for_every_method(method):
-    """All three methods apply central forces only: angular momentum is exact for each."""
+    """All three methods apply central forces only: angular momentum is exact for each (50
+    orbits at order 4, measured 1.2e-15, 2.9e-15, 1.1e-15 for em, midpoint, leapfrog)."""
     r = paper_sim(method, 4).run(steps=5000, every=50)
-    assert r.relative_angular_momentum_error().max() <= 1e-13
+    dL = r.relative_angular_momentum_error().max()
+    assert dL <= 3e-14, f"{method}: |dL|/|L0| = {dL:.3g}"
+
+
+#: method: bounds on |x_back - x0| / |x0| and |v_back - v0| / |v0| after 2000 steps of order 4
+#: forward and back, about 10x the measured (em 3.2e-13, 9.7e-13; midpoint 7.5e-13, 2.3e-12;
+#: leapfrog 3.0e-14, 9.0e-14: the round-off of 2 x 2000 composed steps, amplified by the
+#: orbit's shear over 20 orbits of e = 2/3)
+BACK = {"em": (3e-12, 1e-11), "midpoint": (7.5e-12, 2.5e-11), "leapfrog": (3e-13, 1e-12)}
 
 
 @pytest.mark.parametrize("method", list(emorbit.METHODS))
@@ -157,8 +166,9 @@ def test_time_reversible(method):
     back.add_point("satellite", mass=1.0, position=x, velocity=-v)
     back.run(steps=2000, every=2000)
     x2, v2 = back.state("satellite")
-    assert np.linalg.norm(x2 - PAPER_X0) < 1e-10 * np.linalg.norm(PAPER_X0)
-    assert np.linalg.norm(-v2 - PAPER_V0) < 1e-10 * np.linalg.norm(PAPER_V0)
+    dx = np.linalg.norm(x2 - PAPER_X0) / np.linalg.norm(PAPER_X0)
+    dv = np.linalg.norm(-v2 - PAPER_V0) / np.linalg.norm(PAPER_V0)
+    assert dx <= BACK[method][0] and dv <= BACK[method][1], f"{method}: back to {dx:.3g} of |x0|, {dv:.3g} of |v0|"
 
 
 def test_records_and_chunks_do_not_change_the_result():

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 import pytest
+from validation_support import failures
 
 from emorbit.cli import main
 from emorbit.validation.cases import case_names, get_cases
@@ -47,8 +48,7 @@ def test_the_cases_are_listed_before_the_effect_cases():
 
 def test_the_quick_cases_pass_with_their_figures(quick):
     code, out, cases = quick
-    failed = [f"{n}: {ch['id']} = {ch['value']:.3g} > {ch['tolerance']:.3g}" for n, c in cases.items() for ch in
-              c["checks"] if not ch["passed"]]  # fmt: skip
+    failed = failures(cases.values())
     assert not failed, "\n".join(failed)
     assert code == 0 and list(cases) == list(PERTURBATION_CASES)
     report = (out / "report.md").read_text()

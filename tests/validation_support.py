@@ -19,6 +19,31 @@ def quick_report(tmp_path_factory, names):
     return code, out, json.loads((out / "results.json").read_text())
 
 
+def number(value) -> str:
+    """A check's value or tolerance as results.json holds it, for a message: a number with
+    three figures; a non-finite one, which results.json writes as a string ("inf" for a case
+    that raised, "nan" for a skipped check), as that string; anything else as its repr."""
+    try:
+        return f"{float(value):.3g}"
+    except (TypeError, ValueError):
+        return repr(value)
+
+
+def failures(cases) -> list[str]:
+    """One line per failed check of the outcomes ``cases`` (as results.json holds them): the
+    case, the check's id, value, tolerance, unit and what it measures; a case that stopped with
+    an exception adds its message and the check's detail (the traceback)."""
+    lines = []
+    for case in cases:
+        for ch in case["checks"]:
+            if not ch["passed"]:
+                value, tol, unit = number(ch["value"]), number(ch["tolerance"]), f" {ch['unit']}" if ch["unit"] else ""
+                lines.append(f"{case['name']}: {ch['id']} = {value} > {tol}{unit} ({ch['what']})")
+                if ch["id"] == "case-error":
+                    lines.append(f"  {case.get('error')}\n{ch.get('detail', '')}")
+    return lines
+
+
 def failed_ids(outcome) -> set:
     """The ids of the checks of an outcome that failed."""
     return {ch["id"] for ch in outcome["checks"] if not ch["passed"]}
@@ -33,12 +58,7 @@ def passed_cases(report, names, note) -> dict:
     code, out, suite = report
     cases = {c["name"]: c for c in suite["cases"]}
     assert list(cases) == list(names)
-    bad = [
-        f"{name}: {ch['id']} = {ch['value']:.3g} > {ch['tolerance']:.3g} {ch['unit']}"
-        for name, case in cases.items()
-        for ch in case["checks"]
-        if not ch["passed"]
-    ]
+    bad = failures(cases.values())
     assert not bad, "\n".join(bad)
     assert code == 0 and suite["passed"]
     text = (out / "report.md").read_text()
