@@ -43,7 +43,8 @@ from .bodies.facets import FACET_KEYS
 from .effects import EFFECTS, effect_kinds
 from .errors import InputError
 from .field import BODIES, CentralField
-from .integrators import METHODS, ORDERS, ROUNDOFF, check_order, check_roundoff, get_method
+from .integrators import METHODS, ORDERS, ROUNDOFF
+from .integrators.plan import MAX_NEWTON_ITERATIONS
 from .io.drift import check_tolerance
 from .io.scene_toml import simulation_to_toml
 from .keys import Key
@@ -63,8 +64,6 @@ __all__ = [
 ]
 
 
-#: the most Newton iterations a sub-step may take
-MAX_NEWTON_ITERATIONS = 1_000_000
 #: the kinds of [[body]] and [[coupling]] tables
 BODY_KINDS = ("point", "rigid", "elastic")
 COUPLING_KINDS = ("attach",)
@@ -152,7 +151,7 @@ KEYS: dict[str, tuple[Key, ...]] = {
             "frequency; records land on multiples of output_every dt; central field and bodies only (no effects)"),
         Key("roundoff", False, "string", '"brouwer"', _choices(ROUNDOFF),
             'em steps of point masses: "brouwer" keeps the energy error a random walk; "fast" is cheaper and '
-            "drifts at round-off level"),
+            "drifts at round-off level (point masses in the central field alone; refused elsewhere)"),
         Key("energy_range", False, "boolean or string", '"auto"', '"auto", true, false',
             "record the least and greatest total energy over the steps between records "
             '(invariants/energy_range), so decimated records cannot alias the energy error; "auto": for methods '
@@ -521,33 +520,21 @@ class Scene:
             )
         integ = d["integrator"]
         _check_keys(integ, "integrator", "integrator")
-        get_method(integ.get("method", "em"), "integrator.method")
-        check_order(integ.get("order", 2), "integrator.order")
         _int(integ.get("output_every", 1), "integrator.output_every", 1)
         if "checkpoint_every" in integ:
             _int(integ["checkpoint_every"], "integrator.checkpoint_every", 1)
-        max_iter = _int(
-            integ.get("max_newton_iterations", 50), "integrator.max_newton_iterations", 1, MAX_NEWTON_ITERATIONS
-        )
         dt = self.dt
         t_end = self.t_end
         max_output = self.max_output
-        newton = integ.get("newton", "auto")
-        if newton not in ("auto", "reuse", "full"):
-            raise InputError("integrator.newton", f"must be 'auto', 'reuse' or 'full', got {newton!r}")
-        adaptive = integ.get("adaptive")
-        if adaptive is not None and (isinstance(adaptive, bool) or not isinstance(adaptive, (int, float))):
-            raise InputError("integrator.adaptive", f"a number in (0, 1] expected, got {adaptive!r}")
-        roundoff = check_roundoff(integ.get("roundoff", "brouwer"), "integrator.roundoff")
-        sim = Simulation(
+        sim = Simulation(  # checks the method and its settings once (the Plan), naming them as arguments
             field,
-            method=self.method,
-            order=self.order,
+            method=integ.get("method", "em"),
+            order=integ.get("order", 2),
             dt=dt,
-            max_newton_iterations=max_iter,
-            newton=newton,
-            adaptive=adaptive,
-            roundoff=roundoff,
+            max_newton_iterations=integ.get("max_newton_iterations", 50),
+            newton=integ.get("newton", "auto"),
+            adaptive=integ.get("adaptive"),
+            roundoff=integ.get("roundoff", "brouwer"),
             epoch=integ.get("epoch"),
         )
         sim.keys = {k: f"integrator.{k}" for k in ("t_end", "dt", "max_output")} | {"every": "integrator.output_every"}
@@ -632,7 +619,7 @@ class Scene:
                 )
             sim.attach(cpl["elastic"], cpl["nodes"], cpl["to"], key=where)
         _check_couplings(sim, couplings)
-        sim.check_effects()
+        sim.check()
         if "energy_range" in integ:
             try:
                 sim.energy_range = integ["energy_range"]

@@ -124,7 +124,7 @@ def resident_case():
         p = PointMasses()
         p.names = [f"p{i}" for i in range(n)]
         p.masses, p.x, p.v, p.cx, p.cv = np.ones(n), x.copy(), v.copy(), np.zeros((3, n)), np.zeros((3, n))
-        p.device = device
+        p.plan = p.plan.with_(device=device)
         return p
 
     def step(p, every, nrec):

@@ -247,7 +247,7 @@ class EmorbitRunner:
 
     def __init__(self, x, v, method: str, order: int, dt: float, max_iter: int = 50, roundoff: str = "brouwer"):
         self.pm = point_masses(x, v)
-        self.pm.roundoff = roundoff
+        self.pm.plan = self.pm.plan.with_(roundoff=roundoff)
         self.method, self.gammas, self.dt, self.max_iter = method, coefficients(order), dt, max_iter
         self.iterations = []
         self.steps = 0

@@ -195,7 +195,7 @@ def _point_energies(sim, x, v) -> np.ndarray:
 def _points_of(sim, x, v):
     """Put point masses of unit mass at (x, v) into ``sim``, under its effects."""
     pm = point_masses(x, v)
-    pm.effects, pm.adaptive, pm.roundoff = sim.points.effects, sim.points.adaptive, sim.points.roundoff
+    pm.effects, pm.plan = sim.points.effects, sim.plan
     sim.points = pm
     return pm
 

@@ -135,7 +135,7 @@ def _row(n: int, method: str, cfg: dict) -> dict:
     points.names = [f"p{i}" for i in range(n)]
     points.masses, points.x, points.v = np.ones(n), x0.copy(), v0.copy()
     points.cx, points.cv = np.zeros((3, n)), np.zeros((3, n))
-    points.device = "gpu"
+    points.plan = points.plan.with_(device="gpu")
 
     def resident():  # as Simulation calls it: one chunk of one record, the state stays on the device
         points.advance(method, gm, center, dt, gammas, steps, 1, 50)

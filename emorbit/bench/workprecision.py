@@ -136,7 +136,7 @@ def _emorbit_adaptive(x0, v0, order, eta, T, orbits) -> dict:
 
     def run(dt, nrec_):
         pm = point_masses(x0[:, None], v0[:, None])
-        pm.adaptive = eta
+        pm.plan = pm.plan.with_(adaptive=eta)
         rec = pm.advance("em", GM, np.zeros(3), dt, coefficients(order), 1, nrec_, 50)
         return pm, rec
 

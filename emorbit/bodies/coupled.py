@@ -34,6 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..integrators.dispatch import method_code
+from ..integrators.plan import Plan
 from ..kernels import coupled as kc
 from ..kernels import elastic as kel
 from ..kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
@@ -99,9 +100,9 @@ class Structure(StructureAdaptive, StructureLayout):
     #: contraction (|update_k| / |update_k-1|) above which the factors are renewed
     SLOW = 0.2
 
-    def __init__(self, newton: str = "auto"):
-        self.newton_option = newton
-        self.newton = newton
+    def __init__(self, plan: Plan | None = None):
+        self.plan = Plan() if plan is None else plan
+        self.newton = self.plan.newton  # "auto" becomes "full" or "reuse" when the structure is built
         self.retries_step = 0
         self.retries_total = 0  # failed steps that were redone in sub-steps
         self._kept = KeptFactors()  # "reuse" mode's factors and iteration counts: state, in checkpoints

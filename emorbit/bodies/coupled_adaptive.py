@@ -55,8 +55,6 @@ SIZE_CLASSES = 8
 class StructureAdaptive:
     """The adaptive half of :class:`~emorbit.bodies.coupled.Structure` (a base class)."""
 
-    #: the accuracy knob eta of adaptive steps (None: fixed steps); set by the Simulation
-    adaptive: float | None = None
     #: adaptive steps taken so far
     adaptive_steps: int = 0
     #: the highest elastic frequency squared, 1/s^2 (None: not yet estimated)

@@ -315,7 +315,7 @@ class StructureLayout(StructureOutput):
                             f"(difference {gap:.3g} m/s): give the elastic body the same rigid motion",
                         )
             self._layout_elastic(spec, attached)
-        self._layout_mutual()
+        self._layout_pair_points()
         ns = len(self._u)
         self.u = np.ascontiguousarray(np.array(self._u, dtype=float).reshape(ns, 3))
         self.v = np.ascontiguousarray(np.array(self._v, dtype=float).reshape(ns, 3))
@@ -381,7 +381,7 @@ class StructureLayout(StructureOutput):
         self.J, self._indices32, self._indptr32, self.J_mass = jacobian_pattern(
             self.Ms, self.node_slot, self.bar_node, self.tet_node, gp_all, self.rb_slots
         )
-        if self.newton_option == "auto":
+        if self.plan.newton == "auto":
             self.newton = "full" if self.J.shape[0] < self.AUTO_FULL else "reuse"
         if self.effects is None:  # a structure of its own, outside a simulation: the field alone
             from ..effects.effectset import EffectSet
@@ -392,8 +392,8 @@ class StructureLayout(StructureOutput):
         self.reset_work()
         self._built = True
 
-    def _layout_mutual(self) -> None:
-        """The mass points of the effects between pairs (mutual gravity), where the structure
+    def _layout_pair_points(self) -> None:
+        """The mass points of the effects between pairs (as mutual gravity), where the structure
         has one: a point mass's node, every mass point of a rigid body (a node riding on it,
         whatever its gravity model in the field) and an elastic body's gravity points (its
         quadrature points)."""

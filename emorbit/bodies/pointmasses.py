@@ -30,6 +30,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..integrators import dispatch
+from ..integrators.plan import Plan
 from ..kernels import invariants as inv
 from .system import BodySystem, WorkSums, roundoff_scales
 
@@ -116,7 +117,8 @@ class PointMasses(WorkSums, BodySystem):
 
     kind = "point"
 
-    def __init__(self):
+    def __init__(self, plan: Plan | None = None):
+        self.plan = Plan() if plan is None else plan
         self._names: list[str] = []
         self._index: dict[str, int] | None = {}
         self._pending: list[tuple[float, np.ndarray, np.ndarray]] = []  # added, not yet in the arrays
@@ -388,14 +390,18 @@ class PointMasses(WorkSums, BodySystem):
         )
         return rec
 
-    #: steps per local Kepler time scale for adaptive steps (None: fixed steps); set by the Simulation
-    adaptive: float | None = None
     #: adaptive steps taken so far, summed over the points
     adaptive_steps: int = 0
-    #: a name of :data:`emorbit.integrators.ROUNDOFF`; set by the Simulation
-    roundoff: str = "brouwer"
-    #: a name of :data:`emorbit.integrators.DEVICES`; set by the Simulation
-    device: str = "cpu"
+
+    @property
+    def roundoff(self) -> str:
+        """The plan's round-off treatment (:data:`emorbit.integrators.ROUNDOFF`)."""
+        return self.plan.roundoff
+
+    @property
+    def device(self) -> str:
+        """The plan's device (:data:`emorbit.integrators.DEVICES`)."""
+        return self.plan.device
 
     def under_effects(self) -> bool:
         """Whether the points move under effects beyond the central field."""

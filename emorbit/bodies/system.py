@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..integrators.plan import Plan
 
 __all__ = ["WorkSums", "BodySystem", "check_body_name", "check_output", "newton_failure", "roundoff_scales"]
 
@@ -134,11 +135,20 @@ class BodySystem:
     STATE_FIELDS : tuple of str
         The attributes (float64 arrays) that are the kind's whole state, compensation terms
         and warm starts included: what :meth:`state_arrays` returns by default.
+    plan : Plan
+        The run's plan (:class:`~emorbit.integrators.plan.Plan`), handed over by the
+        simulation; the system reads its settings (adaptive steps, round-off, device) there.
     """
 
     kind: str = ""
     METHODS: tuple[str, ...] = ()
     STATE_FIELDS: tuple[str, ...] = ()
+    plan: Plan = Plan()
+
+    @property
+    def adaptive(self) -> float | None:
+        """Adaptive steps' accuracy knob eta from the plan (None: fixed steps)."""
+        return self.plan.adaptive
 
     def __len__(self) -> int:
         return len(self.names)
