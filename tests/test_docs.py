@@ -19,7 +19,8 @@ from test_house import history_lines, modules
 
 from emorbit.bodies.coupled import Structure
 from emorbit.bodies.pointmasses import PointMasses
-from emorbit.bodies.rigid import GRAVITY_MODELS, SHAPE_PARAMETERS, RigidBodies
+from emorbit.bodies.rigid import GRAVITY_MODELS, RigidBodies
+from emorbit.bodies.rigid_input import SHAPE_PARAMETERS
 from emorbit.errors import InputError
 from emorbit.integrators import METHODS
 from emorbit.scene import BODY_KINDS, KEYS, SCHEMA, list_scenes, load_scene, parse_scene

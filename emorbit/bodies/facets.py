@@ -521,7 +521,7 @@ def shape_facets(
     shape : str
         One of :data:`FACET_SHAPES`.
     params : dict
-        The shape's parameters in SI as :func:`emorbit.bodies.rigid.build_rigid` keeps them:
+        The shape's parameters in SI as :func:`emorbit.bodies.rigid_input.build_rigid` keeps them:
         ``size`` (box), ``radius`` (sphere, shell, cylinder), ``height`` (cylinder),
         ``semi_axes`` (ellipsoid), ``refinement`` (default 1), ``nodes`` and ``tetrahedra``
         (mesh, with ``density`` where given: the centre of mass is the mass points'); others
