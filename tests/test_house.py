@@ -156,7 +156,7 @@ def test_the_graph_sees_every_module_and_its_imports():
     assert "emorbit.validation.cli" in mods and "emorbit.kernels.pointmass.packed" in mods
     edges = internal_edges(imports(mods), mods)
     assert "emorbit.simulation" in edges["emorbit.scene"]  # a top-level import
-    assert "emorbit.bodies.rigid" in edges["emorbit.simulation"]  # an import inside a method
+    assert "emorbit.bodies.rigid" in edges["emorbit.assembly"]  # an import inside a method
     assert "emorbit.kernels.eft" in edges["emorbit.kernels.pointmass.cuda"]  # from .. import eft
 
 
@@ -307,3 +307,80 @@ def test_validate_runs_beside_a_file_named_validation(tmp_path):
         done = subprocess.run(argv, cwd=tmp_path, capture_output=True, text=True, timeout=300)
         assert done.returncode == 0, done.stderr[-2000:]
         assert "paper" in done.stdout
+
+
+#: the folders whose modules may name an effect kind: the effects themselves and their kernels
+EFFECT_HOMES = ("emorbit/effects/", "emorbit/kernels/effects/")
+#: a body's surface material: every facet carries it, whichever effects read it (it is the
+#: body's, like its mass, and the scene names it on the body or the facet)
+SURFACE_PROPERTIES = {"drag_coefficient"}
+#: the tools above the model (they build scenes that name effects, as users do)
+TOOLS = ("emorbit/bench/", "emorbit/sweep/", "emorbit/cli.py", "emorbit/plot.py")
+
+
+def effect_kinds() -> set[str]:
+    """The shipped effects' kinds (central aside: the field is the model's own)."""
+    kinds = set()
+    for path in (REPO / "emorbit" / "effects").glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ClassDef):
+                for stmt in node.body:
+                    if (
+                        isinstance(stmt, ast.Assign)
+                        and any(isinstance(t, ast.Name) and t.id == "NAME" for t in stmt.targets)
+                        and isinstance(stmt.value, ast.Constant)
+                    ):
+                        kinds.add(stmt.value.value)
+    return kinds - {"central", ""}
+
+
+def named_kinds(tree: ast.AST, kinds: set[str]) -> list[tuple[int, str]]:
+    """(line, what) of every string literal (docstrings aside) equal to an effect kind, and of
+    every identifier that has a kind among the words of its snake_case name."""
+    docstrings = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                docstrings.add(id(body[0].value))
+
+    def names_a_kind(name: str) -> bool:
+        words = f"_{name.lower()}_"
+        return any(f"_{kind}_" in words for kind in kinds)
+
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings:
+            if node.value.lower() in kinds:
+                found.append((node.lineno, node.value))
+        name = node.id if isinstance(node, ast.Name) else node.attr if isinstance(node, ast.Attribute) else None
+        if name is None and isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+            name = node.name
+        if name is not None and names_a_kind(name):
+            found.append((node.lineno, name))
+    return sorted(found)
+
+
+def test_no_module_outside_the_effects_names_an_effect_kind():
+    """An effect is one declaration: the model and the kernels name no effect kind (no
+    ``"zonal"``, no ``drag_p``, no ``mutual`` attribute); only emorbit/effects/ and
+    emorbit/kernels/effects/ do, and the tools that build scenes as users do."""
+    kinds = effect_kinds()
+    assert kinds >= {"zonal", "mutual", "drag", "srp", "third_body"}
+    bad = []
+    for path in modules({"emorbit": REPO / "emorbit"}).values():
+        rel = path.relative_to(REPO).as_posix()
+        if rel.startswith(EFFECT_HOMES) or rel.startswith(TOOLS):
+            continue
+        found = named_kinds(ast.parse(path.read_text()), kinds)
+        bad += [f"{rel}:{line}: {what}" for line, what in found if what not in SURFACE_PROPERTIES]
+    assert not bad, "modules outside the effects name effect kinds:\n" + "\n".join(bad)
+
+
+def test_the_effect_kind_check_finds_names():
+    source = (
+        'x = "zonal"\nself.drag = 1\ndef f():\n    """drag in a docstring"""\n'
+        '    return mutual_p + third_body_mass + dragon + "the drag of air"\n'
+    )
+    found = [what for _, what in named_kinds(ast.parse(source), {"zonal", "drag", "mutual", "third_body"})]
+    assert found == ["zonal", "drag", "mutual_p", "third_body_mass"]

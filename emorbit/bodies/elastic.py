@@ -767,7 +767,10 @@ def build_elastic(
     if gravity not in ("volume", "none"):
         raise InputError(f"{key}.gravity", f"must be 'volume' or 'none', got {gravity!r}")
     if gravity == "volume" and not has_field:
-        raise InputError(f"{key}.gravity", "'volume' needs a central field; without one use 'none'")
+        raise InputError(
+            f"{key}.gravity",
+            "'volume' needs a central field or an effect that acts at points; without one use 'none'",
+        )
     E = to_si(young, "pressure", f"{key}.young", strict=strict, positive=True)
     rho = to_si(density, "density", f"{key}.density", strict=strict, positive=True)
     A = to_si(area, "area", f"{key}.area", strict=strict, positive=True) if area is not None else None

@@ -56,26 +56,59 @@ class Pieces:
     module : str
         The importable module that defines them (``"emorbit.kernels.effects.zonal"``), or
         the path of a Python file (a user's effect).
-    force : str
-        The force on a point over a step and its Jacobian (every effect that acts at points).
-    potential : str
-        The potential per unit mass (a conservative effect).
-    prepare : str
-        What every point's force reads over a sub-step (positions on a path at given times).
-    time_work : str
-        The work per unit mass of the potential's change in time over a sub-step.
-    facet : str
-        The force on a flat facet (an effect that acts on surfaces).
-    pairs : str
-        The pair forces between points of different bodies (mutual gravity).
-    pair_potential : str
-        Each point's half of its pairs' potential energy.
-    pair_block : str
-        The block between two points of a pair (a structure's Newton matrix joins bodies).
-    rate, pair_rate : str
-        The squared rate that sets adaptive steps' time scale at a point (a pair), and its
-        rate of change along the motion: an effect that dominates the motion gives one (the
-        central field's Kepler rate, a pair's).
+    force, potential, prepare, time_work, facet, pairs, pair_potential, pair_block, rate, pair_rate : str
+        The names of the pieces in ``module`` ("" where the effect has none; every effect
+        that acts at points has a ``force``).
+
+    Notes
+    -----
+    The pieces are Numba-compilable plain functions (``@kernel`` of
+    :mod:`emorbit.kernels.jit`); forces and potentials are per unit mass of a point. ``p`` is
+    the effect's parameter vector, ``tab`` its tables (flat; the piece reshapes them from
+    sizes in ``p``), ``s`` its scratch (what ``prepare`` fills, and a pair effect's working
+    rows)::
+
+        force(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac) -> (fx, fy, fz)
+            the effect's force over a step x0 -> x1 of length h (the discrete force of an em
+            step: its work equals the drop of the effect's potential), and, where ``jac``, its
+            derivative with respect to the end point added into J (3, 3): ``J[a, b] += dF_a /
+            dx1_b``. With x0 = x1 = x it is the force at x. c is the point's coefficient for
+            the effect (a body key such as drag's ``Cd A / m``; 1 where the effect has none; the
+            set skips points whose c is 0).
+        potential(x, y, z, c, p, tab, s) -> V
+            the potential energy per unit mass (conservative effects).
+        prepare(ta, tm, tb, p, tab, s)
+            fills the scratch s with what every point's force reads over a sub-step from ta to
+            tb (its middle tm): a body's position on its path, the Sun's.
+        time_work(x0, y0, z0, x1, y1, z1, c, p, tab, s) -> W
+            the work per unit mass of the potential's change in time over the sub-step (an
+            effect that depends on time), at the positions x0 and x1.
+        facet(ax, ay, az, bx, by, bz, nx, ny, nz, area, k0, k1, k2, k3, h, p, tab, s) -> (fx, fy, fz)
+            a surface effect's force (N) on a flat facet of ``area`` (m^2) whose centre moves
+            a -> b over the step, with unit normal n at the step's middle and the facet
+            coefficients k (drag coefficient Cd, specular and diffuse reflectivity, two-sided
+            flag).
+        pairs(x0, x1, m, body, c, h, p, s, F, W, R, jac, first, weighted)
+            an effect between pairs of points (mutual gravity): adds its forces per unit mass
+            (``weighted``: the forces, N) into F (3, n), the diagonal blocks of their Jacobian
+            into W (9, n) where ``jac``, and each point's coupling bound ``sum_j |dF_i / dx1_j|``
+            (1/s^2) into R (n,), between points of different ``body`` where ``c`` is not 0;
+            ``first`` is the first evaluation of a sub-step (the piece may keep what it formed in
+            s). Weighted, the two forces of a pair are bitwise opposite, so that a system that
+            steps masses (a structure) keeps momentum and angular momentum to round-off.
+
+        rate(x, y, z, vx, vy, vz, c, p) -> (W, dW)
+            the squared rate that sets adaptive steps' time scale at a point (1/s^2: a Kepler rate
+            GM / r**3), and its rate of change along the motion (1/s^3).
+        pair_rate(d0, d1, d2, u0, u1, u2, ma, mb, p) -> (W, dW)
+            the same for a pair of points from their separation and relative velocity.
+        pair_block(a0, a1, a2, b0, b1, b2, ma, mb, p, J)
+            a pair effect's block between two points: ``J = -d F_a / d x1_b`` (N/m; F_a the force
+            on point a, N) from their separation ``x_a - x_b`` at the step's start (a) and end (b)
+            and their masses.
+
+    ``pair_potential(x, m, body, c, p, out)`` adds each point's half of its pairs'
+    potential energy (J) into ``out`` (n,).
     """
 
     module: str

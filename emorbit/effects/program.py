@@ -25,6 +25,39 @@ they were registered); every piece adds its Jacobian into the same 3 x 3 block i
 order. With ``mode`` MODE_MIDPOINT the conservative effects take the midpoint twice,
 ``(x_m, x_m)`` (the force at the midpoint, whose derivative with respect to x1 is half the
 field's gradient, as the midpoint rule's), and the others the step ``(x0, x1)``.
+
+The compiled functions, with ``mode`` :data:`MODE_STEP` (the em step's discrete forces),
+:data:`MODE_MIDPOINT` (conservative effects at the midpoint (x0 + x1) / 2, others over the
+step) or :data:`MODE_EXPLICIT` (x0 = x1 = x: the force at a point, leapfrog's kicks), plus
+:data:`MODE_WEIGHTED` for forces rather than forces per unit mass::
+
+    forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first) -> status
+        F (3, n) per unit mass, W (9, n) its diagonal Jacobian blocks ``W[3 a + b, i] =
+        dF_a,i / dx1_b,i`` where ``jac``, R (n,) the pair coupling bounds; weighted, F and W
+        are the pair effects' own plus the point's mass times the others' sum (N, N/m);
+        status :data:`~emorbit.kernels.codes.STATUS_SINGULAR` where a force is not finite.
+    prepare(ta, tm, tb, P, I, T, S)
+    work(x0, dx, m, body, coef, h, mode, P, I, T, S, out)
+        out (w, n): each working effect's work on each point over the step from x0 to
+        x0 + dx (J): ``m F . dx`` for a force that does work, the ``time_work`` of a potential
+        that changes in time; w is the number of working effects, in the set's order.
+    potential(x, m, body, coef, P, I, T, S, out)
+        out (k, n): each effect's potential energy at each point (J; 0 for effects without
+        one; a pair effect puts half of each pair's energy on each point), after ``prepare``
+        at the time of x.
+    rate(x, v, m, body, coef, P, I, T, S) -> (W, dW)
+        the largest squared rate over the points, the effects' ``rate`` and pairs'
+        ``pair_rate`` (0 where none gives one), and its rate of change.
+    cross(x0, x1, m, body, coef, on, sc, acc, P, I, T, S)
+        the pair effects' blocks between bodies, summed onto each pair of bodies' slots: for
+        points a, b of bodies A < B (``on`` not 0 for both), with slot coefficients ``sc``
+        (4, n), ``acc[A, B, i, j] += sc[i, a] sc[j, b] J_ab`` (acc (nb, nb, 4, 4, 3, 3)).
+    facets(a, b, nrm, area, kf, h, P, I, T, S, F, out, want_work) -> status
+        a, b, nrm (3, nf): facet centres at the step's start and end, unit normals at its
+        middle; area (nf,); kf (4, nf) the facet coefficients; F (3, nf) the surface
+        effects' summed force on each facet (N); where ``want_work``, out (w, nf) gets each
+        working effect's work ``F_e . (b - a)`` (J; 0 in the slots of effects without
+        surfaces).
 """
 
 from __future__ import annotations

@@ -22,10 +22,8 @@ Newton solves for ``z = (dq, nu)`` with the constraint impulse ``nu = h lambda``
 
 with the load stiffness ``K = dF/dq1`` (chord), constraint rows scaled by ``trace(E)/3``; then
 ``M dv = h F - G(q05)^T nu``, ``F`` linearised at the final iterate. The linear solves (null
-space; Benzi, Golub & Liesen 2005), the predictor and K are :mod:`.rigid_solve`'s.
-
-No rounded constant may enter every step the same way, or the energy drifts: ``h*h/2``, ``2/h``
-and ``E^-1`` never touch the state; ``E dv = ...`` uses a stored inverse plus one refinement.
+space; Benzi, Golub & Liesen 2005), the predictor and K are :mod:`.rigid_solve`'s. No rounded
+constant enters every step the same way: ``E dv = ...`` uses a stored inverse, refined once.
 
 Known limits (docs/methods.md): at 90 degrees of rotation per step the energy drifts (Newton
 zeroes the computed residual, whose rounding error has a nonzero mean along the velocity);
@@ -33,15 +31,12 @@ in a field the point-mass kernel's accurate finish (:func:`.pointmass.reference.
 not here, so the plain sums leave an energy drift above the point-mass step's; the stopping
 test weighs increments by mass: the axes stop at about 4 eps sqrt(m / E_kk) h |v| (orbit).
 
-Forces: the effect set's (:mod:`.effects.signatures`), compiled once per set and taken as
-arguments: ``forces`` at the mass points (the central field's g_em, zonal harmonics, third
-bodies, a user's effect; each point's coefficients ``coef``), ``facets`` on the body's flat
-facets (drag, radiation pressure; :mod:`.rigid_surface`). Gravity models (per body):
-``GRAVITY_VOLUME`` applies the point effects at every mass point (gravity-gradient torque
-included), ``GRAVITY_POINT`` at the centre of mass with all the mass (no torque),
-``GRAVITY_NONE`` not at all (free motion; the facets still feel theirs). Methods:
-``METHOD_EM`` (each effect's discrete force over the step) and ``METHOD_MIDPOINT`` (the
-conservative effects at the midpoint configuration; energy oscillates in a field).
+Forces: the effect set's (:mod:`.effects.signatures`), taken as arguments: ``forces`` at
+the mass points, ``facets`` on the flat facets (:mod:`.rigid_surface`). Gravity models (per
+body): ``GRAVITY_VOLUME`` (the point effects at every mass point, gravity-gradient torque
+included), ``GRAVITY_POINT`` (at the centre of mass, no torque), ``GRAVITY_NONE`` (none).
+Methods: ``METHOD_EM`` (discrete forces) and ``METHOD_MIDPOINT`` (conservative effects at the
+midpoint configuration).
 """
 
 from __future__ import annotations

@@ -20,11 +20,9 @@ iterates (``forces``), then updates every point by one Newton step on its own 3 
 update is below 4 eps of its increment, or has stalled at round-off (below 128 eps and no
 longer halving), or, after a second sweep, is below 1e-8 with the next update estimated at a
 thousandth of round-off: the update times the larger of the measured contraction (this update
-over the last) and the pair coupling (6 h^2 / 2 times the bound of the norms of
-d F_i / d x_j summed over j). An error that each step leaves with the same sign adds up over
-a run: stopping at eps itself made the energy of a binary drift by 6e-14 in 100 orbits.
-Positions and velocities are updated with Kahan compensation, so the energy error of a long
-run is a random walk (Brouwer's law).
+over the last) and the pair coupling (3 h^2 times the bound of sum_j |d F_i / d x_j|); an
+error each step leaves with the same sign adds up over a run. Positions and velocities are
+updated with Kahan compensation: the energy error of a long run is a random walk.
 
 leapfrog (explicit effects only): kick-drift-kick, ``v_1/2 = v0 + h/2 F(x0)``,
 ``x1 = x0 + h v_1/2``, ``v1 = v_1/2 + h/2 F(x1)``, with the forces at points (MODE_EXPLICIT).
