@@ -221,11 +221,12 @@ class ChunkDriver:
             raise InputError("energy_range", f'must be "auto", true or false, got {value!r}')
         self._energy_range = value
 
-    def _axisymmetric(self) -> bool:
-        """Whether an effect keeps the angular momentum about an axis only (zonal harmonics):
-        it keeps none about the centre."""
-        return not self.effects.conserves("angular momentum about the centre") and any(
-            "angular momentum about the pole" in type(e).CONSERVES for e in self.effects
+    def _keeps_angular_momentum(self) -> bool:
+        """Whether every effect keeps the angular momentum about the centre (zonal harmonics
+        keep it about the pole only, a user's tidal term not at all)."""
+        return all(
+            "angular momentum" in type(e).CONSERVES or "angular momentum about the centre" in type(e).CONSERVES
+            for e in self.effects
         )
 
     def _ranges_energy(self) -> bool:
@@ -244,7 +245,7 @@ class ChunkDriver:
         momenta are not conserved and are not checked; the energy is checked as E - W, the
         energy less the work done (its balance), which an em step keeps."""
         tol = check_tolerance(self.drift_tolerance if tolerance is None else tolerance)
-        kept = conserved(self.method, self.field is None, self._axisymmetric())
+        kept = conserved(self.method, self.effects.conserves("momentum"), self._keeps_angular_momentum())
         if self._working_labels():
             kept[1:] = False
         self._drift = DriftMonitor(tol, coefficients(self.order).size, kept)
@@ -340,6 +341,10 @@ class ChunkDriver:
             self.structure.build()
         cp = self._checkpoint_steps(checkpoint_every, every)
         self._prepare_effects(n_steps, coefficients(self.order))  # the first record's potentials need them
+        grid, what = (
+            (self._dt, "fixed steps") if self.adaptive is None else (every * self._dt, "adaptive steps' records")
+        )
+        self.effects.check_landings(self.time, self.time + n_steps * self._dt, grid, what)
         self._start_drift(tolerance)
         writer = None
         if output is not None:

@@ -77,7 +77,12 @@ def register(cls: type[Effect]) -> type[Effect]:
         raise InputError(f"effect[{name!r}].PIECES", "an effect that keeps the energy gives its potential")
     known = EFFECTS.get(name)
     if known is not None and known is not cls and _origin(known) != _origin(cls):
-        raise InputError(f"effect[{name!r}]", f"the kind {name!r} is taken by {known.__module__}.{known.__name__}")
+        where = known.PIECES.module if known.PIECES is not None else known.__module__
+        raise InputError(
+            f"effect[{name!r}]",
+            f"the kind {name!r} is taken by {known.__name__} of {where}: give this effect another NAME, "
+            f"or unregister that one first (emorbit.effects.unregister({name!r}))",
+        )
     EFFECTS[name] = cls
     return cls
 

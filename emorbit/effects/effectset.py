@@ -204,6 +204,26 @@ class EffectSet:
         times = [e.landing_times(t0, t1) for e in self.all]
         return np.unique(np.concatenate(times)) if times else np.zeros(0)
 
+    def check_landings(self, t0: float, t1: float, grid: float, what: str) -> None:
+        """Check that every time an effect's steps must land on (:meth:`landing_times`) in
+        ``(t0, t1]`` is a step's end: ``t0`` plus a whole number of ``grid`` (within 1e-9 of a
+        step, relative).
+
+        Raises
+        ------
+        InputError
+            A landing time between two steps' ends, naming the effect's key.
+        """
+        for e in self.all:
+            for t in e.landing_times(t0, t1):
+                k = (float(t) - t0) / grid
+                if abs(k - round(k)) > 1e-9 * max(1.0, abs(k)):
+                    raise InputError(
+                        e.key,
+                        f"steps must end at t = {float(t)!r} s, which lies between two steps' ends ({what}: "
+                        f"multiples of {grid!r} s from {t0!r} s); choose a step that divides it",
+                    )
+
     # -- what the kernels take -------------------------------------------------------------------
     def program(self, announce=None):
         """The set compiled (:func:`emorbit.effects.program.compile_set`)."""
@@ -267,8 +287,9 @@ class EffectSet:
         return [bk for e in self.all for bk in type(e).BODY_KEYS if body_kind in bk.kinds and bk.required]
 
     def acts_at_points(self, body_kind: str) -> bool:
-        """Whether any effect of the set acts at the points of a body kind."""
-        return any(e.acts_on(body_kind) == AT_POINTS for e in self.all)
+        """Whether any effect of the set acts at the points of a body kind on its own (effects
+        between pairs act at the mass points whatever the body's gravity model)."""
+        return any(e.acts_on(body_kind) == AT_POINTS and not type(e).pairs() for e in self.all)
 
 
 class _Context:

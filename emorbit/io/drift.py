@@ -58,25 +58,25 @@ STATE = {
 }
 
 
-def conserved(method: str, free_space: bool, axisymmetric: bool = False) -> np.ndarray:
-    """Which invariants a method conserves up to round-off.
+def conserved(method: str, momentum: bool, angular_momentum: bool) -> np.ndarray:
+    """Which invariants a run conserves up to round-off.
 
     Parameters
     ----------
     method : str
-        ``"em"``, ``"midpoint"`` or ``"leapfrog"``.
-    free_space : bool
-        No central field: the linear momentum is conserved too.
-    axisymmetric : bool
-        The field is symmetric about an axis only (zonal harmonics): the angular momentum
-        about that axis is conserved, the vector is not, and is not checked.
+        ``"em"``, ``"midpoint"`` or ``"leapfrog"`` (only em keeps the energy).
+    momentum : bool
+        Every force keeps the linear momentum (free space, mutual gravity).
+    angular_momentum : bool
+        Every force keeps the angular momentum about the centre (not zonal harmonics, which
+        keep it about the pole only).
 
     Returns
     -------
     ndarray
         (3,) bool, in the order of :data:`INVARIANTS`.
     """
-    return np.array([method == "em", bool(free_space), not axisymmetric])
+    return np.array([method == "em", bool(momentum), bool(angular_momentum)])
 
 
 def check_tolerance(value, key: str = "drift_tolerance") -> float:
