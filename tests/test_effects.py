@@ -261,7 +261,7 @@ def test_zonal_needs_a_field_and_is_named_once():
     with pytest.raises(InputError, match="names 'zonal' once") as exc:
         sim.add_effect("zonal", model="earth")
     assert exc.value.key == "effect[1]" and len(sim.effects.named) == 1
-    with pytest.raises(InputError, match="central field or mutual gravity"):
+    with pytest.raises(InputError, match="central field or an effect that acts on it"):
         emorbit.Simulation(None, dt=1.0).add_point("p", mass=1.0, position=[1, 0, 0], velocity=[0, 0, 0])
 
 

@@ -193,7 +193,7 @@ def test_the_order_of_adding_does_not_matter_and_unlisted_bodies_feel_nothing():
     b = emorbit.Simulation(None, dt=T_BINARY / 50)
     b.add_rigid("a", "box", size=[300, 200, 100], mass=M, position=[-D / 2, 0, 0], velocity=[0, -0.45 * V_REL, 0],
                 angular_velocity=[0.0, 0.0, 1e-3], gravity="none")  # fmt: skip
-    with pytest.raises(InputError, match="needs a central field or mutual gravity"):
+    with pytest.raises(InputError, match="needs a central field or an effect that acts on it"):
         b.add_point("b", mass=M, position=[D / 2, 0, 0], velocity=[0, 0.45 * V_REL, 0])
     b.add_effect("mutual")
     b.add_point("b", mass=M, position=[D / 2, 0, 0], velocity=[0, 0.45 * V_REL, 0])

@@ -610,7 +610,8 @@ def test_bad_keys_name_the_key(keys, key, shown):
 
 def test_refusals_name_the_key():
     """No epoch (Python: "epoch"; a scene: "integrator.epoch"), the Moon about Jupiter, the same
-    body twice (case aside), no central field, and bodies of a structure (elastic)."""
+    body twice (case aside) and no central field. (Elastic bodies feel a third body:
+    tests/test_effect_contract.py.)"""
     _raises("epoch", lambda: _sim(epoch=None).add_effect("third_body", body="moon"))
     no_epoch = THREE_BODY_SCENE.replace('epoch = "2026-03-20T12:00:00 TDB"\n', "")
     assert "epoch" not in no_epoch
@@ -625,18 +626,6 @@ def test_refusals_name_the_key():
     kepler.add_effect("third_body", body="b", gm=1e10, orbit={"a": 1e8})
     _raises("effect[1].body", lambda: kepler.add_effect("third_body", body="b", gm=2e10, orbit={"a": 2e8}))
     _raises("effect[0]", lambda: _sim(field=None).add_effect("third_body", body="moon"))
-
-    def elastic(sim):
-        n = math.sqrt(MU / 7e6**3)
-        sim.add_elastic("tether", "chain", start=[-50, 0, 0], end=[50, 0, 0], elements=2, young=1e9, area=1e-4,
-                        density=1000.0, position=[7e6, 0, 0], velocity=[0, n * 7e6, 0])  # fmt: skip
-
-    before = _sim()
-    elastic(before)
-    assert "structure" in _raises("effect[0]", lambda: before.add_effect("third_body", body="moon"))
-    after = _sim()
-    after.add_effect("third_body", body="moon")
-    assert "elastic" in _raises("body", lambda: elastic(after))
 
 
 def test_a_kepler_body_needs_no_epoch():
