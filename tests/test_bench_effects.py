@@ -69,12 +69,42 @@ def test_compile_rows(data):
     assert set(data["compile_s"]) == set(data["warm_startup_s"]) == {" + ".join(s["effects"]) for s in sets}
 
 
+def test_each_effect_rows(data):
+    each = data["each"]
+    names = effects.SIZES["tiny"].effect_sets
+    assert list(each["rows"]) == ["central", *names, "all"]
+    for name, row in each["rows"].items():
+        assert row["ns_per_particle_step"] > 0 and row["newton_per_substep"] >= 1, name
+    assert each["rows"]["central"]["over_central"] == 1.0
+    assert each["worst_single"]["name"] in names
+    assert each["worst_single"]["over_central"] == max(each["rows"][n]["over_central"] for n in names)
+
+
+def test_scene_compile_rows(data):
+    rows = data["scenes"]["scenes"]
+    assert [r["scene"] for r in rows] == list(effects.SIZES["tiny"].scenes)
+    for r in rows:  # a cold run compiles: it takes more CPU than the warm run's wall time
+        assert r["cold_cpu_s"] > r["warm_s"] > 0 and len(r["warm_samples_s"]) == 1
+
+
 def test_table_targets_and_json(data):
     lines = effects.table(data)
     assert any("central + J2 / central only" in line for line in lines)
     assert any("em / REBOUND leapfrog" in line for line in lines)
-    found = [t for t in targets({"effects": data}) if t["limit"] in (effects.TARGET_J2, effects.TARGET_MUTUAL)]
+    assert any("each single effect" in line for line in lines)
+    assert any("cold compile" in line for line in lines)
+    found = [
+        t
+        for t in targets({"effects": data})
+        if t["target"].startswith("central + J2 <= 1.5x") or "REBOUND" in t["target"]
+    ]
     assert len(found) == (2 if data["mutual_em_over_rebound_leapfrog"] is not None else 1)
+    every = targets({"effects": data})
+    names = effects.SIZES["tiny"].effect_sets
+    assert sum(t["limit"] == effects.TARGET_SINGLE for t in every) == len(names)
+    assert sum(t["limit"] == effects.TARGET_COMPILE for t in every) == len(effects.SIZES["tiny"].scenes)
+    for t in every:
+        assert t["met"] == (t["measured"] <= t["limit"]), t
     for t in found:  # the verdict is the comparison of the measured with the limit
         assert t["measured"] > 0 and t["met"] == (t["measured"] <= t["limit"]), t
     json.dumps(data, default=_jsonable)

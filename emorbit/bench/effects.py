@@ -1,7 +1,7 @@
 """Effects beyond the central field: what point masses' em step under an effect set costs.
 
-Four rows, each a ratio within the run (the engines of a comparison interleaved repeat by
-repeat, medians of the per-repeat ratios in CPU time, :mod:`.timing`):
+Six groups of rows, each a ratio within the run (the engines of a comparison interleaved
+repeat by repeat, medians of the per-repeat ratios in CPU time, :mod:`.timing`):
 
 central + J2 against central only
     1000 point masses in Earth orbits (a uniform from 500 km altitude to 26,560 km, e in
@@ -17,6 +17,14 @@ central + J2 against central only
     each run's largest relative energy error over the particles (kinetic plus every
     effect's potential energy, from the simulation's compiled effect set) after the steps it
     took.
+each effect beside the central field
+    the same 1000 point masses, em order 2, under the central field and one effect of
+    :data:`EFFECT_SETS` (J2; J2..J6; drag in an exponential atmosphere and in NRLMSIS 2.1,
+    the latter with pymsis only; radiation pressure with the conical shadow; the Moon; the
+    Sun), and under all of them together, against the central field alone: CPU time per
+    particle-step and the ratio. The points give ``Cd A / m = Cr A / m = 0.01 m2/kg``. A set
+    without a packed kernel of its own runs the effect step
+    (:func:`emorbit.kernels.pointmass.effect_step.effect_chunk`) with the set compiled.
 1000 mutually attracting point masses
     a Plummer sphere (1000 stars of one solar mass, scale radius 1 pc, velocities scaled to
     virial equilibrium 2K = |W|, no softening; G of astropy, SI) in free space, dt =
@@ -34,14 +42,20 @@ compile time per effect set, and the warm start-up
     kernel cache of :func:`emorbit.kernels.jit.cache_dir` and the compiled effect sets of
     :func:`~emorbit.effects.program.compile_set` go there; the user's own cache is neither
     used nor touched), then warm; compile time = cold - warm (median of the warm runs).
+the shipped scenes' compile time and start-up
+    ``emorbit run`` of each shipped scene with effects, shortened to 20 steps, in a fresh
+    process with an empty cache (the cold run's CPU time: every kernel it needs compiles,
+    the body kinds' step kernels and the effect set's functions) and then warm (wall time).
 the central-only path
     a central-only scene does not go through the effect step: its point masses run the
     packed central-field kernels, and the first row times them against
     the bare packed kernel on one thread. The ``ensemble`` section's "scene / bare kernel"
     row measures the same at 1e5 particles on all threads (``ensemble.scene_over_bare``).
 
-The targets: central + J2 <= 1.5x central only per particle-step, and em <= 3x REBOUND
-leapfrog's time per step for 1000 mutually attracting bodies (:func:`targets`).
+The targets (:func:`targets`): central + J2 <= 1.5x central only per particle-step; each
+single effect <= 2x and all together <= 4x; em <= 3x REBOUND leapfrog's time per step for
+1000 mutually attracting bodies; a shipped scene's cold compile <= 15 s of CPU and its warm
+start <= 1.5 s.
 """
 
 from __future__ import annotations
@@ -68,6 +82,8 @@ __all__ = [
     "zonal_rows",
     "mutual_rows",
     "compile_rows",
+    "effect_rows",
+    "scene_compile_rows",
     "run",
     "table",
     "targets",
@@ -80,6 +96,30 @@ SETS = (("central",), ("central", "zonal"), ("central", "mutual"), ("central", "
 #: the targets of this section, as ratios within one run
 TARGET_J2 = 1.5  # central + J2 <= 1.5x central only, per particle-step
 TARGET_MUTUAL = 3.0  # em <= 3x REBOUND leapfrog's time per step, 1000 mutually attracting bodies
+TARGET_SINGLE = 2.0  # each single effect <= 2x central only, per particle-step
+TARGET_ALL = 4.0  # all of them together <= 4x central only, per particle-step
+TARGET_COMPILE = 15.0  # a shipped scene's cold compile <= 15 s of CPU
+TARGET_WARM = 1.5  # a shipped scene's warm start <= 1.5 s of wall time
+#: the epoch of the effect rows (the Sun's and the Moon's positions, NRLMSIS's day)
+EPOCH = "2026-03-20T00:00:00 TDB"
+#: the effect rows: {name: [(kind, keys), ...]}, each beside the central field; NRLMSIS only
+#: where pymsis is installed
+EFFECT_SETS = {
+    "J2": [("zonal", {"model": "earth", "degree": 2})],
+    "J2..J6": [("zonal", {"model": "earth"})],
+    "drag, exponential": [
+        ("drag", {"atmosphere": "exponential", "density": "3.7e-12 kg/m3", "reference_altitude": "400 km",
+                  "scale_height": "58 km"}),
+    ],
+    "drag, NRLMSIS": [("drag", {"atmosphere": "nrlmsis", "f107": 150.0, "f107a": 150.0, "ap": 15.0})],
+    "srp": [("srp", {"shadow": "conical"})],
+    "Moon": [("third_body", {"body": "moon"})],
+    "Sun": [("third_body", {"body": "sun"})],
+}  # fmt: skip
+#: what the point masses of the effect rows give (area per mass, m2/kg)
+POINT_KEYS = {"ballistic_coefficient": 0.01, "radiation_coefficient": 0.01}
+#: the shipped scenes whose cold compile and warm start the section times
+SCENES = ("leo-drag-sunlight-moon-sun", "earth-j2-sun-synchronous", "three-body-figure-eight", "binary-asteroid")
 #: the semi-major axes of the Earth orbits, m: from 500 km altitude to GPS's
 _R_LOW, _R_HIGH = 6878.1366e3, 26_560e3
 _MAX_ITER = 50
@@ -93,14 +133,17 @@ class Size:
     n_mutual: int  # mutually attracting point masses
     warm_runs: int  # warm runs per effect set (start-up rows)
     sets: tuple  # effect sets of the start-up rows
+    n_effects: int  # point masses of the per-effect rows
+    effect_sets: tuple  # names of EFFECT_SETS timed (and all of them together)
+    scenes: tuple  # shipped scenes whose cold compile and warm start are timed
 
 
 #: by the name of the configuration in :data:`emorbit.bench.common.CONFIGS`
 SIZES = {
-    "full": Size(1000, 1000, 5, SETS),
-    "quick": Size(1000, 1000, 2, SETS),
+    "full": Size(1000, 1000, 5, SETS, 1000, tuple(EFFECT_SETS), SCENES),
+    "quick": Size(1000, 1000, 2, SETS, 1000, tuple(EFFECT_SETS), SCENES),
     # a smoke run for the tests: its timings mean nothing
-    "tiny": Size(20, 20, 1, SETS[:2]),
+    "tiny": Size(20, 20, 1, SETS[:2], 20, ("J2", "Moon"), SCENES[1:2]),
 }
 
 
@@ -278,6 +321,156 @@ def zonal_rows(cfg, n: int) -> dict:
         "central_under_effects": systems["central"].points.under_effects(),
         "j2_under_effects": systems["central + J2"].points.under_effects(),
         "j2_kernel": f"{j2_kernel.__module__}.{j2_kernel.__name__}",
+    }
+
+
+class _EffectRunner(_SystemRunner):
+    """``n`` em steps of point masses under an effect set, the clock from 0 at every call (the
+    paths the effects follow are sampled over :attr:`SPAN` steps)."""
+
+    SPAN = 100_000
+
+    def __call__(self, n: int) -> tuple:
+        if n > self.SPAN:
+            raise RuntimeError(f"{n} steps per call: the effects' paths are sampled over {self.SPAN}")
+        return super().__call__(n)
+
+
+def _effect_system(field, names, x, v, dt):
+    """A simulation whose point masses (unit mass, at x, v) feel the central field and the
+    effects of ``names`` (keys of :data:`EFFECT_SETS`), their paths sampled ahead."""
+    import emorbit
+
+    from ..integrators import coefficients
+
+    sim = emorbit.Simulation(field, method="em", dt=dt, epoch=EPOCH)
+    for name in names:
+        for kind, keys in EFFECT_SETS[name]:
+            sim.add_effect(kind, **keys)
+    pm = _points_of(sim, x, v)
+    wanted = {bk.key.name for bk in sim.effects.body_keys("point")}
+    keys = {k: val for k, val in POINT_KEYS.items() if k in wanted}
+    pm.values = {name: dict(keys) for name in pm.names}
+    sim._prepare_effects(_EffectRunner.SPAN, coefficients(2))
+    return sim
+
+
+def effect_rows(cfg, n: int, names=tuple(EFFECT_SETS)) -> dict:
+    """Each effect of :data:`EFFECT_SETS` beside the central field, and all of them together,
+    against the central field alone: CPU time per particle-step of em (order 2) on ``n`` point
+    masses in Earth orbits (:func:`earth_orbits`; dt = T/1000 of the lowest orbit), the
+    engines interleaved repeat by repeat.
+
+    Parameters
+    ----------
+    cfg : Config
+        ``repeat_s`` and ``repeats``.
+    n : int
+        Point masses.
+    names : sequence of str
+        The effect rows to time (NRLMSIS is skipped without pymsis).
+
+    Returns
+    -------
+    dict
+        ``rows`` ({name: ns per particle-step (CPU, wall), Newton sweeps per sub-step, the
+        ratio to central only} or {"status": "skipped: ..."}), ``worst_single`` (the largest
+        ratio of a single effect and its name), ``all_over_central`` and the case.
+    """
+    import importlib.util
+
+    import emorbit
+
+    field = emorbit.CentralField(body="earth")
+    x, v = earth_orbits(n, field.gm)
+    dt = 2 * math.pi * math.sqrt(_R_LOW**3 / field.gm) / 1000
+    runnable = [nm for nm in names if "NRLMSIS" not in nm or importlib.util.find_spec("pymsis") is not None]
+    sets = {"central": ()} | {nm: (nm,) for nm in runnable} | {"all": tuple(runnable)}
+    runners = {}
+    for label, chosen in sets.items():
+        sim = _effect_system(field, chosen, x, v, dt)
+        runners[label] = _EffectRunner(sim.points, field.gm, field.center, dt)
+    times = timed(runners, cfg)
+    rows = {}
+    for label, r in runners.items():
+        st = times[label]
+        rows[label] = {
+            "ns_per_particle_step": 1e3 * st["cpu_us_per_step"] / n,
+            "ns_per_particle_step_wall": 1e3 * st["us_per_step"] / n,
+            "newton_per_substep": float(np.median(r.sweeps)),
+            "over_central": paired_ratio(st, times["central"]) if label != "central" else 1.0,
+            "samples_cpu_us": st[CPU],
+        }
+    for nm in names:
+        if nm not in runnable:
+            rows[nm] = {"status": "skipped: pymsis is not installed (pip install emorbit[msis])"}
+    single = {nm: rows[nm]["over_central"] for nm in runnable}
+    worst = max(single, key=single.get) if single else None
+    return {
+        "case": (
+            f"{n} point masses in Earth orbits (as the central + J2 rows), dt = {dt:.4g} s, em order 2, epoch {EPOCH}; "
+            f"point masses give {POINT_KEYS}; each effect beside the central field"
+        ),
+        "n": n,
+        "rows": rows,
+        "worst_single": {"name": worst, "over_central": single[worst]} if worst else None,
+        "all_over_central": rows["all"]["over_central"],
+    }
+
+
+def _cpu_children() -> float:
+    """CPU seconds of this process's finished children (wall clock where there is no resource)."""
+    try:
+        import resource
+    except ImportError:  # Windows
+        return time.perf_counter()
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def scene_compile_rows(scenes=SCENES, warm_runs: int = 2) -> dict:
+    """Cold and warm ``emorbit run`` of shipped scenes, shortened to 20 steps, in fresh processes.
+
+    Parameters
+    ----------
+    scenes : sequence of str
+        Shipped scene names.
+    warm_runs : int
+        Warm runs per scene (their median is the warm time).
+
+    Returns
+    -------
+    dict
+        ``scenes`` (one per scene: ``scene``, ``cold_cpu_s`` (the cold run's CPU time, an empty
+        kernel cache: compiling every kernel the scene needs), ``cold_s`` (wall), ``warm_s``
+        (wall, the median of the warm runs), ``warm_samples_s``) and the case.
+    """
+    import emorbit
+
+    out = []
+    with tempfile.TemporaryDirectory(prefix="emorbit-bench-scenes-") as tmp:
+        for name in scenes:
+            home = os.path.join(tmp, name)
+            os.makedirs(home)
+            env, h5 = _environment(home), os.path.join(tmp, f"{name}.h5")
+            t_end = f"{20 * emorbit.load_scene(name).dt!r} s"
+            cmd = [sys.executable, "-m", "emorbit.cli", "run", name, "-o", h5, "--overwrite", "-q", "--t-end", t_end]
+
+            def once(cmd=cmd, env=env):
+                cpu, start = _cpu_children(), time.perf_counter()
+                subprocess.run(cmd, env=env, check=True, capture_output=True)
+                return time.perf_counter() - start, _cpu_children() - cpu
+
+            cold, cold_cpu = once()
+            warm = [once()[0] for _ in range(warm_runs)]
+            out.append(
+                {"scene": name, "cold_s": cold, "cold_cpu_s": cold_cpu, "warm_s": float(np.median(warm)),
+                 "warm_samples_s": warm}
+            )  # fmt: skip
+    return {
+        "case": "emorbit run SCENE --t-end (20 steps) -o OUT.h5 --overwrite -q, fresh processes; cold: an empty "
+        "kernel cache (a new temporary folder: every kernel the scene needs compiles), warm: the same cache filled",
+        "scenes": out,
     }
 
 
@@ -577,21 +770,26 @@ def run(cfg, size: Size | None = None) -> dict:
     Returns
     -------
     dict
-        JSON-ready: ``zonal`` (:func:`zonal_rows`), ``mutual`` (:func:`mutual_rows`),
-        ``compile`` (:func:`compile_rows`), ``central_path`` (which system a central-only
+        JSON-ready: ``zonal`` (:func:`zonal_rows`), ``each`` (:func:`effect_rows`),
+        ``mutual`` (:func:`mutual_rows`), ``compile`` (:func:`compile_rows`), ``scenes``
+        (:func:`scene_compile_rows`), ``central_path`` (which system a central-only
         scene runs, and where the ``ensemble`` section measures it), and the headline
         figures ``j2_over_central``, ``mutual_em_over_rebound_leapfrog``, ``compile_s``
         and ``warm_startup_s`` ({effect set: s}).
     """
     size = size or _size(cfg)
     zonal = zonal_rows(cfg, size.n_orbits)
+    each = effect_rows(cfg, size.n_effects, size.effect_sets)
     mutual = mutual_rows(cfg, size.n_mutual)
     compiled = compile_rows(size.sets, size.warm_runs)
+    scenes = scene_compile_rows(size.scenes, size.warm_runs)
     sets = {" + ".join(s["effects"]): s for s in compiled["sets"]}
     return {
         "zonal": zonal,
+        "each": each,
         "mutual": mutual,
         "compile": compiled,
+        "scenes": scenes,
         "central_path": {
             "system": zonal["central_system"],
             "scene_over_bare_1thread": zonal["scene_over_bare"],
@@ -637,6 +835,20 @@ def table(section: dict) -> list[str]:
         f"effect step): scene / bare kernel on one thread {z['scene_over_bare']:.3f}; at 1e5 particles on all "
         "threads see the ensemble section's scene / bare kernel row (JSON ensemble.scene_over_bare)",
         "",
+        f"effects, each beside the central field: {section['each']['case']}",
+        f"  {'':<20} {'ns/particle-step':>17} {'wall':>9} {'Newton/sub-step':>16} {'/ central':>10}",
+    ]
+    for name, r in section["each"]["rows"].items():
+        if "status" in r:
+            lines.append(f"  {name:<20} {r['status']}")
+            continue
+        lines.append(
+            f"  {name:<20} {r['ns_per_particle_step']:>17.2f} {r['ns_per_particle_step_wall']:>9.2f} "
+            f"{r['newton_per_substep']:>16.2f} {r['over_central']:>9.2f}x"
+        )
+    lines += [
+        f"  targets: each single effect <= {TARGET_SINGLE:g}x, all together <= {TARGET_ALL:g}x central only",
+        "",
         f"effects, mutual gravity: {mu['case']}; virial ratio 2K/|W| = {mu['virial_ratio']:.3f}",
         f"  {'':<18} {'ms/step':>10} {'wall':>10} {'steps':>7} {'|dE/E| over them':>17}",
     ]
@@ -668,6 +880,15 @@ def table(section: dict) -> list[str]:
         "  (a central-only scene compiles the packed point-mass kernels, a scene with effects the effect step "
         "instead: 'vs central' is the difference of the two compile times)"
     )
+    sc = section["scenes"]
+    lines += [
+        "",
+        f"effects, shipped scenes: {sc['case']}",
+        f"  {'scene':<30} {'cold CPU s':>11} {'cold s':>8} {'warm s':>8}",
+    ]
+    for r in sc["scenes"]:
+        lines.append(f"  {r['scene']:<30} {r['cold_cpu_s']:>11.2f} {r['cold_s']:>8.2f} {r['warm_s']:>8.2f}")
+    lines.append(f"  targets: cold compile <= {TARGET_COMPILE:g} s of CPU, warm start <= {TARGET_WARM:g} s per scene")
     return lines
 
 
@@ -694,6 +915,43 @@ def targets(section: dict) -> list[dict]:
             "met": r <= TARGET_J2,
         }
     )
+    each = section["each"]
+    for name, row in each["rows"].items():
+        if "status" in row or name in ("central", "all"):
+            continue
+        out.append(
+            {
+                "target": f"central + {name} <= {TARGET_SINGLE:g}x central only per particle-step",
+                "measured": row["over_central"],
+                "limit": TARGET_SINGLE,
+                "met": row["over_central"] <= TARGET_SINGLE,
+            }
+        )
+    out.append(
+        {
+            "target": f"central + all effects <= {TARGET_ALL:g}x central only per particle-step",
+            "measured": each["all_over_central"],
+            "limit": TARGET_ALL,
+            "met": each["all_over_central"] <= TARGET_ALL,
+        }
+    )
+    for r in section["scenes"]["scenes"]:
+        out.append(
+            {
+                "target": f"{r['scene']}: cold compile <= {TARGET_COMPILE:g} s of CPU",
+                "measured": r["cold_cpu_s"],
+                "limit": TARGET_COMPILE,
+                "met": r["cold_cpu_s"] <= TARGET_COMPILE,
+            }
+        )
+        out.append(
+            {
+                "target": f"{r['scene']}: warm start <= {TARGET_WARM:g} s",
+                "measured": r["warm_s"],
+                "limit": TARGET_WARM,
+                "met": r["warm_s"] <= TARGET_WARM,
+            }
+        )
     r = section["mutual_em_over_rebound_leapfrog"]
     if r is not None:
         out.append(
