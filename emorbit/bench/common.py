@@ -41,7 +41,13 @@ __all__ = [
     "ReboundRunner",
     "versions",
     "numba_threads",
+    "MAX_ITER",
+    "points_of",
+    "SystemRunner",
 ]
+
+#: Newton iterations allowed per sub-step in the timed runs
+MAX_ITER = 50
 
 #: the paper's orbit (Goettlicher & Schweizerhof): GM, start at aphelion
 GM = 3.9478
@@ -456,3 +462,33 @@ def _threading_layer():
         return numba.threading_layer()
     except ValueError:  # not initialised: no parallel kernel has run yet
         return None
+
+
+def points_of(sim, x, v):
+    """Put point masses of unit mass at (x, v) into ``sim``, under its effects."""
+    pm = point_masses(x, v)
+    pm.effects, pm.plan = sim.points.effects, sim.plan
+    sim.points = pm
+    return pm
+
+
+class SystemRunner:
+    """``n`` em steps of a body system (its ``advance``) per call: (wall, CPU) seconds."""
+
+    def __init__(self, points, gm: float, center, dt: float):
+        from ..integrators import coefficients
+
+        self.points, self.gm, self.center, self.dt = points, gm, np.asarray(center, float), dt
+        self.gammas = coefficients(2)
+        self.steps = 0
+        self.sweeps = []
+
+    def __call__(self, n: int) -> tuple:
+        start = clock()
+        rec = self.points.advance("em", self.gm, self.center, self.dt, self.gammas, n, 1, MAX_ITER)
+        elapsed = since(start)
+        if rec.first_failure() is not None:
+            raise RuntimeError(f"emorbit {type(self.points).__name__}: a step failed {rec.first_failure()}")
+        self.steps += n
+        self.sweeps.append(float(rec.iterations.mean()) / (n * self.gammas.size))
+        return elapsed

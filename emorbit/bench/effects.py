@@ -45,7 +45,9 @@ compile time per effect set, and the warm start-up
 the shipped scenes' compile time and start-up
     ``emorbit run`` of each shipped scene with effects, shortened to 20 steps, in a fresh
     process with an empty cache (the cold run's CPU time: every kernel it needs compiles,
-    the body kinds' step kernels and the effect set's functions) and then warm (wall time).
+    the body kinds' step kernels and the effect set's functions), again with the effect
+    set's compiled module alone removed (the set's own compile: what a new effect set costs
+    once the install's step kernels are cached) and warm (wall time).
 the central-only path
     a central-only scene does not go through the effect step: its point masses run the
     packed central-field kernels, and the first row times them against
@@ -61,17 +63,14 @@ start <= 1.5 s.
 from __future__ import annotations
 
 import math
-import os
-import subprocess
-import sys
-import tempfile
-import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from .common import CONFIGS, ensemble_states, point_masses
-from .timing import calibrate, clock, paired_ratio, since, timed
+from .common import CONFIGS, MAX_ITER, SystemRunner, ensemble_states, points_of
+from .effects_compile import SCENES, SETS, compile_rows, scene_compile_rows
+from .effects_mutual import mutual_rows, plummer
+from .timing import CPU, clock, paired_ratio, since, timed
 
 __all__ = [
     "Size",
@@ -90,9 +89,6 @@ __all__ = [
 ]
 
 #: the samples ratios use: CPU time (every engine here runs on one thread)
-CPU = "cpu_samples_us"
-#: the effect sets of the start-up rows, each with the central field
-SETS = (("central",), ("central", "zonal"), ("central", "mutual"), ("central", "zonal", "mutual"))
 #: the targets of this section, as ratios within one run
 TARGET_J2 = 1.5  # central + J2 <= 1.5x central only, per particle-step
 TARGET_MUTUAL = 3.0  # em <= 3x REBOUND leapfrog's time per step, 1000 mutually attracting bodies
@@ -118,11 +114,8 @@ EFFECT_SETS = {
 }  # fmt: skip
 #: what the point masses of the effect rows give (area per mass, m2/kg)
 POINT_KEYS = {"ballistic_coefficient": 0.01, "radiation_coefficient": 0.01}
-#: the shipped scenes whose cold compile and warm start the section times
-SCENES = ("leo-drag-sunlight-moon-sun", "earth-j2-sun-synchronous", "three-body-figure-eight", "binary-asteroid")
 #: the semi-major axes of the Earth orbits, m: from 500 km altitude to GPS's
 _R_LOW, _R_HIGH = 6878.1366e3, 26_560e3
-_MAX_ITER = 50
 
 
 @dataclass(frozen=True)
@@ -151,28 +144,6 @@ def _size(cfg) -> Size:
     return SIZES[next((name for name, c in CONFIGS.items() if c == cfg), "full")]
 
 
-class _SystemRunner:
-    """``n`` em steps of a body system (its ``advance``) per call: (wall, CPU) seconds."""
-
-    def __init__(self, points, gm: float, center, dt: float):
-        from ..integrators import coefficients
-
-        self.points, self.gm, self.center, self.dt = points, gm, np.asarray(center, float), dt
-        self.gammas = coefficients(2)
-        self.steps = 0
-        self.sweeps = []
-
-    def __call__(self, n: int) -> tuple:
-        start = clock()
-        rec = self.points.advance("em", self.gm, self.center, self.dt, self.gammas, n, 1, _MAX_ITER)
-        elapsed = since(start)
-        if rec.first_failure() is not None:
-            raise RuntimeError(f"emorbit {type(self.points).__name__}: a step failed {rec.first_failure()}")
-        self.steps += n
-        self.sweeps.append(float(rec.iterations.mean()) / (n * self.gammas.size))
-        return elapsed
-
-
 class _BareRunner:
     """``n`` steps of the bare packed em kernel on one thread per call: (wall, CPU) seconds."""
 
@@ -193,7 +164,7 @@ class _BareRunner:
         start = clock()
         self.kernel(
             self.code, self.x, self.v, self.cx, self.cv, self.gm, self.center, self.dt, self.gammas, n, 1,
-            _MAX_ITER, rx, rv, its, fail,
+            MAX_ITER, rx, rv, its, fail,
         )  # fmt: skip
         elapsed = since(start)
         if np.any(fail[:, 0] >= 0):
@@ -235,14 +206,6 @@ def _point_energies(sim, x, v) -> np.ndarray:
     return 0.5 * np.einsum("kn,kn->n", v, v) + sum(potentials.values())
 
 
-def _points_of(sim, x, v):
-    """Put point masses of unit mass at (x, v) into ``sim``, under its effects."""
-    pm = point_masses(x, v)
-    pm.effects, pm.plan = sim.points.effects, sim.plan
-    sim.points = pm
-    return pm
-
-
 def zonal_rows(cfg, n: int) -> dict:
     """Central + J2 against central only, per particle-step, and the scene against the bare kernel.
 
@@ -273,11 +236,11 @@ def zonal_rows(cfg, n: int) -> dict:
     for suffix, (xs, vs) in ensembles.items():
         for label, zonal in (("central", False), ("central + J2", True)):
             sim = emorbit.Simulation(field, method="em", dt=dt)
-            _points_of(sim, xs, vs)
+            points_of(sim, xs, vs)
             if zonal:
                 sim.add_effect("zonal", model="earth", degree=2)
             systems[label + suffix] = sim
-    runners = {name: _SystemRunner(sim.points, gm, center, dt) for name, sim in systems.items()}
+    runners = {name: SystemRunner(sim.points, gm, center, dt) for name, sim in systems.items()}
     runners["central, bare kernel"] = _BareRunner(x, v, gm, center, dt)
     e0 = {name: _point_energies(sim, sim.points.x, sim.points.v) for name, sim in systems.items()}
     e0["central, bare kernel"] = e0["central"]
@@ -324,7 +287,7 @@ def zonal_rows(cfg, n: int) -> dict:
     }
 
 
-class _EffectRunner(_SystemRunner):
+class _EffectRunner(SystemRunner):
     """``n`` em steps of point masses under an effect set, the clock from 0 at every call (the
     paths the effects follow are sampled over :attr:`SPAN` steps)."""
 
@@ -347,7 +310,7 @@ def _effect_system(field, names, x, v, dt):
     for name in names:
         for kind, keys in EFFECT_SETS[name]:
             sim.add_effect(kind, **keys)
-    pm = _points_of(sim, x, v)
+    pm = points_of(sim, x, v)
     wanted = {bk.key.name for bk in sim.effects.body_keys("point")}
     keys = {k: val for k, val in POINT_KEYS.items() if k in wanted}
     pm.values = {name: dict(keys) for name in pm.names}
@@ -415,345 +378,6 @@ def effect_rows(cfg, n: int, names=tuple(EFFECT_SETS)) -> dict:
         "rows": rows,
         "worst_single": {"name": worst, "over_central": single[worst]} if worst else None,
         "all_over_central": rows["all"]["over_central"],
-    }
-
-
-def _cpu_children() -> float:
-    """CPU seconds of this process's finished children (wall clock where there is no resource)."""
-    try:
-        import resource
-    except ImportError:  # Windows
-        return time.perf_counter()
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
-
-
-def scene_compile_rows(scenes=SCENES, warm_runs: int = 2) -> dict:
-    """Cold and warm ``emorbit run`` of shipped scenes, shortened to 20 steps, in fresh processes.
-
-    Parameters
-    ----------
-    scenes : sequence of str
-        Shipped scene names.
-    warm_runs : int
-        Warm runs per scene (their median is the warm time).
-
-    Returns
-    -------
-    dict
-        ``scenes`` (one per scene: ``scene``, ``cold_cpu_s`` (the cold run's CPU time, an empty
-        kernel cache: compiling every kernel the scene needs), ``cold_s`` (wall), ``warm_s``
-        (wall, the median of the warm runs), ``warm_samples_s``) and the case.
-    """
-    import emorbit
-
-    out = []
-    with tempfile.TemporaryDirectory(prefix="emorbit-bench-scenes-") as tmp:
-        for name in scenes:
-            home = os.path.join(tmp, name)
-            os.makedirs(home)
-            env, h5 = _environment(home), os.path.join(tmp, f"{name}.h5")
-            t_end = f"{20 * emorbit.load_scene(name).dt!r} s"
-            cmd = [sys.executable, "-m", "emorbit.cli", "run", name, "-o", h5, "--overwrite", "-q", "--t-end", t_end]
-
-            def once(cmd=cmd, env=env):
-                cpu, start = _cpu_children(), time.perf_counter()
-                subprocess.run(cmd, env=env, check=True, capture_output=True)
-                return time.perf_counter() - start, _cpu_children() - cpu
-
-            cold, cold_cpu = once()
-            warm = [once()[0] for _ in range(warm_runs)]
-            out.append(
-                {"scene": name, "cold_s": cold, "cold_cpu_s": cold_cpu, "warm_s": float(np.median(warm)),
-                 "warm_samples_s": warm}
-            )  # fmt: skip
-    return {
-        "case": "emorbit run SCENE --t-end (20 steps) -o OUT.h5 --overwrite -q, fresh processes; cold: an empty "
-        "kernel cache (a new temporary folder: every kernel the scene needs compiles), warm: the same cache filled",
-        "scenes": out,
-    }
-
-
-def plummer(n: int, seed: int = 8):
-    """A Plummer sphere of n stars of one solar mass, scale radius 1 pc, in virial equilibrium.
-
-    Positions and speeds are drawn from Plummer's distribution function (Aarseth, Henon and
-    Wielen 1974; radii out to the one enclosing 99 % of the mass), isotropic directions,
-    moved to the centre of mass at rest; the velocities are then scaled so that 2K = |W|.
-
-    Parameters
-    ----------
-    n : int
-        Number of stars (at least 2).
-    seed : int
-        Seed of numpy's default generator.
-
-    Returns
-    -------
-    m : ndarray
-        (n,) masses, kg.
-    x, v : ndarray
-        (3, n) positions (m) and velocities (m/s).
-    a, total : float
-        The scale radius (m) and the total mass (kg).
-    """
-    import astropy.constants as const
-    import astropy.units as u
-
-    from ..effects.mutual import G
-
-    rng = np.random.default_rng(seed)
-    msun, a = float(const.M_sun.si.value), float((1 * u.pc).si.value)
-    m = np.full(n, msun)
-    total = float(m.sum())
-    r = a / np.sqrt(rng.uniform(0.0, 0.99, n) ** (-2.0 / 3.0) - 1.0)
-    q = np.empty(n)
-    k = 0
-    while k < n:  # von Neumann rejection for q = v / v_escape: g(q) = q^2 (1 - q^2)^3.5
-        s, y = rng.uniform(0.0, 1.0), rng.uniform(0.0, 0.1)
-        if y < s * s * (1.0 - s * s) ** 3.5:
-            q[k] = s
-            k += 1
-    speed = q * np.sqrt(2.0 * G * total / np.sqrt(r * r + a * a))
-
-    def directions():
-        c, phi = rng.uniform(-1.0, 1.0, n), rng.uniform(0.0, 2 * np.pi, n)
-        s = np.sqrt(1.0 - c * c)
-        return np.array([s * np.cos(phi), s * np.sin(phi), c])
-
-    x, v = r * directions(), speed * directions()
-    x -= (x @ m / total)[:, None]
-    v -= (v @ m / total)[:, None]
-    kinetic, potential = _nbody_energy(m, x, v)
-    v *= math.sqrt(-potential / (2.0 * kinetic))
-    return m, np.ascontiguousarray(x), np.ascontiguousarray(v), a, total
-
-
-def _nbody_energy(m, x, v) -> tuple:
-    """Kinetic and mutual potential energy of point masses, J (the mutual effect's own
-    potential, from its compiled set in free space; each point a body of its own)."""
-    from ..bodies.effect_binding import EffectBinding
-    from ..effects.effectset import EffectSet
-
-    effects = EffectSet(None)
-    effects.add({"kind": "mutual"}, "mutual")
-    n = m.size
-    x, m = np.ascontiguousarray(x, float)[None], np.ascontiguousarray(m, float)
-    potentials = EffectBinding(effects, "point").potentials(x, None, m, np.arange(n, dtype=np.int64), np.ones((1, n)))
-    kinetic = 0.5 * float(np.einsum("kn,kn,n->", v, v, m))
-    return kinetic, float(potentials["potential_mutual"][0])
-
-
-def _timed_slow(runners: dict, cfg) -> dict:
-    """:func:`.timing.timed` for engines whose step may take longer than a call should: calls
-    of at least one step (not twenty)."""
-    steps = {name: calibrate(fn, cfg.repeat_s, min_steps=1) for name, fn in runners.items()}
-    samples = {name: [] for name in runners}
-    for _ in range(cfg.repeats):
-        for name, fn in runners.items():
-            samples[name].append(np.array(fn(steps[name])) / steps[name] * 1e6)
-    out = {}
-    for name, us in samples.items():
-        wall, cpu = np.array(us).T
-        out[name] = {
-            "us_per_step": float(np.median(wall)),
-            "cpu_us_per_step": float(np.median(cpu)),
-            "steps": steps[name],
-            "repeats": len(us),
-            "samples_us": [round(float(s), 4) for s in wall],
-            CPU: [round(float(s), 4) for s in cpu],
-        }
-    return out
-
-
-class _ReboundRunner:
-    def __init__(self, sim):
-        self.sim, self.steps = sim, 0
-
-    def __call__(self, n: int) -> tuple:
-        start = clock()
-        self.sim.steps(n)
-        elapsed = since(start)
-        self.steps += n
-        return elapsed
-
-
-def _rebound_nbody(m, x, v, dt: float):
-    """REBOUND's leapfrog with direct summation (no softening) of the same bodies, G of astropy."""
-    import rebound
-
-    from ..effects.mutual import G
-
-    sim = rebound.Simulation()
-    sim.G = G
-    for i in range(m.size):
-        sim.add(m=float(m[i]), x=x[0, i], y=x[1, i], z=x[2, i], vx=v[0, i], vy=v[1, i], vz=v[2, i])
-    sim.integrator = "leapfrog"
-    sim.gravity = "basic"
-    sim.softening = 0.0
-    sim.dt = dt
-    return sim
-
-
-def _rebound_xv(sim):
-    n = sim.N
-    xyz, vel = np.empty((n, 3)), np.empty((n, 3))
-    sim.serialize_particle_data(xyz=xyz, vxvyvz=vel)
-    return np.ascontiguousarray(xyz.T), np.ascontiguousarray(vel.T)
-
-
-def mutual_rows(cfg, n: int) -> dict:
-    """em against REBOUND's leapfrog (direct summation) for n mutually attracting point masses.
-
-    Parameters
-    ----------
-    cfg : Config
-        ``repeat_s`` and ``repeats`` (:data:`emorbit.bench.common.CONFIGS`).
-    n : int
-        Bodies.
-
-    Returns
-    -------
-    dict
-        ``rows`` ({"em", "rebound leapfrog"}: ms per step in CPU and wall time, steps,
-        relative energy error over those steps; REBOUND's ``{"status": "skipped: ..."}``
-        where it is not installed), ``em_over_rebound_leapfrog`` (None without REBOUND),
-        the virial ratio and the case.
-    """
-    import emorbit
-
-    from ..effects.mutual import G
-
-    m, x, v, a, total = plummer(n)
-    t_dyn = math.sqrt(a**3 / (G * total))
-    dt = 1e-4 * t_dyn
-    sim = emorbit.Simulation(None, method="em", dt=dt)
-    sim.add_effect("mutual")
-    points = _points_of(sim, x, v)
-    points.masses = m.copy()
-    runners = {"em": _SystemRunner(points, 0.0, np.zeros(3), dt)}
-    rows = {}
-    try:
-        runners["rebound leapfrog"] = _ReboundRunner(_rebound_nbody(m, x, v, dt))
-    except ImportError as exc:
-        rows["rebound leapfrog"] = {"status": f"skipped: {type(exc).__name__}: {exc}"}
-    kinetic, potential = _nbody_energy(m, x, v)
-    e0 = kinetic + potential
-    times = _timed_slow(runners, cfg)
-    for name, r in runners.items():
-        xs, vs = (points.x, points.v) if name == "em" else _rebound_xv(r.sim)
-        stats = times[name]
-        rows[name] = {
-            "ms_per_step": 1e-3 * stats["cpu_us_per_step"],
-            "ms_per_step_wall": 1e-3 * stats["us_per_step"],
-            "steps": r.steps,
-            "energy_error": abs(sum(_nbody_energy(m, xs, vs)) / e0 - 1.0),
-            "samples_cpu_us": stats[CPU],
-            "steps_per_call": stats["steps"],
-        }
-    rows["em"]["newton_sweeps_per_substep"] = float(np.median(runners["em"].sweeps))
-    ratio = paired_ratio(times["em"], times["rebound leapfrog"]) if "rebound leapfrog" in times else None
-    return {
-        "case": (
-            f"{n} stars of 1 solar mass in a Plummer sphere (a = 1 pc, 2K/|W| = 1, no softening), free space, "
-            f"G = {G:.5e} m^3/(kg s^2), dt = 1e-4 sqrt(a^3/(G M)) = {dt:.4g} s; "
-            'em: add_effect("mutual"); REBOUND: leapfrog, gravity = "basic"'
-        ),
-        "n": n,
-        "dt": dt,
-        "virial_ratio": 2 * kinetic / abs(potential),
-        "rows": rows,
-        "em_over_rebound_leapfrog": ratio,
-    }
-
-
-_SCENE = """[field]
-body = "earth"
-
-[integrator]
-method = "em"
-dt = "10 s"
-t_end = "1000 s"
-output_every = 10
-{effects}
-[[body]]
-name = "a"
-kind = "point"
-mass = "1000 kg"
-orbit = {{a = "7000 km", e = 0.001, i = "98 deg"}}
-
-[[body]]
-name = "b"
-kind = "point"
-mass = "1000 kg"
-orbit = {{a = "7000 km", e = 0.001, i = "98 deg", nu = "0.01 rad"}}
-"""
-_TABLES = {
-    "zonal": '\n[[effect]]\nkind = "zonal"\nmodel = "earth"\ndegree = 2\n',
-    "mutual": '\n[[effect]]\nkind = "mutual"\n',
-}
-
-
-def _environment(home: str) -> dict:
-    """The environment of a run whose every cache lies under ``home``."""
-    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "EMORBIT_JIT_CACHE")}
-    env["XDG_CACHE_HOME"] = os.path.join(home, "cache")
-    env["LOCALAPPDATA"] = os.path.join(home, "local")
-    if sys.platform == "darwin":
-        env["HOME"] = home
-    return env
-
-
-def _run_scene(scene: str, out: str, env: dict) -> float:
-    cmd = [sys.executable, "-m", "emorbit.cli", "run", scene, "-o", out, "--overwrite", "-q"]
-    start = time.perf_counter()
-    subprocess.run(cmd, env=env, check=True, capture_output=True)
-    return time.perf_counter() - start
-
-
-def compile_rows(sets=SETS, warm_runs: int = 2) -> dict:
-    """Cold and warm ``emorbit run`` of a short scene per effect set, each in fresh processes.
-
-    Parameters
-    ----------
-    sets : sequence of tuple of str
-        Effect sets, each starting with ``"central"``.
-    warm_runs : int
-        Warm runs per set (their median is the warm time).
-
-    Returns
-    -------
-    dict
-        ``sets`` (one per set: ``effects``, ``cold_s``, ``warm_s``, ``warm_samples_s``,
-        ``compile_s`` = cold - warm, ``compile_over_central_s`` where the central-only set
-        ran, ``cache_files``: the files the cold run left in the temporary cache) and the case.
-    """
-    out = []
-    with tempfile.TemporaryDirectory(prefix="emorbit-bench-effects-") as tmp:
-        for kinds in sets:
-            name = "_".join(kinds)
-            scene = os.path.join(tmp, f"{name}.toml")
-            with open(scene, "w") as f:
-                f.write(_SCENE.format(effects="".join(_TABLES[k] for k in kinds if k != "central")))
-            home = os.path.join(tmp, name)
-            os.makedirs(home)
-            env, h5 = _environment(home), os.path.join(tmp, f"{name}.h5")
-            cold = _run_scene(scene, h5, env)
-            files = sum(len(f) for _, _, f in os.walk(home))
-            warm = [_run_scene(scene, h5, env) for _ in range(warm_runs)]
-            w = float(np.median(warm))
-            out.append(
-                {"effects": list(kinds), "cold_s": cold, "warm_s": w, "warm_samples_s": warm, "compile_s": cold - w,
-                 "cache_files": files}
-            )  # fmt: skip
-    central = next((s["compile_s"] for s in out if s["effects"] == ["central"]), None)
-    for s in out:
-        if central is not None:
-            s["compile_over_central_s"] = s["compile_s"] - central
-    return {
-        "case": "emorbit run SCENE -o OUT.h5 --overwrite -q: two points in LEO, 100 em steps, fresh process; "
-        "cold: empty kernel cache (a new temporary folder), warm: the same cache filled",
-        "sets": out,
     }
 
 
@@ -884,11 +508,18 @@ def table(section: dict) -> list[str]:
     lines += [
         "",
         f"effects, shipped scenes: {sc['case']}",
-        f"  {'scene':<30} {'cold CPU s':>11} {'cold s':>8} {'warm s':>8}",
+        f"  {'scene':<30} {'cold CPU s':>11} {'new set CPU s':>14} {'cold s':>8} {'warm s':>8}",
     ]
     for r in sc["scenes"]:
-        lines.append(f"  {r['scene']:<30} {r['cold_cpu_s']:>11.2f} {r['cold_s']:>8.2f} {r['warm_s']:>8.2f}")
-    lines.append(f"  targets: cold compile <= {TARGET_COMPILE:g} s of CPU, warm start <= {TARGET_WARM:g} s per scene")
+        lines.append(
+            f"  {r['scene']:<30} {r['cold_cpu_s']:>11.2f} {r['set_cpu_s']:>14.2f} {r['cold_s']:>8.2f} "
+            f"{r['warm_s']:>8.2f}"
+        )
+    lines += [
+        f"  targets: an effect set's compile (new set CPU s: the install's step kernels cached) <= {TARGET_COMPILE:g} s"
+        f" of CPU, warm start <= {TARGET_WARM:g} s per scene",
+        "  (cold CPU s: an empty cache, every kernel compiles, as on the first run after an install)",
+    ]
     return lines
 
 
@@ -938,10 +569,10 @@ def targets(section: dict) -> list[dict]:
     for r in section["scenes"]["scenes"]:
         out.append(
             {
-                "target": f"{r['scene']}: cold compile <= {TARGET_COMPILE:g} s of CPU",
-                "measured": r["cold_cpu_s"],
+                "target": f"{r['scene']}: its effect set's cold compile <= {TARGET_COMPILE:g} s of CPU",
+                "measured": r["set_cpu_s"],
                 "limit": TARGET_COMPILE,
-                "met": r["cold_cpu_s"] <= TARGET_COMPILE,
+                "met": r["set_cpu_s"] <= TARGET_COMPILE,
             }
         )
         out.append(

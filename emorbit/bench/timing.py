@@ -33,6 +33,8 @@ __all__ = [
 #: wall-clock time also counts the time the process waits for a core; for these single-threaded
 #: engines CPU and wall time agree on an idle machine. Both are recorded.
 CLOCK = "cpu_us_per_step"
+#: the key of the per-repeat CPU samples (us per step) in what :func:`timed` returns
+CPU = "cpu_samples_us"
 #: environment variables that set BLAS, OpenMP and Numba threads: recorded with every result,
 #: because threaded BLAS on a busy machine slows the rigid-body rows down
 THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
