@@ -4,10 +4,13 @@ Each test reproduces one failure found by running generated bad input through th
 line, the API and damaged run files, and fails on the code before its fix.
 """
 
+import os
+import stat
 import subprocess
 import sys
 
 import pytest
+from fuzz_support import clean_error, cli, listing, watchdog
 
 POINT_SCENE = """
 [field]
@@ -89,3 +92,63 @@ def test_a_tdb_epoch_far_away_does_not_warn():
 
     t = to_epoch("3000-01-01T00:00:00 TDB")  # TDB needs no leap-second table
     assert t.tdb.isot.startswith("3000-01-01T00:00:00")
+
+
+# -- outputs that are not regular files ---------------------------------------------------------
+def _scene(tmp_path, epoch="2026-01-01T00:00:00 TDB"):
+    path = tmp_path / "s.toml"
+    path.write_text(POINT_SCENE.format(epoch=epoch))
+    return path
+
+
+def test_overwrite_onto_a_fifo_is_refused_without_opening_it(tmp_path):
+    """A FIFO at the output path used to block the run forever in the open that takes the old
+    file's lock; now the path is looked at first (stat), and refused."""
+    fifo = tmp_path / "out.h5"
+    os.mkfifo(fifo)
+    for extra in (["--overwrite"], []):
+        code, _, err = cli(["run", _scene(tmp_path), "-o", fifo, "-q", *extra], seconds=30)
+        assert clean_error(code, err) == "output"
+        assert str(fifo) in err and "FIFO" in err
+        assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    assert listing(tmp_path) == {"s.toml", "out.h5"}
+
+
+def _char_device(tmp_path):
+    """A character device to write to: a node of the null device in ``tmp_path`` where this
+    process may make one (root), else /dev/null itself, which a process that is not root cannot
+    replace (so the test cannot harm it)."""
+    node = tmp_path / "devnull"
+    null = os.stat("/dev/null")
+    try:
+        os.mknod(node, stat.S_IFCHR | 0o666, null.st_rdev)
+    except (PermissionError, OSError):
+        if os.geteuid() == 0:
+            pytest.skip("cannot make a device node here")
+        return "/dev/null"
+    return str(node)
+
+
+def test_overwrite_onto_a_character_device_is_refused_and_the_node_is_untouched(tmp_path):
+    """`-o <char device> --overwrite` replaced the device node with an HDF5 file (as root, with
+    /dev/null, the system's null device)."""
+    device = _char_device(tmp_path)
+    before = os.lstat(device)
+    code, _, err = cli(["run", _scene(tmp_path), "-o", device, "-q", "--overwrite"], seconds=60)
+    assert clean_error(code, err) == "output"
+    assert device in err and "character device" in err
+    after = os.lstat(device)
+    assert stat.S_ISCHR(after.st_mode) and (after.st_ino, after.st_rdev) == (before.st_ino, before.st_rdev)
+    assert not [n for n in os.listdir(os.path.dirname(device)) if n.endswith(".tmp")]
+
+
+def test_reading_a_fifo_is_refused_without_opening_it(tmp_path):
+    import emorbit
+    from emorbit.errors import InputError
+
+    fifo = tmp_path / "run.h5"
+    os.mkfifo(fifo)
+    with watchdog(30), pytest.raises(InputError, match="FIFO"):
+        emorbit.read(fifo)
+    code, _, err = cli(["resume", fifo, "--t-end", "10 s", "-q"], seconds=30)
+    assert clean_error(code, err) == "file" and str(fifo) in err

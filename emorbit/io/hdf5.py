@@ -49,6 +49,7 @@ from .reader import (
     WIDTHS,
     _busy_message,
     _locked,
+    not_regular,
     optional_rows,
     state_digest,
 )
@@ -191,13 +192,13 @@ class Writer:
         self, path, bodies, attrs: dict, *, overwrite: bool = False, chunk_rows: int = 1024, potentials=(), works=()
     ):
         path = os.fspath(path)
+        if (what := not_regular(path)) is not None:  # checked before anything opens it
+            raise InputError("output", f"{path!r} is {what}, not a regular file; an output must be a file of its own")
         if os.path.lexists(path) and not overwrite:
             raise InputError("output", _exists_message(path))
         folder = os.path.dirname(os.path.abspath(path))
         if not os.path.isdir(folder):
             raise InputError("output", f"folder {folder!r} does not exist")
-        if os.path.isdir(path):
-            raise InputError("output", f"{path!r} is a folder")
         self.path = path
         self.file = None
         self.rescued = None
@@ -232,6 +233,8 @@ class Writer:
             return
         temp, path = self._temp, self.path
         try:
+            if (what := not_regular(path)) is not None:  # became one since the run started
+                raise InputError("output", f"{path!r} is {what}, not a regular file; it is left as it is")
             if self._overwrite:
                 os.replace(temp, path)
             else:

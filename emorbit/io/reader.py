@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import stat
 
 import h5py
 import numpy as np
@@ -44,6 +45,7 @@ __all__ = [
     "optional_rows",
     "state_digest",
     "probe",
+    "not_regular",
 ]
 
 #: the unit attribute of each top-level dataset
@@ -157,6 +159,42 @@ def _busy_message(path: str) -> str:
     )
 
 
+#: what each kind of file that is not a regular one is called in messages
+_KINDS = (
+    (stat.S_ISDIR, "a folder"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def not_regular(path) -> str | None:
+    """What an existing path is when it is not a regular file (a link is followed), found
+    without opening it: a FIFO would block an open, and writing a device would write the device.
+
+    Parameters
+    ----------
+    path : str
+        The path.
+
+    Returns
+    -------
+    str or None
+        None for a regular file, a path that does not exist or a link to nothing; else
+        what it is ("a FIFO (named pipe)", "a character device", "a folder", ...).
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    except OSError as exc:
+        return f"a path that cannot be inspected ({exc.strerror or exc})"
+    if stat.S_ISREG(mode):
+        return None
+    return next((what for test, what in _KINDS if test(mode)), "not a regular file")
+
+
 def open_run_file(path, key: str = "file", *, peek: bool = False) -> h5py.File:
     """Open an emorbit run file read-only, with errors that say what the file is not.
 
@@ -184,8 +222,8 @@ def open_run_file(path, key: str = "file", *, peek: bool = False) -> h5py.File:
     path = os.fspath(path)
     if not os.path.exists(path):
         raise InputError(key, f"{path!r} does not exist")
-    if os.path.isdir(path):
-        raise InputError(key, f"{path!r} is a folder, not a run file")
+    if (what := not_regular(path)) is not None:
+        raise InputError(key, f"{path!r} is {what}, not a run file")
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
