@@ -60,6 +60,8 @@ __all__ = [
     "parse_scene",
     "scene_overrides",
     "simulation_to_toml",
+    "load_toml",
+    "MAX_DEPTH",
 ]
 
 
@@ -689,6 +691,53 @@ def _placement(body: dict) -> dict:
     return {k: body.get(k) for k in ("position", "velocity", "orbit")}
 
 
+#: the deepest a scene or sweep file nests tables and arrays (a mesh's rows in a [[body]]
+#: table are 3 levels deep)
+MAX_DEPTH = 16
+
+
+def load_toml(text: str, source: str = "<string>") -> dict:
+    """The tables of TOML text, nested at most :data:`MAX_DEPTH` levels deep.
+
+    Shared by scenes and sweep files.
+
+    Parameters
+    ----------
+    text : str
+        The TOML text.
+    source : str
+        Where it came from, named in errors.
+
+    Returns
+    -------
+    dict
+        What :func:`tomllib.loads` gives.
+
+    Raises
+    ------
+    InputError
+        Text that is not TOML, or that nests deeper (naming the key that does):
+        thousands of nested arrays would exhaust the parser's recursion, or that of code
+        reading the tables.
+    """
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(source, f"not valid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(source, f"nests tables or arrays too deep to read (at most {MAX_DEPTH} levels)") from None
+    stack = [(value, 1, key) for key, value in data.items()]
+    while stack:  # without recursion
+        item, depth, key = stack.pop()
+        if depth > MAX_DEPTH:
+            raise InputError(key, f"nests tables or arrays more than {MAX_DEPTH} levels deep")
+        if isinstance(item, dict):
+            stack.extend((child, depth + 1, f"{key}.{name}") for name, child in item.items())
+        elif isinstance(item, list):
+            stack.extend((child, depth + 1, key) for child in item)
+    return data
+
+
 def parse_scene(text: str, source: str = "<string>") -> Scene:
     """Parse and check a scene from TOML text.
 
@@ -709,10 +758,7 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
     InputError
         For text that is not TOML and for every wrong key or value.
     """
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(source, f"not valid TOML: {exc}") from None
+    data = load_toml(text, source)
     scene = Scene(data, text, source)
     scene.check()
     return scene

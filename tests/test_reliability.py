@@ -152,3 +152,28 @@ def test_reading_a_fifo_is_refused_without_opening_it(tmp_path):
         emorbit.read(fifo)
     code, _, err = cli(["resume", fifo, "--t-end", "10 s", "-q"], seconds=30)
     assert clean_error(code, err) == "file" and str(fifo) in err
+
+
+# -- scenes nested without end ---------------------------------------------------------------
+@pytest.mark.parametrize(
+    "text, key",
+    [
+        ("x = " + "[" * 10000 + "]" * 10000, "s.toml"),  # tomllib's recursion runs out
+        ("x = " + "{a = " * 2000 + "1" + "}" * 2000, "s.toml"),
+        ("[integrator]\nfoo = " + "[" * 100 + "]" * 100, "integrator.foo"),  # read, but too deep
+    ],
+    ids=["10000 arrays", "2000 inline tables", "100 arrays"],
+)
+def test_a_scene_nested_too_deep_is_an_input_error(tmp_path, text, key):
+    (tmp_path / "s.toml").write_text(text)
+    code, _, err = cli(["run", tmp_path / "s.toml", "-o", tmp_path / "out.h5", "-q"])
+    assert clean_error(code, err).endswith(key), err
+    assert "levels" in err and listing(tmp_path) == {"s.toml"}
+
+
+def test_a_sweep_nested_too_deep_is_an_input_error():
+    from emorbit.errors import InputError
+    from emorbit.sweep import parse_sweep
+
+    with pytest.raises(InputError, match="too deep"):
+        parse_sweep('[sweep]\nscene = "paper-ellipse"\nx = ' + "[" * 10000 + "]" * 10000)

@@ -40,18 +40,12 @@ import math
 import numbers
 import os
 import re
-import sys
 from dataclasses import dataclass, field
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
 
 import numpy as np
 
 from ..errors import InputError
-from ..scene import SCHEMA, Scene, check_table, load_scene, read_text
+from ..scene import SCHEMA, Scene, check_table, load_scene, load_toml, read_text
 from .scene_text import scene_toml
 
 __all__ = ["Sweep", "Parameter", "Task", "MAX_RUNS", "load_sweep", "parse_sweep", "parse_key", "set_value", "run_scene"]
@@ -702,10 +696,7 @@ def parse_sweep(text: str, source: str = "<string>", max_runs: int | None = None
     """
     if max_runs is not None:
         _int(max_runs, "max_runs", 1)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(source, f"not valid TOML: {exc}") from None
+    data = load_toml(text, source)
     _check_table(data, _TOP, "")
     sw = _check_table(data["sweep"], _SWEEP, "sweep")
     scene_ref = sw["scene"]
