@@ -83,7 +83,8 @@ def _choices(values) -> str:
 _V, _ANY, _REQ = "3 strings with units", "3 finite values", " (required)"
 _LENGTH, _LENGTHS = "length (m)", f"length (m), {_V}"
 _IDENTITY = (
-    Key("name", True, "string", "", "unique in the scene, not empty, no '/'", "the body's name (its HDF5 group)"),
+    Key("name", True, "string", "", "unique in the scene, not empty, no '/' and no control characters",
+        "the body's name (its HDF5 group)"),
     Key("kind", True, "string", "", _choices(BODY_KINDS), "the kind of body"),
 )
 

@@ -9,6 +9,11 @@ import stat
 import subprocess
 import sys
 
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
 import pytest
 from fuzz_support import clean_error, cli, listing, watchdog
 
@@ -177,3 +182,29 @@ def test_a_sweep_nested_too_deep_is_an_input_error():
 
     with pytest.raises(InputError, match="too deep"):
         parse_sweep('[sweep]\nscene = "paper-ellipse"\nx = ' + "[" * 10000 + "]" * 10000)
+
+
+# -- body names ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["\u0000", "a\u0000b", "tab\there", "line\nbreak", "del\u007f", "sep\u2028"])
+def test_a_body_name_with_a_control_character_is_refused_naming_the_key(tmp_path, name):
+    """A NUL in a name used to be accepted: HDF5 cut the group's name at it (a run exited 0 with
+    its body recorded as "a", which resume then refused), "\\0" alone was an h5py traceback,
+    and "a\\0x" and "a\\0y" collided."""
+    from emorbit.sweep.scene_text import scene_toml
+
+    d = tomllib.loads(_scene(tmp_path).read_text())
+    d["body"][0]["name"] = name
+    (tmp_path / "s.toml").write_text(scene_toml(d))
+    code, _, err = cli(["run", tmp_path / "s.toml", "-o", tmp_path / "out.h5", "-q"])
+    assert clean_error(code, err) == "body[0].name" and "control" in err
+    assert listing(tmp_path) == {"s.toml"}
+
+
+def test_a_body_name_with_a_control_character_is_refused_from_python():
+    import emorbit
+    from emorbit.errors import InputError
+
+    sim = emorbit.Simulation(emorbit.CentralField(gm=1.0), dt=0.1)
+    with pytest.raises(InputError, match="control"):
+        sim.add_point("a\x00b", mass=1.0, position=[1.0, 0, 0], velocity=[0, 1.0, 0])
+    sim.add_point("ünïcode ok", mass=1.0, position=[1.0, 0, 0], velocity=[0, 1.0, 0])
