@@ -443,6 +443,8 @@ class Scene:
             ("max_output", max_output),
         ):
             if value is not None:
+                if len(repr(value)) > MAX_OVERRIDE:  # its note would not be read back (scene_overrides)
+                    raise InputError(f"integrator.{key}", f"longer than {MAX_OVERRIDE} characters")
                 data["integrator"][key] = value
                 changed[key] = value
         note = "".join(f"# override: integrator.{k} = {v!r}\n" for k, v in changed.items())
@@ -625,6 +627,10 @@ class Scene:
         return sim
 
 
+#: the longest value an override line may hold (a string with a unit, an integer, as repr
+#: writes them); a longer one is not read: evaluating thousands of nested brackets or signs
+#: exhausts the parser's memory or recursion
+MAX_OVERRIDE = 1000
 #: the comment line :meth:`Scene.with_overrides` writes for each key it sets
 _OVERRIDE = re.compile(
     r"# override: integrator\.(t_end|dt|method|order|output_every|checkpoint_every|max_output) = (.+)"
@@ -643,17 +649,18 @@ def scene_overrides(text: str) -> dict:
     Returns
     -------
     dict
-        {key: value}, as passed to :meth:`Scene.with_overrides`.
+        {key: value}, as passed to :meth:`Scene.with_overrides`. A line whose value is not a
+        Python literal, or longer than :data:`MAX_OVERRIDE` characters, is skipped.
     """
     import ast
 
     found = {}
     for line in text.splitlines():
         m = _OVERRIDE.fullmatch(line.strip())
-        if m:
+        if m and len(m.group(2)) <= MAX_OVERRIDE:  # longer: not one that with_overrides wrote
             try:
                 found[m.group(1)] = ast.literal_eval(m.group(2))
-            except (ValueError, SyntaxError):
+            except (ValueError, SyntaxError, MemoryError, RecursionError):
                 continue
     return found
 

@@ -208,3 +208,30 @@ def test_a_body_name_with_a_control_character_is_refused_from_python():
     with pytest.raises(InputError, match="control"):
         sim.add_point("a\x00b", mass=1.0, position=[1.0, 0, 0], velocity=[0, 1.0, 0])
     sim.add_point("ünïcode ok", mass=1.0, position=[1.0, 0, 0], velocity=[0, 1.0, 0])
+
+
+# -- a run file's scene text ------------------------------------------------------------------------
+@pytest.mark.parametrize("value", ["-" * 10001 + "1", "+" * 10000 + "1", "[1," * 3000 + "]" * 3000, "1" + "+1" * 5000])
+def test_a_long_override_line_in_a_run_files_scene_is_not_evaluated(tmp_path, value):
+    """A run file whose scene holds a 10,001-character override line: ast.literal_eval raised
+    MemoryError or RecursionError (a traceback from emorbit resume)."""
+    import h5py
+
+    from emorbit.scene import scene_overrides
+
+    assert scene_overrides(f"# override: integrator.dt = {value}\n# override: integrator.order = 4") == {"order": 4}
+    code, _, err = cli(["run", _scene(tmp_path), "-o", tmp_path / "out.h5", "-q"])
+    assert code == 0, err
+    with h5py.File(tmp_path / "out.h5", "r+") as f:
+        f.attrs["scene"] = f"# override: integrator.dt = {value}\n" + f.attrs["scene"]
+    code, _, err = cli(["resume", tmp_path / "out.h5", "--t-end", "1200 s", "-q"])
+    assert code == 0, err
+
+
+def test_an_override_too_long_to_read_back_is_refused():
+    import emorbit
+    from emorbit.errors import InputError
+
+    scene = emorbit.load_scene("paper-ellipse")
+    with pytest.raises(InputError, match="integrator.t_end: longer than"):
+        scene.with_overrides(t_end="1" * 1000 + " s")
