@@ -235,3 +235,22 @@ def test_an_override_too_long_to_read_back_is_refused():
     scene = emorbit.load_scene("paper-ellipse")
     with pytest.raises(InputError, match="integrator.t_end: longer than"):
         scene.with_overrides(t_end="1" * 1000 + " s")
+
+
+# -- paths as bytes ------------------------------------------------------------------------------------
+def test_paths_may_be_bytes(tmp_path):
+    """Simulation.run(output=b"x.h5") was a TypeError from deep inside the writer; a path is str,
+    bytes or os.PathLike wherever a file is written or read, and anything else an InputError."""
+    import emorbit
+    from emorbit.errors import InputError
+
+    out = os.fsencode(tmp_path / "x.h5")
+    sim = emorbit.load_scene(str(_scene(tmp_path))).build()
+    sim.run(t_end=120.0, output=out)
+    assert len(emorbit.read(out)) == 3
+    emorbit.resume(out, 240.0, progress=False)
+    assert emorbit.read(out).si.time[-1] == 240.0
+    with pytest.raises(InputError, match="output: a path"):
+        emorbit.load_scene(str(_scene(tmp_path))).build().run(t_end=120.0, output=12)
+    with pytest.raises(InputError, match="file: a path"):
+        emorbit.read(3.5)

@@ -49,6 +49,7 @@ from .reader import (
     WIDTHS,
     _busy_message,
     _locked,
+    file_path,
     not_regular,
     optional_rows,
     state_digest,
@@ -158,7 +159,7 @@ class Writer:
 
     Parameters
     ----------
-    path : str or os.PathLike
+    path : str, bytes or os.PathLike
         The file to create.
     bodies : list of dict
         One per body: ``name``, ``attrs`` (the group's attributes), ``datasets``
@@ -191,7 +192,7 @@ class Writer:
     def __init__(
         self, path, bodies, attrs: dict, *, overwrite: bool = False, chunk_rows: int = 1024, potentials=(), works=()
     ):
-        path = os.fspath(path)
+        path = file_path(path, "output")
         if (what := not_regular(path)) is not None:  # checked before anything opens it
             raise InputError("output", f"{path!r} is {what}, not a regular file; an output must be a file of its own")
         if os.path.lexists(path) and not overwrite:
@@ -477,7 +478,7 @@ class Writer:
 
         Parameters
         ----------
-        path : str or os.PathLike
+        path : str, bytes or os.PathLike
             The run file.
         records : int
             Records to keep (at least 1, at most the rows of every record dataset).
@@ -495,7 +496,7 @@ class Writer:
             Another process is writing the file, or it cannot be opened for writing.
         """
         self = cls.__new__(cls)
-        self.path = os.fspath(path)
+        self.path = file_path(path)
         self._lost, self._temp, self._held, self.rescued = None, None, None, None
         try:
             self.file = h5py.File(self.path, "r+")

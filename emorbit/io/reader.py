@@ -46,6 +46,7 @@ __all__ = [
     "state_digest",
     "probe",
     "not_regular",
+    "file_path",
 ]
 
 #: the unit attribute of each top-level dataset
@@ -169,6 +170,32 @@ _KINDS = (
 )
 
 
+def file_path(path, key: str = "file") -> str:
+    """A path given as str, bytes or os.PathLike, as str.
+
+    Parameters
+    ----------
+    path : str, bytes or os.PathLike
+        The path.
+    key : str
+        The name the error gives it.
+
+    Returns
+    -------
+    str
+        The path (bytes decoded as the file system does).
+
+    Raises
+    ------
+    InputError
+        Anything else.
+    """
+    try:
+        return os.fsdecode(os.fspath(path))
+    except TypeError:
+        raise InputError(key, f"a path (a string) expected, got {path!r}") from None
+
+
 def not_regular(path) -> str | None:
     """What an existing path is when it is not a regular file (a link is followed), found
     without opening it: a FIFO would block an open, and writing a device would write the device.
@@ -200,7 +227,7 @@ def open_run_file(path, key: str = "file", *, peek: bool = False) -> h5py.File:
 
     Parameters
     ----------
-    path : str or os.PathLike
+    path : str, bytes or os.PathLike
         The file.
     key : str
         The name the errors give the file (``"file"``, ``"files"``).
@@ -219,7 +246,7 @@ def open_run_file(path, key: str = "file", *, peek: bool = False) -> h5py.File:
         The file does not exist, is not HDF5 or not a run file, or another process writes it
         (without ``peek``).
     """
-    path = os.fspath(path)
+    path = file_path(path, key)
     if not os.path.exists(path):
         raise InputError(key, f"{path!r} does not exist")
     if (what := not_regular(path)) is not None:
@@ -376,7 +403,7 @@ def read(path) -> Result:
 
     Parameters
     ----------
-    path : str or os.PathLike
+    path : str, bytes or os.PathLike
         An HDF5 file written by emorbit.
 
     Returns
@@ -389,7 +416,7 @@ def read(path) -> Result:
     InputError
         The file does not exist, is not HDF5 or is not an emorbit run file.
     """
-    path = os.fspath(path)
+    path = file_path(path)
     with open_run_file(path, peek=True) as f:
         n = _rows(f)
         bodies, masses, kinds = {}, {}, {}

@@ -25,7 +25,7 @@ from ..result import Result
 from ..scene import parse_scene, scene_overrides
 from ..units import to_si
 from .hdf5 import Writer
-from .reader import LAYOUT_UNITS, NEXT_CHECKPOINT, open_run_file, probe, state_digest
+from .reader import LAYOUT_UNITS, NEXT_CHECKPOINT, file_path, open_run_file, probe, state_digest
 
 __all__ = ["resume", "load_checkpoint"]
 
@@ -159,7 +159,7 @@ def _check_state(path, where: str, arrays: dict, sim) -> None:
 
 def _load(path) -> _Loaded:
     """Check a run file and rebuild its simulation at its last checkpoint."""
-    path = os.fspath(path)
+    path = file_path(path)
     problem = probe(path) if os.path.isfile(path) else None  # else: open_run_file says what it is
     if problem is not None:
         raise InputError("file", f"{path!r} is damaged: {problem}")
@@ -357,7 +357,7 @@ def load_checkpoint(path):
 
     Parameters
     ----------
-    path : str or os.PathLike
+    path : str, bytes or os.PathLike
         A run file.
 
     Returns
@@ -385,7 +385,7 @@ def resume(path, t_end, *, progress: bool | None = None, truncate: bool = False)
 
     Parameters
     ----------
-    path : str or os.PathLike
+    path : str, bytes or os.PathLike
         A run file (finished, failed, interrupted or killed).
     t_end : Quantity, str or float
         The new end time, s.
@@ -414,7 +414,7 @@ def resume(path, t_end, *, progress: bool | None = None, truncate: bool = False)
 
     from .recorder import Sink
 
-    path = os.fspath(path)
+    path = file_path(path)
     loaded = _load(path)
     sim, attrs, records = loaded.sim, loaded.attrs, loaded.records
     t2 = to_si(t_end, "time", "t_end", positive=False)
