@@ -254,3 +254,51 @@ def test_paths_may_be_bytes(tmp_path):
         emorbit.load_scene(str(_scene(tmp_path))).build().run(t_end=120.0, output=12)
     with pytest.raises(InputError, match="file: a path"):
         emorbit.read(3.5)
+
+
+# -- sweeps ------------------------------------------------------------------------------------------
+SWEEP = """
+[sweep]
+scene = "paper-ellipse"
+{seed}
+[set]
+"integrator.t_end" = {t_end}
+[[parameter]]
+key = "body[0].velocity[1]"
+values = {values}
+"""
+
+
+def _sweep(tmp_path, seed="", t_end='"4.64758 s"', values='["0.36 m/s", "0.37 m/s"]'):
+    path = tmp_path / "sweep.toml"
+    path.write_text(SWEEP.format(seed=seed, t_end=t_end, values=values))
+    return path
+
+
+def test_a_seed_beyond_64_bits_is_refused_before_anything_runs(tmp_path):
+    """seed = 2**70 ran every run, then failed writing the summary (a TypeError traceback) and
+    left summary.h5.tmp behind."""
+    code, _, err = cli(["sweep", _sweep(tmp_path, f"seed = {2**70}"), "-o", tmp_path / "out", "--serial", "-q"])
+    assert clean_error(code, err) == "sweep.seed"
+    assert not (tmp_path / "out").exists()
+    code, _, err = cli(["sweep", _sweep(tmp_path, f"seed = {2**63 - 1}"), "-o", tmp_path / "out", "--serial", "-q"])
+    assert code == 0, err
+    assert "summary.h5.tmp" not in os.listdir(tmp_path / "out")
+
+
+def test_a_summary_that_cannot_be_written_leaves_no_temporary_file(tmp_path):
+    from emorbit.sweep.runner import _write_csv
+
+    with pytest.raises(TypeError):
+        _write_csv(str(tmp_path / "summary.csv"), ["a"], {}, None)
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("address", ["not-a-url", "tcp://", "tcp://host:notaport", "foo://bar:1", "tcp://h:99999"])
+def test_a_scheduler_address_that_is_not_one_is_an_input_error(tmp_path, address):
+    """--scheduler not-a-url was a ValueError traceback from dask.distributed."""
+    pytest.importorskip("distributed")
+    code, _, err = cli(["sweep", _sweep(tmp_path), "-o", tmp_path / "out", "--scheduler", address, "-q"])
+    assert clean_error(code, err) == "scheduler" and repr(address) in err
+    assert not (tmp_path / "out").exists()
+

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import collections
 import concurrent.futures as cf
+import contextlib
 import csv
 import datetime as _dt
 import glob
@@ -393,14 +394,26 @@ def _csv_header(name: str, unit: str) -> str:
     return f"{name} [{unit}]" if unit else name
 
 
-def _write_csv(path, names, units, rows) -> None:
+@contextlib.contextmanager
+def _replacing(path: str):
+    """Write a file under ``<path>.tmp`` in the block and rename it to ``path`` after it; an
+    error in the block removes the temporary file."""
     tmp = path + ".tmp"
-    with open(tmp, "w", newline="", encoding="utf-8") as fh:
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def _write_csv(path, names, units, rows) -> None:
+    with _replacing(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
         w.writerow([_csv_header(n, units.get(n, "")) for n in names])
         for r in rows:
             w.writerow([_text(r.get(c)) for c in names])
-    os.replace(tmp, path)
 
 
 def _column(values: list):
@@ -418,8 +431,7 @@ def _write_h5(path, names, units, rows, sweep, be, counts) -> None:
     table = np.empty(len(rows), dtype=dtype)
     for n, c in zip(names, cols):
         table[n] = c
-    tmp = path + ".tmp"
-    with h5py.File(tmp, "w") as f:
+    with _replacing(path) as tmp, h5py.File(tmp, "w") as f:
         f.attrs["creator"] = f"emorbit {__version__}"
         f.attrs["emorbit_version"] = __version__
         f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
@@ -431,7 +443,6 @@ def _write_h5(path, names, units, rows, sweep, be, counts) -> None:
         ds = f.create_dataset("summary", data=table)
         ds.attrs["units"] = json.dumps(units)
         ds.attrs["columns"] = json.dumps(names)
-    os.replace(tmp, path)
 
 
 def read_summary(path) -> list[dict]:

@@ -4,7 +4,7 @@
 
     [sweep]
     scene = "paper-ellipse"   # a shipped scene or a TOML file (relative to this file)
-    seed = 2024               # root seed (default 0)
+    seed = 2024               # root seed, 0 to 2**63 - 1 (default 0)
     combine = "product"       # every combination (default) | "zip": the lists side by side
     samples = 1               # runs per combination; random parameters draw anew in each
     bodies = ["satellite"]    # bodies whose final elements the summary lists (default: all)
@@ -58,6 +58,8 @@ _RANGE = {"start": True, "stop": True, "num": False, "step": False, "spacing": F
 DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"), "loguniform": ("low", "high")}
 #: the most runs a sweep may have unless its ``max_runs`` (or the caller's) says more
 MAX_RUNS = 100_000
+#: the largest root seed: a 64-bit signed integer, as the summary file stores it
+MAX_SEED = 2**63 - 1
 
 
 def _check_table(table, allowed: dict, where: str) -> dict:
@@ -79,9 +81,11 @@ def _number(value, key: str) -> float:
     return value
 
 
-def _int(value, key: str, minimum: int) -> int:
+def _int(value, key: str, minimum: int, maximum: int | None = None) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
         raise InputError(key, f"must be an integer >= {minimum}, got {value!r}")
+    if maximum is not None and value > maximum:
+        raise InputError(key, f"must be an integer <= {maximum:,}, got {value!r}")
     return int(value)
 
 
@@ -710,7 +714,7 @@ def parse_sweep(text: str, source: str = "<string>", max_runs: int | None = None
         scene = load_scene(scene_ref)
     except InputError as exc:
         raise InputError("sweep.scene", str(exc)) from None
-    seed = _int(sw.get("seed", 0), "sweep.seed", 0)
+    seed = _int(sw.get("seed", 0), "sweep.seed", 0, MAX_SEED)
     combine = sw.get("combine", "product")
     if combine not in ("product", "zip"):
         raise InputError("sweep.combine", f"must be 'product' or 'zip', got {combine!r}")
