@@ -302,3 +302,15 @@ def test_a_scheduler_address_that_is_not_one_is_an_input_error(tmp_path, address
     assert clean_error(code, err) == "scheduler" and repr(address) in err
     assert not (tmp_path / "out").exists()
 
+
+@pytest.mark.parametrize(
+    "values, t_end, key",
+    [("[0.36, 0.37]", '"4.64758 s"', "parameter[0].unit"), ('["0.36 m/s"]', "4.64758", "set.integrator.t_end")],
+    ids=["parameter", "set"],
+)
+def test_a_sweep_value_without_a_unit_is_refused_before_anything_runs(tmp_path, values, t_end, key):
+    """A parameter's values (or a [set] value) without a unit where the scene has a quantity
+    failed every run (exit 1); the docs promise an error naming the key before anything runs."""
+    code, _, err = cli(["sweep", _sweep(tmp_path, t_end=t_end, values=values), "-o", tmp_path / "out", "--serial"])
+    assert clean_error(code, err) == key and "without a unit" in err
+    assert not (tmp_path / "out").exists()

@@ -389,6 +389,27 @@ def _range_values(r, where: str) -> list:
     return (start + np.arange(n, dtype=np.float64) * step).tolist()  # start + j * step, as in Python
 
 
+def _has_unit(current) -> bool:
+    """Whether a scene's value is a quantity (a string with a unit, or a list holding one)."""
+    return isinstance(current, str) or (isinstance(current, list) and any(isinstance(c, str) for c in current))
+
+
+def _bare(value) -> bool:
+    """Whether a value is a number without a unit, or a list holding one."""
+    items = value if isinstance(value, list) else [value]
+    return any(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in items)
+
+
+def _check_quantity(current, value, key: str, what: str) -> None:
+    """Refuse a bare number where the base scene has a quantity: every run would fail on it."""
+    if _has_unit(current) and _bare(value):
+        raise InputError(
+            key,
+            f"{what} is {value!r}, a number without a unit, where the scene has {current!r}; "
+            "write it with its unit, or give the parameter's unit",
+        )
+
+
 def _parameter(p, j: int, scene_data: dict) -> Parameter:
     where = f"parameter[{j}]"
     _check_table(p, _PARAMETER, where)
@@ -432,10 +453,12 @@ def _parameter(p, j: int, scene_data: dict) -> Parameter:
             raise InputError(f"{rw}.low", f"must be > 0, got {args[0]!r}")
         param.distribution = r["distribution"]
         param.args = args
+    has_unit = _has_unit(current)
     if unit is None and not param.random and "range" not in p:
+        for k, v in enumerate(param.values):  # a bare number where the scene has a quantity fails every run
+            _check_quantity(current, v, f"{where}.unit", f"{p['key']} (values[{k}])")
         return param
     # generated numbers: the scene must want a quantity exactly when a unit is given
-    has_unit = isinstance(current, str) or (isinstance(current, list) and any(isinstance(c, str) for c in current))
     if unit is None and has_unit:
         raise InputError(
             f"{where}.unit",
@@ -736,7 +759,7 @@ def parse_sweep(text: str, source: str = "<string>", max_runs: int | None = None
     fixed = _flatten(fixed_raw)
     for key in fixed:
         path = parse_key(key, f"set.{key}")
-        check_key(scene.data, path, f"set.{key}")
+        _check_quantity(check_key(scene.data, path, f"set.{key}"), fixed[key], f"set.{key}", key)
         if any(p.path == path for p in params):
             raise InputError(f"set.{key}", f"{key!r} is also a parameter: set it in one place")
     axes = [p for p in params if not p.random]
