@@ -314,3 +314,36 @@ def test_a_sweep_value_without_a_unit_is_refused_before_anything_runs(tmp_path, 
     code, _, err = cli(["sweep", _sweep(tmp_path, t_end=t_end, values=values), "-o", tmp_path / "out", "--serial"])
     assert clean_error(code, err) == key and "without a unit" in err
     assert not (tmp_path / "out").exists()
+
+
+# -- temporary files -------------------------------------------------------------------------------------
+def test_a_run_removes_only_files_named_as_its_own_temporary_files(tmp_path):
+    """A run to o.h5 deleted a user's file .o.h5.999999-userdata.tmp: any hidden file that began
+    with .o.h5. and ended with .tmp counted as a killed run's temporary file."""
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    keep = [f".o.h5.{dead.pid}-userdata.tmp", f".o.h5.{dead.pid}-deadbeef.tmp.bak", f".o.h5.x{dead.pid}-deadbeef.tmp"]
+    for name in keep:
+        (tmp_path / name).write_text("user data")
+    orphan = tmp_path / f".o.h5.{dead.pid}-0123abcd.tmp"
+    orphan.write_bytes(b"half a file")
+    code, _, err = cli(["run", _scene(tmp_path), "-o", tmp_path / "o.h5", "-q"])
+    assert code == 0, err
+    assert all((tmp_path / name).read_text() == "user data" for name in keep)
+    assert not orphan.exists()
+
+
+def test_a_sweep_removes_only_its_own_temporary_files(tmp_path):
+    out = tmp_path / "out"
+    code, _, err = cli(["sweep", _sweep(tmp_path), "-o", out, "--serial", "-q"])
+    assert code == 0, err
+    mine = [".run-000000.h5.userdata.tmp", ".notes.tmp", ".run-000000.h5.0123456789ab.tmp.bak"]
+    for name in mine:
+        (out / "runs" / name).write_text("user data")
+    orphans = [".run-000001.h5.0123456789ab.tmp", "..run-000001.h5.0123456789ab.tmp.99999999-deadbeef.tmp"]
+    for name in orphans:
+        (out / "runs" / name).write_bytes(b"half a file")
+    code, _, err = cli(["sweep", _sweep(tmp_path), "-o", out, "--serial", "-q"])
+    assert code == 0, err
+    assert all((out / "runs" / name).read_text() == "user data" for name in mine)
+    assert not any((out / "runs" / name).exists() for name in orphans)

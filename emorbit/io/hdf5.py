@@ -32,6 +32,7 @@ import datetime as _dt
 import json
 import os
 import platform
+import re
 import secrets
 import weakref
 
@@ -55,7 +56,7 @@ from .reader import (
     state_digest,
 )
 
-__all__ = ["Writer", "FileLostError"]
+__all__ = ["Writer", "FileLostError", "temp_name", "temp_pattern"]
 
 #: the record datasets of effects, one per effect (or the balance of those that do work)
 _EFFECT_RECORDS = ("invariants/potential_", "invariants/work_", "invariants/energy_balance")
@@ -207,7 +208,7 @@ class Writer:
         self._overwrite = overwrite
         self._held = _hold(path) if overwrite and os.path.lexists(path) else None
         _remove_orphans(folder, os.path.basename(path))
-        self._temp = os.path.join(folder, f".{os.path.basename(path)}.{os.getpid()}-{secrets.token_hex(4)}.tmp")
+        self._temp = os.path.join(folder, temp_name(os.path.basename(path), os.getpid(), secrets.token_hex(4)))
         try:
             try:
                 self.file = h5py.File(self._temp, "x")
@@ -593,20 +594,32 @@ class Writer:
         return note
 
 
+def temp_name(name: str, pid: int, tag: str) -> str:
+    """The name of a run's temporary file for the output ``name`` (no folder):
+    ``.<name>.<pid>-<tag>.tmp``, ``tag`` 8 random hex digits."""
+    return f".{name}.{pid}-{tag}.tmp"
+
+
+def temp_pattern(name: str) -> str:
+    """A regular expression that the whole name of every temporary file :func:`temp_name`
+    gives for the output ``name`` (itself a regular expression) matches; the process id is its
+    group ``pid``."""
+    return r"\." + name + r"\.(?P<pid>\d+)-[0-9a-f]{8}\.tmp"
+
+
 def _remove_orphans(folder: str, name: str) -> None:
     """Remove the hidden temporary files that runs to ``name`` left when they were killed
-    (SIGKILL) before their first checkpoint gave the file its name: those whose process is
-    gone. A temporary file of a process that still runs is its run's, and stays."""
-    prefix = f".{name}."
+    (SIGKILL) before their first checkpoint gave the file its name: those whose whole name is
+    such a file's (:func:`temp_name`) and whose process is gone. A temporary file of a process
+    that still runs is its run's, and stays; any other file stays."""
+    pattern = re.compile(temp_pattern(re.escape(name)))
     try:
         entries = os.listdir(folder)
     except OSError:
         return
     for entry in entries:
-        if not (entry.startswith(prefix) and entry.endswith(".tmp")):
-            continue
-        pid = entry[len(prefix) : -len(".tmp")].split("-", 1)[0]
-        if not pid.isdigit() or _alive(int(pid)):
+        m = pattern.fullmatch(entry)
+        if m is None or _alive(int(m.group("pid"))):
             continue
         try:
             os.unlink(os.path.join(folder, entry))

@@ -17,11 +17,11 @@ import concurrent.futures as cf
 import contextlib
 import csv
 import datetime as _dt
-import glob
 import json
 import math
 import numbers
 import os
+import re
 import sys
 from dataclasses import dataclass, field
 
@@ -32,9 +32,10 @@ from .._version import __version__
 from ..errors import InputError
 from ..integrators import check_device
 from ..integrators.dispatch import require_device
+from ..io.hdf5 import temp_pattern
 from .backends import make_backend
 from .spec import Sweep, load_sweep
-from .task import read_row, row_columns, run_file_name, run_task
+from .task import TASK_TEMP, read_row, row_columns, run_file_name, run_task
 
 __all__ = ["run_sweep", "SweepResult", "read_summary"]
 
@@ -131,13 +132,14 @@ def _not_run(task: dict, status: str, error: str) -> dict:
 
 def _remove_orphans(runs_dir: str) -> None:
     """Remove temporary files of attempts that never finished (their workers died): the
-    worker's ``.run-000012.h5.<random>.tmp`` and any temporary file the run's writer made
-    beside it (every hidden ``.tmp`` file in ``runs/``)."""
-    for path in glob.glob(os.path.join(runs_dir, ".*.tmp")):
-        try:
-            os.remove(path)
-        except OSError:
-            pass
+    worker's ``.run-000012.h5.<random>.tmp`` (:data:`~emorbit.sweep.task.TASK_TEMP`) and the
+    temporary file the run's writer made beside it (:func:`~emorbit.io.hdf5.temp_pattern`).
+    Only files whose whole name is one of these are removed."""
+    names = re.compile(f"{TASK_TEMP}|{temp_pattern(TASK_TEMP)}")
+    for entry in os.listdir(runs_dir) if os.path.isdir(runs_dir) else ():
+        if names.fullmatch(entry):
+            with contextlib.suppress(OSError):
+                os.remove(os.path.join(runs_dir, entry))
 
 
 def run_sweep(
