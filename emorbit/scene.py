@@ -31,13 +31,7 @@ import importlib.resources
 import numbers
 import os
 import re
-import sys
 from dataclasses import dataclass
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
 
 from .bodies.facets import FACET_KEYS
 from .effects import EFFECTS, effect_kinds
@@ -45,7 +39,7 @@ from .errors import InputError
 from .field import BODIES, CentralField
 from .integrators import METHODS, ORDERS, ROUNDOFF, check_order, check_roundoff, get_method
 from .io.drift import check_tolerance
-from .io.scene_toml import simulation_to_toml
+from .io.scene_toml import MAX_DEPTH, load_toml, simulation_to_toml
 from .keys import Key
 from .simulation import MAX_OUTPUT, Simulation, check_body_name
 from .units import to_si
@@ -697,53 +691,6 @@ def _check_couplings(sim: Simulation, couplings: list) -> None:
 def _placement(body: dict) -> dict:
     """The keys of a body table that place it: position, velocity and orbit (None where absent)."""
     return {k: body.get(k) for k in ("position", "velocity", "orbit")}
-
-
-#: the deepest a scene or sweep file nests tables and arrays (a mesh's rows in a [[body]]
-#: table are 3 levels deep)
-MAX_DEPTH = 16
-
-
-def load_toml(text: str, source: str = "<string>") -> dict:
-    """The tables of TOML text, nested at most :data:`MAX_DEPTH` levels deep.
-
-    Shared by scenes and sweep files.
-
-    Parameters
-    ----------
-    text : str
-        The TOML text.
-    source : str
-        Where it came from, named in errors.
-
-    Returns
-    -------
-    dict
-        What :func:`tomllib.loads` gives.
-
-    Raises
-    ------
-    InputError
-        Text that is not TOML, or that nests deeper (naming the key that does):
-        thousands of nested arrays would exhaust the parser's recursion, or that of code
-        reading the tables.
-    """
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(source, f"not valid TOML: {exc}") from None
-    except RecursionError:
-        raise InputError(source, f"nests tables or arrays too deep to read (at most {MAX_DEPTH} levels)") from None
-    stack = [(value, 1, key) for key, value in data.items()]
-    while stack:  # without recursion
-        item, depth, key = stack.pop()
-        if depth > MAX_DEPTH:
-            raise InputError(key, f"nests tables or arrays more than {MAX_DEPTH} levels deep")
-        if isinstance(item, dict):
-            stack.extend((child, depth + 1, f"{key}.{name}") for name, child in item.items())
-        elif isinstance(item, list):
-            stack.extend((child, depth + 1, key) for child in item)
-    return data
 
 
 def parse_scene(text: str, source: str = "<string>") -> Scene:
