@@ -16,7 +16,8 @@ which takes its HDF5 file lock: a file that another run is writing (and so holds
 refused, never replaced. The writer checks at every flush that its path still names the
 file it writes; a file removed or replaced under a run stops that run with
 :class:`FileLostError`, and the file it wrote is copied next to the path if nothing else
-reaches it.
+reaches it. Every dataset is stored with a Fletcher-32 checksum per chunk
+(:func:`emorbit.io.reader.read_dataset` names the rows of a chunk whose bytes changed).
 
 ``/checkpoint`` holds the complete state (every system's arrays, compensation terms and
 warm starts included, each with its ``unit``; attributes ``steps`` since the run's start,
@@ -91,15 +92,26 @@ def _versions() -> str:
 
 
 def _growable(group, name, width, unit, chunk_rows, fill=0.0):
-    """A dataset growing along its first axis; ``width`` is None (1-D), an int, or a shape."""
+    """A dataset growing along its first axis, with a Fletcher-32 checksum on each chunk (a
+    changed byte fails the read of its chunk); ``width`` is None (1-D), an int, or a shape."""
     tail = () if width is None else ((width,) if isinstance(width, int) else tuple(width))
     shape = (0,) + tail
     maxshape = (None,) + tail
     rows = max(1, min(chunk_rows, (1 << 20) // (8 * max(1, int(np.prod(tail))))))
     chunks = (rows,) + tail
-    ds = group.create_dataset(name, shape=shape, maxshape=maxshape, chunks=chunks, dtype="f8", fillvalue=fill or None)
+    ds = group.create_dataset(
+        name, shape=shape, maxshape=maxshape, chunks=chunks, dtype="f8", fillvalue=fill or None, fletcher32=True
+    )
     ds.attrs["unit"] = unit
     return ds
+
+
+def _constant(group, name, data):
+    """A dataset written once, with a Fletcher-32 checksum on each chunk where it has any
+    (HDF5 checksums chunks only: an empty or 0-d array is stored without one)."""
+    data = np.asarray(data)
+    checked = data.ndim > 0 and data.size > 0
+    return group.create_dataset(name, data=data, fletcher32=checked)
 
 
 def _append(ds, block):
@@ -286,7 +298,7 @@ class Writer:
             for key, value in body["attrs"].items():
                 g.attrs[key] = value
             for path_, (array, unit) in body.get("constants", {}).items():
-                ds = g.create_dataset(path_, data=array)
+                ds = _constant(g, path_, array)
                 ds.attrs["unit"] = unit
             self._body_ds[body["name"]] = {
                 q: _growable(g, q, width, unit, chunk_rows) for q, (width, unit) in body["datasets"].items()
@@ -459,7 +471,7 @@ class Writer:
             else:
                 if key in g:
                     del g[key]
-                g.create_dataset(key, data=value)
+                _constant(g, key, value)
             unit = (units or {}).get(key, STATE_UNITS.get(key))
             if unit is not None:
                 g[key].attrs["unit"] = unit

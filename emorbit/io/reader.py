@@ -47,6 +47,10 @@ __all__ = [
     "probe",
     "not_regular",
     "file_path",
+    "read_dataset",
+    "verify_checksums",
+    "damage_message",
+    "DAMAGE",
 ]
 
 #: the unit attribute of each top-level dataset
@@ -111,7 +115,7 @@ def optional_rows(f, name: str, n: int) -> np.ndarray:
     """The first ``n`` rows of the optional record dataset ``name`` of an open run file, or
     what they read as in a file of an earlier version that lacks it (:data:`OPTIONAL`)."""
     if name in f:
-        return f[name][:n]
+        return read_dataset(f[name], f.filename, n)
     width = WIDTHS[name]
     if OPTIONAL[name] is None:  # energy_range: the record's energy, as least and greatest
         return np.repeat(f["invariants/energy"][:n][:, None], 2, axis=1)
@@ -268,11 +272,12 @@ def open_run_file(path, key: str = "file", *, peek: bool = False) -> h5py.File:
             raise InputError(key, f"{path!r} cannot be read as an HDF5 file ({exc})") from None
     try:
         check_layout(f, path, key)
-    except (RuntimeError, KeyError, ValueError, TypeError) as exc:  # h5py on a damaged file
+    except InputError:
         f.close()
-        raise InputError(
-            key, f"{path!r} is damaged: its layout cannot be read ({' '.join(str(exc).split())})"
-        ) from None
+        raise
+    except DAMAGE as exc:  # h5py on a damaged file
+        f.close()
+        raise InputError(key, f"{path!r} is damaged: its layout cannot be read ({damage_message(exc)})") from None
     except BaseException:
         f.close()
         raise
@@ -395,6 +400,141 @@ def _attr(f, path: str, name: str, kind):
         raise InputError("file", f"{path!r}: root attribute {name!r} is {value!r}, not a {kind.__name__}") from None
 
 
+#: what h5py raises on a file whose bytes were changed (a checksum that fails, a damaged
+#: heap or object header): each is reported as damage, naming what was being read
+DAMAGE = (OSError, RuntimeError, KeyError, ValueError, TypeError, AttributeError, IndexError, MemoryError)
+
+
+def damage_message(exc: BaseException) -> str:
+    """What an h5py error on a damaged file says, in one line (a failing Fletcher-32 checksum in
+    words).
+
+    Parameters
+    ----------
+    exc : BaseException
+        The error.
+
+    Returns
+    -------
+    str
+        The line.
+    """
+    text = " ".join(str(exc).split())
+    if "filter returned failure" in text:
+        return "its Fletcher-32 checksum fails: bytes in it changed since they were written"
+    return text or type(exc).__name__
+
+
+def _chunk_starts(ds) -> list[int]:
+    """Where along the first axis each chunk the file holds for ``ds`` starts, sorted (only
+    chunks that were written: a damaged shape may claim many more rows than that)."""
+    return sorted({ds.id.get_chunk_info(i).chunk_offset[0] for i in range(ds.id.get_num_chunks())})
+
+
+def _damaged_rows(ds, rows: int | None) -> str:
+    """Which rows of a chunked dataset cannot be read, chunk by chunk along the first axis
+    ("rows 0 to 1023, 2048 to 2499"), or "" when that cannot be told."""
+    if not ds.chunks or ds.ndim == 0:
+        return ""
+    n = ds.shape[0] if rows is None else min(rows, ds.shape[0])
+    bad = []
+    try:
+        starts = [a for a in _chunk_starts(ds) if a < n]
+    except DAMAGE:
+        return ""
+    for start in starts:
+        stop = min(start + ds.chunks[0], n)
+        try:
+            ds[start:stop]
+        except DAMAGE:
+            if bad and bad[-1][1] == start - 1:
+                bad[-1][1] = stop - 1
+            else:
+                bad.append([start, stop - 1])
+    return ", ".join(f"{a} to {b}" if b > a else f"{a}" for a, b in bad)
+
+
+def _claim(ds, rows: int | None) -> str | None:
+    """Why a dataset cannot hold what its shape says: more bytes than its file has (a shape
+    that was damaged), or None."""
+    n = ds.shape[0] if rows is None or ds.ndim == 0 else min(rows, ds.shape[0])
+    size = n * ds.dtype.itemsize * int(np.prod(ds.shape[1:], dtype=np.int64))
+    limit = os.path.getsize(ds.file.filename) + (1 << 20)  # a chunk, 1 MiB at most, may be partly filled
+    return f"its shape {ds.shape} claims {size:,} bytes, more than the file holds" if size > limit else None
+
+
+def read_dataset(ds, path: str, rows: int | None = None, key: str = "file") -> np.ndarray:
+    """A dataset's first ``rows`` rows (all of it when None), or an error that names the
+    dataset and the rows that cannot be read (a Fletcher-32 checksum that fails: the file was
+    damaged since it was written).
+
+    Parameters
+    ----------
+    ds : h5py.Dataset
+        The dataset.
+    path : str
+        Its file's path, for the message.
+    rows : int, optional
+        Rows to read.
+    key : str
+        The name the error gives the file.
+
+    Returns
+    -------
+    ndarray
+        The rows.
+
+    Raises
+    ------
+    InputError
+        The rows cannot be read.
+    """
+    try:
+        if (claim := _claim(ds, rows)) is not None:
+            raise InputError(key, f"{path!r} is damaged: dataset {ds.name}: {claim}")
+        return ds[()] if rows is None else ds[:rows]
+    except InputError:
+        raise
+    except DAMAGE as exc:
+        which = _damaged_rows(ds, rows)
+        where = f"dataset {ds.name}" + (f", rows {which}," if which else "")
+        raise InputError(key, f"{path!r} is damaged: {where} cannot be read ({damage_message(exc)})") from None
+
+
+def verify_checksums(f, path: str, key: str = "file") -> None:
+    """Read every chunk of every dataset of an open file that carries Fletcher-32 checksums,
+    so that a changed byte anywhere in them is an error naming the dataset and its rows.
+    Datasets of files written before checksums are not checked.
+
+    Parameters
+    ----------
+    f : h5py.File
+        The open file.
+    path : str
+        Its path, for the message.
+    key : str
+        The name the error gives the file.
+
+    Raises
+    ------
+    InputError
+        A dataset whose checksum fails.
+    """
+    found = []
+    f.visititems(lambda name, obj: found.append(obj) if isinstance(obj, h5py.Dataset) and obj.fletcher32 else None)
+    for ds in found:
+        try:
+            if (claim := _claim(ds, None)) is not None:
+                raise InputError(key, f"{path!r} is damaged: dataset {ds.name}: {claim}")
+            for start in _chunk_starts(ds):  # the chunks the file holds, one by one
+                ds[start : start + ds.chunks[0]]
+        except InputError:
+            raise
+        except DAMAGE:
+            read_dataset(ds, path, key=key)  # names the rows
+            raise
+
+
 def read(path) -> Result:
     """Read a run file.
 
@@ -414,45 +554,64 @@ def read(path) -> Result:
     Raises
     ------
     InputError
-        The file does not exist, is not HDF5 or is not an emorbit run file.
+        The file does not exist, is not HDF5 or is not an emorbit run file, or it is damaged:
+        a dataset whose Fletcher-32 checksum fails (named, with the rows that cannot be read),
+        or a part that h5py cannot read (named).
     """
     path = file_path(path)
     with open_run_file(path, peek=True) as f:
-        n = _rows(f)
-        bodies, masses, kinds = {}, {}, {}
-        for name, g in f["bodies"].items():
-            bodies[name] = {q: ds[:n] for q, ds in g.items() if isinstance(ds, h5py.Dataset)}
-            if "nodes" in g:
-                nodes = {q: ds[()] for q, ds in g["nodes"].items()}
-                k = min(len(a) for a in nodes.values())
-                bodies[name].update({f"nodes/{q}": a[:k] for q, a in nodes.items()})
-            for sub in ("mesh", "mass_points"):
-                if isinstance(g.get(sub), h5py.Group):
-                    bodies[name].update({f"{sub}/{q}": ds[()] for q, ds in g[sub].items()})
-            if "mass" not in g.attrs or "kind" not in g.attrs:
-                raise InputError("file", f"{path!r}: group /bodies/{name} has no 'mass' or 'kind' attribute")
-            masses[name] = float(g.attrs["mass"])
-            kinds[name] = str(g.attrs["kind"])
-        diag = {name.split("/")[1]: optional_rows(f, name, n) for name in OPTIONAL}
-        center = np.asarray(f.attrs["center"], float)
-        if center.shape != (3,):
-            raise InputError("file", f"{path!r}: root attribute 'center' has shape {center.shape}, expected (3,)")
-        return Result(
-            time=f["time"][:n],
-            energy=f["invariants/energy"][:n],
-            momentum=f["invariants/momentum"][:n],
-            angular_momentum=f["invariants/angular_momentum"][:n],
-            newton_iterations=f["diagnostics/newton_iterations"][:n],
-            bodies=bodies,
-            masses=masses,
-            kinds=kinds,
-            method=_attr(f, path, "method", str),
-            order=_attr(f, path, "order", int),
-            dt=_attr(f, path, "dt", float),
-            gm=_attr(f, path, "gm", float),
-            center=center,
-            attrs={k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()},
-            work={k[len("work_") :]: ds[:n] for k, ds in f["invariants"].items() if k.startswith("work_")},
-            energy_balance=f["invariants/energy_balance"][:n] if "energy_balance" in f["invariants"] else None,
-            **diag,
-        )
+        at = ["the record datasets' lengths"]  # the part being read, for the message
+        try:
+            return _read(f, path, at)
+        except InputError:
+            raise
+        except DAMAGE as exc:  # h5py on a damaged part that no checksum covers: say which
+            raise InputError("file", f"{path!r} is damaged: {at[0]} cannot be read ({damage_message(exc)})") from None
+
+
+def _read(f, path: str, at: list) -> Result:
+    """:func:`read` of the open file; ``at[0]`` says what is being read."""
+    n = _rows(f)
+    bodies, masses, kinds = {}, {}, {}
+    for name, g in f["bodies"].items():
+        at[0] = f"group /bodies/{name}"
+        bodies[name] = {q: read_dataset(ds, path, n) for q, ds in g.items() if isinstance(ds, h5py.Dataset)}
+        if "nodes" in g:
+            nodes = {q: read_dataset(ds, path) for q, ds in g["nodes"].items()}
+            k = min(len(a) for a in nodes.values())
+            bodies[name].update({f"nodes/{q}": a[:k] for q, a in nodes.items()})
+        for sub in ("mesh", "mass_points"):
+            if isinstance(g.get(sub), h5py.Group):
+                bodies[name].update({f"{sub}/{q}": read_dataset(ds, path) for q, ds in g[sub].items()})
+        if "mass" not in g.attrs or "kind" not in g.attrs:
+            raise InputError("file", f"{path!r}: group /bodies/{name} has no 'mass' or 'kind' attribute")
+        masses[name] = float(g.attrs["mass"])
+        kinds[name] = str(g.attrs["kind"])
+    at[0] = "the record datasets"
+    diag = {name.split("/")[1]: optional_rows(f, name, n) for name in OPTIONAL}
+    at[0] = "the root attributes"
+    center = np.asarray(f.attrs["center"], float)
+    if center.shape != (3,):
+        raise InputError("file", f"{path!r}: root attribute 'center' has shape {center.shape}, expected (3,)")
+    attrs = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()}
+    at[0] = "group /invariants"
+    invariants = f["invariants"]
+    return Result(
+        time=read_dataset(f["time"], path, n),
+        energy=read_dataset(f["invariants/energy"], path, n),
+        momentum=read_dataset(f["invariants/momentum"], path, n),
+        angular_momentum=read_dataset(f["invariants/angular_momentum"], path, n),
+        newton_iterations=read_dataset(f["diagnostics/newton_iterations"], path, n),
+        bodies=bodies,
+        masses=masses,
+        kinds=kinds,
+        method=_attr(f, path, "method", str),
+        order=_attr(f, path, "order", int),
+        dt=_attr(f, path, "dt", float),
+        gm=_attr(f, path, "gm", float),
+        center=center,
+        attrs=attrs,
+        work={k[len("work_") :]: read_dataset(ds, path, n) for k, ds in invariants.items() if k.startswith("work_")},
+        energy_balance=read_dataset(invariants["energy_balance"], path, n) if "energy_balance" in invariants else None,
+        **diag,
+    )

@@ -25,7 +25,17 @@ from ..result import Result
 from ..scene import parse_scene, scene_overrides
 from ..units import to_si
 from .hdf5 import Writer
-from .reader import LAYOUT_UNITS, NEXT_CHECKPOINT, file_path, open_run_file, probe, state_digest
+from .reader import (
+    DAMAGE,
+    LAYOUT_UNITS,
+    NEXT_CHECKPOINT,
+    damage_message,
+    file_path,
+    open_run_file,
+    probe,
+    state_digest,
+    verify_checksums,
+)
 
 __all__ = ["resume", "load_checkpoint"]
 
@@ -168,8 +178,8 @@ def _load(path) -> _Loaded:
             loaded, where, arrays, recorded = _read(f, path)
         except InputError:
             raise
-        except (OSError, RuntimeError, KeyError, ValueError, TypeError, IndexError) as exc:  # h5py on a damaged file
-            raise _bad(path, "its content", f"cannot be read ({' '.join(str(exc).split())})") from None
+        except DAMAGE as exc:  # h5py on a damaged file
+            raise _bad(path, "its content", f"cannot be read ({damage_message(exc)})") from None
     sim = loaded.sim
     _check_state(path, where, arrays, sim)
     try:
@@ -199,6 +209,7 @@ def _read(f, path: str):
     the invariants recorded with the checkpoint's record."""
     f.visititems(lambda name, obj: None)  # every group a resume writes into opens (a damaged one raises)
     attrs = _plain(f.attrs)
+    verify_checksums(f, path)  # the records kept, and the state: a changed byte would be continued
     scene_text = _string(path, attrs, "scene")
     method = _string(path, attrs, "method")
     order = _number(path, attrs, "order", integer=True, minimum=1)
