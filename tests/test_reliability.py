@@ -8,6 +8,7 @@ import os
 import stat
 import subprocess
 import sys
+import time
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -347,3 +348,27 @@ def test_a_sweep_removes_only_its_own_temporary_files(tmp_path):
     assert code == 0, err
     assert all((out / "runs" / name).read_text() == "user data" for name in mine)
     assert not any((out / "runs" / name).exists() for name in orphans)
+
+
+# -- a file truncated under its run ------------------------------------------------------------------
+def test_a_file_truncated_under_its_run_fails_the_run(tmp_path):
+    """Truncating the output file in place while a run wrote it left a file that cannot be read,
+    and the run exited 0; removing or replacing it was caught already (exit 1)."""
+    scene = POINT_SCENE.format(epoch="2026-01-01T00:00:00 TDB").replace('dt = "60 s"', 'dt = "0.01 s"')
+    (tmp_path / "s.toml").write_text(scene.replace('t_end = "600 s"', 't_end = "1e6 s"\noutput_every = 1000'))
+    out = tmp_path / "out.h5"
+    cmd = [sys.executable, "-m", "emorbit.cli", "run", "s.toml", "-o", "out.h5", "-q"]
+    proc = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while not out.exists() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        time.sleep(0.5)
+        os.truncate(out, out.stat().st_size // 2)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 1, err
+    assert "was truncated" in err and "Traceback" not in err

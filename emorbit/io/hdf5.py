@@ -16,8 +16,11 @@ which takes its HDF5 file lock: a file that another run is writing (and so holds
 refused, never replaced. The writer checks at every flush that its path still names the
 file it writes; a file removed or replaced under a run stops that run with
 :class:`FileLostError`, and the file it wrote is copied next to the path if nothing else
-reaches it. Every dataset is stored with a Fletcher-32 checksum per chunk
-(:func:`emorbit.io.reader.read_dataset` names the rows of a chunk whose bytes changed).
+reaches it. Before it writes, the writer also checks that the file is not shorter than after
+its last flush: a file truncated in place under a run (its records lost) stops that run with
+:class:`FileLostError` too, at the next record, checkpoint or close. Every dataset is stored
+with a Fletcher-32 checksum per chunk (:func:`emorbit.io.reader.read_dataset` names the rows
+of a chunk whose bytes changed).
 
 ``/checkpoint`` holds the complete state (every system's arrays, compensation terms and
 warm starts included, each with its ``unit``; attributes ``steps`` since the run's start,
@@ -63,9 +66,16 @@ __all__ = ["Writer", "FileLostError", "temp_name", "temp_pattern"]
 _EFFECT_RECORDS = ("invariants/potential_", "invariants/work_", "invariants/energy_balance")
 
 
+#: what a truncated file's error adds: the records are not kept anywhere
+_TRUNCATED = (
+    " (by another process or by hand): the records this run wrote before are lost from it, and the run stops; "
+    "run it again"
+)
+
+
 class FileLostError(EmorbitError, OSError):
-    """The run file was removed or replaced while a run wrote it; the message says where the
-    records are, if they could be kept (``emorbit run`` exits with code 1)."""
+    """The run file was removed, replaced or truncated while a run wrote it; the message says
+    where the records are, if they could be kept (``emorbit run`` exits with code 1)."""
 
 
 def _exists_message(path: str) -> str:
@@ -217,6 +227,7 @@ class Writer:
         self.file = None
         self.rescued = None
         self._lost = None
+        self._flushed_size = None  # the file's size after the last flush, bytes
         self._overwrite = overwrite
         self._held = _hold(path) if overwrite and os.path.lexists(path) else None
         _remove_orphans(folder, os.path.basename(path))
@@ -229,6 +240,7 @@ class Writer:
             self._identity = _identity(os.fstat(self.file.id.get_vfd_handle()))
             self._layout(bodies, attrs, chunk_rows, potentials, works)
             self.file.flush()
+            self._flushed_size = self._size()
         except BaseException:
             self._discard()
             raise
@@ -323,9 +335,44 @@ class Writer:
             return None
         return None if now == self._identity else "was replaced by another file"
 
+    def _size(self) -> int | None:
+        """The size of the file this writer holds open, bytes (None where it cannot be told)."""
+        try:
+            return os.fstat(self.file.id.get_vfd_handle()).st_size
+        except (OSError, ValueError, AttributeError):
+            return None
+
+    def _shrunk(self, flushed: bool = False) -> str | None:
+        """Whether the file is shorter than it was after the last flush (between flushes HDF5
+        only writes, which never shortens a file) or, just after a flush, than HDF5 holds it to
+        be: truncated in place by another process."""
+        size = self._size()
+        if size is None:
+            return None
+        was = self._flushed_size
+        if flushed:
+            try:
+                was = self.file.id.get_filesize()  # a flush leaves the file as long as HDF5 has it
+            except (OSError, RuntimeError, ValueError):
+                return None
+        if was is None or size >= was:
+            return None
+        return f"was truncated to {size:,} bytes (it had {was:,})"
+
+    def _watch(self, flushed: bool = False) -> None:
+        """Before writing, before a flush and after one: stop the run if its file was truncated
+        in place since the last flush; what it wrote before is lost, and writing on would
+        leave a file that cannot be read."""
+        if self._lost is None and (what := self._shrunk(flushed)):
+            self._lost = what
+            raise FileLostError(f"{self.path!r} {what} while this run was writing it{_TRUNCATED}")
+
     def _flush(self) -> None:
-        """Flush, then stop the run if the path no longer names this file."""
+        """Flush, then stop the run if the file was truncated or the path no longer names it."""
+        self._watch()
         self.file.flush()
+        self._watch(flushed=True)
+        self._flushed_size = self._size()
         if self._lost is None and (what := self.lost()):
             self._lost = what
             raise FileLostError(
@@ -377,6 +424,7 @@ class Writer:
         FileLostError
             The path no longer names this file.
         """
+        self._watch()
         time = np.asarray(time, float)
         blocks = dict(zip(list(LAYOUT_UNITS)[:5], (time, energy, momentum, angular_momentum, newton_iterations)))
         for name, fill in OPTIONAL.items():
@@ -421,6 +469,7 @@ class Writer:
         FileLostError
             The path no longer names this file.
         """
+        self._watch()
         f = self.file
         if NEXT_CHECKPOINT in f:
             del f[NEXT_CHECKPOINT]
@@ -453,6 +502,7 @@ class Writer:
         FileLostError
             The path no longer names this file.
         """
+        self._watch()
         self._state_group("final_state", steps, time, arrays, units)
         self._flush()
 
@@ -510,7 +560,7 @@ class Writer:
         """
         self = cls.__new__(cls)
         self.path = file_path(path)
-        self._lost, self._temp, self._held, self.rescued = None, None, None, None
+        self._lost, self._temp, self._held, self.rescued, self._flushed_size = None, None, None, None, None
         try:
             self.file = h5py.File(self.path, "r+")
         except OSError as exc:
@@ -583,10 +633,13 @@ class Writer:
         """
         if not self.file:
             return ""
+        shrunk = self._shrunk() if self._lost is None else None  # before this close writes
         self.file.attrs["status"] = status
         if error is not None:
             self.file.attrs["error"] = error
         self.file.flush()
+        if self._lost is None:
+            shrunk = shrunk or self._shrunk(flushed=True)
         if self._temp is not None:
             try:
                 self._place()
@@ -595,10 +648,12 @@ class Writer:
                 raise
         reported = self._lost is not None
         if not reported:
-            self._lost = self.lost()
-        note = self._rescue() if self._lost else ""
+            self._lost = shrunk or self.lost()
+        note = self._rescue() if self._lost and not self._lost.startswith("was truncated") else ""
         self.file.close()
         if self._lost and not reported:
+            if shrunk:
+                raise FileLostError(f"{self.path!r} {self._lost} while this run was writing it{_TRUNCATED}")
             raise FileLostError(
                 f"{self.path!r} {self._lost} while this run was writing it (by another process or by hand); "
                 f"the records this run wrote are not at that path{note}"
