@@ -372,3 +372,31 @@ def test_a_file_truncated_under_its_run_fails_the_run(tmp_path):
             proc.communicate()
     assert proc.returncode == 1, err
     assert "was truncated" in err and "Traceback" not in err
+
+
+def test_a_file_another_run_writes_is_not_resumed_without_file_locks(tmp_path):
+    """Where the file system does not take HDF5's file locks, resuming a file that a run was
+    still writing continued it (two writers, a continuation that differs from an unbroken run);
+    the file's status ("running") and its writer (a live process on this machine) refuse it."""
+    scene = POINT_SCENE.format(epoch="2026-01-01T00:00:00 TDB").replace('dt = "60 s"', 'dt = "0.01 s"')
+    (tmp_path / "s.toml").write_text(scene.replace('t_end = "600 s"', 't_end = "1e6 s"\noutput_every = 1000'))
+    env = dict(os.environ, HDF5_USE_FILE_LOCKING="FALSE")
+    out = tmp_path / "out.h5"
+    cmd = [sys.executable, "-m", "emorbit.cli", "run", "s.toml", "-o", "out.h5", "-q"]
+    proc = subprocess.Popen(cmd, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while not out.exists() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        again = [sys.executable, "-m", "emorbit.cli", "resume", "out.h5", "--t-end", "2e6 s", "-q"]
+        second = subprocess.run(again, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+        assert proc.poll() is None, "the run ended before the resume was tried"
+        proc.terminate()
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert second.returncode == 2, second.stderr
+    assert f"process {proc.pid}" in second.stderr and "being written" in second.stderr
+    assert proc.returncode == 143, err

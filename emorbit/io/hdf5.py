@@ -46,18 +46,22 @@ import numpy as np
 from .._version import __version__
 from ..errors import EmorbitError, InputError
 from .reader import (
+    DAMAGE,
     LAYOUT_UNITS,
     NEXT_CHECKPOINT,
     OPTIONAL,
     ROOT_UNITS,
     STATE_UNITS,
     WIDTHS,
+    _alive,
     _busy_message,
     _locked,
     file_path,
+    live_writer,
     not_regular,
     optional_rows,
     state_digest,
+    writer_id,
 )
 
 __all__ = ["Writer", "FileLostError", "temp_name", "temp_pattern"]
@@ -164,6 +168,13 @@ def _hold(path: str):
     if not same:
         held.close()
         raise InputError("output", f"{path!r} was replaced by another process while this run opened it; try again")
+    try:
+        writer = live_writer(held.attrs)
+    except DAMAGE:  # its attributes cannot be read: no run can be writing it either
+        writer = None
+    if writer is not None:  # a file system that does not take HDF5's locks
+        held.close()
+        raise InputError("output", _busy_message(path, writer))
     return held
 
 
@@ -294,6 +305,7 @@ class Writer:
         f.attrs["versions"] = _versions()
         _write_root_attrs(f, attrs)
         f.attrs["status"] = "running"
+        f.attrs["writer"] = writer_id()
         self._ds = {
             name: _growable(f, name, WIDTHS[name], unit, chunk_rows, OPTIONAL.get(name) or 0.0)
             for name, unit in LAYOUT_UNITS.items()
@@ -599,6 +611,7 @@ class Writer:
             if key in f.attrs and f"{key}_unit" not in f.attrs:
                 f.attrs[f"{key}_unit"] = ROOT_UNITS[key]
         f.attrs["status"] = "running"
+        f.attrs["writer"] = writer_id()
         if "error" in f.attrs:
             del f.attrs["error"]
         self._flush()
@@ -692,17 +705,6 @@ def _remove_orphans(folder: str, name: str) -> None:
             os.unlink(os.path.join(folder, entry))
         except OSError:
             pass
-
-
-def _alive(pid: int) -> bool:
-    """Whether a process with this id runs (on this machine)."""
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except (PermissionError, OSError):
-        return True  # another user's, or not ours to ask: leave its file alone
-    return True
 
 
 def _discard(file, temp, held) -> None:

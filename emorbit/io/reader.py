@@ -51,6 +51,8 @@ __all__ = [
     "verify_checksums",
     "damage_message",
     "DAMAGE",
+    "writer_id",
+    "live_writer",
 ]
 
 #: the unit attribute of each top-level dataset
@@ -157,9 +159,10 @@ def _locked(exc: BaseException) -> bool:
     return "unable to lock file" in str(exc)
 
 
-def _busy_message(path: str) -> str:
+def _busy_message(path: str, writer: str | None = None) -> str:
+    how = "it holds the file's HDF5 lock" if writer is None else f"{writer}, its status 'running'"
     return (
-        f"{path!r} is being written by another process (it holds the file's HDF5 lock); "
+        f"{path!r} is being written by another process ({how}); "
         "wait for that run to end, stop it, or choose another name"
     )
 
@@ -224,6 +227,70 @@ def not_regular(path) -> str | None:
     if stat.S_ISREG(mode):
         return None
     return next((what for test, what in _KINDS if test(mode)), "not a regular file")
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process with this id runs (on this machine)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True  # another user's, or not ours to ask: count it as running
+    return True
+
+
+def _process_start(pid: int) -> int | None:
+    """When a process started, in clock ticks since boot (Linux), so that a process id that
+    was reused is not taken for the process that had it; None where it cannot be told."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as fh:
+            return int(fh.read().rsplit(b")", 1)[1].split()[19])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def writer_id() -> str:
+    """Who writes a run file: this machine's name, this process's id and start (JSON), the
+    root attribute ``writer`` that :func:`live_writer` reads."""
+    import json
+    import socket
+
+    return json.dumps({"host": socket.gethostname(), "pid": os.getpid(), "start": _process_start(os.getpid())})
+
+
+def live_writer(attrs) -> str | None:
+    """The process that still writes a run file whose status is "running", where it can be
+    told: one on this machine (not this process) that runs and started when the file's
+    ``writer`` attribute says. This catches a second writer where the file system does not
+    take HDF5's file locks.
+
+    Parameters
+    ----------
+    attrs : mapping
+        The file's root attributes.
+
+    Returns
+    -------
+    str or None
+        "process <pid>" while it writes; None for a finished, failed, interrupted or killed
+        run, or a writer that cannot be told (another machine, a file of an earlier version).
+    """
+    import json
+    import socket
+
+    try:
+        if str(attrs.get("status", "")) != "running":
+            return None
+        info = json.loads(attrs["writer"])
+        pid, host, start = int(info["pid"]), info["host"], info.get("start")
+    except (KeyError, ValueError, TypeError, OSError, RuntimeError):
+        return None
+    if host != socket.gethostname() or pid == os.getpid() or not _alive(pid):
+        return None
+    if start is not None and _process_start(pid) not in (None, start):
+        return None  # the id now names another process
+    return f"process {pid}"
 
 
 def open_run_file(path, key: str = "file", *, peek: bool = False) -> h5py.File:

@@ -29,8 +29,10 @@ from .reader import (
     DAMAGE,
     LAYOUT_UNITS,
     NEXT_CHECKPOINT,
+    _busy_message,
     damage_message,
     file_path,
+    live_writer,
     open_run_file,
     probe,
     state_digest,
@@ -209,6 +211,8 @@ def _read(f, path: str):
     the invariants recorded with the checkpoint's record."""
     f.visititems(lambda name, obj: None)  # every group a resume writes into opens (a damaged one raises)
     attrs = _plain(f.attrs)
+    if (writer := live_writer(attrs)) is not None:  # a file system that does not take HDF5's locks
+        raise InputError("file", _busy_message(path, writer))
     verify_checksums(f, path)  # the records kept, and the state: a changed byte would be continued
     scene_text = _string(path, attrs, "scene")
     method = _string(path, attrs, "method")
