@@ -92,3 +92,29 @@ def test_a_file_without_checksums_reads_and_resumes_as_before(tmp_path, run_file
     for name in ("time", "energy", "momentum"):
         assert np.array_equal(getattr(a, name), getattr(b, name)), name
     assert np.array_equal(a.bodies["sat"]["position"], b.bodies["sat"]["position"])
+
+
+def test_a_damaged_name_is_not_taken_for_a_file_of_an_earlier_version(tmp_path, run_file):
+    """A changed byte in the name /diagnostics/stalled_solves made the file look like one of an
+    earlier version that lacks the dataset: resume went on, filled its rows with zeros and left
+    the damaged dataset beside them (exit 0)."""
+    path = tmp_path / "run.h5"
+    shutil.copy(run_file, path)
+    with h5py.File(path, "r+") as f:
+        f.move("diagnostics/stalled_solves", "diagnostics/stalked_solves")
+    with pytest.raises(InputError, match="stalked_solves is not a dataset emorbit writes"):
+        emorbit.read(path)
+    code, _, err = cli(["resume", path, "--t-end", "92.9516 s", "-q"])
+    assert clean_error(code, err) == "file" and "stalked_solves" in err
+
+
+def test_probe_finds_a_file_that_stalls_the_hdf5_library(tmp_path, run_file, monkeypatch):
+    """emorbit.read(probe=...) reads the file in a child process first: a file whose reading does
+    not end there (the HDF5 library loops on some damaged attribute heaps, where no error
+    reaches Python) is an InputError saying so; without the probe the file is read as ever."""
+    import emorbit.io.reader as reader
+
+    monkeypatch.setattr(reader, "_PROBE", "import time\ntime.sleep(60)\n")
+    with pytest.raises(InputError, match="does not end within 1 s"):
+        emorbit.read(run_file, probe=1.0)
+    assert len(emorbit.read(run_file)) == 101

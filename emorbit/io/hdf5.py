@@ -47,6 +47,7 @@ from .._version import __version__
 from ..errors import EmorbitError, InputError
 from .reader import (
     DAMAGE,
+    EFFECT_RECORDS,
     LAYOUT_UNITS,
     NEXT_CHECKPOINT,
     OPTIONAL,
@@ -65,9 +66,6 @@ from .reader import (
 )
 
 __all__ = ["Writer", "FileLostError", "temp_name", "temp_pattern"]
-
-#: the record datasets of effects, one per effect (or the balance of those that do work)
-_EFFECT_RECORDS = ("invariants/potential_", "invariants/work_", "invariants/energy_balance")
 
 
 #: what a truncated file's error adds: the records are not kept anywhere
@@ -445,7 +443,7 @@ class Writer:
                 fill = np.asarray(energy, float)[:, None]
             blocks[name] = diagnostics.get(name.split("/")[1], np.broadcast_to(fill, shape))
         for name in self._ds:
-            if name.startswith(_EFFECT_RECORDS):
+            if name.startswith(EFFECT_RECORDS):
                 blocks[name] = diagnostics.get(name.split("/")[1], np.zeros(time.shape[0]))
         for name, block in blocks.items():
             _append(self._ds[name], np.asarray(block, float))
@@ -589,7 +587,7 @@ class Writer:
                 ds[:] = rows
         self._ds = {name: f[name] for name in LAYOUT_UNITS}
         for label in f["invariants"]:  # each effect's potential energy, the work of those doing work
-            if label.startswith(tuple(p.split("/")[1] for p in _EFFECT_RECORDS)):
+            if label.startswith(tuple(p.split("/")[1] for p in EFFECT_RECORDS)):
                 self._ds[f"invariants/{label}"] = f[f"invariants/{label}"]
         self._body_ds = {}
         for name, g in f["bodies"].items():

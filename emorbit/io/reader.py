@@ -53,6 +53,7 @@ __all__ = [
     "DAMAGE",
     "writer_id",
     "live_writer",
+    "EFFECT_RECORDS",
 ]
 
 #: the unit attribute of each top-level dataset
@@ -409,6 +410,13 @@ def probe(path, seconds: float | None = None) -> str | None:
     return None
 
 
+_probe = probe  # read() takes an argument of this name
+
+
+#: the record datasets of effects, one per effect (or the balance of those that do work)
+EFFECT_RECORDS = ("invariants/potential_", "invariants/work_", "invariants/energy_balance")
+
+
 def check_layout(f: h5py.File, path: str, key: str = "file") -> None:
     """Check that an open HDF5 file has the layout of an emorbit run file.
 
@@ -424,12 +432,20 @@ def check_layout(f: h5py.File, path: str, key: str = "file") -> None:
     Raises
     ------
     InputError
-        A dataset, group or root attribute of the layout is missing or has the wrong shape,
-        naming it.
+        A dataset, group or root attribute of the layout is missing or has the wrong shape, or
+        a name in /invariants or /diagnostics is not one emorbit writes, naming it.
     """
     what = f"{path!r} is an HDF5 file but not an emorbit run file"
     if "time" not in f and "bodies" not in f and "method" not in f.attrs:
         raise InputError(key, f"{what} (it has no /time, no /bodies and no 'method' attribute)")
+    try:
+        f.visit(lambda name: None)
+    except (TypeError, UnicodeDecodeError):  # h5py on a name that is not UTF-8 text
+        raise InputError(key, f"{path!r} is damaged: the name of a group or dataset is not text") from None
+    for group in ("invariants", "diagnostics"):  # a damaged name would pass for a dataset of an earlier version
+        for name in f[group] if isinstance(f.get(group), h5py.Group) else ():
+            if f"{group}/{name}" not in LAYOUT_UNITS and not f"{group}/{name}".startswith(EFFECT_RECORDS):
+                raise InputError(key, f"{path!r}: /{group}/{name} is not a dataset emorbit writes (a damaged name?)")
     for name in LAYOUT_UNITS:
         if name in OPTIONAL and name not in f:
             continue  # absent in files of earlier versions: read as OPTIONAL says
@@ -602,7 +618,7 @@ def verify_checksums(f, path: str, key: str = "file") -> None:
             raise
 
 
-def read(path) -> Result:
+def read(path, *, probe: bool | float = False) -> Result:
     """Read a run file.
 
     A file that another run is writing is read as far as that run has flushed it; records
@@ -612,6 +628,12 @@ def read(path) -> Result:
     ----------
     path : str, bytes or os.PathLike
         An HDF5 file written by emorbit.
+    probe : bool or float
+        Read the file in a child process first (:func:`probe`, about 0.3 s more): on some
+        damaged files (an attribute's heap or an object header overwritten) the HDF5 library
+        loops forever or crashes, where no error reaches Python; with ``probe`` such a file
+        is an InputError. A number is how long the child may read, s (True: 10 s plus 1 s
+        per 100 MB). ``emorbit resume`` always probes.
 
     Returns
     -------
@@ -626,6 +648,9 @@ def read(path) -> Result:
         or a part that h5py cannot read (named).
     """
     path = file_path(path)
+    seconds = None if probe is True else float(probe)
+    if probe and os.path.isfile(path) and (problem := _probe(path, seconds)) is not None:
+        raise InputError("file", f"{path!r} is damaged: {problem}")
     with open_run_file(path, peek=True) as f:
         at = ["the record datasets' lengths"]  # the part being read, for the message
         try:
