@@ -284,7 +284,7 @@ def main(argv=None) -> int:
     try:
         return handler(args)
     except InputError as exc:
-        print(f"emorbit: error: {exc}", file=sys.stderr)
+        print(f"emorbit: error: {' '.join(str(exc).split())}", file=sys.stderr)  # one line
         return 2
     except IntegrationError as exc:
         print(f"emorbit: run failed: {exc}", file=sys.stderr)

@@ -400,3 +400,10 @@ def test_a_file_another_run_writes_is_not_resumed_without_file_locks(tmp_path):
     assert second.returncode == 2, second.stderr
     assert f"process {proc.pid}" in second.stderr and "being written" in second.stderr
     assert proc.returncode == 143, err
+
+
+def test_an_epoch_astropy_cannot_read_is_one_line_naming_the_key(tmp_path):
+    """astropy's message lists every format it tried, over eleven lines."""
+    code, _, err = cli(["run", _scene(tmp_path, epoch="2026-13-45T99:00:00 UTC"), "-o", tmp_path / "o.h5", "-q"])
+    assert clean_error(code, err) == "integrator.epoch" and "bad month" in err
+
