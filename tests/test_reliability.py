@@ -407,3 +407,19 @@ def test_an_epoch_astropy_cannot_read_is_one_line_naming_the_key(tmp_path):
     code, _, err = cli(["run", _scene(tmp_path, epoch="2026-13-45T99:00:00 UTC"), "-o", tmp_path / "o.h5", "-q"])
     assert clean_error(code, err) == "integrator.epoch" and "bad month" in err
 
+
+@pytest.mark.parametrize("body, key, value", [(1, "shape", []), (1, "shape", {"a": 1}), (2, "mesh", [])])
+def test_a_list_or_table_for_a_shape_or_mesh_name_names_the_key(body, key, value):
+    """mesh = [] was a TypeError traceback (unhashable type: 'list') from the mesh's table."""
+    import copy
+
+    from fuzz_support import BASE, to_toml
+
+    from emorbit.errors import InputError
+    from emorbit.scene import parse_scene
+
+    d = copy.deepcopy(BASE)
+    d["body"][body][key] = value
+    with pytest.raises(InputError) as info:
+        parse_scene(to_toml(d))
+    assert info.value.key == f"body[{body}].{key}"

@@ -665,7 +665,7 @@ def mesh_from_parameters(mesh, params: dict, strict: bool, key: str):
         "net": ("size", "elements"),
         "file": ("file", "mesh_unit"),
     }
-    if mesh not in allowed:
+    if not isinstance(mesh, str) or mesh not in allowed:  # a list or a table cannot be looked up
         raise InputError(f"{key}.mesh", f"unknown mesh {mesh!r}; known: {', '.join(allowed)}")
     for p in params:
         if p not in allowed[mesh]:
