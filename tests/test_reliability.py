@@ -423,3 +423,40 @@ def test_a_list_or_table_for_a_shape_or_mesh_name_names_the_key(body, key, value
     with pytest.raises(InputError) as info:
         parse_scene(to_toml(d))
     assert info.value.key == f"body[{body}].{key}"
+
+
+# -- messages that name the key ----------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "body, changes, key",
+    [
+        (1, {"density": "5e-324 kg/m3"}, "body[1].density"),  # said "body[1]: mass must be > 0"
+        (1, {"size": ["1e-300 m"] * 3}, "body[1].size"),
+        (1, {"shape": "ellipsoid", "size": None, "semi_axes": ["1e-300 m"] * 3}, "body[1].semi_axes"),
+        (1, {"shape": "sphere", "size": None, "radius": "1e-300 m", "density": None, "mass": "1 kg"}, "body[1].radius"),
+        (1, {"size": ["1e-200 m"] * 3, "density": None, "mass": "1 kg"}, "body[1].size"),  # said "overflow"
+        (2, {"density": "5e-324 kg/m3"}, "body[2].density"),  # said "body[2].position: ... at the field's centre"
+    ],
+    ids=["density", "size", "semi_axes", "radius", "size with mass", "elastic density"],
+)
+def test_tiny_densities_and_sizes_name_their_key(body, changes, key):
+    """Values that underflow float64 used to be blamed on the mass ("mass must be > 0"), on the
+    shape ("the mass points lie in a plane"), on an overflow, or on the body's position."""
+    import copy
+    import warnings
+
+    from fuzz_support import BASE, to_toml
+
+    from emorbit.errors import InputError
+    from emorbit.scene import parse_scene
+
+    d = copy.deepcopy(BASE)
+    for k, v in changes.items():
+        if v is None:
+            del d["body"][body][k]
+        else:
+            d["body"][body][k] = v
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no RuntimeWarning on the way
+        with pytest.raises(InputError) as info:
+            parse_scene(to_toml(d))
+    assert info.value.key == key, str(info.value)
