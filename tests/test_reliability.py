@@ -255,6 +255,8 @@ def test_paths_may_be_bytes(tmp_path):
         emorbit.load_scene(str(_scene(tmp_path))).build().run(t_end=120.0, output=12)
     with pytest.raises(InputError, match="file: a path"):
         emorbit.read(3.5)
+    with pytest.raises(InputError, match="NUL"):  # os.stat raised ValueError: embedded null byte
+        emorbit.load_scene(str(_scene(tmp_path))).build().run(t_end=120.0, output=str(tmp_path / "a\0b.h5"))
 
 
 # -- sweeps ------------------------------------------------------------------------------------------

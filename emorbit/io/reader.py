@@ -196,12 +196,15 @@ def file_path(path, key: str = "file") -> str:
     Raises
     ------
     InputError
-        Anything else.
+        Anything else, or a path that holds a NUL character.
     """
     try:
-        return os.fsdecode(os.fspath(path))
+        text = os.fsdecode(os.fspath(path))
     except TypeError:
         raise InputError(key, f"a path (a string) expected, got {path!r}") from None
+    if "\0" in text:  # the operating system's calls would raise ValueError
+        raise InputError(key, f"a path cannot hold a NUL character, got {text!r}")
+    return text
 
 
 def not_regular(path) -> str | None:
