@@ -8,13 +8,14 @@
 
 SCENE is a shipped scene's name (``emorbit scenes`` lists them) or a TOML file. Values given
 on the command line carry units like those in a scene: ``--t-end "100 s"``, ``--dt "0.1 s"``.
-Exit codes: 0 success; 1 a run failed while stepping, or its file was removed or replaced
-by another process while it ran; 2 bad input (also an output file that another run is
-writing); 3 (``run --strict`` only) the run completed, but a conserved invariant drifted
-beyond what round-off explains (:mod:`emorbit.io.drift`; the file is complete); 130
-interrupted by SIGINT (Ctrl-C), 143 by SIGTERM: the run stops at the end of the chunk in
-progress, and the file keeps everything up to the interruption, marked "interrupted", and
-can be resumed. Without ``--strict`` that drift is a warning on stderr.
+Exit codes: 0 success; 1 a run failed while stepping or diverged, or its file was removed,
+replaced or truncated by another process while it ran; 2 bad input (also an output file that
+another run is writing, and a damaged run file); 3 (``run --strict`` only) the run completed,
+but a conserved invariant drifted beyond what round-off explains (:mod:`emorbit.io.drift`;
+the file is complete); 130 interrupted by SIGINT (Ctrl-C), 143 by SIGTERM: the run stops at
+the end of the chunk in progress, and the file keeps everything up to the interruption,
+marked "interrupted", and can be resumed. Without ``--strict`` that drift is a warning on
+stderr.
 """
 
 from __future__ import annotations
@@ -386,7 +387,7 @@ def main(argv=None) -> int:
     try:
         return handler(args)
     except InputError as exc:
-        print(f"emorbit: error: {exc}", file=sys.stderr)
+        print(f"emorbit: error: {' '.join(str(exc).split())}", file=sys.stderr)  # one line
         return 2
     except IntegrationError as exc:
         print(f"emorbit: run failed: {exc}", file=sys.stderr)

@@ -71,7 +71,7 @@ def to_epoch(value, key: str = "epoch"):
             if t.isscalar:
                 t = _rounded(t)
     except (ValueError, TypeError) as exc:
-        raise InputError(key, f"{value!r} is not a date and time astropy reads: {exc}") from None
+        raise InputError(key, f"{value!r} is not a date and time astropy reads ({_reason(exc)})") from None
     if not t.isscalar:
         raise InputError(key, f"one instant expected, got {value!r}")
     said = " ".join(str(w.message) for w in caught)
@@ -112,3 +112,13 @@ def epoch_text(epoch) -> str:
     t = epoch.tdb.replicate()
     t.precision = 9
     return f"{t.isot} TDB"
+
+
+def _reason(exc: BaseException) -> str:
+    """Why astropy did not read a time, in one line: ERFA's reason ("bad month") where it gave
+    one, else the first line of the message (astropy lists every format it tried)."""
+    import re
+
+    text = str(exc)
+    found = re.search(r'ERFA function "\w+" yielded \d+ of "([^"]+)"', text)
+    return found.group(1) if found else (text.strip().splitlines() or [type(exc).__name__])[0].rstrip(":")

@@ -31,13 +31,7 @@ import importlib.resources
 import numbers
 import os
 import re
-import sys
 from dataclasses import dataclass, field
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
 
 from .bodies.facets import FACET_KEYS
 from .effects import EFFECTS, effect_kinds
@@ -46,7 +40,7 @@ from .field import BODIES, CentralField
 from .integrators import METHODS, ORDERS, ROUNDOFF
 from .integrators.plan import MAX_NEWTON_ITERATIONS
 from .io.drift import check_tolerance
-from .io.scene_toml import simulation_to_toml
+from .io.scene_toml import MAX_DEPTH, load_toml, simulation_to_toml
 from .keys import Key
 from .simulation import MAX_OUTPUT, Simulation, check_body_name
 from .units import to_si
@@ -61,6 +55,8 @@ __all__ = [
     "parse_scene",
     "scene_overrides",
     "simulation_to_toml",
+    "load_toml",
+    "MAX_DEPTH",
 ]
 
 
@@ -80,7 +76,8 @@ def _choices(values) -> str:
 _V, _ANY, _REQ = "3 strings with units", "3 finite values", " (required)"
 _LENGTH, _LENGTHS = "length (m)", f"length (m), {_V}"
 _IDENTITY = (
-    Key("name", True, "string", "", "unique in the scene, not empty, no '/'", "the body's name (its HDF5 group)"),
+    Key("name", True, "string", "", "unique in the scene, not empty, no '/' and no control characters",
+        "the body's name (its HDF5 group)"),
     Key("kind", True, "string", "", _choices(BODY_KINDS), "the kind of body"),
 )
 
@@ -458,6 +455,8 @@ class Scene:
             ("max_output", max_output),
         ):
             if value is not None:
+                if len(repr(value)) > MAX_OVERRIDE:  # its note would not be read back (scene_overrides)
+                    raise InputError(f"integrator.{key}", f"longer than {MAX_OVERRIDE} characters")
                 data["integrator"][key] = value
                 changed[key] = value
         note = "".join(f"# override: integrator.{k} = {v!r}\n" for k, v in changed.items())
@@ -633,6 +632,10 @@ class Scene:
         return sim
 
 
+#: the longest value an override line may hold (a string with a unit, an integer, as repr
+#: writes them); a longer one is not read: evaluating thousands of nested brackets or signs
+#: exhausts the parser's memory or recursion
+MAX_OVERRIDE = 1000
 #: the comment line :meth:`Scene.with_overrides` writes for each key it sets
 _OVERRIDE = re.compile(
     r"# override: integrator\.(t_end|dt|method|order|output_every|checkpoint_every|max_output) = (.+)"
@@ -651,17 +654,18 @@ def scene_overrides(text: str) -> dict:
     Returns
     -------
     dict
-        {key: value}, as passed to :meth:`Scene.with_overrides`.
+        {key: value}, as passed to :meth:`Scene.with_overrides`. A line whose value is not a
+        Python literal, or longer than :data:`MAX_OVERRIDE` characters, is skipped.
     """
     import ast
 
     found = {}
     for line in text.splitlines():
         m = _OVERRIDE.fullmatch(line.strip())
-        if m:
+        if m and len(m.group(2)) <= MAX_OVERRIDE:  # longer: not one that with_overrides wrote
             try:
                 found[m.group(1)] = ast.literal_eval(m.group(2))
-            except (ValueError, SyntaxError):
+            except (ValueError, SyntaxError, MemoryError, RecursionError):
                 continue
     return found
 
@@ -719,10 +723,7 @@ def parse_scene(text: str, source: str = "<string>", check: bool = True) -> Scen
     InputError
         For text that is not TOML and for every wrong key or value.
     """
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(source, f"not valid TOML: {exc}") from None
+    data = load_toml(text, source)
     scene = Scene(data, text, source)
     if check:
         scene.check()

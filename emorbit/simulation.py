@@ -322,7 +322,7 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
             The number of steps to take.
         every : int
             Steps between records.
-        output : str or os.PathLike, optional
+        output : str, bytes or os.PathLike, optional
             An HDF5 file to write while running (layout: :mod:`emorbit.io.reader`).
         overwrite : bool
             Replace an existing ``output`` (otherwise an existing file is an error).

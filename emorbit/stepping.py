@@ -51,7 +51,17 @@ from .bodies.system import newton_failure
 from .epochs import epoch_text
 from .errors import InputError, IntegrationError, RoundoffError, RoundoffWarning
 from .integrators import coefficients, get_method
-from .io.drift import DRIFT_TOLERANCE, STATE, DriftMonitor, absent_state, check_tolerance, conserved, is_absent
+from .io.drift import (
+    DRIFT_TOLERANCE,
+    STATE,
+    STATUS_UNSOLVED,
+    DriftMonitor,
+    UnsolvedStep,
+    absent_state,
+    check_tolerance,
+    conserved,
+    is_absent,
+)
 from .io.hdf5 import FileLostError, Writer
 from .io.recorder import Sink, progress_bar
 from .kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK
@@ -246,9 +256,11 @@ class ChunkDriver:
         energy less the work done (its balance), which an em step keeps."""
         tol = check_tolerance(self.drift_tolerance if tolerance is None else tolerance)
         kept = conserved(self.method, self.effects.conserves("momentum"), self._keeps_angular_momentum())
-        if self._working_labels():
+        working = bool(self._working_labels())
+        if working:
             kept[1:] = False
         self._drift = DriftMonitor(tol, coefficients(self.order).size, kept)
+        self._drift.gate = bool(kept[0]) and not working  # the recorded energy itself is conserved
 
     def _prepare_effects(self, n_steps: int, gammas) -> None:
         """Effects that depend on time (:meth:`~emorbit.effects.base.Effect.prepare`) sample
@@ -585,7 +597,12 @@ class ChunkDriver:
                     recs, span = got if got is not None else (self._advance_all(gammas, k, nrec), None)
                     failures = [(f, j) for j, (s, r) in enumerate(recs) if (f := r.first_failure()) is not None]
                     if not failures:
-                        sink.emit(recs, self._steps + k * (np.arange(nrec) + 1), nrec, k, span)
+                        try:
+                            sink.emit(recs, self._steps + k * (np.arange(nrec) + 1), nrec, k, span)
+                        except UnsolvedStep as exc:  # nothing recorded: the interval's first step is redone
+                            failures = [((exc.row * k, 0, STATUS_UNSOLVED), 0)]
+                            self._refused = exc
+                    if not failures:
                         self._steps += k * nrec
                         done += k * nrec
                         bar.update(k * nrec)
@@ -630,13 +647,20 @@ class ChunkDriver:
             if any(r.first_failure() is not None for _, r in again) or (ranging and each > 1 and got is None):
                 raise RuntimeError("re-running the steps before a failure failed again")  # deterministic: cannot
             if each == k:
-                sink.emit(again, self._steps + k * (np.arange(n) + 1), n, k, span)
+                try:
+                    sink.emit(again, self._steps + k * (np.arange(n) + 1), n, k, span)
+                except UnsolvedStep as exc:  # an earlier step was not solved: redo from that one
+                    self._refused = exc
+                    earlier = ((exc.row * k, 0, STATUS_UNSOLVED), 0)
+                    return self._recover(again, snapshots, earlier, k, every, gammas, sink, origin)
             else:
                 sink.stalled_pending += _stalled(again)
                 if ranging:
                     sink.widen(span if span is not None else self._energies(again, 1))
         self._steps += step
         start = [s.snapshot() for s in self.systems]
+        gate = self._drift is not None and self._drift.gate
+        e0 = self._energies(self._current(), 1)[0] if gate else 0.0
         for level in range(1, self.MAX_SPLIT + 1):
             parts = 2**level
             sub = [
@@ -656,7 +680,7 @@ class ChunkDriver:
                 )
                 for s in self.systems
             ]
-            if all(r.first_failure() is None for _, r in sub):
+            if all(r.first_failure() is None for _, r in sub) and not (gate and self._unsolved(sub, e0, parts)):
                 self.retried_steps = getattr(self, "retried_steps", 0) + 1
                 sink.split_pending += 1
                 self._steps += 1
@@ -673,7 +697,12 @@ class ChunkDriver:
             sink.emit([(s, s.current()) for s in self.systems], np.array([self._steps]), 1, 0)
         system = recs[j][0]
         name = system.names[index]
-        if status == STATUS_NO_CONVERGENCE:
+        if status == STATUS_UNSOLVED:
+            reason = (
+                f"{self._refused.reason}; so did the step in 2 to {2**self.MAX_SPLIT} sub-steps "
+                f"(method {self.method}, order {self.order}, dt = {self._dt!r} s): take a smaller dt"
+            )
+        elif status == STATUS_NO_CONVERGENCE:
             reason = (
                 f"the step failed as a whole and in 2 to {2**self.MAX_SPLIT} sub-steps (method {self.method}, "
                 f"order {self.order}, dt = {self._dt!r} s): {self._newton_note(system, index, gammas)}"
@@ -685,6 +714,13 @@ class ChunkDriver:
                 f"(last good position {x.tolist()} m)"
             )
         raise IntegrationError(self.time, name, reason)
+
+    def _unsolved(self, sub, e0: float, parts: int) -> bool:
+        """Whether a step redone in ``parts`` sub-steps (``sub``, one record) still moves the
+        energy from ``e0`` (J, at the step's start) beyond round-off (:mod:`emorbit.io.drift`)."""
+        e1 = self._energies(sub, 1)[0]
+        scale = max(sum(s.invariant_scales(r, 1, self.gm, self.center) for s, r in sub)[0][0], self._drift.scale[0])
+        return bool(self._drift.too_far(e1 - e0, scale, parts * coefficients(self.order).size))
 
     def _newton_note(self, system, index, gammas) -> str:
         """What failed in the Newton iteration of a step that failed even in sub-steps: its

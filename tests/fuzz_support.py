@@ -12,6 +12,7 @@ import os
 import re
 import sys
 
+import h5py
 import numpy as np
 
 import emorbit
@@ -145,3 +146,28 @@ def correct_run(path, t_end: float | None = None, err: str = "", energy_tol: flo
         drift = np.abs(res.relative_energy_error()).max()
         assert drift < energy_tol, f"em energy error {drift:.3e} and no warning on stderr: {err}"
     return res
+
+
+def records(path) -> dict:
+    """Every dataset outside the checkpoint and final-state groups, by name."""
+    out = {}
+    with h5py.File(path, "r") as f:
+        f.visititems(
+            lambda name, obj: (
+                out.__setitem__(name, obj[()])
+                if isinstance(obj, h5py.Dataset) and not name.startswith(("checkpoint", "final_state"))
+                else None
+            )
+        )
+    return out
+
+
+def estimated_steps(d) -> float:
+    """t_end / dt of a scene dict where both read as times, else 0 (the scene fails before it runs)."""
+    from emorbit.units import to_si
+
+    try:
+        integ = d["integrator"]
+        return to_si(integ["t_end"], "time", "t") / to_si(integ["dt"], "time", "dt")
+    except Exception:
+        return 0.0

@@ -31,7 +31,7 @@ import time
 import h5py
 import numpy as np
 import pytest
-from fuzz_support import BASE, clean_error, cli, correct_run, listing, run_failed, to_toml
+from fuzz_support import BASE, clean_error, cli, correct_run, estimated_steps, listing, run_failed, to_toml
 from hypothesis import HealthCheck, Phase, assume, event, given, settings
 from hypothesis import strategies as st
 
@@ -274,17 +274,6 @@ def mutated_scenes(draw):
     return name, d, [p for paths, _ in changes for p in paths], all(same for _, same in changes)
 
 
-def _estimated_steps(d) -> float:
-    """t_end / dt where both read as times, else 0 (the scene fails before it runs)."""
-    from emorbit.units import to_si
-
-    try:
-        integ = d["integrator"]
-        return to_si(integ["t_end"], "time", "t") / to_si(integ["dt"], "time", "dt")
-    except Exception:
-        return 0.0
-
-
 def related(key: str, paths: list[Path]) -> bool:
     """Whether the key an error names belongs to a mutation: the mutated key, its table, a
     key inside it; a body's keys for a mutated field or integrator (a start inside the field's
@@ -332,7 +321,7 @@ class _Quiet(dict):
 @given(case=mutated_scenes())
 def test_generated_scenes(tmp_path_factory, references, case):
     name, d, paths, same = case
-    assume(_estimated_steps(d) < 5000)  # runs whose length is mutated further: test_generated_run_lengths
+    assume(estimated_steps(d) < 5000)  # runs whose length is mutated further: test_generated_run_lengths
     folder = tmp_path_factory.mktemp("scene")
     scene = folder / "scene.toml"
     scene.write_text(to_toml(d))
@@ -426,7 +415,7 @@ def run_lengths(draw):
     if draw(st.booleans()):
         integ["checkpoint_every"] = draw(st.sampled_from([1, 100, 10**12]))
     # a long run of long record intervals cannot be stopped: test_a_long_record_interval_stops
-    assume(not (_estimated_steps(d) > 1e6 and integ["output_every"] > 10**5))
+    assume(not (estimated_steps(d) > 1e6 and integ["output_every"] > 10**5))
     return d
 
 
@@ -451,7 +440,7 @@ def check_run_length(folder, d) -> str:
             _, err = proc.communicate(timeout=LONG)
         except subprocess.TimeoutExpired:
             assert os.path.exists(out), f"no file after {LONG} s: stuck before the run started ({d['integrator']})"
-            steps = _estimated_steps(d)
+            steps = estimated_steps(d)
             assert steps > 1e6, f"{steps} steps still running after {LONG} s ({d['integrator']})"
             proc.send_signal(signal.SIGTERM)
             _, err = proc.communicate(timeout=60)

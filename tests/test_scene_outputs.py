@@ -30,7 +30,7 @@ from emorbit.cli import main
 
 REFERENCE = os.path.join(os.path.dirname(__file__), "data", "scene_hashes.json")
 #: root attributes that say when and with what the file was written, not what it holds
-PROVENANCE = {"created", "versions", "creator", "emorbit_version"}
+PROVENANCE = {"created", "versions", "creator", "emorbit_version", "writer"}
 
 
 def digest(path: str) -> dict[str, str]:

@@ -23,6 +23,7 @@ import time
 import h5py
 import numpy as np
 import pytest
+from fuzz_support import records
 
 from emorbit.cli import main
 
@@ -48,20 +49,6 @@ from emorbit.cli import main
 for line in sys.stdin:
     print(main(json.loads(line)), flush=True)
 """
-
-
-def records(path) -> dict:
-    """Every dataset outside the checkpoint and final-state groups, by name."""
-    out = {}
-    with h5py.File(path, "r") as f:
-        f.visititems(
-            lambda name, obj: (
-                out.__setitem__(name, obj[()])
-                if isinstance(obj, h5py.Dataset) and not name.startswith(("checkpoint", "final_state"))
-                else None
-            )
-        )
-    return out
 
 
 def differences(a: dict, b: dict) -> list[str]:

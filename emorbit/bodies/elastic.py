@@ -569,6 +569,9 @@ def elastic_spec(
                 )
     M = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(nn, nn)).tocsr()
     M.sum_duplicates()
+    if not M.sum() > 0:  # density times the elements' volume underflows
+        total = float(M.sum())
+        raise InputError(f"{key}.density", f"{density!r} kg/m3 gives the body a mass of {total!r} kg, not > 0")
     # gravity points
     gp_node, gp_w, gp_m = [], [], []
     for e in range(nt):
@@ -665,7 +668,7 @@ def mesh_from_parameters(mesh, params: dict, strict: bool, key: str):
         "net": ("size", "elements"),
         "file": ("file", "mesh_unit"),
     }
-    if mesh not in allowed:
+    if not isinstance(mesh, str) or mesh not in allowed:  # a list or a table cannot be looked up
         raise InputError(f"{key}.mesh", f"unknown mesh {mesh!r}; known: {', '.join(allowed)}")
     for p in params:
         if p not in allowed[mesh]:

@@ -45,6 +45,9 @@ __all__ = [
 
 #: the most mass points a rigid body may have (its refinement sets how many its shape has)
 MAX_POINTS = 10_000_000
+#: the least second moment of mass a body may have, kg m2: below it X m X loses precision
+#: (float64's smallest normal number over eps)
+_SMALLEST_MOMENT = np.finfo(float).tiny / np.finfo(float).eps
 
 
 def _quiet(shape):
@@ -146,19 +149,32 @@ def check_on_body(nodes, which, centre, R, points: MassPoints, *, key: str, elas
         )
 
 
-def _finish(X, m, volume, analytic, key) -> MassPoints:
+def _finish(X, m, volume, analytic, key, size: str = "size") -> MassPoints:
+    """Mass points about their centre of mass, checked: finite, and with inertia about every
+    axis (errors name the body's ``size`` key where its dimensions are too small)."""
     X = np.ascontiguousarray(X, dtype=float)
     m = np.ascontiguousarray(m, dtype=float)
+    small = np.all(np.abs(X) < 1e-100)  # lengths whose products underflow (weights, volumes)
     com = (X * m).sum(axis=1) / m.sum()
     X = np.ascontiguousarray(X - com[:, None])
     pts = MassPoints(X, m, volume, analytic)
     with np.errstate(over="ignore", invalid="ignore"):
         E = pts.second_moment
     if not (np.all(np.isfinite(X)) and np.all(np.isfinite(m)) and np.all(np.isfinite(E))):
+        if small:
+            raise InputError(f"{key}.{size}", "the body is too small for float64: its mass points underflow")
         raise InputError(key, "the body's size and mass overflow: its second moment of mass is not finite")
     ev = np.linalg.eigvalsh(E)
+    if not ev[-1] > _SMALLEST_MOMENT:  # X m X underflows: the lengths, not the shape, are at fault
+        raise InputError(
+            f"{key}.{size}",
+            f"the body is too small for float64: its second moment of mass is {ev[-1]!r} kg m2 "
+            f"(at least {_SMALLEST_MOMENT:g} kg m2)",
+        )
     if not ev[0] > 1e-12 * ev[-1]:
-        raise InputError(key, "the mass points lie in a plane or on a line: the body has no inertia about some axis")
+        raise InputError(
+            f"{key}.{size}", "the mass points lie in a plane or on a line: the body has no inertia about some axis"
+        )
     return pts
 
 
@@ -181,13 +197,23 @@ def _refinement(refinement, key, points) -> int:
     return int(refinement)
 
 
-def _mass_from(density, mass, volume, key) -> float:
-    """Total mass from exactly one of density (kg/m^3) and mass (kg)."""
+def _mass_from(density, mass, volume, key, size: str = "size") -> float:
+    """Total mass from exactly one of density (kg/m^3) and mass (kg); errors name the key at
+    fault: ``mass``, ``density``, or the ``size`` key whose volume underflows."""
     if (density is None) == (mass is None):
         raise InputError(key, "give exactly one of density and mass")
-    total = mass if mass is not None else density * volume
+    if mass is not None:
+        if not mass > 0:
+            raise InputError(f"{key}.mass", f"must be > 0, got {mass!r} kg")
+        return float(mass)
+    if not volume > 0:
+        raise InputError(f"{key}.{size}", f"the body's volume, {volume!r} m3, underflows float64: it is too small")
+    total = density * volume
     if not total > 0:
-        raise InputError(key, f"mass must be > 0, got {total!r} kg")
+        raise InputError(
+            f"{key}.density",
+            f"{density!r} kg/m3 times the volume {volume!r} m3 is a mass of {total!r} kg, not > 0 in float64",
+        )
     if not np.isfinite(total):
         raise InputError(key, f"the mass (density times volume {volume!r} m3) overflows: {total!r} kg")
     return float(total)
@@ -225,7 +251,7 @@ def box(size, *, density=None, mass=None, refinement: int = 1, key: str = "body"
     if a.shape != (3,) or not np.all(a > 0):
         raise InputError(f"{key}.size", f"three edge lengths > 0 expected, got {size!r}")
     vol = float(np.prod(a))
-    total = _mass_from(density, mass, vol, key)
+    total = _mass_from(density, mass, vol, key, "size")
     g, w = _gauss(2)
     axes = []
     weights = []
@@ -276,7 +302,7 @@ def cylinder(radius, height, *, density=None, mass=None, refinement: int = 1, ke
     if not (R > 0 and H > 0):
         raise InputError(key, f"radius and height must be > 0, got {radius!r}, {height!r}")
     vol = np.pi * R * R * H
-    total = _mass_from(density, mass, vol, key)
+    total = _mass_from(density, mass, vol, key, "radius")
     g, w = _gauss(2)
     re = np.linspace(0, R, n + 1)
     r = (0.5 * (re[1:] + re[:-1])[:, None] + 0.5 * (re[1:] - re[:-1])[:, None] * g).ravel()
@@ -291,7 +317,7 @@ def cylinder(radius, height, *, density=None, mass=None, refinement: int = 1, ke
     X = np.array([rr * np.cos(tt), rr * np.sin(tt), zz]).reshape(3, -1)
     m = total * W.ravel() / W.sum()
     I = total * np.diag([(3 * R * R + H * H) / 12, (3 * R * R + H * H) / 12, R * R / 2])
-    return _finish(X, m, vol, I, key)
+    return _finish(X, m, vol, I, key, "radius")
 
 
 def _sphere_directions(n):
@@ -342,7 +368,7 @@ def sphere(radius, *, density=None, mass=None, refinement: int = 1, key: str = "
     if not R > 0:
         raise InputError(f"{key}.radius", f"must be > 0, got {radius!r}")
     vol = 4.0 / 3.0 * np.pi * R**3
-    total = _mass_from(density, mass, vol, key)
+    total = _mass_from(density, mass, vol, key, "radius")
     g, w = _gauss(3)
     re = np.linspace(0, R, n + 1)
     r = (0.5 * (re[1:] + re[:-1])[:, None] + 0.5 * (re[1:] - re[:-1])[:, None] * g).ravel()
@@ -351,7 +377,7 @@ def sphere(radius, *, density=None, mass=None, refinement: int = 1, key: str = "
     X = (r[:, None, None] * U[None, :, :]).transpose(1, 0, 2).reshape(3, -1)
     W = (wr[:, None] * wu[None, :]).ravel()
     m = total * W / W.sum()
-    return _finish(X, m, vol, total * 0.4 * R * R * np.eye(3), key)
+    return _finish(X, m, vol, total * 0.4 * R * R * np.eye(3), key, "radius")
 
 
 @_quiet
@@ -391,10 +417,10 @@ def ellipsoid(semi_axes, *, density=None, mass=None, refinement: int = 1, key: s
     if axes.shape != (3,) or not np.all(axes > 0) or not np.all(np.isfinite(axes)):
         raise InputError(f"{key}.semi_axes", f"three lengths > 0 expected, got {semi_axes!r}")
     vol = 4.0 / 3.0 * np.pi * float(np.prod(axes))
-    total = _mass_from(density, mass, vol, key)
+    total = _mass_from(density, mass, vol, key, "semi_axes")
     unit = sphere(1.0, mass=total, refinement=refinement, key=key)
     analytic = np.diag([axes[1] ** 2 + axes[2] ** 2, axes[0] ** 2 + axes[2] ** 2, axes[0] ** 2 + axes[1] ** 2])
-    return _finish(axes[:, None] * unit.X, unit.m, vol, total / 5.0 * analytic, key)
+    return _finish(axes[:, None] * unit.X, unit.m, vol, total / 5.0 * analytic, key, "semi_axes")
 
 
 @_quiet
@@ -428,7 +454,7 @@ def shell(radius, *, mass, refinement: int = 1, key: str = "body") -> MassPoints
         raise InputError(f"{key}.radius", f"must be > 0, got {radius!r}")
     total = _mass_from(None, mass, 0.0, key)
     U, wu = _sphere_directions(n)
-    return _finish(R * U, total * wu, None, total * 2.0 / 3.0 * R * R * np.eye(3), key)
+    return _finish(R * U, total * wu, None, total * 2.0 / 3.0 * R * R * np.eye(3), key, "radius")
 
 
 @_quiet
@@ -477,7 +503,7 @@ def dumbbell(masses, length, *, end_radius=None, refinement: int = 1, key: str =
     m = np.concatenate([ends[0].m, ends[1].m])
     own = 0.4 * rho * rho * M
     red = m1 * m2 / M * L * L
-    return _finish(X, m, None, np.diag([own, red + own, red + own]), key)
+    return _finish(X, m, None, np.diag([own, red + own, red + own]), key, "length")
 
 
 def _mesh_array(values, integral: bool, key: str, what: str) -> np.ndarray:
@@ -644,7 +670,7 @@ def tetra_mesh(nodes, tetrahedra, *, density, key: str = "body") -> MassPoints:
         pts.append(np.einsum("k,kei->ei", bary, corners))
     X = np.concatenate(pts).T
     m = density * np.tile(vol / 4.0, 4)
-    return _finish(X, m, float(vol.sum()), None, key)
+    return _finish(X, m, float(vol.sum()), None, key, "nodes")
 
 
 #: shape name -> the function that discretises it

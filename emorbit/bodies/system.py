@@ -19,6 +19,8 @@ create the system when a scene adds a body of that kind.
 
 from __future__ import annotations
 
+import unicodedata
+
 import numpy as np
 
 from ..errors import InputError
@@ -55,7 +57,8 @@ def roundoff_scales(kinetic, potential, mass, moment):
 
 
 def check_body_name(name, key: str = "name") -> str:
-    """Check a body name: a non-empty string without '/' (it names an HDF5 group).
+    """Check a body name: a non-empty string without '/' and without control characters (it
+    names an HDF5 group, whose name ends at a NUL: "a\\0b" would be recorded as "a").
 
     Parameters
     ----------
@@ -72,11 +75,21 @@ def check_body_name(name, key: str = "name") -> str:
     Raises
     ------
     InputError
-        ``name`` is not such a string, or is ``"."`` or ``".."``.
+        ``name`` is not such a string, holds a control character, or is ``"."`` or ``".."``.
     """
     if not isinstance(name, str) or not name.strip() or "/" in name or name in (".", ".."):
         raise InputError(key, f"a body name must be a non-empty string without '/', got {name!r}")
+    bad = [c for c in name if unicodedata.category(c) in _CONTROL]
+    if bad:
+        raise InputError(
+            key, f"a body name must not hold control characters or line breaks, got {name!r} (with {bad[0]!r})"
+        )
     return name
+
+
+#: the Unicode categories a body name may not hold: control characters (NUL, tab, newline, ...),
+#: surrogates (not text) and line and paragraph separators
+_CONTROL = ("Cc", "Cs", "Zl", "Zp")
 
 
 def check_output(systems, n_steps: int, every: int, dt: float, max_output, keys: dict, length_key: str) -> None:

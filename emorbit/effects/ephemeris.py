@@ -107,8 +107,8 @@ def _ephemeris(ephemeris, key: str = "ephemeris") -> str:
         ) from None
     try:
         SPK.open(path).close()
-    except Exception as exc:
-        raise InputError(key, f"{os.fspath(ephemeris)!r} is not a JPL kernel (SPK) file: {exc}") from None
+    except Exception:  # jplephem's message may echo the file's first bytes: not repeated here
+        raise InputError(key, f"{os.fspath(ephemeris)!r} is not a JPL kernel (SPK) file") from None
     return path
 
 

@@ -26,19 +26,31 @@ exceeds it. docs/hard-cases.md has the measurements.
 A :class:`DriftMonitor` keeps the reference, the running scales, the sub-step count and the
 largest excess; its state is part of a run's checkpoint (:meth:`DriftMonitor.state_arrays`),
 so a resumed run records the same bits as one that never stopped.
+
+Two changes are not round-off at all, and the monitor refuses them before they are recorded.
+An energy-conserving step (em, without effects that do work) whose record interval moves the
+energy by more than :data:`UNSOLVED` sqrt(n) of its round-off scale was not solved, however
+its Newton iteration ended (:meth:`DriftMonitor.unsolved`; the steps are redone in sub-steps,
+then the run fails: :class:`UnsolvedStep`). A run whose energy moves from its first record by
+more than :data:`DIVERGED` times the energy's round-off scale at its start has diverged
+(:meth:`DriftMonitor.diverged`; the run fails). Neither changes what a run that passes records.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, IntegrationError
 
 __all__ = [
     "DRIFT_TOLERANCE",
+    "DIVERGED",
     "INVARIANTS",
     "STATE",
+    "STATUS_UNSOLVED",
+    "UNSOLVED",
     "DriftMonitor",
+    "UnsolvedStep",
     "absent_state",
     "check_tolerance",
     "conserved",
@@ -48,6 +60,16 @@ __all__ = [
 _EPS = 2.0**-52
 #: the default drift tolerance C: a record is flagged when its drift exceeds C eps sqrt(n)
 DRIFT_TOLERANCE = 1000.0
+#: the most an energy-conserving step's record interval may move the energy, in units of its
+#: round-off scale times sqrt(n), n its implicit sub-steps: 4.5e9 eps, 2000 times the drift of
+#: the stiffest solved step measured (a steel bar at dt = 0.1 s, docs/hard-cases.md)
+UNSOLVED = 1e-6
+#: a run whose energy moves from its first record by more than this many times the energy's
+#: round-off scale at its start (T + |V| + W) has diverged
+DIVERGED = 1e3
+#: the failure status of a step refused by :meth:`DriftMonitor.unsolved` (the kernels' codes
+#: are >= 0)
+STATUS_UNSOLVED = -1
 #: the invariants checked, in the column order of ``diagnostics/invariant_drift``
 INVARIANTS = ("energy", "linear momentum", "angular momentum")
 #: the state a checkpoint stores: {name: (length, unit)}
@@ -134,6 +156,41 @@ def is_absent(arrays: dict) -> bool:
     return p.shape == (STATE["progress"][0],) and p[3] == 0.0
 
 
+class UnsolvedStep(IntegrationError):
+    """A record interval of an energy-conserving method moved the energy beyond round-off
+    (:meth:`DriftMonitor.unsolved`): its steps were not solved. Raised before anything of the
+    interval is recorded; where it cannot be redone in sub-steps the run fails with it.
+
+    Parameters
+    ----------
+    time : float
+        The start of the refused interval, s.
+    body : str
+        The bodies whose energy changed most.
+    change : float
+        The energy's change over the interval, J.
+    scale : float
+        The energy's round-off scale, J.
+    substeps : float
+        The interval's implicit sub-steps.
+    row : int
+        The refused record's row in the block of records it came in.
+    """
+
+    def __init__(self, time: float, body: str, change: float, scale: float, substeps: float, row: int = 0):
+        self.change, self.scale, self.substeps, self.row = change, scale, substeps, row
+        super().__init__(time, body, unsolved_reason(change, scale, substeps))
+
+
+def unsolved_reason(change: float, scale: float, substeps: float) -> str:
+    """What an unsolved step did to the energy, in words."""
+    return (
+        f"the step changed the energy by {change:.6g} J, {change / max(scale, np.finfo(float).tiny):.3g} of its "
+        f"round-off scale {scale:.6g} J over {substeps:.0f} implicit sub-steps, far beyond round-off "
+        f"({UNSOLVED:g} sqrt(n)): an energy-conserving step that changes the energy was not solved"
+    )
+
+
 class DriftMonitor:
     """The drift of the conserved invariants from a run file's first record, record by record.
 
@@ -166,6 +223,10 @@ class DriftMonitor:
         self.last_step = 0
         self.stalled = 0
         self.worst: list = [None, None, None]
+        #: refuse unsolved steps (:meth:`unsolved`): the run conserves its energy as recorded
+        self.gate = bool(self.checked[0])
+        #: the energy's round-off scale when this run started (or was resumed), J
+        self.start_scale: float | None = None
 
     # -- checkpoints -------------------------------------------------------------------------
     def state_arrays(self) -> dict[str, np.ndarray]:
@@ -211,8 +272,97 @@ class DriftMonitor:
             raise InputError("checkpoint", "the drift monitor's state 'drift/progress' or 'drift/scale' is invalid")
         self.reference = ref.copy()
         self.scale = scale.copy()
+        self.start_scale = float(scale[0])
         self.substeps, self.last_step, self.stalled, self.tolerance = float(p[0]), int(p[1]), int(p[2]), float(p[3])
         self.worst = [None if p[j] < 0 else tuple(float(x) for x in p[j : j + 5]) for j in (4, 9, 14)]
+
+    # -- refusals ----------------------------------------------------------------------------
+    def _substeps(self, steps, substeps) -> np.ndarray:
+        """Each record's implicit sub-steps since the record before it."""
+        inc = np.diff(np.asarray(steps, np.int64), prepend=self.last_step).astype(float) * self.stages
+        return inc if substeps is None else np.maximum(inc, substeps)
+
+    def too_far(self, change, scale, substeps) -> np.ndarray:
+        """Whether energy changes are beyond what a solved energy-conserving step leaves.
+
+        Parameters
+        ----------
+        change : array_like
+            Changes of the energy, J.
+        scale : array_like
+            Its round-off scale, J.
+        substeps : array_like
+            The implicit sub-steps each change took.
+
+        Returns
+        -------
+        ndarray
+            bool, True for a change above :data:`UNSOLVED` sqrt(n) of the scale (or not finite).
+        """
+        limit = UNSOLVED * np.sqrt(np.maximum(substeps, 1.0)) * np.maximum(scale, np.finfo(float).tiny)
+        return ~(np.abs(change) <= limit)
+
+    def unsolved(self, previous, steps, energy, scales, substeps=None):
+        """The first record whose energy moved from the record before it beyond round-off, in a
+        run that conserves its energy (:attr:`gate`); nothing is measured or kept.
+
+        Parameters
+        ----------
+        previous : float or None
+            The energy of the record before the block, J (None: the block starts the run).
+        steps : ndarray
+            (k,) step counts of the records.
+        energy : ndarray
+            (k,) their energies, J.
+        scales : ndarray
+            (k, 3) their round-off scales.
+        substeps : ndarray or None
+            As :meth:`update` takes them.
+
+        Returns
+        -------
+        (int, float, float, float) or None
+            The record's row, its energy change (J), the scale (J) and the sub-steps; None
+            when every record is within round-off of the one before.
+        """
+        if not self.gate or previous is None or not len(energy):
+            return None
+        change = np.diff(np.concatenate([[previous], np.asarray(energy, float)]))
+        scale = np.maximum.accumulate(np.maximum(np.asarray(scales, float)[:, 0], self.scale[0]))
+        n = self._substeps(steps, substeps)
+        bad = np.flatnonzero(self.too_far(change, scale, n))
+        if not bad.size:
+            return None
+        r = int(bad[0])
+        return r, float(abs(change[r])), float(scale[r]), float(n[r])
+
+    def diverged(self, energy, scales):
+        """The first record whose energy moved from the first record's by more than
+        :data:`DIVERGED` times the energy's round-off scale at this run's start.
+
+        Parameters
+        ----------
+        energy : ndarray
+            (k,) the records' energies (under effects that do work: less the work), J.
+        scales : ndarray
+            (k, 3) their round-off scales.
+
+        Returns
+        -------
+        (int, float, float, float) or None
+            The record's row, the first record's energy, the record's (J) and the scale at the
+            start (J); None while it has not diverged.
+        """
+        energy = np.asarray(energy, float)
+        if not len(energy):
+            return None
+        first = energy[0] if self.reference is None else self.reference[0]
+        start = float(scales[0][0]) if self.start_scale is None else self.start_scale
+        bad = np.flatnonzero(~(np.abs(energy - first) <= DIVERGED * max(start, np.finfo(float).tiny)))
+        if not bad.size:
+            return None
+        r = int(bad[0])
+        return r, float(first), float(energy[r]), start
 
     # -- records -----------------------------------------------------------------------------
     def update(self, times, steps, energy, momentum, angular, scales, substeps, stalled):
@@ -247,11 +397,9 @@ class DriftMonitor:
         if self.reference is None:
             self.reference = inv[0].copy()
             self.scale = np.zeros(3)
+            self.start_scale = float(scales[0][0])
             self.last_step = int(steps[0])
-        inc = np.diff(steps, prepend=self.last_step).astype(float) * self.stages
-        if substeps is not None:
-            inc = np.maximum(inc, substeps)
-        n = self.substeps + np.cumsum(inc)
+        n = self.substeps + np.cumsum(self._substeps(steps, substeps))
         scale = np.maximum.accumulate(np.maximum(scales, self.scale[None, :]), axis=0)
         ref = self.reference
         change = np.stack(

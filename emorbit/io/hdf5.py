@@ -16,7 +16,11 @@ which takes its HDF5 file lock: a file that another run is writing (and so holds
 refused, never replaced. The writer checks at every flush that its path still names the
 file it writes; a file removed or replaced under a run stops that run with
 :class:`FileLostError`, and the file it wrote is copied next to the path if nothing else
-reaches it.
+reaches it. Before it writes, the writer also checks that the file is not shorter than after
+its last flush: a file truncated in place under a run (its records lost) stops that run with
+:class:`FileLostError` too, at the next record, checkpoint or close. Every dataset is stored
+with a Fletcher-32 checksum per chunk (:func:`emorbit.io.reader.read_dataset` names the rows
+of a chunk whose bytes changed).
 
 ``/checkpoint`` holds the complete state (every system's arrays, compensation terms and
 warm starts included, each with its ``unit``; attributes ``steps`` since the run's start,
@@ -32,6 +36,7 @@ import datetime as _dt
 import json
 import os
 import platform
+import re
 import secrets
 import weakref
 
@@ -41,27 +46,38 @@ import numpy as np
 from .._version import __version__
 from ..errors import EmorbitError, InputError
 from .reader import (
+    DAMAGE,
+    EFFECT_RECORDS,
     LAYOUT_UNITS,
     NEXT_CHECKPOINT,
     OPTIONAL,
     ROOT_UNITS,
     STATE_UNITS,
     WIDTHS,
+    _alive,
     _busy_message,
     _locked,
+    file_path,
+    live_writer,
+    not_regular,
     optional_rows,
     state_digest,
+    writer_id,
 )
 
-__all__ = ["Writer", "FileLostError"]
+__all__ = ["Writer", "FileLostError", "temp_name", "temp_pattern"]
 
-#: the record datasets of effects, one per effect (or the balance of those that do work)
-_EFFECT_RECORDS = ("invariants/potential_", "invariants/work_", "invariants/energy_balance")
+
+#: what a truncated file's error adds: the records are not kept anywhere
+_TRUNCATED = (
+    " (by another process or by hand): the records this run wrote before are lost from it, and the run stops; "
+    "run it again"
+)
 
 
 class FileLostError(EmorbitError, OSError):
-    """The run file was removed or replaced while a run wrote it; the message says where the
-    records are, if they could be kept (``emorbit run`` exits with code 1)."""
+    """The run file was removed, replaced or truncated while a run wrote it; the message says
+    where the records are, if they could be kept (``emorbit run`` exits with code 1)."""
 
 
 def _exists_message(path: str) -> str:
@@ -88,15 +104,26 @@ def _versions() -> str:
 
 
 def _growable(group, name, width, unit, chunk_rows, fill=0.0):
-    """A dataset growing along its first axis; ``width`` is None (1-D), an int, or a shape."""
+    """A dataset growing along its first axis, with a Fletcher-32 checksum on each chunk (a
+    changed byte fails the read of its chunk); ``width`` is None (1-D), an int, or a shape."""
     tail = () if width is None else ((width,) if isinstance(width, int) else tuple(width))
     shape = (0,) + tail
     maxshape = (None,) + tail
     rows = max(1, min(chunk_rows, (1 << 20) // (8 * max(1, int(np.prod(tail))))))
     chunks = (rows,) + tail
-    ds = group.create_dataset(name, shape=shape, maxshape=maxshape, chunks=chunks, dtype="f8", fillvalue=fill or None)
+    ds = group.create_dataset(
+        name, shape=shape, maxshape=maxshape, chunks=chunks, dtype="f8", fillvalue=fill or None, fletcher32=True
+    )
     ds.attrs["unit"] = unit
     return ds
+
+
+def _constant(group, name, data):
+    """A dataset written once, with a Fletcher-32 checksum on each chunk where it has any
+    (HDF5 checksums chunks only: an empty or 0-d array is stored without one)."""
+    data = np.asarray(data)
+    checked = data.ndim > 0 and data.size > 0
+    return group.create_dataset(name, data=data, fletcher32=checked)
 
 
 def _append(ds, block):
@@ -139,6 +166,13 @@ def _hold(path: str):
     if not same:
         held.close()
         raise InputError("output", f"{path!r} was replaced by another process while this run opened it; try again")
+    try:
+        writer = live_writer(held.attrs)
+    except DAMAGE:  # its attributes cannot be read: no run can be writing it either
+        writer = None
+    if writer is not None:  # a file system that does not take HDF5's locks
+        held.close()
+        raise InputError("output", _busy_message(path, writer))
     return held
 
 
@@ -157,7 +191,7 @@ class Writer:
 
     Parameters
     ----------
-    path : str or os.PathLike
+    path : str, bytes or os.PathLike
         The file to create.
     bodies : list of dict
         One per body: ``name``, ``attrs`` (the group's attributes), ``datasets``
@@ -190,22 +224,23 @@ class Writer:
     def __init__(
         self, path, bodies, attrs: dict, *, overwrite: bool = False, chunk_rows: int = 1024, potentials=(), works=()
     ):
-        path = os.fspath(path)
+        path = file_path(path, "output")
+        if (what := not_regular(path)) is not None:  # checked before anything opens it
+            raise InputError("output", f"{path!r} is {what}, not a regular file; an output must be a file of its own")
         if os.path.lexists(path) and not overwrite:
             raise InputError("output", _exists_message(path))
         folder = os.path.dirname(os.path.abspath(path))
         if not os.path.isdir(folder):
             raise InputError("output", f"folder {folder!r} does not exist")
-        if os.path.isdir(path):
-            raise InputError("output", f"{path!r} is a folder")
         self.path = path
         self.file = None
         self.rescued = None
         self._lost = None
+        self._flushed_size = None  # the file's size after the last flush, bytes
         self._overwrite = overwrite
         self._held = _hold(path) if overwrite and os.path.lexists(path) else None
         _remove_orphans(folder, os.path.basename(path))
-        self._temp = os.path.join(folder, f".{os.path.basename(path)}.{os.getpid()}-{secrets.token_hex(4)}.tmp")
+        self._temp = os.path.join(folder, temp_name(os.path.basename(path), os.getpid(), secrets.token_hex(4)))
         try:
             try:
                 self.file = h5py.File(self._temp, "x")
@@ -214,6 +249,7 @@ class Writer:
             self._identity = _identity(os.fstat(self.file.id.get_vfd_handle()))
             self._layout(bodies, attrs, chunk_rows, potentials, works)
             self.file.flush()
+            self._flushed_size = self._size()
         except BaseException:
             self._discard()
             raise
@@ -232,6 +268,8 @@ class Writer:
             return
         temp, path = self._temp, self.path
         try:
+            if (what := not_regular(path)) is not None:  # became one since the run started
+                raise InputError("output", f"{path!r} is {what}, not a regular file; it is left as it is")
             if self._overwrite:
                 os.replace(temp, path)
             else:
@@ -265,6 +303,7 @@ class Writer:
         f.attrs["versions"] = _versions()
         _write_root_attrs(f, attrs)
         f.attrs["status"] = "running"
+        f.attrs["writer"] = writer_id()
         self._ds = {
             name: _growable(f, name, WIDTHS[name], unit, chunk_rows, OPTIONAL.get(name) or 0.0)
             for name, unit in LAYOUT_UNITS.items()
@@ -281,7 +320,7 @@ class Writer:
             for key, value in body["attrs"].items():
                 g.attrs[key] = value
             for path_, (array, unit) in body.get("constants", {}).items():
-                ds = g.create_dataset(path_, data=array)
+                ds = _constant(g, path_, array)
                 ds.attrs["unit"] = unit
             self._body_ds[body["name"]] = {
                 q: _growable(g, q, width, unit, chunk_rows) for q, (width, unit) in body["datasets"].items()
@@ -306,9 +345,44 @@ class Writer:
             return None
         return None if now == self._identity else "was replaced by another file"
 
+    def _size(self) -> int | None:
+        """The size of the file this writer holds open, bytes (None where it cannot be told)."""
+        try:
+            return os.fstat(self.file.id.get_vfd_handle()).st_size
+        except (OSError, ValueError, AttributeError):
+            return None
+
+    def _shrunk(self, flushed: bool = False) -> str | None:
+        """Whether the file is shorter than it was after the last flush (between flushes HDF5
+        only writes, which never shortens a file) or, just after a flush, than HDF5 holds it to
+        be: truncated in place by another process."""
+        size = self._size()
+        if size is None:
+            return None
+        was = self._flushed_size
+        if flushed:
+            try:
+                was = self.file.id.get_filesize()  # a flush leaves the file as long as HDF5 has it
+            except (OSError, RuntimeError, ValueError):
+                return None
+        if was is None or size >= was:
+            return None
+        return f"was truncated to {size:,} bytes (it had {was:,})"
+
+    def _watch(self, flushed: bool = False) -> None:
+        """Before writing, before a flush and after one: stop the run if its file was truncated
+        in place since the last flush; what it wrote before is lost, and writing on would
+        leave a file that cannot be read."""
+        if self._lost is None and (what := self._shrunk(flushed)):
+            self._lost = what
+            raise FileLostError(f"{self.path!r} {what} while this run was writing it{_TRUNCATED}")
+
     def _flush(self) -> None:
-        """Flush, then stop the run if the path no longer names this file."""
+        """Flush, then stop the run if the file was truncated or the path no longer names it."""
+        self._watch()
         self.file.flush()
+        self._watch(flushed=True)
+        self._flushed_size = self._size()
         if self._lost is None and (what := self.lost()):
             self._lost = what
             raise FileLostError(
@@ -360,6 +434,7 @@ class Writer:
         FileLostError
             The path no longer names this file.
         """
+        self._watch()
         time = np.asarray(time, float)
         blocks = dict(zip(list(LAYOUT_UNITS)[:5], (time, energy, momentum, angular_momentum, newton_iterations)))
         for name, fill in OPTIONAL.items():
@@ -368,7 +443,7 @@ class Writer:
                 fill = np.asarray(energy, float)[:, None]
             blocks[name] = diagnostics.get(name.split("/")[1], np.broadcast_to(fill, shape))
         for name in self._ds:
-            if name.startswith(_EFFECT_RECORDS):
+            if name.startswith(EFFECT_RECORDS):
                 blocks[name] = diagnostics.get(name.split("/")[1], np.zeros(time.shape[0]))
         for name, block in blocks.items():
             _append(self._ds[name], np.asarray(block, float))
@@ -404,6 +479,7 @@ class Writer:
         FileLostError
             The path no longer names this file.
         """
+        self._watch()
         f = self.file
         if NEXT_CHECKPOINT in f:
             del f[NEXT_CHECKPOINT]
@@ -436,6 +512,7 @@ class Writer:
         FileLostError
             The path no longer names this file.
         """
+        self._watch()
         self._state_group("final_state", steps, time, arrays, units)
         self._flush()
 
@@ -454,7 +531,7 @@ class Writer:
             else:
                 if key in g:
                     del g[key]
-                g.create_dataset(key, data=value)
+                _constant(g, key, value)
             unit = (units or {}).get(key, STATE_UNITS.get(key))
             if unit is not None:
                 g[key].attrs["unit"] = unit
@@ -474,7 +551,7 @@ class Writer:
 
         Parameters
         ----------
-        path : str or os.PathLike
+        path : str, bytes or os.PathLike
             The run file.
         records : int
             Records to keep (at least 1, at most the rows of every record dataset).
@@ -492,8 +569,8 @@ class Writer:
             Another process is writing the file, or it cannot be opened for writing.
         """
         self = cls.__new__(cls)
-        self.path = os.fspath(path)
-        self._lost, self._temp, self._held, self.rescued = None, None, None, None
+        self.path = file_path(path)
+        self._lost, self._temp, self._held, self.rescued, self._flushed_size = None, None, None, None, None
         try:
             self.file = h5py.File(self.path, "r+")
         except OSError as exc:
@@ -510,7 +587,7 @@ class Writer:
                 ds[:] = rows
         self._ds = {name: f[name] for name in LAYOUT_UNITS}
         for label in f["invariants"]:  # each effect's potential energy, the work of those doing work
-            if label.startswith(tuple(p.split("/")[1] for p in _EFFECT_RECORDS)):
+            if label.startswith(tuple(p.split("/")[1] for p in EFFECT_RECORDS)):
                 self._ds[f"invariants/{label}"] = f[f"invariants/{label}"]
         self._body_ds = {}
         for name, g in f["bodies"].items():
@@ -532,6 +609,7 @@ class Writer:
             if key in f.attrs and f"{key}_unit" not in f.attrs:
                 f.attrs[f"{key}_unit"] = ROOT_UNITS[key]
         f.attrs["status"] = "running"
+        f.attrs["writer"] = writer_id()
         if "error" in f.attrs:
             del f.attrs["error"]
         self._flush()
@@ -566,10 +644,13 @@ class Writer:
         """
         if not self.file:
             return ""
+        shrunk = self._shrunk() if self._lost is None else None  # before this close writes
         self.file.attrs["status"] = status
         if error is not None:
             self.file.attrs["error"] = error
         self.file.flush()
+        if self._lost is None:
+            shrunk = shrunk or self._shrunk(flushed=True)
         if self._temp is not None:
             try:
                 self._place()
@@ -578,10 +659,12 @@ class Writer:
                 raise
         reported = self._lost is not None
         if not reported:
-            self._lost = self.lost()
-        note = self._rescue() if self._lost else ""
+            self._lost = shrunk or self.lost()
+        note = self._rescue() if self._lost and not self._lost.startswith("was truncated") else ""
         self.file.close()
         if self._lost and not reported:
+            if shrunk:
+                raise FileLostError(f"{self.path!r} {self._lost} while this run was writing it{_TRUNCATED}")
             raise FileLostError(
                 f"{self.path!r} {self._lost} while this run was writing it (by another process or by hand); "
                 f"the records this run wrote are not at that path{note}"
@@ -589,36 +672,37 @@ class Writer:
         return note
 
 
+def temp_name(name: str, pid: int, tag: str) -> str:
+    """The name of a run's temporary file for the output ``name`` (no folder):
+    ``.<name>.<pid>-<tag>.tmp``, ``tag`` 8 random hex digits."""
+    return f".{name}.{pid}-{tag}.tmp"
+
+
+def temp_pattern(name: str) -> str:
+    """A regular expression that the whole name of every temporary file :func:`temp_name`
+    gives for the output ``name`` (itself a regular expression) matches; the process id is its
+    group ``pid``."""
+    return r"\." + name + r"\.(?P<pid>\d+)-[0-9a-f]{8}\.tmp"
+
+
 def _remove_orphans(folder: str, name: str) -> None:
     """Remove the hidden temporary files that runs to ``name`` left when they were killed
-    (SIGKILL) before their first checkpoint gave the file its name: those whose process is
-    gone. A temporary file of a process that still runs is its run's, and stays."""
-    prefix = f".{name}."
+    (SIGKILL) before their first checkpoint gave the file its name: those whose whole name is
+    such a file's (:func:`temp_name`) and whose process is gone. A temporary file of a process
+    that still runs is its run's, and stays; any other file stays."""
+    pattern = re.compile(temp_pattern(re.escape(name)))
     try:
         entries = os.listdir(folder)
     except OSError:
         return
     for entry in entries:
-        if not (entry.startswith(prefix) and entry.endswith(".tmp")):
-            continue
-        pid = entry[len(prefix) : -len(".tmp")].split("-", 1)[0]
-        if not pid.isdigit() or _alive(int(pid)):
+        m = pattern.fullmatch(entry)
+        if m is None or _alive(int(m.group("pid"))):
             continue
         try:
             os.unlink(os.path.join(folder, entry))
         except OSError:
             pass
-
-
-def _alive(pid: int) -> bool:
-    """Whether a process with this id runs (on this machine)."""
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except (PermissionError, OSError):
-        return True  # another user's, or not ours to ask: leave its file alone
-    return True
 
 
 def _discard(file, temp, held) -> None:

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import stat
 
 import h5py
 import numpy as np
@@ -44,6 +45,15 @@ __all__ = [
     "optional_rows",
     "state_digest",
     "probe",
+    "not_regular",
+    "file_path",
+    "read_dataset",
+    "verify_checksums",
+    "damage_message",
+    "DAMAGE",
+    "writer_id",
+    "live_writer",
+    "EFFECT_RECORDS",
 ]
 
 #: the unit attribute of each top-level dataset
@@ -108,7 +118,7 @@ def optional_rows(f, name: str, n: int) -> np.ndarray:
     """The first ``n`` rows of the optional record dataset ``name`` of an open run file, or
     what they read as in a file of an earlier version that lacks it (:data:`OPTIONAL`)."""
     if name in f:
-        return f[name][:n]
+        return read_dataset(f[name], f.filename, n)
     width = WIDTHS[name]
     if OPTIONAL[name] is None:  # energy_range: the record's energy, as least and greatest
         return np.repeat(f["invariants/energy"][:n][:, None], 2, axis=1)
@@ -150,11 +160,141 @@ def _locked(exc: BaseException) -> bool:
     return "unable to lock file" in str(exc)
 
 
-def _busy_message(path: str) -> str:
+def _busy_message(path: str, writer: str | None = None) -> str:
+    how = "it holds the file's HDF5 lock" if writer is None else f"{writer}, its status 'running'"
     return (
-        f"{path!r} is being written by another process (it holds the file's HDF5 lock); "
+        f"{path!r} is being written by another process ({how}); "
         "wait for that run to end, stop it, or choose another name"
     )
+
+
+#: what each kind of file that is not a regular one is called in messages
+_KINDS = (
+    (stat.S_ISDIR, "a folder"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def file_path(path, key: str = "file") -> str:
+    """A path given as str, bytes or os.PathLike, as str.
+
+    Parameters
+    ----------
+    path : str, bytes or os.PathLike
+        The path.
+    key : str
+        The name the error gives it.
+
+    Returns
+    -------
+    str
+        The path (bytes decoded as the file system does).
+
+    Raises
+    ------
+    InputError
+        Anything else, or a path that holds a NUL character.
+    """
+    try:
+        text = os.fsdecode(os.fspath(path))
+    except TypeError:
+        raise InputError(key, f"a path (a string) expected, got {path!r}") from None
+    if "\0" in text:  # the operating system's calls would raise ValueError
+        raise InputError(key, f"a path cannot hold a NUL character, got {text!r}")
+    return text
+
+
+def not_regular(path) -> str | None:
+    """What an existing path is when it is not a regular file (a link is followed), found
+    without opening it: a FIFO would block an open, and writing a device would write the device.
+
+    Parameters
+    ----------
+    path : str
+        The path.
+
+    Returns
+    -------
+    str or None
+        None for a regular file, a path that does not exist or a link to nothing; else
+        what it is ("a FIFO (named pipe)", "a character device", "a folder", ...).
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    except OSError as exc:
+        return f"a path that cannot be inspected ({exc.strerror or exc})"
+    if stat.S_ISREG(mode):
+        return None
+    return next((what for test, what in _KINDS if test(mode)), "not a regular file")
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process with this id runs (on this machine)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True  # another user's, or not ours to ask: count it as running
+    return True
+
+
+def _process_start(pid: int) -> int | None:
+    """When a process started, in clock ticks since boot (Linux), so that a process id that
+    was reused is not taken for the process that had it; None where it cannot be told."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as fh:
+            return int(fh.read().rsplit(b")", 1)[1].split()[19])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def writer_id() -> str:
+    """Who writes a run file: this machine's name, this process's id and start (JSON), the
+    root attribute ``writer`` that :func:`live_writer` reads."""
+    import json
+    import socket
+
+    return json.dumps({"host": socket.gethostname(), "pid": os.getpid(), "start": _process_start(os.getpid())})
+
+
+def live_writer(attrs) -> str | None:
+    """The process that still writes a run file whose status is "running", where it can be
+    told: one on this machine (not this process) that runs and started when the file's
+    ``writer`` attribute says. This catches a second writer where the file system does not
+    take HDF5's file locks.
+
+    Parameters
+    ----------
+    attrs : mapping
+        The file's root attributes.
+
+    Returns
+    -------
+    str or None
+        "process <pid>" while it writes; None for a finished, failed, interrupted or killed
+        run, or a writer that cannot be told (another machine, a file of an earlier version).
+    """
+    import json
+    import socket
+
+    try:
+        if str(attrs.get("status", "")) != "running":
+            return None
+        info = json.loads(attrs["writer"])
+        pid, host, start = int(info["pid"]), info["host"], info.get("start")
+    except (KeyError, ValueError, TypeError, OSError, RuntimeError):
+        return None
+    if host != socket.gethostname() or pid == os.getpid() or not _alive(pid):
+        return None
+    if start is not None and _process_start(pid) not in (None, start):
+        return None  # the id now names another process
+    return f"process {pid}"
 
 
 def open_run_file(path, key: str = "file", *, peek: bool = False) -> h5py.File:
@@ -162,7 +302,7 @@ def open_run_file(path, key: str = "file", *, peek: bool = False) -> h5py.File:
 
     Parameters
     ----------
-    path : str or os.PathLike
+    path : str, bytes or os.PathLike
         The file.
     key : str
         The name the errors give the file (``"file"``, ``"files"``).
@@ -181,11 +321,11 @@ def open_run_file(path, key: str = "file", *, peek: bool = False) -> h5py.File:
         The file does not exist, is not HDF5 or not a run file, or another process writes it
         (without ``peek``).
     """
-    path = os.fspath(path)
+    path = file_path(path, key)
     if not os.path.exists(path):
         raise InputError(key, f"{path!r} does not exist")
-    if os.path.isdir(path):
-        raise InputError(key, f"{path!r} is a folder, not a run file")
+    if (what := not_regular(path)) is not None:
+        raise InputError(key, f"{path!r} is {what}, not a run file")
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
@@ -203,11 +343,12 @@ def open_run_file(path, key: str = "file", *, peek: bool = False) -> h5py.File:
             raise InputError(key, f"{path!r} cannot be read as an HDF5 file ({exc})") from None
     try:
         check_layout(f, path, key)
-    except (RuntimeError, KeyError, ValueError, TypeError) as exc:  # h5py on a damaged file
+    except InputError:
         f.close()
-        raise InputError(
-            key, f"{path!r} is damaged: its layout cannot be read ({' '.join(str(exc).split())})"
-        ) from None
+        raise
+    except DAMAGE as exc:  # h5py on a damaged file
+        f.close()
+        raise InputError(key, f"{path!r} is damaged: its layout cannot be read ({damage_message(exc)})") from None
     except BaseException:
         f.close()
         raise
@@ -272,6 +413,13 @@ def probe(path, seconds: float | None = None) -> str | None:
     return None
 
 
+_probe = probe  # read() takes an argument of this name
+
+
+#: the record datasets of effects, one per effect (or the balance of those that do work)
+EFFECT_RECORDS = ("invariants/potential_", "invariants/work_", "invariants/energy_balance")
+
+
 def check_layout(f: h5py.File, path: str, key: str = "file") -> None:
     """Check that an open HDF5 file has the layout of an emorbit run file.
 
@@ -287,12 +435,20 @@ def check_layout(f: h5py.File, path: str, key: str = "file") -> None:
     Raises
     ------
     InputError
-        A dataset, group or root attribute of the layout is missing or has the wrong shape,
-        naming it.
+        A dataset, group or root attribute of the layout is missing or has the wrong shape, or
+        a name in /invariants or /diagnostics is not one emorbit writes, naming it.
     """
     what = f"{path!r} is an HDF5 file but not an emorbit run file"
     if "time" not in f and "bodies" not in f and "method" not in f.attrs:
         raise InputError(key, f"{what} (it has no /time, no /bodies and no 'method' attribute)")
+    try:
+        f.visit(lambda name: None)
+    except (TypeError, UnicodeDecodeError):  # h5py on a name that is not UTF-8 text
+        raise InputError(key, f"{path!r} is damaged: the name of a group or dataset is not text") from None
+    for group in ("invariants", "diagnostics"):  # a damaged name would pass for a dataset of an earlier version
+        for name in f[group] if isinstance(f.get(group), h5py.Group) else ():
+            if f"{group}/{name}" not in LAYOUT_UNITS and not f"{group}/{name}".startswith(EFFECT_RECORDS):
+                raise InputError(key, f"{path!r}: /{group}/{name} is not a dataset emorbit writes (a damaged name?)")
     for name in LAYOUT_UNITS:
         if name in OPTIONAL and name not in f:
             continue  # absent in files of earlier versions: read as OPTIONAL says
@@ -330,7 +486,142 @@ def _attr(f, path: str, name: str, kind):
         raise InputError("file", f"{path!r}: root attribute {name!r} is {value!r}, not a {kind.__name__}") from None
 
 
-def read(path) -> Result:
+#: what h5py raises on a file whose bytes were changed (a checksum that fails, a damaged
+#: heap or object header): each is reported as damage, naming what was being read
+DAMAGE = (OSError, RuntimeError, KeyError, ValueError, TypeError, AttributeError, IndexError, MemoryError)
+
+
+def damage_message(exc: BaseException) -> str:
+    """What an h5py error on a damaged file says, in one line (a failing Fletcher-32 checksum in
+    words).
+
+    Parameters
+    ----------
+    exc : BaseException
+        The error.
+
+    Returns
+    -------
+    str
+        The line.
+    """
+    text = " ".join(str(exc).split())
+    if "filter returned failure" in text:
+        return "its Fletcher-32 checksum fails: bytes in it changed since they were written"
+    return text or type(exc).__name__
+
+
+def _chunk_starts(ds) -> list[int]:
+    """Where along the first axis each chunk the file holds for ``ds`` starts, sorted (only
+    chunks that were written: a damaged shape may claim many more rows than that)."""
+    return sorted({ds.id.get_chunk_info(i).chunk_offset[0] for i in range(ds.id.get_num_chunks())})
+
+
+def _damaged_rows(ds, rows: int | None) -> str:
+    """Which rows of a chunked dataset cannot be read, chunk by chunk along the first axis
+    ("rows 0 to 1023, 2048 to 2499"), or "" when that cannot be told."""
+    if not ds.chunks or ds.ndim == 0:
+        return ""
+    n = ds.shape[0] if rows is None else min(rows, ds.shape[0])
+    bad = []
+    try:
+        starts = [a for a in _chunk_starts(ds) if a < n]
+    except DAMAGE:
+        return ""
+    for start in starts:
+        stop = min(start + ds.chunks[0], n)
+        try:
+            ds[start:stop]
+        except DAMAGE:
+            if bad and bad[-1][1] == start - 1:
+                bad[-1][1] = stop - 1
+            else:
+                bad.append([start, stop - 1])
+    return ", ".join(f"{a} to {b}" if b > a else f"{a}" for a, b in bad)
+
+
+def _claim(ds, rows: int | None) -> str | None:
+    """Why a dataset cannot hold what its shape says: more bytes than its file has (a shape
+    that was damaged), or None."""
+    n = ds.shape[0] if rows is None or ds.ndim == 0 else min(rows, ds.shape[0])
+    size = n * ds.dtype.itemsize * int(np.prod(ds.shape[1:], dtype=np.int64))
+    limit = os.path.getsize(ds.file.filename) + (1 << 20)  # a chunk, 1 MiB at most, may be partly filled
+    return f"its shape {ds.shape} claims {size:,} bytes, more than the file holds" if size > limit else None
+
+
+def read_dataset(ds, path: str, rows: int | None = None, key: str = "file") -> np.ndarray:
+    """A dataset's first ``rows`` rows (all of it when None), or an error that names the
+    dataset and the rows that cannot be read (a Fletcher-32 checksum that fails: the file was
+    damaged since it was written).
+
+    Parameters
+    ----------
+    ds : h5py.Dataset
+        The dataset.
+    path : str
+        Its file's path, for the message.
+    rows : int, optional
+        Rows to read.
+    key : str
+        The name the error gives the file.
+
+    Returns
+    -------
+    ndarray
+        The rows.
+
+    Raises
+    ------
+    InputError
+        The rows cannot be read.
+    """
+    try:
+        if (claim := _claim(ds, rows)) is not None:
+            raise InputError(key, f"{path!r} is damaged: dataset {ds.name}: {claim}")
+        return ds[()] if rows is None else ds[:rows]
+    except InputError:
+        raise
+    except DAMAGE as exc:
+        which = _damaged_rows(ds, rows)
+        where = f"dataset {ds.name}" + (f", rows {which}," if which else "")
+        raise InputError(key, f"{path!r} is damaged: {where} cannot be read ({damage_message(exc)})") from None
+
+
+def verify_checksums(f, path: str, key: str = "file") -> None:
+    """Read every chunk of every dataset of an open file that carries Fletcher-32 checksums,
+    so that a changed byte anywhere in them is an error naming the dataset and its rows.
+    Datasets of files written before checksums are not checked.
+
+    Parameters
+    ----------
+    f : h5py.File
+        The open file.
+    path : str
+        Its path, for the message.
+    key : str
+        The name the error gives the file.
+
+    Raises
+    ------
+    InputError
+        A dataset whose checksum fails.
+    """
+    found = []
+    f.visititems(lambda name, obj: found.append(obj) if isinstance(obj, h5py.Dataset) and obj.fletcher32 else None)
+    for ds in found:
+        try:
+            if (claim := _claim(ds, None)) is not None:
+                raise InputError(key, f"{path!r} is damaged: dataset {ds.name}: {claim}")
+            for start in _chunk_starts(ds):  # the chunks the file holds, one by one
+                ds[start : start + ds.chunks[0]]
+        except InputError:
+            raise
+        except DAMAGE:
+            read_dataset(ds, path, key=key)  # names the rows
+            raise
+
+
+def read(path, *, probe: bool | float = False) -> Result:
     """Read a run file.
 
     A file that another run is writing is read as far as that run has flushed it; records
@@ -338,8 +629,14 @@ def read(path) -> Result:
 
     Parameters
     ----------
-    path : str or os.PathLike
+    path : str, bytes or os.PathLike
         An HDF5 file written by emorbit.
+    probe : bool or float
+        Read the file in a child process first (:func:`probe`, about 0.3 s more): on some
+        damaged files (an attribute's heap or an object header overwritten) the HDF5 library
+        loops forever or crashes, where no error reaches Python; with ``probe`` such a file
+        is an InputError. A number is how long the child may read, s (True: 10 s plus 1 s
+        per 100 MB). ``emorbit resume`` always probes.
 
     Returns
     -------
@@ -349,45 +646,67 @@ def read(path) -> Result:
     Raises
     ------
     InputError
-        The file does not exist, is not HDF5 or is not an emorbit run file.
+        The file does not exist, is not HDF5 or is not an emorbit run file, or it is damaged:
+        a dataset whose Fletcher-32 checksum fails (named, with the rows that cannot be read),
+        or a part that h5py cannot read (named).
     """
-    path = os.fspath(path)
+    path = file_path(path)
+    seconds = None if probe is True else float(probe)
+    if probe and os.path.isfile(path) and (problem := _probe(path, seconds)) is not None:
+        raise InputError("file", f"{path!r} is damaged: {problem}")
     with open_run_file(path, peek=True) as f:
-        n = _rows(f)
-        bodies, masses, kinds = {}, {}, {}
-        for name, g in f["bodies"].items():
-            bodies[name] = {q: ds[:n] for q, ds in g.items() if isinstance(ds, h5py.Dataset)}
-            if "nodes" in g:
-                nodes = {q: ds[()] for q, ds in g["nodes"].items()}
-                k = min(len(a) for a in nodes.values())
-                bodies[name].update({f"nodes/{q}": a[:k] for q, a in nodes.items()})
-            for sub in ("mesh", "mass_points"):
-                if isinstance(g.get(sub), h5py.Group):
-                    bodies[name].update({f"{sub}/{q}": ds[()] for q, ds in g[sub].items()})
-            if "mass" not in g.attrs or "kind" not in g.attrs:
-                raise InputError("file", f"{path!r}: group /bodies/{name} has no 'mass' or 'kind' attribute")
-            masses[name] = float(g.attrs["mass"])
-            kinds[name] = str(g.attrs["kind"])
-        diag = {name.split("/")[1]: optional_rows(f, name, n) for name in OPTIONAL}
-        center = np.asarray(f.attrs["center"], float)
-        if center.shape != (3,):
-            raise InputError("file", f"{path!r}: root attribute 'center' has shape {center.shape}, expected (3,)")
-        return Result(
-            time=f["time"][:n],
-            energy=f["invariants/energy"][:n],
-            momentum=f["invariants/momentum"][:n],
-            angular_momentum=f["invariants/angular_momentum"][:n],
-            newton_iterations=f["diagnostics/newton_iterations"][:n],
-            bodies=bodies,
-            masses=masses,
-            kinds=kinds,
-            method=_attr(f, path, "method", str),
-            order=_attr(f, path, "order", int),
-            dt=_attr(f, path, "dt", float),
-            gm=_attr(f, path, "gm", float),
-            center=center,
-            attrs={k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()},
-            work={k[len("work_") :]: ds[:n] for k, ds in f["invariants"].items() if k.startswith("work_")},
-            energy_balance=f["invariants/energy_balance"][:n] if "energy_balance" in f["invariants"] else None,
-            **diag,
-        )
+        at = ["the record datasets' lengths"]  # the part being read, for the message
+        try:
+            return _read(f, path, at)
+        except InputError:
+            raise
+        except DAMAGE as exc:  # h5py on a damaged part that no checksum covers: say which
+            raise InputError("file", f"{path!r} is damaged: {at[0]} cannot be read ({damage_message(exc)})") from None
+
+
+def _read(f, path: str, at: list) -> Result:
+    """:func:`read` of the open file; ``at[0]`` says what is being read."""
+    n = _rows(f)
+    bodies, masses, kinds = {}, {}, {}
+    for name, g in f["bodies"].items():
+        at[0] = f"group /bodies/{name}"
+        bodies[name] = {q: read_dataset(ds, path, n) for q, ds in g.items() if isinstance(ds, h5py.Dataset)}
+        if "nodes" in g:
+            nodes = {q: read_dataset(ds, path) for q, ds in g["nodes"].items()}
+            k = min(len(a) for a in nodes.values())
+            bodies[name].update({f"nodes/{q}": a[:k] for q, a in nodes.items()})
+        for sub in ("mesh", "mass_points"):
+            if isinstance(g.get(sub), h5py.Group):
+                bodies[name].update({f"{sub}/{q}": read_dataset(ds, path) for q, ds in g[sub].items()})
+        if "mass" not in g.attrs or "kind" not in g.attrs:
+            raise InputError("file", f"{path!r}: group /bodies/{name} has no 'mass' or 'kind' attribute")
+        masses[name] = float(g.attrs["mass"])
+        kinds[name] = str(g.attrs["kind"])
+    at[0] = "the record datasets"
+    diag = {name.split("/")[1]: optional_rows(f, name, n) for name in OPTIONAL}
+    at[0] = "the root attributes"
+    center = np.asarray(f.attrs["center"], float)
+    if center.shape != (3,):
+        raise InputError("file", f"{path!r}: root attribute 'center' has shape {center.shape}, expected (3,)")
+    attrs = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()}
+    at[0] = "group /invariants"
+    invariants = f["invariants"]
+    return Result(
+        time=read_dataset(f["time"], path, n),
+        energy=read_dataset(f["invariants/energy"], path, n),
+        momentum=read_dataset(f["invariants/momentum"], path, n),
+        angular_momentum=read_dataset(f["invariants/angular_momentum"], path, n),
+        newton_iterations=read_dataset(f["diagnostics/newton_iterations"], path, n),
+        bodies=bodies,
+        masses=masses,
+        kinds=kinds,
+        method=_attr(f, path, "method", str),
+        order=_attr(f, path, "order", int),
+        dt=_attr(f, path, "dt", float),
+        gm=_attr(f, path, "gm", float),
+        center=center,
+        attrs=attrs,
+        work={k[len("work_") :]: read_dataset(ds, path, n) for k, ds in invariants.items() if k.startswith("work_")},
+        energy_balance=read_dataset(invariants["energy_balance"], path, n) if "energy_balance" in invariants else None,
+        **diag,
+    )

@@ -22,6 +22,7 @@ import numpy as np
 from ..errors import IntegrationError
 from ..integrators import coefficients
 from ..result import Result
+from .drift import UnsolvedStep
 
 __all__ = ["Sink", "progress_bar"]
 
@@ -114,6 +115,7 @@ class Sink:
         self.range_pending = np.array([np.inf, -np.inf])
         self.energy0 = None  # E0 of the energy balance: the run file's first record
         self.works: list[dict] = []  # {work_<label>, energy_balance: (rows,) J} per emitted block
+        self.last_energy = None  # the last record's total energy, J
 
     def widen(self, energy) -> None:
         """Widen the next record's energy range by energies (J) of steps between records.
@@ -206,6 +208,13 @@ class Sink:
             else:  # solves per step: points, bodies, or 1 per structure
                 solves = solves + rec.iterations.shape[1] * coefficients(sim.order).size
         its = iters / np.maximum(k * solves, 1) if k else np.zeros(nrec)
+        rel = np.asarray(steps[:nrec]) - getattr(sim, "_run_origin", 0)  # steps since the file's start
+        # under effects that do work, E - W is what the step keeps (the balance)
+        kept = energy - sum(works.values()) if works else energy
+        scales = None
+        if self.monitor is not None:
+            scales = sum(system.invariant_scales(rec, nrec, gm, center) for system, rec in recs)
+            self._refuse(recs, steps, times, nrec, k, span, rel, energy, kept, scales, substeps)
         radius = sim.field.radius if sim.field is not None else 0.0
         if radius > 0.0:  # a body inside the central body: keep the records before, then stop
             names = list(data)
@@ -245,13 +254,10 @@ class Sink:
                 self.works[1:] = [{k: w[-1:] for k, w in entry.items()}]
         drift, bound = np.full((nrec, 3), -1.0), np.full(nrec, -1.0)  # -1: not measured
         if self.monitor is not None:
-            scales = sum(system.invariant_scales(rec, nrec, gm, center) for system, rec in recs)
-            rel = np.asarray(steps[:nrec]) - getattr(sim, "_run_origin", 0)  # steps since the file's start
-            # under effects that do work, E - W is what the step keeps (the balance)
-            kept = energy - sum(w for k, w in works.items() if k != "energy_balance") if works else energy
             drift, bound = self.monitor.update(times, rel, kept, momentum, angular, scales, substeps, stalled)
         self.rows += nrec
         self.last_step = int(steps[nrec - 1])
+        self.last_energy = float(energy[nrec - 1])
         block = (times, energy, momentum, angular, its, data, split, stalled, drift, bound, erange)
         if self.writer is not None:
             self.writer.append(
@@ -268,6 +274,36 @@ class Sink:
             self.blocks.append(block if self.keep else _row(block, 0))
         if not self.keep:
             self.blocks[1:] = [_row(block, -1)]
+
+    def _refuse(self, recs, steps, times, nrec, k, span, rel, energy, kept, scales, substeps) -> None:
+        """Refuse a block before anything of it is recorded: an energy-conserving step that moved
+        the energy beyond round-off (:class:`~emorbit.io.drift.UnsolvedStep`: nothing of the block
+        is recorded, so that the steps can be redone), or a run whose energy grew by orders of
+        magnitude (:class:`~emorbit.errors.IntegrationError`, the records before recorded)."""
+        sim = self.sim
+        names = sim.names
+        who = ", ".join(names) if len(names) <= 3 else f"{names[0]} and {len(names) - 1} other bodies"
+        if k:  # the start record closes no interval
+            previous = self.last_energy
+            if previous is None and self.writer is not None and self.rows > 0:  # resumed: the file's last record
+                previous = float(self.writer.file["invariants/energy"][self.rows - 1])
+            bad = self.monitor.unsolved(previous, rel, energy, scales, substeps)
+            if bad is not None:
+                row, change, scale, n = bad
+                raise UnsolvedStep(float(times[row]) - k * sim._dt, who, change, scale, n, row)
+        gone = self.monitor.diverged(kept, scales)
+        if gone is not None:
+            row, first, now, start = gone
+            if row:
+                self.emit_rows(recs, steps, row, k, span)
+            raise IntegrationError(
+                float(times[row]) - k * sim._dt,
+                who,
+                f"the run diverged: its energy went from {first:.6g} J at the first record to {now:.6g} J, "
+                f"{abs(now - first) / max(start, np.finfo(float).tiny):.3g} times the energy's round-off scale "
+                f"at the start (T + |V| + W = {start:.6g} J); records up to the one before are written. "
+                f"Method {sim.method} at dt = {sim.dt!r} s does not follow this motion: take a smaller dt",
+            )
 
     def result(self) -> Result:
         """The kept records.

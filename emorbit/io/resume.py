@@ -25,7 +25,19 @@ from ..result import Result
 from ..scene import parse_scene, scene_overrides
 from ..units import to_si
 from .hdf5 import Writer
-from .reader import LAYOUT_UNITS, NEXT_CHECKPOINT, open_run_file, probe, state_digest
+from .reader import (
+    DAMAGE,
+    LAYOUT_UNITS,
+    NEXT_CHECKPOINT,
+    _busy_message,
+    damage_message,
+    file_path,
+    live_writer,
+    open_run_file,
+    probe,
+    state_digest,
+    verify_checksums,
+)
 
 __all__ = ["resume", "load_checkpoint"]
 
@@ -159,7 +171,7 @@ def _check_state(path, where: str, arrays: dict, sim) -> None:
 
 def _load(path) -> _Loaded:
     """Check a run file and rebuild its simulation at its last checkpoint."""
-    path = os.fspath(path)
+    path = file_path(path)
     problem = probe(path) if os.path.isfile(path) else None  # else: open_run_file says what it is
     if problem is not None:
         raise InputError("file", f"{path!r} is damaged: {problem}")
@@ -168,8 +180,8 @@ def _load(path) -> _Loaded:
             loaded, where, arrays, recorded = _read(f, path)
         except InputError:
             raise
-        except (OSError, RuntimeError, KeyError, ValueError, TypeError, IndexError) as exc:  # h5py on a damaged file
-            raise _bad(path, "its content", f"cannot be read ({' '.join(str(exc).split())})") from None
+        except DAMAGE as exc:  # h5py on a damaged file
+            raise _bad(path, "its content", f"cannot be read ({damage_message(exc)})") from None
     sim = loaded.sim
     _check_state(path, where, arrays, sim)
     try:
@@ -199,6 +211,9 @@ def _read(f, path: str):
     the invariants recorded with the checkpoint's record."""
     f.visititems(lambda name, obj: None)  # every group a resume writes into opens (a damaged one raises)
     attrs = _plain(f.attrs)
+    if (writer := live_writer(attrs)) is not None:  # a file system that does not take HDF5's locks
+        raise InputError("file", _busy_message(path, writer))
+    verify_checksums(f, path)  # the records kept, and the state: a changed byte would be continued
     scene_text = _string(path, attrs, "scene")
     method = _string(path, attrs, "method")
     order = _number(path, attrs, "order", integer=True, minimum=1)
@@ -357,7 +372,7 @@ def load_checkpoint(path):
 
     Parameters
     ----------
-    path : str or os.PathLike
+    path : str, bytes or os.PathLike
         A run file.
 
     Returns
@@ -385,7 +400,7 @@ def resume(path, t_end, *, progress: bool | None = None, truncate: bool = False)
 
     Parameters
     ----------
-    path : str or os.PathLike
+    path : str, bytes or os.PathLike
         A run file (finished, failed, interrupted or killed).
     t_end : Quantity, str or float
         The new end time, s.
@@ -414,7 +429,7 @@ def resume(path, t_end, *, progress: bool | None = None, truncate: bool = False)
 
     from .recorder import Sink
 
-    path = os.fspath(path)
+    path = file_path(path)
     loaded = _load(path)
     sim, attrs, records = loaded.sim, loaded.attrs, loaded.records
     t2 = to_si(t_end, "time", "t_end", positive=False)

@@ -1,20 +1,75 @@
-"""A simulation's set-up written back as a scene (TOML), in SI units.
+"""Scenes as TOML text: a simulation's set-up written back as a scene, in SI units, and TOML
+text read with bounded nesting.
 
 :func:`simulation_to_toml` reads only the public state of a
 :class:`~emorbit.simulation.Simulation` (field, integrator settings, bodies), so the output
 file can store the scene of a run built through the Python API; :mod:`emorbit.scene` parses
-such text back. Floats are written with ``repr``, so point masses round-trip to the last bit.
+such text back (:func:`load_toml`). Floats are written with ``repr``, so point masses
+round-trip to the last bit.
 """
 
 from __future__ import annotations
 
 import json
+import sys
 
 import numpy as np
 
+from ..errors import InputError
 from .drift import DRIFT_TOLERANCE
 
-__all__ = ["simulation_to_toml"]
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+__all__ = ["simulation_to_toml", "load_toml", "MAX_DEPTH"]
+
+#: the deepest a scene or sweep file nests tables and arrays (a mesh's rows in a [[body]]
+#: table are 3 levels deep)
+MAX_DEPTH = 16
+
+
+def load_toml(text: str, source: str = "<string>") -> dict:
+    """The tables of TOML text, nested at most :data:`MAX_DEPTH` levels deep.
+
+    Shared by scenes and sweep files.
+
+    Parameters
+    ----------
+    text : str
+        The TOML text.
+    source : str
+        Where it came from, named in errors.
+
+    Returns
+    -------
+    dict
+        What :func:`tomllib.loads` gives.
+
+    Raises
+    ------
+    InputError
+        Text that is not TOML, or that nests deeper (naming the key that does):
+        thousands of nested arrays would exhaust the parser's recursion, or that of code
+        reading the tables.
+    """
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(source, f"not valid TOML: {exc}") from None
+    except RecursionError:
+        raise InputError(source, f"nests tables or arrays too deep to read (at most {MAX_DEPTH} levels)") from None
+    stack = [(value, 1, key) for key, value in data.items()]
+    while stack:  # without recursion
+        item, depth, key = stack.pop()
+        if depth > MAX_DEPTH:
+            raise InputError(key, f"nests tables or arrays more than {MAX_DEPTH} levels deep")
+        if isinstance(item, dict):
+            stack.extend((child, depth + 1, f"{key}.{name}") for name, child in item.items())
+        elif isinstance(item, list):
+            stack.extend((child, depth + 1, key) for child in item)
+    return data
 
 
 def _q(value: float, unit: str) -> str:

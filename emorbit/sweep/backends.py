@@ -255,6 +255,25 @@ class ProcessBackend(Backend):
         return f"{self.workers} local processes"
 
 
+def _scheduler_address(address) -> str:
+    """A Dask scheduler's address as dask.distributed reads it (``[scheme://]host:port``),
+    checked before a client is made: a client made of a bad address raises from deep inside
+    Dask and leaves tracebacks on stderr when it is collected."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import get_backend
+
+    try:
+        scheme, location = parse_address(address)
+        get_backend(scheme)
+        _, port = parse_host_port(location)
+    except (ValueError, TypeError) as exc:
+        what = f"{address!r} is not a Dask scheduler's address tcp://HOST:PORT"
+        raise InputError("scheduler", f"{what} ({exc})") from None
+    if not 0 < port < 65536:
+        raise InputError("scheduler", f"{address!r} is not a Dask scheduler's address: port {port} is not in 1..65535")
+    return address
+
+
 class DaskBackend(Backend):
     """Dask distributed: a LocalCluster on loopback, or an existing cluster.
 
@@ -270,7 +289,7 @@ class DaskBackend(Backend):
     Raises
     ------
     InputError
-        dask.distributed is not installed.
+        dask.distributed is not installed, or ``scheduler`` is not a scheduler's address.
     """
 
     name = "dask"
@@ -286,7 +305,7 @@ class DaskBackend(Backend):
             ) from None
         self.workers = workers
         self.threads = threads
-        self.scheduler = scheduler
+        self.scheduler = None if scheduler is None else _scheduler_address(scheduler)
         self.cluster = None
         self.client = None
 

@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import collections
 import concurrent.futures as cf
+import contextlib
 import csv
 import datetime as _dt
-import glob
 import json
 import math
 import numbers
 import os
+import re
 import sys
 from dataclasses import dataclass, field
 
@@ -31,9 +32,10 @@ from .._version import __version__
 from ..errors import InputError
 from ..integrators import check_device
 from ..integrators.dispatch import require_device
+from ..io.hdf5 import temp_pattern
 from .backends import make_backend
 from .spec import Sweep, load_sweep
-from .task import read_row, row_columns, run_file_name, run_task
+from .task import TASK_TEMP, read_row, row_columns, run_file_name, run_task
 
 __all__ = ["run_sweep", "SweepResult", "read_summary"]
 
@@ -130,13 +132,14 @@ def _not_run(task: dict, status: str, error: str) -> dict:
 
 def _remove_orphans(runs_dir: str) -> None:
     """Remove temporary files of attempts that never finished (their workers died): the
-    worker's ``.run-000012.h5.<random>.tmp`` and any temporary file the run's writer made
-    beside it (every hidden ``.tmp`` file in ``runs/``)."""
-    for path in glob.glob(os.path.join(runs_dir, ".*.tmp")):
-        try:
-            os.remove(path)
-        except OSError:
-            pass
+    worker's ``.run-000012.h5.<random>.tmp`` (:data:`~emorbit.sweep.task.TASK_TEMP`) and the
+    temporary file the run's writer made beside it (:func:`~emorbit.io.hdf5.temp_pattern`).
+    Only files whose whole name is one of these are removed."""
+    names = re.compile(f"{TASK_TEMP}|{temp_pattern(TASK_TEMP)}")
+    for entry in os.listdir(runs_dir) if os.path.isdir(runs_dir) else ():
+        if names.fullmatch(entry):
+            with contextlib.suppress(OSError):
+                os.remove(os.path.join(runs_dir, entry))
 
 
 def run_sweep(
@@ -393,14 +396,26 @@ def _csv_header(name: str, unit: str) -> str:
     return f"{name} [{unit}]" if unit else name
 
 
-def _write_csv(path, names, units, rows) -> None:
+@contextlib.contextmanager
+def _replacing(path: str):
+    """Write a file under ``<path>.tmp`` in the block and rename it to ``path`` after it; an
+    error in the block removes the temporary file."""
     tmp = path + ".tmp"
-    with open(tmp, "w", newline="", encoding="utf-8") as fh:
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def _write_csv(path, names, units, rows) -> None:
+    with _replacing(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
         w.writerow([_csv_header(n, units.get(n, "")) for n in names])
         for r in rows:
             w.writerow([_text(r.get(c)) for c in names])
-    os.replace(tmp, path)
 
 
 def _column(values: list):
@@ -418,8 +433,7 @@ def _write_h5(path, names, units, rows, sweep, be, counts) -> None:
     table = np.empty(len(rows), dtype=dtype)
     for n, c in zip(names, cols):
         table[n] = c
-    tmp = path + ".tmp"
-    with h5py.File(tmp, "w") as f:
+    with _replacing(path) as tmp, h5py.File(tmp, "w") as f:
         f.attrs["creator"] = f"emorbit {__version__}"
         f.attrs["emorbit_version"] = __version__
         f.attrs["created"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
@@ -431,7 +445,6 @@ def _write_h5(path, names, units, rows, sweep, be, counts) -> None:
         ds = f.create_dataset("summary", data=table)
         ds.attrs["units"] = json.dumps(units)
         ds.attrs["columns"] = json.dumps(names)
-    os.replace(tmp, path)
 
 
 def read_summary(path) -> list[dict]:

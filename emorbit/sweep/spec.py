@@ -4,7 +4,7 @@
 
     [sweep]
     scene = "paper-ellipse"   # a shipped scene or a TOML file (relative to this file)
-    seed = 2024               # root seed (default 0)
+    seed = 2024               # root seed, 0 to 2**63 - 1 (default 0)
     combine = "product"       # every combination (default) | "zip": the lists side by side
     samples = 1               # runs per combination; random parameters draw anew in each
     bodies = ["satellite"]    # bodies whose final elements the summary lists (default: all)
@@ -40,19 +40,14 @@ import math
 import numbers
 import os
 import re
-import sys
 from dataclasses import dataclass, field
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
 
 import numpy as np
 
 from ..errors import InputError
-from ..scene import SCHEMA, Scene, check_table, load_scene, read_text
+from ..scene import SCHEMA, Scene, check_table, load_scene, load_toml, read_text
 from .scene_text import scene_toml
+from .values import check_quantity, check_unit, has_unit, integer, number
 
 __all__ = ["Sweep", "Parameter", "Task", "MAX_RUNS", "load_sweep", "parse_sweep", "parse_key", "set_value", "run_scene"]
 
@@ -64,31 +59,12 @@ _RANGE = {"start": True, "stop": True, "num": False, "step": False, "spacing": F
 DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"), "loguniform": ("low", "high")}
 #: the most runs a sweep may have unless its ``max_runs`` (or the caller's) says more
 MAX_RUNS = 100_000
+#: the largest root seed: a 64-bit signed integer, as the summary file stores it
+MAX_SEED = 2**63 - 1
 
 
 def _check_table(table, allowed: dict, where: str) -> dict:
     return check_table(table, allowed, where, root="sweep")
-
-
-def _check_unit(unit: str, key: str) -> None:
-    import astropy.units as u
-
-    try:
-        u.Unit(unit)
-    except (TypeError, ValueError) as exc:
-        raise InputError(key, f"cannot read {unit!r} as a unit ({exc})") from None
-
-
-def _number(value, key: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise InputError(key, f"a finite number expected, got {value!r}")
-    return value
-
-
-def _int(value, key: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise InputError(key, f"must be an integer >= {minimum}, got {value!r}")
-    return int(value)
 
 
 # -- keys into a scene -------------------------------------------------------------------
@@ -269,7 +245,7 @@ def _with_unit(value, unit: str | None, where: str):
         return value
     if isinstance(value, list):
         return [_with_unit(v, unit, f"{where}[{j}]") for j, v in enumerate(value)]
-    _number(value, where)
+    number(value, where)
     text = str(int(value)) if isinstance(value, numbers.Integral) else repr(float(value))
     return f"{text} {unit}"
 
@@ -357,8 +333,8 @@ class Parameter:
 def _range_count(r, where: str) -> int | float:
     """How many values a range table gives, checked, without listing them (inf: too many to count)."""
     _check_table(r, _RANGE, where)
-    start = _number(r["start"], f"{where}.start")
-    stop = _number(r["stop"], f"{where}.stop")
+    start = number(r["start"], f"{where}.start")
+    stop = number(r["stop"], f"{where}.stop")
     spacing = r.get("spacing", "linear")
     if spacing not in ("linear", "log"):
         raise InputError(f"{where}.spacing", f"must be 'linear' or 'log', got {spacing!r}")
@@ -370,8 +346,8 @@ def _range_count(r, where: str) -> int | float:
         if not (start > 0 and stop > 0):
             raise InputError(where, f"a log range needs start, stop > 0, got {start!r}, {stop!r}")
     if "num" in r:
-        return _int(r["num"], f"{where}.num", 1)
-    step = _number(r["step"], f"{where}.step")
+        return integer(r["num"], f"{where}.num", 1)
+    step = number(r["step"], f"{where}.step")
     if step == 0 or (stop - start) * step < 0:
         raise InputError(f"{where}.step", f"{step!r} does not lead from {start!r} to {stop!r}")
     count = (stop - start) / step
@@ -403,7 +379,7 @@ def _parameter(p, j: int, scene_data: dict) -> Parameter:
     if unit is not None:
         if not isinstance(unit, str) or not unit.strip():
             raise InputError(f"{where}.unit", f"a unit such as 'm / s' expected, got {unit!r}")
-        _check_unit(unit, f"{where}.unit")
+        check_unit(unit, f"{where}.unit")
     param = Parameter(key=p["key"], path=path, unit=unit)
     if "values" in p:
         vals = p["values"]
@@ -425,7 +401,7 @@ def _parameter(p, j: int, scene_data: dict) -> Parameter:
             raise InputError(f"{rw}.distribution", f"one of {', '.join(DISTRIBUTIONS)} expected, got {got!r}")
         names = DISTRIBUTIONS[r["distribution"]]
         _check_table(r, {"distribution": True, **{n: True for n in names}}, rw)
-        args = tuple(float(_number(r[n], f"{rw}.{n}")) for n in names)
+        args = tuple(float(number(r[n], f"{rw}.{n}")) for n in names)
         if r["distribution"] == "normal" and not args[1] >= 0:
             raise InputError(f"{rw}.std", f"must be >= 0, got {args[1]!r}")
         if r["distribution"] != "normal" and not args[0] < args[1]:
@@ -434,17 +410,19 @@ def _parameter(p, j: int, scene_data: dict) -> Parameter:
             raise InputError(f"{rw}.low", f"must be > 0, got {args[0]!r}")
         param.distribution = r["distribution"]
         param.args = args
+    quantity = has_unit(current)
     if unit is None and not param.random and "range" not in p:
+        for k, v in enumerate(param.values):  # a bare number where the scene has a quantity fails every run
+            check_quantity(current, v, f"{where}.unit", f"{p['key']} (values[{k}])")
         return param
     # generated numbers: the scene must want a quantity exactly when a unit is given
-    has_unit = isinstance(current, str) or (isinstance(current, list) and any(isinstance(c, str) for c in current))
-    if unit is None and has_unit:
+    if unit is None and quantity:
         raise InputError(
             f"{where}.unit",
             f"{p['key']} takes a value with a unit (the scene has {current!r}); "
             'give the unit of the numbers, e.g. unit = "m"',
         )
-    if unit is not None and current is not None and not has_unit:
+    if unit is not None and current is not None and not quantity:
         raise InputError(f"{where}.unit", f"{p['key']} takes a bare number (the scene has {current!r}); drop the unit")
     return param
 
@@ -701,11 +679,8 @@ def parse_sweep(text: str, source: str = "<string>", max_runs: int | None = None
         ``max_runs``; the error names the key.
     """
     if max_runs is not None:
-        _int(max_runs, "max_runs", 1)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(source, f"not valid TOML: {exc}") from None
+        integer(max_runs, "max_runs", 1)
+    data = load_toml(text, source)
     _check_table(data, _TOP, "")
     sw = _check_table(data["sweep"], _SWEEP, "sweep")
     scene_ref = sw["scene"]
@@ -719,15 +694,15 @@ def parse_sweep(text: str, source: str = "<string>", max_runs: int | None = None
         scene = load_scene(scene_ref)
     except InputError as exc:
         raise InputError("sweep.scene", str(exc)) from None
-    seed = _int(sw.get("seed", 0), "sweep.seed", 0)
+    seed = integer(sw.get("seed", 0), "sweep.seed", 0, MAX_SEED)
     combine = sw.get("combine", "product")
     if combine not in ("product", "zip"):
         raise InputError("sweep.combine", f"must be 'product' or 'zip', got {combine!r}")
-    samples = _int(sw.get("samples", 1), "sweep.samples", 1)
+    samples = integer(sw.get("samples", 1), "sweep.samples", 1)
     params_raw = data.get("parameter", [])
     if not isinstance(params_raw, list):
         raise InputError("parameter", "expected [[parameter]] tables")
-    limit = max_runs if max_runs is not None else _int(sw.get("max_runs", MAX_RUNS), "sweep.max_runs", 1)
+    limit = max_runs if max_runs is not None else integer(sw.get("max_runs", MAX_RUNS), "sweep.max_runs", 1)
     named = "max_runs" if max_runs is not None else "sweep.max_runs" if "max_runs" in sw else "the default limit"
     _count_runs(params_raw, combine, samples, limit, named)
     params = [_parameter(p, j, scene.data) for j, p in enumerate(params_raw)]
@@ -741,7 +716,7 @@ def parse_sweep(text: str, source: str = "<string>", max_runs: int | None = None
     fixed = _flatten(fixed_raw)
     for key in fixed:
         path = parse_key(key, f"set.{key}")
-        check_key(scene.data, path, f"set.{key}")
+        check_quantity(check_key(scene.data, path, f"set.{key}"), fixed[key], f"set.{key}", key)
         if any(p.path == path for p in params):
             raise InputError(f"set.{key}", f"{key!r} is also a parameter: set it in one place")
     axes = [p for p in params if not p.random]

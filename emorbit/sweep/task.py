@@ -35,7 +35,7 @@ from ..errors import InputError, IntegrationError
 from ..orbits import elements
 from .spec import run_scene
 
-__all__ = ["run_task", "read_row", "ELEMENTS", "row_columns", "run_file_name", "limit_threads"]
+__all__ = ["run_task", "read_row", "ELEMENTS", "row_columns", "run_file_name", "limit_threads", "TASK_TEMP"]
 
 #: the final osculating elements each listed body gets in the summary (name, unit)
 ELEMENTS = (("a", "m"), ("e", "1"), ("i", "rad"), ("raan", "rad"), ("argp", "rad"), ("nu", "rad"))
@@ -51,6 +51,9 @@ RESULT_COLUMNS = (
     ("newton_max", "1"),
 )
 FINISHED = ("completed", "failed")
+#: the whole name of a worker's temporary file for a run (a regular expression):
+#: ``.run-000012.h5.<12 random hex digits>.tmp``, renamed to the run's file when it is complete
+TASK_TEMP = r"\.run-\d{6,}\.h5\.[0-9a-f]{12}\.tmp"
 
 
 def run_file_name(index: int) -> str:
@@ -266,7 +269,7 @@ def run_task(task: dict) -> dict:
         if isinstance(row, dict):
             return {"row": row, "worker": worker, "ran": False}
     folder, base = os.path.split(final)
-    tmp = os.path.join(folder, f".{base}.{uuid.uuid4().hex[:12]}.tmp")
+    tmp = os.path.join(folder, f".{base}.{uuid.uuid4().hex[:12]}.tmp")  # TASK_TEMP
     start = time.perf_counter()
     status, error = "completed", ""
     try:
