@@ -277,7 +277,8 @@ class Assembly:
     ) -> None:
         """Add an elastic body of St. Venant-Kirchhoff bars and/or tetrahedra.
 
-        See :mod:`emorbit.bodies.elastic` for the meshes and materials.
+        See :mod:`emorbit.bodies.meshes` for the meshes and :mod:`emorbit.bodies.elastic` for the
+        materials.
 
         Parameters
         ----------

@@ -81,7 +81,7 @@ def test_scenes_page_is_generated_from_the_parser():
 
 def test_scene_keys_agree_with_the_bodies():
     """What KEYS says about shapes, meshes and gravity models is what the bodies accept."""
-    from emorbit.bodies.elastic import MESH_KINDS, mesh_from_parameters
+    from emorbit.bodies.meshes import MESH_KINDS, mesh_from_parameters
 
     keys = {table: {k.name: k for k in ks} for table, ks in KEYS.items()}
     rigid = keys["body.rigid"]

@@ -8,8 +8,8 @@ from scipy.spatial import ConvexHull
 
 from emorbit.bodies import facets as fc
 from emorbit.bodies import shapes
-from emorbit.bodies.elastic import beam_mesh
 from emorbit.bodies.facets import FACET_KEYS, PACKED_COLUMNS, Facets, boundary_triangles, facet_tables, shape_facets
+from emorbit.bodies.meshes import beam_mesh
 from emorbit.errors import InputError
 
 RNG = np.random.default_rng(20)

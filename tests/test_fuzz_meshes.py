@@ -18,7 +18,7 @@ from fuzz_support import clean_error, cli, correct_run, listing, run_failed, to_
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from emorbit.bodies.elastic import beam_mesh, chain_mesh
+from emorbit.bodies.meshes import beam_mesh, chain_mesh
 
 SETTINGS = dict(deadline=None, derandomize=True, database=None, suppress_health_check=list(HealthCheck))
 

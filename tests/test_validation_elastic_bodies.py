@@ -155,7 +155,7 @@ def test_the_midpoint_map_is_inverted():
 
 
 def test_the_referee_s_tetrahedra_have_rigid_modes_and_the_right_mass():
-    from emorbit.bodies.elastic import beam_mesh
+    from emorbit.bodies.meshes import beam_mesh
 
     X, T = beam_mesh([1.0, 0.3, 0.2], [3, 2, 1])
     K, M = cant.tet_stiffness_mass(X, T, 1e9, 0.3, 1000.0)

@@ -206,7 +206,7 @@ def cantilever_shape(beta_l: float, x) -> np.ndarray:
 class CantileverReferee:
     """The linearised cantilever and its base, as emorbit discretises them: modes and frequencies.
 
-    The beam, ``size`` (L, b, t) meshed by ``emorbit.bodies.elastic.beam_mesh`` into
+    The beam, ``size`` (L, b, t) meshed by ``emorbit.bodies.meshes.beam_mesh`` into
     ``elements`` cells of 6 tetrahedra, spans x = 0 .. L; its root nodes (x = 0) ride on a rigid
     box of edge ``base_size`` centred at (-base_size / 2, 0, 0): u_i = U + theta x r_i, with U,
     theta the base's translation and rotation and r_i the node's offset from its centre of mass.
@@ -232,7 +232,7 @@ class CantileverReferee:
     def __init__(self, s: dict, elements, poisson: float, young_factor: float = 1.0):
         import scipy.sparse as sp
 
-        from emorbit.bodies.elastic import beam_mesh
+        from emorbit.bodies.meshes import beam_mesh
         from emorbit.bodies.shapes import box
 
         L = s["length"]
