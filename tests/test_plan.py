@@ -107,3 +107,19 @@ velocity = ["0 m/s", "7546 m/s", "0 m/s"]
     with pytest.raises(InputError, match="rigid bodies") as exc:
         emorbit.parse_scene(scene).build()
     assert exc.value.key == "integrator.roundoff"
+
+
+def test_the_gpu_refuses_point_masses_under_effects_naming_the_effect(monkeypatch):
+    """``device = "gpu"`` with an effect on point masses is refused, naming the effect's key
+    and kind, before anything runs; it never falls back to the CPU silently. (The device check
+    itself is bypassed here: no machine of the suite has a GPU.)"""
+    from emorbit.kernels.pointmass import cuda
+
+    monkeypatch.setattr(cuda, "device_problem", lambda: None)
+    sim = emorbit.Simulation(EARTH, dt=10.0)
+    sim.device = "gpu"
+    sim.add_effect("zonal", model="earth", key="effect[j2]")
+    sim.add_point("p", mass=1.0, position=[R, 0, 0], velocity=[0, V, 0])
+    with pytest.raises(InputError, match=r"effect\[j2\] \(zonal\)") as exc:
+        sim.run(steps=10, progress=False)
+    assert exc.value.key == "device" and sim.time == 0.0

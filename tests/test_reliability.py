@@ -478,3 +478,65 @@ def test_a_file_that_is_not_a_jpl_kernel_is_named_without_its_bytes(tmp_path):
         sim.add_effect("third_body", body="moon", ephemeris=str(path))
     assert info.value.key.endswith(".ephemeris") and str(path) in str(info.value)
     assert "SECRET" not in str(info.value) and "\\x" not in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "what, build, key",
+    [
+        ("zonal radius 1e-300 m", lambda s: s.add_effect("zonal", j=[1e-3], radius="1e-300 m"), "effect[0].radius"),
+        (
+            "scale height 1e-300 km",
+            lambda s: s.add_effect(
+                "drag", atmosphere="exponential", density="1e-12 kg/m3", reference_altitude="400 km",
+                scale_height="1e-300 km",
+            ),
+            "effect[0].scale_height",
+        ),
+        (
+            "ap 1e30",
+            lambda s: s.add_effect("drag", atmosphere="nrlmsis", f107=150.0, f107a=150.0, ap=1e30),
+            "effect[0].ap",
+        ),
+        ("two mutual tables", lambda s: (s.add_effect("mutual"), s.add_effect("mutual")), "effect[1]"),
+        (
+            "area on tetrahedra",
+            lambda s: s.add_elastic(
+                "b", "beam", size=[1, 1, 1], elements=[1, 1, 1], young=1e6, poisson=0.3, density=100.0, area=1e-2,
+                position=[7e6, 0, 0], velocity=[0, 7.5e3, 0],
+            ),
+            "body['b'].area",
+        ),
+    ],
+    ids=lambda v: v if isinstance(v, str) and " " in v else "",
+)  # fmt: skip
+def test_absurd_effect_values_and_ignored_keys_are_refused_up_front(what, build, key):
+    """Values no atmosphere or body has failed at the first step blaming the state; a second
+    mutual table raised a TypeError; an area on tetrahedra was ignored. Each is refused when
+    given, naming its key."""
+    import emorbit
+    from emorbit.errors import InputError
+
+    sim = emorbit.Simulation(emorbit.CentralField(body="earth"), dt=1.0, epoch="2026-01-01T00:00:00 TDB")
+    with pytest.raises(InputError) as info:
+        build(sim)
+    assert info.value.key == key, (what, str(info.value))
+
+
+def test_a_path_table_larger_than_any_run_needs_is_refused_before_it_is_sampled():
+    """Radiation pressure's Sun sampled every minute over 2000 years (1e9 samples, 50 GB) is
+    refused naming table_step before a sample is taken; so is the Moon over 2000 years at 1 h."""
+    import resource
+
+    import emorbit
+    from emorbit.errors import InputError
+
+    for kind, keys, coef in (("srp", {"table_step": "1 min"}, {"radiation_coefficient": 0.01}),
+                             ("third_body", {"body": "moon"}, {})):  # fmt: skip
+        sim = emorbit.Simulation(emorbit.CentralField(body="earth"), dt="1 yr", epoch="2026-01-01T00:00:00 TDB")
+        sim.add_effect(kind, **keys)
+        sim.add_point("a", mass=1.0, position=[7e6, 0, 0], velocity=[0, 7.5e3, 0], **coef)
+        before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        with pytest.raises(InputError) as info:
+            sim.run("2000 yr", progress=False)
+        assert info.value.key == "effect[0].table_step", str(info.value)
+        assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000  # kB: nothing was sampled

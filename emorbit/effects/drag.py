@@ -44,6 +44,11 @@ __all__ = ["Drag", "EARTH_ROTATION", "ATMOSPHERES"]
 
 #: the Earth's rotation rate, rad/s (IERS, the mean angular velocity)
 EARTH_ROTATION = 7.292115e-5
+#: bounds of an exponential atmosphere's keys (kg/m3, m), beyond which no atmosphere lies (and
+#: the density's exponent or its product with a speed squared would leave float64's range)
+MAX_DENSITY, MAX_ALTITUDE, MIN_SCALE_HEIGHT = 1e3, 1e9, 1.0
+#: bounds of NRLMSIS's space weather: F10.7 in sfu (observed below 500), Ap (its scale ends at 400)
+MAX_F107, MAX_AP = 1000.0, 400.0
 #: the shipped atmospheres (nrlmsis: through the optional package pymsis)
 ATMOSPHERES = {"exponential": None, "ussa1976": USSA1976, "vallado": VALLADO_2013, "nrlmsis": None}
 #: the keys of the NRLMSIS atmosphere
@@ -55,16 +60,16 @@ _KEYS = (
     Key("atmosphere", True, "string", "", '"exponential", "ussa1976", "vallado", "nrlmsis"',
         "the density model: one exponential, the U.S. Standard Atmosphere 1976, Vallado's Table 8-4, or "
         "NRLMSIS 2.1 (the msis extra) at the run's epoch"),
-    Key("density", False, "density (kg / m3)", "", f"> 0; {_EXP}, required there",
+    Key("density", False, "density (kg / m3)", "", f"> 0, at most 1000; {_EXP}, required there",
         "the density at reference_altitude"),
-    Key("reference_altitude", False, "length (m)", "", f"{_EXP}, required there",
+    Key("reference_altitude", False, "length (m)", "", f"-1e9 to 1e9; {_EXP}, required there",
         "the altitude (above the field's radius) where the density is given"),
-    Key("scale_height", False, "length (m)", "", f"> 0; {_EXP}, required there",
+    Key("scale_height", False, "length (m)", "", f"1 to 1e9; {_EXP}, required there",
         "the scale height H: rho = density exp(-(a - reference_altitude) / H)"),
-    Key("f107", False, "number (sfu)", "", ">= 0; nrlmsis only, required there",
+    Key("f107", False, "number (sfu)", "", "0 to 1000; nrlmsis only, required there",
         "the previous day's solar radio flux F10.7"),
-    Key("f107a", False, "number (sfu)", "", ">= 0; nrlmsis only, required there", "F10.7's 81-day mean"),
-    Key("ap", False, "number", "", ">= 0; nrlmsis only, required there", "the daily geomagnetic index Ap"),
+    Key("f107a", False, "number (sfu)", "", "0 to 1000; nrlmsis only, required there", "F10.7's 81-day mean"),
+    Key("ap", False, "number", "", "0 to 400; nrlmsis only, required there", "the daily geomagnetic index Ap"),
     Key("msis_version", False, "number", "2.1", "0 (NRLMSISE-00), 2.0, 2.1; nrlmsis only", "the NRLMSIS version"),
     Key("rotation_rate", False, "angular speed (rad / s)",
         "the named central body's (emorbit.field.ROTATION_RATES), else the Earth's 7.292115e-5 rad / s", ">= 0",
@@ -157,7 +162,7 @@ class Drag(Effect):
         k_first = math.floor(t0 / step) - 1
         k_last = max(math.ceil(t1 / step) + 1, k_first + 2)
         if self._span is None or not (self._span[0] <= k_first and self._span[1] >= k_last):
-            sun = sample_table("sun", k_first, k_last, step, epoch)
+            sun = sample_table("sun", k_first, k_last, step, epoch, key=self.key)  # the Sun every 6 h
             self.p[9] = k_first
             self._span = (k_first, k_last)
         self._pack(bands, gp, grid, sun)
@@ -205,8 +210,9 @@ def _msis(table, key: str) -> dict:
         value = table.get(k)
         if value is None:
             raise InputError(f"{key}.{k}", "atmosphere 'nrlmsis' needs f107, f107a and ap (no download at run time)")
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value < math.inf:
-            raise InputError(f"{key}.{k}", f"a number >= 0 expected, got {value!r}")
+        top = MAX_AP if k == "ap" else MAX_F107
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value <= top:
+            raise InputError(f"{key}.{k}", f"a number in [0, {top:g}] expected, got {value!r}")
         out[k] = float(value)
     version = table.get("msis_version", 2.1)
     if isinstance(version, bool) or version not in MSIS_VERSIONS:
@@ -250,5 +256,14 @@ def _table(table, key: str, strict: bool):
         rho0 = to_si(table["density"], "density", f"{key}.density", strict=strict, positive=True)
         h0 = to_si(table["reference_altitude"], "length", f"{key}.reference_altitude", strict=strict)
         H = to_si(table["scale_height"], "length", f"{key}.scale_height", strict=strict, positive=True)
+        for name, value, lo, hi, unit in (
+            ("density", rho0, 0.0, MAX_DENSITY, "kg/m3"),
+            ("reference_altitude", h0, -MAX_ALTITUDE, MAX_ALTITUDE, "m"),
+            ("scale_height", H, MIN_SCALE_HEIGHT, MAX_ALTITUDE, "m"),
+        ):
+            if not lo <= value <= hi:
+                raise InputError(
+                    f"{key}.{name}", f"{value!r} {unit} is no atmosphere's: give a value in [{lo:g}, {hi:g}] {unit}"
+                )
         t = exponential_table(rho0, h0, H)
     return np.ascontiguousarray(np.vstack([t.h0, t.rho0, t.H]), dtype=float)

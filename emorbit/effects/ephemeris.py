@@ -182,11 +182,17 @@ def sun_moon_states(times, body: str, *, ephemeris="builtin") -> tuple[np.ndarra
     return _posvel(_times(times), name, eph, "times")
 
 
+#: the most samples of a path one run may ask for (a table of 6 float64 per sample)
+MAX_SAMPLES = 2_000_000
+
+
 def _seconds(value, key: str, *, positive: bool = False) -> float:
     return to_si(value, "time", key, positive=positive)
 
 
-def sample_table(body: str, k_first: int, k_last: int, step: float, epoch, ephemeris="builtin") -> np.ndarray:
+def sample_table(
+    body: str, k_first: int, k_last: int, step: float, epoch, ephemeris="builtin", key: str = "table_step"
+) -> np.ndarray:
     """Positions and velocities of the Sun or the Moon at the samples ``k step`` from an epoch,
     ``k = k_first .. k_last``: the rows of a table that
     :func:`emorbit.kernels.effects.third_body.table_position` interpolates.
@@ -208,14 +214,27 @@ def sample_table(body: str, k_first: int, k_last: int, step: float, epoch, ephem
         Time 0 of the samples.
     ephemeris : str or path
         As :func:`sun_moon_positions`.
+    key : str
+        The key that sets the sampling interval, for the error.
 
     Returns
     -------
     ndarray
         (k_last - k_first + 1, 6) float64: x, y, z (m), vx, vy, vz (m/s), geocentric, ICRS axes.
+    Raises
+    ------
+    InputError
+        More than :data:`MAX_SAMPLES` samples, naming ``key``.
     """
     from astropy.time import TimeDelta
 
+    count = int(k_last) - int(k_first) + 1
+    if count > MAX_SAMPLES:
+        raise InputError(
+            key,
+            f"the run spans {count} samples of the {body}'s path at {float(step)!r} s, more than {MAX_SAMPLES}: "
+            "raise the sampling interval or shorten the run",
+        )
     k = np.arange(int(k_first) - 2, int(k_last) + 3, dtype=np.float64)
     p = _posvel(epoch.tdb + TimeDelta(k * float(step), format="sec"), _body(body), _ephemeris(ephemeris), "t_end")[0]
     v = (p[:-4] - 8.0 * p[1:-3] + 8.0 * p[3:-1] - p[4:]) / (12.0 * float(step))

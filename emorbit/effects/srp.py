@@ -134,7 +134,7 @@ class RadiationPressure(Effect):
         stamp = (float(epoch.tdb.jd1), float(epoch.tdb.jd2))
         if self._span is not None and self._span[0] <= k_first and self._span[1] >= k_last and self._span[2] == stamp:
             return
-        tab = sample_table("sun", k_first, k_last, self.step, epoch, self._ephemeris)
+        tab = sample_table("sun", k_first, k_last, self.step, epoch, self._ephemeris, f"{self.key}.table_step")
         self.p[9] = k_first
         self.p[10] = len(tab)
         self.tab = np.ascontiguousarray(tab.ravel())

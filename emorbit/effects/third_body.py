@@ -43,7 +43,7 @@ from ..errors import InputError
 from ..keys import Key
 from ..units import to_si
 from .base import AT_POINTS, Effect, Pieces
-from .ephemeris import BODIES, GM, KeplerThirdBody, _ephemeris, sample_table
+from .ephemeris import BODIES, GM, MAX_SAMPLES, KeplerThirdBody, _ephemeris, sample_table
 
 __all__ = ["ThirdBody", "TABLE_STEP", "MAX_SAMPLES"]
 
@@ -51,8 +51,6 @@ __all__ = ["ThirdBody", "TABLE_STEP", "MAX_SAMPLES"]
 TABLE_STEP = {"sun": 6 * 3600.0, "moon": 3600.0}
 #: a Kepler body's default sampling interval, as a fraction of its period
 KEPLER_SAMPLES = 1000
-#: the most samples of a path one run may ask for (a table of 6 float64 per sample)
-MAX_SAMPLES = 2_000_000
 _KEYS = (
     Key("body", True, "string", "", '"sun", "moon", or another name (with gm and orbit)',
         "the third body: the Sun or the Moon from the ephemeris, else a body on a Kepler orbit"),

@@ -36,6 +36,10 @@ from .base import Effect, Pieces
 __all__ = ["Zonal"]
 
 
+#: bounds of the reference radius, m (a body's: from a boulder's to beyond a star's)
+MIN_RADIUS, MAX_RADIUS = 1.0, 1e12
+
+
 class Zonal(Effect):
     """Zonal harmonics as an effect: ``p = [c0, c1, c2, p0, p1, p2, GM, R, J2, ..., J_degree]``."""
 
@@ -46,7 +50,7 @@ class Zonal(Effect):
             "the shipped zonal coefficients and reference radius"),
         Key("j", False, "array of numbers", "", "1 to 5 finite numbers: J2, J3, ... J6",
             "the zonal coefficients J_n (unnormalized), instead of model"),
-        Key("radius", False, "length (m)", "the model's", "> 0", "the reference radius R of the coefficients"),
+        Key("radius", False, "length (m)", "the model's", "1 to 1e12", "the reference radius R of the coefficients"),
         Key("degree", False, "integer", "every degree given", f"2 to {NMAX}", "use J2..J<degree>"),
         Key("pole", False, "3 numbers", "[0, 0, 1]", "a vector other than 0 (normalised)",
             "the body's axis of symmetry, in the scene's axes"),
@@ -101,6 +105,10 @@ class Zonal(Effect):
             radius = None
         if "radius" in table:
             radius = to_si(table["radius"], "length", f"{key}.radius", strict=strict, positive=True)
+            if not MIN_RADIUS <= radius <= MAX_RADIUS:  # gm / R^2 and (R / r)^n stay in float64's range
+                raise InputError(
+                    f"{key}.radius", f"{radius!r} m is no body's radius: give one in [{MIN_RADIUS:g}, {MAX_RADIUS:g}] m"
+                )
             if field.radius > 0.0 and not 1e-3 <= radius / field.radius <= 1e3:
                 raise InputError(
                     f"{key}.radius",
