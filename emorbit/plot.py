@@ -218,7 +218,7 @@ def _plot_deformation(runs, ax) -> None:
 
 
 def _read(path):
-    res = read(path)
+    res = read(path, probe=True)  # a damaged file that would hang HDF5 fails in a child process instead
     if len(res) == 0:
         raise InputError("files", f"{os.fspath(path)!r} holds no records (the run stopped before its first)")
     return res

@@ -118,3 +118,15 @@ def test_probe_finds_a_file_that_stalls_the_hdf5_library(tmp_path, run_file, mon
     with pytest.raises(InputError, match="does not end within 1 s"):
         emorbit.read(run_file, probe=1.0)
     assert len(emorbit.read(run_file)) == 101
+
+
+def test_plot_reads_through_the_probe(tmp_path, run_file, monkeypatch):
+    """``emorbit plot`` reads each run file through the probe: a file whose reading crashes the
+    HDF5 library (here a probe that kills itself) is an error naming it (exit 2), not a crash
+    of the plot itself."""
+    import emorbit.io.reader as reader
+    from emorbit.cli import main
+
+    monkeypatch.setattr(reader, "_PROBE", "import os, signal\nos.kill(os.getpid(), signal.SIGSEGV)\n")
+    assert main(["plot", str(run_file), "-o", str(tmp_path / "fig.png")]) == 2
+    assert not (tmp_path / "fig.png").exists()
