@@ -220,6 +220,8 @@ class Scene:
             The new scene; its ``text`` gains a comment line per overridden key.
         """
         data = copy.deepcopy(self.data)
+        _check_keys(data, "", "")  # an [integrator] table to write the overrides into
+        _check_keys(data["integrator"], "integrator", "integrator")
         changed = {}
         for key, value in (
             ("t_end", t_end),
