@@ -72,7 +72,7 @@ def test_a_users_effect_keeps_the_energy_on_every_body_kind(hill):
         else:
             sim.add_elastic("p", "chain", start=[0.0, 0.0, 0], end=[0.0, 10.0, 0], elements=3, young=1e6,
                             density=100.0, area=1e-2, position=[0.0, 100.0, 0.0], velocity=[0.0, 0.0, 0.2])  # fmt: skip
-            steps = 2_000
+            steps = 10_000
         res = sim.run(steps=steps, every=steps // 10, progress=False)
         err = _energy_error(res)
         assert err <= 1e-12, f"{add}: |dE|/|E0| = {err:.3g}"
