@@ -62,7 +62,7 @@ def _composed(ctx, s, rho, eps, fixed, t):
     (backwards where the context's direction is -1): the state ``s`` is copied into the
     context's buffers, which are stepped and returned."""
     forces, prepare, work_of, rate, m, body, coef, P, I, T, S, gammas, max_iter, eta, mode = ctx[:15]
-    buf, scratch, direction = ctx[15], ctx[16], ctx[17]
+    buf, scratch, direction, cross = ctx[15], ctx[16], ctx[17], ctx[18]
     _copy(buf, s)
     x, v, cx, cv, wp, hp, work, cwork = buf
     its = 0
@@ -85,8 +85,8 @@ def _composed(ctx, s, rho, eps, fixed, t):
             h = (4.0 * ak) / rho
         ta = t + direction * (dur - dlo)
         sweeps, status = effect_substep(
-            forces, prepare, work_of, mode, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork, h, ta,
-            ta + direction * h, max_iter, scratch,
+            forces, cross, prepare, work_of, mode, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork, h,
+            ta, ta + direction * h, max_iter, scratch,
         )  # fmt: skip
         its += sweeps
         if status != STATUS_OK:
@@ -123,8 +123,9 @@ def _accept(ctx, s, q):
 
 @kernel
 def _context(
-    forces, prepare, work_of, rate, method, m, body, coef, P, I, T, S, gammas, max_iter, eta, x, work, direction
-):
+    forces, cross, prepare, work_of, rate, method, m, body, coef, P, I, T, S, gammas, max_iter, eta, x, work,
+    direction, dense,
+):  # fmt: skip
     """The controller's context of the set: the functions, the arrays, the buffers."""
     n = x.shape[1]
     nw = work.shape[0]
@@ -134,15 +135,15 @@ def _context(
     )  # fmt: skip
     return (
         forces, prepare, work_of, rate, m, body, coef, P, I, T, S, gammas, max_iter, eta, method_mode(method), buf,
-        step_scratch(n, nw), direction,
+        step_scratch(n, nw, dense), direction, cross,
     )  # fmt: skip
 
 
 @kernel
 def effect_adaptive_chunk(
-    forces, prepare, work_of, rate, method, x, v, cx, cv, wp, hp, rho, m, body, coef, P, I, T, S, work, cwork,
-    rec_work, clock_base, clock_n0, length, every, eta, gammas, nrec, max_iter, rec_x, rec_v, rec_iters, rec_steps,
-    fail,
+    forces, cross, prepare, work_of, rate, method, x, v, cx, cv, wp, hp, rho, m, body, coef, P, I, T, S, work, cwork,
+    rec_work, clock_base, clock_n0, length, every, eta, gammas, nrec, max_iter, dense, rec_x, rec_v, rec_iters,
+    rec_steps, fail,
 ):  # fmt: skip
     """Advance the points by ``nrec`` records of ``every`` intervals of ``length`` seconds
     (steps land on every multiple of it) with adaptive, time-symmetric steps, recording at the
@@ -151,8 +152,8 @@ def effect_adaptive_chunk(
     n) composed steps per record; on a failure the points stop at the start of the failing
     record and ``fail`` names the record and the status. Other arguments: :mod:`.effect_step`."""
     n = x.shape[1]
-    ctx = _context(forces, prepare, work_of, rate, method, m, body, coef, P, I, T, S, gammas, max_iter, eta, x, work,
-                   1.0)  # fmt: skip
+    ctx = _context(forces, cross, prepare, work_of, rate, method, m, body, coef, P, I, T, S, gammas, max_iter, eta, x,
+                   work, 1.0, dense)  # fmt: skip
     s = (x, v, cx, cv, wp, hp, work, cwork)
     r = rho[0]
     if not r > 0.0:
@@ -193,15 +194,15 @@ def effect_adaptive_chunk(
 
 @kernel
 def effect_reversible_steps(
-    forces, prepare, work_of, rate, method, x, v, cx, cv, wp, hp, rho, m, body, coef, P, I, T, S, work, cwork, t0,
-    direction, eta, gammas, nsteps, max_iter,
+    forces, cross, prepare, work_of, rate, method, x, v, cx, cv, wp, hp, rho, m, body, coef, P, I, T, S, work, cwork,
+    t0, direction, eta, gammas, nsteps, max_iter, dense,
 ):  # fmt: skip
     """Take exactly ``nsteps`` composed steps of size 1 in tau from time ``t0``, the clock
     running forwards (``direction`` 1) or backwards (-1), no landing: the scheme alone, for its
     time symmetry (reversing the velocities and their compensations and calling it again
     backwards from the end time runs the same steps back). Returns (elapsed time, status)."""
-    ctx = _context(forces, prepare, work_of, rate, method, m, body, coef, P, I, T, S, gammas, max_iter, eta, x, work,
-                   direction)  # fmt: skip
+    ctx = _context(forces, cross, prepare, work_of, rate, method, m, body, coef, P, I, T, S, gammas, max_iter, eta, x,
+                   work, direction, dense)  # fmt: skip
     s = (x, v, cx, cv, wp, hp, work, cwork)
     r = rho[0]
     if not r > 0.0:

@@ -16,13 +16,14 @@ the step for em (MODE_STEP), the conservative ones at the midpoint for the midpo
 last sub-step's w scaled by (h / h_last)^2 (``wp``, ``hp``: state, checkpointed). Each sweep
 evaluates every point's force, diagonal Jacobian block and pair coupling at the current
 iterates (``forces``), then updates every point by one Newton step on its own 3 x 3 block
-(:func:`emorbit.kernels.effects.newton.newton_update`): block Jacobi. Sweeps stop when every
+(:func:`emorbit.kernels.effects.newton.newton_update`): block Jacobi; or, where the caller
+asks (``dense``: a few points under pair effects), by one Newton step on the whole system,
+the pair blocks between points (``cross``) included, solved by LU. Sweeps stop when every
 update is below 4 eps of its increment, or has stalled at round-off (below 128 eps and no
 longer halving), or, after a second sweep, is below 1e-8 with the next update estimated at a
 thousandth of round-off: the update times the larger of the measured contraction (this update
-over the last) and the pair coupling (3 h^2 times the bound of sum_j |d F_i / d x_j|); an
-error each step leaves with the same sign adds up over a run. Positions and velocities are
-updated with Kahan compensation: the energy error of a long run is a random walk.
+over the last) and the pair coupling (3 h^2 times the bound of sum_j |d F_i / d x_j|).
+Positions and velocities are updated with Kahan compensation.
 
 leapfrog (explicit effects only): kick-drift-kick, ``v_1/2 = v0 + h/2 F(x0)``,
 ``x1 = x0 + h v_1/2``, ``v1 = v_1/2 + h/2 F(x1)``, with the forces at points (MODE_EXPLICIT).
@@ -30,8 +31,7 @@ leapfrog (explicit effects only): kick-drift-kick, ``v_1/2 = v0 + h/2 F(x0)``,
 Effects that depend on time read the sub-step's start, middle and end times, prepared once per
 sub-step: step j of the chunk starts at ``clock_base + (clock_n0 + j) dt`` (the same bits
 wherever chunks start). An effect that does work adds, after each sub-step, its work on every
-point into ``work[k, i]`` (J; k its slot) with Kahan compensation in ``cwork``; since the
-em step's kinetic-energy change is the conservative potentials' drop plus that work,
+point into ``work[k, i]`` (J; k its slot) with Kahan compensation in ``cwork``, so that
 ``E - E0 - sum work`` stays at round-off. A failed step puts the sums back with the state.
 
 Data layout: x, v, cx, cv, wp (3, n); hp (1,); m (n,); body (n,) int64; coef (k, n) and the
@@ -81,14 +81,42 @@ def _add_work(work, cwork, out):
 
 
 @kernel
-def step_scratch(n, nw):
+def step_scratch(n, nw, dense):
     """Scratch for :func:`effect_substep` of n points and nw working effects: dx, x1, w, F, G
-    (3, n), W (9, n), R (n,) (the pair coupling bounds, kept between sweeps), J (3, 3) and the
-    work per point (nw, n)."""
+    (3, n), W (9, n), R (n,) (the pair coupling bounds, kept between sweeps), J (3, 3), the
+    work per point (nw, n), and where ``dense`` the whole Newton matrix A (3n, 3n) with its
+    right-hand side (3n,) and the pair blocks ``acc`` (n, n, 4, 4, 3, 3) with their slot
+    coefficients (4, n) and flags (n,) (empty where not)."""
+    k = n if dense else 0
+    sc = np.zeros((4, k))
+    sc[0, :] = 1.0
     return (
         np.empty((3, n)), np.empty((3, n)), np.empty((3, n)), np.empty((3, n)), np.empty((3, n)),
         np.empty((9, n)), np.zeros(n), np.empty((3, 3)), np.empty((nw, n)),
+        np.empty((3 * k, 3 * k)), np.empty(3 * k), np.zeros((k, k, 4, 4, 3, 3)), sc, np.ones(k),
     )  # fmt: skip
+
+
+@kernel
+def _dense_update(A, rhs, acc, W, F, w, m, hh):
+    """Newton's update of all points at once, into ``rhs``: the solution of A d = w - hh F,
+    A = I - hh dF/dx1 with every point's own block (W) and the pair blocks between points
+    (``acc[a, b, 0, 0] = -d(m_a F_a)/dx1_b``, the same for b, a)."""
+    n = W.shape[1]
+    A[:, :] = 0.0
+    for i in range(n):
+        for a in range(3):
+            rhs[3 * i + a] = w[a, i] - hh * F[a, i]
+            for b in range(3):
+                A[3 * i + a, 3 * i + b] = (1.0 if a == b else 0.0) - hh * W[3 * a + b, i]
+    for i in range(n):
+        for j in range(i + 1, n):
+            for a in range(3):
+                for b in range(3):
+                    c = hh * acc[i, j, 0, 0, a, b]
+                    A[3 * i + a, 3 * j + b] = c / m[i]
+                    A[3 * j + a, 3 * i + b] = c / m[j]
+    rhs[:] = np.linalg.solve(A, rhs)
 
 
 @kernel
@@ -103,13 +131,14 @@ def method_mode(method):
 
 @kernel
 def effect_substep(
-    forces, prepare, work_of, mode, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork, h, ta, tb, max_iter,
-    scratch,
+    forces, cross, prepare, work_of, mode, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork, h, ta, tb,
+    max_iter, scratch,
 ):  # fmt: skip
     """One sub-step of size h from time ``ta`` to ``tb`` of every point (the state, the warm
     start and the work sums updated in place where it succeeds; left as they were where not).
     Returns (Newton sweeps, status)."""
-    dx, x1, w, F, G, W, R, J, out = scratch
+    dx, x1, w, F, G, W, R, J, out, A, rhs, acc, sc, on = scratch
+    dense = A.shape[0] > 0
     n = x.shape[1]
     hh = 0.5 * h * h
     prepare(ta, 0.5 * (ta + tb), tb, P, I, T, S)
@@ -140,15 +169,21 @@ def effect_substep(
                 for c in range(3):
                     x1[c, i] = x[c, i] + dx[c, i]
             st = forces(x, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, True, it == 0)
+            if dense:
+                cross(x, x1, m, body, coef, on, sc, acc, P, I, T, S)
+                _dense_update(A, rhs, acc, W, F, w, m, hh)
             worst = 0.0
             coupling = 0.0
             for i in range(n):
-                for a in range(3):
-                    for b in range(3):
-                        J[a, b] = W[3 * a + b, i]
-                d0, d1, d2 = newton_update(
-                    J, hh, w[0, i] - hh * F[0, i], w[1, i] - hh * F[1, i], w[2, i] - hh * F[2, i]
-                )
+                if dense:
+                    d0, d1, d2 = rhs[3 * i], rhs[3 * i + 1], rhs[3 * i + 2]
+                else:
+                    for a in range(3):
+                        for b in range(3):
+                            J[a, b] = W[3 * a + b, i]
+                    d0, d1, d2 = newton_update(
+                        J, hh, w[0, i] - hh * F[0, i], w[1, i] - hh * F[1, i], w[2, i] - hh * F[2, i]
+                    )
                 w[0, i] -= d0
                 w[1, i] -= d1
                 w[2, i] -= d2
@@ -195,8 +230,8 @@ def effect_substep(
 
 @kernel
 def effect_chunk(
-    forces, prepare, work_of, method, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork, rec_work,
-    clock_base, clock_n0, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+    forces, cross, prepare, work_of, method, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork, rec_work,
+    clock_base, clock_n0, dt, gammas, every, nrec, max_iter, dense, rec_x, rec_v, rec_iters, fail,
 ):  # fmt: skip
     """Advance all points ``nrec * every`` composed steps, recording every ``every``.
 
@@ -209,7 +244,7 @@ def effect_chunk(
     ns = gammas.shape[0]
     mode = method_mode(method)
     nw = work.shape[0]
-    scratch = step_scratch(n, nw)
+    scratch = step_scratch(n, nw, dense)
     sx = np.empty((5, 3, n))  # the state at the start of a composed step: x, v, cx, cv, wp
     sw = np.empty((2, nw, n))  # work, cwork at the composed step's start
     tcum = np.empty(ns + 1)
@@ -232,8 +267,8 @@ def effect_chunk(
             for k in range(ns):
                 ta, tm, tb = substep_times(clock_base, clock_n0 + r * every + s, k, tcum, dt)
                 sweeps, status = effect_substep(
-                    forces, prepare, work_of, mode, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork,
-                    dt * gammas[k], ta, tb, max_iter, scratch,
+                    forces, cross, prepare, work_of, mode, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work,
+                    cwork, dt * gammas[k], ta, tb, max_iter, scratch,
                 )  # fmt: skip
                 for i in range(n):
                     rec_iters[r, i] += sweeps
