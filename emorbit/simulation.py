@@ -30,6 +30,7 @@ from .field import CentralField
 from .integrators import METHODS, check_device
 from .integrators.dispatch import require_device
 from .integrators.plan import Plan
+from .notices import compile_notice
 from .result import Result
 from .state import StateQueries
 from .stepping import ChunkDriver
@@ -385,10 +386,12 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
             length_key = "steps" if steps is not None else self.keys["t_end"]
             limit = self.max_output if max_output is None else max_output
             check_output(self.systems, n_steps, every, self._dt, limit, self.keys, length_key)
+        notice = progress is not False  # quiet runs say nothing; others say when kernels compile long
         if progress is None:
             progress = sys.stderr.isatty()
         self._strict = bool(strict)
-        return self._start_run(n_steps, every, output, overwrite, keep, checkpoint_every, progress, drift_tolerance)
+        with compile_notice(notice):
+            return self._start_run(n_steps, every, output, overwrite, keep, checkpoint_every, progress, drift_tolerance)
 
     # -- scene text ---------------------------------------------------------------------
     def to_toml(self, t_end: float | None = None, output_every: int = 1) -> str:

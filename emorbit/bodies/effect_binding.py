@@ -9,21 +9,11 @@ energies at recorded states (:func:`emorbit.kernels.effects.records.record_poten
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 
-__all__ = ["EffectBinding", "announce"]
+from ..notices import announce
 
-
-def announce(message: str) -> None:
-    """Say on stderr, once per message and process, that something slow happens now."""
-    if message not in _SAID:
-        _SAID.add(message)
-        print(f"emorbit: {message}", file=sys.stderr, flush=True)
-
-
-_SAID: set = set()
+__all__ = ["EffectBinding"]
 
 
 class EffectBinding:

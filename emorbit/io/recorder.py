@@ -50,7 +50,8 @@ def progress_bar(n_steps: int, progress: bool):
     n_steps : int
         The steps the run takes.
     progress : bool
-        Show tqdm's bar on stderr (after 2 s).
+        Show tqdm's bar on stderr (from 2 s after the first chunk: a first run's compile of
+        the kernels stays out of its rate).
 
     Returns
     -------
@@ -59,9 +60,32 @@ def progress_bar(n_steps: int, progress: bool):
     """
     if not progress:
         return _NoBar()
-    from tqdm.auto import tqdm
+    return _LaterBar(n_steps)
 
-    return tqdm(total=n_steps, delay=2.0, unit="step", file=sys.stderr, dynamic_ncols=True, leave=False)
+
+class _LaterBar:
+    """tqdm's bar, made at the first update with the steps done so far as its start: the first
+    chunk (where the kernels compile on a first run) stays out of the bar's rate and time left."""
+
+    def __init__(self, n_steps: int):
+        self.n_steps, self.bar = n_steps, None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        if self.bar is not None:
+            self.bar.close()
+
+    def update(self, n: int) -> None:
+        if self.bar is None:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(
+                total=self.n_steps, initial=n, delay=2.0, unit="step", file=sys.stderr, dynamic_ncols=True, leave=False
+            )
+        else:
+            self.bar.update(n)
 
 
 class Sink:

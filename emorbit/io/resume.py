@@ -21,6 +21,7 @@ import h5py
 import numpy as np
 
 from ..errors import InputError
+from ..notices import compile_notice
 from ..result import Result
 from ..scene import parse_scene, scene_overrides
 from ..units import to_si
@@ -456,6 +457,8 @@ def resume(path, t_end, *, progress: bool | None = None, truncate: bool = False)
     sink = Sink(sim, writer, True)
     sink.rows = records
     sink.last_step = sim._steps
+    notice = progress is not False
     if progress is None:
         progress = sys.stderr.isatty()
-    return sim._run_and_close(n_steps, every, cp, sink, writer, progress)
+    with compile_notice(notice):
+        return sim._run_and_close(n_steps, every, cp, sink, writer, progress)
