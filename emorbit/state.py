@@ -58,7 +58,7 @@ class StateQueries:
     def _rigid_pose(self, name: str):
         """A rigid body's centre (m), attitude (body to space) and mass points now, in its own
         system or in a structure; None where ``name`` is no rigid body."""
-        rigid, st = getattr(self, "rigid", None), getattr(self, "structure", None)
+        rigid, st = self.rigid, self.structure
         if rigid is not None and name in rigid.names:
             b = rigid.names.index(name)
             return rigid.q[b, :3], rigid.q[b, 3:].reshape(3, 3).T, rigid.points[b]

@@ -219,6 +219,14 @@ class ChunkDriver:
     drift_tolerance: float = DRIFT_TOLERANCE
     _drift: DriftMonitor | None = None
     _energy_range = "auto"
+    #: a run with ``strict``: a drift beyond the bound raises instead of warning
+    _strict = False
+    #: the step count where the present run (or resume) began
+    _run_origin = 0
+    #: the step count of the last checkpoint written (None: none in this run yet)
+    _checkpointed_at: int | None = None
+    #: steps redone in sub-steps since the simulation was made
+    retried_steps = 0
 
     @property
     def energy_range(self):
@@ -417,19 +425,19 @@ class ChunkDriver:
         if signum is not None:
             raise RunInterrupted(signum)
         if report is not None:
-            if getattr(self, "_strict", False):
+            if self._strict:
                 raise RoundoffError(report)
             warnings.warn(report, RoundoffWarning, stacklevel=stacklevel)
         return sink.result()
 
     def _write_end(self, writer, sink, every: int) -> None:
         """The final state, and a checkpoint where the state is a record on the record grid."""
-        origin = getattr(self, "_run_origin", 0)
+        origin = self._run_origin
         steps = self._steps - origin
         if (
             steps % every == 0
             and sink.last_step == self._steps
-            and getattr(self, "_checkpointed_at", None) != self._steps
+            and self._checkpointed_at != self._steps
         ):
             self._checkpoint(sink)
         writer.write_final_state(steps, self.time, self.state_arrays(), self.state_units())
@@ -439,7 +447,7 @@ class ChunkDriver:
         for s in self.systems:
             s.on_checkpoint()
         if sink.writer is not None:
-            origin = getattr(self, "_run_origin", 0)
+            origin = self._run_origin
             sink.writer.write_checkpoint(
                 self._steps - origin, self.time, self.state_arrays(), sink.rows, self.state_units()
             )
@@ -565,7 +573,7 @@ class ChunkDriver:
         gammas = coefficients(self.order)
         self._prepare_effects(n_steps, gammas)
         pace = _Pace(max(1, CHUNK_BYTES // (128 * len(self.names))))
-        origin = getattr(self, "_run_origin", 0)
+        origin = self._run_origin
         if self._steps == origin:  # the run's start: Simulation.run has written its checkpoint
             self._checkpointed_at = self._steps
         by_clock = not cp and sink.writer is not None
@@ -681,7 +689,7 @@ class ChunkDriver:
                 for s in self.systems
             ]
             if all(r.first_failure() is None for _, r in sub) and not (gate and self._unsolved(sub, e0, parts)):
-                self.retried_steps = getattr(self, "retried_steps", 0) + 1
+                self.retried_steps = self.retried_steps + 1
                 sink.split_pending += 1
                 self._steps += 1
                 if (self._steps - origin) % every == 0:

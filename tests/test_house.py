@@ -384,3 +384,39 @@ def test_the_effect_kind_check_finds_names():
     )
     found = [what for _, what in named_kinds(ast.parse(source), {"zonal", "drag", "mutual", "third_body"})]
     assert found == ["zonal", "drag", "mutual_p", "third_body_mass"]
+
+
+def probes(tree: ast.AST) -> list[tuple[int, str]]:
+    """(line, name) of every ``getattr(self, "name", default)``: a class asking whether its host
+    (or itself) has an attribute, instead of declaring it."""
+    found = []
+    for node in ast.walk(tree):
+        if (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Name)
+            and node.func.id in ("getattr", "hasattr")
+            and node.args
+            and isinstance(node.args[0], ast.Name)
+            and node.args[0].id == "self"
+            and len(node.args) >= 2
+            and isinstance(node.args[1], ast.Constant)
+            and (node.func.id == "hasattr" or len(node.args) == 3)
+        ):
+            found.append((node.lineno, node.args[1].value))
+    return found
+
+
+def test_no_class_probes_itself_or_its_host_for_an_attribute():
+    """A mixin that probes its host with getattr is a sign the job is in the wrong class: every
+    attribute a class reads is declared (in __init__ or as a class attribute)."""
+    assert probes(
+        ast.parse('getattr(self, "x", 0)\nhasattr(self, "y")\ngetattr(self, name)\ngetattr(o, "z", 1)\n')
+    ) == [
+        (1, "x"),
+        (2, "y"),
+    ]
+    bad = []
+    for path in modules({"emorbit": REPO / "emorbit"}).values():
+        rel = path.relative_to(REPO).as_posix()
+        bad += [f"{rel}:{line}: {name}" for line, name in probes(ast.parse(path.read_text()))]
+    assert not bad, "probes of self for an attribute:\n" + "\n".join(bad)

@@ -108,6 +108,9 @@ class Structure(StructureAdaptive, StructureLayout):
         self._kept = KeptFactors()  # "reuse" mode's factors and iteration counts: state, in checkpoints
         self.factorizations = 0
         self.bodies: list[dict] = []  # name, kind, slot/node ranges, output info
+        self._pending: list = []  # elastic bodies added, laid out when the structure is built
+        self._attach: list = []  # (elastic body, its nodes, the body they ride on)
+        self._node_mass_terms: list = []  # mass coupling of attached nodes (built with the layout)
         self._slot_mass_blocks: list[tuple] = []  # (slot indices, scalar mass matrix)
         self._slot_kind: list[int] = []  # 1 for position-type slots, 0 for director slots
         self._u: list[np.ndarray] = []

@@ -212,7 +212,6 @@ class StructureLayout(StructureOutput):
         drag_coefficient : float
             Cd of its surface triangles under drag.
         """
-        self._pending = getattr(self, "_pending", [])
         self._pending.append(spec)
         mass = float(spec.node_mass.sum())
         body = {"name": spec.name, "kind": "elastic", "spec": spec, "mass": mass, "drag_coefficient": drag_coefficient}
@@ -233,7 +232,6 @@ class StructureLayout(StructureOutput):
         target : str
             A rigid body or point mass of the structure.
         """
-        self._attach = getattr(self, "_attach", [])
         self._attach.append((elastic, [int(n) for n in nodes], target))
 
     def _layout_elastic(self, spec: ElasticSpec, attached: dict[int, int]) -> None:
@@ -255,7 +253,6 @@ class StructureLayout(StructureOutput):
         for i, target in attached.items():
             node_of[i] = target
         # mass of attached nodes (and their coupling to free nodes) goes through the node maps
-        self._node_mass_terms = getattr(self, "_node_mass_terms", [])
         att = sorted(attached)
         if att:
             coo = Mn.tocoo()
@@ -290,9 +287,9 @@ class StructureLayout(StructureOutput):
         """
         if self._built:
             return
-        for spec in getattr(self, "_pending", []):
+        for spec in self._pending:
             attached = {}
-            for name, nodes, target in getattr(self, "_attach", []):
+            for name, nodes, target in self._attach:
                 if name != spec.name:
                     continue
                 tb = self._body(target)
@@ -331,7 +328,7 @@ class StructureLayout(StructureOutput):
             rows.append(idx[c.row])
             cols.append(idx[c.col])
             vals.append(c.data)
-        for na, nb, mv in getattr(self, "_node_mass_terms", []):
+        for na, nb, mv in self._node_mass_terms:
             for a, b, m_ in zip(na, nb, mv):  # node masses through the node maps: M += m c_a c_b^T
                 for si, sj, ca, cb in slot_pairs(self.node_slot, self.node_coef, a, b):
                     rows.append(np.array([si]))

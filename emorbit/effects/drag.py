@@ -154,7 +154,7 @@ class Drag(Effect):
             )
         bands, gp, grid, sun = self._parts
         stamp = (float(epoch.tdb.jd1), float(epoch.tdb.jd2))
-        if getattr(self, "_grid_epoch", None) != stamp:
+        if self._grid_epoch != stamp:
             m = self.msis
             grid, gp = msis_grid(epoch, m["f107"], m["f107a"], m["ap"], self.p[6], version=m["version"])
             self._grid_epoch, self._span = stamp, None
@@ -197,6 +197,7 @@ class Drag(Effect):
         effect = cls(table, p + list(pole / norm) + [0.0] * 5)
         effect.msis = msis
         effect._span = None
+        effect._grid_epoch = None  # the epoch NRLMSIS's grid was sampled at
         effect._pack(bands, np.ones(5), np.zeros(_NO_GRID), np.zeros((2, 6)))
         return effect
 
