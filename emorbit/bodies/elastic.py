@@ -238,8 +238,6 @@ def elastic_spec(
         raise InputError(f"{key}.area", f"bars need a cross-section area > 0, got {area!r} m2")
     if area is not None and not bars.size:
         raise InputError(f"{key}.area", "is the cross-section of bars, and this mesh has none (tetrahedra only)")
-    if poisson is not None and not tets.size:
-        raise InputError(f"{key}.poisson", "is a property of tetrahedra, and this mesh has none (bars only)")
     if mass_matrix not in ("consistent", "lumped"):
         raise InputError(f"{key}.mass_matrix", f"must be 'consistent' or 'lumped', got {mass_matrix!r}")
     used = np.zeros(nn, bool)
