@@ -21,7 +21,8 @@ each effect beside the central field
     the same 1000 point masses, em order 2, under the central field and one effect of
     :data:`EFFECT_SETS` (J2; J2..J6; drag in an exponential atmosphere and in NRLMSIS 2.1,
     the latter with pymsis only; radiation pressure with the conical shadow; the Moon; the
-    Sun), and under all of them together, against the central field alone: CPU time per
+    Sun), and under all of them together (:data:`ALL`: J2..J6, exponential drag, radiation
+    pressure, the Moon and the Sun), against the central field alone: CPU time per
     particle-step and the ratio. The points give ``Cd A / m = Cr A / m = 0.01 m2/kg``. A set
     without a packed kernel of its own runs the effect step
     (:func:`emorbit.kernels.pointmass.effect_step.effect_chunk`) with the set compiled.
@@ -112,6 +113,8 @@ EFFECT_SETS = {
     "Moon": [("third_body", {"body": "moon"})],
     "Sun": [("third_body", {"body": "sun"})],
 }  # fmt: skip
+#: the effects of the row "all": one of each kind that a scene may name once
+ALL = ("J2..J6", "drag, exponential", "srp", "Moon", "Sun")
 #: what the point masses of the effect rows give (area per mass, m2/kg)
 POINT_KEYS = {"ballistic_coefficient": 0.01, "radiation_coefficient": 0.01}
 #: the semi-major axes of the Earth orbits, m: from 500 km altitude to GPS's
@@ -338,7 +341,8 @@ def effect_rows(cfg, n: int, names=tuple(EFFECT_SETS)) -> dict:
     dict
         ``rows`` ({name: ns per particle-step (CPU, wall), Newton sweeps per sub-step, the
         ratio to central only} or {"status": "skipped: ..."}), ``worst_single`` (the largest
-        ratio of a single effect and its name), ``all_over_central`` and the case.
+        ratio of a single effect and its name), ``all_over_central`` (the effects of :data:`ALL`
+        that were timed, together), ``all`` (their names) and the case.
     """
     import importlib.util
 
@@ -348,7 +352,8 @@ def effect_rows(cfg, n: int, names=tuple(EFFECT_SETS)) -> dict:
     x, v = earth_orbits(n, field.gm)
     dt = 2 * math.pi * math.sqrt(_R_LOW**3 / field.gm) / 1000
     runnable = [nm for nm in names if "NRLMSIS" not in nm or importlib.util.find_spec("pymsis") is not None]
-    sets = {"central": ()} | {nm: (nm,) for nm in runnable} | {"all": tuple(runnable)}
+    together = tuple(nm for nm in ALL if nm in runnable) or tuple(runnable[-1:])
+    sets = {"central": ()} | {nm: (nm,) for nm in runnable} | {"all": together}
     runners = {}
     for label, chosen in sets.items():
         sim = _effect_system(field, chosen, x, v, dt)
@@ -378,6 +383,7 @@ def effect_rows(cfg, n: int, names=tuple(EFFECT_SETS)) -> dict:
         "rows": rows,
         "worst_single": {"name": worst, "over_central": single[worst]} if worst else None,
         "all_over_central": rows["all"]["over_central"],
+        "all": list(together),
     }
 
 
