@@ -420,3 +420,22 @@ def test_no_class_probes_itself_or_its_host_for_an_attribute():
         rel = path.relative_to(REPO).as_posix()
         bad += [f"{rel}:{line}: {name}" for line, name in probes(ast.parse(path.read_text()))]
     assert not bad, "probes of self for an attribute:\n" + "\n".join(bad)
+
+
+def test_every_mutant_still_finds_its_code():
+    """Each mutant of scripts/mutants.py changes text that occurs exactly once in its file: a
+    refactoring that moves the code it breaks must move the mutant with it."""
+    import importlib.util
+
+    import sys
+
+    spec = importlib.util.spec_from_file_location("emorbit_mutants", REPO / "scripts" / "mutants.py")
+    mutants = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mutants  # its dataclass looks its module up
+    spec.loader.exec_module(mutants)
+    stale = [
+        f"{m.name}: {m.path} holds its text {n} times"
+        for m in mutants.MUTANTS
+        if (n := (REPO / m.path).read_text().count(m.old) if (REPO / m.path).is_file() else 0) != 1
+    ]
+    assert not stale, "\n".join(stale)

@@ -697,7 +697,7 @@ def facet_tables(
 def surface_spec(facets, facet, drag_coefficient, specular, diffuse, strict: bool, key: str):
     """A rigid body's facet specification, checked: the ``surface`` of
     :meth:`emorbit.bodies.rigid.RigidBodies.add`; its shape's facets are built when an effect
-    needs them (:meth:`~emorbit.bodies.rigid_effects.RigidEffects.facets`).
+    needs them (:meth:`~emorbit.bodies.rigid.RigidBodies.facets`).
 
     Parameters
     ----------

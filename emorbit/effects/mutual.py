@@ -33,10 +33,11 @@ rigid body's quadrature points, an elastic body's gravity points): every pair of
 of two different bodies takes the same pair force, which gives the full two-body problem of
 extended bodies (binary asteroids, docking) with E, P and L kept exactly. Such a scene runs
 as one coupled structure (:mod:`emorbit.bodies.coupled`): the pair forces enter its Newton
-iteration with each mass point's own Jacobian block; the blocks between bodies stay out of
-the sparse matrix, and the iteration converges on them at the rate h^2/2 |dF/dx| per
-iteration (:mod:`emorbit.kernels.effects.pairs`). Pairs inside one body are left out. A scene with
-one body, or a ``bodies`` list of one, has no pair: it is refused.
+iteration with each mass point's own Jacobian block, and the blocks between compact bodies
+(point masses, rigid bodies; up to 64) join its sparse matrix (:mod:`emorbit.kernels.effects.mutual`'s
+``mutual_pair_block``). Point masses alone step together, up to 32 of them with Newton's whole
+system each sweep. Pairs inside one body are left out. A scene with one body, or a
+``bodies`` list of one, has no pair: it is refused.
 
 References: D. Greenspan, Conservative numerical methods for x'' = f(x), J. Comput. Phys. 56
 (1984) 28-41; J. C. Simo, N. Tarnow, Z. angew. Math. Phys. 43 (1992) 757-792.

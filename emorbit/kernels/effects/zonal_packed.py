@@ -8,7 +8,7 @@ root and one division at most in each chain of dependencies, so that the core ov
 points) from one of two state buffers into the other, and a scalar pass for the rest
 (:func:`_resolve`). The helpers are compiled once each and inlined by LLVM (``forceinline``:
 Numba's own inlining of them took most of a compile). Arguments and records are those
-of the compiled effect step (:func:`emorbit.effects.compose.compile_step`), whose equations
+of the effect step (:func:`emorbit.kernels.pointmass.effect_step.effect_chunk`), whose equations
 and discrete force this solves. Method, per point (``d = x - c``, ``p`` the pole, sub-step
 ``h``), for ``omega = v1 - v0`` (the effect step's ``w`` is ``h omega / 2``)::
 
@@ -751,7 +751,7 @@ def chunk(
 ):  # fmt: skip
     """Advance every point ``nrec * every`` composed em steps under the central field and
     the zonal harmonics: the arguments of the effect step's ``chunk``
-    (:func:`emorbit.effects.compose.compile_step`) for the effects central and zonal.
+    (:func:`emorbit.kernels.pointmass.effect_step.effect_chunk`) for the effects central and zonal.
 
     Parameters
     ----------
