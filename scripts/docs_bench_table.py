@@ -86,8 +86,9 @@ def _targets(d: dict) -> list[str]:
     rows = []
     for t in targets(d) + d.get("rigid", {}).get("targets", []):
         verdict = {True: "met", False: "not met", None: "skipped"}[t["met"]]
-        measured = "-" if "measured" not in t else f"{t['measured']:.3g}"
-        limit = "-" if "limit" not in t else f"{t['limit']:g}"
+        value = t.get("measured", t.get("ratio"))  # the rigid section names its figure "ratio"
+        measured = "-" if value is None else f"{value:.3g}"
+        limit = "-" if t.get("limit") is None else f"{t['limit']:g}"
         note = t.get("note", "")
         if note.startswith(verdict):
             verdict, note = note, ""
@@ -201,7 +202,8 @@ def _wp_verdicts(s: dict) -> list[str]:
     rows = []
     for t in s.get("targets", []):
         verdict = {True: "met", False: "not met", None: "skipped"}[t["met"]]
-        measured = "-" if "measured" not in t else f"{t['measured']:.3g}"
+        value = t.get("measured", t.get("ratio"))  # the rigid section names its figure "ratio"
+        measured = "-" if value is None else f"{value:.3g}"
         note = t["note"] if not t["note"].startswith(verdict) else t["note"][len(verdict) :].lstrip(": ")
         rows.append([t["target"], measured, f"{t['limit']:g}", verdict + (f": {note}" if note else "")])
     if not rows:
