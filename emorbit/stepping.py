@@ -434,11 +434,7 @@ class ChunkDriver:
         """The final state, and a checkpoint where the state is a record on the record grid."""
         origin = self._run_origin
         steps = self._steps - origin
-        if (
-            steps % every == 0
-            and sink.last_step == self._steps
-            and self._checkpointed_at != self._steps
-        ):
+        if steps % every == 0 and sink.last_step == self._steps and self._checkpointed_at != self._steps:
             self._checkpoint(sink)
         writer.write_final_state(steps, self.time, self.state_arrays(), self.state_units())
 

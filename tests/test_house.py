@@ -426,7 +426,6 @@ def test_every_mutant_still_finds_its_code():
     """Each mutant of scripts/mutants.py changes text that occurs exactly once in its file: a
     refactoring that moves the code it breaks must move the mutant with it."""
     import importlib.util
-
     import sys
 
     spec = importlib.util.spec_from_file_location("emorbit_mutants", REPO / "scripts" / "mutants.py")

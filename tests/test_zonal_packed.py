@@ -50,9 +50,9 @@ def _effect_step(sim):
         P, I, T, S = sim.effects.arrays(n)
         work = np.zeros((0, n))
         effect_chunk(
-            prog.forces, prog.prepare, prog.work, 0, x, v, cx, cv, wp, hp, m, np.arange(n, dtype=np.int64),
+            prog.forces, prog.cross, prog.prepare, prog.work, 0, x, v, cx, cv, wp, hp, m, np.arange(n, dtype=np.int64),
             np.ones((len(sim.effects), n)), P, I, T, S, work, work.copy(), np.zeros((nrec, 0, n)), 0.0, 0.0, dt,
-            gammas, every, nrec, max_iter, rx, rv, ri, fail,
+            gammas, every, nrec, max_iter, False, rx, rv, ri, fail,
         )  # fmt: skip
 
     return chunk
