@@ -201,6 +201,7 @@ def test_errors_name_key_and_value(tmp_path, monkeypatch):
     path = tmp_path / "kernel.bsp"
     path.write_bytes(b"\0" * 1024)
     monkeypatch.setitem(sys.modules, "jplephem", None)
+    monkeypatch.setitem(sys.modules, "jplephem.spk", None)  # found first where another test imported it
     with pytest.raises(InputError, match="jplephem") as err:
         sun_moon_positions(t0, "moon", ephemeris=path)
     assert err.value.key == "ephemeris" and "kernel.bsp" in str(err.value)
