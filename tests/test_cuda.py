@@ -270,7 +270,7 @@ CHILD = (
     # the bench's gpu section says why it is skipped, and its rows run (timings meaningless here)
     from emorbit.bench import gpu as bench_gpu
     section = bench_gpu.run(config="tiny")
-    row = bench_gpu._row(4, "em", {"steps": 1, "repeats": 1})
+    row = bench_gpu._row(4, "em", 8, {"steps": 1, "repeats": 1})
     out["bench"] = {"skipped": section["skipped"], "met": section["targets"][0]["met"],
                     "row": [row[k] for k in ("gpu kernel", "gpu chunk", "gpu resident", "cpu ensemble")]}
 
@@ -370,10 +370,11 @@ def test_bench_gpu_section_is_skipped_without_a_gpu(simulated, tmp_path, capsys)
     assert data["gpu"]["skipped"] == kcuda.device_problem() and data["gpu"]["rows"] == []
     assert data["targets"] == data["gpu"]["targets"] and data["targets"][0]["met"] is None
     assert "skipped: no CUDA device" in capsys.readouterr().out
-    row = {"method": "em", "points": bench_gpu.TARGET_POINTS}
+    row = {"method": "em", "order": 2, "points": bench_gpu.TARGET_POINTS}
     assert bench_gpu._target([dict(row, resident_over_kernel=0.6)], None)["met"] is True
     assert bench_gpu._target([dict(row, resident_over_kernel=0.3)], None)["met"] is False
     assert bench_gpu._target([dict(row, points=10, resident_over_kernel=0.9)], None)["met"] is None
+    assert bench_gpu._target([dict(row, order=8, resident_over_kernel=0.9)], None)["met"] is None  # order 2 only
 
 
 def test_asking_for_a_gpu_without_one_is_a_clear_error(tmp_path, capsys):
