@@ -88,10 +88,10 @@ MUTANTS = (
     ),
     Mutant(
         "M3",
-        "gravity.em_accel with (r0 + r1) * (1 + 1e-12)",
-        "emorbit/kernels/gravity.py",
-        "    k = gm / (r0 * r1 * (r0 + r1))\n    return k * (ax + bx)",
-        "    k = gm / (r0 * r1 * ((r0 + r1) * (1.0 + 1e-12)))\n    return k * (ax + bx)",
+        "the central effect's g_em with (r0 + r1) * (1 + 1e-12) (elastic and coupled bodies)",
+        "emorbit/kernels/effects/central.py",
+        "    k = -gm / (r0 * r1 * (r0 + r1))\n    return k * (a0 + b0)",
+        "    k = -gm / (r0 * r1 * ((r0 + r1) * (1.0 + 1e-12)))\n    return k * (a0 + b0)",
         ("tests/test_eccentric_bodies.py", "-k", "elastic or coupled"),
     ),
     Mutant(
@@ -104,10 +104,10 @@ MUTANTS = (
     ),
     Mutant(
         "M5",
-        "gravity.em_accel with (r0 + r1) * (1 + 1e-8)",
-        "emorbit/kernels/gravity.py",
-        "    k = gm / (r0 * r1 * (r0 + r1))\n    return k * (ax + bx)",
-        "    k = gm / (r0 * r1 * ((r0 + r1) * (1.0 + 1e-8)))\n    return k * (ax + bx)",
+        "the central effect's g_em with (r0 + r1) * (1 + 1e-8) (elastic and coupled bodies)",
+        "emorbit/kernels/effects/central.py",
+        "    k = -gm / (r0 * r1 * (r0 + r1))\n    return k * (a0 + b0)",
+        "    k = -gm / (r0 * r1 * ((r0 + r1) * (1.0 + 1e-8)))\n    return k * (a0 + b0)",
         ("tests/test_eccentric_bodies.py", "-k", "elastic or coupled"),
     ),
     Mutant(
@@ -136,10 +136,10 @@ MUTANTS = (
     ),
     Mutant(
         "R1",
-        "as M3, caught by the rigid body (its kernel takes gravity.em_accel too)",
-        "emorbit/kernels/gravity.py",
-        "    k = gm / (r0 * r1 * (r0 + r1))\n    return k * (ax + bx)",
-        "    k = gm / (r0 * r1 * ((r0 + r1) * (1.0 + 1e-12)))\n    return k * (ax + bx)",
+        "as M3, caught by the rigid body (its step takes the central effect's force too)",
+        "emorbit/kernels/effects/central.py",
+        "    k = -gm / (r0 * r1 * (r0 + r1))\n    return k * (a0 + b0)",
+        "    k = -gm / (r0 * r1 * ((r0 + r1) * (1.0 + 1e-12)))\n    return k * (a0 + b0)",
         ("tests/test_eccentric_bodies.py", "-k", "rigid"),
     ),
     Mutant(
