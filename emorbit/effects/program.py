@@ -561,7 +561,7 @@ def compile_set(effects, announce=None) -> Program:
         with open(path, "w") as f:
             f.write(source)
     if fresh and announce is not None:
-        what = f"the effects {', '.join(kinds)}" if kinds else "free motion"
+        what = f"the effect set {' + '.join(kinds)}" if kinds else "free motion"
         announce(f"compiling the kernels of {what} (first run only)")
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
