@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 
-from .common import SystemRunner, points_of
-from .timing import CPU, calibrate, clock, paired_ratio, since
+from .common import ReboundRunner, SystemRunner, points_of
+from .timing import CPU, calibrate, paired_ratio
 
 __all__ = ["plummer", "mutual_rows"]
 
@@ -113,18 +113,6 @@ def _timed_slow(runners: dict, cfg) -> dict:
     return out
 
 
-class _ReboundRunner:
-    def __init__(self, sim):
-        self.sim, self.steps = sim, 0
-
-    def __call__(self, n: int) -> tuple:
-        start = clock()
-        self.sim.steps(n)
-        elapsed = since(start)
-        self.steps += n
-        return elapsed
-
-
 def _rebound_nbody(m, x, v, dt: float):
     """REBOUND's leapfrog with direct summation (no softening) of the same bodies, G of astropy."""
     import rebound
@@ -181,7 +169,7 @@ def mutual_rows(cfg, n: int) -> dict:
     runners = {"em": SystemRunner(points, 0.0, np.zeros(3), dt)}
     rows = {}
     try:
-        runners["rebound leapfrog"] = _ReboundRunner(_rebound_nbody(m, x, v, dt))
+        runners["rebound leapfrog"] = ReboundRunner(_rebound_nbody(m, x, v, dt))
     except ImportError as exc:
         rows["rebound leapfrog"] = {"status": f"skipped: {type(exc).__name__}: {exc}"}
     kinetic, potential = _nbody_energy(m, x, v)
