@@ -94,10 +94,13 @@ class Assembly:
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
         if not (self.effects.acts_at_points("point") or self.effects.pair_effects()):
+            from .effects import EFFECTS
+
+            pairs = ", ".join(f"add_effect({n!r})" for n, cls in EFFECTS.items() if cls.pairs())
             raise InputError(
                 "field",
-                f"{key} is a point mass, which needs a central field or an effect that acts on it (mutual gravity: "
-                "add_effect('mutual')); this simulation has neither",
+                f"{key} is a point mass, which needs a central field or an effect that acts on it (between "
+                f"bodies: {pairs}); this simulation has neither",
             )
         m = to_si(mass, "mass", f"{key}.mass", strict=strict, positive=True)
         values = self._body_values("point", effect_keys, strict, key)

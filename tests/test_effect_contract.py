@@ -294,3 +294,12 @@ def test_steps_land_on_the_times_an_effect_switches_at(hill):
                 assert exc.value.key == "effect[tide]"
     finally:
         unregister(Switching.NAME)
+
+
+def test_a_point_without_field_or_effect_is_refused_naming_the_pair_effects():
+    """Free space and no effect that moves a point: refused, naming the key and every
+    registered effect between bodies (from the registry, not a hand-kept name)."""
+    sim = emorbit.Simulation(None, dt=1.0)
+    with pytest.raises(InputError, match=r"add_effect\('mutual'\)") as exc:
+        sim.add_point("a", mass=1.0, position=[1.0, 0, 0], velocity=[0, 1.0, 0])
+    assert exc.value.key == "field" and "body['a']" in str(exc.value)
