@@ -16,6 +16,7 @@ import numpy as np
 import emorbit
 from emorbit.effects.mutual import G
 from emorbit.kernels.effects.central import (
+    PAIR_ROWS,
     central_force,
     pair_block,
     pair_blocks,
@@ -38,16 +39,21 @@ def _cluster(n: int, seed: int = 5):
 
 def _rows(x, dx, gm):
     n = gm.size
-    w = np.zeros((17, n))
+    w = np.zeros((PAIR_ROWS, n))
     w[0:3], w[3:6], w[6] = x, x + dx, gm
     return w
+
+
+def _sums(w):
+    """pair_sums on the packed rows (low parts in rows 17-22)."""
+    pair_sums(*w[:6], w[17:23], *w[6:11])
 
 
 def test_pair_sums_are_the_sums_of_the_pair_forces():
     x, dx, gm = _cluster(37)
     n = gm.size
     w = _rows(x, dx, gm)
-    pair_sums(*w[:11])
+    _sums(w)
     ref = np.zeros((3, n))
     bound = np.zeros(n)
     J = np.zeros((3, 3))
@@ -87,7 +93,7 @@ def _pass(first, x, dx, gm, w=None):
     n = gm.size
     w = _rows(x, dx, gm) if w is None else w
     fp, rho = np.zeros((3, n)), np.zeros(n)
-    formed = pair_pass(first, 0.5, x, dx, np.arange(n), w, np.zeros(n, np.int64), fp, rho)
+    formed = pair_pass(first, 0.5, x, x + dx, np.arange(n), w, np.zeros(n, np.int64), fp, rho)
     return formed, w, fp
 
 
@@ -112,6 +118,33 @@ def test_a_sweep_that_forms_only_the_moved_pairs_gives_a_full_pass():
     formed, w, fp = _pass(False, x, dx3, gm, w)
     _, _, full = _pass(True, x, dx3, gm)
     assert formed == n and np.array_equal(fp, full)
+
+
+def test_a_close_pair_far_out_is_formed_from_its_low_parts():
+    """A pair 0.02 m apart, 1 km from the origin, given as high parts rounded at 1 km plus low
+    parts: its pair forces are those of the same pair at the origin to 4 eps, where the high
+    parts alone miss by 1e-12."""
+    rng = np.random.default_rng(3)
+    near = np.array([[0.0, 0.0137], [0.0, 0.0088], [0.0, -0.0051]]) + rng.normal(size=(3, 2)) * 1e-3
+    step = rng.normal(size=(3, 2)) * 1e-3
+    gm = np.array([0.7, 1.3])
+    far = np.array([1000.0, -700.0, 300.0])[:, None]
+    hi0 = near + far
+    lo0 = (near - (hi0 - far)) + 0.0  # what rounding hi0 lost, in exact arithmetic to 1e-30 m
+    hi1 = hi0 + step
+    lo1 = (near + step) - (hi1 - far)
+    forces = []
+    for x0, x1 in ((near, near + step), (np.vstack([hi0, lo0]), np.vstack([hi1, lo1])), (hi0, hi1)):
+        w = np.zeros((PAIR_ROWS, 2))
+        fp, rho = np.zeros((3, 2)), np.zeros(2)
+        w[6] = gm
+        pair_pass(True, 0.5, np.ascontiguousarray(x0), np.ascontiguousarray(x1), np.arange(2), w,
+                  np.zeros(2, np.int64), fp, rho)  # fmt: skip
+        forces.append(fp)
+    ref, low, high = forces
+    scale = np.abs(ref).max()
+    assert np.abs(low - ref).max() <= 4 * 2.0**-52 * scale
+    assert np.abs(high - ref).max() >= 1e-12 * scale
 
 
 def _reference_steps(m, x, v, dt, steps):

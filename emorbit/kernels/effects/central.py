@@ -50,6 +50,7 @@ __all__ = [
     "pair_blocks",
     "pair_block",
     "PAIR_MOVE",
+    "PAIR_ROWS",
 ]
 
 _inline = kernel(inline="always")
@@ -253,15 +254,17 @@ def pair_force(a0, a1, a2, b0, b1, b2):
 
 
 @_inline
-def _pair_row(a, xa0, ya0, za0, xa1, ya1, za1, ga, x0, y0, z0, x1, y1, z1, fx, fy, fz, rho):
+def _pair_row(a, xa0, ya0, za0, xa1, ya1, za1, ga, x0, y0, z0, x1, y1, z1, lo, fx, fy, fz, rho):
     """Add point a's pair force per unit mass on every other point j; its own term is 0."""
+    la0, lb0, lc0, la1, lb1, lc1 = lo[0, a], lo[1, a], lo[2, a], lo[3, a], lo[4, a], lo[5, a]
+    l0, l1, l2, l3, l4, l5 = lo[0], lo[1], lo[2], lo[3], lo[4], lo[5]
     for j in range(x0.shape[0]):  # from 0, branch-free, over contiguous arrays: LLVM vectorises it
-        ax = xa0 - x0[j]
-        ay = ya0 - y0[j]
-        az = za0 - z0[j]
-        bx = xa1 - x1[j]
-        by = ya1 - y1[j]
-        bz = za1 - z1[j]
+        ax = (xa0 - x0[j]) + (la0 - l0[j])
+        ay = (ya0 - y0[j]) + (lb0 - l1[j])
+        az = (za0 - z0[j]) + (lc0 - l2[j])
+        bx = (xa1 - x1[j]) + (la1 - l3[j])
+        by = (ya1 - y1[j]) + (lb1 - l4[j])
+        bz = (za1 - z1[j]) + (lc1 - l5[j])
         r0 = math.sqrt(ax * ax + ay * ay + az * az)
         r1 = math.sqrt(bx * bx + by * by + bz * bz)
         rs = r0 + r1
@@ -275,7 +278,7 @@ def _pair_row(a, xa0, ya0, za0, xa1, ya1, za1, ga, x0, y0, z0, x1, y1, z1, fx, f
 
 
 @kernel
-def pair_sums(x0, y0, z0, x1, y1, z1, gm, fx, fy, fz, rho):
+def pair_sums(x0, y0, z0, x1, y1, z1, lo, gm, fx, fy, fz, rho):
     """Every point's sum of the pair forces over the step, per unit mass, and their coupling.
 
     For each point j of a packed set: ``f_j = -sum_{a != j} gm_a (d0 + d1) / (r0 r1 (r0 + r1))``
@@ -293,6 +296,11 @@ def pair_sums(x0, y0, z0, x1, y1, z1, gm, fx, fy, fz, rho):
         (K,) positions at the start of the step (m), contiguous.
     x1, y1, z1 : numpy.ndarray
         (K,) positions at the end of the step (m).
+    lo : numpy.ndarray
+        (6, K) the positions' low parts (m): the point is at ``x0 + lo[0]``, ... at the start
+        and ``x1 + lo[3]``, ... at the end, and each separation is formed as
+        ``(x_j - x_a) + (lo_j - lo_a)``, so a close pair far from the origin is not evaluated
+        at positions rounded to eps |x| (zeros: the positions as given).
     gm : numpy.ndarray
         (K,) G m of each point (m^3/s^2).
     fx, fy, fz : numpy.ndarray
@@ -313,24 +321,29 @@ def pair_sums(x0, y0, z0, x1, y1, z1, gm, fx, fy, fz, rho):
         xa1 = x1[a]
         ya1 = y1[a]
         za1 = z1[a]
-        _pair_row(a, xa0, ya0, za0, xa1, ya1, za1, gm[a], x0, y0, z0, x1, y1, z1, fx, fy, fz, rho)
+        _pair_row(a, xa0, ya0, za0, xa1, ya1, za1, gm[a], x0, y0, z0, x1, y1, z1, lo, fx, fy, fz, rho)
 
 
 @_inline
-def _move_row(a, xa0, ya0, za0, xo, yo, zo, xn, yn, zn, ga, x0, y0, z0, x1, y1, z1, fx, fy, fz):
+def _move_row(a, xo, yo, zo, lxo, lyo, lzo, w, fx, fy, fz):
     """Add to every other point j the change of point a's pair force as a moves from
-    (xo, yo, zo) to (xn, yn, zn) at the end of the step, both terms as :func:`_pair_row`
-    forms them."""
+    (xo, yo, zo) + (lxo, lyo, lzo) to its new end position (``w`` rows 11-13 and 23-25) at the
+    end of the step, both terms as :func:`_pair_row` forms them (``w`` as :func:`pair_pass`)."""
+    x0, y0, z0, x1, y1, z1 = w[0], w[1], w[2], w[3], w[4], w[5]
+    l0, l1, l2, l3, l4, l5 = w[17], w[18], w[19], w[20], w[21], w[22]
+    xa0, ya0, za0, la0, lb0, lc0 = w[0, a], w[1, a], w[2, a], w[17, a], w[18, a], w[19, a]
+    xn, yn, zn, lxn, lyn, lzn = w[11, a], w[12, a], w[13, a], w[23, a], w[24, a], w[25, a]
+    ga = w[6, a]
     for j in range(x0.shape[0]):
-        ax = xa0 - x0[j]
-        ay = ya0 - y0[j]
-        az = za0 - z0[j]
-        bx = xn - x1[j]
-        by = yn - y1[j]
-        bz = zn - z1[j]
-        cx = xo - x1[j]
-        cy = yo - y1[j]
-        cz = zo - z1[j]
+        ax = (xa0 - x0[j]) + (la0 - l0[j])
+        ay = (ya0 - y0[j]) + (lb0 - l1[j])
+        az = (za0 - z0[j]) + (lc0 - l2[j])
+        bx = (xn - x1[j]) + (lxn - l3[j])
+        by = (yn - y1[j]) + (lyn - l4[j])
+        bz = (zn - z1[j]) + (lzn - l5[j])
+        cx = (xo - x1[j]) + (lxo - l3[j])
+        cy = (yo - y1[j]) + (lyo - l4[j])
+        cz = (zo - z1[j]) + (lzo - l5[j])
         r0 = math.sqrt(ax * ax + ay * ay + az * az)
         rn = math.sqrt(bx * bx + by * by + bz * bz)
         ro = math.sqrt(cx * cx + cy * cy + cz * cz)
@@ -343,15 +356,20 @@ def _move_row(a, xa0, ya0, za0, xo, yo, zo, xn, yn, zn, ga, x0, y0, z0, x1, y1, 
 
 
 @_inline
-def _terms_row(a, xa0, ya0, za0, xa1, ya1, za1, x0, y0, z0, x1, y1, z1, gm, tx, ty, tz):
-    """Each point j's pair force on point a, as :func:`_pair_row` forms it in j's row."""
+def _terms_row(a, w, tx, ty, tz):
+    """Each point j's pair force on point a, as :func:`_pair_row` forms it in j's row
+    (``w`` as :func:`pair_pass`)."""
+    x0, y0, z0, x1, y1, z1, gm = w[0], w[1], w[2], w[3], w[4], w[5], w[6]
+    l0, l1, l2, l3, l4, l5 = w[17], w[18], w[19], w[20], w[21], w[22]
+    xa0, ya0, za0, xa1, ya1, za1 = w[0, a], w[1, a], w[2, a], w[3, a], w[4, a], w[5, a]
+    la0, lb0, lc0, la1, lb1, lc1 = w[17, a], w[18, a], w[19, a], w[20, a], w[21, a], w[22, a]
     for j in range(x0.shape[0]):
-        ax = x0[j] - xa0
-        ay = y0[j] - ya0
-        az = z0[j] - za0
-        bx = x1[j] - xa1
-        by = y1[j] - ya1
-        bz = z1[j] - za1
+        ax = (x0[j] - xa0) + (l0[j] - la0)
+        ay = (y0[j] - ya0) + (l1[j] - lb0)
+        az = (z0[j] - za0) + (l2[j] - lc0)
+        bx = (x1[j] - xa1) + (l3[j] - la1)
+        by = (y1[j] - ya1) + (l4[j] - lb1)
+        bz = (z1[j] - za1) + (l5[j] - lc1)
         r0 = math.sqrt(ax * ax + ay * ay + az * az)
         r1 = math.sqrt(bx * bx + by * by + bz * bz)
         same = 1.0 if j == a else 0.0
@@ -364,23 +382,30 @@ def _terms_row(a, xa0, ya0, za0, xa1, ya1, za1, x0, y0, z0, x1, y1, z1, gm, tx, 
 #: a point's move is left out of the pair forces while the change it makes in every point's
 #: em residual is below this fraction of eps relative to that point's increment
 PAIR_MOVE = 1e-4
+#: the rows of :func:`pair_pass`'s packed array
+PAIR_ROWS = 26
 
 
 @kernel
-def pair_pass(first, hh, x, dx, idx, w, moved, fp, rho):
+def pair_pass(first, hh, x0, x1, idx, w, moved, fp, rho):
     """The pair forces of mutual gravity at the current iterates of the em step, into ``fp``.
 
     ``first``: every pair afresh (:func:`pair_sums`). Later sweeps: the pair forces change
-    only where points moved. A point whose end position ``x + dx`` lies within ``tol`` of
-    the one its pair forces were last formed at keeps it, with ``tol = PAIR_MOVE eps
-    min_i |dx_i| / (6 h^2/2 rho_i)``: the forces on any point i change by at most
-    ``6 rho_i`` times the largest such move, so every residual stays below ``PAIR_MOVE eps``
-    of its increment (the stopping rule's own estimate is ``1e-3 eps``). Where at most an
-    eighth of the points moved, each moved point's change is added to every other point's
-    force (both terms as :func:`pair_sums` forms them) and the moved points' own forces are
-    summed afresh in :func:`pair_sums`' order (their bits are those of a full pass); else
-    every pair is evaluated again. The forces at the end are the pair forces at the
-    positions recorded in ``w`` to round-off, and those lie within ``tol`` of the iterates.
+    only where points moved. A point whose end position lies within ``tol`` of the one its
+    pair forces were last formed at keeps it, with ``tol = PAIR_MOVE eps min_i |dx_i| /
+    (6 h^2/2 rho_i)``: the forces on any point i change by at most ``6 rho_i`` times the
+    largest such move, so every residual stays below ``PAIR_MOVE eps`` of its increment (the
+    stopping rule's own estimate is ``1e-3 eps``). Where at most an eighth of the points
+    moved, each moved point's change is added to every other point's force (both terms as
+    :func:`pair_sums` forms them) and the moved points' own forces are summed afresh in
+    :func:`pair_sums`' order (their bits are those of a full pass); else every pair is
+    evaluated again. The forces at the end are the pair forces at the positions recorded in
+    ``w`` to round-off, and those lie within ``tol`` of the iterates.
+
+    Positions come as a high and a low part (rows 3-5 of ``x0`` and ``x1`` where they have
+    six rows: the compensation of the point-mass state), and the separations are formed from
+    both (:func:`pair_sums`), so a close pair keeps its separation to eps of itself wherever
+    it lies.
 
     Parameters
     ----------
@@ -388,13 +413,16 @@ def pair_pass(first, hh, x, dx, idx, w, moved, fp, rho):
         The first sweep of a sub-step.
     hh : float
         h^2 / 2 (s^2).
-    x, dx : numpy.ndarray
-        (3, n) positions at the start of the sub-step and increments (m).
+    x0, x1 : numpy.ndarray
+        (3, n) or (6, n) positions at the start and at the end of the sub-step (m): high
+        parts, then low parts where there are six rows.
     idx : numpy.ndarray
         (K,) int64, the points that attract each other.
     w : numpy.ndarray
-        (17, K) packed rows: x0, y0, z0 (start), x1, y1, z1 (where the forces are formed),
-        G m, fx, fy, fz, rho (as :func:`pair_sums`), the new end positions, scratch.
+        (:data:`PAIR_ROWS`, K) packed rows: x0, y0, z0 (start), x1, y1, z1 (where the forces
+        are formed), G m, fx, fy, fz, rho (as :func:`pair_sums`), the new end positions (11-13),
+        scratch (14-16), the low parts of the start (17-19), of where the forces are formed
+        (20-22) and of the new end positions (23-25).
     moved : numpy.ndarray
         (K,) int64 scratch.
     fp : numpy.ndarray
@@ -408,19 +436,28 @@ def pair_pass(first, hh, x, dx, idx, w, moved, fp, rho):
         The number of points whose pair forces were formed afresh (K after a full pass).
     """
     kk = idx.shape[0]
+    low = x0.shape[0] == 6 and x1.shape[0] == 6
     tol = math.inf
     for p in range(kk):
         i = idx[p]
         for c in range(3):
-            w[11 + c, p] = x[c, i] + dx[c, i]
+            w[11 + c, p] = x1[c, i]
+            w[23 + c, p] = x1[3 + c, i] if low else 0.0
         c6 = 6.0 * hh * w[10, p]
         if c6 > 0.0:
-            tol = min(tol, math.sqrt(dx[0, i] ** 2 + dx[1, i] ** 2 + dx[2, i] ** 2) / c6)
+            d0 = x1[0, i] - x0[0, i]
+            d1 = x1[1, i] - x0[1, i]
+            d2 = x1[2, i] - x0[2, i]
+            tol = min(tol, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) / c6)
     tol *= PAIR_MOVE * 2.0**-52
     nm = 0
     if not first:
         for p in range(kk):
-            d = math.sqrt((w[11, p] - w[3, p]) ** 2 + (w[12, p] - w[4, p]) ** 2 + (w[13, p] - w[5, p]) ** 2)
+            d = math.sqrt(
+                ((w[11, p] - w[3, p]) + (w[23, p] - w[20, p])) ** 2
+                + ((w[12, p] - w[4, p]) + (w[24, p] - w[21, p])) ** 2
+                + ((w[13, p] - w[5, p]) + (w[25, p] - w[22, p])) ** 2
+            )
             if not d <= tol:
                 moved[nm] = p
                 nm += 1
@@ -428,9 +465,11 @@ def pair_pass(first, hh, x, dx, idx, w, moved, fp, rho):
         for p in range(kk):
             i = idx[p]
             for c in range(3):
-                w[c, p] = x[c, i]
+                w[c, p] = x0[c, i]
+                w[17 + c, p] = x0[3 + c, i] if low else 0.0
                 w[3 + c, p] = w[11 + c, p]
-        pair_sums(w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], w[9], w[10])
+                w[20 + c, p] = w[23 + c, p]
+        pair_sums(w[0], w[1], w[2], w[3], w[4], w[5], w[17:23], w[6], w[7], w[8], w[9], w[10])
         for p in range(kk):
             i = idx[p]
             for c in range(3):
@@ -439,20 +478,15 @@ def pair_pass(first, hh, x, dx, idx, w, moved, fp, rho):
         return kk
     for q in range(nm):  # each moved point's change, on every point (the moved ones' are replaced below)
         a = moved[q]
-        _move_row(
-            a, w[0, a], w[1, a], w[2, a], w[3, a], w[4, a], w[5, a], w[11, a], w[12, a], w[13, a], w[6, a],
-            w[0], w[1], w[2], w[3], w[4], w[5], w[7], w[8], w[9],
-        )  # fmt: skip
+        _move_row(a, w[3, a], w[4, a], w[5, a], w[20, a], w[21, a], w[22, a], w, w[7], w[8], w[9])
     for q in range(nm):
         a = moved[q]
         for c in range(3):
             w[3 + c, a] = w[11 + c, a]
+            w[20 + c, a] = w[23 + c, a]
     for q in range(nm):  # the moved points' own forces, summed in pair_sums' order
         a = moved[q]
-        _terms_row(
-            a, w[0, a], w[1, a], w[2, a], w[3, a], w[4, a], w[5, a], w[0], w[1], w[2], w[3], w[4], w[5], w[6],
-            w[14], w[15], w[16],
-        )  # fmt: skip
+        _terms_row(a, w, w[14], w[15], w[16])
         sx = 0.0
         sy = 0.0
         sz = 0.0

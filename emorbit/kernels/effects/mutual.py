@@ -13,9 +13,13 @@ matrices (:func:`.central.pair_blocks`, :func:`.central.pair_block`). Where poin
 bodies (the mass points of rigid and elastic bodies), every pair of different bodies is
 summed directly, with every point's diagonal block.
 
+Where the positions come with their low parts (rows 3-5 of ``x0`` and ``x1``: the point-mass
+step passes its compensation ``cx``), the pair separations are formed from both, so a close
+pair far from the origin keeps its separation, and its energy, to round-off of itself.
+
 Data layout: ``p = [G]``; the scratch ``s`` holds, for the K points that take part, the
-packed rows of :func:`.central.pair_pass` (17, K), their diagonal blocks (9, K) and whether
-each is strongly coupled (K,): 27 K values (:func:`scratch_size`).
+packed rows of :func:`.central.pair_pass` (``PAIR_ROWS``, K), their diagonal blocks (9, K)
+and whether each is strongly coupled (K,): 36 K values (:func:`scratch_size`).
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ import math
 import numpy as np
 
 from ..jit import kernel
-from .central import pair_block, pair_blocks, pair_pass, pair_unit
+from .central import PAIR_ROWS, pair_block, pair_blocks, pair_pass, pair_unit
 
 __all__ = ["mutual_pairs", "mutual_pair_potential", "mutual_pair_block", "mutual_pair_rate", "scratch_size"]
 
@@ -35,7 +39,7 @@ STRONG = 1e-4
 
 def scratch_size(k: int) -> int:
     """The scratch values of K points that take part."""
-    return 27 * k
+    return (PAIR_ROWS + 10) * k
 
 
 @kernel
@@ -62,19 +66,14 @@ def mutual_pairs(x0, x1, m, body, c, h, p, s, F, W, R, jac, first, weighted):
         _bodies_pairs(x0, x1, m, body, idx, g, F, W, jac, weighted)
         return
     hh = 0.5 * h * h
-    w = s[0 : 17 * k].reshape((17, k))
-    b = s[17 * k : 26 * k].reshape((9, k))
-    strong = s[26 * k : 27 * k]
+    w = s[0 : PAIR_ROWS * k].reshape((PAIR_ROWS, k))
+    b = s[PAIR_ROWS * k : (PAIR_ROWS + 9) * k].reshape((9, k))
+    strong = s[(PAIR_ROWS + 9) * k : (PAIR_ROWS + 10) * k]
     if first:
         for q in range(k):
             w[6, q] = g * m[idx[q]]
-    dx = np.empty((3, n))
-    for q in range(k):
-        i = idx[q]
-        for d in range(3):
-            dx[d, i] = x1[d, i] - x0[d, i]
     fp = np.zeros((3, n))
-    pair_pass(first, hh, x0, dx, idx, w, np.empty(k, np.int64), fp, R)
+    pair_pass(first, hh, x0, x1, idx, w, np.empty(k, np.int64), fp, R)
     for q in range(k):
         i = idx[q]
         for d in range(3):
@@ -133,8 +132,10 @@ def _bodies_pairs(x0, x1, m, body, idx, g, F, W, jac, weighted):
 
 @kernel
 def mutual_pair_potential(x, m, body, c, p, out):
-    """Each point's half of its pairs' potential energy ``-G m_a m_b / r``, J, into ``out`` (n,)."""
+    """Each point's half of its pairs' potential energy ``-G m_a m_b / r``, J, into ``out`` (n,);
+    ``x`` (3, n), or (6, n) with the positions' low parts in rows 3-5."""
     n = m.shape[0]
+    low = x.shape[0] == 6
     g = p[0]
     for a in range(n):
         if c[a] == 0.0:
@@ -145,6 +146,10 @@ def mutual_pair_potential(x, m, body, c, p, out):
             dx = x[0, a] - x[0, b]
             dy = x[1, a] - x[1, b]
             dz = x[2, a] - x[2, b]
+            if low:
+                dx += x[3, a] - x[3, b]
+                dy += x[4, a] - x[4, b]
+                dz += x[5, a] - x[5, b]
             e = 0.5 * g * m[a] * m[b] / math.sqrt(dx * dx + dy * dy + dz * dz)
             out[a] -= e
             out[b] -= e

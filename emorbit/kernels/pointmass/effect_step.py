@@ -82,19 +82,33 @@ def _add_work(work, cwork, out):
 
 @kernel
 def step_scratch(n, nw, dense):
-    """Scratch for :func:`effect_substep` of n points and nw working effects: dx, x1, w, F, G
-    (3, n), W (9, n), R (n,) (the pair coupling bounds, kept between sweeps), J (3, 3), the
-    work per point (nw, n), and where ``dense`` the whole Newton matrix A (3n, 3n) with its
-    right-hand side (3n,) and the pair blocks ``acc`` (n, n, 4, 4, 3, 3) with their slot
-    coefficients (4, n) and flags (n,) (empty where not)."""
+    """Scratch for :func:`effect_substep` of n points and nw working effects: dx (3, n), x1
+    (6, n: the end positions and their low parts), w, F, G (3, n), W (9, n), R (n,) (the pair
+    coupling bounds, kept between sweeps), J (3, 3), the work per point (nw, n), and where
+    ``dense`` the whole Newton matrix A (3n, 3n) with its right-hand side (3n,) and the pair
+    blocks ``acc`` (n, n, 4, 4, 3, 3) with their slot coefficients (4, n) and flags (n,)
+    (empty where not), and the start positions with their low parts (6, n)."""
     k = n if dense else 0
     sc = np.zeros((4, k))
     sc[0, :] = 1.0
     return (
-        np.empty((3, n)), np.empty((3, n)), np.empty((3, n)), np.empty((3, n)), np.empty((3, n)),
+        np.empty((3, n)), np.empty((6, n)), np.empty((3, n)), np.empty((3, n)), np.empty((3, n)),
         np.empty((9, n)), np.zeros(n), np.empty((3, 3)), np.empty((nw, n)),
         np.empty((3 * k, 3 * k)), np.empty(3 * k), np.zeros((k, k, 4, 4, 3, 3)), sc, np.ones(k),
+        np.empty((6, n)),
     )  # fmt: skip
+
+
+@kernel(inline="always")
+def _end(x, cx, dx, x1):
+    """The end positions ``x + dx`` (rows 0-2 of ``x1``, rounded as a plain sum) with their low
+    parts (rows 3-5: the sum's rounding error plus the compensation ``cx``)."""
+    for i in range(x.shape[1]):
+        for c in range(3):
+            s = x[c, i] + dx[c, i]
+            bb = s - x[c, i]
+            x1[c, i] = s
+            x1[3 + c, i] = ((x[c, i] - (s - bb)) + (dx[c, i] - bb)) + cx[c, i]
 
 
 @kernel
@@ -137,19 +151,23 @@ def effect_substep(
     """One sub-step of size h from time ``ta`` to ``tb`` of every point (the state, the warm
     start and the work sums updated in place where it succeeds; left as they were where not).
     Returns (Newton sweeps, status)."""
-    dx, x1, w, F, G, W, R, J, out, A, rhs, acc, sc, on = scratch
+    dx, x1, w, F, G, W, R, J, out, A, rhs, acc, sc, on, x0 = scratch
     dense = A.shape[0] > 0
     n = x.shape[1]
     hh = 0.5 * h * h
+    for i in range(n):  # the start with its compensation: pair effects form separations from both
+        for c in range(3):
+            x0[c, i] = x[c, i]
+            x0[3 + c, i] = cx[c, i]
     prepare(ta, 0.5 * (ta + tb), tb, P, I, T, S)
     status = STATUS_OK
     sweeps = 0
     if mode == MODE_EXPLICIT:
-        status = forces(x, x, m, body, coef, h, mode, P, I, T, S, F, W, R, False, True)
+        status = forces(x0, x0, m, body, coef, h, mode, P, I, T, S, F, W, R, False, True)
         for i in range(n):
             for c in range(3):
                 dx[c, i] = h * (v[c, i] + 0.5 * h * F[c, i])
-                x1[c, i] = x[c, i] + dx[c, i]
+        _end(x, cx, dx, x1)
         if status == STATUS_OK:
             status = forces(x1, x1, m, body, coef, h, mode, P, I, T, S, G, W, R, False, True)
         sweeps = 1
@@ -165,12 +183,10 @@ def effect_substep(
         prev = math.inf
         status = STATUS_NO_CONVERGENCE
         for it in range(max_iter):
-            for i in range(n):
-                for c in range(3):
-                    x1[c, i] = x[c, i] + dx[c, i]
-            st = forces(x, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, True, it == 0)
+            _end(x, cx, dx, x1)
+            st = forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, True, it == 0)
             if dense:
-                cross(x, x1, m, body, coef, on, sc, acc, P, I, T, S)
+                cross(x0, x1, m, body, coef, on, sc, acc, P, I, T, S)
                 _dense_update(A, rhs, acc, W, F, w, m, hh)
             worst = 0.0
             coupling = 0.0
