@@ -474,8 +474,8 @@ class Assembly:
             if effect.needs_epoch and self.epoch is None:
                 raise InputError(
                     "epoch",
-                    f"{key} ({kind}) follows the calendar (an ephemeris, a dated atmosphere): give the run's "
-                    'epoch, e.g. epoch = "2026-01-01T00:00:00 TDB"',
+                    f"{key} ({kind}) follows the calendar (an ephemeris, a dated atmosphere, the Earth's "
+                    'rotation): give the run\'s epoch, e.g. epoch = "2026-01-01T00:00:00 TDB"',
                 )
             self.effects.check_method(self.method)
             for system in self.systems:

@@ -170,6 +170,7 @@ R_LEO = 6778.137e3
 V_LEO = float(np.sqrt(EARTH.gm / R_LEO))
 EFFECT_KEYS = {
     "zonal": {"model": "earth"},
+    "gravity_field": {"model": "egm2008", "degree": 8, "rotation": "earth"},
     "drag": {"atmosphere": "ussa1976"},
     "srp": {"shadow": "conical"},
     "third_body": {"body": "moon"},

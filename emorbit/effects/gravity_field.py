@@ -1,0 +1,214 @@
+"""A rotating central body's gravity field in spherical harmonics of any degree and order
+(``[[effect]] kind = "gravity_field"``), with the Jacobi integral kept to round-off.
+
+Field. The degrees 1..N and orders 0..M of a fully normalised model (``model = "egm2008"``,
+from heyoka's table, degree 150; or ``gfc``, any static field in ICGEM's format:
+:mod:`emorbit.io.icgem`) in Pines' singularity-free form with the normalised column
+recursion of the derived Legendre functions (:mod:`emorbit.kernels.effects.gravity_field`
+has the equations). The degree-0 term is the central field's (``[field]``'s GM); the
+harmonics scale with the model's own GM and radius. At degree and order 2, 20 and 70 the
+acceleration agrees with heyoka's EGM2008 model to 1.2e-15 relative at 1000 points from 200 to
+40 000 km altitude (``tests/test_gravity_field.py``). With only the zonal terms (``order =
+0``) it gives the ``zonal`` effect's acceleration at a point; ``zonal`` stays the fast
+axisymmetric case (its discrete force keeps the angular momentum about the pole as well).
+
+Rotation. The body turns uniformly about its ``pole`` (default the scene's z axis) at the
+rate ``rate``, its prime meridian at ``angle`` from the scene's x axis (projected on the
+equator) at time 0; ``rotation = "earth"`` takes the Earth's rate (7.292115146706979e-5
+rad/s, IERS) and the Earth rotation angle at the run's epoch (astropy, UT1 from the epoch).
+A field without a rotation is refused: it would stay fixed in inertial space.
+
+Discrete force and invariants. Over a step the force is Gonzalez's midpoint discrete
+gradient of the field, taken along the step's move as the rotating frame sees it, so that
+its work minus the field's change equals ``w . dL``: an em step of point masses in the field
+(with the central field and nothing else that turns them) keeps the Jacobi integral
+``E - w . L`` to round-off, ``w`` the spin vector and L the angular momentum about the
+centre. Every body kind keeps the energy balance ``E - E0 - W`` to round-off, W the work of
+the field's motion (``invariants/work_<label>``).
+
+References: N. K. Pavlis et al., J. Geophys. Res. 117 (2012) B04406 (EGM2008); S. Pines,
+AIAA J. 11 (1973) 1508-1511; O. Gonzalez, J. Nonlinear Sci. 6 (1996) 449-467; G. Petit,
+B. Luzum (eds.), IERS Conventions (2010), IERS Technical Note 36, section 5.4.4 (the Earth
+rotation angle).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+from ..errors import InputError
+from ..io.icgem import MAX_DEGREE, model, read_gfc
+from ..keys import Key
+from ..units import to_si, vector_to_si
+from .base import AT_POINTS, Effect, Pieces
+
+__all__ = ["GravityField", "EARTH_RATE"]
+
+#: the Earth's mean rotation rate, rad/s: 2 pi 1.00273781191135448 / 86400 (IERS 2010)
+EARTH_RATE = 2.0 * math.pi * 1.00273781191135448 / 86400.0
+_KEYS = (
+    Key("model", False, "string", "", '"egm2008" (heyoka\'s table, degree 150); or give gfc',
+        "the shipped model"),
+    Key("gfc", False, "string", "", "the path of an ICGEM .gfc file (static, fully normalised; .gz too)",
+        "a field from a file instead of model: any published one (GRGM for the Moon, MRO for Mars)"),
+    Key("degree", True, "integer", "", f"1 to {MAX_DEGREE} (and the model's)", "the highest degree N"),
+    Key("order", False, "integer", "the degree", "0 to the degree", "the highest order M"),
+    Key("rotation", True, "string", "", '"earth" or "uniform"',
+        "the body's rotation: the Earth's rate and rotation angle at the epoch, or rate and angle"),
+    Key("rate", False, "angular speed (rad / s)", "", "finite; with rotation = \"uniform\"",
+        "the body's spin rate about its pole (negative: retrograde)"),
+    Key("angle", False, "angle (rad)", "0", "finite; with rotation = \"uniform\"",
+        "the prime meridian's angle from the scene's x axis (in the equator) at time 0"),
+    Key("pole", False, "3 numbers", "[0, 0, 1]", "a vector other than 0 (normalised)",
+        "the body's spin axis, in the scene's axes"),
+)  # fmt: skip
+
+
+class GravityField(Effect):
+    """A rotating gravity field as an effect: ``p`` and ``tab`` as
+    :mod:`emorbit.kernels.effects.gravity_field` (:func:`~emorbit.kernels.effects.gravity_field.tables`).
+
+    Attributes
+    ----------
+    coefficients : emorbit.io.icgem.Coefficients
+        The model as read.
+    degree, order : int
+        N and M.
+    rate : float
+        The spin rate, rad/s.
+    angle : float or None
+        The prime meridian's angle at time 0, rad (None: the Earth rotation angle at the epoch,
+        set by :meth:`prepare`).
+    frame : numpy.ndarray
+        (3, 3) the columns e1 (the prime meridian at angle 0), e2, e3 (the pole).
+    """
+
+    NAME = "gravity_field"
+    SUMMARY = "a rotating body's gravity field in spherical harmonics of any degree and order"
+    KEYS = _KEYS
+    ACTS = {"point": AT_POINTS, "rigid": AT_POINTS, "elastic": AT_POINTS}
+    CONSERVES: tuple[str, ...] = ()
+    NEEDS_FIELD = True
+    PIECES = Pieces(
+        "emorbit.kernels.effects.gravity_field",
+        force="gravity_field_piece",
+        potential="gravity_field_potential_piece",
+        prepare="gravity_field_prepare",
+        time_work="gravity_field_time_work",
+    )
+    POTENTIAL = (
+        "V = -m sum_{n>=1} (mu / r) (R / r)^n sum_m A_nm(u) (C_nm Re (s+it)^m + S_nm Im (s+it)^m), "
+        "in the body's turning frame"
+    )
+    DISCRETE_FORCE = (
+        "F = m [g + ((dU - g . delta) / (delta . delta)) delta], g = grad U(x_m, t_m), "
+        "delta = x1 - x0 - h w x (x_m - c), dU = U(x1, t1) - U(x0, t0); W = F . (x1 - x0) - m dU"
+    )
+    JACOBIAN = "none: Newton takes the central field's"
+
+    time_dependent = True
+
+    @property
+    def needs_epoch(self) -> bool:
+        """``rotation = "earth"`` takes the Earth rotation angle at the run's epoch."""
+        return self.angle is None
+
+    def scratch_size(self, n_points: int) -> int:
+        return 7  # cos, sin at the sub-step's start, middle and end; its length
+
+    def prepare(self, t0: float, t1: float, epoch) -> None:
+        """Set the angle at time 0 from the Earth rotation angle at the epoch (``rotation =
+        "earth"``; the others have theirs).
+
+        Raises
+        ------
+        InputError
+            ``rotation = "earth"`` without an epoch.
+        """
+        if self.angle is not None:
+            return
+        if epoch is None:
+            raise InputError(
+                "integrator.epoch",
+                f'{self.key}.rotation = "earth" turns the field by the Earth rotation angle at the epoch: '
+                'the run needs an epoch (e.g. epoch = "2026-01-01T00:00:00 TDB")',
+            )
+        self.p[12] = float(epoch.earth_rotation_angle(0.0).to_value("rad"))
+
+    @classmethod
+    def from_table(cls, table, context) -> GravityField:
+        """A field from ``model`` or ``gfc``, ``degree``, ``order``, ``rotation`` (with ``rate``
+        and ``angle``), ``pole``.
+
+        Raises
+        ------
+        InputError
+            Neither or both of model and gfc; a degree or order out of range or beyond the
+            model; no rotation, or rate and angle with the Earth's; a pole of length 0; a file
+            that cannot be read (see :func:`emorbit.io.icgem.read_gfc`).
+        """
+        key, field, strict = context.key, context.field, context.strict
+        name, path = table.get("model"), table.get("gfc")
+        if (name is None) == (path is None):
+            raise InputError(key, 'give exactly one of model (e.g. "egm2008") and gfc (an ICGEM file)')
+        degree = table.get("degree")
+        if isinstance(degree, bool) or not isinstance(degree, numbers.Integral) or not 1 <= degree <= MAX_DEGREE:
+            raise InputError(f"{key}.degree", f"an integer from 1 to {MAX_DEGREE} expected, got {degree!r}")
+        order = table.get("order", degree)
+        if isinstance(order, bool) or not isinstance(order, numbers.Integral) or not 0 <= order <= degree:
+            raise InputError(f"{key}.order", f"an integer from 0 to the degree {degree} expected, got {order!r}")
+        rotation = table.get("rotation")
+        if rotation not in ("earth", "uniform"):
+            raise InputError(
+                f"{key}.rotation",
+                'a gravity field turns with its body: give rotation = "earth" (the Earth\'s rate and rotation '
+                f'angle at the epoch) or "uniform" (with rate and angle), got {rotation!r}',
+            )
+        if rotation == "earth":
+            for extra in ("rate", "angle"):
+                if extra in table:
+                    raise InputError(f"{key}.{extra}", 'rotation = "earth" sets the rate and the angle itself')
+            rate, angle = EARTH_RATE, None
+        else:
+            if "rate" not in table:
+                raise InputError(f"{key}.rate", 'rotation = "uniform" needs the spin rate (e.g. "7.292115e-5 rad / s")')
+            rate = to_si(table["rate"], "angular_speed", f"{key}.rate", strict=strict)
+            angle = to_si(table.get("angle", 0.0), "angle", f"{key}.angle", strict=strict)
+            if not (math.isfinite(rate) and math.isfinite(angle)):
+                raise InputError(f"{key}.rate", f"a finite rate and angle expected, got {rate!r}, {angle!r}")
+        pole = np.asarray(vector_to_si(table.get("pole", [0.0, 0.0, 1.0]), "dimensionless", f"{key}.pole"), float)
+        norm = float(np.linalg.norm(pole))
+        if not norm > 0.0 or not math.isfinite(norm):
+            raise InputError(f"{key}.pole", f"a vector other than 0 expected, got {table.get('pole')!r}")
+        e3 = pole / norm
+        x_axis = np.array([1.0, 0.0, 0.0]) if abs(e3[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        e1 = x_axis - np.dot(x_axis, e3) * e3
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(e3, e1)
+        frame = np.column_stack([e1, e2, e3])
+        if name is not None:
+            if not isinstance(name, str):
+                raise InputError(f"{key}.model", f'a model name expected (e.g. "egm2008"), got {name!r}')
+            coefficients = model(name, degree, f"{key}.model")
+        else:
+            if not isinstance(path, str) or not path.strip():
+                raise InputError(f"{key}.gfc", f"the path of an ICGEM .gfc file expected, got {path!r}")
+            coefficients = read_gfc(path, degree, f"{key}.gfc")
+        from ..kernels.effects.gravity_field import tables
+
+        p = [
+            *field.center, *frame.ravel(), 0.0 if angle is None else angle, rate,
+            coefficients.gm, coefficients.radius, float(degree), float(order),
+        ]  # fmt: skip
+        effect = cls(table, p, tables(coefficients.C, coefficients.S, degree, order))
+        effect.coefficients, effect.degree, effect.order = coefficients, int(degree), int(order)
+        effect.rate, effect.angle, effect.frame = float(rate), angle, frame
+        return effect
+
+    @property
+    def spin(self) -> np.ndarray:
+        """The spin vector ``w e3``, rad/s (3,)."""
+        return self.rate * self.frame[:, 2]

@@ -1,0 +1,279 @@
+"""A rotating body's gravity field in spherical harmonics of any degree and order, and a
+discrete force over a step that keeps the Jacobi integral (docs/methods.md derives both).
+
+Field: in the body's frame y, ``r = |y|``, ``(s, t, u) = y / r``, fully normalised ``C_nm,
+S_nm`` of a model (``mu``, radius ``R``), the potential of the degrees ``1..N`` (degree 0 is the
+central field's) in Pines' singularity-free form::
+
+    U = sum_n (mu / r) (R / r)^n sum_{m <= min(n, M)} A_nm(u) (C_nm Re (s+it)^m + S_nm Im (s+it)^m)
+
+``A_nm = P_nm / (1 - u^2)^(m/2)``, the normalised derived Legendre functions, by the column
+recursion ``A_nm = a_nm u A_{n-1,m} - b_nm A_{n-2,m}`` from ``A_mm`` (stable to high degree; no
+division by the latitude's cosine). The gradient follows from ``A_nm``, ``A_{n,m+1}`` and
+``Re, Im (s+it)^(m-1)`` (:func:`field_body`). Agrees with heyoka's EGM2008 to 1.2e-15.
+
+Rotation: uniform about the pole e3 at the rate w, frame ``B Rz(theta0 + w t)``, ``B = [e1 e2
+e3]``; ``y = Rz^T B^T (x - c)``.
+
+Force per unit mass over x0 -> x1 (offsets from c, middle x_m) from t0 to t0 + h::
+
+    delta = (x1 - x0) - h w e3 x x_m,  dU = U(x1, t1) - U(x0, t0),  g = grad U(x_m, t_m)
+    F = g + ((dU - g . delta) / (delta . delta)) delta      (so F . delta = dU)
+
+Gonzalez's midpoint discrete gradient along the rotating frame's move: an em step then keeps
+``E - w . L`` to round-off. The correction is left out where ``|dU - g . delta|`` is within 8
+eps of ``|U0| + |U1|``; with x0 = x1 the force is g. The field's work over the step is ``W =
+F . (x1 - x0) - dU``. No Jacobian (the central effect's carries Newton).
+
+Data layout: ``p = [c0, c1, c2, B (9, row-major), theta0, w, mu, R, N, M]``; ``tab`` the
+triangular arrays (index ``n (n + 1) / 2 + m``) C, S, a, b, q (``dA_nm/du = q_nm A_{n,m+1}``),
+then ``A_mm`` (N + 1,) (:func:`tables`); ``s`` (7,) cos and sin of the angle at the
+sub-step's start, middle and end, and h. References: S. Pines, AIAA J. 11 (1973) 1508-1511;
+S. A. Holmes, W. E. Featherstone, J. Geodesy 76 (2002) 279-299; O. Gonzalez, J. Nonlinear
+Sci. 6 (1996) 449-467.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..jit import kernel
+
+__all__ = [
+    "tables",
+    "field_body",
+    "field_at",
+    "gravity_field_force",
+    "gravity_field_prepare",
+    "gravity_field_piece",
+    "gravity_field_time_work",
+    "gravity_field_potential_piece",
+    "P_SIZE",
+]
+
+_EPS = 2.0**-52
+#: the length of ``p``
+P_SIZE = 18
+_inline = kernel(inline="always")
+
+
+def tables(C, S, degree, order):
+    """The flat table of a field truncated at ``degree`` and ``order``.
+
+    Parameters
+    ----------
+    C, S : numpy.ndarray
+        (N + 1, N + 1) fully normalised coefficients, ``C[n, m]`` (N >= degree).
+    degree, order : int
+        N and M of the truncation (1 <= M <= N).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``C, S, a, b, q`` (triangular, (N + 1)(N + 2) / 2 each) and the diagonal ``A_mm``.
+    """
+    n_max = int(degree)
+    size = (n_max + 1) * (n_max + 2) // 2
+    out = np.zeros((5, size))
+    for n in range(n_max + 1):
+        for m in range(n + 1):
+            k = n * (n + 1) // 2 + m
+            if m <= order:
+                out[0, k] = C[n, m]
+                out[1, k] = S[n, m]
+            if n > m:
+                out[2, k] = math.sqrt((2 * n + 1) * (2 * n - 1) / ((n - m) * (n + m)))
+                if n > m + 1:
+                    out[3, k] = math.sqrt((2 * n + 1) * (n + m - 1) * (n - m - 1) / ((2 * n - 3) * (n + m) * (n - m)))
+            out[4, k] = math.sqrt((2.0 - (m == 0)) * (n - m) * (n + m + 1) / 2.0)
+    diag = np.ones(n_max + 1)
+    for m in range(1, n_max + 1):
+        diag[m] = math.sqrt(3.0) if m == 1 else diag[m - 1] * math.sqrt((2 * m + 1) / (2 * m))
+    return np.concatenate([out.ravel(), diag])
+
+
+@kernel
+def field_body(y0, y1, y2, mu, radius, n_max, m_max, tab, grad):
+    """The potential U (m^2/s^2, degrees 1..N) at a point of the body's frame and, where
+    ``grad``, its gradient (m/s^2): (U, gx, gy, gz)."""
+    size = (n_max + 1) * (n_max + 2) // 2
+    C = tab[0:size]
+    S = tab[size : 2 * size]
+    a = tab[2 * size : 3 * size]
+    b = tab[3 * size : 4 * size]
+    q = tab[4 * size : 5 * size]
+    diag = tab[5 * size : 5 * size + n_max + 1]
+    r2 = y0 * y0 + y1 * y1 + y2 * y2
+    r = math.sqrt(r2)
+    s = y0 / r
+    t = y1 / r
+    u = y2 / r
+    ratio = radius / r
+    col = np.empty(n_max + 2)  # A_{n,m} of the current column m
+    nxt = np.empty(n_max + 2)  # A_{n,m+1}
+    # column 0
+    col[0] = 1.0
+    if n_max >= 1:
+        col[1] = a[1] * u
+    for n in range(2, n_max + 1):
+        k = n * (n + 1) // 2
+        col[n] = a[k] * u * col[n - 1] - b[k] * col[n - 2]
+    pot = 0.0
+    gx = 0.0
+    gy = 0.0
+    gz = 0.0
+    rm = 1.0  # Re (s + i t)^m
+    im = 0.0
+    rp = 0.0  # Re (s + i t)^(m - 1)
+    ip = 0.0
+    top = min(m_max, n_max)
+    for m in range(top + 1):
+        # the column m + 1 (A_{n,m+1} = 0 for n < m + 1)
+        mm = m + 1
+        for n in range(n_max + 1):
+            nxt[n] = 0.0
+        if mm <= n_max:
+            nxt[mm] = diag[mm]
+            for n in range(mm + 1, n_max + 1):
+                k = n * (n + 1) // 2 + mm
+                prev2 = nxt[n - 2] if n - 2 >= mm else 0.0
+                nxt[n] = a[k] * u * nxt[n - 1] - b[k] * prev2
+        rho = mu / r * ratio  # (mu / r) (R / r)^n, from n = 1
+        for _ in range(1, max(m, 1)):
+            rho *= ratio
+        for n in range(max(m, 1), n_max + 1):
+            k = n * (n + 1) // 2 + m
+            c = C[k]
+            sn = S[k]
+            if c != 0.0 or sn != 0.0:
+                A = col[n]
+                d = c * rm + sn * im
+                pot += rho * A * d
+                if grad:
+                    dA = q[k] * nxt[n]
+                    w = rho / r
+                    common = ((n + m + 1) * A + u * dA) * d
+                    if m > 0:
+                        e = c * rp + sn * ip
+                        f = sn * rp - c * ip
+                        gx += w * (m * A * e - s * common)
+                        gy += w * (m * A * f - t * common)
+                    else:
+                        gx -= w * s * common
+                        gy -= w * t * common
+                    gz += w * (dA * d - u * common)
+            rho *= ratio
+        for n in range(n_max + 1):
+            col[n] = nxt[n]
+        rp = rm
+        ip = im
+        rm = s * rp - t * ip
+        im = s * ip + t * rp
+    return pot, gx, gy, gz
+
+
+@_inline
+def _to_body(d0, d1, d2, p, cs, sn):
+    """Body coordinates of the inertial offset d at the angle (cos, sin)."""
+    b0 = p[3] * d0 + p[6] * d1 + p[9] * d2  # B^T d
+    b1 = p[4] * d0 + p[7] * d1 + p[10] * d2
+    b2 = p[5] * d0 + p[8] * d1 + p[11] * d2
+    return cs * b0 + sn * b1, -sn * b0 + cs * b1, b2
+
+
+@_inline
+def _to_inertial(g0, g1, g2, p, cs, sn):
+    """An inertial vector from body components at the angle (cos, sin): B Rz(theta) g."""
+    a0 = cs * g0 - sn * g1
+    a1 = sn * g0 + cs * g1
+    return (
+        p[3] * a0 + p[4] * a1 + p[5] * g2,
+        p[6] * a0 + p[7] * a1 + p[8] * g2,
+        p[9] * a0 + p[10] * a1 + p[11] * g2,
+    )
+
+
+@_inline
+def field_at(d0, d1, d2, p, tab, cs, sn, grad):
+    """U and its inertial gradient at the inertial offset d from the centre, the body at the
+    angle (cos, sin)."""
+    y0, y1, y2 = _to_body(d0, d1, d2, p, cs, sn)
+    pot, g0, g1, g2 = field_body(y0, y1, y2, p[14], p[15], int(p[16]), int(p[17]), tab, grad)
+    if not grad:
+        return pot, 0.0, 0.0, 0.0
+    a0, a1, a2 = _to_inertial(g0, g1, g2, p, cs, sn)
+    return pot, a0, a1, a2
+
+
+@_inline
+def gravity_field_force(x0, y0, z0, x1, y1, z1, p, tab, s):
+    """The discrete force per unit mass over the prepared sub-step (the module docstring) and
+    the field's potential change dU = U(x1, t1) - U(x0, t0): (fx, fy, fz, dU)."""
+    a0 = x0 - p[0]
+    a1 = y0 - p[1]
+    a2 = z0 - p[2]
+    b0 = x1 - p[0]
+    b1 = y1 - p[1]
+    b2 = z1 - p[2]
+    m0 = 0.5 * (a0 + b0)
+    m1 = 0.5 * (a1 + b1)
+    m2 = 0.5 * (a2 + b2)
+    um, g0, g1, g2 = field_at(m0, m1, m2, p, tab, s[2], s[3], True)
+    if a0 == b0 and a1 == b1 and a2 == b2:
+        return g0, g1, g2, 0.0
+    u0 = field_at(a0, a1, a2, p, tab, s[0], s[1], False)[0]
+    u1 = field_at(b0, b1, b2, p, tab, s[4], s[5], False)[0]
+    h = s[6]
+    w = p[13]
+    e0 = w * p[5]  # the spin vector w e3
+    e1 = w * p[8]
+    e2 = w * p[11]
+    v0 = (b0 - a0) - h * (e1 * m2 - e2 * m1)
+    v1 = (b1 - a1) - h * (e2 * m0 - e0 * m2)
+    v2 = (b2 - a2) - h * (e0 * m1 - e1 * m0)
+    du = u1 - u0
+    res = du - (g0 * v0 + g1 * v1 + g2 * v2)
+    vv = v0 * v0 + v1 * v1 + v2 * v2
+    if vv > 0.0 and abs(res) > 8.0 * _EPS * (abs(u0) + abs(u1)):
+        k = res / vv
+        return g0 + k * v0, g1 + k * v1, g2 + k * v2, du
+    return g0, g1, g2, du
+
+
+# -- the pieces of an effect set (.signatures)
+
+
+@_inline
+def gravity_field_prepare(ta, tm, tb, p, tab, s):
+    """The body's angle at the sub-step's start, middle and end (cos, sin into s[0:6]) and the
+    sub-step's length (s[6])."""
+    th = p[12] + p[13] * ta
+    s[0], s[1] = math.cos(th), math.sin(th)
+    th = p[12] + p[13] * tm
+    s[2], s[3] = math.cos(th), math.sin(th)
+    th = p[12] + p[13] * tb
+    s[4], s[5] = math.cos(th), math.sin(th)
+    s[6] = tb - ta
+
+
+@_inline
+def gravity_field_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
+    """:func:`gravity_field_force` (no Jacobian: the central effect's carries Newton)."""
+    f0, f1, f2, _ = gravity_field_force(x0, y0, z0, x1, y1, z1, p, tab, s)
+    return f0, f1, f2
+
+
+@_inline
+def gravity_field_time_work(x0, y0, z0, x1, y1, z1, c, p, tab, s):
+    """The work per unit mass of the field's motion over the sub-step: the energy the step's
+    force leaves, ``F . (x1 - x0) - dU``."""
+    f0, f1, f2, du = gravity_field_force(x0, y0, z0, x1, y1, z1, p, tab, s)
+    return f0 * (x1 - x0) + f1 * (y1 - y0) + f2 * (z1 - z0) - du
+
+
+@_inline
+def gravity_field_potential_piece(x, y, z, c, p, tab, s):
+    """The potential energy per unit mass, ``-U``, at the prepared middle time."""
+    return -field_at(x - p[0], y - p[1], z - p[2], p, tab, s[2], s[3], False)[0]
