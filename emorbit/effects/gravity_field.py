@@ -18,12 +18,16 @@ equator) at time 0; ``rotation = "earth"`` takes the Earth's rate (7.29211514670
 rad/s, IERS) and the Earth rotation angle at the run's epoch (astropy, UT1 from the epoch).
 A field without a rotation is refused: it would stay fixed in inertial space.
 
-Discrete force and invariants. Over a step the force is Gonzalez's midpoint discrete
-gradient of the field, taken along the step's move as the rotating frame sees it, so that
-its work minus the field's change equals ``w . dL``: an em step of point masses in the field
-(with the central field and nothing else that turns them) keeps the Jacobi integral
-``E - w . L`` to round-off, ``w`` the spin vector and L the angular momentum about the
-centre. Every body kind keeps the energy balance ``E - E0 - W`` to round-off, W the work of
+Discrete force and invariants. Over a step of length h the force is Gonzalez's midpoint
+discrete gradient of the field, taken along the step's move as the rotating frame sees it with
+the step's Cayley rate ``w_h = (2 / h) tan(w h / 2)``, so that its work minus the field's
+change equals ``w_h . dL``: fixed em steps of point masses in the field (with the central
+field and nothing else that turns them) keep the step's Jacobi integral ``E - w_h . L`` to
+round-off, L the angular momentum about the centre; ``w_h`` exceeds the spin by (w h)^2 / 12
+(3.6e-6 at LEO steps of 90 s), and the field itself turns by exactly ``w h`` per step. The
+true spin ``w`` instead would make the force inconsistent for a satellite at rest over the
+ground (the move it sees would be the O(h^3) gap between the rotation and its midpoint
+form). Every body kind keeps the energy balance ``E - E0 - W`` to round-off, W the work of
 the field's motion (``invariants/work_<label>``).
 
 References: N. K. Pavlis et al., J. Geophys. Res. 117 (2012) B04406 (EGM2008); S. Pines,
@@ -105,7 +109,7 @@ class GravityField(Effect):
     )
     DISCRETE_FORCE = (
         "F = m [g + ((dU - g . delta) / (delta . delta)) delta], g = grad U(x_m, t_m), "
-        "delta = x1 - x0 - h w x (x_m - c), dU = U(x1, t1) - U(x0, t0); W = F . (x1 - x0) - m dU"
+        "delta = x1 - x0 - 2 tan(w h / 2) e3 x (x_m - c), dU = U(x1, t1) - U(x0, t0); W = F . (x1 - x0) - m dU"
     )
     JACOBIAN = "none: Newton takes the central field's"
 

@@ -15,13 +15,16 @@ division by the latitude's cosine). The gradient follows from ``A_nm``, ``A_{n,m
 Rotation: uniform about the pole e3 at the rate w, frame ``B Rz(theta0 + w t)``, ``B = [e1 e2
 e3]``; ``y = Rz^T B^T (x - c)``.
 
-Force per unit mass over x0 -> x1 (offsets from c, middle x_m) from t0 to t0 + h::
+Force per unit mass over x0 -> x1 (offsets from c, middle x_m) from t0 to t0 + h, with the
+step's Cayley turn ``h w_h = 2 tan(w h / 2)``::
 
-    delta = (x1 - x0) - h w e3 x x_m,  dU = U(x1, t1) - U(x0, t0),  g = grad U(x_m, t_m)
+    delta = (x1 - x0) - h w_h e3 x x_m,  dU = U(x1, t1) - U(x0, t0),  g = grad U(x_m, t_m)
     F = g + ((dU - g . delta) / (delta . delta)) delta      (so F . delta = dU)
 
 Gonzalez's midpoint discrete gradient along the rotating frame's move: an em step then keeps
-``E - w . L`` to round-off. The correction is left out where ``|dU - g . delta|`` is within 8
+``E - w_h . L`` to round-off (``delta`` is the body-frame move scaled by sec(w h / 2) across
+the pole, so the correction stays O(h^2) even for a satellite at rest over the ground). The
+correction is left out where ``|dU - g . delta|`` is within 8
 eps of ``|U0| + |U1|``; with x0 = x1 the force is g. The field's work over the step is ``W =
 F . (x1 - x0) - dU``. No Jacobian (the central effect's carries Newton).
 
@@ -225,20 +228,19 @@ def gravity_field_force(x0, y0, z0, x1, y1, z1, p, tab, s):
         return g0, g1, g2, 0.0
     u0 = field_at(a0, a1, a2, p, tab, s[0], s[1], False)[0]
     u1 = field_at(b0, b1, b2, p, tab, s[4], s[5], False)[0]
-    h = s[6]
-    w = p[13]
-    e0 = w * p[5]  # the spin vector w e3
-    e1 = w * p[8]
-    e2 = w * p[11]
-    v0 = (b0 - a0) - h * (e1 * m2 - e2 * m1)
-    v1 = (b1 - a1) - h * (e2 * m0 - e0 * m2)
-    v2 = (b2 - a2) - h * (e0 * m1 - e1 * m0)
+    k = 2.0 * math.tan(0.5 * p[13] * s[6])  # h w_h: the step's turn, Cayley's
+    e0 = k * p[5]
+    e1 = k * p[8]
+    e2 = k * p[11]
+    v0 = (b0 - a0) - (e1 * m2 - e2 * m1)
+    v1 = (b1 - a1) - (e2 * m0 - e0 * m2)
+    v2 = (b2 - a2) - (e0 * m1 - e1 * m0)
     du = u1 - u0
     res = du - (g0 * v0 + g1 * v1 + g2 * v2)
     vv = v0 * v0 + v1 * v1 + v2 * v2
     if vv > 0.0 and abs(res) > 8.0 * _EPS * (abs(u0) + abs(u1)):
-        k = res / vv
-        return g0 + k * v0, g1 + k * v1, g2 + k * v2, du
+        c = res / vv
+        return g0 + c * v0, g1 + c * v1, g2 + c * v2, du
     return g0, g1, g2, du
 
 
