@@ -14,7 +14,9 @@ its relative angular-momentum error. Rigid bodies add their
 attitude angles and body-frame angular velocity; elastic bodies add their deformation: the
 largest distance of a node from the best rigid placement of the mesh's reference nodes
 (:func:`deformation`), which is the tip deflection of a beam relative to its rigid motion and
-the sag and stretch of a tether.
+the sag and stretch of a tether. A run whose effects record a turning central body (a gravity
+field's ``body_frame``) adds each body's longitude over the ground against time and its
+ground track (:func:`ground_track`).
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ import numpy as np
 from .errors import InputError
 from .io.reader import read
 
-__all__ = ["plot_runs", "draw_runs", "check_figure_path", "euler_angles", "deformation"]
+__all__ = ["plot_runs", "draw_runs", "check_figure_path", "euler_angles", "deformation", "body_frame", "ground_track"]
 
 
 def _label(path, res) -> str:
@@ -54,7 +56,7 @@ def _band(res) -> np.ndarray | None:
 ENERGY_TITLES = {
     "energy": ("relative energy error", "(E - E0) / |E0|", "|E - E0| / |E0|"),
     "balance": (
-        "energy balance error, W the work of drag, radiation, third bodies",
+        "energy balance error, W the work the effects do",
         "(E - E0 - W) / |E0|",
         "|E - E0 - W| / |E0| (dotted: |E - E0| / |E0|)",
     ),
@@ -217,6 +219,71 @@ def _plot_deformation(runs, ax) -> None:
     _legend(ax)
 
 
+def body_frame(res) -> dict | None:
+    """The turning frame of the central body that a run's effects record (``body_frame`` in
+    the ``effects`` attribute: ``axes``, ``angle``, ``rate``), or None."""
+    import json
+
+    try:
+        effects = json.loads(res.attrs.get("effects", "[]"))
+    except (TypeError, ValueError):
+        return None
+    for effect in effects if isinstance(effects, list) else []:
+        if isinstance(effect, dict) and isinstance(effect.get("body_frame"), dict):
+            return effect["body_frame"]
+    return None
+
+
+def ground_track(positions, center, time, frame) -> tuple[np.ndarray, np.ndarray]:
+    """Longitude and latitude over the turning body, degrees.
+
+    Parameters
+    ----------
+    positions : ndarray
+        (n, 3) m, in the scene's axes.
+    center : array_like
+        (3,) the body's centre, m.
+    time : ndarray
+        (n,) s.
+    frame : dict
+        :func:`body_frame`'s: the body's axes (columns e1, e2, e3), its angle at time 0 (rad)
+        and its rate (rad/s).
+
+    Returns
+    -------
+    tuple of ndarray
+        (n,) longitude (unwrapped: a drifting satellite's longitude runs on past 180) and
+        (n,) latitude.
+    """
+    d = np.asarray(positions, float) - np.asarray(center, float)
+    y = d @ np.asarray(frame["axes"], float)  # B^T d per row
+    theta = float(frame["angle"]) + float(frame["rate"]) * np.asarray(time, float)
+    c, s = np.cos(theta), np.sin(theta)
+    east, north = c * y[:, 0] + s * y[:, 1], -s * y[:, 0] + c * y[:, 1]
+    lon = np.degrees(np.unwrap(np.arctan2(north, east)))
+    lat = np.degrees(np.arcsin(np.clip(y[:, 2] / np.linalg.norm(y, axis=1), -1.0, 1.0)))
+    return lon, lat
+
+
+def _plot_ground(runs, ax_lon, ax_track) -> None:
+    """Each body's longitude over the turning central body against time, and its ground track."""
+    for path, res in runs:
+        frame = body_frame(res)
+        if frame is None:
+            continue
+        for name in res.names:
+            lon, lat = ground_track(res.positions[name], res.center, res.time, frame)
+            ax_lon.plot(res.time / 86400.0, lon, lw=0.8, label=f"{_who(path, runs)}{name}")
+            wrapped = (lon + 180.0) % 360.0 - 180.0
+            ax_track.plot(wrapped, lat, ".", ms=1.5, color=ax_lon.lines[-1].get_color())
+    ax_lon.set(xlabel="time [d]", ylabel="longitude [deg]", title="longitude over the turning body")
+    ax_track.set(xlabel="longitude [deg]", ylabel="latitude [deg]", title="ground track", xlim=(-180, 180),
+                 ylim=(-90, 90))  # fmt: skip
+    for ax in (ax_lon, ax_track):
+        ax.grid(True, alpha=0.3)
+        _legend(ax)
+
+
 def _read(path):
     res = read(path, probe=True)  # a damaged file that would hang HDF5 fails in a child process instead
     if len(res) == 0:
@@ -300,9 +367,10 @@ def draw_runs(runs, *, title: str | None = None):
 
     rigid = any(res.attitudes for _, res in runs)
     elastic = any(_elastic(res) for _, res in runs)
+    turning = any(body_frame(res) is not None for _, res in runs)
     field = any(res.gm != 0.0 for _, res in runs)
     free = [(path, res) for path, res in runs if res.gm == 0.0]
-    rows = 2 if rigid or elastic else 1
+    rows = 2 if rigid or elastic or turning else 1
     cols = 4 if free else 3
     fig, axes = plt.subplots(rows, cols, figsize=(5.3 * cols, 5.6 * rows), constrained_layout=True, squeeze=False)
     ax_lin, ax_log, ax_paths = axes[0][:3]
@@ -341,6 +409,8 @@ def draw_runs(runs, *, title: str | None = None):
             _plot_attitudes(runs, second.pop(0), second.pop(0))
         if elastic:
             _plot_deformation(runs, second.pop(0))
+        if turning and len(second) >= 2:
+            _plot_ground(runs, second.pop(0), second.pop(0))
         for ax in second:
             ax.axis("off")
     if title:

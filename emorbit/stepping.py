@@ -351,7 +351,7 @@ class ChunkDriver:
             "adaptive": self.adaptive if self.adaptive is not None else 0.0,
             "roundoff": self.roundoff,
             "scene": self.scene_text if self.scene_text is not None else self.to_toml(),
-            "effects": json.dumps([{"kind": e.kind, "label": e.label} for e in self.effects]),
+            "effects": json.dumps([{"kind": e.kind, "label": e.label, **e.facts()} for e in self.effects]),
             "epoch": epoch_text(self.epoch) if self.epoch is not None else "",
         }
 

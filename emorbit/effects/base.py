@@ -257,6 +257,13 @@ class Effect:
         return False
 
     # -- an instance ---------------------------------------------------------------------------
+    def facts(self) -> dict:
+        """What the run file records about it beside its kind and label (the ``effects``
+        attribute, JSON): plain numbers and lists, e.g. a turning field's ``body_frame``
+        (``axes``: the 3 x 3 columns e1, e2, e3 in the scene's axes; ``angle``, rad, at time 0;
+        ``rate``, rad/s), from which plots draw longitudes and ground tracks. None by default."""
+        return {}
+
     @classmethod
     def from_table(cls, table: dict, context: BuildContext) -> Effect:
         """The effect from its scene table (or :meth:`emorbit.Simulation.add_effect`'s keywords).
