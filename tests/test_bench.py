@@ -243,6 +243,7 @@ def test_command_line(capsys):
         "startup",
         "rigid",
         "rigid-precision",
+        "gravity-field",
         "elastic",
         "effects",
         "gpu",

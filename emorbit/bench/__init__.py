@@ -32,6 +32,11 @@ effects         effects beyond the central field (:mod:`.effects`): central + J2
                 energy errors), the compile time of each effect set and the warm start-up of
                 ``emorbit run`` (fresh processes, an empty cache, then a filled one), and the
                 central-only path against the bare kernel
+gravity-field   a rotating Earth's EGM2008 field (:mod:`.gravity_field`): cost per step of one
+                LEO point at degree 2, 20, 70, 120 against the central field alone; 1 day of
+                LEO at 20 x 20, em fixed and adaptive against heyoka's Taylor integrator
+                (CPU time to 1e-6 and 1e-9 of a, heyoka's compile time, the Jacobi integral's
+                drift), against heyoka in long double; "skipped" without heyoka
 gpu             point-mass ensembles on an NVIDIA GPU (:mod:`.gpu`): the kernel alone, the
                 path that copies the state every chunk, the resident path ``Simulation``
                 uses, the CPU ensemble, with the card's name; "skipped" without a GPU
@@ -46,7 +51,18 @@ imported to build the command line; the sections import what they need when they
 from __future__ import annotations
 
 #: the sections, in the order they run
-SECTIONS = ("single", "ensemble", "work-precision", "startup", "rigid", "rigid-precision", "elastic", "effects", "gpu")
+SECTIONS = (
+    "single",
+    "ensemble",
+    "work-precision",
+    "startup",
+    "rigid",
+    "rigid-precision",
+    "elastic",
+    "effects",
+    "gravity-field",
+    "gpu",
+)
 
 __all__ = ["SECTIONS", "add_arguments", "run"]
 

@@ -121,7 +121,7 @@ class GravityField(Effect):
         return self.angle is None
 
     def scratch_size(self, n_points: int) -> int:
-        return 7  # cos, sin at the sub-step's start, middle and end; its length
+        return 13 + 2 * (self.degree + 2)  # angles, h, the last start's U, two columns
 
     def prepare(self, t0: float, t1: float, epoch) -> None:
         """Set the angle at time 0 from the Earth rotation angle at the epoch (``rotation =
@@ -211,6 +211,12 @@ class GravityField(Effect):
         effect.coefficients, effect.degree, effect.order = coefficients, int(degree), int(order)
         effect.rate, effect.angle, effect.frame = float(rate), angle, frame
         return effect
+
+    def facts(self) -> dict:
+        """The body's frame for the run file: ``body_frame`` with ``axes`` (e1, e2, e3 as columns),
+        ``angle`` at time 0 (rad; the Earth rotation angle at the epoch once prepared) and
+        ``rate`` (rad/s)."""
+        return {"body_frame": {"axes": self.frame.tolist(), "angle": float(self.p[12]), "rate": self.rate}}
 
     @property
     def spin(self) -> np.ndarray:

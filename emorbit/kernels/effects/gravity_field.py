@@ -30,10 +30,11 @@ F . (x1 - x0) - dU``. No Jacobian (the central effect's carries Newton).
 
 Data layout: ``p = [c0, c1, c2, B (9, row-major), theta0, w, mu, R, N, M]``; ``tab`` the
 triangular arrays (index ``n (n + 1) / 2 + m``) C, S, a, b, q (``dA_nm/du = q_nm A_{n,m+1}``),
-then ``A_mm`` (N + 1,) (:func:`tables`); ``s`` (7,) cos and sin of the angle at the
-sub-step's start, middle and end, and h. References: S. Pines, AIAA J. 11 (1973) 1508-1511;
-S. A. Holmes, W. E. Featherstone, J. Geodesy 76 (2002) 279-299; O. Gonzalez, J. Nonlinear
-Sci. 6 (1996) 449-467.
+then ``A_mm`` (N + 1,) (:func:`tables`); ``s`` cos and sin of the angle at the sub-step's
+start, middle and end, h, the last start (x0, its angle's cos and sin, U there: 6), then the
+recursion's two columns (2 (N + 2)). References: S. Pines,
+AIAA J. 11 (1973) 1508-1511; S. A. Holmes, W. E. Featherstone, J. Geodesy 76 (2002) 279-299;
+O. Gonzalez, J. Nonlinear Sci. 6 (1996) 449-467.
 """
 
 from __future__ import annotations
@@ -98,9 +99,9 @@ def tables(C, S, degree, order):
 
 
 @kernel
-def field_body(y0, y1, y2, mu, radius, n_max, m_max, tab, grad):
+def field_body(y0, y1, y2, mu, radius, n_max, m_max, tab, grad, work):
     """The potential U (m^2/s^2, degrees 1..N) at a point of the body's frame and, where
-    ``grad``, its gradient (m/s^2): (U, gx, gy, gz)."""
+    ``grad``, its gradient (m/s^2): (U, gx, gy, gz). ``work``: 2 (N + 2) values of scratch."""
     size = (n_max + 1) * (n_max + 2) // 2
     C = tab[0:size]
     S = tab[size : 2 * size]
@@ -114,15 +115,14 @@ def field_body(y0, y1, y2, mu, radius, n_max, m_max, tab, grad):
     t = y1 / r
     u = y2 / r
     ratio = radius / r
-    col = np.empty(n_max + 2)  # A_{n,m} of the current column m
-    nxt = np.empty(n_max + 2)  # A_{n,m+1}
-    # column 0
-    col[0] = 1.0
+    even = work[0 : n_max + 2]  # the columns A_{., m} and A_{., m+1}, alternating
+    odd = work[n_max + 2 : 2 * n_max + 4]
+    even[0] = 1.0  # column 0
     if n_max >= 1:
-        col[1] = a[1] * u
+        even[1] = a[1] * u
     for n in range(2, n_max + 1):
         k = n * (n + 1) // 2
-        col[n] = a[k] * u * col[n - 1] - b[k] * col[n - 2]
+        even[n] = a[k] * u * even[n - 1] - b[k] * even[n - 2]
     pot = 0.0
     gx = 0.0
     gy = 0.0
@@ -131,21 +131,22 @@ def field_body(y0, y1, y2, mu, radius, n_max, m_max, tab, grad):
     im = 0.0
     rp = 0.0  # Re (s + i t)^(m - 1)
     ip = 0.0
-    top = min(m_max, n_max)
-    for m in range(top + 1):
-        # the column m + 1 (A_{n,m+1} = 0 for n < m + 1)
-        mm = m + 1
-        for n in range(n_max + 1):
-            nxt[n] = 0.0
+    start = mu / r * ratio  # (mu / r) (R / r)^max(m, 1)
+    for m in range(min(m_max, n_max) + 1):
+        col, nxt = (even, odd) if m % 2 == 0 else (odd, even)
+        mm = m + 1  # the column m + 1: A_{n,m+1} = 0 for n < m + 1
+        nxt[m] = 0.0
         if mm <= n_max:
             nxt[mm] = diag[mm]
-            for n in range(mm + 1, n_max + 1):
+            if mm + 1 <= n_max:
+                k = (mm + 1) * (mm + 2) // 2 + mm
+                nxt[mm + 1] = a[k] * u * nxt[mm]
+            for n in range(mm + 2, n_max + 1):
                 k = n * (n + 1) // 2 + mm
-                prev2 = nxt[n - 2] if n - 2 >= mm else 0.0
-                nxt[n] = a[k] * u * nxt[n - 1] - b[k] * prev2
-        rho = mu / r * ratio  # (mu / r) (R / r)^n, from n = 1
-        for _ in range(1, max(m, 1)):
-            rho *= ratio
+                nxt[n] = a[k] * u * nxt[n - 1] - b[k] * nxt[n - 2]
+        if m > 1:
+            start *= ratio
+        rho = start
         for n in range(max(m, 1), n_max + 1):
             k = n * (n + 1) // 2 + m
             c = C[k]
@@ -168,8 +169,6 @@ def field_body(y0, y1, y2, mu, radius, n_max, m_max, tab, grad):
                         gy -= w * t * common
                     gz += w * (dA * d - u * common)
             rho *= ratio
-        for n in range(n_max + 1):
-            col[n] = nxt[n]
         rp = rm
         ip = im
         rm = s * rp - t * ip
@@ -199,11 +198,11 @@ def _to_inertial(g0, g1, g2, p, cs, sn):
 
 
 @_inline
-def field_at(d0, d1, d2, p, tab, cs, sn, grad):
+def field_at(d0, d1, d2, p, tab, cs, sn, grad, work):
     """U and its inertial gradient at the inertial offset d from the centre, the body at the
     angle (cos, sin)."""
     y0, y1, y2 = _to_body(d0, d1, d2, p, cs, sn)
-    pot, g0, g1, g2 = field_body(y0, y1, y2, p[14], p[15], int(p[16]), int(p[17]), tab, grad)
+    pot, g0, g1, g2 = field_body(y0, y1, y2, p[14], p[15], int(p[16]), int(p[17]), tab, grad, work)
     if not grad:
         return pot, 0.0, 0.0, 0.0
     a0, a1, a2 = _to_inertial(g0, g1, g2, p, cs, sn)
@@ -223,11 +222,17 @@ def gravity_field_force(x0, y0, z0, x1, y1, z1, p, tab, s):
     m0 = 0.5 * (a0 + b0)
     m1 = 0.5 * (a1 + b1)
     m2 = 0.5 * (a2 + b2)
-    um, g0, g1, g2 = field_at(m0, m1, m2, p, tab, s[2], s[3], True)
+    work = s[13:]
+    um, g0, g1, g2 = field_at(m0, m1, m2, p, tab, s[2], s[3], True, work)
     if a0 == b0 and a1 == b1 and a2 == b2:
         return g0, g1, g2, 0.0
-    u0 = field_at(a0, a1, a2, p, tab, s[0], s[1], False)[0]
-    u1 = field_at(b0, b1, b2, p, tab, s[4], s[5], False)[0]
+    # U(x0, t0) is the same in every Newton sweep of a point's step: kept with its x0 and angle
+    if s[7] == a0 and s[8] == a1 and s[9] == a2 and s[10] == s[0] and s[11] == s[1]:
+        u0 = s[12]
+    else:
+        u0 = field_at(a0, a1, a2, p, tab, s[0], s[1], False, work)[0]
+        s[7], s[8], s[9], s[10], s[11], s[12] = a0, a1, a2, s[0], s[1], u0
+    u1 = field_at(b0, b1, b2, p, tab, s[4], s[5], False, work)[0]
     k = 2.0 * math.tan(0.5 * p[13] * s[6])  # h w_h: the step's turn, Cayley's
     e0 = k * p[5]
     e1 = k * p[8]
@@ -278,4 +283,4 @@ def gravity_field_time_work(x0, y0, z0, x1, y1, z1, c, p, tab, s):
 @_inline
 def gravity_field_potential_piece(x, y, z, c, p, tab, s):
     """The potential energy per unit mass, ``-U``, at the prepared middle time."""
-    return -field_at(x - p[0], y - p[1], z - p[2], p, tab, s[2], s[3], False)[0]
+    return -field_at(x - p[0], y - p[1], z - p[2], p, tab, s[2], s[3], False, s[13:])[0]
