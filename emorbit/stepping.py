@@ -376,7 +376,10 @@ class ChunkDriver:
             attrs = self._file_attrs(every, n_steps)
             attrs["checkpoint_every"] = cp
             labels = [e.label for e in self.effects.with_potential()] if self.effects.beyond_field() else []
-            writer = Writer(output, bodies, attrs, overwrite=overwrite, potentials=labels, works=self._working_labels())
+            writer = Writer(
+                output, bodies, attrs, overwrite=overwrite, potentials=labels, works=self._working_labels(),
+                jacobi=self.effects.spin() is not None,
+            )  # fmt: skip
         for s in self.systems:  # the work of non-conservative effects counts from the run's start
             if hasattr(s, "reset_work"):
                 s.reset_work()

@@ -129,6 +129,16 @@ class EffectSet:
         """The effects with a potential energy (recorded as ``invariants/potential_<label>``)."""
         return [e for e in self.all if type(e).has_potential()]
 
+    def spin(self):
+        """The spin vector (rad/s, (3,) ndarray) of the central body whose turning field an
+        effect names (its ``body_frame`` fact), or None: with it the records hold the Jacobi
+        integral ``E - w . L`` (``invariants/jacobi``)."""
+        for e in self.all:
+            frame = e.facts().get("body_frame")
+            if frame:
+                return float(frame["rate"]) * np.asarray(frame["axes"], float)[:, 2]
+        return None
+
     def pair_effects(self) -> list[Effect]:
         """The effects between pairs of points: they couple the bodies they reach."""
         return [e for e in self.all if type(e).pairs()]

@@ -21,9 +21,10 @@ A field without a rotation is refused: it would stay fixed in inertial space.
 Discrete force and invariants. Over a step of length h the force is Gonzalez's midpoint
 discrete gradient of the field, taken along the step's move as the rotating frame sees it with
 the step's Cayley rate ``w_h = (2 / h) tan(w h / 2)``, so that its work minus the field's
-change equals ``w_h . dL``: fixed em steps of point masses in the field (with the central
-field and nothing else that turns them) keep the step's Jacobi integral ``E - w_h . L`` to
-round-off, L the angular momentum about the centre; ``w_h`` exceeds the spin by (w h)^2 / 12
+change equals ``w_h . dL``: fixed em steps of order 2 of point masses in the field (with the
+central field and nothing else that turns them) keep the step's Jacobi integral
+``E - w_h . L`` to round-off, L the angular momentum about the centre (the run file records
+``E - w . L``, ``invariants/jacobi``); ``w_h`` exceeds the spin by (w h)^2 / 12
 (3.6e-6 at LEO steps of 90 s), and the field itself turns by exactly ``w h`` per step. The
 true spin ``w`` instead would make the force inconsistent for a satellite at rest over the
 ground (the move it sees would be the O(h^3) gap between the rotation and its midpoint

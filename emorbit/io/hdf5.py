@@ -213,6 +213,9 @@ class Writer:
         done since the run's start in ``invariants/work_<label>`` (J) and the energy balance
         ``E - E0 - sum W`` in ``invariants/energy_balance`` (J); :meth:`append` takes them by
         ``work_<label>`` and ``energy_balance``. None given: neither is written.
+    jacobi : bool
+        Each record holds the Jacobi integral ``E - w . L`` of a turning central body's field
+        in ``invariants/jacobi`` (J); :meth:`append` takes it by ``jacobi``.
 
     Raises
     ------
@@ -222,7 +225,16 @@ class Writer:
     """
 
     def __init__(
-        self, path, bodies, attrs: dict, *, overwrite: bool = False, chunk_rows: int = 1024, potentials=(), works=()
+        self,
+        path,
+        bodies,
+        attrs: dict,
+        *,
+        overwrite: bool = False,
+        chunk_rows: int = 1024,
+        potentials=(),
+        works=(),
+        jacobi: bool = False,
     ):
         path = file_path(path, "output")
         if (what := not_regular(path)) is not None:  # checked before anything opens it
@@ -247,7 +259,7 @@ class Writer:
             except OSError as exc:
                 raise InputError("output", f"cannot create a file in {folder!r}: {exc}") from None
             self._identity = _identity(os.fstat(self.file.id.get_vfd_handle()))
-            self._layout(bodies, attrs, chunk_rows, potentials, works)
+            self._layout(bodies, attrs, chunk_rows, potentials, works, jacobi)
             self.file.flush()
             self._flushed_size = self._size()
         except BaseException:
@@ -295,7 +307,7 @@ class Writer:
             self._held.close()
             self._held = None
 
-    def _layout(self, bodies, attrs: dict, chunk_rows: int, potentials=(), works=()) -> None:
+    def _layout(self, bodies, attrs: dict, chunk_rows: int, potentials=(), works=(), jacobi=False) -> None:
         f = self.file
         f.attrs["creator"] = f"emorbit {__version__}"
         f.attrs["emorbit_version"] = __version__
@@ -313,6 +325,8 @@ class Writer:
             self._ds[name] = _growable(f, name, None, "J", chunk_rows)
         for name in [f"invariants/work_{label}" for label in works] + (["invariants/energy_balance"] if works else []):
             self._ds[name] = _growable(f, name, None, "J", chunk_rows)  # the non-conservative effects' work
+        if jacobi:  # E - w . L of a turning field
+            self._ds["invariants/jacobi"] = _growable(f, "invariants/jacobi", None, "J", chunk_rows)
         self._body_ds = {}
         group = f.create_group("bodies", track_order=True)
         for body in bodies:

@@ -417,7 +417,7 @@ _probe = probe  # read() takes an argument of this name
 
 
 #: the record datasets of effects, one per effect (or the balance of those that do work)
-EFFECT_RECORDS = ("invariants/potential_", "invariants/work_", "invariants/energy_balance")
+EFFECT_RECORDS = ("invariants/potential_", "invariants/work_", "invariants/energy_balance", "invariants/jacobi")
 
 
 def check_layout(f: h5py.File, path: str, key: str = "file") -> None:

@@ -266,6 +266,10 @@ class Sink:
         split[0] = self.split_pending
         stalled[0] += self.stalled_pending
         self.split_pending = self.stalled_pending = 0
+        jacobi = {}
+        spin = sim.effects.spin() if getattr(sim, "effects", None) is not None else None
+        if spin is not None:  # a turning field: the Jacobi integral E - w . L about its centre
+            jacobi["jacobi"] = energy - angular @ spin
         if works:  # E - E0 - W: the energy the records hold beyond the work done on the bodies
             if self.energy0 is None:
                 resumed = self.writer is not None and self.rows > 0  # the file's first record is E0
@@ -293,6 +297,7 @@ class Sink:
                 energy_range=erange,
                 **potentials,
                 **works,
+                **jacobi,
             )
         if self.keep or not self.blocks:
             self.blocks.append(block if self.keep else _row(block, 0))
