@@ -112,7 +112,7 @@ class GravityField(Effect):
         "F = m [g + ((dU - g . delta) / (delta . delta)) delta], g = grad U(x_m, t_m), "
         "delta = x1 - x0 - 2 tan(w h / 2) e3 x (x_m - c), dU = U(x1, t1) - U(x0, t0); W = F . (x1 - x0) - m dU"
     )
-    JACOBIAN = "none: Newton takes the central field's"
+    JACOBIAN = "none: Newton takes the central field's (LEO at T/60, 20 x 20: 4.0 sweeps per step, zonal 2.0)"
 
     time_dependent = True
 
