@@ -3,6 +3,7 @@
     python scripts/docs_bench_table.py --run           # run `emorbit bench --quick`, keep its JSON, write the page
     python scripts/docs_bench_table.py --run --only work-precision   # measure that section again, merge it in
     python scripts/docs_bench_table.py --run --only rigid-precision  # the same for the rigid-body one
+    python scripts/docs_bench_table.py --run --only gravity-field    # the same for the gravity-field one
     python scripts/docs_bench_table.py                 # rewrite the page from the JSON already there
     python scripts/docs_bench_table.py --check         # exit 1 if the page differs from the JSON
     python scripts/docs_bench_table.py FILE.json --print   # print the tables of any run
@@ -10,8 +11,9 @@
 The JSON is docs/data/bench-quick.json; ``--run`` writes it with ``emorbit bench --quick
 --json docs/data/bench-quick.json`` and records the date of the run in it, and draws the
 work-precision figure (docs/data/work-precision.png) from it. With ``--only work-precision``
-it measures that section alone and replaces it in the JSON, with the date, command, machine,
-versions and load of its own run (the page then says so).
+(or ``rigid-precision``, ``gravity-field``) it measures that section alone and replaces it in
+the JSON, with the date, command, machine, versions and load of its own run (the page then
+says so).
 Every figure on the page comes from the JSON: the page's text between the BEGIN and END
 markers is generated, and tests/test_docs.py checks that it equals what this script writes.
 """
@@ -22,6 +24,7 @@ import argparse
 import datetime
 import json
 import os
+import statistics
 import subprocess
 import sys
 
@@ -327,6 +330,102 @@ def _rigid_precision(s: dict) -> list[str]:
     return out
 
 
+def _gf_reach(r, name: str, fmt: str, unit: str = "") -> str:
+    """A cell of the gravity field's reach table: CPU ms (the order; the setting, or the two settings
+    interpolated between: ``name``, each formatted with ``fmt``, then ``unit``)."""
+    if r is None:
+        return "-"
+    where = " - ".join(fmt.format(x) for x in r.get("between", [r["setting"]]))
+    return f"{1e3 * r['cpu_s']:.1f} (order {r['order']}, {name} {where}{unit})"
+
+
+def _gravity_field(s: dict) -> list[str]:
+    """The gravity-field section: em's cost per step at each degree against the central field,
+    and the work against precision beside heyoka in the turning 20 x 20 field."""
+    out = ["### Gravity field", ""] + _wp_run(s)
+    if "status" in s:
+        return out + [f"{s['status']}.", ""]
+    cost = s["cost"]
+    out += [f"Cost per step: {cost['case']}; CPU time, the median of interleaved repeats.", ""]
+    rows = [
+        [
+            name,
+            r["system"],
+            f"{r['us_per_step']:.2f}",
+            f"{r['us_per_step_wall']:.2f}",
+            f"{r['over_central']:.1f}x",
+            "-" if r["newton_per_substep"] is None else f"{r['newton_per_substep']:.2f}",
+        ]
+        for name, r in cost["rows"].items()
+    ]
+    head = ["", "system", "us per step (CPU)", "us per step (wall)", "x central", "Newton sweeps per sub-step"]
+    out += _table(head, rows)
+    wp = s["work_precision"]
+    ref = wp["reference"]
+    points = [p for p in wp["points"] if p.get("status") == "ok"]
+    compile_s = sorted(p["compile_s"] for p in points if p["engine"] == "heyoka")
+    out += [
+        f"Work against precision: {wp['case']}.",
+        "",
+        f"The reference: {ref['method']}, {1e3 * ref['cpu_s']:.0f} ms; its difference from {ref['check']}: "
+        f"{_e(ref['check_difference'])} of a.",
+        "",
+    ]
+    rows = []
+    for p in wp["points"]:
+        if p["engine"] == "heyoka":
+            name, setting = f"heyoka (order {p['order']})", f"tol {p['tolerance']:.0e}"
+        else:
+            name = f"em{' adaptive' if p['adaptive'] else ''} order {p['order']}"
+            setting = f"eta {p['tolerance']:g}" if p["adaptive"] else f"dt {p['dt']:g} s"
+        if p.get("status") != "ok":
+            rows.append([name, setting, p.get("status", "-"), "-", "-", "-", "-"])
+            continue
+        rows.append(
+            [
+                name,
+                setting,
+                f"{1e3 * p['cpu_s']:.1f}",
+                _f(p.get("compile_s"), 2),
+                f"{p['steps']:,}",
+                _e(p["position_error"]),
+                _e(p["jacobi_drift"]),
+            ]
+        )
+    head = ["", "setting", "CPU ms", "compile s", "steps", "position error / a", "Jacobi drift"]
+    out += _table(head, rows)
+    rows = []
+    for row in wp["reach"]:
+        eng = row["engines"]
+        rows.append(
+            [
+                f"{row['accuracy']:g}",
+                _gf_reach(eng["em fixed"], "dt", "{:g}", " s"),
+                _gf_reach(eng["em adaptive"], "eta", "{:g}"),
+                _gf_reach(eng["heyoka"], "tol", "{:.0e}"),
+            ]
+            + ["-" if row[k] is None else f"{row[k]:.2f}x" for k in ("em_fixed_over_heyoka", "em_adaptive_over_heyoka")]
+        )
+    out += [
+        "Least CPU time (ms) to reach a final position error: the cheapest point that reaches it or the log-log "
+        "interpolation between two neighbouring settings that bracket it (em: its best order; in brackets the "
+        "order and the setting, or the two settings); heyoka's compile time is not counted.",
+        "",
+    ]
+    head = ["error / a", "em fixed", "em adaptive", "heyoka", "em fixed / heyoka", "em adaptive / heyoka"]
+    out += _table(head, rows)
+    if compile_s:
+        median = statistics.median(compile_s)
+        out += [
+            f"heyoka compiles its integrator (the construction of `taylor_adaptive`, its caches of compiled code "
+            f"off: {wp['heyoka_caches_off']}) in {compile_s[0]:.2f} - {compile_s[-1]:.2f} s of CPU time per "
+            f"tolerance (median {median:.2f} s, {len(compile_s)} tolerances), the potential's `cfunc` for its "
+            f"Jacobi integral in {wp['heyoka_pot_compile_s']:.2f} s.",
+            "",
+        ]
+    return out
+
+
 def _startup(s: dict) -> list[str]:
     return [
         "### Start-up",
@@ -470,6 +569,7 @@ def markdown(data: dict) -> str:
         ("rigid_precision", _rigid_precision),
         ("elastic", _elastic),
         ("effects", _effects),
+        ("gravity_field", _gravity_field),
     ):
         if key in data:
             out += fn(data[key])
