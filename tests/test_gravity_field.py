@@ -432,3 +432,72 @@ def test_newton_converges_without_the_fields_jacobian():
     4.5."""
     res = _leo(20, 90.0).run(steps=2000, every=100, progress=False)
     assert res.si.mean_newton_iterations() <= 4.5
+
+
+#: a text kernel in NAIF's format with Mars's IAU 2015 linear model (pck00011.tpc) and one
+#: nutation-precession term of invented size, to exercise the trigonometric sums
+PCK = r"""
+KPL/PCK
+\begintext
+Mars, IAU 2015 (Archinal et al. 2018), linear part; one trigonometric term added for the test.
+\begindata
+BODY499_POLE_RA  = ( 317.269202  -0.10927547  0. )
+BODY499_POLE_DEC = (  54.432516  -0.05827105  0. )
+BODY499_PM       = ( 176.049863  +350.891982443297  0. )
+BODY4_NUT_PREC_ANGLES = ( 198.991226 19139.4819985
+                          226.292679 38280.8511281 )
+BODY499_NUT_PREC_RA  = ( 0.000068 0.000238 )
+BODY499_NUT_PREC_DEC = ( 0.000023 0.000029 )
+BODY499_NUT_PREC_PM  = ( 0.000145 0.000157 )
+BODY499_RADII = ( 3396.19 3396.19 3376.20 )
+\begintext
+"""
+
+
+def test_a_pck_turns_the_field_with_the_bodys_iau_model(tmp_path):
+    """rotation = "pck": the kernel's model at the epoch (d days, T centuries of TDB since
+    J2000) gives the pole (RA, DEC), the node (RA + 90 deg) and W; the body's x axis at time 0
+    is cos W node + sin W (pole x node), the rate dW/dt (350.89 deg/day and its trigonometric
+    part), the pole and the node unit vectors; a LEO-like orbit in that turning field keeps
+    E - E0 - W within 1e-13. Errors name the keys."""
+    from astropy.time import Time
+
+    path = tmp_path / "mars.tpc"
+    path.write_text(PCK)
+    epoch = Time("2026-03-20T12:00:00", scale="tdb")
+    sim = emorbit.Simulation(EARTH, dt=60.0, epoch="2026-03-20T12:00:00 TDB")
+    effect = sim.add_effect("gravity_field", model="egm2008", degree=4, rotation="pck", pck=str(path), body="mars")
+    effect.prepare(0.0, 60.0, epoch)
+    d = (epoch.tdb.jd1 - 2451545.0) + epoch.tdb.jd2
+    t = d / 36525.0
+    e = np.radians([198.991226 + 19139.4819985 * t, 226.292679 + 38280.8511281 * t])
+    ra = math.radians(317.269202 - 0.10927547 * t + 0.000068 * math.sin(e[0]) + 0.000238 * math.sin(e[1]))
+    dec = math.radians(54.432516 - 0.05827105 * t + 0.000023 * math.cos(e[0]) + 0.000029 * math.cos(e[1]))
+    w = math.radians((176.049863 + 350.891982443297 * d + 0.000145 * math.sin(e[0]) + 0.000157 * math.sin(e[1])) % 360)
+    pole = np.array([math.cos(dec) * math.cos(ra), math.cos(dec) * math.sin(ra), math.sin(dec)])
+    node = np.array([-math.sin(ra), math.cos(ra), 0.0])
+    np.testing.assert_allclose(effect.frame[:, 2], pole, atol=1e-15)
+    np.testing.assert_allclose(effect.frame[:, 0], node, atol=1e-15)
+    c, s = math.cos(effect.p[12]), math.sin(effect.p[12])
+    x_axis = effect.frame @ np.array([c, s, 0.0])
+    assert np.linalg.norm(x_axis - (math.cos(w) * node + math.sin(w) * np.cross(pole, node))) <= 1e-9
+    rate = math.radians(350.891982443297 + 0.000145 * math.cos(e[0]) * math.radians(19139.4819985) / 36525
+                        + 0.000157 * math.cos(e[1]) * math.radians(38280.8511281) / 36525) / 86400  # fmt: skip
+    assert effect.rate == pytest.approx(rate, rel=1e-14)
+    from emorbit import orbits
+
+    x, v = orbits.state_from_elements((RADIUS + 600e3, 0.01, 1.0, 0.2, 0.1, 0.0), MU)
+    sim.add_point("sat", mass=1.0, position=x, velocity=v)
+    res = sim.run(steps=2000, every=100, progress=False)
+    assert np.abs(res.si.relative_energy_balance()).max() <= 1e-13
+    for keys, where in (
+        ({"rotation": "pck", "body": "mars"}, "pck"),
+        ({"rotation": "pck", "pck": str(path), "body": "pluto"}, "body"),
+        ({"rotation": "pck", "pck": str(path), "body": 599}, "pck"),
+        ({"rotation": "pck", "pck": str(path), "body": 499, "rate": 1e-4}, "rate"),
+        ({"rotation": "uniform", "rate": 1e-4, "pck": str(path)}, "pck"),
+    ):
+        with pytest.raises(InputError) as err:
+            s2 = emorbit.Simulation(EARTH, dt=60.0, epoch="2026-03-20T12:00:00 TDB")
+            s2.add_effect("gravity_field", model="egm2008", degree=4, **keys).prepare(0.0, 1.0, epoch)
+        assert where in str(err.value)

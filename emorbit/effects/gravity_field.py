@@ -15,7 +15,11 @@ axisymmetric case (its discrete force keeps the angular momentum about the pole 
 Rotation. The body turns uniformly about its ``pole`` (default the scene's z axis) at the
 rate ``rate``, its prime meridian at ``angle`` from the scene's x axis (projected on the
 equator) at time 0; ``rotation = "earth"`` takes the Earth's rate (7.292115146706979e-5
-rad/s, IERS) and the Earth rotation angle at the run's epoch (astropy, UT1 from the epoch).
+rad/s, IERS) and the Earth rotation angle at the run's epoch (astropy, UT1 from the epoch);
+``rotation = "pck"`` takes the IAU WGCCRE model of ``body`` (a NAIF id, or "moon", "mars",
+...) from a NAIF text kernel the user names (``pck``, e.g. pck00011.tpc;
+:mod:`emorbit.io.pck`): its pole, node, prime meridian and rate at the epoch, held uniform
+over the run (the scene's axes are then ICRF's).
 A field without a rotation is refused: it would stay fixed in inertial space.
 
 Discrete force and invariants. Over a step of length h the force is Gonzalez's midpoint
@@ -61,14 +65,19 @@ _KEYS = (
         "a field from a file instead of model: any published one (GRGM for the Moon, MRO for Mars)"),
     Key("degree", True, "integer", "", f"1 to {MAX_DEGREE} (and the model's)", "the highest degree N"),
     Key("order", False, "integer", "the degree", "0 to the degree", "the highest order M"),
-    Key("rotation", True, "string", "", '"earth" or "uniform"',
-        "the body's rotation: the Earth's rate and rotation angle at the epoch, or rate and angle"),
+    Key("rotation", True, "string", "", '"earth", "uniform" or "pck"',
+        "the body's rotation: the Earth's rate and rotation angle at the epoch; rate and angle; or "
+        "the IAU model of a NAIF text kernel at the epoch"),
     Key("rate", False, "angular speed (rad / s)", "", "finite; with rotation = \"uniform\"",
         "the body's spin rate about its pole (negative: retrograde)"),
     Key("angle", False, "angle (rad)", "0", "finite; with rotation = \"uniform\"",
         "the prime meridian's angle from the scene's x axis (in the equator) at time 0"),
     Key("pole", False, "3 numbers", "[0, 0, 1]", "a vector other than 0 (normalised)",
         "the body's spin axis, in the scene's axes"),
+    Key("pck", False, "string", "", 'the path of a NAIF text PCK (pck00011.tpc); with rotation = "pck"',
+        "the kernel whose IAU rotation model turns the body"),
+    Key("body", False, "string or integer", "", 'a NAIF id (301, 499) or "moon", "mars", ...; with rotation = "pck"',
+        "the body in the kernel"),
 )  # fmt: skip
 
 
@@ -118,7 +127,7 @@ class GravityField(Effect):
 
     @property
     def needs_epoch(self) -> bool:
-        """``rotation = "earth"`` takes the Earth rotation angle at the run's epoch."""
+        """``rotation = "earth"`` and ``"pck"`` take the body's rotation angle at the run's epoch."""
         return self.angle is None
 
     def scratch_size(self, n_points: int) -> int:
@@ -126,22 +135,34 @@ class GravityField(Effect):
 
     def prepare(self, t0: float, t1: float, epoch) -> None:
         """Set the angle at time 0 from the Earth rotation angle at the epoch (``rotation =
-        "earth"``; the others have theirs).
+        "earth"``), or the pole, the node, the angle and the rate from the kernel's IAU model at
+        the epoch (``rotation = "pck"``: the model's value and rate at the epoch, held uniform
+        over the run); ``rotation = "uniform"`` has its own.
 
         Raises
         ------
         InputError
-            ``rotation = "earth"`` without an epoch.
+            ``rotation = "earth"`` or ``"pck"`` without an epoch; a kernel without the body.
         """
         if self.angle is not None:
             return
         if epoch is None:
             raise InputError(
                 "integrator.epoch",
-                f'{self.key}.rotation = "earth" turns the field by the Earth rotation angle at the epoch: '
+                f"{self.key}.rotation turns the field by the body's rotation angle at the epoch: "
                 'the run needs an epoch (e.g. epoch = "2026-01-01T00:00:00 TDB")',
             )
-        self.p[12] = float(epoch.earth_rotation_angle(0.0).to_value("rad"))
+        if self._kernel_values is None:
+            self.p[12] = float(epoch.earth_rotation_angle(0.0).to_value("rad"))
+            return
+        from ..io.pck import orientation
+
+        values, body = self._kernel_values
+        pole, node, w, rate = orientation(values, body, epoch, f"{self.key}.pck")
+        self.frame = np.column_stack([node, np.cross(pole, node), pole])
+        self.p[3:12] = self.frame.ravel()
+        self.p[12], self.p[13] = w, rate
+        self.rate = rate
 
     @classmethod
     def from_table(cls, table, context) -> GravityField:
@@ -166,13 +187,24 @@ class GravityField(Effect):
         if isinstance(order, bool) or not isinstance(order, numbers.Integral) or not 0 <= order <= degree:
             raise InputError(f"{key}.order", f"an integer from 0 to the degree {degree} expected, got {order!r}")
         rotation = table.get("rotation")
-        if rotation not in ("earth", "uniform"):
+        if rotation not in ("earth", "uniform", "pck"):
             raise InputError(
                 f"{key}.rotation",
                 'a gravity field turns with its body: give rotation = "earth" (the Earth\'s rate and rotation '
-                f'angle at the epoch) or "uniform" (with rate and angle), got {rotation!r}',
+                'angle at the epoch), "uniform" (with rate and angle) or "pck" (with pck and body), '
+                f"got {rotation!r}",
             )
-        if rotation == "earth":
+        for extra in ("pck", "body"):
+            if extra in table and rotation != "pck":
+                raise InputError(f"{key}.{extra}", f'{extra} goes with rotation = "pck"')
+        kernel = None
+        if rotation == "pck":
+            for extra in ("rate", "angle", "pole"):
+                if extra in table:
+                    raise InputError(f"{key}.{extra}", 'rotation = "pck" takes the rotation from the kernel')
+            kernel = cls._kernel(table, key)
+            rate, angle = 0.0, None
+        elif rotation == "earth":
             for extra in ("rate", "angle"):
                 if extra in table:
                     raise InputError(f"{key}.{extra}", 'rotation = "earth" sets the rate and the angle itself')
@@ -211,7 +243,26 @@ class GravityField(Effect):
         effect = cls(table, p, tables(coefficients.C, coefficients.S, degree, order))
         effect.coefficients, effect.degree, effect.order = coefficients, int(degree), int(order)
         effect.rate, effect.angle, effect.frame = float(rate), angle, frame
+        effect._kernel_values = kernel
         return effect
+
+    @staticmethod
+    def _kernel(table, key):
+        """rotation = "pck": the kernel's values and the body's NAIF id."""
+        from ..io.pck import NAIF_IDS, read_pck
+
+        if "pck" not in table:
+            raise InputError(f"{key}.pck", 'rotation = "pck" needs the path of a NAIF text kernel (pck00011.tpc)')
+        body = table.get("body")
+        if isinstance(body, str) and body.strip().lower() in NAIF_IDS:
+            body = NAIF_IDS[body.strip().lower()]
+        if isinstance(body, bool) or not isinstance(body, numbers.Integral) or not 1 <= body <= 99999:
+            known = ", ".join(NAIF_IDS)
+            raise InputError(
+                f"{key}.body", f"a NAIF id (e.g. 499) or one of {known} expected, got {table.get('body')!r}"
+            )
+        path = table["pck"]
+        return read_pck(path if isinstance(path, str) else None, f"{key}.pck"), int(body)
 
     def facts(self) -> dict:
         """The body's frame for the run file: ``body_frame`` with ``axes`` (e1, e2, e3 as columns),
