@@ -19,7 +19,13 @@ rad/s, IERS) and the Earth rotation angle at the run's epoch (astropy, UT1 from 
 ``rotation = "pck"`` takes the IAU WGCCRE model of ``body`` (a NAIF id, or "moon", "mars",
 ...) from a NAIF text kernel the user names (``pck``, e.g. pck00011.tpc;
 :mod:`emorbit.io.pck`): its pole, node, prime meridian and rate at the epoch, held uniform
-over the run (the scene's axes are then ICRF's).
+over the run (the scene's axes are then ICRF's); ``rotation = "itrs"`` takes the Earth's
+ITRS at the epoch as erfa composes it (IAU 2006/2000A precession-nutation, the Earth rotation
+angle of UT1, polar motion, from astropy's IERS tables) and turns it uniformly at the Earth's
+rate: against astropy's ITRS the frame is 9.5e-17 rad off at the epoch, 9.4e-9 an hour later
+and 2.8e-7 a day later (the precession-nutation and polar motion held at the epoch's). Past
+the tables' end the last UT1 - UTC and polar motion are held, with a warning. The scene's axes
+are then GCRS's.
 A field without a rotation is refused: it would stay fixed in inertial space.
 
 Discrete force and invariants. Over a step of length h the force is Gonzalez's midpoint
@@ -47,6 +53,7 @@ import math
 import numbers
 
 import numpy as np
+from astropy.time import Time
 
 from ..errors import InputError
 from ..io.icgem import MAX_DEGREE, model, read_gfc
@@ -65,9 +72,9 @@ _KEYS = (
         "a field from a file instead of model: any published one (GRGM for the Moon, MRO for Mars)"),
     Key("degree", True, "integer", "", f"1 to {MAX_DEGREE} (and the model's)", "the highest degree N"),
     Key("order", False, "integer", "the degree", "0 to the degree", "the highest order M"),
-    Key("rotation", True, "string", "", '"earth", "uniform" or "pck"',
-        "the body's rotation: the Earth's rate and rotation angle at the epoch; rate and angle; or "
-        "the IAU model of a NAIF text kernel at the epoch"),
+    Key("rotation", True, "string", "", '"earth", "itrs", "uniform" or "pck"',
+        "the body's rotation: the Earth's rate and rotation angle at the epoch; the Earth's ITRS at the "
+        "epoch (IAU 2006/2000A, IERS data); rate and angle; or the IAU model of a NAIF text kernel"),
     Key("rate", False, "angular speed (rad / s)", "", "finite; with rotation = \"uniform\"",
         "the body's spin rate about its pole (negative: retrograde)"),
     Key("angle", False, "angle (rad)", "0", "finite; with rotation = \"uniform\"",
@@ -79,6 +86,51 @@ _KEYS = (
     Key("body", False, "string or integer", "", 'a NAIF id (301, 499) or "moon", "mars", ...; with rotation = "pck"',
         "the body in the kernel"),
 )  # fmt: skip
+
+
+def _earth_orientation(epoch, key):
+    """UT1 (an astropy Time) and the polar motion (xp, yp, rad) at ``epoch`` from astropy's IERS
+    tables, without a download. Past their end, the last tabulated UT1 - UTC and polar motion
+    are held, with a warning naming the effect: UT1 - UTC drifts by under 1 s a year, so the
+    rotation angle is then off by under 7e-5 rad per year past the table."""
+    import warnings
+
+    from astropy.utils import iers
+
+    try:
+        with iers.conf.set_temp("auto_download", False), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ut1 = epoch.ut1
+            xp, yp = iers.earth_orientation_table.get().pm_xy(epoch)
+        return ut1, float(xp.to_value("rad")), float(yp.to_value("rad"))
+    except (ValueError, IndexError):
+        table = iers.IERS_B.open()
+        last = Time(float(table["MJD"][-1].value), format="mjd", scale="utc")
+        warnings.warn(
+            f"{key}.rotation: astropy's IERS tables end at {last.iso[:10]}; the Earth's orientation at the epoch "
+            "holds their last UT1 - UTC and polar motion (the rotation angle off by under 7e-5 rad per year past "
+            "it)",
+            stacklevel=3,
+        )
+        epoch_utc = epoch.utc
+        ut1 = Time(epoch_utc.jd1, epoch_utc.jd2 + float(table["UT1_UTC"][-1].to_value("s")) / 86400.0,
+                   format="jd", scale="ut1")  # fmt: skip
+        return ut1, float(table["PM_x"][-1].to_value("rad")), float(table["PM_y"][-1].to_value("rad"))
+
+
+def _itrs(epoch, key):
+    """The GCRS-to-ITRS rotation at ``epoch`` as erfa composes it, ``RPOM R3(ERA) RC2I``: the
+    celestial-to-intermediate matrix (IAU 2006/2000A), the Earth rotation angle (rad) and the
+    polar motion matrix, from the UT1 and polar motion of astropy's IERS tables
+    (:func:`_earth_orientation`)."""
+    import erfa
+
+    ut1, xp, yp = _earth_orientation(epoch, key)
+    tt = epoch.tt
+    rc2i = erfa.c2i06a(tt.jd1, tt.jd2)
+    era = erfa.era00(ut1.jd1, ut1.jd2)
+    rpom = erfa.pom00(xp, yp, erfa.sp00(tt.jd1, tt.jd2))
+    return np.asarray(rc2i, float), float(era), np.asarray(rpom, float)
 
 
 class GravityField(Effect):
@@ -152,8 +204,18 @@ class GravityField(Effect):
                 f"{self.key}.rotation turns the field by the body's rotation angle at the epoch: "
                 'the run needs an epoch (e.g. epoch = "2026-01-01T00:00:00 TDB")',
             )
+        if self.itrs:
+            rc2i, era, rpom = _itrs(epoch, self.key)
+            self.frame = rc2i.T.copy()
+            self.p[3:12] = self.frame.ravel()
+            self.p[12] = era
+            self.p[18:27] = rpom.ravel()
+            return
         if self._kernel_values is None:
-            self.p[12] = float(epoch.earth_rotation_angle(0.0).to_value("rad"))
+            import erfa
+
+            ut1 = _earth_orientation(epoch, self.key)[0]
+            self.p[12] = float(erfa.era00(ut1.jd1, ut1.jd2))
             return
         from ..io.pck import orientation
 
@@ -187,12 +249,12 @@ class GravityField(Effect):
         if isinstance(order, bool) or not isinstance(order, numbers.Integral) or not 0 <= order <= degree:
             raise InputError(f"{key}.order", f"an integer from 0 to the degree {degree} expected, got {order!r}")
         rotation = table.get("rotation")
-        if rotation not in ("earth", "uniform", "pck"):
+        if rotation not in ("earth", "itrs", "uniform", "pck"):
             raise InputError(
                 f"{key}.rotation",
                 'a gravity field turns with its body: give rotation = "earth" (the Earth\'s rate and rotation '
-                'angle at the epoch), "uniform" (with rate and angle) or "pck" (with pck and body), '
-                f"got {rotation!r}",
+                'angle at the epoch), "itrs" (the Earth\'s ITRS at the epoch), "uniform" (with rate and angle) '
+                f'or "pck" (with pck and body), got {rotation!r}',
             )
         for extra in ("pck", "body"):
             if extra in table and rotation != "pck":
@@ -204,10 +266,10 @@ class GravityField(Effect):
                     raise InputError(f"{key}.{extra}", 'rotation = "pck" takes the rotation from the kernel')
             kernel = cls._kernel(table, key)
             rate, angle = 0.0, None
-        elif rotation == "earth":
-            for extra in ("rate", "angle"):
+        elif rotation in ("earth", "itrs"):
+            for extra in ("rate", "angle") + (("pole",) if rotation == "itrs" else ()):
                 if extra in table:
-                    raise InputError(f"{key}.{extra}", 'rotation = "earth" sets the rate and the angle itself')
+                    raise InputError(f"{key}.{extra}", f'rotation = "{rotation}" sets the rate and the angle itself')
             rate, angle = EARTH_RATE, None
         else:
             if "rate" not in table:
@@ -238,12 +300,13 @@ class GravityField(Effect):
 
         p = [
             *field.center, *frame.ravel(), 0.0 if angle is None else angle, rate,
-            coefficients.gm, coefficients.radius, float(degree), float(order),
+            coefficients.gm, coefficients.radius, float(degree), float(order), *np.eye(3).ravel(),
         ]  # fmt: skip
         effect = cls(table, p, tables(coefficients.C, coefficients.S, degree, order))
         effect.coefficients, effect.degree, effect.order = coefficients, int(degree), int(order)
         effect.rate, effect.angle, effect.frame = float(rate), angle, frame
         effect._kernel_values = kernel
+        effect.itrs = rotation == "itrs"
         return effect
 
     @staticmethod

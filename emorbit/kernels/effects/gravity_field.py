@@ -12,8 +12,9 @@ recursion ``A_nm = a_nm u A_{n-1,m} - b_nm A_{n-2,m}`` from ``A_mm`` (stable to 
 division by the latitude's cosine). The gradient follows from ``A_nm``, ``A_{n,m+1}`` and
 ``Re, Im (s+it)^(m-1)`` (:func:`field_body`). Agrees with heyoka's EGM2008 to 1.2e-15.
 
-Rotation: uniform about the pole e3 at the rate w, frame ``B Rz(theta0 + w t)``, ``B = [e1 e2
-e3]``; ``y = Rz^T B^T (x - c)``.
+Rotation: uniform about the pole e3 at the rate w, frame ``B Rz(theta0 + w t) P^T``, ``B = [e1
+e2 e3]``, P a fixed rotation after it (the Earth's polar motion; else the identity);
+``y = P Rz^T B^T (x - c)``.
 
 Force per unit mass over x0 -> x1 (offsets from c, middle x_m) from t0 to t0 + h, with the
 step's Cayley turn ``h w_h = 2 tan(w h / 2)``::
@@ -28,7 +29,7 @@ correction is left out where ``|dU - g . delta|`` is within 8
 eps of ``|U0| + |U1|``; with x0 = x1 the force is g. The field's work over the step is ``W =
 F . (x1 - x0) - dU``. No Jacobian (the central effect's carries Newton).
 
-Data layout: ``p = [c0, c1, c2, B (9, row-major), theta0, w, mu, R, N, M]``; ``tab`` the
+Data layout: ``p = [c0, c1, c2, B (9, row-major), theta0, w, mu, R, N, M, P (9, row-major)]``; ``tab`` the
 triangular arrays (index ``n (n + 1) / 2 + m``) C, S, a, b, q (``dA_nm/du = q_nm A_{n,m+1}``),
 then ``A_mm`` (N + 1,) (:func:`tables`); ``s`` cos and sin of the angle at the sub-step's
 start, middle and end, h, the last start (x0, its angle's cos and sin, U there: 6), then the
@@ -59,7 +60,7 @@ __all__ = [
 
 _EPS = 2.0**-52
 #: the length of ``p``
-P_SIZE = 18
+P_SIZE = 27
 _inline = kernel(inline="always")
 
 
@@ -178,18 +179,27 @@ def field_body(y0, y1, y2, mu, radius, n_max, m_max, tab, grad, work):
 
 @_inline
 def _to_body(d0, d1, d2, p, cs, sn):
-    """Body coordinates of the inertial offset d at the angle (cos, sin)."""
+    """Body coordinates of the inertial offset d at the angle (cos, sin): P Rz^T B^T d."""
     b0 = p[3] * d0 + p[6] * d1 + p[9] * d2  # B^T d
     b1 = p[4] * d0 + p[7] * d1 + p[10] * d2
     b2 = p[5] * d0 + p[8] * d1 + p[11] * d2
-    return cs * b0 + sn * b1, -sn * b0 + cs * b1, b2
+    r0 = cs * b0 + sn * b1
+    r1 = -sn * b0 + cs * b1
+    return (
+        p[18] * r0 + p[19] * r1 + p[20] * b2,
+        p[21] * r0 + p[22] * r1 + p[23] * b2,
+        p[24] * r0 + p[25] * r1 + p[26] * b2,
+    )
 
 
 @_inline
 def _to_inertial(g0, g1, g2, p, cs, sn):
-    """An inertial vector from body components at the angle (cos, sin): B Rz(theta) g."""
-    a0 = cs * g0 - sn * g1
-    a1 = sn * g0 + cs * g1
+    """An inertial vector from body components at the angle (cos, sin): B Rz(theta) P^T g."""
+    q0 = p[18] * g0 + p[21] * g1 + p[24] * g2
+    q1 = p[19] * g0 + p[22] * g1 + p[25] * g2
+    g2 = p[20] * g0 + p[23] * g1 + p[26] * g2
+    a0 = cs * q0 - sn * q1
+    a1 = sn * q0 + cs * q1
     return (
         p[3] * a0 + p[4] * a1 + p[5] * g2,
         p[6] * a0 + p[7] * a1 + p[8] * g2,
