@@ -20,12 +20,12 @@ rad/s, IERS) and the Earth rotation angle at the run's epoch (astropy, UT1 from 
 ...) from a NAIF text kernel the user names (``pck``, e.g. pck00011.tpc;
 :mod:`emorbit.io.pck`): its pole, node, prime meridian and rate at the epoch, held uniform
 over the run (the scene's axes are then ICRF's); ``rotation = "itrs"`` takes the Earth's
-ITRS at the epoch as erfa composes it (IAU 2006/2000A precession-nutation, the Earth rotation
-angle of UT1, polar motion, from astropy's IERS tables) and turns it uniformly at the Earth's
-rate: against astropy's ITRS the frame is 9.5e-17 rad off at the epoch, 9.4e-9 an hour later
-and 2.8e-7 a day later (the precession-nutation and polar motion held at the epoch's). Past
-the tables' end the last UT1 - UTC and polar motion are held, with a warning. The scene's axes
-are then GCRS's.
+ITRS as erfa composes it (IAU 2006/2000A precession-nutation, the Earth rotation angle of UT1,
+polar motion, from astropy's IERS tables), sampled every hour over the run and interpolated
+per sub-step (cubic): against astropy's ITRS the frame is 9.5e-17 rad off at the epoch,
+2.1e-14 a day later and 1.2e-13 thirty days later. The step's turn is then that of the
+sampled frames between the sub-step's ends. Past the tables' end the last UT1 - UTC and polar
+motion are held, with a warning. The scene's axes are then GCRS's.
 A field without a rotation is refused: it would stay fixed in inertial space.
 
 Discrete force and invariants. Over a step of length h the force is Gonzalez's midpoint
@@ -65,6 +65,11 @@ __all__ = ["GravityField", "EARTH_RATE"]
 
 #: the Earth's mean rotation rate, rad/s: 2 pi 1.00273781191135448 / 86400 (IERS 2010)
 EARTH_RATE = 2.0 * math.pi * 1.00273781191135448 / 86400.0
+#: rotation = "itrs": the sampling interval of the Earth's orientation, s (cubic interpolation
+#: between samples; its fastest nutation terms have periods of days)
+ITRS_STEP = 3600.0
+#: the most samples of the Earth's orientation a run may take (a century at ITRS_STEP)
+MAX_ITRS_SAMPLES = 900_000
 _KEYS = (
     Key("model", False, "string", "", '"egm2008" (heyoka\'s table, degree 150); or give gfc',
         "the shipped model"),
@@ -102,7 +107,7 @@ def _earth_orientation(epoch, key):
             warnings.simplefilter("ignore")
             ut1 = epoch.ut1
             xp, yp = iers.earth_orientation_table.get().pm_xy(epoch)
-        return ut1, float(xp.to_value("rad")), float(yp.to_value("rad"))
+        return ut1, np.asarray(xp.to_value("rad"), float), np.asarray(yp.to_value("rad"), float)
     except (ValueError, IndexError):
         table = iers.IERS_B.open()
         last = Time(float(table["MJD"][-1].value), format="mjd", scale="utc")
@@ -115,14 +120,16 @@ def _earth_orientation(epoch, key):
         epoch_utc = epoch.utc
         ut1 = Time(epoch_utc.jd1, epoch_utc.jd2 + float(table["UT1_UTC"][-1].to_value("s")) / 86400.0,
                    format="jd", scale="ut1")  # fmt: skip
-        return ut1, float(table["PM_x"][-1].to_value("rad")), float(table["PM_y"][-1].to_value("rad"))
+        xp = np.full(np.shape(epoch_utc.jd1), float(table["PM_x"][-1].to_value("rad")))
+        yp = np.full(np.shape(epoch_utc.jd1), float(table["PM_y"][-1].to_value("rad")))
+        return ut1, xp, yp
 
 
 def _itrs(epoch, key):
-    """The GCRS-to-ITRS rotation at ``epoch`` as erfa composes it, ``RPOM R3(ERA) RC2I``: the
-    celestial-to-intermediate matrix (IAU 2006/2000A), the Earth rotation angle (rad) and the
-    polar motion matrix, from the UT1 and polar motion of astropy's IERS tables
-    (:func:`_earth_orientation`)."""
+    """The GCRS-to-ITRS rotation at ``epoch`` (one Time or an array) as erfa composes it,
+    ``RPOM R3(ERA) RC2I``: the celestial-to-intermediate matrix (IAU 2006/2000A), the Earth
+    rotation angle (rad) and the polar motion matrix, from the UT1 and polar motion of astropy's
+    IERS tables (:func:`_earth_orientation`)."""
     import erfa
 
     ut1, xp, yp = _earth_orientation(epoch, key)
@@ -130,7 +137,9 @@ def _itrs(epoch, key):
     rc2i = erfa.c2i06a(tt.jd1, tt.jd2)
     era = erfa.era00(ut1.jd1, ut1.jd2)
     rpom = erfa.pom00(xp, yp, erfa.sp00(tt.jd1, tt.jd2))
-    return np.asarray(rc2i, float), float(era), np.asarray(rpom, float)
+    if np.ndim(era) == 0:
+        return np.asarray(rc2i, float), float(era), np.asarray(rpom, float)
+    return np.asarray(rc2i, float), np.asarray(era, float), np.asarray(rpom, float)
 
 
 class GravityField(Effect):
@@ -183,7 +192,7 @@ class GravityField(Effect):
         return self.angle is None
 
     def scratch_size(self, n_points: int) -> int:
-        return 13 + 2 * (self.degree + 2)  # angles, h, the last start's U, two columns
+        return 70 + 2 * (self.degree + 2)  # angles, h, the last start's U, frames, turn, two columns
 
     def prepare(self, t0: float, t1: float, epoch) -> None:
         """Set the angle at time 0 from the Earth rotation angle at the epoch (``rotation =
@@ -205,11 +214,7 @@ class GravityField(Effect):
                 'the run needs an epoch (e.g. epoch = "2026-01-01T00:00:00 TDB")',
             )
         if self.itrs:
-            rc2i, era, rpom = _itrs(epoch, self.key)
-            self.frame = rc2i.T.copy()
-            self.p[3:12] = self.frame.ravel()
-            self.p[12] = era
-            self.p[18:27] = rpom.ravel()
+            self._itrs_table(t0, t1, epoch)
             return
         if self._kernel_values is None:
             import erfa
@@ -301,12 +306,14 @@ class GravityField(Effect):
         p = [
             *field.center, *frame.ravel(), 0.0 if angle is None else angle, rate,
             coefficients.gm, coefficients.radius, float(degree), float(order), *np.eye(3).ravel(),
+            0.0, 0.0, 0.0, 0.0,
         ]  # fmt: skip
         effect = cls(table, p, tables(coefficients.C, coefficients.S, degree, order))
         effect.coefficients, effect.degree, effect.order = coefficients, int(degree), int(order)
         effect.rate, effect.angle, effect.frame = float(rate), angle, frame
         effect._kernel_values = kernel
         effect.itrs = rotation == "itrs"
+        effect._field_size, effect._span = effect.tab.size, None
         return effect
 
     @staticmethod
@@ -332,6 +339,49 @@ class GravityField(Effect):
         ``angle`` at time 0 (rad; the Earth rotation angle at the epoch once prepared) and
         ``rate`` (rad/s)."""
         return {"body_frame": {"axes": self.frame.tolist(), "angle": float(self.p[12]), "rate": self.rate}}
+
+    def span_samples(self, t0: float, t1: float) -> int:
+        """The samples of the ITRS table that cover ``t0`` to ``t1``."""
+        return int(math.ceil(t1 / ITRS_STEP) - math.floor(t0 / ITRS_STEP)) + 5
+
+    def _itrs_table(self, t0: float, t1: float, epoch) -> None:
+        """rotation = "itrs": the frame at the epoch (B, P, the angle) and a table over the run's
+        span, every :data:`ITRS_STEP` s, of B (RC2I^T), P (RPOM) and the angle's departure from
+        the uniform ``ERA(epoch) + w t``, interpolated per sub-step by the kernel.
+
+        Raises
+        ------
+        InputError
+            A span of more than :data:`MAX_ITRS_SAMPLES` samples.
+        """
+        from astropy.time import TimeDelta
+
+        if self.span_samples(t0, t1) > MAX_ITRS_SAMPLES:
+            raise InputError(
+                f"{self.key}.rotation",
+                f"the run spans {self.span_samples(t0, t1)} samples of the Earth's orientation at {ITRS_STEP:g} s, "
+                f'more than {MAX_ITRS_SAMPLES}: shorten the run or use rotation = "earth"',
+            )
+        stamp = (float(epoch.tdb.jd1), float(epoch.tdb.jd2))
+        k_first = math.floor(t0 / ITRS_STEP) - 2
+        k_last = math.ceil(t1 / ITRS_STEP) + 2
+        if self._span is not None and self._span[0] <= k_first and self._span[1] >= k_last and self._span[2] == stamp:
+            return
+        rc2i, era, rpom = _itrs(epoch, self.key)
+        self.frame = rc2i.T.copy()
+        self.p[3:12] = self.frame.ravel()
+        self.p[12] = era
+        self.p[18:27] = rpom.ravel()
+        t = np.arange(k_first, k_last + 1, dtype=float) * ITRS_STEP
+        rows = np.empty((t.size, 19))
+        c2i, eras, poms = _itrs(epoch + TimeDelta(t, format="sec"), self.key)
+        rows[:, 0:9] = np.transpose(c2i, (0, 2, 1)).reshape(-1, 9)
+        rows[:, 9:18] = poms.reshape(-1, 9)
+        rows[:, 18] = np.unwrap(eras - (era + self.rate * t))
+        rows[:, 18] -= 2.0 * np.pi * np.round(rows[:, 18] / (2.0 * np.pi))
+        self.p[27:31] = 1.0, ITRS_STEP, float(k_first), float(t.size)
+        self.tab = np.ascontiguousarray(np.concatenate([self.tab[: self._field_size], rows.ravel()]))
+        self._span = (k_first, k_last, stamp)
 
     @property
     def spin(self) -> np.ndarray:

@@ -9,12 +9,12 @@ central field's) in Pines' singularity-free form::
 
 ``A_nm = P_nm / (1 - u^2)^(m/2)``, the normalised derived Legendre functions, by the column
 recursion ``A_nm = a_nm u A_{n-1,m} - b_nm A_{n-2,m}`` from ``A_mm`` (stable to high degree; no
-division by the latitude's cosine). The gradient follows from ``A_nm``, ``A_{n,m+1}`` and
-``Re, Im (s+it)^(m-1)`` (:func:`field_body`). Agrees with heyoka's EGM2008 to 1.2e-15.
+division by the latitude's cosine); the gradient from ``A_nm``, ``A_{n,m+1}``, ``(s+it)^(m-1)``.
 
-Rotation: uniform about the pole e3 at the rate w, frame ``B Rz(theta0 + w t) P^T``, ``B = [e1
-e2 e3]``, P a fixed rotation after it (the Earth's polar motion; else the identity);
-``y = P Rz^T B^T (x - c)``.
+Rotation: ``y = P Rz(theta)^T B^T (x - c)``, ``B = [e1 e2 e3]``: uniform (B and P fixed,
+``theta = theta0 + w t``), or tabulated (the Earth's ITRS: B = RC2I^T, P the polar motion and
+theta's departure from uniform sampled every ``step`` and interpolated, cubic, per sub-step;
+the step's turn from the rotation ``M_b^T M_a`` between its ends, ``M`` the frame's matrix).
 
 Force per unit mass over x0 -> x1 (offsets from c, middle x_m) from t0 to t0 + h, with the
 step's Cayley turn ``h w_h = 2 tan(w h / 2)``::
@@ -29,11 +29,13 @@ correction is left out where ``|dU - g . delta|`` is within 8
 eps of ``|U0| + |U1|``; with x0 = x1 the force is g. The field's work over the step is ``W =
 F . (x1 - x0) - dU``. No Jacobian (the central effect's carries Newton).
 
-Data layout: ``p = [c0, c1, c2, B (9, row-major), theta0, w, mu, R, N, M, P (9, row-major)]``; ``tab`` the
+Data layout: ``p = [c0, c1, c2, B (9, row-major), theta0, w, mu, R, N, M, P (9, row-major),
+tabulated, step, k0, rows]``; ``tab`` the
 triangular arrays (index ``n (n + 1) / 2 + m``) C, S, a, b, q (``dA_nm/du = q_nm A_{n,m+1}``),
-then ``A_mm`` (N + 1,) (:func:`tables`); ``s`` cos and sin of the angle at the sub-step's
-start, middle and end, h, the last start (x0, its angle's cos and sin, U there: 6), then the
-recursion's two columns (2 (N + 2)). References: S. Pines,
+then ``A_mm`` (N + 1,) (:func:`tables`), then a tabulated frame's rows (19 each: B, P, the
+angle's departure); ``s`` cos and sin of the angle at the sub-step's start, middle and end,
+h, the last start (x0, its angle's cos and sin, U there), B and P at the three times (54), the
+step's turn (3), the recursion's two columns (2 (N + 2)). References: S. Pines,
 AIAA J. 11 (1973) 1508-1511; S. A. Holmes, W. E. Featherstone, J. Geodesy 76 (2002) 279-299;
 O. Gonzalez, J. Nonlinear Sci. 6 (1996) 449-467.
 """
@@ -60,7 +62,7 @@ __all__ = [
 
 _EPS = 2.0**-52
 #: the length of ``p``
-P_SIZE = 27
+P_SIZE = 31
 _inline = kernel(inline="always")
 
 
@@ -178,44 +180,51 @@ def field_body(y0, y1, y2, mu, radius, n_max, m_max, tab, grad, work):
 
 
 @_inline
-def _to_body(d0, d1, d2, p, cs, sn):
-    """Body coordinates of the inertial offset d at the angle (cos, sin): P Rz^T B^T d."""
-    b0 = p[3] * d0 + p[6] * d1 + p[9] * d2  # B^T d
-    b1 = p[4] * d0 + p[7] * d1 + p[10] * d2
-    b2 = p[5] * d0 + p[8] * d1 + p[11] * d2
+def _to_body(d0, d1, d2, f, ob, op, cs, sn):
+    """Body coordinates of the inertial offset d: ``P Rz(theta)^T B^T d``, B and P (row-major)
+    at ``f[ob:ob+9]`` and ``f[op:op+9]``, theta's (cos, sin)."""
+    b0 = f[ob] * d0 + f[ob + 3] * d1 + f[ob + 6] * d2  # B^T d
+    b1 = f[ob + 1] * d0 + f[ob + 4] * d1 + f[ob + 7] * d2
+    b2 = f[ob + 2] * d0 + f[ob + 5] * d1 + f[ob + 8] * d2
     r0 = cs * b0 + sn * b1
     r1 = -sn * b0 + cs * b1
     return (
-        p[18] * r0 + p[19] * r1 + p[20] * b2,
-        p[21] * r0 + p[22] * r1 + p[23] * b2,
-        p[24] * r0 + p[25] * r1 + p[26] * b2,
+        f[op] * r0 + f[op + 1] * r1 + f[op + 2] * b2,
+        f[op + 3] * r0 + f[op + 4] * r1 + f[op + 5] * b2,
+        f[op + 6] * r0 + f[op + 7] * r1 + f[op + 8] * b2,
     )
 
 
 @_inline
-def _to_inertial(g0, g1, g2, p, cs, sn):
-    """An inertial vector from body components at the angle (cos, sin): B Rz(theta) P^T g."""
-    q0 = p[18] * g0 + p[21] * g1 + p[24] * g2
-    q1 = p[19] * g0 + p[22] * g1 + p[25] * g2
-    g2 = p[20] * g0 + p[23] * g1 + p[26] * g2
+def _to_inertial(g0, g1, g2, f, ob, op, cs, sn):
+    """An inertial vector from body components: ``B Rz(theta) P^T g`` (as :func:`_to_body`)."""
+    q0 = f[op] * g0 + f[op + 3] * g1 + f[op + 6] * g2
+    q1 = f[op + 1] * g0 + f[op + 4] * g1 + f[op + 7] * g2
+    q2 = f[op + 2] * g0 + f[op + 5] * g1 + f[op + 8] * g2
     a0 = cs * q0 - sn * q1
     a1 = sn * q0 + cs * q1
     return (
-        p[3] * a0 + p[4] * a1 + p[5] * g2,
-        p[6] * a0 + p[7] * a1 + p[8] * g2,
-        p[9] * a0 + p[10] * a1 + p[11] * g2,
+        f[ob] * a0 + f[ob + 1] * a1 + f[ob + 2] * q2,
+        f[ob + 3] * a0 + f[ob + 4] * a1 + f[ob + 5] * q2,
+        f[ob + 6] * a0 + f[ob + 7] * a1 + f[ob + 8] * q2,
     )
 
 
+#: the scratch's offsets: B and P at the sub-step's start, middle and end, the step's turn
+_SB, _SP, _SK, _WORK = 13, 40, 67, 70
+
+
 @_inline
-def field_at(d0, d1, d2, p, tab, cs, sn, grad, work):
-    """U and its inertial gradient at the inertial offset d from the centre, the body at the
-    angle (cos, sin)."""
-    y0, y1, y2 = _to_body(d0, d1, d2, p, cs, sn)
+def field_at(d0, d1, d2, p, tab, s, x, grad, work):
+    """U and its inertial gradient at the inertial offset d from the centre, the body as the
+    scratch holds it at the sub-step's start (x = 0), middle (1) or end (2)."""
+    cs, sn = s[2 * x], s[2 * x + 1]
+    ob, op = _SB + 9 * x, _SP + 9 * x
+    y0, y1, y2 = _to_body(d0, d1, d2, s, ob, op, cs, sn)
     pot, g0, g1, g2 = field_body(y0, y1, y2, p[14], p[15], int(p[16]), int(p[17]), tab, grad, work)
     if not grad:
         return pot, 0.0, 0.0, 0.0
-    a0, a1, a2 = _to_inertial(g0, g1, g2, p, cs, sn)
+    a0, a1, a2 = _to_inertial(g0, g1, g2, s, ob, op, cs, sn)
     return pot, a0, a1, a2
 
 
@@ -232,21 +241,20 @@ def gravity_field_force(x0, y0, z0, x1, y1, z1, p, tab, s):
     m0 = 0.5 * (a0 + b0)
     m1 = 0.5 * (a1 + b1)
     m2 = 0.5 * (a2 + b2)
-    work = s[13:]
-    um, g0, g1, g2 = field_at(m0, m1, m2, p, tab, s[2], s[3], True, work)
+    work = s[_WORK:]
+    um, g0, g1, g2 = field_at(m0, m1, m2, p, tab, s, 1, True, work)
     if a0 == b0 and a1 == b1 and a2 == b2:
         return g0, g1, g2, 0.0
     # U(x0, t0) is the same in every Newton sweep of a point's step: kept with its x0 and angle
     if s[7] == a0 and s[8] == a1 and s[9] == a2 and s[10] == s[0] and s[11] == s[1]:
         u0 = s[12]
     else:
-        u0 = field_at(a0, a1, a2, p, tab, s[0], s[1], False, work)[0]
+        u0 = field_at(a0, a1, a2, p, tab, s, 0, False, work)[0]
         s[7], s[8], s[9], s[10], s[11], s[12] = a0, a1, a2, s[0], s[1], u0
-    u1 = field_at(b0, b1, b2, p, tab, s[4], s[5], False, work)[0]
-    k = 2.0 * math.tan(0.5 * p[13] * s[6])  # h w_h: the step's turn, Cayley's
-    e0 = k * p[5]
-    e1 = k * p[8]
-    e2 = k * p[11]
+    u1 = field_at(b0, b1, b2, p, tab, s, 2, False, work)[0]
+    e0 = s[_SK]  # the step's turn: twice its Gibbs vector, 2 tan(phi / 2) n
+    e1 = s[_SK + 1]
+    e2 = s[_SK + 2]
     v0 = (b0 - a0) - (e1 * m2 - e2 * m1)
     v1 = (b1 - a1) - (e2 * m0 - e0 * m2)
     v2 = (b2 - a2) - (e0 * m1 - e1 * m0)
@@ -259,20 +267,72 @@ def gravity_field_force(x0, y0, z0, x1, y1, z1, p, tab, s):
     return g0, g1, g2, du
 
 
+@_inline
+def _sample(p, tab, t, s, x):
+    """The tabulated frame at time t into the scratch's slot x (B, P, the angle's cos and sin):
+    cubic Lagrange interpolation of each entry over the four samples around t."""
+    n_max = int(p[16])
+    size = (n_max + 1) * (n_max + 2) // 2
+    base = 5 * size + n_max + 1
+    step, k0, rows = p[28], p[29], int(p[30])
+    u = t / step - k0
+    j = min(max(int(math.floor(u)), 1), rows - 3)
+    tau = u - j
+    w0 = -tau * (tau - 1.0) * (tau - 2.0) / 6.0
+    w1 = (tau + 1.0) * (tau - 1.0) * (tau - 2.0) / 2.0
+    w2 = -(tau + 1.0) * tau * (tau - 2.0) / 2.0
+    w3 = (tau + 1.0) * tau * (tau - 1.0) / 6.0
+    vals = np.empty(19)
+    for e in range(19):
+        r = base + 19 * (j - 1) + e
+        vals[e] = w0 * tab[r] + w1 * tab[r + 19] + w2 * tab[r + 38] + w3 * tab[r + 57]
+    for e in range(9):
+        s[_SB + 9 * x + e] = vals[e]
+        s[_SP + 9 * x + e] = vals[9 + e]
+    th = p[12] + p[13] * t + vals[18]
+    s[2 * x], s[2 * x + 1] = math.cos(th), math.sin(th)
+
+
+@_inline
+def _matrix(s, x):
+    """The body frame's matrix ``M = P Rz(theta)^T B^T`` of the scratch's slot x (y = M d)."""
+    M = np.empty((3, 3))
+    for c in range(3):
+        e = np.zeros(3)
+        e[c] = 1.0
+        y0, y1, y2 = _to_body(e[0], e[1], e[2], s, _SB + 9 * x, _SP + 9 * x, s[2 * x], s[2 * x + 1])
+        M[0, c], M[1, c], M[2, c] = y0, y1, y2
+    return M
+
+
 # -- the pieces of an effect set (.signatures)
 
 
 @_inline
 def gravity_field_prepare(ta, tm, tb, p, tab, s):
-    """The body's angle at the sub-step's start, middle and end (cos, sin into s[0:6]) and the
-    sub-step's length (s[6])."""
-    th = p[12] + p[13] * ta
-    s[0], s[1] = math.cos(th), math.sin(th)
-    th = p[12] + p[13] * tm
-    s[2], s[3] = math.cos(th), math.sin(th)
-    th = p[12] + p[13] * tb
-    s[4], s[5] = math.cos(th), math.sin(th)
+    """The body's frame at the sub-step's start, middle and end (the angle's cos and sin into
+    s[0:6], B and P into s[13:67]), the sub-step's length (s[6]) and its turn (s[67:70]):
+    ``2 tan(w h / 2) e3`` for a uniform rotation, twice the Gibbs vector of the rotation
+    ``M_b^T M_a`` that carries the body from ta to tb for a tabulated one."""
     s[6] = tb - ta
+    if p[27] == 0.0:
+        for x, t in ((0, ta), (1, tm), (2, tb)):
+            th = p[12] + p[13] * t
+            s[2 * x], s[2 * x + 1] = math.cos(th), math.sin(th)
+            for e in range(9):
+                s[_SB + 9 * x + e] = p[3 + e]
+                s[_SP + 9 * x + e] = p[18 + e]
+        k = 2.0 * math.tan(0.5 * p[13] * (tb - ta))  # h w_h: the step's turn, Cayley's
+        s[_SK], s[_SK + 1], s[_SK + 2] = k * p[5], k * p[8], k * p[11]
+        return
+    _sample(p, tab, ta, s, 0)
+    _sample(p, tab, tm, s, 1)
+    _sample(p, tab, tb, s, 2)
+    R = _matrix(s, 2).T @ _matrix(s, 0)
+    den = 1.0 + R[0, 0] + R[1, 1] + R[2, 2]
+    s[_SK] = 2.0 * (R[2, 1] - R[1, 2]) / den
+    s[_SK + 1] = 2.0 * (R[0, 2] - R[2, 0]) / den
+    s[_SK + 2] = 2.0 * (R[1, 0] - R[0, 1]) / den
 
 
 @_inline
@@ -293,4 +353,4 @@ def gravity_field_time_work(x0, y0, z0, x1, y1, z1, c, p, tab, s):
 @_inline
 def gravity_field_potential_piece(x, y, z, c, p, tab, s):
     """The potential energy per unit mass, ``-U``, at the prepared middle time."""
-    return -field_at(x - p[0], y - p[1], z - p[2], p, tab, s[2], s[3], False, s[13:])[0]
+    return -field_at(x - p[0], y - p[1], z - p[2], p, tab, s, 1, False, s[_WORK:])[0]
