@@ -377,8 +377,8 @@ class GravityField(Effect):
         c2i, eras, poms = _itrs(epoch + TimeDelta(t, format="sec"), self.key)
         rows[:, 0:9] = np.transpose(c2i, (0, 2, 1)).reshape(-1, 9)
         rows[:, 9:18] = poms.reshape(-1, 9)
-        rows[:, 18] = np.unwrap(eras - (era + self.rate * t))
-        rows[:, 18] -= 2.0 * np.pi * np.round(rows[:, 18] / (2.0 * np.pi))
+        departure = eras - (era + self.rate * t)  # each sample alone: a resumed run's table has its bits
+        rows[:, 18] = departure - 2.0 * np.pi * np.round(departure / (2.0 * np.pi))
         self.p[27:31] = 1.0, ITRS_STEP, float(k_first), float(t.size)
         self.tab = np.ascontiguousarray(np.concatenate([self.tab[: self._field_size], rows.ravel()]))
         self._span = (k_first, k_last, stamp)

@@ -275,9 +275,10 @@ def _sample(p, tab, t, s, x):
     size = (n_max + 1) * (n_max + 2) // 2
     base = 5 * size + n_max + 1
     step, k0, rows = p[28], p[29], int(p[30])
-    u = t / step - k0
-    j = min(max(int(math.floor(u)), 1), rows - 3)
-    tau = u - j
+    u = t / step  # on the grid anchored at the epoch: a table that starts later gives the same bits
+    g = math.floor(u)
+    j = min(max(int(g - k0), 1), rows - 3)
+    tau = u - (j + k0)
     w0 = -tau * (tau - 1.0) * (tau - 2.0) / 6.0
     w1 = (tau + 1.0) * (tau - 1.0) * (tau - 2.0) / 2.0
     w2 = -(tau + 1.0) * tau * (tau - 2.0) / 2.0
