@@ -77,7 +77,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .common import CONFIGS, SystemRunner, points_of
-from .timing import CPU, loadavg, paired_ratio, timed
+from .timing import CPU, best_cpu, loadavg, paired_ratio, timed
 
 __all__ = [
     "RATE",
@@ -321,20 +321,6 @@ def cost_rows(cfg, degrees=(2, 20, 70, 120)) -> dict:
 
 
 # -- work against precision ----------------------------------------------------------------------
-def _best_cpu(setup, go):
-    """(go's result, CPU seconds of go(setup())), set-up not timed; the best of three when a run
-    takes under 50 ms."""
-    best, out = math.inf, None
-    for k in range(3):
-        state = setup()
-        t = time.process_time()
-        out = go(state)
-        best = min(best, time.process_time() - t)
-        if k == 0 and best > 0.05:
-            break
-    return out, best
-
-
 def _jacobi_em(res) -> float:
     c = res.si.energy - res.si.angular_momentum @ np.array([0.0, 0.0, RATE])
     return float(np.max(np.abs(c / c[0] - 1.0)))
@@ -357,7 +343,7 @@ def _em(order: int, dt: float | None, duration: float, adaptive: float | None = 
         return sim, sim.run(steps=timed_steps, every=timed_steps, keep=False, progress=False)
 
     try:
-        (sim, res), cpu = _best_cpu(setup, go)
+        (sim, res), cpu = best_cpu(go, setup)
         rec = setup(rec_dt).run(steps=rec_steps, every=every, progress=False)
     except Exception as exc:  # noqa: BLE001 - a step too long for the orbit is a point that failed
         return {"status": f"failed: {type(exc).__name__}: {exc}"}
@@ -431,7 +417,7 @@ class _Heyoka:
             ta.state[:] = state0
             return ta
 
-        res, cpu = _best_cpu(setup, lambda ta: ta.propagate_until(fp_type(duration)))
+        res, cpu = best_cpu(lambda ta: ta.propagate_until(fp_type(duration)), setup)
         if res[0] != hy.taylor_outcome.time_limit:
             return {"status": f"failed: {res[0]}", "compile_s": compile_cpu}
         x_end = np.array(ta.state[:3], dtype=fp_type)

@@ -72,7 +72,7 @@ from .rigid_cases import (
     mrp_to_dcm,
     orbit_rate,
 )
-from .timing import loadavg, machine, package_version
+from .timing import best_cpu, loadavg, machine, package_version
 from .workprecision import _pareto
 from .workprecision import reach as _reach_series
 
@@ -248,19 +248,6 @@ class _Body:
         return out
 
 
-def _best_cpu(setup, go) -> float:
-    """CPU seconds of go(setup()), set-up not timed; the best of three when a run is under 50 ms."""
-    best = math.inf
-    for k in range(3):
-        state = setup()
-        t = time.process_time()
-        go(state)
-        best = min(best, time.process_time() - t)
-        if k == 0 and best > 0.05:
-            break
-    return best
-
-
 # -- the engines -----------------------------------------------------------------------------
 def _emorbit(body: _Body, method: str, order: int, dt: float) -> dict:
     from ..bodies.rotations import quaternion_to_matrix
@@ -272,7 +259,7 @@ def _emorbit(body: _Body, method: str, order: int, dt: float) -> dict:
             return free_sim(dt, body.w0, method=method, order=order)
         return leo_sim(1, dt, order=order, method=method)
 
-    cpu = _best_cpu(setup, lambda sim: sim.run(steps=steps, every=steps, keep=False))
+    cpu = best_cpu(lambda sim: sim.run(steps=steps, every=steps, keep=False), setup)[1]
     every = max(1, steps // RECORDS)
     res = setup().run(steps=steps, every=every).si
     R = quaternion_to_matrix(res.attitudes["box"][-1])
@@ -300,7 +287,7 @@ def _exudyn(ex, body: _Body, solver: str, node: str, dt: float) -> dict:
         if not ok:
             raise RuntimeError(msg)
 
-    cpu = _best_cpu(setup, go)
+    cpu = best_cpu(go, setup)[1]
     mbs, ss, sens = setup(True)
     go((mbs, ss))
     w = np.asarray(mbs.GetSensorStoredData(sens[0]))[:, 1:4]
@@ -360,7 +347,7 @@ def _rotation_vector(R) -> np.ndarray:
 
 
 def _basilisk(bsk, body: _Body, integrator: str, dt: float, tol=None) -> dict:
-    cpu = _best_cpu(lambda: _bsk_build(bsk, body, integrator, dt, tol, None)[0], lambda sim: sim.ExecuteSimulation())
+    cpu = best_cpu(lambda sim: sim.ExecuteSimulation(), lambda: _bsk_build(bsk, body, integrator, dt, tol, None)[0])[1]
     steps = max(1, int(round(body.t_end / dt)))
     every = max(1, steps // RECORDS)
     while steps % every:  # records that land on the end

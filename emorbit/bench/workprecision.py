@@ -37,7 +37,6 @@ epsilon (1e-9) within :data:`LIMIT_IAS15` times IAS15's CPU time, and within
 from __future__ import annotations
 
 import math
-import time
 import warnings
 
 import numpy as np
@@ -45,6 +44,7 @@ import numpy as np
 from ..integrators import coefficients
 from ..orbits import propagate, semi_major_axis
 from .common import GM, PAPER_V0, PAPER_X0, aphelion_state, period, point_masses, rebound_sim, rebound_state
+from .timing import best_cpu
 
 __all__ = ["run", "table", "plot", "plot_orbits", "reach", "accuracy_targets", "verdicts"]
 
@@ -69,19 +69,6 @@ ENGINES = {
     "whfast": ("rebound", "whfast", False, "dt"),
     "heyoka": ("heyoka", "taylor", False, "tolerance"),
 }
-
-
-def _cpu(fn):
-    """(result, CPU seconds) of fn(); the best of three when a run takes under 50 ms."""
-    best, out = math.inf, None
-    for k in range(3):
-        t = time.process_time()
-        out = fn()
-        t = time.process_time() - t
-        best = min(best, t)
-        if k == 0 and t > 0.05:
-            break
-    return out, best
 
 
 def _errors(x_end, x_ref, energies_, e0, a) -> dict:
@@ -110,7 +97,7 @@ def _emorbit(x0, v0, method, order, N, T, orbits) -> dict:
             recs.append(pm.advance(method, GM, np.zeros(3), dt, coefficients(order), rest, 1, 50))
         return pm, recs
 
-    (pm, recs), cpu = _cpu(go)
+    (pm, recs), cpu = best_cpu(go)
     failed = [r.first_failure() for r in recs if r.first_failure() is not None]
     if failed:
         return {"status": f"failed: step {failed[0][0]} of a call ({steps} steps in all)", "cpu_s": cpu}
@@ -140,7 +127,7 @@ def _emorbit_adaptive(x0, v0, order, eta, T, orbits) -> dict:
         rec = pm.advance("em", GM, np.zeros(3), dt, coefficients(order), 1, nrec_, 50)
         return pm, rec
 
-    (pm, rec), cpu = _cpu(lambda: run(orbits * T, 1))
+    (pm, rec), cpu = best_cpu(lambda: run(orbits * T, 1))
     if rec.first_failure() is not None:
         return {"status": "failed: the run without records", "cpu_s": cpu}
     x_end = pm.x[:, 0].copy()
@@ -163,7 +150,7 @@ def _rebound_fixed(x0, v0, integrator, N, T, orbits) -> dict:
         sim.steps(steps)
         return sim
 
-    sim, cpu = _cpu(go)
+    sim, cpu = best_cpu(go)
     x_end = rebound_state(sim)[0][:, 0]
     # energy at the checkpoints, in a second run (synchronising between steps costs time)
     sim = rebound_sim(x0[:, None], v0[:, None], integrator, dt)
@@ -191,7 +178,7 @@ def _ias15(x0, v0, eps, T, orbits) -> dict:
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        sim, cpu = _cpu(go)
+        sim, cpu = best_cpu(go)
         x_end = rebound_state(sim)[0][:, 0]
         steps = int(sim.steps_done)
         sim = rebound_sim(x0[:, None], v0[:, None], "ias15", T / 100, epsilon=eps)
@@ -226,7 +213,7 @@ def _heyoka(x0, v0, tol, T, orbits, system) -> dict:
         ta.state[:] = state
         return ta.propagate_until(t_end)
 
-    res, cpu = _cpu(go)  # (outcome, min step, max step, steps, ...)
+    res, cpu = best_cpu(go)  # (outcome, min step, max step, steps, ...)
     x_end = ta.state[:3].copy()
     ta.time = 0.0
     ta.state[:] = state
