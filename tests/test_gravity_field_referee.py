@@ -4,7 +4,7 @@ The case: LEO (a = R + 400 km, e = 0.001, i = 51.6 deg, node 0.2 rad, argument o
 rad, true anomaly 0) in EGM2008 to degree and order 20, the field turning uniformly about z at
 W = 7.292115146706979e-5 rad/s from the angle 0.3 rad at t = 0, for 1 day in the inertial
 frame; mu, R and the coefficients are heyoka's (``get_egm2008_mu``, ``get_egm2008_a``,
-``get_egm2008_CS``).
+``get_egm2008_CS``): the bench's case, :mod:`emorbit.bench.gravity_field`.
 
 heyoka's force is built from its own EGM2008 model, rotated as emorbit's effect turns its
 field: ``a(x, t) = Rz(theta) egm2008_acc(Rz(theta)^T x, 20, 20)``, ``theta = 0.3 + W t``
@@ -24,42 +24,25 @@ compile adds about 20 s.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
-import emorbit
 from emorbit import orbits
+from emorbit.bench.gravity_field import heyoka_force, leo_state, simulation
 from emorbit.kernels.effects.gravity_field import gravity_field_force, gravity_field_prepare
 
 hy = pytest.importorskip("heyoka", reason='EGM2008 comes from heyoka: pip install "emorbit[field]"')
 
 MU, RADIUS = float(hy.model.get_egm2008_mu()), float(hy.model.get_egm2008_a())
-W = 7.292115146706979e-5
-ANGLE = 0.3
-DEGREE = 20
 DAY = 86400.0
-A = RADIUS + 400e3
-ELEMENTS = (A, 0.001, math.radians(51.6), 0.2, 0.1, 0.0)
-
-
-def _heyoka_force():
-    """heyoka's variables and the inertial acceleration of the turning field (central term
-    included)."""
-    x, y, z = hy.make_vars("x", "y", "z")
-    theta = ANGLE + W * hy.time
-    c, s = hy.cos(theta), hy.sin(theta)
-    g = hy.model.egm2008_acc([c * x + s * y, -s * x + c * y, z], DEGREE, DEGREE)
-    return [x, y, z], [c * g[0] - s * g[1], s * g[0] + c * g[1], g[2]]
 
 
 def _simulation(dt, order):
-    sim = emorbit.Simulation(emorbit.CentralField(gm=MU, radius=RADIUS), dt=dt, method="em", order=order)
-    effect = sim.add_effect("gravity_field", model="egm2008", degree=DEGREE, rotation="uniform", rate=W, angle=ANGLE)
-    x, v = orbits.state_from_elements(ELEMENTS, MU)
-    sim.add_point("sat", mass=1.0, position=x, velocity=v)
-    return sim, effect, np.asarray(x, float), np.asarray(v, float)
+    """The bench's case (emorbit.bench.gravity_field: 20 x 20, rate and angle, the LEO point),
+    its field effect and the start."""
+    sim = simulation(20, dt, order)
+    x, v, _ = leo_state(MU, RADIUS)
+    return sim, sim.effects.named[0], x, v
 
 
 def test_both_evaluate_the_same_acceleration():
@@ -67,7 +50,7 @@ def test_both_evaluate_the_same_acceleration():
     1 day: emorbit's force at a point (x0 = x1 after ``gravity_field_prepare(t, t, t)``) plus
     -mu x / r^3 against heyoka's cfunc of the rotated expression at the same time, to 1e-13
     relative (measured 9.6e-16)."""
-    xyz, acc = _heyoka_force()
+    xyz, acc, _ = heyoka_force()
     cf = hy.cfunc(acc, xyz)
     _, effect, _, _ = _simulation(60.0, 8)
     p, tab = effect.p, effect.tab
@@ -94,14 +77,14 @@ def test_one_day_of_leo_agrees_with_heyoka():
     steps = int(DAY / 60.0)
     res = sim.run(steps=steps, every=steps, progress=False)
     assert res.si.time[-1] == pytest.approx(DAY, rel=1e-15)
-    xyz, acc = _heyoka_force()
+    xyz, acc, _ = heyoka_force()
     vx, vy, vz = hy.make_vars("vx", "vy", "vz")
     system = [(xyz[0], vx), (xyz[1], vy), (xyz[2], vz), (vx, acc[0]), (vy, acc[1]), (vz, acc[2])]
     ta = hy.taylor_adaptive(system, np.concatenate([x0, v0]), tol=2.0**-52, compact_mode=True)
     outcome = ta.propagate_until(DAY)
     assert outcome[0] == hy.taylor_outcome.time_limit
     x_em, v_em = res.si.positions["sat"][-1], res.si.velocities["sat"][-1]
-    position = np.linalg.norm(x_em - ta.state[:3]) / A
+    position = np.linalg.norm(x_em - ta.state[:3]) / leo_state(MU, RADIUS)[2]
     velocity = np.linalg.norm(v_em - ta.state[3:]) / np.linalg.norm(ta.state[3:])
     assert position <= 1e-9, position
     assert velocity <= 1e-9, velocity
