@@ -283,14 +283,13 @@ def _sample(p, tab, t, s, x):
     w1 = (tau + 1.0) * (tau - 1.0) * (tau - 2.0) / 2.0
     w2 = -(tau + 1.0) * tau * (tau - 2.0) / 2.0
     w3 = (tau + 1.0) * tau * (tau - 1.0) / 6.0
-    vals = np.empty(19)
-    for e in range(19):
-        r = base + 19 * (j - 1) + e
-        vals[e] = w0 * tab[r] + w1 * tab[r + 19] + w2 * tab[r + 38] + w3 * tab[r + 57]
+    r = base + 19 * (j - 1)
     for e in range(9):
-        s[_SB + 9 * x + e] = vals[e]
-        s[_SP + 9 * x + e] = vals[9 + e]
-    th = p[12] + p[13] * t + vals[18]
+        s[_SB + 9 * x + e] = w0 * tab[r + e] + w1 * tab[r + 19 + e] + w2 * tab[r + 38 + e] + w3 * tab[r + 57 + e]
+        q = r + 9 + e
+        s[_SP + 9 * x + e] = w0 * tab[q] + w1 * tab[q + 19] + w2 * tab[q + 38] + w3 * tab[q + 57]
+    q = r + 18
+    th = p[12] + p[13] * t + (w0 * tab[q] + w1 * tab[q + 19] + w2 * tab[q + 38] + w3 * tab[q + 57])
     s[2 * x], s[2 * x + 1] = math.cos(th), math.sin(th)
 
 

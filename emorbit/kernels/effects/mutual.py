@@ -132,10 +132,8 @@ def _bodies_pairs(x0, x1, m, body, idx, g, F, W, jac, weighted):
 
 @kernel
 def mutual_pair_potential(x, m, body, c, p, out):
-    """Each point's half of its pairs' potential energy ``-G m_a m_b / r``, J, into ``out`` (n,);
-    ``x`` (3, n), or (6, n) with the positions' low parts in rows 3-5."""
+    """Each point's half of its pairs' potential energy ``-G m_a m_b / r``, J, into ``out`` (n,)."""
     n = m.shape[0]
-    low = x.shape[0] == 6
     g = p[0]
     for a in range(n):
         if c[a] == 0.0:
@@ -146,10 +144,6 @@ def mutual_pair_potential(x, m, body, c, p, out):
             dx = x[0, a] - x[0, b]
             dy = x[1, a] - x[1, b]
             dz = x[2, a] - x[2, b]
-            if low:
-                dx += x[3, a] - x[3, b]
-                dy += x[4, a] - x[4, b]
-                dz += x[5, a] - x[5, b]
             e = 0.5 * g * m[a] * m[b] / math.sqrt(dx * dx + dy * dy + dz * dz)
             out[a] -= e
             out[b] -= e
