@@ -32,17 +32,17 @@ import numpy as np
 
 from emorbit import orbits
 from emorbit.effects.mutual import G
+from emorbit.effects.zonal import zonal_model
 from emorbit.field import CentralField
-from emorbit.kernels.effects.zonal import MODELS
 
 from .secular import sun_synchronous_inclination
 
 __all__ = ["EffectCase", "EFFECT_CASES", "effect_cases", "J2", "J4", "R_EARTH"]
 
 #: EGM2008's J2 and J4 and its reference radius (emorbit's zonal model "earth")
-J2 = float(MODELS["earth"]["jn"][0])
-J4 = float(MODELS["earth"]["jn"][2])
-R_EARTH = float(MODELS["earth"]["radius"])
+J2 = float(zonal_model("earth")["jn"][0])
+J4 = float(zonal_model("earth")["jn"][2])
+R_EARTH = float(zonal_model("earth")["radius"])
 #: the effect cases, in the order they run
 EFFECT_CASES = ("j2-reboundx", "j2-secular", "mutual-two-body", "figure-eight")
 

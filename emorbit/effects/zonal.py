@@ -16,24 +16,62 @@ bodies at their gravity points. Point masses under the central field and zonal h
 alone run the packed kernel :mod:`emorbit.kernels.effects.zonal_packed` (:meth:`Zonal.packed`).
 
 GM and the centre are the field's; R and J_n are the model's: "earth" is EGM2008's zonal
-part (tide-free; :data:`emorbit.kernels.effects.zonal.MODELS`), or ``j`` and ``radius``
-give them. References: N. K. Pavlis et al., J. Geophys. Res. 117 (2012) B04406 (EGM2008);
-T. Itoh, K. Abe, J. Comput. Phys. 76 (1988) 85-102.
+part (tide-free, J_n = -C_n0 sqrt(2n + 1) from the fully normalised C_n0), read from the
+package's ``data/egm2008_6.gfc`` (:func:`zonal_model`; written from heyoka's EGM2008 table
+by ``scripts/data_egm2008.py``), or ``j`` and ``radius`` give them. References: N. K.
+Pavlis et al., J. Geophys. Res. 117 (2012) B04406 (EGM2008); T. Itoh, K. Abe, J. Comput. Phys. 76 (1988) 85-102.
 """
 
 from __future__ import annotations
 
+import functools
+import math
 import numbers
+import os
 
 import numpy as np
 
 from ..errors import InputError
-from ..kernels.effects.zonal import MODELS, NMAX
+from ..kernels.effects.zonal import NMAX
 from ..keys import Key
 from ..units import to_si, vector_to_si
 from .base import Effect, Pieces
 
-__all__ = ["Zonal"]
+__all__ = ["Zonal", "MODELS", "zonal_model"]
+
+#: the shipped zonal models: name -> the ICGEM file in the package's data folder
+MODELS = {"earth": "egm2008_6.gfc"}
+
+
+@functools.cache
+def zonal_model(name: str) -> dict:
+    """A shipped zonal model's constants.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`MODELS`.
+
+    Returns
+    -------
+    dict
+        ``gm`` (m^3/s^2) and reference ``radius`` (m) of the model, ``cbar`` the fully
+        normalised C_20..C_N0, ``jn`` = (J2, ..., J_N) with J_n = -C_n0 sqrt(2n + 1),
+        ``tide_system`` and ``source`` (N = 6).
+    """
+    from ..io.icgem import read_gfc
+
+    path = os.path.join(os.path.dirname(os.path.dirname(__file__)), "data", MODELS[name])
+    c = read_gfc(path, NMAX, f"zonal model {name!r}")
+    cbar = tuple(float(v) for v in c.C[2:, 0])
+    return {
+        "gm": c.gm,
+        "radius": c.radius,
+        "cbar": cbar,
+        "jn": tuple(-v * math.sqrt(2 * n + 1) for n, v in enumerate(cbar, start=2)),
+        "tide_system": c.tide_system,
+        "source": f"{c.name} (N. K. Pavlis et al., J. Geophys. Res. 117 (2012) B04406), {path}",
+    }
 
 
 #: bounds of the reference radius, m (a body's: from a boulder's to beyond a star's)
@@ -90,8 +128,8 @@ class Zonal(Effect):
         if model is not None:
             if not isinstance(model, str) or model.lower() not in MODELS:
                 raise InputError(f"{key}.model", f"unknown zonal model {model!r}; known: {', '.join(MODELS)}")
-            jn = list(MODELS[model.lower()]["jn"])
-            radius = MODELS[model.lower()]["radius"]
+            shipped = zonal_model(model.lower())
+            jn, radius = list(shipped["jn"]), shipped["radius"]
         else:
             if (
                 not isinstance(given, (list, tuple))

@@ -28,7 +28,7 @@ matrix). All are ``inline="always"`` Numba kernels, callable from Python too.
   discrete gradient in the variables r and z) gives a force along ``d0 + d1`` and ``p``,
   which conserves the energy and the angular momentum about the pole;
   :func:`~.zonal.zonal_potential`, :func:`~.zonal.zonal_force`,
-  :func:`~.zonal.zonal_jacobian`, and the shipped coefficients :data:`~.zonal.MODELS`.
+  :func:`~.zonal.zonal_jacobian`.
 
 References: J. C. Simo, N. Tarnow, ZAMP 43 (1992) 757-792; D. Greenspan, J. Comput. Phys.
 56 (1984) 28-41; O. Gonzalez, J. Nonlinear Sci. 6 (1996) 449-467; T. Itoh, K. Abe,
@@ -38,7 +38,7 @@ J. Comput. Phys. 76 (1988) 85-102.
 from __future__ import annotations
 
 from .central import central_force, central_jacobian, central_potential
-from .zonal import MODELS, zonal_force, zonal_jacobian, zonal_potential
+from .zonal import zonal_force, zonal_jacobian, zonal_potential
 
 __all__ = [
     "central_potential",
@@ -47,5 +47,4 @@ __all__ = [
     "zonal_potential",
     "zonal_force",
     "zonal_jacobian",
-    "MODELS",
 ]

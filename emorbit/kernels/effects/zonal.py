@@ -30,8 +30,8 @@ dz1/dx1 = p, u = (d0 + d1) / (r0 + r1))::
 with the r1- and z1-derivatives of df and dg from the same recurrences as the sums.
 
 Data layout: components as float64 scalars, ``jn`` a float64 array (J2, J3, ... up to J6;
-length 1..5), ``J`` a (3, 3) float64 array the Jacobian is added into. :data:`MODELS`
-holds shipped coefficients (plain Python). References: T. Itoh, K. Abe, J. Comput. Phys.
+length 1..5), ``J`` a (3, 3) float64 array the Jacobian is added into (the shipped
+coefficients: :func:`emorbit.effects.zonal.zonal_model`). References: T. Itoh, K. Abe, J. Comput. Phys.
 76 (1988) 85-102; O. Gonzalez, J. Nonlinear Sci. 6 (1996) 449-467; N. K. Pavlis et al.,
 J. Geophys. Res. 117 (2012) B04406 (EGM2008).
 """
@@ -51,7 +51,6 @@ __all__ = [
     "zonal_sums",
     "zonal_piece",
     "zonal_potential_piece",
-    "MODELS",
     "NMAX",
 ]
 
@@ -72,26 +71,6 @@ _LEGENDRE = np.array(
         [-5.0 / 16.0, 0.0, 105.0 / 16.0, 0.0, -315.0 / 16.0, 0.0, 231.0 / 16.0],
     ]
 )
-
-
-def _earth() -> dict:
-    """EGM2008 (tide-free), NGA; Pavlis et al. 2012: normalized C_n0 -> J_n = -C_n0 sqrt(2n+1)."""
-    cbar = (-0.484165143790815e-3, 9.57161207093473e-7, 5.39965866638991e-7, 6.86702913736681e-8, -1.49953927978527e-7)
-    jn = tuple(-c * math.sqrt(2 * n + 1) for n, c in enumerate(cbar, start=2))
-    return {
-        "gm": 3.986004415e14,
-        "radius": 6378136.3,
-        "cbar": cbar,
-        "jn": jn,
-        "tide_system": "tide-free",
-        "source": "EGM2008 (NGA; N. K. Pavlis et al., J. Geophys. Res. 117 (2012) B04406)",
-    }
-
-
-#: shipped zonal models: ``gm`` (m^3/s^2), reference ``radius`` (m), ``cbar`` the fully
-#: normalized coefficients C_20..C_60, ``jn`` = (J2, ..., J6) with J_n = -C_n0 sqrt(2n + 1)
-#: (unnormalized zonal coefficients), ``tide_system`` and ``source``
-MODELS = {"earth": _earth()}
 
 
 @_inline
