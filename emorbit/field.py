@@ -5,10 +5,23 @@ Three ways to give its strength (exactly one):
 * ``gm``: GM itself (m^3/s^2);
 * ``g_ref`` and ``r_ref``: the acceleration at a reference distance, GM = g_ref r_ref^2
   (the paper's form);
-* ``body``: a named body whose GM comes from :mod:`astropy.constants` (see :data:`BODIES`).
+* ``body``: a named body (:data:`BODIES`, :func:`body_constants`). The Earth, the Sun and
+  Jupiter take GM and radius from :mod:`astropy.constants` (IAU 2015 nominal values); the
+  Moon and Mars from :mod:`pyshtools.constants` (pyshtools, BSD-3-Clause; the ``bodies``
+  extra, ``pip install "emorbit[bodies]"``): the Moon's GM from GRAIL (J. G. Williams et al.,
+  J. Geophys. Res. Planets 119 (2014) 1546), Mars's from A. S. Konopliv, R. S. Park,
+  W. M. Folkner, Icarus 274 (2016) 253, each with its mean radius and sidereal rate as
+  pyshtools states them.
+
+A named body also gives the rate at which its atmosphere co-rotates (drag) by default; the
+pole and the prime meridian of a turning gravity field come from the IAU WGCCRE model in a
+NAIF text kernel the user names (:mod:`emorbit.effects.gravity_field`, ``rotation = "pck"``).
 """
 
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
 
 import astropy.constants as const
 import numpy as np
@@ -16,28 +29,96 @@ import numpy as np
 from .errors import InputError
 from .units import to_si, vector_to_si
 
-__all__ = ["CentralField", "BODIES", "RADII", "ROTATION_RATES"]
+__all__ = ["CentralField", "BODIES", "NamedBody", "body_constants"]
 
 BODIES = {
-    "earth": const.GM_earth,
-    "sun": const.GM_sun,
-    "jupiter": const.GM_jup,
+    "earth": "astropy.constants: GM_earth, R_earth (IAU 2015 nominal); the IERS 2010 mean rotation rate",
+    "sun": "astropy.constants: GM_sun, R_sun (IAU 2015 nominal); the Carrington rate (25.38 days)",
+    "jupiter": "astropy.constants: GM_jup, R_jup (IAU 2015 nominal); System III (9 h 55 min 29.711 s)",
+    "moon": "pyshtools.constants.Moon: gm (GRAIL, Williams et al. 2014), mean_radius, angular_velocity",
+    "mars": "pyshtools.constants.Mars: gm (Konopliv et al. 2016), mean_radius, angular_velocity",
 }
-"""The named central bodies and the astropy constant that gives their GM (IAU 2015 nominal)."""
-RADII = {
-    "earth": const.R_earth,
-    "sun": const.R_sun,
-    "jupiter": const.R_jup,
+"""The named central bodies and where their constants come from."""
+
+#: astropy's bodies: GM and radius constants, and the sidereal rotation rate (rad/s): the
+#: Earth's mean angular velocity (IERS Conventions 2010), the Sun's Carrington rate,
+#: Jupiter's System III
+_ASTROPY = {
+    "earth": (const.GM_earth, const.R_earth, 7.292115e-5),
+    "sun": (const.GM_sun, const.R_sun, 2.0 * math.pi / (25.38 * 86400.0)),
+    "jupiter": (const.GM_jup, const.R_jup, 2.0 * math.pi / (9.0 * 3600.0 + 55.0 * 60.0 + 29.711)),
 }
-"""Their nominal equatorial radii (IAU 2015): a named field's default collision radius."""
-ROTATION_RATES = {
-    "earth": 7.292115e-5,
-    "sun": 2.0 * np.pi / (25.38 * 86400.0),
-    "jupiter": 2.0 * np.pi / (9.0 * 3600.0 + 55.0 * 60.0 + 29.711),
-}
-"""Their sidereal rotation rates, rad/s: the Earth's mean angular velocity (IERS Conventions
-2010), the Sun's Carrington rate (25.38 days), Jupiter's System III (9 h 55 min 29.711 s);
-a named field's atmosphere co-rotates at this rate by default."""
+#: pyshtools's bodies: the module of :mod:`pyshtools.constants` that holds them
+_PYSHTOOLS = {"moon": "Moon", "mars": "Mars"}
+
+
+@dataclass(frozen=True)
+class NamedBody:
+    """A named central body's constants, SI.
+
+    Attributes
+    ----------
+    name : str
+        The body (lower case).
+    gm : float
+        GM, m^3/s^2.
+    radius : float
+        The collision radius a field of this body takes by default, m (the nominal equatorial
+        radius for astropy's bodies, the mean radius for pyshtools's).
+    rate : float
+        The sidereal rotation rate, rad/s (drag's co-rotating atmosphere by default).
+    source : str
+        Where the values come from.
+    """
+
+    name: str
+    gm: float
+    radius: float
+    rate: float
+    source: str
+
+
+def body_constants(name, key: str = "field.body") -> NamedBody:
+    """A named body's GM, radius and rotation rate.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`BODIES`, any case.
+    key : str
+        The key that named it, for errors.
+
+    Returns
+    -------
+    NamedBody
+
+    Raises
+    ------
+    InputError
+        An unknown name, or the Moon or Mars without pyshtools installed.
+    """
+    lower = name.strip().lower() if isinstance(name, str) else None
+    if lower not in BODIES:
+        raise InputError(key, f"unknown body {name!r}; known: {', '.join(sorted(BODIES))}")
+    if lower in _ASTROPY:
+        gm, radius, rate = _ASTROPY[lower]
+        return NamedBody(lower, float(gm.si.value), float(radius.si.value), rate, BODIES[lower])
+    try:
+        import pyshtools.constants as shc
+    except ImportError:
+        raise InputError(
+            key,
+            f"body = {name!r} takes GM and radius from pyshtools, which is not installed: "
+            'pip install "emorbit[bodies]" (or give gm and radius)',
+        ) from None
+    body = getattr(shc, _PYSHTOOLS[lower])
+    return NamedBody(
+        lower,
+        float(body.gm.value),
+        float(body.mean_radius.value),
+        float(body.angular_velocity.value),
+        BODIES[lower],
+    )
 
 
 class CentralField:
@@ -55,14 +136,14 @@ class CentralField:
     r_ref : Quantity, str or float, optional
         The distance at which ``g_ref`` is given, m.
     body : str, optional
-        ``"earth"``, ``"sun"`` or ``"jupiter"``: GM from :mod:`astropy.constants`
-        (:data:`BODIES`).
+        ``"earth"``, ``"sun"``, ``"jupiter"``, ``"moon"`` or ``"mars"``: GM from
+        :func:`body_constants` (:data:`BODIES` says where each comes from).
     center : Quantity or sequence, optional
         Position of the centre, m (default: the origin).
     radius : Quantity, str or float, optional
         The central body's radius, m: a body whose recorded position comes closer stops
         the run with an :class:`~emorbit.errors.IntegrationError` (default: the nominal
-        radius of a named body, :data:`RADII`, else 0: no check).
+        radius of a named body, :func:`body_constants`, else 0: no check).
     strict : bool
         Require units on every value (scenes do).
     key : str
@@ -78,6 +159,8 @@ class CentralField:
         The collision radius, m (0: none).
     body : str or None
         The named body, if the field was given by name.
+    rate : float or None
+        The named body's sidereal rotation rate, rad/s (None for a field given by GM).
 
     Raises
     ------
@@ -104,7 +187,7 @@ class CentralField:
         if len(given) != 1:
             what = "none" if not given else " and ".join(given)
             raise InputError(key, f"give exactly one of gm, (g_ref and r_ref) or body; got {what}")
-        self.body = None
+        self.body, self.rate, named = None, None, None
         if gm is not None:
             self.gm = to_si(gm, "gm", f"{key}.gm", strict=strict, positive=True)
         elif g_ref is not None:
@@ -114,15 +197,13 @@ class CentralField:
             r = to_si(r_ref, "length", f"{key}.r_ref", strict=strict, positive=True)
             self.gm = g * r * r
         else:
-            if not isinstance(body, str) or body.lower() not in BODIES:
-                raise InputError(f"{key}.body", f"unknown body {body!r}; known: {', '.join(sorted(BODIES))}")
-            self.body = body.lower()
-            self.gm = float(BODIES[self.body].si.value)
+            named = body_constants(body, f"{key}.body")
+            self.body, self.gm, self.rate = named.name, named.gm, named.rate
         self.center = vector_to_si(center, "length", f"{key}.center", strict=strict)
         if radius is not None:
             self.radius = to_si(radius, "length", f"{key}.radius", strict=strict, nonnegative=True)
         else:
-            self.radius = float(RADII[self.body].si.value) if self.body else 0.0
+            self.radius = named.radius if named else 0.0
 
     def __repr__(self) -> str:
         src = f"body={self.body!r}" if self.body else f"gm={self.gm!r}"

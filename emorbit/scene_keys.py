@@ -82,7 +82,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
             "the acceleration at distance r_ref: GM = g_ref r_ref^2 (needs r_ref)"),
         Key("r_ref", False, _LENGTH, "", "> 0", "the distance at which the acceleration is g_ref (needs g_ref)"),
         Key("body", False, "string", "", _choices(sorted(BODIES)) + " (any case)",
-            "a named central body: GM from astropy.constants (IAU 2015 nominal values)"),
+            "a named central body: GM, radius and rate from astropy.constants (earth, sun, jupiter) "
+            "or pyshtools (moon, mars; the bodies extra)"),
         Key("center", False, _LENGTHS, '["0 m", "0 m", "0 m"]', _ANY, "the central mass's position"),
         Key("radius", False, _LENGTH, "a named body's nominal equatorial radius, else 0", ">= 0",
             "a body recorded closer to the centre than this stops the run with an error"),

@@ -162,7 +162,9 @@ def build(table: dict, field, key: str, bodies=None, strict: bool = False, folde
     strict : bool
         Require units on every dimensional value (scenes do).
     folder : str
-        The folder a relative ``file`` is found in (the scene's).
+        The folder a relative ``file``, and a relative path in the effect's
+        :attr:`~emorbit.effects.base.Effect.PATH_KEYS` where a file of that name is there, is
+        found in (the scene's).
 
     Returns
     -------
@@ -195,6 +197,11 @@ def build(table: dict, field, key: str, bodies=None, strict: bool = False, folde
             )
     if cls.NEEDS_FIELD and field is None:
         raise InputError(key, f"{kind} needs a central body: the scene needs a [field]")
+    for name in cls.PATH_KEYS:
+        value = table.get(name)
+        if folder and isinstance(value, str) and not os.path.isabs(value):
+            if os.path.isfile(os.path.join(folder, value)):
+                table[name] = os.path.join(folder, value)
     effect = cls.from_table(table, BuildContext(field, key, bodies, strict))
     effect.key = key
     return effect

@@ -206,6 +206,9 @@ class Effect:
     SAME_KEY: ClassVar[str] = ""
     #: whether it belongs to a central field (a scene in free space may not name it)
     NEEDS_FIELD: ClassVar[bool] = False
+    #: its keys that name files: a relative path is found in the scene's folder where a file
+    #: of that name is there
+    PATH_KEYS: ClassVar[tuple[str, ...]] = ()
     #: whether its force is a function of position (and time) alone: leapfrog may kick with it
     EXPLICIT: ClassVar[bool] = True
     #: its pieces

@@ -72,7 +72,7 @@ _KEYS = (
     Key("ap", False, "number", "", "0 to 400; nrlmsis only, required there", "the daily geomagnetic index Ap"),
     Key("msis_version", False, "number", "2.1", "0 (NRLMSISE-00), 2.0, 2.1; nrlmsis only", "the NRLMSIS version"),
     Key("rotation_rate", False, "angular speed (rad / s)",
-        "the named central body's (emorbit.field.ROTATION_RATES), else the Earth's 7.292115e-5 rad / s", ">= 0",
+        "the named central body's (emorbit.field.body_constants), else the Earth's 7.292115e-5 rad / s", ">= 0",
         "the atmosphere co-rotates with the central body at this rate about pole"),
     Key("pole", False, "3 numbers", "[0, 0, 1]", "a vector other than 0 (normalised)",
         "the axis of the atmosphere's rotation, in the scene's axes"),
@@ -181,9 +181,7 @@ class Drag(Effect):
         if not field.radius > 0.0:
             raise InputError(key, "drag measures altitudes above the central body: the [field] needs a radius (> 0)")
         bands = _table(table, key, strict)
-        from ..field import ROTATION_RATES
-
-        rate = ROTATION_RATES.get((field.body or "").lower(), EARTH_ROTATION)
+        rate = EARTH_ROTATION if field.rate is None else field.rate
         if "rotation_rate" in table:
             rate = to_si(
                 table["rotation_rate"], "angular_speed", f"{key}.rotation_rate", strict=strict, nonnegative=True

@@ -88,7 +88,8 @@ _KEYS = (
         "the body's spin axis, in the scene's axes"),
     Key("pck", False, "string", "", 'the path of a NAIF text PCK (pck00011.tpc); with rotation = "pck"',
         "the kernel whose IAU rotation model turns the body"),
-    Key("body", False, "string or integer", "", 'a NAIF id (301, 499) or "moon", "mars", ...; with rotation = "pck"',
+    Key("body", False, "string or integer", "the [field]'s named body",
+        'a NAIF id (301, 499) or "moon", "mars", ...; with rotation = "pck"',
         "the body in the kernel"),
 )  # fmt: skip
 
@@ -167,6 +168,7 @@ class GravityField(Effect):
     ACTS = {"point": AT_POINTS, "rigid": AT_POINTS, "elastic": AT_POINTS}
     CONSERVES: tuple[str, ...] = ()
     NEEDS_FIELD = True
+    PATH_KEYS = ("gfc", "pck")
     PIECES = Pieces(
         "emorbit.kernels.effects.gravity_field",
         force="gravity_field_piece",
@@ -269,7 +271,7 @@ class GravityField(Effect):
             for extra in ("rate", "angle", "pole"):
                 if extra in table:
                     raise InputError(f"{key}.{extra}", 'rotation = "pck" takes the rotation from the kernel')
-            kernel = cls._kernel(table, key)
+            kernel = cls._kernel(table, key, field)
             rate, angle = 0.0, None
         elif rotation in ("earth", "itrs"):
             for extra in ("rate", "angle") + (("pole",) if rotation == "itrs" else ()):
@@ -317,19 +319,20 @@ class GravityField(Effect):
         return effect
 
     @staticmethod
-    def _kernel(table, key):
-        """rotation = "pck": the kernel's values and the body's NAIF id."""
+    def _kernel(table, key, field):
+        """rotation = "pck": the kernel's values and the body's NAIF id (``body``, else the
+        [field]'s named body)."""
         from ..io.pck import NAIF_IDS, read_pck
 
         if "pck" not in table:
             raise InputError(f"{key}.pck", 'rotation = "pck" needs the path of a NAIF text kernel (pck00011.tpc)')
-        body = table.get("body")
+        body = table.get("body", field.body)
         if isinstance(body, str) and body.strip().lower() in NAIF_IDS:
             body = NAIF_IDS[body.strip().lower()]
         if isinstance(body, bool) or not isinstance(body, numbers.Integral) or not 1 <= body <= 99999:
             known = ", ".join(NAIF_IDS)
             raise InputError(
-                f"{key}.body", f"a NAIF id (e.g. 499) or one of {known} expected, got {table.get('body')!r}"
+                f"{key}.body", f"a NAIF id (e.g. 499) or one of {known} expected, got {table.get('body', field.body)!r}"
             )
         path = table["pck"]
         return read_pck(path if isinstance(path, str) else None, f"{key}.pck"), int(body)

@@ -104,6 +104,7 @@ class RadiationPressure(Effect):
     ACTS = {"point": AT_POINTS, "rigid": ON_SURFACES, "elastic": ON_SURFACES}
     CONSERVES: tuple[str, ...] = ()
     NEEDS_FIELD = True
+    PATH_KEYS = ("ephemeris",)
     PIECES = Pieces("emorbit.kernels.effects.srp", force="srp_piece", prepare="srp_prepare", facet="srp_facet")
     POTENTIAL = "none: radiation pressure does work W = sum F . (x1 - x0), recorded as invariants/work_srp"
     DISCRETE_FORCE = "F = nu P(x_m) Cr (A / m) m u(x_m), Sun at s(t_m), nu at x_m = (x0 + x1) / 2; facets: plates"

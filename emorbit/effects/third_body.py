@@ -93,6 +93,7 @@ class ThirdBody(Effect):
     MULTIPLE = True
     SAME_KEY = "body"
     NEEDS_FIELD = True
+    PATH_KEYS = ("ephemeris",)
     PIECES = Pieces(
         "emorbit.kernels.effects.third_body",
         force="third_body_piece",
