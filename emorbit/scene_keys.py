@@ -114,7 +114,7 @@ KEYS: dict[str, tuple[Key, ...]] = {
             "record the least and greatest total energy over the steps between records "
             '(invariants/energy_range), so decimated records cannot alias the energy error; "auto": for methods '
             "that do not conserve energy, when output_every > 1"),
-        Key("drift_tolerance", False, "number", "1000", "> 0 (inf: no check)",
+        Key("drift_tolerance", False, "number", "20", "> 0 (inf: no check)",
             "C of the drift bound C eps sqrt(n): a conserved invariant that drifts further from the first "
             "record, in units of its round-off scale, makes the run warn (exit 3 with emorbit run --strict)"),
         Key("epoch", False, "date and time", "none", '"2026-01-01T00:00:00 TDB" (scales TDB, TT, TAI, UTC, ...)',

@@ -137,7 +137,7 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
         How errors about the run's length and output name ``t_end``, ``dt``, ``every`` and
         ``max_output`` (as scene keys ``integrator.*`` after :meth:`emorbit.Scene.build`).
     drift_tolerance : float
-        The default C of :meth:`run`'s drift bound C eps sqrt(n), 1000 (a scene's
+        The default C of :meth:`run`'s drift bound C eps sqrt(n), 20 (a scene's
         ``integrator.drift_tolerance`` sets it).
     epoch : astropy.time.Time or None
         The run's epoch in TDB (None: none given).
@@ -350,7 +350,7 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
             what round-off explains (after the file is complete).
         drift_tolerance : float, optional
             C of that bound, C eps sqrt(n) for n implicit sub-steps (default
-            :attr:`drift_tolerance`, 1000; :mod:`emorbit.io.drift`); ``inf`` switches it off.
+            :attr:`drift_tolerance`, 20; :mod:`emorbit.io.drift`); ``inf`` switches it off.
 
         Returns
         -------

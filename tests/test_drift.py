@@ -180,3 +180,29 @@ def test_a_failed_step_says_what_failed():
     with pytest.raises(emorbit.IntegrationError, match="had not fallen to round-off .* the last was") as info:
         sim.run(steps=10)
     assert "max_newton_iterations = 2" in str(info.value) and "smaller dt" in str(info.value)
+
+
+def test_the_default_bound_reports_a_loss_of_a_close_binarys_size():
+    """At the default C (20), an energy that falls by 1.8e-12 of E0 over 1000 steps, steadily,
+    with a round-off scale S of 11 |E0| (a close binary's: C = 23 needed) is reported; a random
+    walk of 2 eps of S per step over 1e5 steps (C 3.6 at its worst) is not. At C = 1000 the
+    loss went unsaid."""
+    from emorbit.io.drift import DRIFT_TOLERANCE, DriftMonitor
+
+    assert DRIFT_TOLERANCE == 20.0
+    eps = np.finfo(float).eps
+
+    def worst(energy, tolerance=DRIFT_TOLERANCE):
+        n = len(energy)
+        monitor = DriftMonitor(tolerance, 1, [True, False, False])
+        steps = np.arange(n)
+        zeros = np.zeros((n, 3))
+        scales = np.tile([11.0, 1.0, 1.0], (n, 1))
+        monitor.update(steps * 10.0, steps, energy, zeros, zeros, scales, None, np.zeros(n))
+        return monitor.worst[0]
+
+    loss = -1.0 - 1.8e-12 * np.arange(1001) / 1000
+    assert worst(loss) is not None and worst(loss)[0] > 1.0
+    assert worst(loss, 1000.0) is None
+    walk = -1.0 + np.cumsum(np.random.default_rng(1).choice([-2.0, 2.0], 100_001)) * 11.0 * eps
+    assert worst(walk) is None

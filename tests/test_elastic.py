@@ -84,7 +84,7 @@ def test_stiff_case_em_bounded_midpoint_not():
     machine's libraries, see below); the midpoint rule
     at the same dt blows up (measured energy error 1e8 and the bar stretched to 5.5 km). At
     (omega dt)^2 = 4e9 the step amplifies round-off (docs/hard-cases.md): the energy's drift
-    sits at the round-off bound of drift_tolerance 1000 (measured from 0.9 to 1.1 times it,
+    needs a drift tolerance of about 1000 (measured from 0.9 to 1.1 times the bound at C = 1000,
     with the machine's libraries), so the run takes 1e4."""
     res = _tethered("em", k_ratio=1e6, elements=1).run(steps=10_000, every=50, drift_tolerance=1e4)
     dE = np.abs(res.relative_energy_error()).max()
