@@ -427,6 +427,63 @@ class Assembly:
             raise InputError(f"{key}.to", f"no point mass or rigid body named {to!r}")
         st.attach(elastic, idx, to)
 
+    # -- events -------------------------------------------------------------------------
+    def add_event(self, kind: str, *, body=None, value=None, direction=None, stop: bool = False, other=None,
+                  label=None, key: str | None = None, strict: bool = False):  # fmt: skip
+        """Add an event: a zero crossing of a function of the state, found after every step and
+        located to round-off in time (:mod:`emorbit.events` has the kinds and the method).
+
+        Parameters
+        ----------
+        kind : str
+            ``"radius"``, ``"altitude"`` (above the field's radius), ``"periapsis"``,
+            ``"apoapsis"``, ``"node"`` (the scene's z = 0 plane), ``"time"`` or ``"distance"``.
+        body : str, optional
+            The body whose state it reads (a rigid or elastic body's centre of mass); not for
+            ``time``.
+        value : Quantity, str or float, optional
+            The level: a length for radius, altitude and distance, a time for time (SI numbers
+            are m and s).
+        direction : str, optional
+            ``"rising"``, ``"falling"`` or ``"either"`` (default: the kind's; periapsis is
+            rising, apoapsis falling, time rising only).
+        stop : bool
+            End the run at the event (status ``stopped``).
+        other : str, optional
+            The second body of ``distance``.
+        label : str, optional
+            Its name in the log (default ``<kind>[<i>]``).
+        key : str, optional
+            Its name in errors (default ``event[<i>]``).
+        strict : bool
+            Require units on the value (scenes do).
+
+        Returns
+        -------
+        emorbit.events.Event
+
+        Raises
+        ------
+        InputError
+            A key the kind does not take or lacks, a bad value or direction, altitude in a
+            field without a radius, adaptive steps (events need fixed steps).
+        """
+        key = key or f"event[{len(self.events)}]"
+        if self.adaptive is not None:
+            raise InputError(
+                f"{key}.kind",
+                "events are found on fixed steps: this simulation has adaptive steps (integrator.adaptive)",
+            )
+        has_radius = self.field is not None and self.field.radius > 0
+        if kind in ("radius", "altitude", "periapsis", "apoapsis", "node") and self.field is None:
+            raise InputError(
+                f"{key}.kind", f"a {kind} event is measured from the field's centre: the scene needs a [field]"
+            )
+        return self.events.add(
+            kind, body=body, value=value, direction=direction, stop=stop, other=other, label=label, key=key,
+            strict=strict, has_radius=has_radius,
+        )  # fmt: skip
+
     # -- effects ------------------------------------------------------------------------
     def add_effect(self, kind: str, *, key: str | None = None, strict: bool = False, folder: str = "", **keys):
         """Add an effect beyond the central field (:mod:`emorbit.effects` lists the shipped ones

@@ -175,8 +175,8 @@ def _options_named(args):
 
 
 def _run(args) -> int:
+    from .interrupts import RunInterrupted, stop_on_signals
     from .scene import load_scene
-    from .stepping import RunInterrupted, stop_on_signals
 
     with (
         _options_named(args),
@@ -213,6 +213,10 @@ def _run(args) -> int:
             f"{args.output}: {sim.method} order {sim.order}, dt = {sim.dt:.6g} s, t = {sim.time:.6g} s, "
             f"{_run_summary(args.output)}, wall {time.perf_counter() - start:.2f} s"
         )
+    if sim.stopped_by is not None:  # said even with -q: the run ended before t_end
+        print(f"{args.output}: stopped at t = {sim.time!r} s by {sim.stopped_by.describe()}")
+    if sim.events.log and not args.quiet:
+        print(f"{args.output}: {len(sim.events.log)} events (events/ in the file)")
     return 0
 
 
@@ -289,8 +293,8 @@ def summary_text(energy, energy_range, balance, stalled: int, split: int) -> str
 
 
 def _resume(args) -> int:
+    from .interrupts import stop_on_signals
     from .io.resume import resume
-    from .stepping import stop_on_signals
 
     start = time.perf_counter()
     with _options_named(args), stop_on_signals(), _warnings_on_stderr():

@@ -104,6 +104,10 @@ class ResultSI:
     energy_balance : ndarray or None
         (n,) ``E - E0 - sum W``, J, under effects that do work (an em step keeps it at
         round-off); None for conservative scenes.
+    events : list of dict
+        The events found (:mod:`emorbit.events`), in time order: ``label``, ``kind``,
+        ``body``, ``time`` (s), ``step``, ``position`` (3,) m and ``velocity`` (3,) m/s of the
+        body at the event (NaN for a time event).
     """
 
     time: np.ndarray
@@ -127,6 +131,7 @@ class ResultSI:
     energy_range: np.ndarray | None = None
     work: dict = field(default_factory=dict)
     energy_balance: np.ndarray | None = None
+    events: list = field(default_factory=list)
 
     def __post_init__(self) -> None:
         n = len(self.time)
@@ -338,6 +343,7 @@ class Result:
         energy_range=None,
         work=None,
         energy_balance=None,
+        events=None,
     ) -> None:
         self._si = ResultSI(
             time=time,
@@ -361,6 +367,7 @@ class Result:
             energy_range=energy_range,
             work={} if work is None else dict(work),
             energy_balance=energy_balance,
+            events=[] if events is None else list(events),
         )
 
     def __repr__(self) -> str:
@@ -540,6 +547,26 @@ class Result:
         """{effect label: (n,) J} the work of each effect that does work (drag) since the run's
         start; empty for conservative scenes."""
         return {k: _with_unit(w, u.J) for k, w in self._si.work.items()}
+
+    @property
+    def events(self):
+        """The events found, one row each in time order: an astropy QTable with ``label``,
+        ``kind``, ``body``, ``time`` (s), ``step`` and the body's ``position`` (m) and
+        ``velocity`` (m/s) at the event (NaN for a time event); empty when there were none."""
+        from astropy.table import QTable
+
+        rows = self._si.events
+        return QTable(
+            {
+                "label": [e["label"] for e in rows],
+                "kind": [e["kind"] for e in rows],
+                "body": [e["body"] for e in rows],
+                "time": np.array([e["time"] for e in rows], float) * u.s,
+                "step": np.array([e["step"] for e in rows], np.int64),
+                "position": np.array([e["position"] for e in rows], float).reshape(-1, 3) * u.m,
+                "velocity": np.array([e["velocity"] for e in rows], float).reshape(-1, 3) * (u.m / u.s),
+            }
+        )
 
     @property
     def energy_balance(self) -> u.Quantity | None:

@@ -384,6 +384,7 @@ class Scene:
                     key=where,
                     **shape_params,
                 )
+        _add_events(sim, d.get("event", []))
         couplings = d.get("coupling", [])
         if not isinstance(couplings, list):
             raise InputError("coupling", "expected [[coupling]] tables")
@@ -457,6 +458,16 @@ def _add_effects(sim: Simulation, tables, folder: str) -> None:
     for i, table in enumerate(tables):
         keys = {k: v for k, v in table.items() if k != "kind"}
         sim.add_effect(table.get("kind"), key=f"effect[{i}]", strict=True, folder=folder, **keys)
+
+
+def _add_events(sim: Simulation, tables) -> None:
+    """The scene's [[event]] tables (their bodies are checked when the run starts)."""
+    if not isinstance(tables, list) or not all(isinstance(t, dict) for t in tables):
+        raise InputError("event", f"[[event]] tables expected, got {tables!r}")
+    for i, table in enumerate(tables):
+        _check_keys(table, "event", f"event[{i}]")
+        keys = {k: v for k, v in table.items() if k != "kind"}
+        sim.add_event(table.get("kind"), key=f"event[{i}]", strict=True, **keys)
 
 
 def _check_couplings(sim: Simulation, couplings: list) -> None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from .bodies.facets import FACET_KEYS
 from .effects import EFFECTS, effect_kinds
+from .events import KINDS as _EVENT_KINDS
 from .field import BODIES
 from .integrators import METHODS, ORDERS, ROUNDOFF
 from .integrators.plan import MAX_NEWTON_ITERATIONS
@@ -63,6 +64,8 @@ _ATTITUDE = (
 )
 _GRAVITY_DEFAULT = '"volume" with a [field], else "none"'
 
+EVENT_KINDS = tuple(_EVENT_KINDS)
+
 #: Every key of every scene table, in the order the parser lists them: ``""`` is the top
 #: level, ``"body.<kind>"`` a ``[[body]]`` table of that kind.
 KEYS: dict[str, tuple[Key, ...]] = {
@@ -72,6 +75,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("body", True, "array of tables", "", "one or more [[body]] tables", "the bodies"),
         Key("coupling", False, "array of tables", "none", "[[coupling]] tables",
             "nodes of elastic bodies attached to other bodies"),
+        Key("event", False, "array of tables", "none: the run ends at t_end", "[[event]] tables",
+            "zero crossings found after every step, located to round-off in time, logged, or ending the run"),
         Key("effect", False, "array of tables", "none: the central field alone", "[[effect]] tables",
             "effects beyond the central field (docs/effects.md)"),
     ),
@@ -220,6 +225,20 @@ KEYS: dict[str, tuple[Key, ...]] = {
             "the mean anomaly (Kepler's equation gives the true anomaly); not with nu"),
     ),
     "facet": FACET_KEYS,
+    "event": (
+        Key("kind", True, "string", "", _choices(EVENT_KINDS),
+            "what crosses zero: |x - c| - value, the altitude above the field's radius less value, (x - c) . v, "
+            "the z coordinate of x - c, t - value, or the distance to other less value"),
+        Key("body", False, "string", "", "the name of a body; not for time",
+            "the body whose state it reads (a rigid or elastic body's centre of mass)"),
+        Key("value", False, "length (m), or time (s) for time", "", "finite; radius, altitude, distance and time only",
+            "the level"),
+        Key("direction", False, "string", "the kind's: rising for periapsis and time, falling for apoapsis, else "
+            "either", _choices(("rising", "falling", "either")), "the crossings that count"),
+        Key("stop", False, "boolean", "false", "true or false", "end the run at the event (status stopped)"),
+        Key("other", False, "string", "", "the name of a body; distance only", "the second body"),
+        Key("label", False, "string", '"<kind>[<i>]"', "a name without /", "its name in the log"),
+    ),
     "coupling": (
         Key("kind", True, "string", "", _choices(COUPLING_KINDS), "the kind of coupling"),
         Key("elastic", True, "string", "", "the name of an elastic body", "the body whose nodes are attached"),

@@ -26,6 +26,7 @@ from .bodies.system import check_body_name, check_output
 from .effects.effectset import EffectSet
 from .epochs import to_epoch
 from .errors import InputError
+from .events import EventSet
 from .field import CentralField
 from .integrators import METHODS, check_device
 from .integrators.dispatch import require_device
@@ -172,6 +173,7 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
         self._dt = to_si(dt, "time", "dt", positive=True)
         self.plan = Plan(method, order, roundoff, "cpu", adaptive, max_newton_iterations, newton)
         self.effects = EffectSet(field)
+        self.events = EventSet()
         self.points = PointMasses(self.plan)
         self.points.effects = EffectBinding(self.effects, "point")
         self.rigid = None  # created on the first rigid body, so point-mass runs never import it
@@ -372,7 +374,7 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
         KeyboardInterrupt
             Ctrl-C (SIGINT) or SIGTERM stops the run at the end of the chunk in progress:
             the records so far and the final state are written and the file is marked
-            "interrupted" (the exception is a :class:`~emorbit.stepping.RunInterrupted`
+            "interrupted" (the exception is a :class:`~emorbit.interrupts.RunInterrupted`
             naming the signal).
         """
         if not self.systems:

@@ -15,10 +15,13 @@ A step that fails (Newton does not converge) is redone from the chunk's snapshot
 angular momentum stay conserved, and the record that closes the interval counts it in
 ``diagnostics/split_steps``. A step that fails even then stops the run with a message that
 says what failed (:func:`emorbit.bodies.system.newton_failure`). SIGINT and SIGTERM stop the
-run at the end of the chunk in progress (:func:`stop_on_signals`). Whatever ends the run
-(its end, a failure, a signal), the output file gets the final state, a checkpoint where
-the state is on the record grid, and the matching status: "completed", "failed" or
-"interrupted".
+run at the end of the chunk in progress (:func:`emorbit.interrupts.stop_on_signals`). Where
+the run has events (:mod:`emorbit.events`), each chunk's steps are recorded one by one and
+handed to an :class:`~emorbit.event_run.EventRun`, which finds, locates and logs their
+crossings without changing the run's states; a stopping event ends the run at its state.
+Whatever ends the run (its end, a stopping event, a failure, a signal), the output file gets
+the final state, a checkpoint where the state is on the record grid, and the matching
+status: "completed", "stopped", "failed" or "interrupted".
 
 With ``energy_range`` on (by default for the methods that do not conserve energy, where
 ``output_every`` > 1), every record also gets the least and the greatest total energy over
@@ -36,12 +39,10 @@ a :class:`~emorbit.errors.RoundoffWarning`, or with ``strict`` a
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import json
 import numbers
 import signal
-import threading
 import time as _time
 import warnings
 
@@ -50,7 +51,9 @@ import numpy as np
 from .bodies.system import newton_failure
 from .epochs import epoch_text
 from .errors import InputError, IntegrationError, RoundoffError, RoundoffWarning
+from .event_run import EventRun
 from .integrators import coefficients, get_method
+from .interrupts import RunInterrupted, StopRequest, stop_on_signals
 from .io.drift import (
     DRIFT_TOLERANCE,
     STATE,
@@ -73,8 +76,6 @@ __all__ = [
     "CHECKPOINT_SECONDS",
     "CHUNK_BYTES",
     "RunInterrupted",
-    "StopRequest",
-    "stop_on_signals",
 ]
 
 #: the wall time a chunk of steps aims at, s (chunks grow at most 4-fold from one to the next)
@@ -87,84 +88,6 @@ CHUNK_BYTES = 128 * 2**20
 RANGE_BYTES = 32 * 2**20
 #: what ``energy_range`` may be set to
 RANGE_CHOICES = ("auto", True, False)
-#: the signals that stop a run cleanly
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
-
-
-class RunInterrupted(KeyboardInterrupt):
-    """A run stopped by SIGINT or SIGTERM after writing its records, final state and checkpoint.
-
-    Parameters
-    ----------
-    signum : int
-        The signal; ``emorbit`` exits with 128 + signum (130 for SIGINT, 143 for SIGTERM).
-
-    Attributes
-    ----------
-    signum : int
-        As given.
-    """
-
-    def __init__(self, signum: int):
-        self.signum = int(signum)
-        super().__init__(f"interrupted by {signal.Signals(self.signum).name}")
-
-
-class StopRequest:
-    """A signal handler that records the first SIGINT or SIGTERM instead of ending the process.
-
-    Attributes
-    ----------
-    signum : int or None
-        The first signal received, or None.
-    """
-
-    def __init__(self):
-        self.signum: int | None = None
-
-    def __call__(self, signum, frame) -> None:
-        if self.signum is None:
-            self.signum = int(signum)
-
-    def is_set(self) -> bool:
-        """Whether a stop was asked for.
-
-        Returns
-        -------
-        bool
-            True after SIGINT or SIGTERM.
-        """
-        return self.signum is not None
-
-
-@contextlib.contextmanager
-def stop_on_signals():
-    """Within the block, SIGINT and SIGTERM set a :class:`StopRequest` and the process goes on.
-
-    In the main thread the handlers are installed for the block and the previous ones put
-    back after it; where a :class:`StopRequest` is installed already (``emorbit run`` installs
-    one before it builds the scene), that one is used, so a signal that came earlier counts.
-    Outside the main thread no handler can be installed and the request is never set.
-
-    Yields
-    ------
-    StopRequest
-        The request the handlers set.
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield StopRequest()
-        return
-    current = signal.getsignal(signal.SIGINT)
-    if isinstance(current, StopRequest) and signal.getsignal(signal.SIGTERM) is current:
-        yield current
-        return
-    request = StopRequest()
-    previous = {sig: signal.signal(sig, request) for sig in STOP_SIGNALS}
-    try:
-        yield request
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
 
 
 class _Pace:
@@ -365,6 +288,7 @@ class ChunkDriver:
             (self._dt, "fixed steps") if self.adaptive is None else (every * self._dt, "adaptive steps' records")
         )
         self.effects.check_landings(self.time, self.time + n_steps * self._dt, grid, what)
+        self.events.check_bodies(self.names)
         self._start_drift(tolerance)
         writer = None
         if output is not None:
@@ -397,6 +321,8 @@ class ChunkDriver:
         cannot cut the final writes short; a run they stop raises :class:`RunInterrupted`
         after its file is closed.
         """
+        self._ev = EventRun(self)
+        self._ev.start()
         with stop_on_signals() as stop:
             signum = None
             try:
@@ -404,7 +330,7 @@ class ChunkDriver:
                     done = self._advance(n_steps, every, sink, progress, cp, stop)
                 except KeyboardInterrupt as exc:  # raised by a handler other than ours
                     done, stop.signum = -1, getattr(exc, "signum", signal.SIGINT)
-                if done < n_steps:
+                if done < n_steps and (self.stopped_by is None or done < 0):
                     signum = stop.signum or signal.SIGINT
                 if writer is not None:
                     self._write_end(writer, sink, every)
@@ -420,7 +346,10 @@ class ChunkDriver:
                     writer.file.attrs["warning"] = report
                 elif "warning" in writer.file.attrs:  # a resumed file whose drift was cut off
                     del writer.file.attrs["warning"]
-                if signum is None:
+                if signum is None and self.stopped_by is not None:
+                    writer.file.attrs["stopped_by"] = self.stopped_by.describe()
+                    writer.close("stopped")
+                elif signum is None:
                     writer.close("completed")
                 else:
                     name = signal.Signals(signum).name
@@ -491,17 +420,28 @@ class ChunkDriver:
             m = min(pace.steps, k - taken)
             snapshots = [s.snapshot() for s in self.systems]
             start = _time.monotonic()
-            got = self._advance_ranged(gammas, m, 1, snapshots) if ranging and m > 1 else None
+            before = self._ev.mark()
+            got = self._advance_ranged(gammas, m, 1, snapshots) if (ranging or self.events) and m > 1 else None
             recs, span = got if got is not None else (self._advance_all(gammas, m, 1), None)
             failures = [(f, j) for j, (s, r) in enumerate(recs) if (f := r.first_failure()) is not None]
-            if failures:
+            if m == 1 and got is None and not failures:
+                self._ev.scan(recs, 1, self._steps)
+            halt = self._ev.first_stop(min(failures)[0][0] if failures else None)
+            if failures or halt is not None:
                 if acc is not None:  # the parts before: their stalls and energies count in the next record
                     sink.stalled_pending += _stalled(acc)
                 sink.widen([lo, hi] if lo <= hi else [])
-                return taken + self._recover(recs, snapshots, min(failures), k - taken, every, gammas, sink, origin)
+                if halt is not None:
+                    return taken + self._ev.stop_at(halt, snapshots, k, gammas, sink)
+                self._ev.log_crossings(snapshots, self._steps, gammas, sink)  # those before the failure
+                self._ev.reset(before)
+                taken += self._recover(recs, snapshots, min(failures), k - taken, every, gammas, sink, origin)
+                self._ev.restart()
+                return taken
+            self._ev.log_crossings(snapshots, self._steps, gammas, sink)
             pace.measured_steps(m, _time.monotonic() - start)
             if ranging:
-                e = span[0] if span is not None else self._energies(recs, 1)
+                e = span[0] if span is not None and self._ranges_energy() else self._energies(recs, 1)
                 lo, hi = min(lo, np.min(e)), max(hi, np.max(e))
             acc = recs if acc is None else [(s, _every_kth(r, 2, 1)) for s, r in _stacked([acc, recs])]
             taken += m
@@ -531,7 +471,10 @@ class ChunkDriver:
             for m in (n * k,) if k <= per else (min(per, k - t) for t in range(0, k, per)):
                 recs = self._advance_all(gammas, 1, m, n0 + taken)
                 taken += m
-                if any(rec.first_failure() is not None for _, rec in recs):
+                failed = [f[0] for _, rec in recs if (f := rec.first_failure()) is not None]
+                if self._ev is not None:  # the steps before a failure
+                    self._ev.scan(recs, min(failed, default=m), n0 + taken - m)
+                if failed:
                     for s, snap in zip(self.systems, snapshots):
                         s.restore(snap)
                     return None
@@ -597,12 +540,25 @@ class ChunkDriver:
                     taken = self._advance_long(gammas, k, every, sink, origin, pace, stop)
                     done += taken
                     bar.update(taken)
+                    if self.stopped_by is not None:
+                        break
                 else:
                     start = _time.monotonic()
                     snapshots = [s.snapshot() for s in self.systems]
-                    got = self._advance_ranged(gammas, k, nrec, snapshots) if k > 1 and self._ranges_energy() else None
+                    before = self._ev.mark()
+                    scanned = k > 1 and (self._ranges_energy() or bool(self.events))
+                    got = self._advance_ranged(gammas, k, nrec, snapshots) if scanned else None
                     recs, span = got if got is not None else (self._advance_all(gammas, k, nrec), None)
+                    span = span if self._ranges_energy() else None
                     failures = [(f, j) for j, (s, r) in enumerate(recs) if (f := r.first_failure()) is not None]
+                    if k == 1 and got is None:
+                        self._ev.scan(recs, min(failures)[0][0] if failures else nrec, self._steps)
+                    halt = self._ev.first_stop(min(failures)[0][0] if failures else None)
+                    if halt is not None:
+                        taken = self._ev.stop_at(halt, snapshots, k, gammas, sink)
+                        done += taken
+                        bar.update(taken)
+                        break
                     if not failures:
                         try:
                             sink.emit(recs, self._steps + k * (np.arange(nrec) + 1), nrec, k, span)
@@ -610,13 +566,17 @@ class ChunkDriver:
                             failures = [((exc.row * k, 0, STATUS_UNSOLVED), 0)]
                             self._refused = exc
                     if not failures:
+                        self._ev.log_crossings(snapshots, self._steps, gammas, sink)
                         self._steps += k * nrec
                         done += k * nrec
                         bar.update(k * nrec)
                         if k == every:
                             pace.measured(nrec, _time.monotonic() - start, k * nrec)
                     else:
+                        self._ev.log_crossings(snapshots, self._steps, gammas, sink)  # those before the failure
+                        self._ev.reset(before)
                         taken = self._recover(recs, snapshots, min(failures), k, every, gammas, sink, origin)
+                        self._ev.restart()
                         done += taken
                         bar.update(taken)
                 since = self._steps - origin
@@ -634,15 +594,14 @@ class ChunkDriver:
     #: a failing step is retried as 2, 4, ... 2**MAX_SPLIT sub-steps before the run stops
     MAX_SPLIT = 4
 
-    def _recover(self, recs, snapshots, failure, k, every, gammas, sink, origin) -> int:
-        """A step failed: keep the records before it, bring every body to its start (re-running
-        from the chunk's snapshots; the kernels are deterministic), then redo that one step in
-        2, 4, ... 2**MAX_SPLIT sub-steps (each an ordinary step: exact conservation is kept).
-        Returns the steps taken; raises IntegrationError if every split fails."""
-        (step, index, status), j = failure
-        good, rest = divmod(step, k)
+    def _replay(self, snapshots, steps: int, k: int, gammas, sink):
+        """Put every system back to ``snapshots`` (a chunk's start) and take its first ``steps``
+        steps again (the kernels are deterministic): the records on the grid of ``k`` are
+        emitted, the steps after the last of them count in the next record. Returns None, or
+        (the UnsolvedStep an emitted record met, its chunk's records)."""
         for s, snap in zip(self.systems, snapshots):
             s.restore(snap)
+        good, rest = divmod(steps, k)
         ranging = self._ranges_energy()
         n0 = self._steps
         for n, each in ((good, k), (1 if rest else 0, rest)):  # the records before it, then the rest
@@ -656,14 +615,25 @@ class ChunkDriver:
             if each == k:
                 try:
                     sink.emit(again, self._steps + k * (np.arange(n) + 1), n, k, span)
-                except UnsolvedStep as exc:  # an earlier step was not solved: redo from that one
-                    self._refused = exc
-                    earlier = ((exc.row * k, 0, STATUS_UNSOLVED), 0)
-                    return self._recover(again, snapshots, earlier, k, every, gammas, sink, origin)
+                except UnsolvedStep as exc:
+                    return exc, again
             else:
                 sink.stalled_pending += _stalled(again)
                 if ranging:
                     sink.widen(span if span is not None else self._energies(again, 1))
+        return None
+
+    def _recover(self, recs, snapshots, failure, k, every, gammas, sink, origin) -> int:
+        """A step failed: keep the records before it, bring every body to its start (re-running
+        from the chunk's snapshots; the kernels are deterministic), then redo that one step in
+        2, 4, ... 2**MAX_SPLIT sub-steps (each an ordinary step: exact conservation is kept).
+        Returns the steps taken; raises IntegrationError if every split fails."""
+        (step, index, status), j = failure
+        refused = self._replay(snapshots, step, k, gammas, sink)
+        if refused is not None:  # an earlier step was not solved: redo from that one
+            self._refused, again = refused
+            earlier = ((self._refused.row * k, 0, STATUS_UNSOLVED), 0)
+            return self._recover(again, snapshots, earlier, k, every, gammas, sink, origin)
         self._steps += step
         start = [s.snapshot() for s in self.systems]
         gate = self._drift is not None and self._drift.gate
@@ -721,6 +691,11 @@ class ChunkDriver:
                 f"(last good position {x.tolist()} m)"
             )
         raise IntegrationError(self.time, name, reason)
+
+    #: the event that ended the last run (None: it ran to its end, or has not run)
+    stopped_by = None
+    #: the events of the run in progress (:class:`emorbit.event_run.EventRun`)
+    _ev = None
 
     def _unsolved(self, sub, e0: float, parts: int) -> bool:
         """Whether a step redone in ``parts`` sub-steps (``sub``, one record) still moves the

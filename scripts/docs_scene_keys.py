@@ -30,6 +30,7 @@ TITLES = {
     "body.elastic": '`[[body]]` with `kind = "elastic"`',
     "orbit": "`orbit` of a `[[body]]`",
     "facet": '`[[body.facet]]` of a `[[body]]` with `kind = "rigid"`',
+    "event": "`[[event]]`",
     "coupling": "`[[coupling]]`",
 }
 TITLES.update({t: f'`[[effect]]` with `kind = "{t.split(".", 1)[1]}"`' for t in KEYS if t.startswith("effect.")})

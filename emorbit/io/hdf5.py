@@ -103,6 +103,12 @@ def _versions() -> str:
     )
 
 
+#: the numeric datasets of the ``events/`` group: {name: (width, unit)}
+EVENT_DATASETS = {"time": (None, "s"), "step": (None, "1"), "position": (3, "m"), "velocity": (3, "m / s")}
+#: its text datasets
+EVENT_TEXT = ("label", "kind", "body")
+
+
 def _growable(group, name, width, unit, chunk_rows, fill=0.0):
     """A dataset growing along its first axis, with a Fletcher-32 checksum on each chunk (a
     changed byte fails the read of its chunk); ``width`` is None (1-D), an int, or a shape."""
@@ -466,6 +472,32 @@ class Writer:
                 _append(ds, data[name][q])
         self._flush()
 
+    def append_event(self, entry: dict) -> None:
+        """Append an event to the ``events/`` group (made on the first) and flush: ``time`` (s),
+        ``step`` (the step it fell in, from the run's start), ``label``, ``kind``, ``body``
+        (strings), ``position`` (m) and ``velocity`` (m/s) of its body (NaN for a time event).
+
+        Raises
+        ------
+        FileLostError
+            The path no longer names this file.
+        """
+        self._watch()
+        g = self.file.require_group("events")
+        if "time" not in g:
+            for name, (width, unit) in EVENT_DATASETS.items():
+                _growable(g, name, width, unit, 64)
+            for name in EVENT_TEXT:
+                ds = g.create_dataset(name, shape=(0,), maxshape=(None,), chunks=(64,), dtype=h5py.string_dtype())
+                ds.attrs["unit"] = ""
+        for name in EVENT_DATASETS:
+            _append(g[name], np.asarray([entry[name]], float))
+        for name in EVENT_TEXT:
+            ds = g[name]
+            ds.resize(ds.shape[0] + 1, axis=0)
+            ds[-1] = entry[name]
+        self._flush()
+
     def write_checkpoint(self, steps: int, time: float, arrays: dict, rows: int, units: dict | None = None) -> None:
         """Store the complete state and the number of records that belong to it, then flush.
 
@@ -618,6 +650,13 @@ class Writer:
                     ds.resize(keep, axis=0)
                 elif ds.maxshape and ds.maxshape[0] is None:
                     ds.resize(records, axis=0)
+        if "events" in f and "time" in f["events"]:  # events after the kept records are found again
+            keep = int(np.count_nonzero(f["events/time"][()] <= times[-1]))
+            for ds in f["events"].values():
+                ds.resize(keep, axis=0)
+        for key in ("stopped_by",):
+            if key in f.attrs:
+                del f.attrs[key]
         _write_root_attrs(f, attrs)
         for key in ROOT_UNITS:
             if key in f.attrs and f"{key}_unit" not in f.attrs:

@@ -173,7 +173,7 @@ class Sink:
         """
         self.emit(recs, steps[:nrec], nrec, k, None if span is None else span[:nrec])
 
-    def emit(self, recs, steps, nrec: int, k: int, span=None) -> None:
+    def emit(self, recs, steps, nrec: int, k: int, span=None, times=None) -> None:
         """Record rows of each system's chunk: invariants, datasets, file, memory.
 
         Parameters
@@ -190,6 +190,9 @@ class Sink:
         span : ndarray, optional
             (nrec, 2) the least and greatest total energy over the steps of each record's
             interval, J (None: the interval's range is the record's own energy).
+        times : ndarray, optional
+            (nrec,) the records' times, s (default: from the steps; a stopping event's record
+            is off the step grid).
 
         Raises
         ------
@@ -198,7 +201,7 @@ class Sink:
         """
         sim = self.sim
         gm, center = sim.gm, sim.center
-        times = sim._t_base + np.asarray(steps) * sim._dt
+        times = sim._t_base + np.asarray(steps) * sim._dt if times is None else np.asarray(times, float)
         energy = np.zeros(nrec)
         momentum = np.zeros((nrec, 3))
         angular = np.zeros((nrec, 3))
@@ -371,6 +374,7 @@ class Sink:
             invariant_drift=cat(8),
             drift_bound=cat(9),
             energy_range=cat(10),
+            events=list(sim.events.log),
             **self._works(sum(len(b[0]) for b in blocks)),
         )
 

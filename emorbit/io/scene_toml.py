@@ -151,6 +151,18 @@ def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -
     for effect in sim.effects.named:
         lines += ["", "[[effect]]", f'kind = "{effect.kind}"']
         lines += [f"{k} = {_value(v)}" for k, v in effect.table.items() if k != "kind"]
+    for event in sim.events.events:
+        lines += ["", "[[event]]", f'kind = "{event.kind}"', f"label = {json.dumps(event.label)}"]
+        if event.body is not None:
+            lines.append(f"body = {json.dumps(event.body)}")
+        if event.other is not None:
+            lines.append(f"other = {json.dumps(event.other)}")
+        if event.kind in ("radius", "altitude", "distance"):
+            lines.append(f'value = "{event.value!r} m"')
+        elif event.kind == "time":
+            lines.append(f'value = "{event.value!r} s"')
+        lines.append(f'direction = "{ {1: "rising", -1: "falling", 0: "either"}[event.direction] }"')
+        lines.append(f"stop = {'true' if event.stop else 'false'}")
     pts = sim.points
     for i, name in enumerate(pts.names):
         lines += [

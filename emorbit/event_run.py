@@ -1,0 +1,183 @@
+"""The events of a run in progress: each step's crossings noted, located and logged, a stop made.
+
+The chunk driver (:mod:`emorbit.stepping`) hands every chunk's per-step states to
+:meth:`EventRun.scan`, which evaluates every event's g (:mod:`emorbit.events`) and notes the
+crossings as (step, event, g before, g after). After a chunk, :meth:`EventRun.log_crossings`
+puts the systems back to the chunk's start, re-runs them to each crossing's step (the kernels
+are deterministic), locates it there with steps of shorter length (:meth:`EventRun.find`),
+logs it and puts the systems back where the chunk left them, so the run's states do not
+depend on its events. A stopping event's crossing is handled before the chunk is recorded
+(:meth:`EventRun.stop_at`): the records before it are emitted again, the run ends at the
+event's state, and its clock goes on from the event's time.
+
+Data layout: crossings are tuples (step: int, the step number after which g has its new
+sign; event index; g before; g after); the log is :attr:`emorbit.events.EventSet.log`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .events import locate
+
+__all__ = ["EventRun"]
+
+
+class EventRun:
+    """The events of one run (or resume) of a simulation.
+
+    Parameters
+    ----------
+    sim : Simulation
+        The simulation running; its ``events`` (:class:`emorbit.events.EventSet`), systems,
+        clock and method are read, and ``stopped_by`` set by a stop.
+    """
+
+    def __init__(self, sim):
+        self.sim = sim
+        self.events = sim.events
+        self._crossings: list = []
+        self._scanning = True
+
+    def data(self, recs, rows: int, times) -> dict:
+        """{body: datasets} of the first ``rows`` records."""
+        data = {}
+        for s, r in recs:
+            data.update(s.datasets(r, rows, times, 0))
+        return data
+
+    def g(self, recs, rows: int, times) -> np.ndarray:
+        """Every event's g at the first ``rows`` records: (rows, events)."""
+        radius = self.sim.field.radius if self.sim.field is not None else 0.0
+        return self.events.values(times, self.data(recs, rows, times), self.sim.center, radius)
+
+    def start(self) -> None:
+        """g at the run's start: the sign each event's first step is compared with."""
+        self.sim.stopped_by = None
+        if self.events:
+            self.events.previous = self.g(self.sim._current(), 1, np.array([self.sim.time]))[0]
+
+    def scan(self, recs, m: int, first: int) -> None:
+        """Note the crossings in ``m`` steps whose states are the rows of ``recs`` (the steps
+        ``first + 1`` to ``first + m``): (step, event, g before, g after)."""
+        if not self.events or not self._scanning:
+            return
+        steps = first + 1 + np.arange(m)
+        g = self.g(recs, m, self.sim._t_base + steps * self.sim._dt)
+        self._crossings += [(int(steps[r]), j, g0, g1) for r, j, g0, g1 in self.events.crossings(g)]
+
+    def mark(self):
+        """What a failed chunk puts back: the sign state before it."""
+        self._crossings = []
+        return None if self.events.previous is None else self.events.previous.copy()
+
+    def reset(self, mark) -> None:
+        """A chunk failed: forget its crossings; steps redone in sub-steps are not scanned."""
+        self.events.previous = mark
+        self._crossings, self._scanning = [], False
+
+    def restart(self) -> None:
+        """After steps redone in sub-steps: scan again, from the state reached."""
+        self._scanning = True
+        self._crossings = []
+        if self.events:
+            self.events.previous = self.g(self.sim._current(), 1, np.array([self.sim.time]))[0]
+
+    def first_stop(self, failed=None):
+        """The earliest crossing of a stopping event in the chunk, or None; with a step that
+        failed (its index in the chunk), only a crossing in a step before it."""
+        stops = [c for c in self._crossings if self.events.events[c[1]].stop]
+        if failed is not None:
+            stops = [c for c in stops if c[0] - self.sim._steps <= failed]
+        return min(stops) if stops else None
+
+    def g_after(self, j: int, tau: float, t0: float, gammas):
+        """One step of length ``tau`` from the systems' state at time ``t0``: (g of event j
+        after it, the records)."""
+        its = self.sim.max_newton_iterations
+        recs = [
+            (s, s.advance(self.sim.method, self.sim.gm, self.sim.center, tau, gammas, 1, 1, its, (t0, 0)))
+            for s in self.sim.systems
+        ]
+        if any(r.first_failure() is not None for _, r in recs):
+            return float("nan"), recs
+        return float(self.g(recs, 1, np.array([t0 + tau]))[0, j]), recs
+
+    def find(self, crossing, gammas):
+        """The systems at the start of the crossing's step: the step length at the event
+        (:func:`emorbit.events.locate`); the systems are left at the event. Returns (time,
+        records at the event, the snapshots of the step's start)."""
+        step, j, g0, g1 = crossing
+        start = [s.snapshot() for s in self.sim.systems]
+        t0 = self.sim._t_base + (step - 1) * self.sim._dt
+
+        def g_of(tau):
+            for s, snap in zip(self.sim.systems, start):
+                s.restore(snap)
+            return self.g_after(j, tau, t0, gammas)[0]
+
+        tau = locate(g_of, self.sim._dt, g0, g1, t0)
+        for s, snap in zip(self.sim.systems, start):
+            s.restore(snap)
+        recs = self.g_after(j, tau, t0, gammas)[1]
+        return t0 + tau, recs, start
+
+    def log_event(self, crossing, t: float, recs, sink) -> None:
+        """Add the event at time ``t`` (state: ``recs``) to the log and the file."""
+        step, j = crossing[:2]
+        e = self.events.events[j]
+        entry = {"label": e.label, "kind": e.kind, "body": e.body or "", "time": float(t),
+                 "step": int(step - self.sim._run_origin)}  # fmt: skip
+        if e.body is not None:
+            data = self.data(recs, 1, np.array([t]))[e.body]
+            entry["position"], entry["velocity"] = np.array(data["position"][0]), np.array(data["velocity"][0])
+        else:
+            entry["position"] = entry["velocity"] = np.full(3, np.nan)
+        self.events.log.append(entry)
+        if sink.writer is not None:
+            sink.writer.append_event(entry)
+
+    def log_crossings(self, snapshots, first: int, gammas, sink, until=None) -> None:
+        """Locate and log the crossings of a chunk that started at step ``first`` from
+        ``snapshots`` (re-run from there; the kernels are deterministic), those before the
+        crossing ``until`` only where given, then put the systems back where they were."""
+        crossings = sorted(c for c in self._crossings if until is None or c < until)
+        self._crossings = [c for c in self._crossings if c not in crossings]
+        if not crossings:
+            return
+        end = [s.snapshot() for s in self.sim.systems]
+        for s, snap in zip(self.sim.systems, snapshots):
+            s.restore(snap)
+        at = first
+        for crossing in crossings:
+            if crossing[0] - 1 > at:
+                self.sim._advance_all(gammas, crossing[0] - 1 - at, 1, at)
+                at = crossing[0] - 1
+            t, recs, start = self.find(crossing, gammas)
+            self.log_event(crossing, t, recs, sink)
+            for s, snap in zip(self.sim.systems, start):
+                s.restore(snap)
+        for s, snap in zip(self.sim.systems, end):
+            s.restore(snap)
+
+    def stop_at(self, crossing, snapshots, k: int, gammas, sink) -> int:
+        """A stopping event in the chunk that started from ``snapshots``: record the chunk's
+        records before its step, end the run at the event (one step of the located length:
+        its record is the run's last) and log it, after the events before it. Returns the
+        steps taken."""
+        self.log_crossings(snapshots, self.sim._steps, gammas, sink, until=crossing)
+        self._scanning = False
+        step = crossing[0]
+        pre = step - 1 - self.sim._steps
+        refused = self.sim._replay(snapshots, pre, k, gammas, sink)
+        if refused is not None:
+            raise refused[0]
+        self.sim._steps = step - 1
+        t, recs, _ = self.find(crossing, gammas)
+        self.sim._steps = step
+        self.sim._t_base = t - step * self.sim._dt  # the clock goes on from the event
+        sink.emit(recs, np.array([step]), 1, 1, times=np.array([t]))
+        self.log_event(crossing, t, recs, sink)
+        self.sim.stopped_by = self.events.events[crossing[1]]
+        self._scanning, self._crossings = True, []
+        return pre + 1

@@ -1,0 +1,305 @@
+"""Events: zeros of a function of the state, found on every step and located to round-off in time.
+
+An event is a zero crossing of a scalar function ``g`` of the run's state at time t. For a
+body b, ``x`` and ``v`` are its position and velocity (a rigid or elastic body's centre of
+mass), ``c`` the field's centre, R its radius:
+
+=============  ==========================================  ======================
+kind           g                                           direction by default
+=============  ==========================================  ======================
+``radius``     ``|x - c| - value``                         either
+``altitude``   ``|x - c| - R - value``                     either
+``periapsis``  ``(x - c) . v``                             rising (only)
+``apoapsis``   ``(x - c) . v``                             falling (only)
+``node``       ``(x - c)_z`` (the scene's z axis)          either (rising: ascending)
+``time``       ``t - value``                               rising (only)
+``distance``   ``|x - x_other| - value``                   either
+=============  ==========================================  ======================
+
+``direction`` picks the crossings that count: ``rising`` (g from below zero to zero or
+above), ``falling``, or ``either``.
+
+Finding. The driver evaluates every event's g after every step (the states of the step's
+records) and compares its sign with the value after the step before. A crossing in step n
+(from t0 to t0 + dt) is located by re-running that step from its start as one step of
+length tau, 0 < tau <= dt, an ordinary step of the run's method and order, and solving
+g(tau) = 0 by the Illinois form of regula falsi (M. Dowell, P. Jarratt, BIT 11 (1971)
+168-174) on the bracket [0, dt], until the bracket is 4 ulp of t wide or g is zero. The event
+is the state after the step of length tau on the crossing's side: a state the method
+reached, so an em run keeps its energy (or energy balance) there exactly. Two crossings of
+one event within one step (g returning to its sign) are not seen: the step is the grid.
+
+A stopping event (``stop``) ends the run at its state: the status is ``stopped``, with the
+event named. Other events leave the run's states as they are (the located step is taken from
+a copy) and are logged: :class:`EventLog`, the run file's ``events/`` group, ``Result.events``.
+
+Data layout: :class:`Event` holds SI values; :meth:`EventSet.values` takes (m,) times and the
+systems' datasets for m records and returns (m, events) float64.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import InputError
+from .units import to_si
+
+__all__ = ["KINDS", "DIRECTIONS", "MAX_EVENTS", "Event", "EventSet", "locate"]
+
+#: kind -> (the unit kind of its value or None, the default direction, whether it names a body)
+KINDS = {
+    "radius": ("length", 0, True),
+    "altitude": ("length", 0, True),
+    "periapsis": (None, 1, True),
+    "apoapsis": (None, -1, True),
+    "node": (None, 0, True),
+    "time": ("time", 1, False),
+    "distance": ("length", 0, True),
+}
+#: direction names -> the sign of g's change that counts (0: either)
+DIRECTIONS = {"rising": 1, "falling": -1, "either": 0}
+#: the most events a run may have
+MAX_EVENTS = 64
+#: Illinois iterations at most when locating a crossing (each re-runs one step)
+MAX_LOCATE = 100
+
+
+@dataclass
+class Event:
+    """One event.
+
+    Attributes
+    ----------
+    kind : str
+        A key of :data:`KINDS`.
+    body : str or None
+        The body whose state g reads (None for ``time``).
+    value : float
+        The level, SI (m for lengths, s for time; 0 where the kind has none).
+    direction : int
+        1 rising, -1 falling, 0 either.
+    stop : bool
+        Whether the run ends at it.
+    other : str or None
+        The second body of ``distance``.
+    label : str
+        Its name in the log (default ``<kind>[<i>]``, or as given).
+    key : str
+        Its name in errors (``event[0]``).
+    """
+
+    kind: str
+    body: str | None
+    value: float
+    direction: int
+    stop: bool
+    other: str | None
+    label: str
+    key: str
+
+    def g(self, times, data, center, radius) -> np.ndarray:
+        """g at m records: ``times`` (m,) s, ``data`` {body: {"position", "velocity": (m, 3)}}."""
+        if self.kind == "time":
+            return np.asarray(times, float) - self.value
+        d = np.asarray(data[self.body]["position"], float) - center
+        if self.kind == "radius":
+            return np.linalg.norm(d, axis=1) - self.value
+        if self.kind == "altitude":
+            return np.linalg.norm(d, axis=1) - radius - self.value
+        if self.kind in ("periapsis", "apoapsis"):
+            return np.einsum("ij,ij->i", d, np.asarray(data[self.body]["velocity"], float))
+        if self.kind == "node":
+            return d[:, 2].copy()
+        other = np.asarray(data[self.other]["position"], float)
+        return np.linalg.norm(np.asarray(data[self.body]["position"], float) - other, axis=1) - self.value
+
+    def counts(self, g0: float, g1: float) -> bool:
+        """Whether g going from g0 (before a step) to g1 (after it) is a crossing that counts:
+        g0 on one side of zero, g1 at zero or on the other, in the event's direction."""
+        if not (math.isfinite(g0) and math.isfinite(g1)):
+            return False
+        rising = g0 < 0.0 <= g1
+        falling = g0 > 0.0 >= g1
+        return (rising and self.direction >= 0) or (falling and self.direction <= 0)
+
+    def describe(self) -> str:
+        """The event in words, for messages: ``altitude of sat below 120000 m``."""
+        what = {1: "rising through", -1: "falling through", 0: "crossing"}[self.direction]
+        if self.kind == "time":
+            return f"{self.label}: t = {self.value!r} s"
+        if self.kind in ("periapsis", "apoapsis"):
+            return f"{self.label}: {self.kind} of {self.body}"
+        if self.kind == "node":
+            which = {1: "ascending ", -1: "descending ", 0: ""}[self.direction]
+            return f"{self.label}: {which}node of {self.body}"
+        level = f"{self.value!r} m"
+        of = f"{self.body} and {self.other}" if self.kind == "distance" else self.body
+        return f"{self.label}: {self.kind} of {of} {what} {level}"
+
+
+@dataclass
+class EventSet:
+    """The run's events and the sign state between steps.
+
+    Attributes
+    ----------
+    events : list of Event
+    previous : ndarray or None
+        g of each event after the last step taken (None before the first).
+    log : list of dict
+        The events found so far in this process: ``label``, ``kind``, ``body``, ``time`` (s),
+        ``step`` (the step it fell in, counted from the run's origin) and ``state`` ({body:
+        {"position", "velocity"}} at it, SI).
+    """
+
+    events: list = field(default_factory=list)
+    previous: np.ndarray | None = None
+    log: list = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.events)
+
+    def __bool__(self) -> bool:
+        return bool(self.events)
+
+    def add(self, kind, *, body=None, value=None, direction=None, stop=False, other=None, label=None,
+            key=None, strict=False, has_radius=True) -> Event:  # fmt: skip
+        """Check and add an event; see :meth:`emorbit.Simulation.add_event` for the keys.
+
+        Raises
+        ------
+        InputError
+            An unknown kind or direction, a body missing or given where it is not read, a
+            value missing, not a quantity of the kind's unit or not finite, ``altitude`` in a
+            field without a radius, ``distance`` without ``other``, a label used twice, more
+            than :data:`MAX_EVENTS`.
+        """
+        key = key or f"event[{len(self.events)}]"
+        if len(self.events) >= MAX_EVENTS:
+            raise InputError(key, f"at most {MAX_EVENTS} events per run")
+        if kind not in KINDS:
+            raise InputError(f"{key}.kind", f"unknown event {kind!r}; known: {', '.join(KINDS)}")
+        unit, default, needs_body = KINDS[kind]
+        if needs_body and (not isinstance(body, str) or not body):
+            raise InputError(f"{key}.body", f"a {kind} event reads a body's state: name the body, got {body!r}")
+        if not needs_body and body is not None:
+            raise InputError(f"{key}.body", f"a {kind} event reads no body, got {body!r}")
+        if kind == "distance":
+            if not isinstance(other, str) or not other or other == body:
+                raise InputError(
+                    f"{key}.other", f"a distance event needs a second body other than {body!r}, got {other!r}"
+                )
+        elif other is not None:
+            raise InputError(f"{key}.other", f"only a distance event has a second body, got {other!r}")
+        if unit is None:
+            if value is not None:
+                raise InputError(f"{key}.value", f"a {kind} event has no value, got {value!r}")
+            level = 0.0
+        else:
+            if value is None:
+                raise InputError(f"{key}.value", f"a {kind} event needs a value (a {unit}), e.g. {_EXAMPLE[unit]!r}")
+            level = to_si(value, unit, f"{key}.value", strict=strict)
+            if not math.isfinite(level):
+                raise InputError(f"{key}.value", f"a finite {unit} expected, got {value!r}")
+        if kind == "altitude" and not has_radius:
+            raise InputError(
+                f"{key}.kind", "an altitude is measured above the field's radius: give the [field] a radius"
+            )
+        if direction is None:
+            sign = default
+        else:
+            if direction not in DIRECTIONS:
+                raise InputError(f"{key}.direction", f"one of {', '.join(DIRECTIONS)} expected, got {direction!r}")
+            sign = DIRECTIONS[direction]
+            if kind in ("periapsis", "apoapsis", "time") and sign != default:
+                raise InputError(f"{key}.direction", f"a {kind} event is {_NAMES[default]} only, got {direction!r}")
+        if not isinstance(stop, bool):
+            raise InputError(f"{key}.stop", f"true or false expected, got {stop!r}")
+        label = f"{kind}[{len(self.events)}]" if label is None else label
+        if not isinstance(label, str) or not label or "/" in label:
+            raise InputError(f"{key}.label", f"a name without '/' expected, got {label!r}")
+        if any(e.label == label for e in self.events):
+            raise InputError(f"{key}.label", f"a second event labelled {label!r}")
+        event = Event(kind, body, float(level), sign, stop, other, label, key)
+        self.events.append(event)
+        self.previous = None
+        return event
+
+    def check_bodies(self, names) -> None:
+        """Refuse events whose bodies the run does not have, naming the key."""
+        for e in self.events:
+            for which, name in (("body", e.body), ("other", e.other)):
+                if name is not None and name not in names:
+                    raise InputError(f"{e.key}.{which}", f"no body named {name!r}; the bodies: {', '.join(names)}")
+
+    def values(self, times, data, center, radius) -> np.ndarray:
+        """g of every event at m records: (m, events)."""
+        return np.stack([e.g(times, data, center, radius) for e in self.events], axis=1)
+
+    def crossings(self, g) -> list[tuple[int, int, float, float]]:
+        """The crossings in rows of g (m, events), each row a step after the one before (the
+        row before the first: :attr:`previous`), in the order of their rows: [(row, event, g
+        before, g after)]. Updates :attr:`previous` to the last row."""
+        g = np.asarray(g, float)
+        found = []
+        before = g[0] if self.previous is None else self.previous
+        for r in range(g.shape[0]):
+            for j, e in enumerate(self.events):
+                if e.counts(before[j], g[r, j]):
+                    found.append((r, j, float(before[j]), float(g[r, j])))
+            before = g[r]
+        self.previous = g[-1].copy()
+        return found
+
+
+_EXAMPLE = {"length": "120 km", "time": "1 h"}
+_NAMES = {1: "rising", -1: "falling", 0: "either"}
+
+
+def locate(g_of_tau, dt: float, g0: float, g1: float, t0: float) -> float:
+    """The step length tau in (0, dt] at which g crosses zero, to round-off in time.
+
+    Parameters
+    ----------
+    g_of_tau : callable
+        g after one step of length tau from the step's start (the run's method).
+    dt : float
+        The whole step, s.
+    g0, g1 : float
+        g at the step's start and after the whole step (signs differ, or g1 is zero).
+    t0 : float
+        The step's start time, s (the bracket stops at 4 ulp of t0 + dt).
+
+    Returns
+    -------
+    float
+        tau on the crossing's side: g(tau) is zero or has g1's sign.
+    """
+    lo, hi, glo, ghi = 0.0, float(dt), float(g0), float(g1)
+    if ghi == 0.0:
+        return hi
+    width = 4.0 * math.ulp(abs(t0) + abs(dt)) + math.ulp(dt)
+    side = 0
+    for _ in range(MAX_LOCATE):
+        if hi - lo <= width:
+            break
+        tau = hi - ghi * (hi - lo) / (ghi - glo)
+        if not lo < tau < hi:
+            tau = 0.5 * (lo + hi)
+        g = float(g_of_tau(tau))
+        if g == 0.0:
+            return tau
+        if (g > 0.0) == (ghi > 0.0):  # the crossing lies below tau
+            hi, ghi = tau, g
+            if side == 1:
+                glo *= 0.5
+            side = 1
+        else:
+            lo, glo = tau, g
+            if side == -1:
+                ghi *= 0.5
+            side = -1
+    return hi

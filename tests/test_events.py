@@ -1,0 +1,225 @@
+"""Events found after every step and located to round-off in time; stopping events; the event
+log in the run file and in Result.events; resume; the errors (emorbit.events, the driver)."""
+
+from __future__ import annotations
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+
+import emorbit
+from emorbit import orbits
+from emorbit.cli import main
+from emorbit.errors import InputError
+
+EARTH = emorbit.CentralField(body="earth")
+A = EARTH.radius + 700e3
+ELEMENTS = (A, 0.05, 0.5, 0.2, 0.3, 2.0)
+EPS = np.finfo(float).eps
+
+
+def _orbit(dt=10.0, order=2, method="em", **keys):
+    sim = emorbit.Simulation(EARTH, dt=dt, order=order, method=method, **keys)
+    x, v = orbits.state_from_elements(ELEMENTS, EARTH.gm)
+    sim.add_point("sat", mass=1.0, position=x, velocity=v)
+    return sim
+
+
+def test_events_are_located_to_round_off_and_leave_the_run_as_it_was():
+    """Over five orbits at T/590: each periapsis and apoapsis has (x . v) / (|x| |v|) within
+    4 eps of zero (measured 1.9e-16), each node z = 0 exactly or within 2 ulp of the radius,
+    each radius crossing |x| = a within 2 ulp; they alternate as they must; a time event is at
+    its time exactly. The records are the bits of the same run without events."""
+    plain = _orbit().run(t_end="30000 s", every=10, progress=False)
+    sim = _orbit()
+    sim.add_event("periapsis", body="sat")
+    sim.add_event("apoapsis", body="sat")
+    sim.add_event("node", body="sat", direction="rising", label="ascending")
+    sim.add_event("radius", body="sat", value=f"{A!r} m")
+    sim.add_event("time", value="12345.678 s")
+    res = sim.run(t_end="30000 s", every=10, progress=False)
+    assert np.array_equal(res.si.positions["sat"], plain.si.positions["sat"])
+    events = res.si.events
+    kinds = [e["kind"] for e in events]
+    assert kinds.count("periapsis") == 5 and kinds.count("apoapsis") == 5 and kinds.count("node") == 5
+    assert kinds.count("radius") == 10 and kinds.count("time") == 1
+    times = [e["time"] for e in events]
+    assert times == sorted(times)
+    apsides = [e["kind"] for e in events if e["kind"] in ("periapsis", "apoapsis")]
+    assert all(a != b for a, b in zip(apsides, apsides[1:]))
+    for e in events:
+        x, v = e["position"], e["velocity"]
+        r = np.linalg.norm(x)
+        if e["kind"] in ("periapsis", "apoapsis"):
+            assert abs(x @ v) <= 4 * EPS * r * np.linalg.norm(v)
+        elif e["kind"] == "node":
+            assert abs(x[2]) <= 2 * math.ulp(r) and v[2] > 0
+        elif e["kind"] == "radius":
+            assert abs(r - A) <= 2 * math.ulp(A)
+        else:
+            assert e["time"] == 12345.678 and np.isnan(x).all()
+
+
+@pytest.mark.parametrize("order, bound", [(2, 3.5), (4, 14.0)])
+def test_periapsis_times_converge_at_the_methods_order(order, bound):
+    """The first periapsis time against Kepler's (mean motion from a and GM): halving dt cuts
+    the error by 2^order (measured 4.0 and 16.0)."""
+    n = math.sqrt(EARTH.gm / A**3)
+    e, nu0 = ELEMENTS[1], ELEMENTS[5]
+    ecc = 2 * math.atan(math.sqrt((1 - e) / (1 + e)) * math.tan(nu0 / 2))
+    exact = (2 * math.pi - (ecc - e * math.sin(ecc))) / n
+    errors = []
+    for dt in (40.0, 20.0):
+        sim = _orbit(dt=dt, order=order)
+        sim.add_event("periapsis", body="sat", stop=True)
+        sim.run(t_end="6000 s", every=1, progress=False)
+        errors.append(abs(sim.time - exact))
+    assert errors[0] / errors[1] >= bound
+
+
+def test_a_stopping_event_ends_the_run_at_its_state(tmp_path, capsys):
+    """emorbit run with [[event]] altitude < 500 km, stop = true: exit 0, says where and why on
+    stdout even with -q, the file's status is "stopped" with the event named, its last record is
+    the event's state (altitude 500 km within 2 ulp of the radius) at the event's time, and an
+    em step's energy is kept there."""
+    scene = tmp_path / "reentry.toml"
+    scene.write_text(
+        """
+[field]
+body = "earth"
+[[event]]
+kind = "altitude"
+body = "sat"
+value = "500 km"
+direction = "falling"
+stop = true
+label = "reentry"
+[[event]]
+kind = "apoapsis"
+body = "sat"
+[[body]]
+name = "sat"
+kind = "point"
+mass = "1 kg"
+orbit = {a = "7078.1 km", e = 0.05, i = "30 deg", nu = "115 deg"}
+[integrator]
+dt = "10 s"
+t_end = "1 d"
+output_every = 10
+"""
+    )
+    out = tmp_path / "reentry.h5"
+    assert main(["run", str(scene), "-o", str(out), "-q"]) == 0
+    said = capsys.readouterr().out
+    assert "stopped at t = " in said and "reentry: altitude of sat falling through 500000.0 m" in said
+    res = emorbit.read(str(out))
+    assert res.attrs["status"] == "stopped" and "reentry" in res.attrs["stopped_by"]
+    table = res.events
+    assert list(table["label"]) == ["apoapsis[1]", "reentry"] and table["time"].unit == "s"
+    assert table["position"].unit == "m" and table["velocity"].unit == "m / s"
+    t_stop = table["time"][-1].value
+    assert res.si.time[-1] == t_stop and res.si.time[-2] < t_stop
+    r = np.linalg.norm(res.si.positions["sat"][-1])
+    assert abs(r - EARTH.radius - 500e3) <= 2 * math.ulp(r)
+    assert np.abs(res.relative_energy_error()).max() <= 4 * EPS
+    with h5py.File(out) as f:
+        assert f["events/time"].attrs["unit"] == "s" and f["events/label"][-1] == b"reentry"
+
+
+def test_a_drag_run_ends_at_its_lifetime_with_the_balance_kept():
+    """Drag in a dense exponential atmosphere pulls the orbit down; the run stops at 150 km
+    instead of failing inside the Earth, and E - E0 - W stays at round-off to the event."""
+    sim = emorbit.Simulation(EARTH, dt=20.0)
+    sim.add_effect("drag", atmosphere="exponential", density="1e-9 kg/m3", reference_altitude="300 km",
+                   scale_height="50 km")  # fmt: skip
+    x, v = orbits.state_from_elements((EARTH.radius + 300e3, 0.0, 0.9, 0.0, 0.0, 0.0), EARTH.gm)
+    sim.add_point("sat", mass=1.0, position=x, velocity=v, ballistic_coefficient=0.02)
+    sim.add_event("altitude", body="sat", value="150 km", direction="falling", stop=True, label="lifetime")
+    res = sim.run(t_end="10 d", every=50, progress=False)
+    assert sim.stopped_by.label == "lifetime" and res.si.time[-1] < 10 * 86400
+    r = np.linalg.norm(res.si.positions["sat"][-1])
+    assert abs(r - EARTH.radius - 150e3) <= 2 * math.ulp(r)
+    assert np.abs(res.si.relative_energy_balance()).max() <= 1e-13
+
+
+@pytest.mark.parametrize("kind", ["rigid", "elastic"])
+def test_bodies_find_events_at_their_centre_of_mass(kind):
+    """A rigid box and an elastic chain: the apoapsis of the centre of mass is located to 4 eps,
+    and a distance event between it and a point mass following it 1 km behind stops the run."""
+    sim = emorbit.Simulation(EARTH, dt=10.0)
+    x, v = orbits.state_from_elements(ELEMENTS, EARTH.gm)
+    place = {"position": x, "velocity": v}
+    if kind == "rigid":
+        sim.add_rigid("b", "box", size=[2.0, 1.0, 1.0], mass=100.0, **place)
+    else:
+        sim.add_elastic("b", "chain", start=[-5.0, 0, 0], end=[5.0, 0, 0], elements=2, young=1e9, area=1e-4,
+                        density=1000.0, **place)  # fmt: skip
+    sim.add_point("chaser", mass=1.0, position=x - 1e3 * v / np.linalg.norm(v), velocity=v * 1.0001)
+    sim.add_event("apoapsis", body="b")
+    sim.add_event("distance", body="chaser", other="b", value="2 km", direction="rising", stop=True)
+    res = sim.run(t_end="20000 s", every=7, progress=False)
+    events = res.si.events
+    apo = next(e for e in events if e["kind"] == "apoapsis")
+    assert abs(apo["position"] @ apo["velocity"]) <= 4 * EPS * np.linalg.norm(apo["position"]) * np.linalg.norm(
+        apo["velocity"]
+    )
+    assert sim.stopped_by.kind == "distance"
+    gap = np.linalg.norm(res.si.positions["chaser"][-1] - res.si.positions["b"][-1])
+    assert abs(gap - 2e3) <= 1e-9 * 2e3
+
+
+def test_a_resumed_run_finds_the_same_events(tmp_path):
+    """A run cut at 14000 s and resumed to 30000 s has the events of the run that never
+    stopped, bit for bit; the ones after its last checkpoint are not logged twice."""
+
+    def run(t_end, path):
+        sim = _orbit()
+        sim.add_event("periapsis", body="sat")
+        sim.add_event("node", body="sat")
+        sim.run(t_end=t_end, every=10, output=str(path), overwrite=True, progress=False, checkpoint_every=100)
+
+    run("30000 s", tmp_path / "full.h5")
+    run("14050 s", tmp_path / "part.h5")
+    emorbit.resume(str(tmp_path / "part.h5"), "30000 s", progress=False)
+    full, part = emorbit.read(str(tmp_path / "full.h5")).events, emorbit.read(str(tmp_path / "part.h5")).events
+    assert len(full) == 15 and np.array_equal(full["time"].value, part["time"].value)
+    assert list(full["label"]) == list(part["label"])
+
+
+@pytest.mark.parametrize(
+    "kind, keys, where",
+    [
+        ("apsis", {"body": "sat"}, "event[0].kind"),
+        ("periapsis", {}, "event[0].body"),
+        ("time", {"body": "sat", "value": "1 s"}, "event[0].body"),
+        ("radius", {"body": "sat"}, "event[0].value"),
+        ("radius", {"body": "sat", "value": "1 s"}, "event[0].value"),
+        ("node", {"body": "sat", "direction": "up"}, "event[0].direction"),
+        ("apoapsis", {"body": "sat", "direction": "rising"}, "event[0].direction"),
+        ("distance", {"body": "sat", "value": "1 km"}, "event[0].other"),
+        ("node", {"body": "sat", "stop": "yes"}, "event[0].stop"),
+    ],
+)
+def test_bad_events_name_the_key(kind, keys, where):
+    with pytest.raises(InputError) as err:
+        _orbit().add_event(kind, **keys)
+    assert str(err.value).startswith(where)
+
+
+def test_events_that_cannot_be_refused_by_name():
+    """Altitude without a field radius, a body the run lacks, adaptive steps, a scene's unknown
+    event key: each an error naming the key."""
+    sim = emorbit.Simulation(emorbit.CentralField(gm=EARTH.gm), dt=10.0)
+    with pytest.raises(InputError, match=r"event\[0\]\.kind.*radius"):
+        sim.add_event("altitude", body="sat", value="1 km")
+    sim = _orbit()
+    sim.add_event("periapsis", body="ghost")
+    with pytest.raises(InputError, match=r"event\[0\]\.body.*ghost"):
+        sim.run(steps=2, progress=False)
+    with pytest.raises(InputError, match=r"event\[0\]\.kind.*adaptive"):
+        _orbit(adaptive=0.01).add_event("periapsis", body="sat")
+    text = emorbit.load_scene("paper-ellipse").text + '\n[[event]]\nkind = "time"\nvalue = "1 s"\nwhen = 3\n'
+    with pytest.raises(InputError, match=r"event\[0\]\.when"):
+        emorbit.parse_scene(text).build()
