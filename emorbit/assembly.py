@@ -428,8 +428,10 @@ class Assembly:
         st.attach(elastic, idx, to)
 
     # -- events -------------------------------------------------------------------------
-    def add_event(self, kind: str, *, body=None, value=None, direction=None, stop: bool = False, other=None,
-                  label=None, key: str | None = None, strict: bool = False):  # fmt: skip
+    def add_event(
+        self, kind: str, *, body=None, value=None, direction=None, stop: bool = False, other=None, label=None,
+        dv=None, frame=None, after=None, key: str | None = None, strict: bool = False,
+    ):  # fmt: skip
         """Add an event: a zero crossing of a function of the state, found after every step and
         located to round-off in time (:mod:`emorbit.events` has the kinds and the method).
 
@@ -453,6 +455,15 @@ class Assembly:
             The second body of ``distance``.
         label : str, optional
             Its name in the log (default ``<kind>[<i>]``).
+        dv : sequence of 3, optional
+            An impulse added to the body's velocity at the event, once (velocities: Quantities,
+            strings with units, or m/s), in ``frame``; its work is recorded as
+            ``work_manoeuvres`` and kept in the energy balance.
+        frame : str, optional
+            ``"inertial"`` (default), ``"rsw"`` (radial, along-track, orbit normal) or
+            ``"vnc"`` (velocity, orbit normal, their cross product), at the body's state.
+        after : str, optional
+            The label of an event that must have happened before this one counts.
         key : str, optional
             Its name in errors (default ``event[<i>]``).
         strict : bool
@@ -480,8 +491,8 @@ class Assembly:
                 f"{key}.kind", f"a {kind} event is measured from the field's centre: the scene needs a [field]"
             )
         return self.events.add(
-            kind, body=body, value=value, direction=direction, stop=stop, other=other, label=label, key=key,
-            strict=strict, has_radius=has_radius,
+            kind, body=body, value=value, direction=direction, stop=stop, other=other, label=label, dv=dv,
+            frame=frame, after=after, key=key, strict=strict, has_radius=has_radius,
         )  # fmt: skip
 
     # -- effects ------------------------------------------------------------------------

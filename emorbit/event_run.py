@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import IntegrationError
 from .events import locate
 
 __all__ = ["EventRun"]
@@ -38,6 +39,8 @@ class EventRun:
         self.events = sim.events
         self._crossings: list = []
         self._scanning = True
+        self._mark = (None, set())
+        self.tau = 0.0  # the step length of the last event located, s
 
     def data(self, recs, rows: int, times) -> dict:
         """{body: datasets} of the first ``rows`` records."""
@@ -67,13 +70,15 @@ class EventRun:
         self._crossings += [(int(steps[r]), j, g0, g1) for r, j, g0, g1 in self.events.crossings(g)]
 
     def mark(self):
-        """What a failed chunk puts back: the sign state before it."""
+        """What a failed or cut chunk puts back: the sign state before it, and which events had
+        happened."""
         self._crossings = []
-        return None if self.events.previous is None else self.events.previous.copy()
+        self._mark = (None if self.events.previous is None else self.events.previous.copy(), set(self.events.fired))
+        return self._mark
 
     def reset(self, mark) -> None:
         """A chunk failed: forget its crossings; steps redone in sub-steps are not scanned."""
-        self.events.previous = mark
+        self.events.previous, self.events.fired = mark[0], set(mark[1])
         self._crossings, self._scanning = [], False
 
     def restart(self) -> None:
@@ -84,9 +89,10 @@ class EventRun:
             self.events.previous = self.g(self.sim._current(), 1, np.array([self.sim.time]))[0]
 
     def first_stop(self, failed=None):
-        """The earliest crossing of a stopping event in the chunk, or None; with a step that
-        failed (its index in the chunk), only a crossing in a step before it."""
-        stops = [c for c in self._crossings if self.events.events[c[1]].stop]
+        """The earliest crossing in the chunk of an event that stops the run or fires an
+        impulse, or None; with a step that failed (its index in the chunk), only a crossing in
+        a step before it."""
+        stops = [c for c in self._crossings if self.events.events[c[1]].stop or self.events.events[c[1]].dv is not None]
         if failed is not None:
             stops = [c for c in stops if c[0] - self.sim._steps <= failed]
         return min(stops) if stops else None
@@ -120,14 +126,17 @@ class EventRun:
         for s, snap in zip(self.sim.systems, start):
             s.restore(snap)
         recs = self.g_after(j, tau, t0, gammas)[1]
+        self.tau = tau
         return t0 + tau, recs, start
 
-    def log_event(self, crossing, t: float, recs, sink) -> None:
-        """Add the event at time ``t`` (state: ``recs``) to the log and the file."""
+    def log_event(self, crossing, t: float, recs, sink, dv=None, work: float = 0.0) -> None:
+        """Add the event at time ``t`` (state: ``recs``; an impulse ``dv`` and its work) to the
+        log and the file."""
         step, j = crossing[:2]
         e = self.events.events[j]
         entry = {"label": e.label, "kind": e.kind, "body": e.body or "", "time": float(t),
-                 "step": int(step - self.sim._run_origin)}  # fmt: skip
+                 "step": int(step - self.sim._run_origin), "dv": np.zeros(3) if dv is None else np.array(dv, float),
+                 "work": float(work)}  # fmt: skip
         if e.body is not None:
             data = self.data(recs, 1, np.array([t]))[e.body]
             entry["position"], entry["velocity"] = np.array(data["position"][0]), np.array(data["velocity"][0])
@@ -159,6 +168,49 @@ class EventRun:
                 s.restore(snap)
         for s, snap in zip(self.sim.systems, end):
             s.restore(snap)
+
+    def act(self, crossing, snapshots, k: int, every: int, gammas, sink) -> int:
+        """A crossing that stops the run (:meth:`stop_at`) or fires an impulse
+        (:meth:`kick_at`). Returns the steps taken."""
+        if self.events.events[crossing[1]].stop:
+            return self.stop_at(crossing, snapshots, k, gammas, sink)
+        return self.kick_at(crossing, snapshots, k, every, gammas, sink)
+
+    def kick_at(self, crossing, snapshots, k: int, every: int, gammas, sink) -> int:
+        """An impulse in the chunk that started from ``snapshots``: record the records before
+        its step, split the step at the event, add the impulse, take the rest of the step (the
+        run stays on its grid) and log it with its work. The chunk's steps after it are
+        dropped and taken again. Returns the steps taken."""
+        sim = self.sim
+        self.log_crossings(snapshots, sim._steps, gammas, sink, until=crossing)
+        self._scanning = False
+        step, j = crossing[:2]
+        pre = step - 1 - sim._steps
+        refused = sim._replay(snapshots, pre, k, gammas, sink)
+        if refused is not None:
+            raise refused[0]
+        t, recs, _ = self.find(crossing, gammas)
+        e = self.events.events[j]
+        state = self.data(recs, 1, np.array([t]))[e.body]
+        x, v = np.array(state["position"][0]), np.array(state["velocity"][0])
+        dv = e.impulse(x, v, sim.center)
+        system = next(s for s in sim.systems if e.body in s.names)
+        mass, before = system.kick(e.body, dv, f"{e.key}.dv")
+        self.log_event(crossing, t, recs, sink, dv=dv, work=mass * (float(before @ dv) + 0.5 * float(dv @ dv)))
+        its = sim.max_newton_iterations
+        rest = [
+            (s, s.advance(sim.method, sim.gm, sim.center, sim._dt - self.tau, gammas, 1, 1, its, (t, 0)))
+            for s in sim.systems
+        ]
+        if any(r.first_failure() is not None for _, r in rest):
+            raise IntegrationError(t, e.body, f"the rest of the step after the impulse of {e.label} failed")
+        sim._steps = step
+        if (step - sim._run_origin) % every == 0:
+            sink.emit(rest, np.array([step]), 1, 1)
+        self.events.fired = self._mark[1] | {entry["label"] for entry in self.events.log}
+        self.events.previous = self.g(sim._current(), 1, np.array([sim.time]))[0]
+        self._scanning, self._crossings = True, []
+        return pre + 1
 
     def stop_at(self, crossing, snapshots, k: int, gammas, sink) -> int:
         """A stopping event in the chunk that started from ``snapshots``: record the chunk's

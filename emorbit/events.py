@@ -30,8 +30,17 @@ reached, so an em run keeps its energy (or energy balance) there exactly. Two cr
 one event within one step (g returning to its sign) are not seen: the step is the grid.
 
 A stopping event (``stop``) ends the run at its state: the status is ``stopped``, with the
-event named. Other events leave the run's states as they are (the located step is taken from
-a copy) and are logged: :class:`EventLog`, the run file's ``events/`` group, ``Result.events``.
+event named. An impulsive manoeuvre (``dv``, in the frame ``frame``) fires once: the step is
+split at the event, the impulse added to the body's velocity (a rigid body's centre of mass),
+and the rest of the step, ``dt - tau``, taken from there, so the run stays on its step grid.
+Its work, ``m (|v + dv|^2 - |v|^2) / 2``, is logged with it and counted in the energy balance
+``E - E0 - W`` as ``work_manoeuvres``. Frames, at the body's state (x - c, v): ``inertial``
+(the scene's axes), ``rsw`` (radial, along-track in the orbit plane, orbit normal) and
+``vnc`` (velocity, orbit normal, their cross product). ``after`` arms an event only once the
+event of that label has happened (a Hohmann transfer's second burn at the apoapsis after
+the first). Other events leave the run's states as they are (the located step is taken from
+a copy) and are logged: :attr:`EventSet.log`, the run file's ``events/`` group,
+``Result.events``.
 
 Data layout: :class:`Event` holds SI values; :meth:`EventSet.values` takes (m,) times and the
 systems' datasets for m records and returns (m, events) float64.
@@ -45,7 +54,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import InputError
-from .units import to_si
+from .units import to_si, vector_to_si
 
 __all__ = ["KINDS", "DIRECTIONS", "MAX_EVENTS", "Event", "EventSet", "locate"]
 
@@ -65,6 +74,8 @@ DIRECTIONS = {"rising": 1, "falling": -1, "either": 0}
 MAX_EVENTS = 64
 #: Illinois iterations at most when locating a crossing (each re-runs one step)
 MAX_LOCATE = 100
+#: the frames an impulse may be given in
+FRAMES = ("inertial", "rsw", "vnc")
 
 
 @dataclass
@@ -89,6 +100,12 @@ class Event:
         Its name in the log (default ``<kind>[<i>]``, or as given).
     key : str
         Its name in errors (``event[0]``).
+    dv : ndarray or None
+        An impulse (3,) m/s in ``frame``, or None.
+    frame : str
+        A name of :data:`FRAMES`.
+    after : str or None
+        The label of the event that arms this one.
     """
 
     kind: str
@@ -99,6 +116,24 @@ class Event:
     other: str | None
     label: str
     key: str
+    dv: np.ndarray | None = None
+    frame: str = "inertial"
+    after: str | None = None
+
+    def impulse(self, x, v, center) -> np.ndarray:
+        """The impulse in the scene's axes at the body's position ``x`` and velocity ``v``."""
+        if self.frame == "inertial":
+            return np.array(self.dv, float)
+        r = np.asarray(x, float) - center
+        h = np.cross(r, v)
+        normal = h / np.linalg.norm(h)
+        first = (r if self.frame == "rsw" else np.asarray(v, float)) / np.linalg.norm(r if self.frame == "rsw" else v)
+        axes = (
+            (first, np.cross(normal, first), normal)
+            if self.frame == "rsw"
+            else (first, normal, np.cross(first, normal))
+        )
+        return self.dv[0] * axes[0] + self.dv[1] * axes[1] + self.dv[2] * axes[2]
 
     def g(self, times, data, center, radius) -> np.ndarray:
         """g at m records: ``times`` (m,) s, ``data`` {body: {"position", "velocity": (m, 3)}}."""
@@ -158,6 +193,8 @@ class EventSet:
     events: list = field(default_factory=list)
     previous: np.ndarray | None = None
     log: list = field(default_factory=list)
+    #: the labels of the events that have happened (they arm ``after``; an impulse fires once)
+    fired: set = field(default_factory=set)
 
     def __len__(self) -> int:
         return len(self.events)
@@ -166,7 +203,7 @@ class EventSet:
         return bool(self.events)
 
     def add(self, kind, *, body=None, value=None, direction=None, stop=False, other=None, label=None,
-            key=None, strict=False, has_radius=True) -> Event:  # fmt: skip
+            dv=None, frame=None, after=None, key=None, strict=False, has_radius=True) -> Event:  # fmt: skip
         """Check and add an event; see :meth:`emorbit.Simulation.add_event` for the keys.
 
         Raises
@@ -183,6 +220,7 @@ class EventSet:
         if kind not in KINDS:
             raise InputError(f"{key}.kind", f"unknown event {kind!r}; known: {', '.join(KINDS)}")
         unit, default, needs_body = KINDS[kind]
+        needs_body = needs_body or dv is not None  # an impulse acts on a body
         if needs_body and (not isinstance(body, str) or not body):
             raise InputError(f"{key}.body", f"a {kind} event reads a body's state: name the body, got {body!r}")
         if not needs_body and body is not None:
@@ -223,10 +261,37 @@ class EventSet:
             raise InputError(f"{key}.label", f"a name without '/' expected, got {label!r}")
         if any(e.label == label for e in self.events):
             raise InputError(f"{key}.label", f"a second event labelled {label!r}")
-        event = Event(kind, body, float(level), sign, stop, other, label, key)
+        impulse = None
+        if dv is not None:
+            if stop:
+                raise InputError(f"{key}.dv", "an event either stops the run or fires an impulse, not both")
+            impulse = np.asarray(vector_to_si(dv, "speed", f"{key}.dv", strict=strict), float)
+            if not np.all(np.isfinite(impulse)):
+                raise InputError(f"{key}.dv", f"three finite velocities expected, got {dv!r}")
+        if frame is not None and (dv is None or frame not in FRAMES):
+            raise InputError(f"{key}.frame", f"one of {', '.join(FRAMES)}, with dv, expected, got {frame!r}")
+        if after is not None and (not isinstance(after, str) or after not in {e.label for e in self.events}):
+            known = ", ".join(e.label for e in self.events) or "none yet"
+            raise InputError(f"{key}.after", f"the label of an event before this one expected ({known}), got {after!r}")
+        event = Event(kind, body, float(level), sign, stop, other, label, key, impulse, frame or "inertial", after)
         self.events.append(event)
         self.previous = None
         return event
+
+    @property
+    def impulses(self) -> bool:
+        """Whether an event fires an impulse (the run then records ``work_manoeuvres``)."""
+        return any(e.dv is not None for e in self.events)
+
+    @property
+    def impulse_work(self) -> float:
+        """The work of the impulses logged so far, J (an exact sum: the same on a resume)."""
+        return math.fsum(e.get("work", 0.0) for e in self.log)
+
+    def resume_from(self, log: list) -> None:
+        """Continue after the events of a file's log: they are logged, and have happened."""
+        self.log = list(log)
+        self.fired = {e["label"] for e in self.log}
 
     def check_bodies(self, names) -> None:
         """Refuse events whose bodies the run does not have, naming the key."""
@@ -248,8 +313,10 @@ class EventSet:
         before = g[0] if self.previous is None else self.previous
         for r in range(g.shape[0]):
             for j, e in enumerate(self.events):
-                if e.counts(before[j], g[r, j]):
+                armed = (e.after is None or e.after in self.fired) and not (e.dv is not None and e.label in self.fired)
+                if armed and e.counts(before[j], g[r, j]):
                     found.append((r, j, float(before[j]), float(g[r, j])))
+                    self.fired.add(e.label)
             before = g[r]
         self.previous = g[-1].copy()
         return found

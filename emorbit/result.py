@@ -551,8 +551,9 @@ class Result:
     @property
     def events(self):
         """The events found, one row each in time order: an astropy QTable with ``label``,
-        ``kind``, ``body``, ``time`` (s), ``step`` and the body's ``position`` (m) and
-        ``velocity`` (m/s) at the event (NaN for a time event); empty when there were none."""
+        ``kind``, ``body``, ``time`` (s), ``step``, the body's ``position`` (m) and
+        ``velocity`` (m/s) at the event (NaN for a time event), and an impulse's ``dv`` (m/s)
+        and ``work`` (J); empty when there were none."""
         from astropy.table import QTable
 
         rows = self._si.events
@@ -565,6 +566,8 @@ class Result:
                 "step": np.array([e["step"] for e in rows], np.int64),
                 "position": np.array([e["position"] for e in rows], float).reshape(-1, 3) * u.m,
                 "velocity": np.array([e["velocity"] for e in rows], float).reshape(-1, 3) * (u.m / u.s),
+                "dv": np.array([e.get("dv", np.zeros(3)) for e in rows], float).reshape(-1, 3) * (u.m / u.s),
+                "work": np.array([e.get("work", 0.0) for e in rows], float) * u.J,
             }
         )
 

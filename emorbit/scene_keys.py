@@ -238,6 +238,12 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("stop", False, "boolean", "false", "true or false", "end the run at the event (status stopped)"),
         Key("other", False, "string", "", "the name of a body; distance only", "the second body"),
         Key("label", False, "string", '"<kind>[<i>]"', "a name without /", "its name in the log"),
+        Key("dv", False, "3 speeds (m / s)", "", "finite; not with stop",
+            "an impulse added to the body's velocity at the event, once; its work is kept in the energy balance"),
+        Key("frame", False, "string", '"inertial"', _choices(("inertial", "rsw", "vnc")) + "; with dv",
+            "the axes of dv: the scene's; radial, along-track, normal; velocity, normal, their cross product"),
+        Key("after", False, "string", "", "the label of an event before this one",
+            "the event counts only once that one has happened"),
     ),
     "coupling": (
         Key("kind", True, "string", "", _choices(COUPLING_KINDS), "the kind of coupling"),

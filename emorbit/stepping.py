@@ -177,8 +177,9 @@ class ChunkDriver:
         return bool(self._energy_range)
 
     def _working_labels(self) -> list:
-        """The labels of the effects that do work (drag): their work is recorded, not conserved."""
-        return [e.label for e in self.effects.working()]
+        """The labels of the effects that do work (drag), and ``manoeuvres`` where events fire
+        impulses: their work is recorded, not conserved."""
+        return [e.label for e in self.effects.working()] + (["manoeuvres"] if self.events.impulses else [])
 
     def _start_drift(self, tolerance) -> None:
         """A new drift monitor for a run whose first record is the reference. Under an effect
@@ -289,6 +290,11 @@ class ChunkDriver:
         )
         self.effects.check_landings(self.time, self.time + n_steps * self._dt, grid, what)
         self.events.check_bodies(self.names)
+        for e in self.events.events:
+            if e.dv is not None and not next(s for s in self.systems if e.body in s.names).KICKS:
+                raise InputError(
+                    f"{e.key}.body", f"an impulse acts on a point mass or a rigid body; {e.body!r} is neither"
+                )
         self._start_drift(tolerance)
         writer = None
         if output is not None:
@@ -432,7 +438,7 @@ class ChunkDriver:
                     sink.stalled_pending += _stalled(acc)
                 sink.widen([lo, hi] if lo <= hi else [])
                 if halt is not None:
-                    return taken + self._ev.stop_at(halt, snapshots, k, gammas, sink)
+                    return taken + self._ev.act(halt, snapshots, k, every, gammas, sink)
                 self._ev.log_crossings(snapshots, self._steps, gammas, sink)  # those before the failure
                 self._ev.reset(before)
                 taken += self._recover(recs, snapshots, min(failures), k - taken, every, gammas, sink, origin)
@@ -555,30 +561,32 @@ class ChunkDriver:
                         self._ev.scan(recs, min(failures)[0][0] if failures else nrec, self._steps)
                     halt = self._ev.first_stop(min(failures)[0][0] if failures else None)
                     if halt is not None:
-                        taken = self._ev.stop_at(halt, snapshots, k, gammas, sink)
+                        taken = self._ev.act(halt, snapshots, k, every, gammas, sink)
                         done += taken
                         bar.update(taken)
-                        break
-                    if not failures:
-                        try:
-                            sink.emit(recs, self._steps + k * (np.arange(nrec) + 1), nrec, k, span)
-                        except UnsolvedStep as exc:  # nothing recorded: the interval's first step is redone
-                            failures = [((exc.row * k, 0, STATUS_UNSOLVED), 0)]
-                            self._refused = exc
-                    if not failures:
-                        self._ev.log_crossings(snapshots, self._steps, gammas, sink)
-                        self._steps += k * nrec
-                        done += k * nrec
-                        bar.update(k * nrec)
-                        if k == every:
-                            pace.measured(nrec, _time.monotonic() - start, k * nrec)
+                        if self.stopped_by is not None:
+                            break
                     else:
-                        self._ev.log_crossings(snapshots, self._steps, gammas, sink)  # those before the failure
-                        self._ev.reset(before)
-                        taken = self._recover(recs, snapshots, min(failures), k, every, gammas, sink, origin)
-                        self._ev.restart()
-                        done += taken
-                        bar.update(taken)
+                        if not failures:
+                            try:
+                                sink.emit(recs, self._steps + k * (np.arange(nrec) + 1), nrec, k, span)
+                            except UnsolvedStep as exc:  # nothing recorded: the interval's first step is redone
+                                failures = [((exc.row * k, 0, STATUS_UNSOLVED), 0)]
+                                self._refused = exc
+                        if not failures:
+                            self._ev.log_crossings(snapshots, self._steps, gammas, sink)
+                            self._steps += k * nrec
+                            done += k * nrec
+                            bar.update(k * nrec)
+                            if k == every:
+                                pace.measured(nrec, _time.monotonic() - start, k * nrec)
+                        else:
+                            self._ev.log_crossings(snapshots, self._steps, gammas, sink)  # those before the failure
+                            self._ev.reset(before)
+                            taken = self._recover(recs, snapshots, min(failures), k, every, gammas, sink, origin)
+                            self._ev.restart()
+                            done += taken
+                            bar.update(taken)
                 since = self._steps - origin
                 # the last record on the grid before a shorter last interval: the run's last checkpoint
                 last = since % every == 0 and 0 < n_steps - done < every

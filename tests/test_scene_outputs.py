@@ -41,7 +41,10 @@ def digest(path: str) -> dict[str, str]:
         def visit(name, obj):
             if isinstance(obj, h5py.Dataset):
                 a = np.ascontiguousarray(obj[()])
-                out[name] = hashlib.sha256(str(a.dtype).encode() + str(a.shape).encode() + a.tobytes()).hexdigest()[:16]
+                data = a.tobytes()
+                if a.dtype == object:  # text (the event log's labels): the strings, not their addresses
+                    data = b"\0".join(x if isinstance(x, bytes) else str(x).encode() for x in a.ravel())
+                out[name] = hashlib.sha256(str(a.dtype).encode() + str(a.shape).encode() + data).hexdigest()[:16]
 
         f.visititems(visit)
         attrs = {k: str(v) for k, v in sorted(f.attrs.items()) if k not in PROVENANCE}

@@ -632,6 +632,20 @@ class PointMasses(WorkSums, BodySystem):
             return (self._dev.snapshot(), None, None, None, self.rho.copy()) + extra
         return tuple(a.copy() for a in (self.x, self.v, self.cx, self.cv, self.rho)) + extra
 
+    KICKS = True
+
+    def kick(self, name: str, dv, key: str = "dv") -> tuple[float, np.ndarray]:
+        """Add ``dv`` to a point's velocity, the rounding kept in ``cv`` (the exact velocity is
+        v - cv); see :meth:`~emorbit.bodies.system.BodySystem.kick`."""
+        i = self.names.index(name)
+        v, cv = self.v, self.cv
+        before = v[:, i].copy()
+        new = before + dv
+        err = (before - (new - (new - before))) + (dv - (new - before))  # two-sum: before + dv = new + err
+        v[:, i], cv[:, i] = new, cv[:, i] - err
+        self.v, self.cv = v, cv
+        return float(self.masses[i]), before
+
     def restore(self, snap) -> None:
         """Put back x, v, cx, cv, rho and the effects' state from :meth:`snapshot`."""
         self.wp[...], self.hp[...], self.work[...], self.cwork[...] = snap[5:]

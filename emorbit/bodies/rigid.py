@@ -529,6 +529,18 @@ class RigidBodies(WorkSums, BodySystem):
         """Copies of q, v, cq, cv, lam, the work sums and rho."""
         return tuple(a.copy() for a in (self.q, self.v, self.cq, self.cv, self.lam, self.work, self.cwork, self.rho))
 
+    KICKS = True
+
+    def kick(self, name: str, dv, key: str = "dv") -> tuple[float, np.ndarray]:
+        """Add ``dv`` to a body's centre-of-mass velocity (its spin unchanged), the rounding
+        kept in ``cv``; see :meth:`~emorbit.bodies.system.BodySystem.kick`."""
+        b = self.names.index(name)
+        before = self.v[b, :3].copy()
+        new = before + dv
+        err = (before - (new - (new - before))) + (dv - (new - before))
+        self.v[b, :3], self.cv[b, :3] = new, self.cv[b, :3] - err
+        return float(self.mass[b]), before
+
     def restore(self, snap) -> None:
         """Put back q, v, cq, cv, lam, the work sums and rho from :meth:`snapshot`."""
         for a, s in zip((self.q, self.v, self.cq, self.cv, self.lam, self.work, self.cwork, self.rho), snap):

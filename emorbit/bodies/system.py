@@ -233,6 +233,25 @@ class BodySystem:
         """Put back the state :meth:`snapshot` returned."""
         raise NotImplementedError
 
+    #: whether :meth:`kick` adds impulses to this kind's bodies
+    KICKS = False
+
+    def kick(self, name: str, dv, key: str = "dv") -> tuple[float, np.ndarray]:
+        """Add ``dv`` (3,) m/s to a body's velocity (a rigid body's centre of mass), with the
+        compensation of its rounding: an impulsive manoeuvre (:mod:`emorbit.events`).
+
+        Returns
+        -------
+        (float, ndarray)
+            The body's mass (kg) and its velocity before, m/s.
+
+        Raises
+        ------
+        InputError
+            A body kind that takes no impulse (elastic bodies).
+        """
+        raise InputError(key, f"an impulse acts on a point mass or a rigid body; {name!r} is neither")
+
     def state_arrays(self) -> dict[str, np.ndarray]:
         """Copies of the whole state, by name: what a checkpoint stores (default: the arrays
         named in :attr:`STATE_FIELDS`)."""

@@ -104,7 +104,14 @@ def _versions() -> str:
 
 
 #: the numeric datasets of the ``events/`` group: {name: (width, unit)}
-EVENT_DATASETS = {"time": (None, "s"), "step": (None, "1"), "position": (3, "m"), "velocity": (3, "m / s")}
+EVENT_DATASETS = {
+    "time": (None, "s"),
+    "step": (None, "1"),
+    "position": (3, "m"),
+    "velocity": (3, "m / s"),
+    "dv": (3, "m / s"),
+    "work": (None, "J"),
+}
 #: its text datasets
 EVENT_TEXT = ("label", "kind", "body")
 
@@ -475,7 +482,8 @@ class Writer:
     def append_event(self, entry: dict) -> None:
         """Append an event to the ``events/`` group (made on the first) and flush: ``time`` (s),
         ``step`` (the step it fell in, from the run's start), ``label``, ``kind``, ``body``
-        (strings), ``position`` (m) and ``velocity`` (m/s) of its body (NaN for a time event).
+        (strings), ``position`` (m) and ``velocity`` (m/s) of its body (NaN for a time event),
+        and an impulse's ``dv`` (m/s, in the scene's axes) and ``work`` (J; 0 for others).
 
         Raises
         ------

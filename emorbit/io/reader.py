@@ -43,6 +43,7 @@ __all__ = [
     "STATE_UNITS",
     "NEXT_CHECKPOINT",
     "optional_rows",
+    "read_events",
     "state_digest",
     "probe",
     "not_regular",
@@ -708,21 +709,23 @@ def _read(f, path: str, at: list) -> Result:
         attrs=attrs,
         work={k[len("work_") :]: read_dataset(ds, path, n) for k, ds in invariants.items() if k.startswith("work_")},
         energy_balance=read_dataset(invariants["energy_balance"], path, n) if "energy_balance" in invariants else None,
-        events=_events(f, path),
+        events=read_events(f, path),
         **diag,
     )
 
 
-def _events(f, path) -> list:
+def read_events(f, path) -> list:
     """The ``events/`` group as the list :attr:`emorbit.result.ResultSI.events` holds."""
     if "events" not in f or "time" not in f["events"]:
         return []
     g = f["events"]
-    cols = {q: read_dataset(g[q], path) for q in ("time", "step", "position", "velocity")}
+    cols = {q: read_dataset(g[q], path) for q in ("time", "step", "position", "velocity", "dv", "work") if q in g}
     text = {q: [v.decode() if isinstance(v, bytes) else str(v) for v in g[q][()]] for q in ("label", "kind", "body")}
     n = min(len(cols["time"]), *(len(v) for v in text.values()))
     return [
         {"label": text["label"][i], "kind": text["kind"][i], "body": text["body"][i], "time": float(cols["time"][i]),
-         "step": int(cols["step"][i]), "position": cols["position"][i], "velocity": cols["velocity"][i]}
+         "step": int(cols["step"][i]), "position": cols["position"][i], "velocity": cols["velocity"][i],
+         "dv": cols["dv"][i] if "dv" in cols else np.zeros(3),
+         "work": float(cols["work"][i]) if "work" in cols else 0.0}
         for i in range(n)
     ]  # fmt: skip

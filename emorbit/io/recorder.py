@@ -234,6 +234,8 @@ class Sink:
                 substeps = rec.solves[:nrec].max(axis=1, initial=0)
             else:  # solves per step: points, bodies, or 1 per structure
                 solves = solves + rec.iterations.shape[1] * coefficients(sim.order).size
+        if sim.events.impulses:  # the impulses' work so far (emorbit.events)
+            works["work_manoeuvres"] = np.full(nrec, sim.events.impulse_work)
         its = iters / np.maximum(k * solves, 1) if k else np.zeros(nrec)
         rel = np.asarray(steps[:nrec]) - getattr(sim, "_run_origin", 0)  # steps since the file's start
         # under effects that do work, E - W is what the step keeps (the balance)

@@ -454,6 +454,10 @@ def resume(path, t_end, *, progress: bool | None = None, truncate: bool = False)
     cp = int(attrs["checkpoint_every"])
     total = sim._steps + n_steps
     writer = Writer.reopen(path, records, {"t_end": sim._t_base + total * sim.dt, "steps": total})
+    if sim.events:  # the events before the checkpoint have happened (and their impulses' work)
+        from .reader import read_events
+
+        sim.events.resume_from(read_events(writer.file, path))
     sink = Sink(sim, writer, True)
     sink.rows = records
     sink.last_step = sim._steps

@@ -163,6 +163,11 @@ def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -
             lines.append(f'value = "{event.value!r} s"')
         lines.append(f'direction = "{ {1: "rising", -1: "falling", 0: "either"}[event.direction] }"')
         lines.append(f"stop = {'true' if event.stop else 'false'}")
+        if event.dv is not None:
+            lines.append("dv = [" + ", ".join(f'"{c!r} m / s"' for c in event.dv) + "]")
+            lines.append(f'frame = "{event.frame}"')
+        if event.after is not None:
+            lines.append(f"after = {json.dumps(event.after)}")
     pts = sim.points
     for i, name in enumerate(pts.names):
         lines += [
