@@ -430,7 +430,7 @@ class Assembly:
     # -- events -------------------------------------------------------------------------
     def add_event(
         self, kind: str, *, body=None, value=None, direction=None, stop: bool = False, other=None, label=None,
-        dv=None, frame=None, after=None, key: str | None = None, strict: bool = False,
+        dv=None, frame=None, after=None, sun=None, key: str | None = None, strict: bool = False,
     ):  # fmt: skip
         """Add an event: a zero crossing of a function of the state, found after every step and
         located to round-off in time (:mod:`emorbit.events` has the kinds and the method).
@@ -464,6 +464,9 @@ class Assembly:
             ``"vnc"`` (velocity, orbit normal, their cross product), at the body's state.
         after : str, optional
             The label of an event that must have happened before this one counts.
+        sun : sequence of 3, optional
+            An eclipse's fixed direction to the Sun, in the scene's axes (default: the Sun of
+            astropy's builtin ephemeris, from the run's epoch).
         key : str, optional
             Its name in errors (default ``event[<i>]``).
         strict : bool
@@ -486,13 +489,13 @@ class Assembly:
                 "events are found on fixed steps: this simulation has adaptive steps (integrator.adaptive)",
             )
         has_radius = self.field is not None and self.field.radius > 0
-        if kind in ("radius", "altitude", "periapsis", "apoapsis", "node") and self.field is None:
+        if kind in ("radius", "altitude", "periapsis", "apoapsis", "node", "eclipse") and self.field is None:
             raise InputError(
                 f"{key}.kind", f"a {kind} event is measured from the field's centre: the scene needs a [field]"
             )
         return self.events.add(
             kind, body=body, value=value, direction=direction, stop=stop, other=other, label=label, dv=dv,
-            frame=frame, after=after, key=key, strict=strict, has_radius=has_radius,
+            frame=frame, after=after, sun=sun, epoch=self.epoch, key=key, strict=strict, has_radius=has_radius,
         )  # fmt: skip
 
     # -- effects ------------------------------------------------------------------------

@@ -14,7 +14,15 @@ kind           g                                           direction by default
 ``node``       ``(x - c)_z`` (the scene's z axis)          either (rising: ascending)
 ``time``       ``t - value``                               rising (only)
 ``distance``   ``|x - x_other| - value``                   either
+``eclipse``    ``|d_perp| - R`` where ``d . s < 0``,       either (falling: entry)
+               else ``R + d . s`` (``d = x - c``)
 =============  ==========================================  ======================
+
+``eclipse`` is the central body's cylindrical shadow: ``s`` is the unit vector to the Sun,
+``d_perp = d - (d . s) s``; g is continuous across the shadow's edge (it changes sign
+only there). The Sun's direction is ``sun`` (fixed, in the scene's axes) or, by default, the
+Sun's geocentric position from :class:`emorbit.effects.ephemeris.EphemerisTable` (astropy's
+builtin ephemeris, sampled hourly from the run's epoch, which it then needs).
 
 ``direction`` picks the crossings that count: ``rising`` (g from below zero to zero or
 above), ``falling``, or ``either``.
@@ -67,6 +75,7 @@ KINDS = {
     "node": (None, 0, True),
     "time": ("time", 1, False),
     "distance": ("length", 0, True),
+    "eclipse": (None, 0, True),
 }
 #: direction names -> the sign of g's change that counts (0: either)
 DIRECTIONS = {"rising": 1, "falling": -1, "either": 0}
@@ -119,6 +128,26 @@ class Event:
     dv: np.ndarray | None = None
     frame: str = "inertial"
     after: str | None = None
+    sun: np.ndarray | None = None
+    epoch: object = None
+    _table: object = None
+
+    def sun_direction(self, times) -> np.ndarray:
+        """Unit vectors to the Sun at ``times`` (s from the epoch): (m, 3)."""
+        times = np.asarray(times, float)
+        if self.sun is not None:
+            return np.broadcast_to(self.sun, (times.size, 3))
+        table = self._table
+        if table is None or times.min() < table.start or times.max() > table.end:
+            from astropy.time import TimeDelta
+
+            from .effects.ephemeris import EphemerisTable
+
+            lo, hi = float(times.min()) - 3600.0, float(times.max()) + 10 * 86400.0
+            start, end = (self.epoch + TimeDelta(t, format="sec") for t in (lo, hi))
+            table = self._table = EphemerisTable("sun", start, end, 3600.0, epoch=self.epoch, check=False)
+        p = table.position(times)
+        return p / np.linalg.norm(p, axis=-1, keepdims=True)
 
     def impulse(self, x, v, center) -> np.ndarray:
         """The impulse in the scene's axes at the body's position ``x`` and velocity ``v``."""
@@ -148,6 +177,11 @@ class Event:
             return np.einsum("ij,ij->i", d, np.asarray(data[self.body]["velocity"], float))
         if self.kind == "node":
             return d[:, 2].copy()
+        if self.kind == "eclipse":
+            s = self.sun_direction(times)
+            along = np.einsum("ij,ij->i", d, s)
+            across = np.linalg.norm(d - along[:, None] * s, axis=1)
+            return np.where(along < 0.0, across - radius, radius + along)
         other = np.asarray(data[self.other]["position"], float)
         return np.linalg.norm(np.asarray(data[self.body]["position"], float) - other, axis=1) - self.value
 
@@ -167,6 +201,9 @@ class Event:
             return f"{self.label}: t = {self.value!r} s"
         if self.kind in ("periapsis", "apoapsis"):
             return f"{self.label}: {self.kind} of {self.body}"
+        if self.kind == "eclipse":
+            which = {1: "exit from ", -1: "entry into ", 0: "edge of "}[self.direction]
+            return f"{self.label}: {which}the shadow of {self.body}"
         if self.kind == "node":
             which = {1: "ascending ", -1: "descending ", 0: ""}[self.direction]
             return f"{self.label}: {which}node of {self.body}"
@@ -203,7 +240,8 @@ class EventSet:
         return bool(self.events)
 
     def add(self, kind, *, body=None, value=None, direction=None, stop=False, other=None, label=None,
-            dv=None, frame=None, after=None, key=None, strict=False, has_radius=True) -> Event:  # fmt: skip
+            dv=None, frame=None, after=None, sun=None, epoch=None, key=None, strict=False,
+            has_radius=True) -> Event:  # fmt: skip
         """Check and add an event; see :meth:`emorbit.Simulation.add_event` for the keys.
 
         Raises
@@ -242,10 +280,21 @@ class EventSet:
             level = to_si(value, unit, f"{key}.value", strict=strict)
             if not math.isfinite(level):
                 raise InputError(f"{key}.value", f"a finite {unit} expected, got {value!r}")
-        if kind == "altitude" and not has_radius:
-            raise InputError(
-                f"{key}.kind", "an altitude is measured above the field's radius: give the [field] a radius"
-            )
+        if kind == "eclipse":
+            if sun is not None:
+                sun = np.asarray(vector_to_si(sun, "dimensionless", f"{key}.sun"), float)
+                if not (np.all(np.isfinite(sun)) and np.linalg.norm(sun) > 0):
+                    raise InputError(f"{key}.sun", f"a direction other than 0 expected, got {sun!r}")
+                sun = sun / np.linalg.norm(sun)
+            elif epoch is None:
+                raise InputError(
+                    f"{key}.sun",
+                    "an eclipse needs the Sun: give its direction (sun) or the run's epoch (the ephemeris)",
+                )
+        elif sun is not None:
+            raise InputError(f"{key}.sun", f"only an eclipse event has a Sun direction, got {sun!r}")
+        if kind in ("altitude", "eclipse") and not has_radius:
+            raise InputError(f"{key}.kind", f"an {kind} is measured with the field's radius: give the [field] a radius")
         if direction is None:
             sign = default
         else:
@@ -273,7 +322,8 @@ class EventSet:
         if after is not None and (not isinstance(after, str) or after not in {e.label for e in self.events}):
             known = ", ".join(e.label for e in self.events) or "none yet"
             raise InputError(f"{key}.after", f"the label of an event before this one expected ({known}), got {after!r}")
-        event = Event(kind, body, float(level), sign, stop, other, label, key, impulse, frame or "inertial", after)
+        event = Event(kind, body, float(level), sign, stop, other, label, key, impulse, frame or "inertial", after, sun,
+                      None if sun is not None else epoch)  # fmt: skip
         self.events.append(event)
         self.previous = None
         return event

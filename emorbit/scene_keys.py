@@ -228,7 +228,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
     "event": (
         Key("kind", True, "string", "", _choices(EVENT_KINDS),
             "what crosses zero: |x - c| - value, the altitude above the field's radius less value, (x - c) . v, "
-            "the z coordinate of x - c, t - value, or the distance to other less value"),
+            "the z coordinate of x - c, t - value, the distance to other less value, or the edge of the "
+            "central body's cylindrical shadow"),
         Key("body", False, "string", "", "the name of a body; not for time",
             "the body whose state it reads (a rigid or elastic body's centre of mass)"),
         Key("value", False, "length (m), or time (s) for time", "", "finite; radius, altitude, distance and time only",
@@ -244,6 +245,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
             "the axes of dv: the scene's; radial, along-track, normal; velocity, normal, their cross product"),
         Key("after", False, "string", "", "the label of an event before this one",
             "the event counts only once that one has happened"),
+        Key("sun", False, "3 numbers", "the Sun of astropy's builtin ephemeris (needs the epoch)",
+            "a direction other than 0; eclipse only", "the direction to the Sun, in the scene's axes"),
     ),
     "coupling": (
         Key("kind", True, "string", "", _choices(COUPLING_KINDS), "the kind of coupling"),

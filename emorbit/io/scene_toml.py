@@ -168,6 +168,8 @@ def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -
             lines.append(f'frame = "{event.frame}"')
         if event.after is not None:
             lines.append(f"after = {json.dumps(event.after)}")
+        if event.sun is not None:
+            lines.append(f"sun = [{', '.join(repr(float(c)) for c in event.sun)}]")
     pts = sim.points
     for i, name in enumerate(pts.names):
         lines += [
