@@ -385,3 +385,32 @@ def test_an_eclipse_follows_the_suns_ephemeris():
     assert d @ s < 0 and abs(np.linalg.norm(d - (d @ s) * s) - EARTH.radius) <= 1e-6
     with pytest.raises(InputError, match=r"event\[0\]\.sun"):
         _orbit().add_event("eclipse", body="sat")
+
+
+def test_a_stopped_run_resumes_with_a_new_stop_as_an_unbroken_run(tmp_path):
+    """A run stopped at 500 km (falling), resumed with a stop at 400 km in its place: the file
+    is bit for bit the file of a run that only ever had the 400 km stop (records, final state,
+    status "stopped"), and its scene now names the new event."""
+
+    def run(value, path):
+        sim = _orbit()
+        sim.add_event("altitude", body="sat", value=value, direction="falling", stop=True, label="low")
+        sim.run(t_end="1 d", every=10, output=str(path), progress=False, checkpoint_every=100)
+        return sim
+
+    first = run("500 km", tmp_path / "a.h5")
+    assert first.stopped_by is not None
+    emorbit.resume(
+        str(tmp_path / "a.h5"), "1 d", progress=False,
+        events=[{"kind": "altitude", "body": "sat", "value": "400 km", "direction": "falling", "stop": True,
+                 "label": "low"}],
+    )  # fmt: skip
+    run("400 km", tmp_path / "b.h5")
+    a, b = emorbit.read(str(tmp_path / "a.h5")), emorbit.read(str(tmp_path / "b.h5"))
+    assert a.attrs["status"] == b.attrs["status"] == "stopped"
+    assert np.array_equal(a.si.time, b.si.time)
+    assert np.array_equal(a.si.positions["sat"], b.si.positions["sat"])
+    assert [e["time"] for e in a.si.events] == [e["time"] for e in b.si.events]
+    with h5py.File(tmp_path / "a.h5") as fa, h5py.File(tmp_path / "b.h5") as fb:
+        assert np.array_equal(fa["final_state/point/x"][()], fb["final_state/point/x"][()])
+        assert 'value = "400000.0 m"' in fa.attrs["scene"] and "500" not in fa.attrs["scene"].split("[[event]]")[-1]

@@ -396,7 +396,7 @@ def load_checkpoint(path):
     return loaded.sim, loaded.attrs, loaded.records
 
 
-def resume(path, t_end, *, progress: bool | None = None, truncate: bool = False) -> Result:
+def resume(path, t_end, *, progress: bool | None = None, truncate: bool = False, events=None) -> Result:
     """Continue the run in a file to a later time, in place.
 
     Parameters
@@ -410,6 +410,11 @@ def resume(path, t_end, *, progress: bool | None = None, truncate: bool = False)
     truncate : bool
         Allow a ``t_end`` before the file's last record: the records after ``t_end`` are
         deleted. Without it such a ``t_end`` is an error and the file is left as it is.
+    events : list of dict, optional
+        New events in place of the file's (each the keys of
+        :meth:`emorbit.Simulation.add_event`, with ``kind``), e.g. a stopping condition further
+        on; the file's scene is rewritten with them. The run from the checkpoint is the run a
+        scene with these events would have made (events do not change states).
 
     Returns
     -------
@@ -453,7 +458,20 @@ def resume(path, t_end, *, progress: bool | None = None, truncate: bool = False)
     every = int(attrs["output_every"])
     cp = int(attrs["checkpoint_every"])
     total = sim._steps + n_steps
-    writer = Writer.reopen(path, records, {"t_end": sim._t_base + total * sim.dt, "steps": total})
+    attrs_new = {"t_end": sim._t_base + total * sim.dt, "steps": total}
+    if events is not None:
+        from ..events import EventSet
+        from .scene_toml import replace_events
+
+        if not isinstance(events, (list, tuple)) or not all(isinstance(e, dict) for e in events):
+            raise InputError("events", f"a list of event tables (dicts with kind) expected, got {events!r}")
+        sim.events = EventSet()
+        for i, table in enumerate(events):
+            keys = {k: v for k, v in table.items() if k != "kind"}
+            sim.add_event(table.get("kind"), key=f"events[{i}]", **keys)
+        sim.events.check_bodies(sim.names)
+        attrs_new["scene"] = replace_events(attrs["scene"], sim.events)
+    writer = Writer.reopen(path, records, attrs_new)
     if sim.events:  # the events before the checkpoint have happened (and their impulses' work)
         from .reader import read_events
 

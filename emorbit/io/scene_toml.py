@@ -23,7 +23,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-__all__ = ["simulation_to_toml", "load_toml", "MAX_DEPTH"]
+__all__ = ["simulation_to_toml", "load_toml", "MAX_DEPTH", "event_lines", "replace_events"]
 
 #: the deepest a scene or sweep file nests tables and arrays (a mesh's rows in a [[body]]
 #: table are 3 levels deep)
@@ -151,25 +151,7 @@ def simulation_to_toml(sim, t_end: float | None = None, output_every: int = 1) -
     for effect in sim.effects.named:
         lines += ["", "[[effect]]", f'kind = "{effect.kind}"']
         lines += [f"{k} = {_value(v)}" for k, v in effect.table.items() if k != "kind"]
-    for event in sim.events.events:
-        lines += ["", "[[event]]", f'kind = "{event.kind}"', f"label = {json.dumps(event.label)}"]
-        if event.body is not None:
-            lines.append(f"body = {json.dumps(event.body)}")
-        if event.other is not None:
-            lines.append(f"other = {json.dumps(event.other)}")
-        if event.kind in ("radius", "altitude", "distance"):
-            lines.append(f'value = "{event.value!r} m"')
-        elif event.kind == "time":
-            lines.append(f'value = "{event.value!r} s"')
-        lines.append(f'direction = "{ {1: "rising", -1: "falling", 0: "either"}[event.direction] }"')
-        lines.append(f"stop = {'true' if event.stop else 'false'}")
-        if event.dv is not None:
-            lines.append("dv = [" + ", ".join(f'"{c!r} m / s"' for c in event.dv) + "]")
-            lines.append(f'frame = "{event.frame}"')
-        if event.after is not None:
-            lines.append(f"after = {json.dumps(event.after)}")
-        if event.sun is not None:
-            lines.append(f"sun = [{', '.join(repr(float(c)) for c in event.sun)}]")
+    lines += event_lines(sim.events)
     pts = sim.points
     for i, name in enumerate(pts.names):
         lines += [
@@ -272,3 +254,41 @@ def _effect_key_lines(values: dict) -> list[str]:
 
     units = {bk.name: bk.unit for cls in EFFECTS.values() for bk in cls.BODY_KEYS}
     return [f"{k} = {_q(v, units[k])}" for k, v in values.items()]
+
+
+def event_lines(events) -> list[str]:
+    """The ``[[event]]`` tables of an :class:`emorbit.events.EventSet`, as TOML lines."""
+    lines: list[str] = []
+    for event in events.events:
+        lines += ["", "[[event]]", f'kind = "{event.kind}"', f"label = {json.dumps(event.label)}"]
+        if event.body is not None:
+            lines.append(f"body = {json.dumps(event.body)}")
+        if event.other is not None:
+            lines.append(f"other = {json.dumps(event.other)}")
+        if event.kind in ("radius", "altitude", "distance"):
+            lines.append(f'value = "{event.value!r} m"')
+        elif event.kind == "time":
+            lines.append(f'value = "{event.value!r} s"')
+        lines.append(f'direction = "{ {1: "rising", -1: "falling", 0: "either"}[event.direction] }"')
+        lines.append(f"stop = {'true' if event.stop else 'false'}")
+        if event.dv is not None:
+            lines.append("dv = [" + ", ".join(f'"{c!r} m / s"' for c in event.dv) + "]")
+            lines.append(f'frame = "{event.frame}"')
+        if event.after is not None:
+            lines.append(f"after = {json.dumps(event.after)}")
+        if event.sun is not None:
+            lines.append(f"sun = [{', '.join(repr(float(c)) for c in event.sun)}]")
+    return lines
+
+
+def replace_events(text: str, events) -> str:
+    """A scene's text with its ``[[event]]`` tables replaced by those of ``events``: each
+    table runs from its header to the next table header."""
+    out, inside = [], False
+    for line in text.splitlines():
+        head = line.strip()
+        if head.startswith("["):
+            inside = head.replace(" ", "") == "[[event]]"
+        if not inside:
+            out.append(line)
+    return "\n".join(out + event_lines(events)) + "\n"
