@@ -214,7 +214,7 @@ def _run(args) -> int:
             f"{_run_summary(args.output)}, wall {time.perf_counter() - start:.2f} s"
         )
     if sim.stopped_by is not None:  # said even with -q: the run ended before t_end
-        print(f"{args.output}: stopped at t = {sim.time!r} s by {sim.stopped_by.describe()}")
+        print(f"{args.output}: stopped at t = {sim.time!r} s ({sim.time / 86400:.6g} d) by {sim.stopped_by.describe()}")
     if sim.events.log and not args.quiet:
         print(f"{args.output}: {len(sim.events.log)} events (events/ in the file)")
     return 0

@@ -16,7 +16,8 @@ largest distance of a node from the best rigid placement of the mesh's reference
 (:func:`deformation`), which is the tip deflection of a beam relative to its rigid motion and
 the sag and stretch of a tether. A run whose effects record a turning central body (a gravity
 field's ``body_frame``) adds each body's longitude over the ground against time and its
-ground track (:func:`ground_track`).
+ground track (:func:`ground_track`). A run with events adds each body's altitude against
+time, its events marked (an orbital lifetime ends at its stopping event).
 """
 
 from __future__ import annotations
@@ -284,6 +285,24 @@ def _plot_ground(runs, ax_lon, ax_track) -> None:
         _legend(ax)
 
 
+def _plot_altitude(runs, ax) -> None:
+    """Each body's altitude above the field's radius (the distance from the centre without
+    one) against time, with the run's events marked where they fell."""
+    for path, res in runs:
+        if res.gm == 0.0:
+            continue
+        radius = float(res.attrs.get("field_radius", 0.0))
+        for name in res.names:
+            h = np.linalg.norm(res.positions[name] - res.center, axis=1) - radius
+            ax.plot(res.time / 86400.0, h / 1e3, lw=0.8, label=f"{_who(path, runs)}{name}")
+        for e in res.events:
+            ax.axvline(e["time"] / 86400.0, color="0.5", lw=0.6, ls=":")
+            ax.annotate(e["label"], (e["time"] / 86400.0, 1.0), xycoords=("data", "axes fraction"), rotation=90,
+                        va="top", ha="right", fontsize=7)  # fmt: skip
+    what = "altitude above the field's radius" if any(r.attrs.get("field_radius") for _, r in runs) else "distance"
+    ax.set(xlabel="time [d]", ylabel=f"{what} [km]", title=f"{what}; dotted: events")
+
+
 def _read(path):
     res = read(path, probe=True)  # a damaged file that would hang HDF5 fails in a child process instead
     if len(res) == 0:
@@ -369,8 +388,9 @@ def draw_runs(runs, *, title: str | None = None):
     elastic = any(_elastic(res) for _, res in runs)
     turning = any(body_frame(res) is not None for _, res in runs)
     field = any(res.gm != 0.0 for _, res in runs)
+    events = field and any(res.events for _, res in runs)
     free = [(path, res) for path, res in runs if res.gm == 0.0]
-    rows = 2 if rigid or elastic or turning else 1
+    rows = 2 if rigid or elastic or turning or events else 1
     cols = 4 if free else 3
     fig, axes = plt.subplots(rows, cols, figsize=(5.3 * cols, 5.6 * rows), constrained_layout=True, squeeze=False)
     ax_lin, ax_log, ax_paths = axes[0][:3]
@@ -411,6 +431,8 @@ def draw_runs(runs, *, title: str | None = None):
             _plot_deformation(runs, second.pop(0))
         if turning and len(second) >= 2:
             _plot_ground(runs, second.pop(0), second.pop(0))
+        if events and second:
+            _plot_altitude(runs, second.pop(0))
         for ax in second:
             ax.axis("off")
     if title:

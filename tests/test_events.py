@@ -414,3 +414,20 @@ def test_a_stopped_run_resumes_with_a_new_stop_as_an_unbroken_run(tmp_path):
     with h5py.File(tmp_path / "a.h5") as fa, h5py.File(tmp_path / "b.h5") as fb:
         assert np.array_equal(fa["final_state/point/x"][()], fb["final_state/point/x"][()])
         assert 'value = "400000.0 m"' in fa.attrs["scene"] and "500" not in fa.attrs["scene"].split("[[event]]")[-1]
+
+
+def test_the_plot_draws_the_altitude_with_the_events(tmp_path):
+    """emorbit plot of a run with events adds the altitude against time, the events marked."""
+    import matplotlib.pyplot as plt
+
+    from emorbit.plot import draw_runs
+
+    sim = _orbit()
+    sim.add_event("altitude", body="sat", value="500 km", direction="falling", stop=True, label="low")
+    sim.run(t_end="1 d", every=10, output=str(tmp_path / "low.h5"), progress=False)
+    fig = draw_runs([("low.h5", emorbit.read(str(tmp_path / "low.h5")).si)])
+    titles = [ax.get_title() for ax in fig.axes]
+    ax = fig.axes[titles.index("altitude above the field's radius; dotted: events")]
+    assert [t.get_text() for t in ax.texts] == ["low"]
+    assert ax.lines[0].get_ydata()[-1] == pytest.approx(500.0, abs=1e-9)
+    plt.close(fig)
