@@ -480,14 +480,9 @@ class Assembly:
         ------
         InputError
             A key the kind does not take or lacks, a bad value or direction, altitude in a
-            field without a radius, adaptive steps (events need fixed steps).
+            field without a radius.
         """
         key = key or f"event[{len(self.events)}]"
-        if self.adaptive is not None:
-            raise InputError(
-                f"{key}.kind",
-                "events are found on fixed steps: this simulation has adaptive steps (integrator.adaptive)",
-            )
         has_radius = self.field is not None and self.field.radius > 0
         if kind in ("radius", "altitude", "periapsis", "apoapsis", "node", "eclipse") and self.field is None:
             raise InputError(

@@ -36,6 +36,9 @@ g(tau) = 0 by the Illinois form of regula falsi (M. Dowell, P. Jarratt, BIT 11 (
 is the state after the step of length tau on the crossing's side: a state the method
 reached, so an em run keeps its energy (or energy balance) there exactly. Two crossings of
 one event within one step (g returning to its sign) are not seen: the step is the grid.
+With adaptive steps the grid is the record grid's unit ``dt``: the adaptive kernel takes its
+own steps over each unit, and a crossing's unit is re-run as one adaptive span of length
+tau, landing there.
 
 A stopping event (``stop``) ends the run at its state: the status is ``stopped``, with the
 event named. An impulsive manoeuvre (``dv``, in the frame ``frame``) fires once: the step is
