@@ -306,7 +306,19 @@ def _resume(args) -> int:
             f"{args.file}: continued to t = {si.time[-1]:.6g} s, |dE/E| over the continuation = {err:.3e}, "
             f"wall {time.perf_counter() - start:.2f} s"
         )
+    stopped = _stopped(args.file)
+    if stopped is not None:  # said even with -q: the run ended before t_end
+        t = float(result.si.time[-1])
+        print(f"{args.file}: stopped at t = {t!r} s ({t / 86400:.6g} d) by {stopped}")
     return 0
+
+
+def _stopped(path) -> str | None:
+    """The event that stopped the run in a file, in words (None: it was not stopped)."""
+    from .io.reader import open_run_file
+
+    with open_run_file(path) as f:
+        return str(f.attrs["stopped_by"]) if f.attrs.get("status") == "stopped" and "stopped_by" in f.attrs else None
 
 
 def _plot(args) -> int:

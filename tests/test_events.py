@@ -126,6 +126,9 @@ output_every = 10
     assert np.abs(res.relative_energy_error()).max() <= 4 * EPS
     with h5py.File(out) as f:
         assert f["events/time"].attrs["unit"] == "s" and f["events/label"][-1] == b"reentry"
+    assert main(["resume", str(out), "--t-end", "2 d", "-q"]) == 0  # from its last checkpoint: the same stop
+    assert capsys.readouterr().out == said  # the same stop, said the same way
+    assert emorbit.read(str(out)).si.events[-1]["time"] == t_stop
 
 
 def test_a_drag_run_ends_at_its_lifetime_with_the_balance_kept():
