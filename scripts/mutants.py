@@ -401,6 +401,13 @@ def run_one(mutant: Mutant, scratch: Path, threads: int) -> dict:
     failed = re.findall(r"^FAILED (\S+)", out, re.M)
     if done.returncode == 1 and failed:
         return {"name": mutant.name, "status": "killed", "by": failed[0], "seconds": seconds}
+    if done.returncode == 1 and "RoundoffWarning" in out:  # the drift monitor saw it (warnings are errors)
+        return {
+            "name": mutant.name,
+            "status": "killed",
+            "by": "the drift monitor (a RoundoffWarning)",
+            "seconds": seconds,
+        }
     if done.returncode == 0:
         why = "every selected test passed"
     else:
