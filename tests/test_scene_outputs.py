@@ -16,7 +16,9 @@ of results, or in a new environment::
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import io
 import json
 import os
 import sys
@@ -54,7 +56,8 @@ def digest(path: str) -> dict[str, str]:
 
 def run_scene(name: str, folder: str) -> dict[str, str]:
     path = os.path.join(folder, f"{name}.h5")
-    assert main(["run", name, "-o", path, "-q"]) == 0
+    with contextlib.redirect_stdout(io.StringIO()):  # a stopping event is said even with -q
+        assert main(["run", name, "-o", path, "-q"]) == 0
     return digest(path)
 
 
