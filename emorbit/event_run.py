@@ -40,7 +40,6 @@ class EventRun:
         self._crossings: list = []
         self._scanning = True
         self._mark = (None, set())
-        self.tau = 0.0  # the step length of the last event located, s
 
     def data(self, recs, rows: int, times) -> dict:
         """{body: datasets} of the first ``rows`` records."""
@@ -54,11 +53,15 @@ class EventRun:
         radius = self.sim.field.radius if self.sim.field is not None else 0.0
         return self.events.values(times, self.data(recs, rows, times), self.sim.center, radius)
 
+    def _from_here(self) -> None:
+        """g at the systems' current state: the sign the next step is compared with."""
+        if self.events:
+            self.events.previous = self.g(self.sim._current(), 1, np.array([self.sim.time]))[0]
+
     def start(self) -> None:
         """g at the run's start: the sign each event's first step is compared with."""
         self.sim.stopped_by = None
-        if self.events:
-            self.events.previous = self.g(self.sim._current(), 1, np.array([self.sim.time]))[0]
+        self._from_here()
 
     def scan(self, recs, m: int, first: int) -> None:
         """Note the crossings in ``m`` steps whose states are the rows of ``recs`` (the steps
@@ -85,8 +88,7 @@ class EventRun:
         """After steps redone in sub-steps: scan again, from the state reached."""
         self._scanning = True
         self._crossings = []
-        if self.events:
-            self.events.previous = self.g(self.sim._current(), 1, np.array([self.sim.time]))[0]
+        self._from_here()
 
     def first_stop(self, failed=None):
         """The earliest crossing in the chunk of an event that stops the run or fires an
@@ -97,22 +99,24 @@ class EventRun:
             stops = [c for c in stops if c[0] - self.sim._steps <= failed]
         return min(stops) if stops else None
 
+    def _step(self, length: float, t0: float, gammas):
+        """Every system one step of ``length`` from its state at time ``t0``: its records."""
+        sim = self.sim
+        its = sim.max_newton_iterations
+        return [(s, s.advance(sim.method, sim.gm, sim.center, length, gammas, 1, 1, its, (t0, 0))) for s in sim.systems]
+
     def g_after(self, j: int, tau: float, t0: float, gammas):
         """One step of length ``tau`` from the systems' state at time ``t0``: (g of event j
         after it, the records)."""
-        its = self.sim.max_newton_iterations
-        recs = [
-            (s, s.advance(self.sim.method, self.sim.gm, self.sim.center, tau, gammas, 1, 1, its, (t0, 0)))
-            for s in self.sim.systems
-        ]
+        recs = self._step(tau, t0, gammas)
         if any(r.first_failure() is not None for _, r in recs):
             return float("nan"), recs
         return float(self.g(recs, 1, np.array([t0 + tau]))[0, j]), recs
 
     def find(self, crossing, gammas):
         """The systems at the start of the crossing's step: the step length at the event
-        (:func:`emorbit.events.locate`); the systems are left at the event. Returns (time,
-        records at the event, the snapshots of the step's start)."""
+        (:func:`emorbit.events.locate`); the systems are left at the event. Returns (time, the
+        step length, records at the event, the snapshots of the step's start)."""
         step, j, g0, g1 = crossing
         start = [s.snapshot() for s in self.sim.systems]
         t0 = self.sim._t_base + (step - 1) * self.sim._dt
@@ -126,8 +130,7 @@ class EventRun:
         for s, snap in zip(self.sim.systems, start):
             s.restore(snap)
         recs = self.g_after(j, tau, t0, gammas)[1]
-        self.tau = tau
-        return t0 + tau, recs, start
+        return t0 + tau, tau, recs, start
 
     def log_event(self, crossing, t: float, recs, sink, dv=None, work: float = 0.0) -> None:
         """Add the event at time ``t`` (state: ``recs``; an impulse ``dv`` and its work) to the
@@ -162,7 +165,7 @@ class EventRun:
             if crossing[0] - 1 > at:
                 self.sim._advance_all(gammas, crossing[0] - 1 - at, 1, at)
                 at = crossing[0] - 1
-            t, recs, start = self.find(crossing, gammas)
+            t, _, recs, start = self.find(crossing, gammas)
             self.log_event(crossing, t, recs, sink)
             for s, snap in zip(self.sim.systems, start):
                 s.restore(snap)
@@ -189,7 +192,7 @@ class EventRun:
         refused = sim._replay(snapshots, pre, k, gammas, sink)
         if refused is not None:
             raise refused[0]
-        t, recs, _ = self.find(crossing, gammas)
+        t, tau, recs, _ = self.find(crossing, gammas)
         e = self.events.events[j]
         state = self.data(recs, 1, np.array([t]))[e.body]
         x, v = np.array(state["position"][0]), np.array(state["velocity"][0])
@@ -197,18 +200,14 @@ class EventRun:
         system = next(s for s in sim.systems if e.body in s.names)
         mass, before = system.kick(e.body, dv, f"{e.key}.dv")
         self.log_event(crossing, t, recs, sink, dv=dv, work=mass * (float(before @ dv) + 0.5 * float(dv @ dv)))
-        its = sim.max_newton_iterations
-        rest = [
-            (s, s.advance(sim.method, sim.gm, sim.center, sim._dt - self.tau, gammas, 1, 1, its, (t, 0)))
-            for s in sim.systems
-        ]
+        rest = self._step(sim._dt - tau, t, gammas)
         if any(r.first_failure() is not None for _, r in rest):
             raise IntegrationError(t, e.body, f"the rest of the step after the impulse of {e.label} failed")
         sim._steps = step
         if (step - sim._run_origin) % every == 0:
             sink.emit(rest, np.array([step]), 1, 1)
         self.events.fired = self._mark[1] | {entry["label"] for entry in self.events.log}
-        self.events.previous = self.g(sim._current(), 1, np.array([sim.time]))[0]
+        self._from_here()
         self._scanning, self._crossings = True, []
         return pre + 1
 
@@ -225,7 +224,7 @@ class EventRun:
         if refused is not None:
             raise refused[0]
         self.sim._steps = step - 1
-        t, recs, _ = self.find(crossing, gammas)
+        t, _, recs, _ = self.find(crossing, gammas)
         self.sim._steps = step
         self.sim._t_base = t - step * self.sim._dt  # the clock goes on from the event
         sink.emit(recs, np.array([step]), 1, 1, times=np.array([t]))

@@ -67,7 +67,7 @@ import numpy as np
 from .errors import InputError
 from .units import to_si, vector_to_si
 
-__all__ = ["KINDS", "DIRECTIONS", "MAX_EVENTS", "Event", "EventSet", "locate"]
+__all__ = ["KINDS", "DIRECTIONS", "DIRECTION_NAMES", "MAX_EVENTS", "Event", "EventSet", "locate"]
 
 #: kind -> (the unit kind of its value or None, the default direction, whether it names a body)
 KINDS = {
@@ -156,15 +156,15 @@ class Event:
         """The impulse in the scene's axes at the body's position ``x`` and velocity ``v``."""
         if self.frame == "inertial":
             return np.array(self.dv, float)
-        r = np.asarray(x, float) - center
+        r, v = np.asarray(x, float) - center, np.asarray(v, float)
         h = np.cross(r, v)
         normal = h / np.linalg.norm(h)
-        first = (r if self.frame == "rsw" else np.asarray(v, float)) / np.linalg.norm(r if self.frame == "rsw" else v)
-        axes = (
-            (first, np.cross(normal, first), normal)
-            if self.frame == "rsw"
-            else (first, normal, np.cross(first, normal))
-        )
+        if self.frame == "rsw":
+            radial = r / np.linalg.norm(r)
+            axes = (radial, np.cross(normal, radial), normal)
+        else:
+            along = v / np.linalg.norm(v)
+            axes = (along, normal, np.cross(along, normal))
         return self.dv[0] * axes[0] + self.dv[1] * axes[1] + self.dv[2] * axes[2]
 
     def g(self, times, data, center, radius) -> np.ndarray:
@@ -187,15 +187,6 @@ class Event:
             return np.where(along < 0.0, across - radius, radius + along)
         other = np.asarray(data[self.other]["position"], float)
         return np.linalg.norm(np.asarray(data[self.body]["position"], float) - other, axis=1) - self.value
-
-    def counts(self, g0: float, g1: float) -> bool:
-        """Whether g going from g0 (before a step) to g1 (after it) is a crossing that counts:
-        g0 on one side of zero, g1 at zero or on the other, in the event's direction."""
-        if not (math.isfinite(g0) and math.isfinite(g1)):
-            return False
-        rising = g0 < 0.0 <= g1
-        falling = g0 > 0.0 >= g1
-        return (rising and self.direction >= 0) or (falling and self.direction <= 0)
 
     def describe(self) -> str:
         """The event in words, for messages: ``altitude of sat below 120000 m``."""
@@ -305,7 +296,9 @@ class EventSet:
                 raise InputError(f"{key}.direction", f"one of {', '.join(DIRECTIONS)} expected, got {direction!r}")
             sign = DIRECTIONS[direction]
             if kind in ("periapsis", "apoapsis", "time") and sign != default:
-                raise InputError(f"{key}.direction", f"a {kind} event is {_NAMES[default]} only, got {direction!r}")
+                raise InputError(
+                    f"{key}.direction", f"a {kind} event is {DIRECTION_NAMES[default]} only, got {direction!r}"
+                )
         if not isinstance(stop, bool):
             raise InputError(f"{key}.stop", f"true or false expected, got {stop!r}")
         label = f"{kind}[{len(self.events)}]" if label is None else label
@@ -339,7 +332,7 @@ class EventSet:
     @property
     def impulse_work(self) -> float:
         """The work of the impulses logged so far, J (an exact sum: the same on a resume)."""
-        return math.fsum(e.get("work", 0.0) for e in self.log)
+        return math.fsum(e["work"] for e in self.log)
 
     def resume_from(self, log: list) -> None:
         """Continue after the events of a file's log: they are logged, and have happened."""
@@ -362,21 +355,24 @@ class EventSet:
         row before the first: :attr:`previous`), in the order of their rows: [(row, event, g
         before, g after)]. Updates :attr:`previous` to the last row."""
         g = np.asarray(g, float)
+        before = np.vstack([g[:1] if self.previous is None else self.previous[None], g[:-1]])
+        sign = np.array([e.direction for e in self.events])
+        with np.errstate(invalid="ignore"):
+            rising = (before < 0.0) & (g >= 0.0) & (sign >= 0)
+            falling = (before > 0.0) & (g <= 0.0) & (sign <= 0)
         found = []
-        before = g[0] if self.previous is None else self.previous
-        for r in range(g.shape[0]):
-            for j, e in enumerate(self.events):
-                armed = (e.after is None or e.after in self.fired) and not (e.dv is not None and e.label in self.fired)
-                if armed and e.counts(before[j], g[r, j]):
-                    found.append((r, j, float(before[j]), float(g[r, j])))
-                    self.fired.add(e.label)
-            before = g[r]
+        for r, j in zip(*np.nonzero(rising | falling)):  # row by row: an event armed in a row counts after it
+            e = self.events[j]
+            if (e.after is None or e.after in self.fired) and not (e.dv is not None and e.label in self.fired):
+                found.append((int(r), int(j), float(before[r, j]), float(g[r, j])))
+                self.fired.add(e.label)
         self.previous = g[-1].copy()
         return found
 
 
 _EXAMPLE = {"length": "120 km", "time": "1 h"}
-_NAMES = {1: "rising", -1: "falling", 0: "either"}
+#: direction signs -> names
+DIRECTION_NAMES = {sign: name for name, sign in DIRECTIONS.items()}
 
 
 def locate(g_of_tau, dt: float, g0: float, g1: float, t0: float) -> float:

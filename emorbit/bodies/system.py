@@ -245,12 +245,10 @@ class BodySystem:
         (float, ndarray)
             The body's mass (kg) and its velocity before, m/s.
 
-        Raises
-        ------
-        InputError
-            A body kind that takes no impulse (elastic bodies).
+        Kinds whose bodies take impulses set :attr:`KICKS` and override this; a run refuses an
+        impulse on another kind before it starts, naming the event.
         """
-        raise InputError(key, f"an impulse acts on a point mass or a rigid body; {name!r} is neither")
+        raise NotImplementedError
 
     def state_arrays(self) -> dict[str, np.ndarray]:
         """Copies of the whole state, by name: what a checkpoint stores (default: the arrays

@@ -719,13 +719,12 @@ def read_events(f, path) -> list:
     if "events" not in f or "time" not in f["events"]:
         return []
     g = f["events"]
-    cols = {q: read_dataset(g[q], path) for q in ("time", "step", "position", "velocity", "dv", "work") if q in g}
+    cols = {q: read_dataset(g[q], path) for q in ("time", "step", "position", "velocity", "dv", "work")}
     text = {q: [v.decode() if isinstance(v, bytes) else str(v) for v in g[q][()]] for q in ("label", "kind", "body")}
     n = min(len(cols["time"]), *(len(v) for v in text.values()))
     return [
         {"label": text["label"][i], "kind": text["kind"][i], "body": text["body"][i], "time": float(cols["time"][i]),
          "step": int(cols["step"][i]), "position": cols["position"][i], "velocity": cols["velocity"][i],
-         "dv": cols["dv"][i] if "dv" in cols else np.zeros(3),
-         "work": float(cols["work"][i]) if "work" in cols else 0.0}
+         "dv": cols["dv"][i], "work": float(cols["work"][i])}
         for i in range(n)
     ]  # fmt: skip

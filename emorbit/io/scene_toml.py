@@ -258,6 +258,8 @@ def _effect_key_lines(values: dict) -> list[str]:
 
 def event_lines(events) -> list[str]:
     """The ``[[event]]`` tables of an :class:`emorbit.events.EventSet`, as TOML lines."""
+    from ..events import DIRECTION_NAMES
+
     lines: list[str] = []
     for event in events.events:
         lines += ["", "[[event]]", f'kind = "{event.kind}"', f"label = {json.dumps(event.label)}"]
@@ -269,7 +271,7 @@ def event_lines(events) -> list[str]:
             lines.append(f'value = "{event.value!r} m"')
         elif event.kind == "time":
             lines.append(f'value = "{event.value!r} s"')
-        lines.append(f'direction = "{ {1: "rising", -1: "falling", 0: "either"}[event.direction] }"')
+        lines.append(f'direction = "{DIRECTION_NAMES[event.direction]}"')
         lines.append(f"stop = {'true' if event.stop else 'false'}")
         if event.dv is not None:
             lines.append("dv = [" + ", ".join(f'"{c!r} m / s"' for c in event.dv) + "]")
