@@ -37,6 +37,11 @@ gravity-field   a rotating Earth's EGM2008 field (:mod:`.gravity_field`): cost p
                 LEO at 20 x 20, em fixed and adaptive against heyoka's Taylor integrator
                 (CPU time to 1e-6 and 1e-9 of a, heyoka's compile time, the Jacobi integral's
                 drift), against heyoka in long double; "skipped" without heyoka
+perturbed       work against precision on perturbed orbits (:mod:`.perturbed`): LEO (J2..J6,
+                drag, radiation pressure with a cylindrical shadow, the Moon and the Sun),
+                Molniya (J2..J4, Moon, Sun) and GEO (J2, Moon, Sun, radiation pressure); em
+                fixed and adaptive beside heyoka, REBOUND IAS15 and scipy DOP853 on the same
+                force model, against heyoka in long double; "skipped" rows without a peer
 gpu             point-mass ensembles on an NVIDIA GPU (:mod:`.gpu`): the kernel alone, the
                 path that copies the state every chunk, the resident path ``Simulation``
                 uses, the CPU ensemble, with the card's name; "skipped" without a GPU
@@ -61,6 +66,7 @@ SECTIONS = (
     "elastic",
     "effects",
     "gravity-field",
+    "perturbed",
     "gpu",
 )
 

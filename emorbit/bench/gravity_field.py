@@ -699,15 +699,7 @@ def table(section: dict) -> list[str]:
             if p["engine"] == "heyoka"
             else f"em{' adaptive' if p['adaptive'] else ''} order {p['order']}"
         )
-        head = f"    {engine:<22} {_setting(p):<12}"
-        if p.get("status") != "ok":
-            lines.append(head + f" {p.get('status')}")
-            continue
-        comp = f"{p['compile_s']:.2f}" if "compile_s" in p else ""
-        lines.append(
-            head + f" {1e3 * p['cpu_s']:>9.2f} {comp:>10} {p['steps']:>7} {_e(p['position_error']):>10} "
-            f"{_e(p['jacobi_drift']):>13}"
-        )
+        lines.append(point_line(f"    {engine:<22} {_setting(p):<12}", p, "jacobi_drift", 13))
     lines += [
         f"    heyoka's potential cfunc (for its Jacobi integral) compiled in {wp['heyoka_pot_compile_s']:.2f} s",
         "    least CPU time to a final position error (best order; cheapest point or log-log interpolation; "
@@ -723,8 +715,25 @@ def table(section: dict) -> list[str]:
             f"      {row['accuracy']:<10g} {_reached(eng['em fixed']):>18} {_reached(eng['em adaptive']):>18} "
             f"{_reached(eng['heyoka']):>12} {cells[0]:>9} {cells[1]:>9} {cells[2]:>7}"
         )
-    lines.append("  targets:")
-    for t in section["targets"]:
+    return lines + verdict_lines(section["targets"])
+
+
+def point_line(head: str, p: dict, last: str, width: int) -> str:
+    """A work-precision point's line after ``head``: its status where it did not run, else CPU
+    ms, compile s, steps, error / a and ``p[last]`` in ``width`` columns."""
+    if p.get("status") != "ok":
+        return head + f" {p.get('status')}"
+    comp = f"{p['compile_s']:.2f}" if "compile_s" in p else ""
+    return (
+        head + f" {1e3 * p['cpu_s']:>9.2f} {comp:>10} {p['steps']:>7} {_e(p['position_error']):>10} "
+        f"{_e(p[last]):>{width}}"
+    )
+
+
+def verdict_lines(found: list) -> list[str]:
+    """``targets:`` and a line per target: met, NOT met or skipped, the measured ratio, the note."""
+    lines = ["  targets:"]
+    for t in found:
         verdict = {True: "met", False: "NOT met", None: "skipped"}[t["met"]]
         measured = f": {t['measured']:.3g}" if t.get("measured") is not None else ""
         lines.append(f"    {verdict:>8}  {t['target']}{measured} ({t.get('note', '')})")
