@@ -626,9 +626,12 @@ class Assembly:
             }
         )
         kinds: dict = {"point": list(self.points.names), "rigid": list(self.rigid.names) if self.rigid else []}
+        masses = dict(zip(self.points.names, map(float, self.points.masses)))
         for b in self.structure.bodies if self.structure is not None else ():
             kinds.setdefault(b["kind"], []).append(b["name"])
-        self.effects.check_bodies(kinds)
+            if "mass" in b:
+                masses[b["name"]] = b["mass"]
+        self.effects.check_bodies(kinds, masses)
         self.effects.check_method(self.method)
         if self.adaptive is not None and self.points.under_effects() and not self.effects.sets_time_scale("point"):
             raise InputError(

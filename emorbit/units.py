@@ -30,6 +30,7 @@ SI = {
     "mass": u.kg,
     "speed": u.m / u.s,
     "acceleration": u.m / u.s**2,
+    "force": u.N,
     "gm": u.m**3 / u.s**2,
     "energy": u.J,
     "momentum": u.kg * u.m / u.s,

@@ -175,6 +175,7 @@ EFFECT_KEYS = {
     "srp": {"shadow": "conical"},
     "third_body": {"body": "moon"},
     "mutual": {},
+    "thrust": {"body": "a", "thrust": "0.5 N", "isp": "300 s", "start": "0 s", "duration": "400 s"},
 }
 POINT_KEYS = {"drag": {"ballistic_coefficient": 0.02}, "srp": {"radiation_coefficient": 0.02}}
 

@@ -2,7 +2,7 @@
 
 A scene's bodies move in the central field of ``[field]`` (the effect ``central``) and in
 whatever ``[[effect]]`` tables add (``zonal``, ``gravity_field``, ``mutual``, ``drag``,
-``srp``, ``third_body``, or an effect of the user's own). Each effect is one subclass of
+``srp``, ``third_body``, ``thrust``, or an effect of the user's own). Each effect is one subclass of
 :class:`~emorbit.effects.base.Effect` that declares everything about itself (its keys, the
 body keys it owns, the bodies it acts on and how, what it conserves, its kernel pieces); the
 body kinds' step kernels take any set of them compiled by :mod:`emorbit.effects.program`,
@@ -28,13 +28,14 @@ from .gravity_field import GravityField
 from .mutual import Mutual
 from .srp import RadiationPressure
 from .third_body import ThirdBody
+from .thrust import Thrust
 from .zonal import Zonal
 
 __all__ = ["EFFECTS", "SHIPPED", "Effect", "build", "effect_kinds", "register", "register_file", "unregister"]
 
-#: the shipped effects, in the order a step sums their forces (third bodies last: a scene may
-#: name several, whose work the step sums in consecutive slots)
-SHIPPED = (Central, Zonal, GravityField, Mutual, Drag, RadiationPressure, ThirdBody)
+#: the shipped effects, in the order a step sums their forces (third bodies and burns last: a
+#: scene may name several, whose work the step sums in consecutive slots)
+SHIPPED = (Central, Zonal, GravityField, Mutual, Drag, RadiationPressure, ThirdBody, Thrust)
 #: every registered effect by its ``kind``: the shipped ones, then the user's in the order
 #: they were registered (the order a step sums their forces)
 EFFECTS: dict[str, type[Effect]] = {cls.NAME: cls for cls in SHIPPED}

@@ -321,6 +321,25 @@ class Effect:
         """
         return np.zeros(0)
 
+    def bind(self, kinds: dict, masses: dict, named) -> None:
+        """Read what it needs of the bodies it acts on, once they are known (a burn: its body's
+        mass); nothing by default.
+
+        Parameters
+        ----------
+        kinds : dict
+            {name: body kind} of the simulation's bodies.
+        masses : dict
+            {name: kg} of its point masses and rigid bodies.
+        named : tuple of Effect
+            The simulation's named effects (a burn reads the earlier burns of its body).
+
+        Raises
+        ------
+        InputError
+            What it refuses of them, naming its key.
+        """
+
     def same_as(self, other: Effect) -> bool:
         """Whether ``other`` (of the same kind) is the same effect named twice (a second third
         body must be another body)."""

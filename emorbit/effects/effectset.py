@@ -175,14 +175,17 @@ class EffectSet:
                     "use em or midpoint",
                 )
 
-    def check_bodies(self, names_by_kind: dict) -> None:
+    def check_bodies(self, names_by_kind: dict, masses: dict | None = None) -> None:
         """Refuse effects that name bodies that do not exist or act on body kinds they do not
-        reach, and pair effects between fewer than two bodies.
+        reach, and pair effects between fewer than two bodies; then let each effect read the
+        bodies (:meth:`~emorbit.effects.base.Effect.bind`).
 
         Parameters
         ----------
         names_by_kind : dict
             {body kind: list of names} of the simulation's bodies.
+        masses : dict, optional
+            {name: kg} of the point masses and rigid bodies.
 
         Raises
         ------
@@ -203,6 +206,8 @@ class EffectSet:
                     raise InputError(
                         e.key, f"{e.kind} acts between bodies, and the scene has {len(reached)} it reaches: add another"
                     )
+        for e in self._named:
+            e.bind(kind_of, masses or {}, self.named)
 
     def prepare(self, t0: float, t1: float, epoch) -> None:
         """Let every effect that follows a path sample it over ``t0`` to ``t1`` (s from the epoch)."""

@@ -1,0 +1,202 @@
+"""A finite burn: constant thrust and specific impulse over a window (``[[effect]] kind = "thrust"``).
+
+A burn pushes one point mass with thrust T (N) from ``start`` to ``end`` (s from time 0 of
+the run's clock), along a direction fixed in the scene's axes (``frame = "inertial"``) or in
+the local frame of the body's motion (``"rsw"``: radial, along-track in the orbit plane,
+orbit normal; ``"vnc"``: velocity, orbit normal, their cross product). With a specific
+impulse ``isp`` the body's mass falls at ``q = T / (isp g0)`` kg/s (g0 the standard gravity
+of :data:`astropy.constants.g0`), and over each sub-step from ta to tb the velocity changes
+by the rocket equation's ``dv = isp g0 ln(m(ta) / m(tb))`` exactly; without it the mass is
+held and ``dv = T (tb - ta) / m`` (:mod:`emorbit.kernels.effects.thrust`). A scene may name
+several burns; the burns of one body may not overlap in time, and each one starts from the
+mass the earlier ones leave.
+
+Steps land on each burn's start and end: fixed steps must divide them (adaptive steps: the
+record interval must), or the run is refused naming the burn, so no step straddles the
+switch. The mass enters the force alone: the bodies' masses in the run file, the energy and
+the work are those of the body at its initial mass m0, and the step keeps the balance ``m0
+(eps - eps0) - m0 sum dv e . (x1 - x0) / h = 0`` (``eps = v^2 / 2 + U`` per unit mass) to
+round-off (``invariants/energy_balance``; ``invariants/work_thrust`` is the burn's term).
+The body's true energy is ``m(t) eps``; :meth:`Thrust.mass` gives ``m(t)`` and
+``docs/methods.md`` the ledger that splits ``m0 eps`` into the body's energy, the burn's work
+and the energy the propellant carries away. Other effects' coefficients per unit mass (drag's
+``Cd A / m``, radiation's ``Cr A / m``) stay those of the initial mass.
+
+References: H. D. Curtis, Orbital Mechanics for Engineering Students, 3rd ed. (2014),
+section 6.11 (finite burns, the rocket equation); D. A. Vallado, Fundamentals of
+Astrodynamics and Applications, 4th ed. (2013), section 3.3 (the RSW and NTW/VNC frames).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from ..keys import Key
+from ..units import to_si, vector_to_si
+from .base import AT_POINTS, Effect, Pieces
+
+__all__ = ["Thrust", "FRAMES", "MAX_THRUST"]
+
+#: the frames a burn's direction may be given in
+FRAMES = ("inertial", "rsw", "vnc")
+#: the largest thrust, N (a Saturn V's first stage gives 3.5e7 N)
+MAX_THRUST = 1e9
+_KEYS = (
+    Key("body", True, "string", "", "the name of a point mass of the scene", "the body the burn pushes"),
+    Key("thrust", True, "force (N)", "", f"> 0, at most {MAX_THRUST:g}", "the thrust T"),
+    Key("start", True, "time (s)", "", "a time", "when the burn starts, s from time 0 of the run's clock"),
+    Key("end", False, "time (s)", "", "after start; give end or duration", "when the burn ends"),
+    Key("duration", False, "time (s)", "", "> 0; give end or duration", "how long the burn lasts"),
+    Key("isp", False, "time (s)", "none: the mass is held", "> 0",
+        "the specific impulse: the mass falls at T / (isp g0), and dv follows the rocket equation"),
+    Key("frame", False, "string", '"vnc"', '"inertial", "rsw", "vnc"', "the frame of direction"),
+    Key("direction", False, "3 numbers", "[1, 0, 0]", "a vector other than 0 (normalised)",
+        "the thrust's direction in frame: [1, 0, 0] in vnc is along the velocity"),
+)  # fmt: skip
+
+
+class Thrust(Effect):
+    """A finite burn as an effect: ``p`` as :mod:`emorbit.kernels.effects.thrust` (its mass
+    terms filled by :meth:`bind`).
+
+    Attributes
+    ----------
+    body : str
+        The body it pushes.
+    start, end : float
+        Its window, s.
+    thrust : float
+        N.
+    isp : float or None
+        s (None: no mass flow).
+    mass_start, mass_end : float
+        The body's mass at the start and the end of the burn, kg (after :meth:`bind`).
+    """
+
+    NAME = "thrust"
+    SUMMARY = "a finite burn: constant thrust and specific impulse over a window, the mass falling"
+    KEYS = _KEYS
+    ACTS = {"point": AT_POINTS}
+    CONSERVES: tuple[str, ...] = ()
+    MULTIPLE = True
+    SAME_KEY = "start"
+    EXPLICIT = False
+    PIECES = Pieces("emorbit.kernels.effects.thrust", force="thrust_piece", prepare="thrust_prepare")
+    POTENTIAL = "none: a burn does work W = sum m0 dv e . (x1 - x0) / h, recorded as invariants/work_thrust"
+    DISCRETE_FORCE = "F = (dv / h) e, dv = isp g0 ln(m(ta) / m(tb)) (or T (tb - ta) / m), e in its frame at x_m"
+    JACOBIAN = "left out (the frame's turn with x1, below 1e-9 of the central field's)"
+
+    mass_start = mass_end = float("nan")
+
+    def scratch_size(self, n_points: int) -> int:
+        return 1  # the sub-step's dv
+
+    def same_as(self, other) -> bool:
+        return False  # another burn; one that overlaps this one in time is refused by bind()
+
+    def landing_times(self, t0: float, t1: float) -> np.ndarray:
+        """The burn's start and end where they lie in ``(t0, t1]``."""
+        return np.array([t for t in (self.start, self.end) if t0 < t <= t1], float)
+
+    @property
+    def mass_flow(self) -> float:
+        """kg/s (0 without isp)."""
+        from astropy.constants import g0
+
+        return 0.0 if self.isp is None else self.thrust / (self.isp * float(g0.si.value))
+
+    def bind(self, kinds: dict, masses: dict, named) -> None:
+        """Take the body's mass at the burn's start: its initial mass less what its earlier
+        burns expel.
+
+        Raises
+        ------
+        InputError
+            Another burn of the body overlaps this one in time, or the burn would expel more
+            mass than the body has, naming its window.
+        """
+        for e in named:
+            if isinstance(e, Thrust) and e is not self and e.body == self.body:
+                if e.start < self.end and self.start < e.end:
+                    raise InputError(
+                        f"{self.key}.start",
+                        f"the burn ({self.start!r} s to {self.end!r} s) overlaps {e.key}'s ({e.start!r} s to "
+                        f"{e.end!r} s) on {self.body!r}: the burns of one body follow one another",
+                    )
+        m0 = float(masses[self.body])
+        earlier = [e for e in named if isinstance(e, Thrust) and e.body == self.body and e.end <= self.start]
+        used = sum(e.mass_flow * (e.end - e.start) for e in earlier)
+        start = m0 - used
+        end = start - self.mass_flow * (self.end - self.start)
+        if not end > 0.0:
+            raise InputError(
+                f"{self.key}.{'duration' if 'duration' in self.table else 'end'}",
+                f"the burn expels {self.mass_flow * (self.end - self.start)!r} kg, and {self.body!r} has "
+                f"{start!r} kg left: shorten it or raise isp",
+            )
+        self.mass_start, self.mass_end = start, end
+        self.p[2] = start / m0
+        self.p[3] = self.mass_flow / m0
+        self.p[5] = self.thrust / start
+
+    def mass(self, t) -> np.ndarray:
+        """The body's mass at times ``t`` (s) as this burn leaves it (kg; the mass at its start
+        before it), after :meth:`bind`."""
+        tau = np.clip(np.asarray(t, float) - self.start, 0.0, self.end - self.start)
+        return self.mass_start - self.mass_flow * tau
+
+    def facts(self) -> dict:
+        return {
+            "body": self.body, "start": self.start, "end": self.end, "thrust": self.thrust,
+            "isp": self.isp, "mass_start": self.mass_start, "mass_end": self.mass_end,
+        }  # fmt: skip
+
+    @classmethod
+    def from_table(cls, table, context) -> Thrust:
+        """A burn from ``body``, ``thrust``, ``start``, ``end`` or ``duration``, ``isp``,
+        ``frame`` and ``direction``.
+
+        Raises
+        ------
+        InputError
+            A body that is not a string or not in the scene, a thrust not in (0, 1e9] N, a
+            window that ends before it starts, both or neither of end and duration, an isp
+            not > 0, an unknown frame or a zero direction.
+        """
+        key, strict = context.key, context.strict
+        body = table.get("body")
+        if not isinstance(body, str) or not body.strip():
+            raise InputError(f"{key}.body", f"the name of a point mass expected, got {body!r}")
+        if context.bodies is not None and body not in context.bodies:
+            raise InputError(f"{key}.body", f"no body named {body!r}; bodies: {', '.join(context.bodies)}")
+        thrust = to_si(table.get("thrust"), "force", f"{key}.thrust", strict=strict, positive=True)
+        if thrust > MAX_THRUST:
+            raise InputError(f"{key}.thrust", f"at most {MAX_THRUST:g} N expected, got {thrust!r} N")
+        start = to_si(table.get("start"), "time", f"{key}.start", strict=strict)
+        if ("end" in table) == ("duration" in table):
+            raise InputError(key, "give the burn's end or its duration (one of them)")
+        if "end" in table:
+            end = to_si(table["end"], "time", f"{key}.end", strict=strict)
+            if not end > start:
+                raise InputError(f"{key}.end", f"the burn ends at {end!r} s, not after its start at {start!r} s")
+        else:
+            end = start + to_si(table["duration"], "time", f"{key}.duration", strict=strict, positive=True)
+        isp = None
+        if "isp" in table:
+            isp = to_si(table["isp"], "time", f"{key}.isp", strict=strict, positive=True)
+        frame = table.get("frame", "vnc")
+        if frame not in FRAMES:
+            raise InputError(f"{key}.frame", f"one of {', '.join(map(repr, FRAMES))} expected, got {frame!r}")
+        direction = vector_to_si(table.get("direction", [1.0, 0.0, 0.0]), "dimensionless", f"{key}.direction")
+        norm = float(np.linalg.norm(direction))
+        if not norm > 0.0:
+            raise InputError(f"{key}.direction", f"a vector other than 0 expected, got {direction.tolist()!r}")
+        center = context.field.center if context.field is not None else (0.0, 0.0, 0.0)
+        from astropy.constants import g0
+
+        ve = 0.0 if isp is None else isp * float(g0.si.value)
+        p = [start, end, 1.0, 0.0, ve, 0.0, float(FRAMES.index(frame)), *(direction / norm), *center]
+        effect = cls(table, p, bodies=[body])
+        effect.body, effect.start, effect.end, effect.thrust, effect.isp = body, start, end, thrust, isp
+        return effect
