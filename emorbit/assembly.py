@@ -627,6 +627,8 @@ class Assembly:
         )
         kinds: dict = {"point": list(self.points.names), "rigid": list(self.rigid.names) if self.rigid else []}
         masses = dict(zip(self.points.names, map(float, self.points.masses)))
+        if self.rigid is not None:
+            masses.update(zip(self.rigid.names, map(float, self.rigid.mass)))
         for b in self.structure.bodies if self.structure is not None else ():
             kinds.setdefault(b["kind"], []).append(b["name"])
             if "mass" in b:

@@ -73,7 +73,7 @@ class StructureEffects:
     def _layout_surfaces(self, effects) -> None:
         """The boundary triangles of the elastic bodies (structure node numbers) and the rigid
         bodies' facets that surface effects reach."""
-        from .facets import Facets, boundary_triangles, shape_facets
+        from .facets import boundary_triangles, shape_facets
 
         tris, kfs = [], []
         self.rigid_facets = []  # (slots (4,), packed facets (nf, 11))
@@ -88,13 +88,17 @@ class StructureEffects:
                 kf = np.zeros((4, len(t)))
                 kf[0] = float(body.get("drag_coefficient", 2.2))
                 kfs.append(kf)
-            elif kind == "rigid" and body.get("surface") is not None:
-                mode, extra, defaults, key = body["surface"]
-                parts = [shape_facets(body["shape"], body["params"], key=key, **defaults)] if mode == "shape" else []
-                if extra is not None and len(extra):
-                    parts.append(extra)
-                if parts:
-                    self.rigid_facets.append((np.asarray(body["slots"], np.int64), Facets.concatenate(parts).packed()))
+            elif kind == "rigid":
+                parts = [effects.own_facets(kind, body["name"])]
+                if body.get("surface") is not None and effects.needs_surface(kind, body["name"]):
+                    mode, extra, defaults, key = body["surface"]
+                    if mode == "shape":
+                        parts.append(shape_facets(body["shape"], body["params"], key=key, **defaults).packed())
+                    if extra is not None and len(extra):
+                        parts.append(extra.packed())
+                rows = np.vstack(parts)
+                if len(rows):
+                    self.rigid_facets.append((np.asarray(body["slots"], np.int64), np.ascontiguousarray(rows)))
         self.tris = np.ascontiguousarray(np.vstack(tris) if tris else np.zeros((0, 3), np.int64), np.int64)
         self.tri_kf = np.ascontiguousarray(np.hstack(kfs) if kfs else np.zeros((4, 0)))
 

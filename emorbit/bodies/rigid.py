@@ -394,12 +394,14 @@ class RigidBodies(WorkSums, BodySystem):
     def packed_facets(self) -> tuple[np.ndarray, np.ndarray]:
         """The facets of the bodies that surface effects reach, packed: ``foff`` (nb + 1,) int64
         and the rows (nf, 11) (:mod:`emorbit.kernels.rigid_surface`); no rows where none does."""
-        rows, counts = [], []
+        effects, rows, counts = self.effects.effects, [], []
         for b, name in enumerate(self.names):
-            f = self.facets(b) if self.effects.effects.surface_mask("rigid", name).any() else None
-            counts.append(0 if f is None else len(f))
+            f = self.facets(b) if effects.needs_surface("rigid", name) else None
+            own = effects.own_facets("rigid", name)
+            counts.append(len(own) + (0 if f is None else len(f)))
             if f is not None:
                 rows.append(f.packed())
+            rows.append(own)
         foff = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         return foff, np.ascontiguousarray(np.vstack(rows)) if rows else np.zeros((0, 11))
 

@@ -211,6 +211,9 @@ class Effect:
     PATH_KEYS: ClassVar[tuple[str, ...]] = ()
     #: whether its force is a function of position (and time) alone: leapfrog may kick with it
     EXPLICIT: ClassVar[bool] = True
+    #: whether its facet force acts on facets of its own that it adds to a body
+    #: (:meth:`own_facets`: a burn's thruster) rather than on the body's surface
+    OWN_FACETS: ClassVar[bool] = False
     #: its pieces
     PIECES: ClassVar[Pieces | None] = None
     #: the equations, for the docs (effects.md is generated from them)
@@ -339,6 +342,12 @@ class Effect:
         InputError
             What it refuses of them, naming its key.
         """
+
+    def own_facets(self, body_kind: str, name: str) -> np.ndarray:
+        """The facets it adds to a body it acts on through facets (:attr:`OWN_FACETS`), packed
+        as :meth:`emorbit.bodies.facets.Facets.packed` rows (k, 11), body frame; none by
+        default."""
+        return np.zeros((0, 11))
 
     def same_as(self, other: Effect) -> bool:
         """Whether ``other`` (of the same kind) is the same effect named twice (a second third

@@ -257,6 +257,18 @@ class EffectSet:
             [1.0 if e.acts_on(body_kind) == ON_SURFACES and e.reaches(name) else 0.0 for e in self.all], float
         )
 
+    def needs_surface(self, body_kind: str, name: str) -> bool:
+        """Whether an effect acts on this body's own surface (its shape's facets, its facet
+        tables), beyond the facets effects bring (:meth:`own_facets`)."""
+        return any(
+            e.acts_on(body_kind) == ON_SURFACES and e.reaches(name) and not type(e).OWN_FACETS for e in self.all
+        )
+
+    def own_facets(self, body_kind: str, name: str) -> np.ndarray:
+        """(k, 11) the packed facets that effects bring to this body (a burn's thruster)."""
+        rows = [e.own_facets(body_kind, name) for e in self.all if type(e).OWN_FACETS and e.reaches(name)]
+        return np.ascontiguousarray(np.vstack(rows)) if rows else np.zeros((0, 11))
+
     def arrays(self, n_points: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The set's parameters, slices, tables and scratch for ``n_points`` points.
 

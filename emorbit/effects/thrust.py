@@ -1,9 +1,12 @@
 """A finite burn: constant thrust and specific impulse over a window (``[[effect]] kind = "thrust"``).
 
-A burn pushes one point mass with thrust T (N) from ``start`` to ``end`` (s from time 0 of
-the run's clock), along a direction fixed in the scene's axes (``frame = "inertial"``) or in
-the local frame of the body's motion (``"rsw"``: radial, along-track in the orbit plane,
-orbit normal; ``"vnc"``: velocity, orbit normal, their cross product). With a specific
+A burn pushes one body with thrust T (N) from ``start`` to ``end`` (s from time 0 of the
+run's clock). A point mass is pushed along a direction fixed in the scene's axes (``frame =
+"inertial"``) or in the local frame of its motion (``"rsw"``: radial, along-track in the
+orbit plane, orbit normal; ``"vnc"``: velocity, orbit normal, their cross product). A rigid
+body is pushed through a thruster fixed in it (``frame = "body"``): at ``point`` (body
+axes, from the centre of mass) along ``direction`` (body axes), hence with the torque ``r x
+F``; it loses its mass evenly, its inertia in proportion. With a specific
 impulse ``isp`` the body's mass falls at ``q = T / (isp g0)`` kg/s (g0 the standard gravity
 of :data:`astropy.constants.g0`), and over each sub-step from ta to tb the velocity changes
 by the rocket equation's ``dv = isp g0 ln(m(ta) / m(tb))`` exactly; without it the mass is
@@ -34,25 +37,28 @@ import numpy as np
 from ..errors import InputError
 from ..keys import Key
 from ..units import to_si, vector_to_si
-from .base import AT_POINTS, Effect, Pieces
+from .base import AT_POINTS, ON_SURFACES, Effect, Pieces
 
 __all__ = ["Thrust", "FRAMES", "MAX_THRUST"]
 
-#: the frames a burn's direction may be given in
-FRAMES = ("inertial", "rsw", "vnc")
+#: the frames a burn's direction may be given in (body: a rigid body's own axes)
+FRAMES = ("inertial", "rsw", "vnc", "body")
 #: the largest thrust, N (a Saturn V's first stage gives 3.5e7 N)
 MAX_THRUST = 1e9
 _KEYS = (
-    Key("body", True, "string", "", "the name of a point mass of the scene", "the body the burn pushes"),
+    Key("body", True, "string", "", "a point mass or a rigid body of the scene", "the body the burn pushes"),
     Key("thrust", True, "force (N)", "", f"> 0, at most {MAX_THRUST:g}", "the thrust T"),
     Key("start", True, "time (s)", "", "a time", "when the burn starts, s from time 0 of the run's clock"),
     Key("end", False, "time (s)", "", "after start; give end or duration", "when the burn ends"),
     Key("duration", False, "time (s)", "", "> 0; give end or duration", "how long the burn lasts"),
     Key("isp", False, "time (s)", "none: the mass is held", "> 0",
         "the specific impulse: the mass falls at T / (isp g0), and dv follows the rocket equation"),
-    Key("frame", False, "string", '"vnc"', '"inertial", "rsw", "vnc"', "the frame of direction"),
+    Key("frame", False, "string", '"vnc" (a point mass), "body" (a rigid body)',
+        '"inertial", "rsw", "vnc" (point masses); "body" (rigid bodies)', "the frame of direction"),
     Key("direction", False, "3 numbers", "[1, 0, 0]", "a vector other than 0 (normalised)",
         "the thrust's direction in frame: [1, 0, 0] in vnc is along the velocity"),
+    Key("point", False, "3 lengths (m)", "[0, 0, 0] m, the centre of mass", "rigid bodies only",
+        "where the thrust acts, in the body's axes from its centre of mass"),
 )  # fmt: skip
 
 
@@ -77,12 +83,15 @@ class Thrust(Effect):
     NAME = "thrust"
     SUMMARY = "a finite burn: constant thrust and specific impulse over a window, the mass falling"
     KEYS = _KEYS
-    ACTS = {"point": AT_POINTS}
+    ACTS = {"point": AT_POINTS, "rigid": ON_SURFACES}
     CONSERVES: tuple[str, ...] = ()
     MULTIPLE = True
     SAME_KEY = "start"
     EXPLICIT = False
-    PIECES = Pieces("emorbit.kernels.effects.thrust", force="thrust_piece", prepare="thrust_prepare")
+    OWN_FACETS = True
+    PIECES = Pieces(
+        "emorbit.kernels.effects.thrust", force="thrust_piece", prepare="thrust_prepare", facet="thrust_facet"
+    )
     POTENTIAL = "none: a burn does work W = sum m0 dv e . (x1 - x0) / h, recorded as invariants/work_thrust"
     DISCRETE_FORCE = "F = (dv / h) e, dv = isp g0 ln(m(ta) / m(tb)) (or T (tb - ta) / m), e in its frame at x_m"
     JACOBIAN = "left out (the frame's turn with x1, below 1e-9 of the central field's)"
@@ -124,7 +133,24 @@ class Thrust(Effect):
                         f"the burn ({self.start!r} s to {self.end!r} s) overlaps {e.key}'s ({e.start!r} s to "
                         f"{e.end!r} s) on {self.body!r}: the burns of one body follow one another",
                     )
+        kind = kinds.get(self.body)
+        if kind == "rigid":
+            if self.frame not in (None, "body"):
+                raise InputError(
+                    f"{self.key}.frame", f'a rigid body\'s thruster is fixed in it: frame = "body", not {self.frame!r}'
+                )
+            self.p[6] = float(FRAMES.index("body"))
+        else:
+            if self.frame == "body" or self.point is not None:
+                raise InputError(
+                    f"{self.key}.{'point' if self.point is not None else 'frame'}",
+                    f'{self.body!r} is a point mass: it has no body axes (frame "inertial", "rsw" or "vnc")',
+                )
+            self.p[6] = float(FRAMES.index(self.frame or "vnc"))
+        burns = [e for e in named if isinstance(e, Thrust)]
+        self.p[14] = -1.0 - burns.index(self)
         m0 = float(masses[self.body])
+        self.p[13] = m0
         earlier = [e for e in named if isinstance(e, Thrust) and e.body == self.body and e.end <= self.start]
         used = sum(e.mass_flow * (e.end - e.start) for e in earlier)
         start = m0 - used
@@ -139,6 +165,14 @@ class Thrust(Effect):
         self.p[2] = start / m0
         self.p[3] = self.mass_flow / m0
         self.p[5] = self.thrust / start
+
+    def own_facets(self, body_kind: str, name: str) -> np.ndarray:
+        """A rigid body's thruster: a facet of area 0 at ``point`` with the direction as its
+        normal, marked (k3) as this burn's."""
+        if body_kind != "rigid" or name != self.body:
+            return np.zeros((0, 11))
+        point = np.zeros(3) if self.point is None else self.point
+        return np.array([[*point, *self.p[7:10], 0.0, 0.0, 0.0, 0.0, self.p[14]]])
 
     def mass(self, t) -> np.ndarray:
         """The body's mass at times ``t`` (s) as this burn leaves it (kg; the mass at its start
@@ -185,8 +219,8 @@ class Thrust(Effect):
         isp = None
         if "isp" in table:
             isp = to_si(table["isp"], "time", f"{key}.isp", strict=strict, positive=True)
-        frame = table.get("frame", "vnc")
-        if frame not in FRAMES:
+        frame = table.get("frame")
+        if frame is not None and frame not in FRAMES:
             raise InputError(f"{key}.frame", f"one of {', '.join(map(repr, FRAMES))} expected, got {frame!r}")
         direction = vector_to_si(table.get("direction", [1.0, 0.0, 0.0]), "dimensionless", f"{key}.direction")
         norm = float(np.linalg.norm(direction))
@@ -196,7 +230,11 @@ class Thrust(Effect):
         from astropy.constants import g0
 
         ve = 0.0 if isp is None else isp * float(g0.si.value)
-        p = [start, end, 1.0, 0.0, ve, 0.0, float(FRAMES.index(frame)), *(direction / norm), *center]
+        point = None
+        if "point" in table:
+            point = vector_to_si(table["point"], "length", f"{key}.point", strict=strict)
+        p = [start, end, 1.0, 0.0, ve, 0.0, 0.0, *(direction / norm), *center, 0.0, 0.0]
         effect = cls(table, p, bodies=[body])
+        effect.frame, effect.point = frame, point
         effect.body, effect.start, effect.end, effect.thrust, effect.isp = body, start, end, thrust, isp
         return effect

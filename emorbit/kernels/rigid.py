@@ -345,11 +345,10 @@ def rigid_step(
         central = h * h * gm * work[22][0] <= _CENTRAL_K * r2 * r2
     surfaces = f1 > f0
     kron = not surfaces and not volume  # K only in the centre of mass's block
-    if model == GRAVITY_NONE:  # no field: F and K (its centre-of-mass block) stay zero
+    if model == GRAVITY_NONE:  # no field: F and K stay zero (the facets' derivative adds into K)
         for r in range(12):
             F[r] = 0.0
-        for r in range(3):
-            for j in range(3):
+            for j in range(12):
                 K[r, j] = 0.0
     prev2 = math.inf
     status = STATUS_NO_CONVERGENCE

@@ -23,8 +23,18 @@ the kinetic energy per unit mass changes by exactly the conservative potentials'
 frame with respect to x1 (of order ``|F| / (|v| h)``, below 1e-9 of the central field's for
 the thrusts of spacecraft) stays out of Newton's matrix.
 
-Data layout: ``p = [t0, t1, mu0, q, ve, a0, frame (0 inertial, 1 rsw, 2 vnc), e0, e1, e2,
-c0, c1, c2]``, ``a0 = T / m0`` (m/s^2, used where ``ve = 0``); ``s`` (1,) the sub-step's dv.
+On a rigid body the burn acts through a thruster of its own, a facet of area 0 at the point
+the thrust acts on, its normal the thrust's direction in the body (``thrust_facet``; drag and
+radiation pressure give an area of 0 nothing). The body loses mass evenly, its inertia in
+proportion, so that its motion under the thrust is its motion at its initial mass M0 under
+``T m0 / m(t)``: the facet's force is ``M0 (dv / h) n`` (N), n the facet's normal at the
+step's middle, and its work ``F . (b - a)`` over the thruster's own path gives the torque's
+work as well as the thrust's.
+
+Data layout: ``p = [t0, t1, mu0, q, ve, a0, frame (0 inertial, 1 rsw, 2 vnc, 3 body), e0,
+e1, e2, c0, c1, c2, M0, mark]``, ``a0 = T / m0`` (m/s^2, used where ``ve = 0``), ``mark`` the
+thruster facet's last coefficient (k3, negative: its own facets only); ``s`` (1,) the
+sub-step's dv.
 """
 
 from __future__ import annotations
@@ -33,7 +43,7 @@ import math
 
 from ..jit import kernel
 
-__all__ = ["thrust_piece", "thrust_prepare", "burn_dv"]
+__all__ = ["thrust_piece", "thrust_prepare", "thrust_facet", "burn_dv"]
 
 _inline = kernel(inline="always")
 
@@ -83,3 +93,12 @@ def thrust_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     ey = p[7] * ay + p[8] * by + p[9] * cy
     ez = p[7] * az + p[8] * bz + p[9] * cz
     return a * ex, a * ey, a * ez
+
+
+@_inline
+def thrust_facet(ax, ay, az, bx, by, bz, nx, ny, nz, area, k0, k1, k2, k3, h, p, tab, s):
+    """The burn's force on its thruster facet (k3 its mark), N: ``M0 (dv / h) n``."""
+    if k3 != p[14] or s[0] == 0.0:
+        return 0.0, 0.0, 0.0
+    f = p[13] * s[0] / h
+    return f * nx, f * ny, f * nz
