@@ -4,6 +4,7 @@
     python scripts/docs_bench_table.py --run --only work-precision   # measure that section again, merge it in
     python scripts/docs_bench_table.py --run --only rigid-precision  # the same for the rigid-body one
     python scripts/docs_bench_table.py --run --only gravity-field    # the same for the gravity-field one
+    python scripts/docs_bench_table.py --run --only perturbed        # the same for the perturbed one
     python scripts/docs_bench_table.py                 # rewrite the page from the JSON already there
     python scripts/docs_bench_table.py --check         # exit 1 if the page differs from the JSON
     python scripts/docs_bench_table.py FILE.json --print   # print the tables of any run
@@ -11,7 +12,7 @@
 The JSON is docs/data/bench-quick.json; ``--run`` writes it with ``emorbit bench --quick
 --json docs/data/bench-quick.json`` and records the date of the run in it, and draws the
 work-precision figure (docs/data/work-precision.png) from it. With ``--only work-precision``
-(or ``rigid-precision``, ``gravity-field``) it measures that section alone and replaces it in
+(or ``rigid-precision``, ``gravity-field``, ``perturbed``) it measures that section alone and replaces it in
 the JSON, with the date, command, machine, versions and load of its own run (the page then
 says so).
 Every figure on the page comes from the JSON: the page's text between the BEGIN and END
@@ -339,6 +340,33 @@ def _gf_reach(r, name: str, fmt: str, unit: str = "") -> str:
     return f"{1e3 * r['cpu_s']:.1f} (order {r['order']}, {name} {where}{unit})"
 
 
+def _point_row(name: str, setting: str, p: dict, last: str) -> list[str]:
+    """A work-precision point's row: its status where it did not run, else CPU ms, compile s,
+    steps, the position error and ``p[last]``."""
+    if p.get("status") != "ok":
+        return [name, setting, p.get("status", "-"), "-", "-", "-", "-"]
+    return [
+        name,
+        setting,
+        f"{1e3 * p['cpu_s']:.1f}",
+        _f(p.get("compile_s"), 2),
+        f"{p['steps']:,}",
+        _e(p["position_error"]),
+        _e(p.get(last)),
+    ]
+
+
+def _reach_cells(eng: dict, peers=()) -> list[str]:
+    """The cells of em fixed, em adaptive, heyoka and ``peers`` ((key, setting's name), ...)
+    in a reach table."""
+    cells = [
+        _gf_reach(eng["em fixed"], "dt", "{:g}", " s"),
+        _gf_reach(eng["em adaptive"], "eta", "{:g}"),
+        _gf_reach(eng["heyoka"], "tol", "{:.0e}"),
+    ]
+    return cells + [_gf_reach(eng[k], name, "{:.0e}") for k, name in peers]
+
+
 def _gravity_field(s: dict) -> list[str]:
     """The gravity-field section: em's cost per step at each degree against the central field,
     and the work against precision beside heyoka in the turning 20 x 20 field."""
@@ -378,32 +406,14 @@ def _gravity_field(s: dict) -> list[str]:
         else:
             name = f"em{' adaptive' if p['adaptive'] else ''} order {p['order']}"
             setting = f"eta {p['tolerance']:g}" if p["adaptive"] else f"dt {p['dt']:g} s"
-        if p.get("status") != "ok":
-            rows.append([name, setting, p.get("status", "-"), "-", "-", "-", "-"])
-            continue
-        rows.append(
-            [
-                name,
-                setting,
-                f"{1e3 * p['cpu_s']:.1f}",
-                _f(p.get("compile_s"), 2),
-                f"{p['steps']:,}",
-                _e(p["position_error"]),
-                _e(p["jacobi_drift"]),
-            ]
-        )
+        rows.append(_point_row(name, setting, p, "jacobi_drift"))
     head = ["", "setting", "CPU ms", "compile s", "steps", "position error / a", "Jacobi drift"]
     out += _table(head, rows)
     rows = []
     for row in wp["reach"]:
         eng = row["engines"]
         rows.append(
-            [
-                f"{row['accuracy']:g}",
-                _gf_reach(eng["em fixed"], "dt", "{:g}", " s"),
-                _gf_reach(eng["em adaptive"], "eta", "{:g}"),
-                _gf_reach(eng["heyoka"], "tol", "{:.0e}"),
-            ]
+            [f"{row['accuracy']:g}", *_reach_cells(eng)]
             + ["-" if row[k] is None else f"{row[k]:.2f}x" for k in ("em_fixed_over_heyoka", "em_adaptive_over_heyoka")]
         )
     out += [
@@ -423,6 +433,63 @@ def _gravity_field(s: dict) -> list[str]:
             f"Jacobi integral in {wp['heyoka_pot_compile_s']:.2f} s.",
             "",
         ]
+    return out
+
+
+def _perturbed(s: dict) -> list[str]:
+    """The perturbed section: per case the reference, every point and the least CPU time of each
+    engine to 1e-3, 1e-6 and 1e-9 of a."""
+    out = ["### Perturbed orbits", ""] + _wp_run(s)
+    for name, wp in s["cases"].items():
+        ref = wp["reference"]
+        cpu = "-" if ref.get("cpu_s") is None else f"{ref['cpu_s']:.2f} s"
+        out += [
+            f"#### {name}: {wp['case']}",
+            "",
+            f"The reference: {ref['method']}, {cpu}, its energy balance {_e(ref.get('energy_balance'))}; its "
+            f"difference from {ref['check']}: {_e(ref['check_difference'])} of a. em's effect set compiled (or "
+            f"loaded from Numba's cache) in {wp['em_compile_s']:.2f} s of CPU time"
+            + (f"; {', '.join(wp['skipped'].values())}." if wp["skipped"] else "."),
+            "",
+        ]
+        rows = []
+        for p in wp["points"]:
+            if p["engine"] == "emorbit":
+                label = f"em{' adaptive' if p['adaptive'] else ''} order {p['order']}"
+                setting = f"eta {p['tolerance']:g}" if p["adaptive"] else f"dt {p['dt']:g} s"
+            else:
+                label = f"{p['engine']} {p['method']}" + (f" (order {p['order']})" if p["order"] else "")
+                setting = f"eps {p['epsilon']:.0e}" if "epsilon" in p else f"tol {p['tolerance']:.0e}"
+            rows.append(_point_row(label, setting, p, "energy_balance"))
+        head = ["", "setting", "CPU ms", "compile s", "steps", "position error / a", "\\|E - E0 - W\\| / \\|E0\\|"]
+        out += _table(head, rows)
+        rows = []
+        for row in wp["reach"]:
+            eng = row["engines"]
+            rows.append(
+                [f"{row['accuracy']:g}", *_reach_cells(eng, (("ias15", "eps"), ("dop853", "tol")))]
+                + [
+                    "-" if row[f"em_over_{k}"] is None else f"{row[f'em_over_{k}']:.2f}x"
+                    for k in ("heyoka", "ias15", "dop853")
+                ]
+            )
+        out += [
+            "Least CPU time (ms) to reach a final position error (as for the gravity field; em: the better of "
+            "fixed and adaptive steps, its best order; heyoka's compile time not counted).",
+            "",
+        ]
+        head = [
+            "error / a",
+            "em fixed",
+            "em adaptive",
+            "heyoka",
+            "IAS15",
+            "DOP853",
+            "em / heyoka",
+            "em / IAS15",
+            "em / DOP853",
+        ]
+        out += _table(head, rows)
     return out
 
 
@@ -570,6 +637,7 @@ def markdown(data: dict) -> str:
         ("elastic", _elastic),
         ("effects", _effects),
         ("gravity_field", _gravity_field),
+        ("perturbed", _perturbed),
     ):
         if key in data:
             out += fn(data[key])
@@ -631,6 +699,11 @@ def run_bench(path: str, only: str | None = None) -> None:
         figure = os.path.join(folder, RIGID_FIGURE)
         plot_rigid(data["rigid_precision"], os.path.join(ROOT, figure))
         data["rigid_precision"]["figures"] = [figure]
+    if "perturbed" in data:
+        from emorbit.bench.perturbed import plot as plot_perturbed
+
+        figures = plot_perturbed(data["perturbed"], os.path.join(ROOT, folder))
+        data["perturbed"]["figures"] = [os.path.relpath(f, ROOT) for f in figures]
     with open(os.path.join(ROOT, path), "w") as f:
         json.dump(data, f, indent=1)
         f.write("\n")

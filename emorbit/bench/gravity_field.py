@@ -726,7 +726,7 @@ def point_line(head: str, p: dict, last: str, width: int) -> str:
     comp = f"{p['compile_s']:.2f}" if "compile_s" in p else ""
     return (
         head + f" {1e3 * p['cpu_s']:>9.2f} {comp:>10} {p['steps']:>7} {_e(p['position_error']):>10} "
-        f"{_e(p[last]):>{width}}"
+        f"{_e(p.get(last)):>{width}}"
     )
 
 
