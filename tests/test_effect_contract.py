@@ -191,7 +191,10 @@ def _cases():
 
 def _scene_sim(kind, body, method, adaptive=None, dt=20.0):
     sim = emorbit.Simulation(EARTH, method=method, order=2, dt=dt, adaptive=adaptive, epoch=EPOCH)
-    sim.add_effect(kind, **EFFECT_KEYS[kind])
+    keys = dict(EFFECT_KEYS[kind])
+    if kind == "thrust" and body == "elastic":  # a burn pushes one node, its mass held
+        keys = {**keys, "node": 0, "isp": None}
+    sim.add_effect(kind, **{k: v for k, v in keys.items() if v is not None})
     place = {"position": [R_LEO, 0, 0], "velocity": [0, V_LEO * 1.01, 300.0]}
     if body == "point":
         sim.add_point("a", mass=100.0, **place, **POINT_KEYS.get(kind, {}))

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from ..kernels import elastic as kel
 from ..kernels.codes import METHOD_MIDPOINT, STATUS_OK
 from ..kernels.coupled import add_point_blocks
@@ -81,13 +82,26 @@ class StructureEffects:
             kind = body["kind"]
             if kind == "point" or not effects.surface_mask(kind, body["name"]).any():
                 continue
-            if kind == "elastic" and len(body["spec"].tets):
+            if kind == "elastic":
                 spec = body["spec"]
-                t = boundary_triangles(spec.tets, spec.nodes, key=f"body[{spec.name!r}]")
-                tris.append(body["nodes"][t])
-                kf = np.zeros((4, len(t)))
-                kf[0] = float(body.get("drag_coefficient", 2.2))
-                kfs.append(kf)
+                if len(spec.tets) and effects.needs_surface(kind, body["name"]):
+                    t = boundary_triangles(spec.tets, spec.nodes, key=f"body[{spec.name!r}]")
+                    tris.append(body["nodes"][t])
+                    kf = np.zeros((4, len(t)))
+                    kf[0] = float(body.get("drag_coefficient", 2.2))
+                    kfs.append(kf)
+                own = effects.own_facets(kind, body["name"])
+                for row in own:  # a facet at one node: a burn's thruster
+                    node = int(row[0])
+                    if node >= len(body["nodes"]):
+                        key = next(e.key for e in effects.all if type(e).OWN_FACETS and e.reaches(body["name"]))
+                        raise InputError(
+                            f"{key}.node",
+                            f"{body['name']!r} has {len(body['nodes'])} nodes (0 to "
+                            f"{len(body['nodes']) - 1}); node {node} is not one of them",
+                        )
+                    tris.append(np.full((1, 3), body["nodes"][node], np.int64))
+                    kfs.append(row[1:5].reshape(4, 1))
             elif kind == "rigid":
                 parts = [effects.own_facets(kind, body["name"])]
                 if body.get("surface") is not None and effects.needs_surface(kind, body["name"]):

@@ -344,10 +344,11 @@ class Effect:
         """
 
     def own_facets(self, body_kind: str, name: str) -> np.ndarray:
-        """The facets it adds to a body it acts on through facets (:attr:`OWN_FACETS`), packed
-        as :meth:`emorbit.bodies.facets.Facets.packed` rows (k, 11), body frame; none by
-        default."""
-        return np.zeros((0, 11))
+        """The facets it adds to a body it acts on through facets (:attr:`OWN_FACETS`): a rigid
+        body's packed as :meth:`emorbit.bodies.facets.Facets.packed` rows (k, 11), body frame;
+        an elastic body's as rows (k, 5), a node's index in the body and the coefficients k0 to
+        k3 of a facet at that node alone (no area, no normal). None by default."""
+        return np.zeros((0, 11 if body_kind == "rigid" else 5))
 
     def same_as(self, other: Effect) -> bool:
         """Whether ``other`` (of the same kind) is the same effect named twice (a second third

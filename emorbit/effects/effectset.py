@@ -260,14 +260,15 @@ class EffectSet:
     def needs_surface(self, body_kind: str, name: str) -> bool:
         """Whether an effect acts on this body's own surface (its shape's facets, its facet
         tables), beyond the facets effects bring (:meth:`own_facets`)."""
-        return any(
-            e.acts_on(body_kind) == ON_SURFACES and e.reaches(name) and not type(e).OWN_FACETS for e in self.all
-        )
+        return any(e.acts_on(body_kind) == ON_SURFACES and e.reaches(name) and not type(e).OWN_FACETS for e in self.all)
 
     def own_facets(self, body_kind: str, name: str) -> np.ndarray:
-        """(k, 11) the packed facets that effects bring to this body (a burn's thruster)."""
+        """The facets that effects bring to this body (a burn's thruster), as
+        :meth:`~emorbit.effects.base.Effect.own_facets` gives them: (k, 11) for a rigid body,
+        (k, 5) for an elastic one."""
         rows = [e.own_facets(body_kind, name) for e in self.all if type(e).OWN_FACETS and e.reaches(name)]
-        return np.ascontiguousarray(np.vstack(rows)) if rows else np.zeros((0, 11))
+        width = 11 if body_kind == "rigid" else 5
+        return np.ascontiguousarray(np.vstack(rows)) if rows else np.zeros((0, width))
 
     def arrays(self, n_points: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The set's parameters, slices, tables and scratch for ``n_points`` points.

@@ -6,7 +6,9 @@ run's clock). A point mass is pushed along a direction fixed in the scene's axes
 orbit plane, orbit normal; ``"vnc"``: velocity, orbit normal, their cross product). A rigid
 body is pushed through a thruster fixed in it (``frame = "body"``): at ``point`` (body
 axes, from the centre of mass) along ``direction`` (body axes), hence with the torque ``r x
-F``; it loses its mass evenly, its inertia in proportion. With a specific
+F``; it loses its mass evenly, its inertia in proportion. An elastic body is pushed at one
+of its nodes (``node``), along a direction in the node's own inertial, RSW or VNC frame,
+its mass held (no ``isp``). With a specific
 impulse ``isp`` the body's mass falls at ``q = T / (isp g0)`` kg/s (g0 the standard gravity
 of :data:`astropy.constants.g0`), and over each sub-step from ta to tb the velocity changes
 by the rocket equation's ``dv = isp g0 ln(m(ta) / m(tb))`` exactly; without it the mass is
@@ -59,6 +61,8 @@ _KEYS = (
         "the thrust's direction in frame: [1, 0, 0] in vnc is along the velocity"),
     Key("point", False, "3 lengths (m)", "[0, 0, 0] m, the centre of mass", "rigid bodies only",
         "where the thrust acts, in the body's axes from its centre of mass"),
+    Key("node", False, "integer", "", "a node of the elastic body (0 first); elastic bodies only, required there",
+        "the node the thrust acts on"),
 )  # fmt: skip
 
 
@@ -83,7 +87,7 @@ class Thrust(Effect):
     NAME = "thrust"
     SUMMARY = "a finite burn: constant thrust and specific impulse over a window, the mass falling"
     KEYS = _KEYS
-    ACTS = {"point": AT_POINTS, "rigid": ON_SURFACES}
+    ACTS = {"point": AT_POINTS, "rigid": ON_SURFACES, "elastic": ON_SURFACES}
     CONSERVES: tuple[str, ...] = ()
     MULTIPLE = True
     SAME_KEY = "start"
@@ -134,7 +138,19 @@ class Thrust(Effect):
                         f"{e.end!r} s) on {self.body!r}: the burns of one body follow one another",
                     )
         kind = kinds.get(self.body)
-        if kind == "rigid":
+        if kind != "elastic" and self.node is not None:
+            raise InputError(f"{self.key}.node", f"{self.body!r} is not an elastic body: node is for elastic bodies")
+        if kind == "elastic":
+            for name, bad in (("isp", self.isp is not None), ("point", self.point is not None),
+                              ("frame", self.frame == "body"), ("node", self.node is None)):  # fmt: skip
+                if bad:
+                    raise InputError(
+                        f"{self.key}.{name}",
+                        f"{self.body!r} is an elastic body: a burn pushes one of its nodes (give node), in the "
+                        '"inertial", "rsw" or "vnc" frame, its mass held (no isp, no point)',
+                    )
+            self.p[6] = float(FRAMES.index(self.frame or "vnc"))
+        elif kind == "rigid":
             if self.frame not in (None, "body"):
                 raise InputError(
                     f"{self.key}.frame", f'a rigid body\'s thruster is fixed in it: frame = "body", not {self.frame!r}'
@@ -149,7 +165,7 @@ class Thrust(Effect):
             self.p[6] = float(FRAMES.index(self.frame or "vnc"))
         burns = [e for e in named if isinstance(e, Thrust)]
         self.p[14] = -1.0 - burns.index(self)
-        m0 = float(masses[self.body])
+        m0 = float(masses.get(self.body, 1.0))  # an elastic body's burn holds its mass: 1
         self.p[13] = m0
         earlier = [e for e in named if isinstance(e, Thrust) and e.body == self.body and e.end <= self.start]
         used = sum(e.mass_flow * (e.end - e.start) for e in earlier)
@@ -168,9 +184,12 @@ class Thrust(Effect):
 
     def own_facets(self, body_kind: str, name: str) -> np.ndarray:
         """A rigid body's thruster: a facet of area 0 at ``point`` with the direction as its
-        normal, marked (k3) as this burn's."""
-        if body_kind != "rigid" or name != self.body:
-            return np.zeros((0, 11))
+        normal, marked (k3) as this burn's; an elastic body's: its node and the marked
+        coefficients."""
+        if name != self.body or body_kind not in ("rigid", "elastic"):
+            return np.zeros((0, 11 if body_kind == "rigid" else 5))
+        if body_kind == "elastic":
+            return np.array([[float(self.node), 0.0, 0.0, 0.0, self.p[14]]])
         point = np.zeros(3) if self.point is None else self.point
         return np.array([[*point, *self.p[7:10], 0.0, 0.0, 0.0, 0.0, self.p[14]]])
 
@@ -235,6 +254,9 @@ class Thrust(Effect):
             point = vector_to_si(table["point"], "length", f"{key}.point", strict=strict)
         p = [start, end, 1.0, 0.0, ve, 0.0, 0.0, *(direction / norm), *center, 0.0, 0.0]
         effect = cls(table, p, bodies=[body])
-        effect.frame, effect.point = frame, point
+        node = table.get("node")
+        if node is not None and (isinstance(node, bool) or not isinstance(node, (int, np.integer)) or node < 0):
+            raise InputError(f"{key}.node", f"a node's index (an integer >= 0) expected, got {node!r}")
+        effect.frame, effect.point, effect.node = frame, point, node
         effect.body, effect.start, effect.end, effect.thrust, effect.isp = body, start, end, thrust, isp
         return effect

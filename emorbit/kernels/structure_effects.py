@@ -12,7 +12,8 @@ x0)``) and on the facets of rigid bodies (:mod:`.rigid_surface`).
 
 Data layout: points (q, 3) relative positions, m; ``m`` (q,) kg; ``body`` (q,) int64;
 ``coef`` (k, q); forces out (q, 3) N and blocks (q, 3, 3) N/m; triangles ``tris`` (nt, 3)
-int64 node indices (outward by the right-hand rule), ``kf`` (4, nt) facet coefficients; the
+int64 node indices (outward by the right-hand rule; a burn's thruster is one node three
+times, of area and normal 0), ``kf`` (4, nt) facet coefficients; the
 set's arrays as :mod:`.effects.signatures`.
 """
 
@@ -108,6 +109,8 @@ def triangle_effects(facets_fn, x0n, x1n, ref, tris, kf, h, P, I, T, S, fn, out,
         ez = u0 * w1 - u1 * w0
         norm = math.sqrt(ex * ex + ey * ey + ez * ez)
         area[t] = 0.5 * norm
+        if norm == 0.0:  # a facet at one node (a thruster): no area, no normal
+            norm = 1.0
         N[0, t] = ex / norm
         N[1, t] = ey / norm
         N[2, t] = ez / norm

@@ -29,7 +29,9 @@ radiation pressure give an area of 0 nothing). The body loses mass evenly, its i
 proportion, so that its motion under the thrust is its motion at its initial mass M0 under
 ``T m0 / m(t)``: the facet's force is ``M0 (dv / h) n`` (N), n the facet's normal at the
 step's middle, and its work ``F . (b - a)`` over the thruster's own path gives the torque's
-work as well as the thrust's.
+work as well as the thrust's. On an elastic body the thruster is one node (a facet whose
+three corners are that node: its area and normal 0), pushed with T along the direction in its
+frame over the node's own path; its mass is held (``M0 = 1``, ``a0 = T``).
 
 Data layout: ``p = [t0, t1, mu0, q, ve, a0, frame (0 inertial, 1 rsw, 2 vnc, 3 body), e0,
 e1, e2, c0, c1, c2, M0, mark]``, ``a0 = T / m0`` (m/s^2, used where ``ve = 0``), ``mark`` the
@@ -67,13 +69,11 @@ def thrust_prepare(ta, tm, tb, p, tab, s):
 
 
 @_inline
-def thrust_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
-    """The burn's force per unit mass over the step, ``(dv / h) e``."""
-    if s[0] == 0.0:
-        return 0.0, 0.0, 0.0
-    a = s[0] / h
+def _direction(x0, y0, z0, x1, y1, z1, h, p):
+    """The burn's unit direction over a step x0 -> x1: fixed, or in the RSW or VNC frame of
+    its midpoint and mean velocity."""
     if p[6] == 0.0:
-        return a * p[7], a * p[8], a * p[9]
+        return p[7], p[8], p[9]
     rx, ry, rz = 0.5 * (x0 + x1) - p[10], 0.5 * (y0 + y1) - p[11], 0.5 * (z0 + z1) - p[12]
     vx, vy, vz = (x1 - x0) / h, (y1 - y0) / h, (z1 - z0) / h
     wx, wy, wz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
@@ -89,16 +89,32 @@ def thrust_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
         ax, ay, az = vx / n, vy / n, vz / n
         bx, by, bz = wx, wy, wz
         cx, cy, cz = ay * wz - az * wy, az * wx - ax * wz, ax * wy - ay * wx
-    ex = p[7] * ax + p[8] * bx + p[9] * cx
-    ey = p[7] * ay + p[8] * by + p[9] * cy
-    ez = p[7] * az + p[8] * bz + p[9] * cz
+    return (
+        p[7] * ax + p[8] * bx + p[9] * cx,
+        p[7] * ay + p[8] * by + p[9] * cy,
+        p[7] * az + p[8] * bz + p[9] * cz,
+    )
+
+
+@_inline
+def thrust_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
+    """The burn's force per unit mass over the step, ``(dv / h) e``."""
+    if s[0] == 0.0:
+        return 0.0, 0.0, 0.0
+    a = s[0] / h
+    ex, ey, ez = _direction(x0, y0, z0, x1, y1, z1, h, p)
     return a * ex, a * ey, a * ez
 
 
 @_inline
 def thrust_facet(ax, ay, az, bx, by, bz, nx, ny, nz, area, k0, k1, k2, k3, h, p, tab, s):
-    """The burn's force on its thruster facet (k3 its mark), N: ``M0 (dv / h) n``."""
+    """The burn's force on its thruster facet (k3 its mark), N: ``M0 (dv / h) e``, e the
+    facet's normal (a rigid body's thruster) or the direction in its frame over the facet's
+    path a -> b (an elastic body's node)."""
     if k3 != p[14] or s[0] == 0.0:
         return 0.0, 0.0, 0.0
     f = p[13] * s[0] / h
-    return f * nx, f * ny, f * nz
+    if p[6] == 3.0:
+        return f * nx, f * ny, f * nz
+    ex, ey, ez = _direction(ax, ay, az, bx, by, bz, h, p)
+    return f * ex, f * ey, f * ez
