@@ -490,6 +490,9 @@ def _perturbed(s: dict) -> list[str]:
             "em / DOP853",
         ]
         out += _table(head, rows)
+        if f"docs/data/perturbed-{name}.png" in s.get("figures", []):
+            picture = f"data/perturbed-{name}.png"
+            out += [f"![{name}: final position error and energy balance against CPU time]({picture})", ""]
     return out
 
 
