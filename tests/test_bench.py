@@ -244,6 +244,7 @@ def test_command_line(capsys):
         "rigid",
         "rigid-precision",
         "gravity-field",
+        "perturbed",
         "elastic",
         "effects",
         "gpu",
