@@ -185,15 +185,19 @@ def test_table_and_json(data):
     json.dumps(data, default=_jsonable)
 
 
-def test_a_missing_peer_is_skipped(monkeypatch):
-    """Without heyoka (its import fails) its rows say skipped and the reference is em's."""
-    monkeypatch.setitem(sys.modules, "heyoka", None)
+def test_missing_peers_are_skipped(monkeypatch):
+    """Without heyoka, REBOUND and scipy (their imports fail) their rows say skipped and the
+    reference is em's."""
+    for name in ("heyoka", "rebound", "scipy"):
+        monkeypatch.setitem(sys.modules, name, None)
     monkeypatch.setitem(
-        perturbed.SIZES, "tiny", {"leo": perturbed.Size(1800.0, ((8, (120.0,)),), (), (1e-9,), (), (), 5.0)}
+        perturbed.SIZES, "tiny", {"leo": perturbed.Size(1800.0, ((8, (120.0,)),), (), (1e-9,), (1e-9,), (1e-8,), 5.0)}
     )
     wp = perturbed.run(CONFIGS["tiny"])["cases"]["leo"]
-    assert "heyoka" in wp["skipped"] and "not installed" in wp["skipped"]["heyoka"]
-    hy = [p for p in wp["points"] if p["engine"] == "heyoka"]
-    assert hy and all(p["status"].startswith("skipped: heyoka") for p in hy)
+    assert set(wp["skipped"]) == {"heyoka", "rebound", "scipy"}
+    for engine in ("heyoka", "rebound", "scipy"):
+        assert "not installed" in wp["skipped"][engine]
+        rows = [p for p in wp["points"] if p["engine"] == engine]
+        assert len(rows) == 1 and rows[0]["status"].startswith(f"skipped: {engine} is not installed")
     assert wp["reference"]["method"].startswith("em order 8") and "without heyoka" in wp["reference"]["method"]
     assert [p["status"] for p in wp["points"] if p["engine"] == "emorbit"] == ["ok"]
