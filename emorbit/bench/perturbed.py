@@ -22,18 +22,19 @@ with the same polynomials, and every constant of their force model is read from 
 ``tests/test_bench_perturbed.py`` checks at 100 random states that each peer's acceleration
 is emorbit's to 1e-13.
 
-Engines: em at fixed steps dt (orders 6, 8) and with adaptive steps (``adaptive = eta``,
-orders 6, 8), timed over one record interval, the whole run (adaptive steps land only at its
-end); heyoka's ``taylor_adaptive`` at several tolerances (compile time in its own
-column, caches off); REBOUND's IAS15 at several epsilons (``additional_forces``, a Python
-callback: REBOUNDx's ``gravitational_harmonics`` has J2 and J4 only, so it is not used);
-scipy's DOP853 at several rtol. Measured for each: the CPU time of the run (set-up and
-compilation excluded, and for em the sampling of the Sun's and the Moon's paths, which the peers
-get from the model; the best of three under 50 ms), the final position error against the
-reference over a, and the largest energy balance ``|E - E0 - W| / |E0|`` over its records:
-em's from the records of a second, untimed run (every :data:`RECORD_S`, where adaptive steps
-land), the peers' with W integrated from the same force model along their solution. em's
-compile time (Numba's, or the load from its cache) is that of its first runs, once per case.
+Engines (:data:`SIZES`): em at fixed steps dt (orders 4-8; the quick configuration 6 and 8) and
+with adaptive steps (``adaptive = eta``, orders 6 and 8), timed over one record interval, the
+whole run (adaptive steps land only at its end); heyoka's ``taylor_adaptive`` at several
+tolerances (compile time in its own column, caches off); REBOUND's IAS15 at several epsilons
+(``additional_forces``, a Python callback: REBOUNDx's ``gravitational_harmonics`` has J2 and J4
+only, so it is not used); scipy's DOP853 at several rtol. Measured for each: the CPU time of
+the run (set-up and compilation excluded, and for em the sampling of the Sun's and the Moon's
+paths, which the peers get from the model; the best of three under 50 ms), the final position
+error against the reference over a, and the largest energy balance ``|E - E0 - W| / |E0|`` over
+its records: em's from the records of a second, untimed run (every :data:`RECORD_S`, where
+adaptive steps land), the peers' with W integrated from the same force model along their
+solution. em's compile time (Numba's, or the load from its cache) is that of its first runs,
+once per case.
 
 The reference: heyoka in long double at tolerance :data:`REFERENCE_TOL` (the shadow's edges
 found by its event detection), checked against em order 8 at a small step; without heyoka or
