@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Table", "Model", "heyoka_system", "em_acceleration"]
+__all__ = ["Table", "hermite", "Model", "heyoka_system", "em_acceleration"]
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ import numpy as np
 from .perturbed_models import heyoka_system
 from .timing import best_cpu
 
-__all__ = ["boundaries", "heyoka_run", "ias15_run", "dop853_run"]
+__all__ = ["boundaries", "HeyokaRunner", "heyoka_run", "ias15_run", "dop853_run"]
 
 
 def boundaries(model, duration: float) -> np.ndarray:
