@@ -10,6 +10,8 @@ epoch :data:`EPOCH` (an equinox: low orbits cross the Earth's shadow every revol
   holds 400 km, :data:`emorbit.effects.atmosphere_tables.VALLADO_2013`), Cd A / m = 0.01
   m^2/kg, cannonball radiation pressure with a cylindrical shadow, Cr A / m = 0.01 m^2/kg,
   the Moon and the Sun;
+* ``leo-no-shadow``: the same without the shadow (radiation pressure always on): what the
+  shadow's jumps, which only heyoka locates (by its events), cost the engines;
 * ``molniya``: a of half a sidereal day, e = 0.74, i = 63.4 deg, argument of perigee 270 deg,
   10 days; J2..J4, the Moon and the Sun;
 * ``geo``: a of a sidereal day, e = 0, i = 0.05 deg, 30 days; J2, the Moon, the Sun and
@@ -56,7 +58,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -115,6 +117,7 @@ class Case:
     drag: bool
     srp: bool
     check_dt: float  # em order 8's step for the reference's check, s
+    shadow: str = "cylindrical"  # the radiation pressure's shadow: "cylindrical" or "none"
 
 
 def _sidereal_a(gm: float, fraction: float) -> float:
@@ -131,6 +134,11 @@ CASES = {
     "leo": Case("leo", ((None, 400e3), 0.001, 51.6, 0.2, 5.73, 0.0), 86400.0, 6, True, True, 15.0),
     "molniya": Case("molniya", ((0.5, 0.0), 0.74, 63.4, 0.2, 270.0, 0.0), 10 * 86400.0, 4, False, False, 30.0),
     "geo": Case("geo", ((1.0, 0.0), 0.0, 0.05, 0.2, 0.0, 0.0), 30 * 86400.0, 2, False, True, 300.0),
+}
+
+#: the LEO without the shadow (radiation pressure always on): what the shadow's jumps cost each engine
+CASES = {"leo": CASES["leo"], "leo-no-shadow": replace(CASES["leo"], name="leo-no-shadow", shadow="none")} | {
+    k: c for k, c in CASES.items() if k != "leo"
 }
 
 
@@ -211,6 +219,11 @@ SIZES = {
     "tiny": {"leo": Size(7200.0, ((8, (120.0,)),), ((8, (0.05,)),), (1e-9,), (1e-9,), (1e-8,), 5.0)},
 }
 
+for _sizes in (SIZES["full"], SIZES["quick"]):  # the LEO's settings serve it without the shadow too
+    _sizes["leo-no-shadow"] = _sizes["leo"]
+    for _name in [k for k in _sizes if k not in ("leo", "leo-no-shadow")]:
+        _sizes[_name] = _sizes.pop(_name)  # after the LEOs, in the order of CASES
+
 
 def _field():
     import emorbit
@@ -262,7 +275,7 @@ def simulation(case: Case, dt: float, order: int = 8, adaptive: float | None = N
         h0, rho0, scale = _band(case.elements[0][1])
         sim.add_effect("drag", atmosphere="exponential", density=rho0, reference_altitude=h0, scale_height=scale)
     if case.srp:
-        sim.add_effect("srp", shadow="cylindrical")
+        sim.add_effect("srp", shadow=case.shadow)
     sim.add_effect("third_body", body="moon")
     sim.add_effect("third_body", body="sun")
     x0, v0, _ = initial_state(case)
@@ -480,7 +493,9 @@ def work_precision(case: Case, size: Size) -> dict:
 def _describe(case: Case, duration: float, a: float) -> str:
     _, e, inc, _, _, _ = case.elements
     forces = (
-        [f"J2..J{case.degree}"] + (["drag"] if case.drag else []) + (["SRP (cylindrical shadow)"] if case.srp else [])
+        [f"J2..J{case.degree}"]
+        + (["drag"] if case.drag else [])
+        + ([f"SRP ({case.shadow} shadow)"] if case.srp else [])
     )
     return (
         f"{case.name}: a = {a / 1e3:.1f} km, e = {e:g}, i = {inc:g} deg, {duration / 86400:g} d; "
