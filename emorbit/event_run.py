@@ -91,10 +91,11 @@ class EventRun:
         self._from_here()
 
     def first_stop(self, failed=None):
-        """The earliest crossing in the chunk of an event that stops the run or fires an
-        impulse, or None; with a step that failed (its index in the chunk), only a crossing in
+        """The earliest crossing in the chunk of an event that stops the run, fires an impulse
+        or switches a burn, or None; with a step that failed (its index in the chunk), only a crossing in
         a step before it."""
-        stops = [c for c in self._crossings if self.events.events[c[1]].stop or self.events.events[c[1]].dv is not None]
+        events = self.events.events
+        stops = [c for c in self._crossings if events[c[1]].stop or events[c[1]].dv is not None or events[c[1]].acts]
         if failed is not None:
             stops = [c for c in stops if c[0] - self.sim._steps <= failed]
         return min(stops) if stops else None
@@ -148,6 +149,7 @@ class EventRun:
         self.events.log.append(entry)
         if sink.writer is not None:
             sink.writer.append_event(entry)
+        self.sim.effects.on_event(e.label, float(t), self.events)
 
     def log_crossings(self, snapshots, first: int, gammas, sink, until=None) -> None:
         """Locate and log the crossings of a chunk that started at step ``first`` from
@@ -173,16 +175,17 @@ class EventRun:
             s.restore(snap)
 
     def act(self, crossing, snapshots, k: int, every: int, gammas, sink) -> int:
-        """A crossing that stops the run (:meth:`stop_at`) or fires an impulse
-        (:meth:`kick_at`). Returns the steps taken."""
+        """A crossing that stops the run (:meth:`stop_at`), or fires an impulse or switches a
+        burn (:meth:`kick_at`). Returns the steps taken."""
         if self.events.events[crossing[1]].stop:
             return self.stop_at(crossing, snapshots, k, gammas, sink)
         return self.kick_at(crossing, snapshots, k, every, gammas, sink)
 
     def kick_at(self, crossing, snapshots, k: int, every: int, gammas, sink) -> int:
-        """An impulse in the chunk that started from ``snapshots``: record the records before
-        its step, split the step at the event, add the impulse, take the rest of the step (the
-        run stays on its grid) and log it with its work. The chunk's steps after it are
+        """An impulse (or a burn's switch) in the chunk that started from ``snapshots``: record
+        the records before its step, split the step at the event, add the impulse (or let the
+        effects act: :meth:`~emorbit.effects.effectset.EffectSet.on_event`), take the rest of
+        the step (the run stays on its grid) and log it with its work. The chunk's steps after it are
         dropped and taken again. Returns the steps taken."""
         sim = self.sim
         self.log_crossings(snapshots, sim._steps, gammas, sink, until=crossing)
@@ -194,15 +197,18 @@ class EventRun:
             raise refused[0]
         t, tau, recs, _ = self.find(crossing, gammas)
         e = self.events.events[j]
-        state = self.data(recs, 1, np.array([t]))[e.body]
-        x, v = np.array(state["position"][0]), np.array(state["velocity"][0])
-        dv = e.impulse(x, v, sim.center)
-        system = next(s for s in sim.systems if e.body in s.names)
-        mass, before = system.kick(e.body, dv, f"{e.key}.dv")
-        self.log_event(crossing, t, recs, sink, dv=dv, work=mass * (float(before @ dv) + 0.5 * float(dv @ dv)))
+        if e.dv is not None:
+            state = self.data(recs, 1, np.array([t]))[e.body]
+            x, v = np.array(state["position"][0]), np.array(state["velocity"][0])
+            dv = e.impulse(x, v, sim.center)
+            system = next(s for s in sim.systems if e.body in s.names)
+            mass, before = system.kick(e.body, dv, f"{e.key}.dv")
+            self.log_event(crossing, t, recs, sink, dv=dv, work=mass * (float(before @ dv) + 0.5 * float(dv @ dv)))
+        else:  # an effect acts at it (log_event tells the effects)
+            self.log_event(crossing, t, recs, sink)
         rest = self._step(sim._dt - tau, t, gammas)
         if any(r.first_failure() is not None for _, r in rest):
-            raise IntegrationError(t, e.body, f"the rest of the step after the impulse of {e.label} failed")
+            raise IntegrationError(t, e.body or "", f"the rest of the step after {e.label} failed")
         sim._steps = step
         if (step - sim._run_origin) % every == 0:
             sink.emit(rest, np.array([step]), 1, 1)

@@ -49,7 +49,9 @@ Its work, ``m (|v + dv|^2 - |v|^2) / 2``, is logged with it and counted in the e
 (the scene's axes), ``rsw`` (radial, along-track in the orbit plane, orbit normal) and
 ``vnc`` (velocity, orbit normal, their cross product). ``after`` arms an event only once the
 event of that label has happened (a Hohmann transfer's second burn at the apoapsis after
-the first). Other events leave the run's states as they are (the located step is taken from
+the first). An event that starts or ends a burn (``[[effect]] kind = "thrust"`` with
+``start_event`` or ``end_event``) splits its step the same way, fires once, and the burn
+switches there. Other events leave the run's states as they are (the located step is taken from
 a copy) and are logged: :attr:`EventSet.log`, the run file's ``events/`` group,
 ``Result.events``.
 
@@ -118,6 +120,9 @@ class Event:
         A name of :data:`FRAMES`.
     after : str or None
         The label of the event that arms this one.
+    acts : bool
+        Whether an effect acts at it (a burn starts or ends there): like an impulse, it
+        splits its step and fires once.
     """
 
     kind: str
@@ -134,6 +139,8 @@ class Event:
     sun: np.ndarray | None = None
     epoch: object = None
     _table: object = None
+    #: whether an effect acts at it (a burn starts or ends): the step is split there, once
+    acts: bool = False
 
     def sun_direction(self, times) -> np.ndarray:
         """Unit vectors to the Sun at ``times`` (s from the epoch): (m, 3)."""
@@ -363,7 +370,8 @@ class EventSet:
         found = []
         for r, j in zip(*np.nonzero(rising | falling)):  # row by row: an event armed in a row counts after it
             e = self.events[j]
-            if (e.after is None or e.after in self.fired) and not (e.dv is not None and e.label in self.fired):
+            once = e.dv is not None or e.acts
+            if (e.after is None or e.after in self.fired) and not (once and e.label in self.fired):
                 found.append((int(r), int(j), float(before[r, j]), float(g[r, j])))
                 self.fired.add(e.label)
         self.previous = g[-1].copy()

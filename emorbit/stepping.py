@@ -290,6 +290,7 @@ class ChunkDriver:
         )
         self.effects.check_landings(self.time, self.time + n_steps * self._dt, grid, what)
         self.events.check_bodies(self.names)
+        self.effects.attach_events(self.events)
         for e in self.events.events:
             if e.dv is not None and not next(s for s in self.systems if e.body in s.names).KICKS:
                 raise InputError(

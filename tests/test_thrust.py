@@ -23,7 +23,8 @@ def _free(dt=10.0, order=2, **burn):
     """A 1000 kg craft drifting at 100 m/s along x in free space under one burn (inertial,
     along y)."""
     sim = emorbit.Simulation(None, dt=dt, order=order)
-    sim.add_effect("thrust", **{**BURN, "frame": "inertial", "direction": [0, 2, 0], **burn})
+    keys = {**BURN, "frame": "inertial", "direction": [0, 2, 0], **burn}
+    sim.add_effect("thrust", **{k: v for k, v in keys.items() if v is not None})
     sim.add_point("craft", mass=1000.0, position=[0.0, 0.0, 0.0], velocity=[100.0, 0.0, 0.0])
     return sim
 
@@ -158,8 +159,11 @@ def test_a_run_resumes_through_a_burn_bit_for_bit(tmp_path):
         ({"frame": "ecef"}, "effect[0].frame", "inertial"),
         ({"direction": [0, 0, 0]}, "effect[0].direction", "other than 0"),
         ({"duration": "5000 s"}, "effect[0].duration", "expels"),
-        ({"end": "700 s"}, "effect[0]", "end or its duration"),
+        ({"end": "700 s"}, "effect[0]", "its duration or its end_event"),
         ({"start": "105 s"}, "effect[0]", "between two steps"),
+        ({"start_event": "nothing", "start": None}, "effect[0].start_event", "no event labelled"),
+        ({"start_event": "x"}, "effect[0]", "start or its start_event"),
+        ({"start_event": "x", "start": None, "end": "700 s", "duration": None}, "effect[0].end", "end_event"),
     ],
 )
 def test_bad_burns_are_refused_naming_the_key(keys, where, says):
@@ -241,6 +245,51 @@ def test_a_rigid_bodys_burn_in_orbit_beside_drag_and_in_a_structure():
         assert res.si.work["thrust"][-1] > 0.0
         runs.append(res.si.angular_velocities["box"][-1, 2])
     assert runs[0] == pytest.approx(runs[1], rel=1e-6) and runs[0] > 0.02
+
+
+def test_a_burn_between_two_events():
+    """A burn that starts at an event and lasts a duration: its step is split at the event
+    (1003.7 s, between steps' ends) and at its end (the added time event ``go.end``), the
+    velocity follows the rocket equation within 8 ulp (measured 4). In orbit, a burn from the apoapsis to
+    the next periapsis: it starts at the apoapsis's logged time, ends at the periapsis's, and
+    E - E0 - W stays within 1e-13 of E0."""
+    sim = _free(start_event="go", duration="500 s", start=None)
+    sim.add_event("time", value="1003.7 s", label="go")
+    res = sim.run(t_end="2000 s", every=10, progress=False)
+    (b,) = [e for e in sim.effects if e.kind == "thrust"]
+    assert [(e["label"], e["time"]) for e in res.si.events] == [("go", 1003.7), ("go.end", 1003.7 + 500.0)]
+    assert (b.start, b.end) == (1003.7, 1503.7)
+    exact = 300.0 * G0 * math.log(b.mass_start / b.mass_end)
+    assert abs(res.si.velocities["craft"][-1, 1] - exact) <= 8 * math.ulp(exact)
+    sim = emorbit.Simulation(EARTH, dt=20.0, order=4)
+    x, v = orbits.state_from_elements((8000e3, 0.1, 0.3, 0.2, 0.1, 0.5), EARTH.gm)
+    sim.add_point("craft", mass=100.0, position=x, velocity=v)
+    sim.add_event("apoapsis", body="craft", label="apo")
+    sim.add_event("periapsis", body="craft", label="peri", after="apo")
+    sim.add_effect("thrust", body="craft", thrust="1 N", isp="220 s", start_event="apo", end_event="peri")
+    res = sim.run(t_end="12000 s", every=10, progress=False)
+    (b,) = [e for e in sim.effects if e.kind == "thrust"]
+    times = {e["label"]: e["time"] for e in res.si.events}
+    assert (b.start, b.end) == (times["apo"], times["peri"]) and b.mass_end < b.mass_start
+    assert np.abs(res.si.relative_energy_balance()).max() <= 1e-13
+
+
+def test_a_run_resumes_through_a_burn_started_by_an_event(tmp_path):
+    """Stopped after an event started a burn, the resumed run (its log replayed: the burn
+    starts again at the logged time, its end event added) ends on an unbroken run's bits."""
+
+    def build():
+        sim = _free(start_event="go", duration="500 s", start=None)
+        sim.add_event("time", value="1003.7 s", label="go")
+        return sim
+
+    unbroken = build().run(t_end="2000 s", every=10, progress=False)
+    part = tmp_path / "part.h5"
+    build().run(t_end="1200 s", every=10, output=str(part), progress=False)
+    emorbit.resume(str(part), "2000 s", progress=False)
+    again = emorbit.read(str(part))
+    assert np.array_equal(again.si.positions["craft"][-1], unbroken.si.positions["craft"][-1])
+    assert [e["label"] for e in again.si.events] == ["go", "go.end"]
 
 
 def _beam(**burn):

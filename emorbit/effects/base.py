@@ -350,6 +350,22 @@ class Effect:
         k3 of a facet at that node alone (no area, no normal). None by default."""
         return np.zeros((0, 11 if body_kind == "rigid" else 5))
 
+    def events_heard(self) -> tuple[tuple[str, str], ...]:
+        """The events it acts at: (its key naming the event, the event's label) pairs (a burn
+        that starts or ends at an event); none by default."""
+        return ()
+
+    def on_event(self, label: str, t: float, events) -> None:
+        """An event of the run happened at time ``t`` (s): an effect that acts at it changes
+        (a burn starts or ends) and may add events to ``events`` (a burn's end after its
+        duration); nothing by default.
+
+        Raises
+        ------
+        InputError
+            What it cannot do there, naming its key.
+        """
+
     def same_as(self, other: Effect) -> bool:
         """Whether ``other`` (of the same kind) is the same effect named twice (a second third
         body must be another body)."""

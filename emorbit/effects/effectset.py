@@ -239,6 +239,34 @@ class EffectSet:
                         f"multiples of {grid!r} s from {t0!r} s); choose a step that divides it",
                     )
 
+    def attach_events(self, events) -> None:
+        """Mark the events that effects act at (:meth:`~emorbit.effects.base.Effect.events_heard`),
+        so that they split their steps.
+
+        Raises
+        ------
+        InputError
+            An effect names an event the run does not have, naming its key.
+        """
+        labels = {e.label: e for e in events.events}
+        for effect in self.all:
+            for key, label in effect.events_heard():
+                if label not in labels:
+                    known = ", ".join(labels) or "none"
+                    raise InputError(key, f"the run has no event labelled {label!r}; its events: {known}")
+                labels[label].acts = True
+
+    def on_event(self, label: str, t: float, events) -> None:
+        """An event happened at time ``t``: let the effects act."""
+        for effect in self.all:
+            effect.on_event(label, t, events)
+
+    def replay_events(self, events) -> None:
+        """A resumed run: let the effects act at the events of its log, in order."""
+        self.attach_events(events)
+        for entry in list(events.log):
+            self.on_event(entry["label"], float(entry["time"]), events)
+
     # -- what the kernels take -------------------------------------------------------------------
     def program(self, announce=None):
         """The set compiled (:func:`emorbit.effects.program.compile_set`)."""

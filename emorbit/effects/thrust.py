@@ -18,7 +18,12 @@ mass the earlier ones leave.
 
 Steps land on each burn's start and end: fixed steps must divide them (adaptive steps: the
 record interval must), or the run is refused naming the burn, so no step straddles the
-switch. The mass enters the force alone: the bodies' masses in the run file, the energy and
+switch. A burn may instead start at an event of the run (``start_event``, its label) and end
+after a ``duration`` or at another event (``end_event``): such an event splits its step
+where it is located, as an impulse does (:mod:`emorbit.event_run`), fires once, and the burn
+switches there (:meth:`Thrust.on_event`); a duration's end is the time event
+``<start_event>.end``, added when the burn starts. A resumed run replays its log, so its
+burns start and end where they did. The mass enters the force alone: the bodies' masses in the run file, the energy and
 the work are those of the body at its initial mass m0, and the step keeps the balance ``m0
 (eps - eps0) - m0 sum dv e . (x1 - x0) / h = 0`` (``eps = v^2 / 2 + U`` per unit mass) to
 round-off (``invariants/energy_balance``; ``invariants/work_thrust`` is the burn's term).
@@ -33,6 +38,8 @@ Astrodynamics and Applications, 4th ed. (2013), section 3.3 (the RSW and NTW/VNC
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -50,9 +57,15 @@ MAX_THRUST = 1e9
 _KEYS = (
     Key("body", True, "string", "", "a point mass or a rigid body of the scene", "the body the burn pushes"),
     Key("thrust", True, "force (N)", "", f"> 0, at most {MAX_THRUST:g}", "the thrust T"),
-    Key("start", True, "time (s)", "", "a time", "when the burn starts, s from time 0 of the run's clock"),
-    Key("end", False, "time (s)", "", "after start; give end or duration", "when the burn ends"),
-    Key("duration", False, "time (s)", "", "> 0; give end or duration", "how long the burn lasts"),
+    Key("start", False, "time (s)", "", "a time; give start or start_event",
+        "when the burn starts, s from time 0 of the run's clock"),
+    Key("start_event", False, "string", "", "the label of an event of the run; give start or start_event",
+        "the burn starts when this event happens (the first time)"),
+    Key("end", False, "time (s)", "", "after start (with start only); give end, duration or end_event",
+        "when the burn ends"),
+    Key("duration", False, "time (s)", "", "> 0; give end, duration or end_event", "how long the burn lasts"),
+    Key("end_event", False, "string", "", "the label of an event of the run; give end, duration or end_event",
+        "the burn ends when this event happens after its start"),
     Key("isp", False, "time (s)", "none: the mass is held", "> 0",
         "the specific impulse: the mass falls at T / (isp g0), and dv follows the rocket equation"),
     Key("frame", False, "string", '"vnc" (a point mass), "body" (a rigid body)',
@@ -101,6 +114,9 @@ class Thrust(Effect):
     JACOBIAN = "left out (the frame's turn with x1, below 1e-9 of the central field's)"
 
     mass_start = mass_end = float("nan")
+    duration = None
+    events: dict = {}
+    _named: tuple = ()
 
     def scratch_size(self, n_points: int) -> int:
         return 1  # the sub-step's dv
@@ -109,8 +125,12 @@ class Thrust(Effect):
         return False  # another burn; one that overlaps this one in time is refused by bind()
 
     def landing_times(self, t0: float, t1: float) -> np.ndarray:
-        """The burn's start and end where they lie in ``(t0, t1]``."""
-        return np.array([t for t in (self.start, self.end) if t0 < t <= t1], float)
+        """The burn's start and end where they lie in ``(t0, t1]`` and are times of the
+        scene (an event's time is a step's end already: its step is split there)."""
+        times = [self.start] if "start_event" not in self.events else []
+        if not self.events:
+            times.append(self.end)
+        return np.array([t for t in times if t0 < t <= t1], float)
 
     @property
     def mass_flow(self) -> float:
@@ -129,14 +149,7 @@ class Thrust(Effect):
             Another burn of the body overlaps this one in time, or the burn would expel more
             mass than the body has, naming its window.
         """
-        for e in named:
-            if isinstance(e, Thrust) and e is not self and e.body == self.body:
-                if e.start < self.end and self.start < e.end:
-                    raise InputError(
-                        f"{self.key}.start",
-                        f"the burn ({self.start!r} s to {self.end!r} s) overlaps {e.key}'s ({e.start!r} s to "
-                        f"{e.end!r} s) on {self.body!r}: the burns of one body follow one another",
-                    )
+        self._check_overlap(named)
         kind = kinds.get(self.body)
         if kind != "elastic" and self.node is not None:
             raise InputError(f"{self.key}.node", f"{self.body!r} is not an elastic body: node is for elastic bodies")
@@ -165,22 +178,67 @@ class Thrust(Effect):
             self.p[6] = float(FRAMES.index(self.frame or "vnc"))
         burns = [e for e in named if isinstance(e, Thrust)]
         self.p[14] = -1.0 - burns.index(self)
-        m0 = float(masses.get(self.body, 1.0))  # an elastic body's burn holds its mass: 1
-        self.p[13] = m0
-        earlier = [e for e in named if isinstance(e, Thrust) and e.body == self.body and e.end <= self.start]
-        used = sum(e.mass_flow * (e.end - e.start) for e in earlier)
-        start = m0 - used
-        end = start - self.mass_flow * (self.end - self.start)
-        if not end > 0.0:
-            raise InputError(
-                f"{self.key}.{'duration' if 'duration' in self.table else 'end'}",
-                f"the burn expels {self.mass_flow * (self.end - self.start)!r} kg, and {self.body!r} has "
-                f"{start!r} kg left: shorten it or raise isp",
-            )
-        self.mass_start, self.mass_end = start, end
-        self.p[2] = start / m0
-        self.p[3] = self.mass_flow / m0
-        self.p[5] = self.thrust / start
+        self.p[13] = float(masses.get(self.body, 1.0))  # an elastic body's burn holds its mass: 1
+        self._named = tuple(named)
+        self._chain()
+
+    def _check_overlap(self, named) -> None:
+        for e in named:
+            if isinstance(e, Thrust) and e is not self and e.body == self.body:
+                if e.start < self.end and self.start < e.end:
+                    raise InputError(
+                        f"{self.key}.{'start_event' if 'start_event' in self.events else 'start'}",
+                        f"the burn ({self.start!r} s to {self.end!r} s) overlaps {e.key}'s ({e.start!r} s to "
+                        f"{e.end!r} s) on {self.body!r}: the burns of one body follow one another",
+                    )
+
+    def _chain(self) -> None:
+        """Set the mass terms of this body's burns whose start is known, in time order: each
+        starts from what the earlier ones leave (an open end leaves the rest unknown)."""
+        burns = sorted((e for e in self._named if isinstance(e, Thrust) and e.body == self.body), key=lambda e: e.start)
+        m0 = self.p[13]
+        mass = m0
+        for e in burns:
+            if not math.isfinite(e.start):
+                break
+            e.mass_start = mass
+            e.mass_end = mass - e.mass_flow * (e.end - e.start) if math.isfinite(e.end) else math.nan
+            if not e.mass_end > 0.0 and math.isfinite(e.end):
+                raise InputError(
+                    f"{e.key}.{'end' if 'end' in e.table else 'duration'}",
+                    f"the burn expels {e.mass_flow * (e.end - e.start)!r} kg, and {e.body!r} has {mass!r} kg "
+                    "left: shorten it or raise isp",
+                )
+            e.p[0], e.p[1] = e.start, e.end
+            e.p[2] = mass / m0
+            e.p[3] = e.mass_flow / m0
+            e.p[5] = e.thrust / mass
+            e.p[13] = m0
+            mass = e.mass_end
+
+    def events_heard(self) -> tuple[tuple[str, str], ...]:
+        """Its start_event and end_event."""
+        return tuple((f"{self.key}.{k}", label) for k, label in self.events.items())
+
+    def on_event(self, label: str, t: float, events) -> None:
+        """Start at its start_event (the first time; with a duration, add the time event of
+        its end, labelled ``<start_event>.end``), end at its end_event after its start."""
+        if label == self.events.get("start_event") and not math.isfinite(self.start):
+            self.start = t
+            if self.duration is not None:
+                self.end = t + self.duration
+                end = f"{label}.end"
+                if all(e.label != end for e in events.events):
+                    added = events.add("time", value=self.end, label=end, key=f"{self.key}.duration")
+                    added.acts = True
+            self._check_overlap(self._named)
+            self._chain()
+        elif label == self.events.get("end_event") and math.isfinite(self.start) and not math.isfinite(self.end):
+            self.end = t
+            self._chain()
+        elif label == f"{self.events.get('start_event')}.end" and self.duration is not None:
+            self.end = t  # the located end: the step is split there
+            self._chain()
 
     def own_facets(self, body_kind: str, name: str) -> np.ndarray:
         """A rigid body's thruster: a facet of area 0 at ``point`` with the direction as its
@@ -226,15 +284,24 @@ class Thrust(Effect):
         thrust = to_si(table.get("thrust"), "force", f"{key}.thrust", strict=strict, positive=True)
         if thrust > MAX_THRUST:
             raise InputError(f"{key}.thrust", f"at most {MAX_THRUST:g} N expected, got {thrust!r} N")
-        start = to_si(table.get("start"), "time", f"{key}.start", strict=strict)
-        if ("end" in table) == ("duration" in table):
-            raise InputError(key, "give the burn's end or its duration (one of them)")
+        if ("start" in table) == ("start_event" in table):
+            raise InputError(key, "give the burn's start or its start_event (one of them)")
+        if sum(k in table for k in ("end", "duration", "end_event")) != 1:
+            raise InputError(key, "give the burn's end, its duration or its end_event (one of them)")
+        events = {k: _label(table, k, key) for k in ("start_event", "end_event") if k in table}
+        start = to_si(table["start"], "time", f"{key}.start", strict=strict) if "start" in table else math.inf
+        duration = None
+        if "duration" in table:
+            duration = to_si(table["duration"], "time", f"{key}.duration", strict=strict, positive=True)
+        end = start + duration if duration is not None else math.inf
         if "end" in table:
+            if "start_event" in table:
+                raise InputError(
+                    f"{key}.end", "a burn that starts at an event ends after a duration or at an end_event"
+                )
             end = to_si(table["end"], "time", f"{key}.end", strict=strict)
             if not end > start:
                 raise InputError(f"{key}.end", f"the burn ends at {end!r} s, not after its start at {start!r} s")
-        else:
-            end = start + to_si(table["duration"], "time", f"{key}.duration", strict=strict, positive=True)
         isp = None
         if "isp" in table:
             isp = to_si(table["isp"], "time", f"{key}.isp", strict=strict, positive=True)
@@ -254,9 +321,18 @@ class Thrust(Effect):
             point = vector_to_si(table["point"], "length", f"{key}.point", strict=strict)
         p = [start, end, 1.0, 0.0, ve, 0.0, 0.0, *(direction / norm), *center, 0.0, 0.0]
         effect = cls(table, p, bodies=[body])
+        effect.duration, effect.events = duration, events
         node = table.get("node")
         if node is not None and (isinstance(node, bool) or not isinstance(node, (int, np.integer)) or node < 0):
             raise InputError(f"{key}.node", f"a node's index (an integer >= 0) expected, got {node!r}")
         effect.frame, effect.point, effect.node = frame, point, node
         effect.body, effect.start, effect.end, effect.thrust, effect.isp = body, start, end, thrust, isp
         return effect
+
+
+def _label(table: dict, name: str, key: str) -> str:
+    """An event's label from a burn's table."""
+    label = table[name]
+    if not isinstance(label, str) or not label:
+        raise InputError(f"{key}.{name}", f"the label of an event of the run expected, got {label!r}")
+    return label

@@ -476,6 +476,7 @@ def resume(path, t_end, *, progress: bool | None = None, truncate: bool = False,
         from .reader import read_events
 
         sim.events.resume_from(read_events(writer.file, path))
+    sim.effects.replay_events(sim.events)
     sink = Sink(sim, writer, True)
     sink.rows = records
     sink.last_step = sim._steps
