@@ -370,7 +370,7 @@ def test_event_times_match_closed_forms_at_order_2():
     """em order 2 reaches 1e-9 s too, at its own cost: fixed steps of 1 ms (6e6 steps; the
     error falls as 7.5e-4 dt^2 s) put the periapsis, the apoapsis and the ascending node
     within 1e-9 s of Kepler's equation (measured 7.3e-10 s at most), and adaptive steps at
-    eta = 5e-8 the apsides of an orbit of e = 0.6 (measured 3.7e-10 s)."""
+    eta = 5e-8 the apsides and the ascending node of an orbit of e = 0.6."""
     sim = _orbit(dt=0.001, order=2)
     sim.add_event("periapsis", body="sat")
     sim.add_event("apoapsis", body="sat")
@@ -387,11 +387,12 @@ def test_event_times_match_closed_forms_at_order_2():
     sim.add_point("sat", mass=1.0, position=x, velocity=v)
     sim.add_event("periapsis", body="sat")
     sim.add_event("apoapsis", body="sat")
+    sim.add_event("node", body="sat", direction="rising", label="ascending")
     res = sim.run(t_end=f"{0.9 * period!r} s", every=1, progress=False)
-    assert [e["kind"] for e in res.si.events] == ["apoapsis", "periapsis"]
+    assert sorted(e["kind"] for e in res.si.events) == ["apoapsis", "node", "periapsis"]
+    anomaly = {"periapsis": 0.0, "apoapsis": math.pi, "node": (-elements[4]) % (2 * math.pi)}
     for e in res.si.events:
-        exact = _time_to(0.0 if e["kind"] == "periapsis" else math.pi, elements)
-        assert abs(e["time"] - exact) <= 1e-9, e["kind"]
+        assert abs(e["time"] - _time_to(anomaly[e["kind"]], elements)) <= 1e-9, e["kind"]
 
 
 @pytest.mark.parametrize(
@@ -486,7 +487,8 @@ def test_the_plot_draws_the_altitude_with_the_events(tmp_path):
 
 def test_events_on_adaptive_steps():
     """Adaptive em order 8 (eta = 0.05, a 60 s record grid) on an orbit of e = 0.6: each
-    periapsis and apoapsis within 1e-9 s of Kepler's equation (measured 6e-11 s at most), and a
+    periapsis, apoapsis and ascending node within 1e-9 s of Kepler's equation (measured 6e-11 s
+    at most for the apsides), and a
     Hohmann transfer's second burn, fired at the apoapsis after the first, within 1e-9 s of
     half the transfer's period (measured 2.5e-11 s), E - E0 - W within 1e-14."""
     elements = (20000e3, 0.6, 0.5, 0.2, 0.3, 2.0)
@@ -496,11 +498,15 @@ def test_events_on_adaptive_steps():
     sim.add_point("sat", mass=1.0, position=x, velocity=v)
     sim.add_event("periapsis", body="sat")
     sim.add_event("apoapsis", body="sat")
+    sim.add_event("node", body="sat", direction="rising", label="ascending")
     res = sim.run(t_end=f"{1.5 * period!r} s", every=1, progress=False)
-    assert [e["kind"] for e in res.si.events] == ["apoapsis", "periapsis", "apoapsis"]
-    for e, turns in zip(res.si.events, (0, 0, 1)):
+    apsides = [e for e in res.si.events if e["kind"] != "node"]
+    assert [e["kind"] for e in apsides] == ["apoapsis", "periapsis", "apoapsis"]
+    for e, turns in zip(apsides, (0, 0, 1)):
         exact = _time_to(0.0 if e["kind"] == "periapsis" else math.pi, elements) + turns * period
         assert abs(e["time"] - exact) <= 1e-9
+    (node,) = [e for e in res.si.events if e["kind"] == "node"]
+    assert abs(node["time"] - _time_to((-elements[4]) % (2 * math.pi), elements)) <= 1e-9
     mu, r1, r2 = EARTH.gm, 7000e3, 42164e3
     sim = emorbit.Simulation(EARTH, dt=60.0, order=8, adaptive=0.05)
     sim.add_point("sat", mass=100.0, position=[r1, 0, 0], velocity=[0, math.sqrt(mu / r1), 0])
