@@ -483,6 +483,18 @@ def _reference(hey: _Heyoka, state0, duration: float, a: float) -> dict:
     }
 
 
+def scored(point: dict, res: dict, x_ref, a: float) -> dict:
+    """``point`` updated with a run's result ``res``, whose ``x_end`` becomes
+    ``position_error`` (against ``x_ref``, over a) and ``status`` (ok, or diverged at an error
+    of a or more)."""
+    if "x_end" in res:
+        err = float(np.linalg.norm(np.asarray(res.pop("x_end"), float) - x_ref) / a)
+        res["position_error"] = err
+        res["status"] = "ok" if math.isfinite(err) and err < 1.0 else "diverged"
+    point.update(res)
+    return point
+
+
 def work_precision(size: Size) -> dict:
     """em fixed and adaptive at several orders and settings, and heyoka at several tolerances,
     over ``size.duration`` of the LEO at degree and order :data:`DEGREE`.
@@ -513,12 +525,7 @@ def work_precision(size: Size) -> dict:
     points = []
 
     def add(point, res):
-        if "x_end" in res:
-            err = float(np.linalg.norm(np.asarray(res.pop("x_end"), float) - ref["x_end"]) / a)
-            res["position_error"] = err
-            res["status"] = "ok" if math.isfinite(err) and err < 1.0 else "diverged"
-        point.update(res)
-        points.append(point)
+        points.append(scored(point, res, ref["x_end"], a))
 
     for order, dts in size.fixed:
         per_step = None

@@ -63,7 +63,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .common import CONFIGS
-from .gravity_field import _e, _reached, point_line, verdict_lines
+from .gravity_field import _e, _reached, point_line, scored, verdict_lines
 from .timing import best_cpu, loadavg
 
 __all__ = [
@@ -419,12 +419,7 @@ def work_precision(case: Case, size: Size) -> dict:
     points = []
 
     def add(point, res):
-        if "x_end" in res:
-            err = float(np.linalg.norm(np.asarray(res.pop("x_end"), float) - ref["x_end"]) / a)
-            res["position_error"] = err
-            res["status"] = "ok" if math.isfinite(err) and err < 1.0 else "diverged"
-        point.update(res)
-        points.append(point)
+        points.append(scored(point, res, ref["x_end"], a))
 
     def series(settings, make, run, scale_of):
         """Run the settings coarsest first, skipping those estimated over max_run_s."""
