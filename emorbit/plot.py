@@ -16,8 +16,9 @@ largest distance of a node from the best rigid placement of the mesh's reference
 (:func:`deformation`), which is the tip deflection of a beam relative to its rigid motion and
 the sag and stretch of a tether. A run whose effects record a turning central body (a gravity
 field's ``body_frame``) adds each body's longitude over the ground against time and its
-ground track (:func:`ground_track`). A run with events adds each body's altitude against
-time, its events marked (an orbital lifetime ends at its stopping event).
+ground track (:func:`ground_track`). A run with events, or with effects that do work (drag, a
+burn), adds each body's altitude against time, its events marked (an orbital lifetime ends at
+its stopping event; a spiral climbs).
 """
 
 from __future__ import annotations
@@ -388,7 +389,7 @@ def draw_runs(runs, *, title: str | None = None):
     elastic = any(_elastic(res) for _, res in runs)
     turning = any(body_frame(res) is not None for _, res in runs)
     field = any(res.gm != 0.0 for _, res in runs)
-    events = field and any(res.events for _, res in runs)
+    events = field and any(res.events or res.work for _, res in runs)  # events, or effects that do work
     free = [(path, res) for path, res in runs if res.gm == 0.0]
     rows = 2 if rigid or elastic or turning or events else 1
     cols = 4 if free else 3

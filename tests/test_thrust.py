@@ -336,3 +336,22 @@ def test_a_burn_on_a_rigid_body_is_fixed_in_it():
     sim.add_effect("thrust", **{**BURN, "point": ["1 m", "0 m", "0 m"]})
     with pytest.raises(InputError, match=r"effect\[0\]\.point"):
         sim.run(t_end="1000 s", progress=False)
+
+
+def test_the_plot_draws_the_altitude_of_a_burn(tmp_path):
+    """emorbit plot of a run whose effects do work (a burn, no events) adds the altitude against
+    time: one day of the spiral climbs by 17 km (Edelbaum's rate, 2 a_T sqrt(a^3 / mu) a day)."""
+    import matplotlib.pyplot as plt
+
+    from emorbit.plot import draw_runs
+
+    text = emorbit.load_scene("low-thrust-spiral").text
+    scene = emorbit.parse_scene(text)
+    scene.build().run(t_end="1 d", every=10, output=str(tmp_path / "climb.h5"), progress=False)
+    fig = draw_runs([("climb.h5", emorbit.read(str(tmp_path / "climb.h5")).si)])
+    titles = [ax.get_title() for ax in fig.axes]
+    ax = fig.axes[titles.index("altitude above the field's radius; dotted: events")]
+    h = ax.lines[0].get_ydata()
+    rate = 2 * 1e-4 * math.sqrt(7000e3**3 / EARTH.gm) * 86400 / 1e3  # km a day
+    assert h[-1] - h[0] == pytest.approx(rate, rel=0.05)
+    plt.close(fig)
