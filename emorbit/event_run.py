@@ -206,7 +206,8 @@ class EventRun:
             self.log_event(crossing, t, recs, sink, dv=dv, work=mass * (float(before @ dv) + 0.5 * float(dv @ dv)))
         else:  # an effect acts at it (log_event tells the effects)
             self.log_event(crossing, t, recs, sink)
-        rest = self._step(sim._dt - tau, t, gammas)
+        # the rest of the step (none where the event ends it: a step of length 0 divides by it)
+        rest = self._step(sim._dt - tau, t, gammas) if tau < sim._dt else sim._current()
         if any(r.first_failure() is not None for _, r in rest):
             raise IntegrationError(t, e.body or "", f"the rest of the step after {e.label} failed")
         sim._steps = step

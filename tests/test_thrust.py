@@ -355,3 +355,16 @@ def test_the_plot_draws_the_altitude_of_a_burn(tmp_path):
     rate = 2 * 1e-4 * math.sqrt(7000e3**3 / EARTH.gm) * 86400 / 1e3  # km a day
     assert h[-1] - h[0] == pytest.approx(rate, rel=0.05)
     plt.close(fig)
+
+
+def test_a_burn_that_would_outlast_its_mass_stops_the_run_naming_end_event(tmp_path):
+    """A burn that ends at an event expels mass until then: where 99.9 % of the body's mass is
+    gone first (the time event ``thrust.empty``), the run stops with an error naming end_event,
+    and the file keeps its records, marked failed."""
+    sim = _free(start=None, duration=None, isp="30 s", start_event="go", end_event="never")
+    sim.add_event("time", value="100 s", label="go")
+    sim.add_event("time", value="1e6 s", label="never")
+    with pytest.raises(InputError, match=r"effect\[0\]\.end_event: the burn has expelled 99\.9 %"):
+        sim.run(t_end="2000 s", every=10, output=str(tmp_path / "empty.h5"), progress=False)
+    res = emorbit.read(str(tmp_path / "empty.h5"))
+    assert res.attrs["status"] == "failed" and res.time[-1].to_value("s") == 300.0

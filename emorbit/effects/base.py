@@ -355,6 +355,10 @@ class Effect:
         that starts or ends at an event); none by default."""
         return ()
 
+    def attach(self, events) -> None:
+        """Add the events it needs to the run's ``events`` before the run starts (a burn that
+        ends at an event: the time its body's mass would run out); nothing by default."""
+
     def on_event(self, label: str, t: float, events) -> None:
         """An event of the run happened at time ``t`` (s): an effect that acts at it changes
         (a burn starts or ends) and may add events to ``events`` (a burn's end after its

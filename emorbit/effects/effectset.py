@@ -248,6 +248,8 @@ class EffectSet:
         InputError
             An effect names an event the run does not have, naming its key.
         """
+        for effect in self.all:
+            effect.attach(events)
         labels = {e.label: e for e in events.events}
         for effect in self.all:
             for key, label in effect.events_heard():

@@ -233,12 +233,30 @@ class Thrust(Effect):
                     added.acts = True
             self._check_overlap(self._named)
             self._chain()
+            self.attach(events)
+        elif label == f"{self.label}.empty":
+            raise InputError(
+                f"{self.key}.end_event",
+                f"the burn has expelled 99.9 % of {self.body!r}'s {float(self.mass_start)!r} kg at t = {t!r} s, before "
+                f"{self.events['end_event']!r} happens: give it a duration, or raise isp",
+            )
         elif label == self.events.get("end_event") and math.isfinite(self.start) and not math.isfinite(self.end):
             self.end = t
             self._chain()
         elif label == f"{self.events.get('start_event')}.end" and self.duration is not None:
             self.end = t  # the located end: the step is split there
             self._chain()
+
+    def attach(self, events) -> None:
+        """A burn that ends at an event and expels mass: add the time event at which its body
+        would have 0.1 % of its mass left (``<label>.empty``), where the run stops naming
+        end_event."""
+        if not (math.isfinite(self.start) and "end_event" in self.events and self.mass_flow > 0.0):
+            return
+        label = f"{self.label}.empty"
+        if all(e.label != label for e in events.events):
+            empty = self.start + 0.999 * self.mass_start / self.mass_flow
+            events.add("time", value=empty, label=label, key=f"{self.key}.end_event").acts = True
 
     def own_facets(self, body_kind: str, name: str) -> np.ndarray:
         """A rigid body's thruster: a facet of area 0 at ``point`` with the direction as its

@@ -59,6 +59,10 @@ def burn_dv(ta, tm, tb, p):
     if p[4] == 0.0:
         return p[5] * (tb - ta)
     mu_b = p[2] - p[3] * (tb - p[0])
+    mu_a = p[2] - p[3] * (ta - p[0])
+    floor = 1e-9 * p[2]
+    if mu_a < floor or mu_b < floor:  # past its mass (a step the event <label>.empty cuts short)
+        return p[4] * math.log(max(mu_a, floor) / max(mu_b, floor))
     return p[4] * math.log1p(p[3] * (tb - ta) / mu_b)
 
 
