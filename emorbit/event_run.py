@@ -91,11 +91,11 @@ class EventRun:
         self._from_here()
 
     def first_stop(self, failed=None):
-        """The earliest crossing in the chunk of an event that stops the run, fires an impulse
-        or switches a burn, or None; with a step that failed (its index in the chunk), only a crossing in
-        a step before it."""
+        """The earliest crossing in the chunk of an event that stops the run or splits its step
+        (an impulse, a burn's switch), or None; with a step that failed (its index in the
+        chunk), only a crossing in a step before it."""
         events = self.events.events
-        stops = [c for c in self._crossings if events[c[1]].stop or events[c[1]].dv is not None or events[c[1]].acts]
+        stops = [c for c in self._crossings if events[c[1]].stop or events[c[1]].splits]
         if failed is not None:
             stops = [c for c in stops if c[0] - self.sim._steps <= failed]
         return min(stops) if stops else None
@@ -185,8 +185,8 @@ class EventRun:
         """An impulse (or a burn's switch) in the chunk that started from ``snapshots``: record
         the records before its step, split the step at the event, add the impulse (or let the
         effects act: :meth:`~emorbit.effects.effectset.EffectSet.on_event`), take the rest of
-        the step (the run stays on its grid) and log it with its work. The chunk's steps after it are
-        dropped and taken again. Returns the steps taken."""
+        the step (the run stays on its grid) and log it with its work. The chunk's steps after
+        it are dropped and taken again. Returns the steps taken."""
         sim = self.sim
         self.log_crossings(snapshots, sim._steps, gammas, sink, until=crossing)
         self._scanning = False

@@ -142,6 +142,12 @@ class Event:
     #: whether an effect acts at it (a burn starts or ends): the step is split there, once
     acts: bool = False
 
+    @property
+    def splits(self) -> bool:
+        """Whether it splits its step where it is located and fires once: an impulse, or an
+        event an effect acts at."""
+        return self.dv is not None or self.acts
+
     def sun_direction(self, times) -> np.ndarray:
         """Unit vectors to the Sun at ``times`` (s from the epoch): (m, 3)."""
         times = np.asarray(times, float)
@@ -370,8 +376,7 @@ class EventSet:
         found = []
         for r, j in zip(*np.nonzero(rising | falling)):  # row by row: an event armed in a row counts after it
             e = self.events[j]
-            once = e.dv is not None or e.acts
-            if (e.after is None or e.after in self.fired) and not (once and e.label in self.fired):
+            if (e.after is None or e.after in self.fired) and not (e.splits and e.label in self.fired):
                 found.append((int(r), int(j), float(before[r, j]), float(g[r, j])))
                 self.fired.add(e.label)
         self.previous = g[-1].copy()

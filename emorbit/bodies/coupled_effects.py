@@ -94,7 +94,11 @@ class StructureEffects:
                 for row in own:  # a facet at one node: a burn's thruster
                     node = int(row[0])
                     if node >= len(body["nodes"]):
-                        key = next(e.key for e in effects.all if type(e).OWN_FACETS and e.reaches(body["name"]))
+                        key = next(  # the effect whose facet it is (k3, its mark)
+                            e.key
+                            for e in effects.all
+                            if type(e).OWN_FACETS and row[4] in e.own_facets(kind, body["name"])[:, 4]
+                        )
                         raise InputError(
                             f"{key}.node",
                             f"{body['name']!r} has {len(body['nodes'])} nodes (0 to "

@@ -115,7 +115,8 @@ class Thrust(Effect):
 
     mass_start = mass_end = float("nan")
     duration = None
-    events: dict = {}
+    #: the labels of its start_event and end_event, where given
+    triggers: dict = {}
     _named: tuple = ()
 
     def scratch_size(self, n_points: int) -> int:
@@ -127,8 +128,8 @@ class Thrust(Effect):
     def landing_times(self, t0: float, t1: float) -> np.ndarray:
         """The burn's start and end where they lie in ``(t0, t1]`` and are times of the
         scene (an event's time is a step's end already: its step is split there)."""
-        times = [self.start] if "start_event" not in self.events else []
-        if not self.events:
+        times = [self.start] if "start_event" not in self.triggers else []
+        if not self.triggers:
             times.append(self.end)
         return np.array([t for t in times if t0 < t <= t1], float)
 
@@ -187,7 +188,7 @@ class Thrust(Effect):
             if isinstance(e, Thrust) and e is not self and e.body == self.body:
                 if e.start < self.end and self.start < e.end:
                     raise InputError(
-                        f"{self.key}.{'start_event' if 'start_event' in self.events else 'start'}",
+                        f"{self.key}.{'start_event' if 'start_event' in self.triggers else 'start'}",
                         f"the burn ({self.start!r} s to {self.end!r} s) overlaps {e.key}'s ({e.start!r} s to "
                         f"{e.end!r} s) on {self.body!r}: the burns of one body follow one another",
                     )
@@ -218,19 +219,16 @@ class Thrust(Effect):
 
     def events_heard(self) -> tuple[tuple[str, str], ...]:
         """Its start_event and end_event."""
-        return tuple((f"{self.key}.{k}", label) for k, label in self.events.items())
+        return tuple((f"{self.key}.{k}", label) for k, label in self.triggers.items())
 
     def on_event(self, label: str, t: float, events) -> None:
         """Start at its start_event (the first time; with a duration, add the time event of
         its end, labelled ``<start_event>.end``), end at its end_event after its start."""
-        if label == self.events.get("start_event") and not math.isfinite(self.start):
+        if label == self.triggers.get("start_event") and not math.isfinite(self.start):
             self.start = t
             if self.duration is not None:
                 self.end = t + self.duration
-                end = f"{label}.end"
-                if all(e.label != end for e in events.events):
-                    added = events.add("time", value=self.end, label=end, key=f"{self.key}.duration")
-                    added.acts = True
+                _switch_at(events, self.end, f"{label}.end", f"{self.key}.duration")
             self._check_overlap(self._named)
             self._chain()
             self.attach(events)
@@ -238,12 +236,12 @@ class Thrust(Effect):
             raise InputError(
                 f"{self.key}.end_event",
                 f"the burn has expelled 99.9 % of {self.body!r}'s {float(self.mass_start)!r} kg at t = {t!r} s, before "
-                f"{self.events['end_event']!r} happens: give it a duration, or raise isp",
+                f"{self.triggers['end_event']!r} happens: give it a duration, or raise isp",
             )
-        elif label == self.events.get("end_event") and math.isfinite(self.start) and not math.isfinite(self.end):
+        elif label == self.triggers.get("end_event") and math.isfinite(self.start) and not math.isfinite(self.end):
             self.end = t
             self._chain()
-        elif label == f"{self.events.get('start_event')}.end" and self.duration is not None:
+        elif label == f"{self.triggers.get('start_event')}.end" and self.duration is not None:
             self.end = t  # the located end: the step is split there
             self._chain()
 
@@ -251,12 +249,10 @@ class Thrust(Effect):
         """A burn that ends at an event and expels mass: add the time event at which its body
         would have 0.1 % of its mass left (``<label>.empty``), where the run stops naming
         end_event."""
-        if not (math.isfinite(self.start) and "end_event" in self.events and self.mass_flow > 0.0):
+        if not (math.isfinite(self.start) and "end_event" in self.triggers and self.mass_flow > 0.0):
             return
-        label = f"{self.label}.empty"
-        if all(e.label != label for e in events.events):
-            empty = self.start + 0.999 * self.mass_start / self.mass_flow
-            events.add("time", value=empty, label=label, key=f"{self.key}.end_event").acts = True
+        empty = self.start + 0.999 * self.mass_start / self.mass_flow
+        _switch_at(events, empty, f"{self.label}.empty", f"{self.key}.end_event")
 
     def own_facets(self, body_kind: str, name: str) -> np.ndarray:
         """A rigid body's thruster: a facet of area 0 at ``point`` with the direction as its
@@ -306,7 +302,7 @@ class Thrust(Effect):
             raise InputError(key, "give the burn's start or its start_event (one of them)")
         if sum(k in table for k in ("end", "duration", "end_event")) != 1:
             raise InputError(key, "give the burn's end, its duration or its end_event (one of them)")
-        events = {k: _label(table, k, key) for k in ("start_event", "end_event") if k in table}
+        triggers = {k: _label(table, k, key) for k in ("start_event", "end_event") if k in table}
         start = to_si(table["start"], "time", f"{key}.start", strict=strict) if "start" in table else math.inf
         duration = None
         if "duration" in table:
@@ -339,13 +335,20 @@ class Thrust(Effect):
             point = vector_to_si(table["point"], "length", f"{key}.point", strict=strict)
         p = [start, end, 1.0, 0.0, ve, 0.0, 0.0, *(direction / norm), *center, 0.0, 0.0]
         effect = cls(table, p, bodies=[body])
-        effect.duration, effect.events = duration, events
+        effect.duration, effect.triggers = duration, triggers
         node = table.get("node")
         if node is not None and (isinstance(node, bool) or not isinstance(node, (int, np.integer)) or node < 0):
             raise InputError(f"{key}.node", f"a node's index (an integer >= 0) expected, got {node!r}")
         effect.frame, effect.point, effect.node = frame, point, node
         effect.body, effect.start, effect.end, effect.thrust, effect.isp = body, start, end, thrust, isp
         return effect
+
+
+def _switch_at(events, t: float, label: str, key: str) -> None:
+    """Add the time event ``label`` at t (s) that splits its step for a burn, unless the run has
+    it already (a resumed run replays the event that added it)."""
+    if all(e.label != label for e in events.events):
+        events.add("time", value=t, label=label, key=key).acts = True
 
 
 def _label(table: dict, name: str, key: str) -> str:
