@@ -7,8 +7,12 @@ three for runs under 50 ms), the final position error against the analytic Keple
 (:func:`emorbit.orbits.propagate`) relative to a, and the max relative energy error over
 ten checkpoints per orbit. Engines:
 
-* emorbit em, midpoint and leapfrog at orders 2, 4, 6 and 8, dt = T/N for several N
-  (through ``PointMasses.advance``, checkpoints recorded by the kernel); points carry ``dt``;
+* emorbit em, midpoint and leapfrog at orders 2, 4, 6 and 8 (symmetric compositions of 1, 3,
+  9 and 17 second-order steps), dt = T/N for several N (through ``PointMasses.advance``,
+  checkpoints recorded by the kernel); points carry ``dt``;
+* emorbit tfe, the energy-momentum time finite element, at orders 4 and 6 (one implicit solve
+  of 2 or 3 Gauss stages per step, :mod:`emorbit.kernels.pointmass.tfe`) at the same dt;
+  labelled with its order and scheme beside the compositions;
 * emorbit em with adaptive, time-symmetric steps (:mod:`emorbit.kernels.pointmass.adaptive`,
   ``h ~ eta 2 pi sqrt(r^3/GM)``) at orders 2-8 for several eta: points with ``method = "em"``,
   ``adaptive = True`` and eta as ``tolerance`` (a step too long for the control fails the run,
@@ -25,7 +29,8 @@ points no other point beats in both time and error) is marked.
 
 Targets (:func:`reach`, :func:`accuracy_targets`): for each orbit and a final position error
 of 1e-6, 1e-9 and 1e-12 of a, the least CPU time each engine needs to reach it (emorbit em
-adaptive and em fixed-step, each at its best order, IAS15, WHFast, heyoka): the cheapest of
+adaptive, em fixed-step and tfe, each at its best order, IAS15, WHFast, heyoka), and tfe's
+time over em fixed-step's and over heyoka's: the cheapest of
 its points that reach it and of the interpolations, linear in log(CPU time) against
 log(error), between two neighbouring points of one series (consecutive settings of one
 order) that bracket it; nothing is extrapolated past the measured points. The verdicts
@@ -41,14 +46,14 @@ import warnings
 
 import numpy as np
 
-from ..integrators import coefficients
+from ..integrators import coefficients, get_method
 from ..orbits import propagate, semi_major_axis
 from .common import GM, PAPER_V0, PAPER_X0, aphelion_state, period, point_masses, rebound_sim, rebound_state
 from .timing import best_cpu
 
 __all__ = ["run", "table", "plot", "plot_orbits", "reach", "accuracy_targets", "verdicts"]
 
-METHODS = ("em", "midpoint", "leapfrog")
+METHODS = ("em", "midpoint", "leapfrog", "tfe")
 ORDERS = (2, 4, 6, 8)
 CHECKPOINTS_PER_ORBIT = 10
 #: a run that would take longer than this (estimated from the one before in its series) is left out
@@ -65,6 +70,7 @@ LIMIT_HEYOKA = 5.0
 ENGINES = {
     "em adaptive": ("emorbit", "em", True, "tolerance"),
     "em fixed": ("emorbit", "em", False, "dt"),
+    "tfe": ("emorbit", "tfe", False, "dt"),
     "ias15": ("rebound", "ias15", False, "epsilon"),
     "whfast": ("rebound", "whfast", False, "dt"),
     "heyoka": ("heyoka", "taylor", False, "tolerance"),
@@ -110,7 +116,8 @@ def _emorbit(x0, v0, method, order, N, T, orbits) -> dict:
         "x_end": pm.x[:, 0].copy(),
         "energies": e,
         "steps": steps,
-        "newton": its / (steps * len(coefficients(order))) if method != "leapfrog" else 0.0,
+        # Newton iterations per solve: a tfe step is one solve, a composed step one per sub-step
+        "newton": its / (steps * (1 if method == "tfe" else len(coefficients(order)))) if method != "leapfrog" else 0.0,
     }
 
 
@@ -255,7 +262,7 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
 
     skipped = {"status": f"skipped: estimated over {MAX_RUN_S} s"}
     for method in METHODS:
-        for order in ORDERS:
+        for order in get_method(method).orders:
             point_masses(x0[:, None], v0[:, None]).advance(
                 method, GM, np.zeros(3), T / 100, coefficients(order), 1, 1, 50
             )  # warm-up: load the kernels
@@ -379,15 +386,21 @@ def reach(points: list, name: str, accuracy: float) -> dict | None:
 
 def accuracy_targets(orbit: dict) -> list:
     """For each of :data:`ACCURACIES`, the least CPU time of each engine of :data:`ENGINES`
-    (:func:`reach`; heyoka None when it did not run) and em adaptive's ratios to IAS15 and to
-    heyoka (None where either does not get there)."""
+    (:func:`reach`; heyoka None when it did not run), em adaptive's ratios to IAS15 and to
+    heyoka, and tfe's to em fixed-step (compositions) and to heyoka (None where either does not
+    get there)."""
     out = []
     for accuracy in ACCURACIES:
         engines = {name: reach(orbit["points"], name, accuracy) for name in ENGINES}
         row = {"accuracy": accuracy, "engines": engines}
-        for peer in ("ias15", "heyoka"):
-            ours, theirs = engines["em adaptive"], engines[peer]
-            row[f"adaptive_over_{peer}"] = None if ours is None or theirs is None else ours["cpu_s"] / theirs["cpu_s"]
+        for ours, peer, key in (
+            ("em adaptive", "ias15", "adaptive_over_ias15"),
+            ("em adaptive", "heyoka", "adaptive_over_heyoka"),
+            ("tfe", "em fixed", "tfe_over_em_fixed"),
+            ("tfe", "heyoka", "tfe_over_heyoka"),
+        ):
+            a, b = engines[ours], engines[peer]
+            row[key] = None if a is None or b is None else a["cpu_s"] / b["cpu_s"]
         out.append(row)
     return out
 
@@ -499,7 +512,7 @@ def run(cfg) -> dict:
 
 
 # -- figures ---------------------------------------------------------------------------------
-_MAPS = {"em": "Blues", "midpoint": "Greens", "leapfrog": "Oranges", "em adaptive": "Purples"}
+_MAPS = {"em": "Blues", "midpoint": "Greens", "leapfrog": "Oranges", "em adaptive": "Purples", "tfe": "Reds"}
 _PEERS = {
     ("rebound", "ias15"): ("REBOUND IAS15 (epsilon)", "tab:red", "*", "-"),
     ("rebound", "whfast"): ("REBOUND WHFast (exact Kepler drift)", "tab:purple", "x", "--"),
@@ -516,8 +529,11 @@ def _style(engine, method, adaptive, order):
 
         kind = "em adaptive" if adaptive else method
         color = matplotlib.colormaps[_MAPS[kind]](0.35 + 0.65 * (order - 2) / 6)
-        ls = {"em": "-", "em adaptive": "-."}.get(kind, ":")
-        return f"emorbit {kind} {order}" + (" (eta)" if adaptive else ""), color, _MARKERS[order], ls
+        ls = {"em": "-", "em adaptive": "-.", "tfe": "--"}.get(kind, ":")
+        if kind == "tfe":  # the scheme beside the compositions: one solve of order / 2 Gauss stages
+            return f"emorbit tfe {order} (one solve, {order // 2} stages)", color, _MARKERS[order], ls
+        scheme = f" (composition of {len(coefficients(order))})" if order > 2 and not adaptive else ""
+        return f"emorbit {kind} {order}{scheme}" + (" (eta)" if adaptive else ""), color, _MARKERS[order], ls
     return _PEERS[(engine, method)]
 
 
@@ -626,16 +642,17 @@ def targets_lines(orbit: dict) -> list[str]:
         "    least CPU time to reach a final position error (best order in brackets; the cheapest point "
         "or a log-log interpolation between two neighbouring points)"
         + ("" if heyoka else f"; heyoka {orbit['heyoka']}"),
-        f"      {'error / a':<10}" + "".join(f"{n:>16}" for n in ENGINES) + f"{'x IAS15':>10}{'x heyoka':>10}",
+        f"      {'error / a':<10}"
+        + "".join(f"{n:>16}" for n in ENGINES)
+        + f"{'x IAS15':>10}{'x heyoka':>10}{'tfe x em':>10}{'tfe x hy':>10}",
     ]
     for row in orbit["targets"]:
         cells = [
             _cell(row["engines"][n], ENGINES[n][0] == "emorbit") if n != "heyoka" or heyoka else "skipped"
             for n in ENGINES
         ]
-        ratios = [
-            f"{r:.2f}x" if r is not None else "-" for r in (row["adaptive_over_ias15"], row["adaptive_over_heyoka"])
-        ]
+        keys = ("adaptive_over_ias15", "adaptive_over_heyoka", "tfe_over_em_fixed", "tfe_over_heyoka")
+        ratios = [f"{row[k]:.2f}x" if row.get(k) is not None else "-" for k in keys]
         lines.append(
             f"      {row['accuracy']:<10g}" + "".join(f"{c:>16}" for c in cells) + "".join(f"{r:>10}" for r in ratios)
         )
@@ -673,9 +690,15 @@ def table(section: dict) -> list[str]:
                 b = best.get(p["order"])
                 if b is None or p["position_error"] < b["position_error"]:
                     best[p["order"]] = p
-        for order, p in sorted(best.items()):
+        for p in orbit["points"]:
+            if p.get("status") == "ok" and p["method"] == "tfe":
+                b = best.get(("tfe", p["order"]))
+                if b is None or p["position_error"] < b["position_error"]:
+                    best[("tfe", p["order"])] = p
+        for order, p in sorted(best.items(), key=lambda kv: (isinstance(kv[0], tuple), str(kv[0]))):
+            name = f"tfe order {order[1]} (one solve)" if isinstance(order, tuple) else f"em order {order}"
             lines.append(
-                f"    best em order {order}: position {p['position_error']:.1e} in {1e3 * p['cpu_s']:.1f} ms "
+                f"    best {name}: position {p['position_error']:.1e} in {1e3 * p['cpu_s']:.1f} ms "
                 f"(dt = T/{orbit['period_s'] / p['dt']:.0f}), energy {p['energy_error']:.1e}"
             )
         for p in orbit["points"]:

@@ -9,6 +9,8 @@ device      steps       kernel
 "cpu"       fixed       :func:`emorbit.kernels.pointmass.packed.ensemble_chunk`,
                         ``ensemble_chunk_parallel`` from ``PARALLEL_MIN`` points on
 "cpu"       adaptive    :func:`emorbit.kernels.pointmass.adaptive.adaptive_chunk`
+"cpu"       fixed, tfe  :func:`emorbit.kernels.pointmass.tfe.tfe_chunk` through
+                        :func:`tfe_chunk` (one point at a time, one thread)
 "gpu"       fixed       :func:`emorbit.kernels.pointmass.cuda.chunk` (state copied in and
                         out per call), or the state kept on the device across chunks:
                         :class:`emorbit.kernels.pointmass.cuda_resident.DeviceEnsemble`
@@ -16,18 +18,75 @@ device      steps       kernel
 ==========  ==========  ==========================================================
 
 The order of a method does not pick a kernel: every kernel takes the composition's
-sub-step coefficients (:func:`emorbit.integrators.coefficients`) as an array.
+sub-step coefficients (:func:`emorbit.integrators.coefficients`) as an array. The one
+exception is ``"tfe"``, whose order is its number of Gauss stages: :func:`tfe_chunk` reads
+the order from the coefficients it is handed (those of order 4 or 6) and runs one step of
+2 or 3 stages per step, not the composition. It runs point masses in the central field
+alone, on the CPU, with fixed steps; the other paths refuse it naming their key.
 """
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..errors import InputError
 from ..kernels import codes
-from . import check_device, check_roundoff, get_method
+from . import ORDERS, check_device, check_method_order, check_roundoff, coefficients, get_method
 
-__all__ = ["method_code", "point_chunk", "point_ensemble", "adaptive_chunk", "require_device"]
+__all__ = ["method_code", "point_chunk", "point_ensemble", "adaptive_chunk", "require_device", "tfe_chunk"]
 
-_CODES = {"em": codes.METHOD_EM, "midpoint": codes.METHOD_MIDPOINT, "leapfrog": codes.METHOD_LEAPFROG}
+_CODES = {
+    "em": codes.METHOD_EM,
+    "midpoint": codes.METHOD_MIDPOINT,
+    "leapfrog": codes.METHOD_LEAPFROG,
+    "tfe": codes.METHOD_TFE,
+}
+_TABLES: dict = {}
+
+
+def _order_of(gammas) -> int | None:
+    """The order whose composition coefficients ``gammas`` are, or None."""
+    g = np.asarray(gammas, dtype=float)
+    for order in ORDERS:
+        c = coefficients(order)
+        if c.shape == g.shape and np.array_equal(c, g):
+            return order
+    return None
+
+
+def tfe_chunk(code, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+    """Fixed steps of the time finite element (``"tfe"``) with the arguments of every
+    point-mass chunk kernel (:func:`point_chunk`).
+
+    ``gammas`` must be the composition coefficients of order 4 or 6
+    (:func:`emorbit.integrators.coefficients`): they say the order, and the step is one solve
+    of 2 or 3 Gauss stages (:func:`emorbit.kernels.pointmass.tfe.tfe_chunk`), not their
+    composition. ``rec_iters`` counts Newton iterations per step.
+
+    Raises
+    ------
+    InputError
+        ``order``: any other order.
+    """
+    order = _order_of(gammas)
+    if order is None:
+        raise InputError("order", f"method 'tfe' runs at order 4 or 6; got {len(gammas)} composition coefficients")
+    check_method_order("tfe", order)
+    from ..kernels.pointmass import tfe
+
+    if order not in _TABLES:
+        _TABLES[order] = tfe.tables(order)
+    tfe.tfe_chunk(
+        _TABLES[order], x, v, cx, cv, float(gm), np.ascontiguousarray(center, float), float(dt), int(every),
+        int(nrec), int(max_iter), rec_x, rec_v, rec_iters, fail,
+    )  # fmt: skip
+
+
+def _refuse_tfe(name: str, key: str, what: str) -> None:
+    if name == "tfe":
+        raise InputError(
+            key, f"method 'tfe' steps point masses in the central field alone, on the CPU with fixed steps; {what}"
+        )
 
 
 def method_code(method: str, roundoff: str = "brouwer") -> int:
@@ -52,6 +111,9 @@ def method_code(method: str, roundoff: str = "brouwer") -> int:
         An unknown method or roundoff.
     """
     name = get_method(method).name
+    if check_roundoff(roundoff) == "fast" and name == "tfe":
+        # every caller that asks for "fast" steps points under effects, rigid bodies or structures
+        _refuse_tfe(name, "method", "this run has effects or bodies of another kind: use method 'em'")
     if check_roundoff(roundoff) == "fast" and name == "em":
         return codes.METHOD_EM_PLAIN
     return _CODES[name]
@@ -111,6 +173,9 @@ def point_chunk(method: str, roundoff: str = "brouwer", device: str = "cpu", n: 
         An unknown name, or a GPU that cannot be used.
     """
     code = method_code(method, roundoff)
+    if code == codes.METHOD_TFE:
+        _refuse_tfe("tfe" if check_device(device) != "cpu" else "", "device", f"got device {device!r}")
+        return code, tfe_chunk
     if check_device(device) == "gpu":
         require_device(device)
         from ..kernels.pointmass import cuda
@@ -178,6 +243,7 @@ def adaptive_chunk(method: str, roundoff: str = "brouwer", device: str = "cpu"):
         An unknown name, or a device other than the CPU.
     """
     code = method_code(method, roundoff)
+    _refuse_tfe(get_method(method).name, "adaptive", "adaptive steps are not written for it yet: use fixed steps")
     if check_device(device) != "cpu":
         raise InputError("device", f"adaptive steps run on the CPU only, got device {device!r}")
     from ..kernels.pointmass import adaptive

@@ -12,6 +12,7 @@ __all__ = [
     "METHOD_MIDPOINT",
     "METHOD_LEAPFROG",
     "METHOD_EM_PLAIN",
+    "METHOD_TFE",
     "STATUS_OK",
     "STATUS_NO_CONVERGENCE",
     "STATUS_SINGULAR",
@@ -28,6 +29,9 @@ METHOD_MIDPOINT = 1
 METHOD_LEAPFROG = 2
 #: energy-momentum step in plain floating point (roundoff "fast")
 METHOD_EM_PLAIN = 3
+#: energy-momentum time finite element of order 2k in one implicit solve (point masses,
+#: central field): :mod:`emorbit.kernels.pointmass.tfe`
+METHOD_TFE = 4
 
 #: the step succeeded
 STATUS_OK = 0
