@@ -1,6 +1,7 @@
 """The ``perturbed`` section of ``emorbit bench``: every peer's force model is emorbit's (at
-100 random states per case, each referee's acceleration against the effect set's own, to
-1e-13 of it), and the section in its tiny configuration (7200 s of LEO, one setting per
+100 random states and times per case, each referee's acceleration against the effect set's own,
+to 1e-13 of it; on the GEO with EGM2008's C22/S22 turning with the Earth, a comparison that
+sees C22/S22 and the field's angle), and the section in its tiny configuration (7200 s of LEO, one setting per
 engine) returns the rows and columns it promises, em's energy balance at round-off, and
 ``skipped`` rows for a peer that is not installed. Timings are never asserted. About 30 s of
 CPU with Numba's cache filled."""
@@ -66,7 +67,12 @@ def test_the_float_model_is_emorbits(case_model):
 
 def test_the_model_has_every_effect(case_model):
     case, model, _, _ = case_model
-    assert len(model.zonal[2]) == case.degree - 1 and len(model.bodies) == 2
+    if case.field_order:  # the rotating field carries J2: no zonal effect beside it
+        assert model.zonal is None and model.field[2:4] == (case.degree, case.field_order)
+        assert model.field[4][2, 2] != 0.0 and model.field[5][2, 2] != 0.0
+    else:
+        assert model.field is None and len(model.zonal[2]) == case.degree - 1
+    assert len(model.bodies) == 2
     assert (model.drag is not None) == case.drag and (model.srp is not None) == case.srp
 
 
@@ -108,9 +114,26 @@ def test_heyokas_forces_are_emorbits(case_model):
     assert _worst(em, ours) <= AGREE
 
 
+def _changed(model, states, **change) -> list:
+    """The float model's accelerations with its rotating field changed (C, S, theta0 by name)."""
+    keep = model.field
+    mu, radius, n, m, C, S, B, P, theta0, w = keep
+    fields = {"C": C, "S": S, "theta0": theta0} | change
+    model.field = (mu, radius, n, m, fields["C"], fields["S"], B, P, fields["theta0"], w)
+    try:
+        return [model.acceleration(t, list(x), list(v)) for t, x, v in states]
+    finally:
+        model.field = keep
+
+
 def test_a_wrong_model_is_caught(case_model):
     """The comparison sees a change of J2 by one part in 1e7 (at GEO, 4e-6 of the acceleration)."""
     _, model, states, em = case_model
+    if model.field is not None:
+        C = model.field[4].copy()
+        C[2, 0] *= 1 + 1e-7
+        assert _worst(em, _changed(model, states, C=C)) > AGREE
+        return
     pole, radius, jn = model.zonal
     model.zonal = (pole, radius, (jn[0] * (1 + 1e-7), *jn[1:]))
     try:
@@ -118,6 +141,38 @@ def test_a_wrong_model_is_caught(case_model):
     finally:
         model.zonal = (pole, radius, jn)
     assert _worst(em, ours) > AGREE
+
+
+def test_the_comparison_sees_c22_s22_and_the_rotation(case_model):
+    """On the GEO, C22/S22 are 1e-7 of the acceleration: the comparison sees them dropped, each
+    changed by one part in 1e4, and the field's angle off by 1e-5 rad."""
+    case, model, states, em = case_model
+    if not case.field_order:
+        pytest.skip("no rotating field in this case")
+    assert _worst(em, _changed(model, states)) <= AGREE  # the unchanged model passes
+    for name in ("C", "S"):
+        zero, off = model.field[4 if name == "C" else 5].copy(), model.field[4 if name == "C" else 5].copy()
+        zero[2, 1:] = 0.0
+        off[2, 2] *= 1 + 1e-4
+        assert _worst(em, _changed(model, states, **{name: zero})) > 1e3 * AGREE
+        assert _worst(em, _changed(model, states, **{name: off})) > AGREE
+    assert _worst(em, _changed(model, states, theta0=model.field[8] + 1e-5)) > AGREE
+
+
+def test_the_fields_power_is_its_turning(case_model):
+    """The peers' W takes the field's power ``w e3 . (d x g)``: -dU/dt at a fixed point, against
+    a central difference in time over +-1 s (whose own error is about (w h)^2 / 6, 1e-9)."""
+    case, model, states, _ = case_model
+    if not case.field_order:
+        pytest.skip("no rotating field in this case")
+
+    def u(t, x):
+        return model.field_potential(list(x), model.turn(t, math.cos, math.sin), math.sqrt)
+
+    power = [model.field_power(list(x), model.turn(t, math.cos, math.sin), math.sqrt) for t, x, _ in states]
+    difference = [-(u(t + 1.0, x) - u(t - 1.0, x)) / 2.0 for t, x, _ in states]
+    scale = max(abs(p) for p in power)
+    assert scale > 0.0 and max(abs(p - q) for p, q in zip(power, difference)) <= 1e-8 * scale
 
 
 # -- the section in its tiny configuration --------------------------------------------------------

@@ -14,8 +14,13 @@ epoch :data:`EPOCH` (an equinox: low orbits cross the Earth's shadow every revol
   shadow's jumps, which only heyoka locates (by its events), cost the engines;
 * ``molniya``: a of half a sidereal day, e = 0.74, i = 63.4 deg, argument of perigee 270 deg,
   10 days; J2..J4, the Moon and the Sun;
-* ``geo``: a of a sidereal day, e = 0, i = 0.05 deg, 30 days; J2, the Moon, the Sun and
-  radiation pressure (cylindrical shadow).
+* ``geo``: a of a sidereal day, e = 0, i = 0.05 deg, 30 days; EGM2008 to degree and order 2
+  turning with the Earth (the ``gravity_field`` effect, ``rotation = "earth"``: J2, C21/S21
+  and the tesseral C22/S22, which pull a geostationary orbit along its longitude), the Moon,
+  the Sun and radiation pressure (cylindrical shadow). The field's coefficients, GM and radius
+  are those of the package's EGM2008 file (``emorbit/data/egm2008_6.gfc``, heyoka's table bit
+  for bit, read by :func:`emorbit.io.icgem.read_gfc`), so the case needs no heyoka; J2 comes
+  from the field alone (no zonal effect beside it).
 
 The Sun's and the Moon's paths are emorbit's own (the builtin ephemeris sampled every 6 h and
 1 h, cubic Hermite between samples): the peers read the effects' tables and interpolate them
@@ -77,6 +82,7 @@ __all__ = [
     "Case",
     "Size",
     "initial_state",
+    "field_file",
     "simulation",
     "model",
     "work_precision",
@@ -118,6 +124,7 @@ class Case:
     srp: bool
     check_dt: float  # em order 8's step for the reference's check, s
     shadow: str = "cylindrical"  # the radiation pressure's shadow: "cylindrical" or "none"
+    field_order: int = 0  # > 0: EGM2008 to degree and order (degree, field_order) turning with the Earth, not zonal
 
 
 def _sidereal_a(gm: float, fraction: float) -> float:
@@ -133,7 +140,7 @@ def _sidereal_a(gm: float, fraction: float) -> float:
 CASES = {
     "leo": Case("leo", ((None, 400e3), 0.001, 51.6, 0.2, 5.73, 0.0), 86400.0, 6, True, True, 15.0),
     "molniya": Case("molniya", ((0.5, 0.0), 0.74, 63.4, 0.2, 270.0, 0.0), 10 * 86400.0, 4, False, False, 30.0),
-    "geo": Case("geo", ((1.0, 0.0), 0.0, 0.05, 0.2, 0.0, 0.0), 30 * 86400.0, 2, False, True, 300.0),
+    "geo": Case("geo", ((1.0, 0.0), 0.0, 0.05, 0.2, 0.0, 0.0), 30 * 86400.0, 2, False, True, 300.0, field_order=2),
 }
 
 #: the LEO without the shadow (radiation pressure always on): what the shadow's jumps cost each engine
@@ -242,6 +249,15 @@ def initial_state(case: Case):
     return np.asarray(x0, float), np.asarray(v0, float), a
 
 
+def field_file() -> str:
+    """The package's EGM2008 file (degree and order 6), the rotating field's coefficients."""
+    import os
+
+    from ..effects.zonal import MODELS
+
+    return os.path.join(os.path.dirname(os.path.dirname(__file__)), "data", MODELS["earth"])
+
+
 def _band(altitude: float):
     """(h0, rho0, H) of Vallado's band that holds the altitude."""
     from ..effects.atmosphere_tables import VALLADO_2013 as t
@@ -270,7 +286,10 @@ def simulation(case: Case, dt: float, order: int = 8, adaptive: float | None = N
 
     keys = {} if adaptive is None else {"adaptive": adaptive}
     sim = emorbit.Simulation(_field(), method="em", order=order, dt=dt, epoch=EPOCH, **keys)
-    sim.add_effect("zonal", model="earth", degree=case.degree)
+    if case.field_order:
+        sim.add_effect("gravity_field", gfc=field_file(), degree=case.degree, order=case.field_order, rotation="earth")
+    else:
+        sim.add_effect("zonal", model="earth", degree=case.degree)
     if case.drag:
         h0, rho0, scale = _band(case.elements[0][1])
         sim.add_effect("drag", atmosphere="exponential", density=rho0, reference_altitude=h0, scale_height=scale)
@@ -487,11 +506,11 @@ def work_precision(case: Case, size: Size) -> dict:
 
 def _describe(case: Case, duration: float, a: float) -> str:
     _, e, inc, _, _, _ = case.elements
-    forces = (
-        [f"J2..J{case.degree}"]
-        + (["drag"] if case.drag else [])
-        + ([f"SRP ({case.shadow} shadow)"] if case.srp else [])
-    )
+    gravity = f"J2..J{case.degree}"
+    if case.field_order:
+        terms = " (J2, C21/S21, C22/S22)" if (case.degree, case.field_order) == (2, 2) else ""
+        gravity = f"EGM2008 {case.degree}x{case.field_order} turning with the Earth{terms}"
+    forces = [gravity] + (["drag"] if case.drag else []) + ([f"SRP ({case.shadow} shadow)"] if case.srp else [])
     return (
         f"{case.name}: a = {a / 1e3:.1f} km, e = {e:g}, i = {inc:g} deg, {duration / 86400:g} d; "
         f"{' + '.join(forces + ['Moon + Sun'])}"

@@ -6,15 +6,23 @@ Every constant is read from the emorbit simulation of the case, after its effect
 sampled their tables (:meth:`Model.from_simulation`): GM and the centre of the central field;
 the zonal effect's pole, radius and J_2..J_N; the drag effect's rotation vector, sphere
 radius and its single exponential band (h0, rho0, H); the radiation pressure's P at 1 au,
-the au, the occulting radius and the cylindrical shadow; each third body's GM and indirect
-flag; and the Sun's and the Moon's sampled paths themselves (the effects' tables), which
-every engine interpolates with the same cubic Hermite polynomials as
+the au, the occulting radius and the cylindrical shadow; the rotating gravity field's GM,
+radius, degree N, order M, its fully normalised C_nm and S_nm as the effect loaded them
+(:mod:`emorbit.io.icgem`), its frame B and P, its angle at time 0 and its rate; each third
+body's GM and indirect flag; and the Sun's and the Moon's sampled paths themselves (the
+effects' tables), which every engine interpolates with the same cubic Hermite polynomials as
 :func:`emorbit.kernels.effects.third_body.table_position`. The forces, per unit mass, at a
 position x (d = x - c) and velocity v at time t:
 
 * central: ``-GM d / r^3``;
 * zonal: ``-grad (GM / r) sum_n J_n (R / r)^n P_n(z / r)``, ``z = d . p``, with Legendre's
   recursions for P_n and P_n';
+* rotating field (degrees 1..N, orders 0..M, uniform rotation): ``g = Q^T grad_y U(y)``,
+  ``y = Q d``, ``Q = P Rz(theta)^T B^T``, ``theta = theta0 + w t``, with ``U = (mu / R) sum
+  (C_nm V_nm + S_nm W_nm)`` and its gradient by Cunningham's recursions of the solid harmonics
+  V_nm, W_nm (Montenbruck and Gill, section 3.2; C, S unnormalised by
+  ``sqrt((2 - delta_m0) (2n + 1) (n - m)! / (n + m)!)``), on floats and on heyoka's expressions
+  (theta of ``heyoka.time``);
 * drag: ``-1/2 rho B |u| u``, ``u = v - w x d``, ``rho = rho0 exp(-(r - R - h0) / H)``;
 * radiation pressure: ``nu P_au (au / q)^2 C (d - s) / q``, ``q = |d - s|``, ``nu`` 0 in the
   cylinder behind the central body (``d . s < 0`` and the distance from the Sun's line below
@@ -22,8 +30,10 @@ position x (d = x - c) and velocity v at time t:
 * a third body at s(t): ``gm ((s - d) / |s - d|^3 - s / |s|^3)`` (the indirect term where the
   effect has it), from the potential ``U = -gm (1 / |s - d| - 1 / |s| - d . s / |s|^3)``.
 
-The energy per unit mass is ``E = v^2 / 2 - GM / r + V_zonal + sum U``; its rate is the power
-of drag and radiation pressure plus ``sum dU/dt = grad_s U . s'(t)`` (:meth:`Model.power`),
+The energy per unit mass is ``E = v^2 / 2 - GM / r + V_zonal - U_field + sum U``; its rate is
+the power of drag and radiation pressure, plus the field's turning, ``-dU_field/dt = w e3 . (d x
+g)`` (the work_<label> emorbit records for it), plus ``sum dU/dt = grad_s U . s'(t)``
+(:meth:`Model.power`),
 which the peers integrate as a seventh state, the work W, so that ``E - E0 - W`` is their
 energy balance as emorbit's is its own. heyoka's expressions take the paths' Hermite rows
 and the shadow as runtime parameters, set per sample interval and at the shadow's edges
@@ -99,6 +109,9 @@ class Model:
         (C = Cr A / m, P_au, au, occulting radius, the Sun's :class:`Table`).
     bodies : list
         (gm, indirect, :class:`Table`) per third body.
+    field : tuple or None
+        The rotating field: (mu, R, N, M, C, S, B, P, theta0, w), C and S (N + 1, N + 1)
+        unnormalised (C[n, m] for m <= M), B and P (3, 3) as the kernel's ``p`` holds them.
     """
 
     gm: float
@@ -106,6 +119,7 @@ class Model:
     drag: tuple | None
     srp: tuple | None
     bodies: list
+    field: tuple | None = None
 
     @classmethod
     def from_simulation(cls, sim, coefficients: dict) -> Model:
@@ -114,8 +128,9 @@ class Model:
         Parameters
         ----------
         sim : emorbit.Simulation
-            With central, zonal, drag (one exponential band), srp (cylindrical or no shadow)
-            and third-body effects only; ``sim.effects.prepare`` called over the run.
+            With central, zonal, gravity_field (a uniform rotation: "earth" or "uniform"), drag
+            (one exponential band), srp (cylindrical or no shadow) and third-body effects only;
+            ``sim.effects.prepare`` called over the run (it sets the field's angle at time 0).
         coefficients : dict
             The point's ``ballistic_coefficient`` and ``radiation_coefficient`` (m^2/kg).
 
@@ -124,14 +139,18 @@ class Model:
         ValueError
             An effect or a setting the peers do not model (naming it).
         """
-        gm, zonal, drag, srp, bodies = None, None, None, None, []
+        gm, zonal, drag, srp, bodies, field = None, None, None, None, [], None
         for e in sim.effects.all:
             p = np.asarray(e.p, float)
             if e.kind == "central":
                 gm = float(p[3])
-            elif np.any(p[:3] != 0.0) if e.kind in ("zonal", "drag") else False:
+            elif np.any(p[:3] != 0.0) if e.kind in ("zonal", "drag", "gravity_field") else False:
                 raise ValueError(f"{e.key}: the peers' models put the centre at the origin")
-            if e.kind == "zonal":
+            if e.kind == "gravity_field":
+                if p[27] != 0.0:
+                    raise ValueError(f"{e.key}.rotation: the peers model a uniform rotation only")
+                field = _field_constants(p, np.asarray(e.tab, float))
+            elif e.kind == "zonal":
                 zonal = (p[3:6].copy(), float(p[7]), tuple(float(j) for j in p[8:]))
             elif e.kind == "drag":
                 nb = int(p[13])
@@ -152,22 +171,26 @@ class Model:
                 bodies.append((float(p[0]), p[1] != 0.0, path))
             elif e.kind != "central":
                 raise ValueError(f"{e.key}: the peers do not model {e.kind!r}")
-        return cls(gm, zonal, drag, srp, bodies)
+        return cls(gm, zonal, drag, srp, bodies, field)
 
     def tables(self) -> list:
         """The sampled paths, the Sun's for radiation pressure first."""
         return ([self.srp[4]] if self.srp else []) + [b[2] for b in self.bodies]
 
     # -- the formulas, on floats or heyoka expressions ------------------------------------------
-    def conservative(self, d, sqrt, paths):
-        """The conservative acceleration (3,) at d: central, zonal, third bodies at ``paths``
-        (their positions, in :attr:`bodies`' order)."""
+    def conservative(self, d, sqrt, paths, turn=None):
+        """The conservative acceleration (3,) at d: central, zonal, the rotating field turned by
+        ``turn`` (cos and sin of its angle: :meth:`turn`), third bodies at ``paths`` (their
+        positions, in :attr:`bodies`' order)."""
         r2 = _dot(d, d)
         r = sqrt(r2)
         k = self.gm / (r2 * r)
         acc = [-k * d[0], -k * d[1], -k * d[2]]
         if self.zonal is not None:
             g = self._zonal(d, r, sqrt)
+            acc = [acc[i] + g[i] for i in range(3)]
+        if self.field is not None:
+            g = self.field_acc(d, turn, sqrt)
             acc = [acc[i] + g[i] for i in range(3)]
         for (gm, indirect, _), s in zip(self.bodies, paths):
             q = [s[i] - d[i] for i in range(3)]
@@ -212,6 +235,81 @@ class Model:
         r = sqrt(_dot(d, d))
         pn, _ = self._legendre(_dot(d, pole) / r)
         return sum(self.gm / r * j * (radius / r) ** n * pn[n] for n, j in enumerate(jn, start=2))
+
+    def turn(self, t, cos, sin):
+        """cos and sin of the field's angle ``theta0 + w t`` (as the kernel forms it) at t, a
+        float or heyoka's time."""
+        theta = self.field[8] + self.field[9] * t
+        return cos(theta), sin(theta)
+
+    def _field_body(self, y, sqrt, grad: bool):
+        """U and, where ``grad``, its gradient (3,) at y in the body's frame: Cunningham's
+        recursions of V_nm, W_nm to degree N + 1 (Montenbruck and Gill, eqs. 3.29-3.33)."""
+        mu, radius, n_max, m_max, C, S = self.field[:6]
+        r2 = _dot(y, y)
+        rho = radius * radius / r2
+        x0, y0, z0 = (y[i] * radius / r2 for i in range(3))
+        top = n_max + 1
+        V = [[0.0] * (top + 2) for _ in range(top + 2)]
+        W = [[0.0] * (top + 2) for _ in range(top + 2)]
+        V[0][0] = radius / sqrt(r2)
+        for m in range(top + 1):
+            if m == 1:  # W_00 = 0
+                V[1][1], W[1][1] = x0 * V[0][0], y0 * V[0][0]
+            elif m > 1:
+                V[m][m] = (2 * m - 1) * (x0 * V[m - 1][m - 1] - y0 * W[m - 1][m - 1])
+                W[m][m] = (2 * m - 1) * (x0 * W[m - 1][m - 1] + y0 * V[m - 1][m - 1])
+            if m + 1 <= top:
+                V[m + 1][m] = (2 * m + 1) * z0 * V[m][m]
+                W[m + 1][m] = (2 * m + 1) * z0 * W[m][m] if m > 0 else 0.0
+            for n in range(m + 2, top + 1):
+                V[n][m] = ((2 * n - 1) * z0 * V[n - 1][m] - (n + m - 1) * rho * V[n - 2][m]) / (n - m)
+                if m > 0:
+                    W[n][m] = ((2 * n - 1) * z0 * W[n - 1][m] - (n + m - 1) * rho * W[n - 2][m]) / (n - m)
+        pot, gx, gy, gz = 0.0, 0.0, 0.0, 0.0
+        for n in range(1, n_max + 1):
+            for m in range(min(n, m_max) + 1):
+                c, s = float(C[n, m]), float(S[n, m])
+                if c == 0.0 and s == 0.0:
+                    continue
+                pot = pot + (c * V[n][m] + s * W[n][m] if m > 0 else c * V[n][m])
+                if not grad:
+                    continue
+                if m == 0:
+                    gx = gx - c * V[n + 1][1]
+                    gy = gy - c * W[n + 1][1]
+                    gz = gz - (n + 1) * c * V[n + 1][0]
+                    continue
+                f = (n - m + 2) * (n - m + 1)
+                gx = gx + 0.5 * (
+                    f * (c * V[n + 1][m - 1] + s * W[n + 1][m - 1]) - c * V[n + 1][m + 1] - s * W[n + 1][m + 1]
+                )
+                gy = gy + 0.5 * (
+                    f * (s * V[n + 1][m - 1] - c * W[n + 1][m - 1]) + s * V[n + 1][m + 1] - c * W[n + 1][m + 1]
+                )
+                gz = gz - (n - m + 1) * (c * V[n + 1][m] + s * W[n + 1][m])
+        k = mu / (radius * radius)
+        return mu / radius * pot, [k * gx, k * gy, k * gz]
+
+    def field_acc(self, d, turn, sqrt):
+        """The rotating field's acceleration (3,) at d, its angle's (cos, sin) ``turn``."""
+        B, P = self.field[6], self.field[7]
+        y = _to_body(d, B, P, turn)
+        return _to_inertial(self._field_body(y, sqrt, True)[1], B, P, turn)
+
+    def field_potential(self, d, turn, sqrt):
+        """The rotating field's U per unit mass at d (its potential energy is -U)."""
+        if self.field is None:
+            return 0.0
+        return self._field_body(_to_body(d, self.field[6], self.field[7], turn), sqrt, False)[0]
+
+    def field_power(self, d, turn, sqrt):
+        """-dU/dt at fixed d, the field turning: ``w e3 . (d x g)``, e3 = B's third column."""
+        w = self.field[9]
+        e3 = [self.field[6][i][2] for i in range(3)]
+        g = self.field_acc(d, turn, sqrt)
+        cross = [d[1] * g[2] - d[2] * g[1], d[2] * g[0] - d[0] * g[2], d[0] * g[1] - d[1] * g[0]]
+        return w * _dot(e3, cross)
 
     def drag_acc(self, d, v, sqrt, exp):
         """Drag per unit mass at d, v."""
@@ -265,10 +363,13 @@ class Model:
         states = [b[2].state(t) for b in self.bodies]
         return sun, [s[0] for s in states], [s[1] for s in states]
 
+    def _turn(self, t):
+        return self.turn(t, math.cos, math.sin) if self.field is not None else None
+
     def acceleration(self, t: float, x, v) -> list:
         """The whole acceleration (3,) at time t, position x, velocity v (floats)."""
         sun, s, _ = self._paths(t)
-        acc = self.conservative(x, math.sqrt, s)
+        acc = self.conservative(x, math.sqrt, s, self._turn(t))
         if self.drag is not None:
             g = self.drag_acc(x, v, math.sqrt, math.exp)
             acc = [acc[i] + g[i] for i in range(3)]
@@ -285,10 +386,12 @@ class Model:
         return [acc[i] + k * x[i] for i in range(3)]
 
     def power(self, t: float, x, v) -> float:
-        """dE/dt per unit mass: drag's and radiation pressure's power plus the third bodies'
-        dU/dt (floats)."""
+        """dE/dt per unit mass: drag's and radiation pressure's power, the field's turning and
+        the third bodies' dU/dt (floats)."""
         sun, s, sv = self._paths(t)
         out = sum(rate for _, rate in self.tidal(x, s, sv, math.sqrt))
+        if self.field is not None:
+            out += self.field_power(x, self._turn(t), math.sqrt)
         if self.drag is not None:
             out += _dot(self.drag_acc(x, v, math.sqrt, math.exp), v)
         if self.srp is not None:
@@ -296,9 +399,11 @@ class Model:
         return out
 
     def energy(self, t: float, x, v) -> float:
-        """E per unit mass: kinetic, central, zonal and the third bodies' potentials (floats)."""
+        """E per unit mass: kinetic, central, zonal, the field's and the third bodies' potentials
+        (floats)."""
         _, s, sv = self._paths(t)
         e = 0.5 * _dot(v, v) - self.gm / math.sqrt(_dot(x, x)) + self.zonal_potential(x, math.sqrt)
+        e -= self.field_potential(x, self._turn(t), math.sqrt)
         return e + sum(u for u, _ in self.tidal(x, s, sv, math.sqrt))
 
     def rhs(self, t: float, y) -> list:
@@ -306,6 +411,51 @@ class Model:
         x, v = y[0:3], y[3:6]
         a = self.acceleration(t, x, v)
         return [v[0], v[1], v[2], a[0], a[1], a[2], self.power(t, x, v)]
+
+
+def _field_constants(p, tab) -> tuple:
+    """The rotating field's constants from the gravity_field effect's ``p`` and ``tab``
+    (:mod:`emorbit.kernels.effects.gravity_field`'s layout): C and S unnormalised."""
+    n_max, m_max = int(p[16]), int(p[17])
+    size = (n_max + 1) * (n_max + 2) // 2
+    C, S = np.zeros((n_max + 1, n_max + 1)), np.zeros((n_max + 1, n_max + 1))
+    for n in range(n_max + 1):
+        for m in range(min(n, m_max) + 1):
+            k = n * (n + 1) // 2 + m
+            scale = math.sqrt((2.0 - (m == 0)) * (2 * n + 1) * math.factorial(n - m) / math.factorial(n + m))
+            C[n, m], S[n, m] = tab[k] * scale, tab[size + k] * scale
+    B, P = p[3:12].reshape(3, 3).tolist(), p[18:27].reshape(3, 3).tolist()
+    return float(p[14]), float(p[15]), n_max, m_max, C, S, B, P, float(p[12]), float(p[13])
+
+
+def _mat(M, v, transpose: bool = False) -> list:
+    """M v (or M^T v) for a float matrix (nested lists) and a vector of floats or expressions,
+    skipping M's zeros (exact: the kernel's products by 0 add nothing)."""
+    out = []
+    for i in range(3):
+        acc = None
+        for j in range(3):
+            a = M[j][i] if transpose else M[i][j]
+            if a == 0.0:
+                continue
+            term = v[j] if a == 1.0 else a * v[j]
+            acc = term if acc is None else acc + term
+        out.append(0.0 if acc is None else acc)
+    return out
+
+
+def _to_body(d, B, P, turn) -> list:
+    """``y = P Rz(theta)^T B^T d``, turn = (cos, sin) of theta."""
+    cs, sn = turn
+    b = _mat(B, d, True)
+    return _mat(P, [cs * b[0] + sn * b[1], cs * b[1] - sn * b[0], b[2]])
+
+
+def _to_inertial(g, B, P, turn) -> list:
+    """``B Rz(theta) P^T g``."""
+    cs, sn = turn
+    q = _mat(P, g, True)
+    return _mat(B, [cs * q[0] - sn * q[1], sn * q[0] + cs * q[1], q[2]])
 
 
 # -- heyoka -------------------------------------------------------------------------------------
@@ -340,8 +490,11 @@ def heyoka_system(model: Model, hy):
     nu_index = 13 * len(tables)
     sun = paths[0][0] if model.srp else None
     bodies = paths[1:] if model.srp else paths
-    acc = model.conservative(d, hy.sqrt, [p[0] for p in bodies])
+    turn = model.turn(hy.time, hy.cos, hy.sin) if model.field is not None else None
+    acc = model.conservative(d, hy.sqrt, [p[0] for p in bodies], turn)
     power = sum((rate for _, rate in model.tidal(d, [p[0] for p in bodies], [p[1] for p in bodies], hy.sqrt)), 0.0)
+    if model.field is not None:
+        power = power + model.field_power(d, turn, hy.sqrt)
     if model.drag is not None:
         g = model.drag_acc(d, v, hy.sqrt, hy.exp)
         acc = [acc[i] + g[i] for i in range(3)]
