@@ -104,6 +104,11 @@ class ResultSI:
     energy_balance : ndarray or None
         (n,) ``E - E0 - sum W``, J, under effects that do work (an em step keeps it at
         round-off); None for conservative scenes.
+    ledger : dict
+        Under burns that expel mass, the mass ledger (``docs/methods.md``, "Finite burns"),
+        each (n,) J: ``energy`` the bodies' energy at their true masses, ``work`` the work
+        done on them there, ``expelled`` the energy the propellant has carried away, and
+        ``balance`` = energy - energy[0] - work + expelled (round-off); empty otherwise.
     events : list of dict
         The events found (:mod:`emorbit.events`), in time order: ``label``, ``kind``,
         ``body``, ``time`` (s), ``step``, ``position`` (3,) m and ``velocity`` (3,) m/s of the
@@ -131,6 +136,7 @@ class ResultSI:
     energy_range: np.ndarray | None = None
     work: dict = field(default_factory=dict)
     energy_balance: np.ndarray | None = None
+    ledger: dict = field(default_factory=dict)
     events: list = field(default_factory=list)
 
     def __post_init__(self) -> None:
@@ -344,6 +350,7 @@ class Result:
         work=None,
         energy_balance=None,
         events=None,
+        ledger=None,
     ) -> None:
         self._si = ResultSI(
             time=time,
@@ -367,6 +374,7 @@ class Result:
             energy_range=energy_range,
             work={} if work is None else dict(work),
             energy_balance=energy_balance,
+            ledger={} if ledger is None else dict(ledger),
             events=[] if events is None else list(events),
         )
 
@@ -547,6 +555,14 @@ class Result:
         """{effect label: (n,) J} the work of each effect that does work (drag) since the run's
         start; empty for conservative scenes."""
         return {k: _with_unit(w, u.J) for k, w in self._si.work.items()}
+
+    @property
+    def ledger(self) -> dict[str, u.Quantity]:
+        """The mass ledger of burns that expel mass, {name: (n,) J}: ``energy`` (the bodies'
+        energy at their true masses), ``work`` (done on them there), ``expelled`` (the energy
+        the propellant has carried away) and ``balance`` (``energy - energy[0] - work +
+        expelled``, at round-off); empty without such burns."""
+        return {k: _with_unit(w, u.J) for k, w in self._si.ledger.items()}
 
     @property
     def events(self):

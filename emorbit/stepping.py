@@ -309,7 +309,7 @@ class ChunkDriver:
             labels = [e.label for e in self.effects.with_potential()] if self.effects.beyond_field() else []
             writer = Writer(
                 output, bodies, attrs, overwrite=overwrite, potentials=labels, works=self._working_labels(),
-                jacobi=self.effects.spin() is not None,
+                jacobi=self.effects.spin() is not None, ledger=self.effects.ledger(),
             )  # fmt: skip
         for s in self.systems:  # the work of non-conservative effects counts from the run's start
             if hasattr(s, "reset_work"):

@@ -138,7 +138,7 @@ def test_a_scene_compiles_only_the_effects_it_names():
     from emorbit.effects import EFFECTS
 
     def code(*kinds):
-        source, working = set_source([EFFECTS[k] for k in kinds])
+        source, working, _ = set_source([EFFECTS[k] for k in kinds])
         return source.split('"""', 2)[2], working
 
     central_only, _ = code("central")

@@ -66,7 +66,8 @@ class StructureEffects:
         self.any_points = bool(self.gp_coef.size and np.any(self.gp_coef != 0.0))
         self.any_pairs = bool(self.mp_coef.size and np.any(self.mp_coef != 0.0))
         self._layout_surfaces(effects)
-        self.nw = len(effects.working())
+        self.nw = effects.work_rows()
+        self.n_working = len(effects.working())
         self.R_gp = np.zeros(structure.gp_m.size)
         self.R_mp = np.zeros(structure.mp_m.size)
         self._prog = self._set = None
@@ -196,11 +197,12 @@ class StructureEffects:
         return status
 
     def work(self, code, x0n, x1n, u0, u1, ref, h) -> np.ndarray:
-        """Each working effect's work on the structure over the converged step, (w,) J."""
+        """Each working effect's work on the structure over the converged step, (w,) J (a
+        structure holds its masses: the set's ledger row, where it has one, is left out)."""
         st = self.st
         out = np.zeros(self.nw)
         if not self.nw:
-            return out
+            return out[: self.n_working]
         prog, (P, I, T, S) = self._arrays()
         mode = self.mode(code)
         if self.any_points:
@@ -219,7 +221,7 @@ class StructureEffects:
                 facets.shape[0], P, I, T, S, scratch, True,
             )  # fmt: skip
             out += scratch[6].sum(axis=1)
-        return out
+        return out[: self.n_working]
 
     def prepare(self, ta: float, tm: float, tb: float) -> None:
         """The set's values for a sub-step from ``ta`` to ``tb`` (s from the epoch)."""

@@ -32,6 +32,7 @@ from ..errors import InputError
 from ..integrators import dispatch
 from ..integrators.plan import Plan
 from ..kernels import invariants as inv
+from .ledger import ledger_terms
 from .system import BodySystem, WorkSums, roundoff_scales
 
 __all__ = ["PointMasses", "ChunkRecords", "earliest_failure"]
@@ -420,7 +421,7 @@ class PointMasses(WorkSums, BodySystem):
         self._wp = np.ascontiguousarray(value, dtype=float)
 
     def _work_shape(self) -> tuple:
-        return (len(self.effects.working()) if self.under_effects() else 0, len(self))
+        return (self.effects.effects.work_rows() if self.under_effects() else 0, len(self))
 
     def coefficients(self) -> np.ndarray:
         """(k, n) each point's coefficient for each effect of the set."""
@@ -710,6 +711,26 @@ class PointMasses(WorkSums, BodySystem):
         if rec.work is None or not self.under_effects():
             return {}
         return {f"work_{e.label}": rec.work[:nrec, k].sum(axis=1) for k, e in enumerate(self.effects.working())}
+
+    def ledger(self, rec: ChunkRecords, nrec: int, lost: dict) -> dict:
+        """The mass ledger's terms at each record (:func:`~emorbit.bodies.ledger.ledger_terms`);
+        {} where the effect set has no ledger row."""
+        if rec.work is None or not self.under_effects() or not self.effects.effects.ledger():
+            return {}
+        nk = len(self.effects.working())
+        t = None if rec.t is None else rec.t[:nrec]
+        coef = self.coefficients()
+
+        def energy_at(i):
+            x, v = rec.x[:nrec, :, i : i + 1], rec.v[:nrec, :, i]
+            own = self.effects.potentials(
+                np.ascontiguousarray(x), t, self.masses[i : i + 1], np.zeros(1, np.int64),
+                np.ascontiguousarray(coef[:, i : i + 1]),
+            )  # fmt: skip
+            return 0.5 * self.masses[i] * np.einsum("rk,rk->r", v, v) + sum(own.values())
+
+        rows = rec.work[:nrec]
+        return ledger_terms(rows[:, :nk, :].sum(axis=1), rows[:, nk, :], lost, self.names, self.masses, energy_at)
 
     def invariant_scales(self, rec: ChunkRecords, nrec: int, gm: float, center) -> np.ndarray:
         """Round-off scales of the invariants at each record (:func:`~emorbit.bodies.system.roundoff_scales`)

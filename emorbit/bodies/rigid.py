@@ -26,6 +26,7 @@ import numpy as np
 from ..integrators.dispatch import method_code
 from ..integrators.plan import Plan
 from ..kernels import rigid as kern
+from .ledger import ledger_terms
 from .pointmasses import earliest_failure
 from .rotations import matrix_to_quaternion
 from .shapes import MassPoints
@@ -351,15 +352,19 @@ class RigidBodies(WorkSums, BodySystem):
             self.cq, self.cv, self.lam, self.mass, self.E, self.Einv, self.offsets, self.X, self.mp, coef, pcoef, foff,
             facets, float(gm), np.ascontiguousarray(center, float), float(dt), np.ascontiguousarray(gammas, float),
             int(every), int(nrec), int(max_iter), rec.q, rec.v, rec.iterations, rec.stalled, rec.fail, P, I, T, S,
-            work, self.cwork, rec.work, float(clock[0]), float(clock[1]),
+            work, self.cwork, rec.work, float(clock[0]), float(clock[1]), self._ledger(),
         )  # fmt: skip
         if not work.shape[1]:
             rec.work = None
         return rec
 
     # -- effects ---------------------------------------------------------------------------
+    def _ledger(self) -> bool:
+        """Whether the work sums end with the effect set's ledger row."""
+        return self.effects is not None and self.effects.effects.ledger()
+
     def _work_shape(self) -> tuple:
-        return (len(self), len(self.effects.working()) if self.effects is not None else 0)
+        return (len(self), self.effects.effects.work_rows() if self.effects is not None else 0)
 
     def coefficients(self) -> tuple[np.ndarray, np.ndarray]:
         """Each effect's coefficient at the bodies' points: (k, N) for the mass points, (k, nb)
@@ -462,7 +467,7 @@ class RigidBodies(WorkSums, BodySystem):
             self.X, self.mp, coef, pcoef, foff, facets, float(gm), np.ascontiguousarray(center, float), float(dt),
             int(every), float(self.adaptive), np.ascontiguousarray(gammas, float), int(nrec), int(max_iter), rec.q,
             rec.v, rec.iterations, steps, rec.stalled, rec.fail, P, I, T, S, work, self.cwork, rec.work,
-            float(clock[0]), float(clock[1]),
+            float(clock[0]), float(clock[1]), self._ledger(),
         )  # fmt: skip
         if not work.shape[1]:
             rec.work = None
@@ -497,7 +502,7 @@ class RigidBodies(WorkSums, BodySystem):
             self.cq, self.cv, self.lam, self.rho, self.mass, self.E, self.Einv, self.inverse_inertias(), self.offsets,
             self.X, self.mp, coef, pcoef, foff, facets, float(gm), np.ascontiguousarray(center, float),
             float(self.adaptive), np.ascontiguousarray(gammas, float), int(nsteps), int(max_iter), elapsed, P, I, T,
-            S, self.work, self.cwork,
+            S, self.work, self.cwork, self._ledger(),
         )  # fmt: skip
         if status != 0:
             raise RuntimeError(f"an adaptive step failed with status {status}")
@@ -566,14 +571,14 @@ class RigidBodies(WorkSums, BodySystem):
         energy = T.sum(axis=1) + sum(self._potentials(rec, nrec).values())
         return energy, P.sum(axis=1), L.sum(axis=1)
 
-    def _potentials(self, rec: RigidRecords, nrec: int) -> dict:
-        """Every effect's potential energy at each record, of the bodies' points:
-        {``potential_<label>``: (nrec,) J}."""
+    def _potentials(self, rec: RigidRecords, nrec: int, only: int | None = None) -> dict:
+        """Every effect's potential energy at each record, of the bodies' points (``only``: of
+        that body's): {``potential_<label>``: (nrec,) J}."""
         cached = self.__dict__.get("_last_energies")  # invariants, scales and the file ask for the same
-        if cached is not None and cached[0] is rec and cached[1] == nrec:
+        if only is None and cached is not None and cached[0] is rec and cached[1] == nrec:
             return cached[2]
         q = rec.q[:nrec]
-        parts = list(self.gravity_points(q))
+        parts = [part for part in self.gravity_points(q) if only is None or part[0] == only]
         coef, pcoef = self.coefficients()
         cols, xs, ms, bodies = [], [], [], []
         for b, x, mb in parts:
@@ -589,8 +594,27 @@ class RigidBodies(WorkSums, BodySystem):
                 np.concatenate(xs, axis=2), None if rec.t is None else rec.t[:nrec], np.concatenate(ms),
                 np.concatenate(bodies), np.ascontiguousarray(np.concatenate(cols, axis=1)),
             )  # fmt: skip
-        self._last_energies = (rec, nrec, out)
+        if only is None:
+            self._last_energies = (rec, nrec, out)
         return out
+
+    def ledger(self, rec: RigidRecords, nrec: int, lost: dict) -> dict:
+        """The mass ledger's terms at each record (:func:`~emorbit.bodies.ledger.ledger_terms`):
+        a body a burn lightens loses its mass evenly, so its energy at its initial mass counts
+        its spin as well."""
+        if rec.work is None or not self._ledger():
+            return {}
+        nk = len(self.effects.working())
+        v = rec.v[:nrec]
+
+        def energy_at(b):
+            dphi, dD = v[:, b, 0:3], v[:, b, 3:].reshape(nrec, 3, 3)
+            kinetic = 0.5 * self.mass[b] * np.einsum("ri,ri->r", dphi, dphi)
+            kinetic = kinetic + 0.5 * np.einsum("kl,rki,rli->r", self.E[b], dD, dD)
+            return kinetic + sum(self._potentials(rec, nrec, only=b).values())
+
+        rows = rec.work[:nrec]  # (nrec, nb, w)
+        return ledger_terms(rows[:, :, :nk].sum(axis=2), rows[:, :, nk], lost, self.names, self.mass, energy_at)
 
     def effect_energies(self, rec: RigidRecords, nrec: int, gm: float, center) -> dict:
         """Each effect's potential energy at each record, where the bodies feel effects beyond

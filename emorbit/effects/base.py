@@ -56,7 +56,7 @@ class Pieces:
     module : str
         The importable module that defines them (``"emorbit.kernels.effects.zonal"``), or
         the path of a Python file (a user's effect).
-    force, potential, prepare, time_work, facet, pairs, pair_potential, pair_block, rate, pair_rate : str
+    force, potential, prepare, time_work, facet, pairs, pair_potential, pair_block, rate, pair_rate, mass : str
         The names of the pieces in ``module`` ("" where the effect has none; every effect
         that acts at points has a ``force``).
 
@@ -109,6 +109,12 @@ class Pieces:
 
     ``pair_potential(x, m, body, c, p, out)`` adds each point's half of its pairs'
     potential energy (J) into ``out`` (n,).
+
+    ``mass(c, facet, p, s) -> dmu`` (an effect that changes a body's mass: a burn) gives the
+    effect's part of the body's mean mass over its initial mass, less 1, over the sub-step
+    that ``prepare`` set up: at a point whose coefficient is c (not 0), or at a facet whose last
+    coefficient is c (``facet``; 0 at facets not its own). A set with such an effect sums the
+    work done on each body at its true mass in one more work row (its *ledger row*).
     """
 
     module: str
@@ -122,6 +128,7 @@ class Pieces:
     pair_block: str = ""
     rate: str = ""
     pair_rate: str = ""
+    mass: str = ""
 
 
 @dataclass(frozen=True)
@@ -236,6 +243,17 @@ class Effect:
         """Whether its force does work that the step sums: it keeps no energy (drag,
         radiation pressure), or its potential changes in time (a third body on its path)."""
         return "energy" not in cls.CONSERVES or bool(cls.PIECES and cls.PIECES.time_work)
+
+    @classmethod
+    def changes_mass(cls) -> bool:
+        """Whether it changes its body's mass over the run (a burn with a specific impulse):
+        the run then records the mass ledger (:meth:`mass_lost`)."""
+        return bool(cls.PIECES and cls.PIECES.mass)
+
+    def mass_lost(self, t) -> dict:
+        """The mass it has taken from each body by times ``t`` (s): {body name: (len(t),) kg}
+        ({} for an effect that changes no mass)."""
+        return {}
 
     @classmethod
     def has_potential(cls) -> bool:

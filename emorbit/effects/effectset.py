@@ -125,6 +125,25 @@ class EffectSet:
         """The effects whose work the step sums (their slots' order)."""
         return [e for e in self.all if type(e).does_work()]
 
+    def ledger(self) -> bool:
+        """Whether an effect of the set changes a body's mass (a burn): the work then has a
+        ledger row after the working effects' (:mod:`emorbit.effects.program`), and the run
+        records the mass ledger."""
+        return any(type(e).changes_mass() for e in self.all)
+
+    def work_rows(self) -> int:
+        """The rows of the step's work sums: one per working effect, and the ledger row."""
+        return len(self.working()) + int(self.ledger())
+
+    def mass_lost(self, t) -> dict:
+        """The mass the set's effects have taken from each body by times ``t`` (s):
+        {body name: (len(t),) kg}."""
+        lost: dict = {}
+        for e in self.all:
+            for name, kg in e.mass_lost(t).items():
+                lost[name] = lost.get(name, 0.0) + kg
+        return lost
+
     def with_potential(self) -> list[Effect]:
         """The effects with a potential energy (recorded as ``invariants/potential_<label>``)."""
         return [e for e in self.all if type(e).has_potential()]

@@ -40,7 +40,10 @@ step) or :data:`MODE_EXPLICIT` (x0 = x1 = x: the force at a point, leapfrog's ki
     work(x0, dx, m, body, coef, h, mode, P, I, T, S, out)
         out (w, n): each working effect's work on each point over the step from x0 to
         x0 + dx (J): ``m F . dx`` for a force that does work, the ``time_work`` of a potential
-        that changes in time; w is the number of working effects, in the set's order.
+        that changes in time; w is the number of working effects, in the set's order. A set
+        with an effect that changes mass (a ``mass`` piece) has one more row, its *ledger
+        row* (the last): the point's work over the step at its true mean mass, ``(1 + sum
+        dmu) sum_k out[k, i]``, dmu the ``mass`` pieces' parts where they act on the point.
     potential(x, m, body, coef, P, I, T, S, out)
         out (k, n): each effect's potential energy at each point (J; 0 for effects without
         one; a pair effect puts half of each pair's energy on each point), after ``prepare``
@@ -57,7 +60,10 @@ step) or :data:`MODE_EXPLICIT` (x0 = x1 = x: the force at a point, leapfrog's ki
         middle; area (nf,); kf (4, nf) the facet coefficients; F (3, nf) the surface
         effects' summed force on each facet (N); where ``want_work``, out (w, nf) gets each
         working effect's work ``F_e . (b - a)`` (J; 0 in the slots of effects without
-        surfaces).
+        surfaces), and in the ledger row (where the set has one) the facet's mass mark: the
+        ``mass`` pieces' dmu at the facets that are their own, 0 at others. A body kind that
+        loses mass evenly (a rigid body) weighs all its work by ``1 + sum`` of its facets'
+        marks.
 """
 
 from __future__ import annotations
@@ -86,6 +92,8 @@ class Program:
         The effect kinds, in the set's order (a kind named twice appears twice).
     working : tuple of int
         The indices in the set of the effects whose work the step sums, in slot order.
+    ledger : bool
+        Whether the work has a ledger row after the working effects' (an effect changes mass).
     compiled : bool
         Whether this process compiled them (False: loaded from the disk cache).
     """
@@ -99,6 +107,7 @@ class Program:
     rate: object
     kinds: tuple
     working: tuple
+    ledger: bool
     compiled: bool
 
 
@@ -152,6 +161,7 @@ def _import_line(index: int, pieces) -> tuple[str, list[str]]:
             "pair_block",
             "rate",
             "pair_rate",
+            "mass",
         )  # fmt: skip
         if getattr(pieces, attr)
     ]
@@ -181,7 +191,7 @@ def load_user_module(path: str):
     return module
 
 
-def set_source(effects) -> tuple[str, tuple[int, ...]]:
+def set_source(effects) -> tuple[str, tuple[int, ...], bool]:
     """The source of the module compiled for an ordered set of effect classes.
 
     Parameters
@@ -195,6 +205,8 @@ def set_source(effects) -> tuple[str, tuple[int, ...]]:
         The module.
     working : tuple of int
         The indices of the effects whose work the step sums, in slot order.
+    ledger : bool
+        Whether the work has a ledger row (an effect of the set changes mass).
     """
     imports, has, working = [], [], []
     for e, cls in enumerate(effects):
@@ -320,6 +332,16 @@ def prepare(ta, tm, tb, P, I, T, S):
             )
         else:
             work_lines.append(f"out[{k}, i] = 0.0")
+    massive = [e for e in range(len(effects)) if "mass" in has[e]]
+    if massive:  # the ledger row: the point's work at its true mean mass
+        last = len(working)
+        work_lines.append(
+            "mu = 1.0\n"
+            + "".join(
+                f"if coef[{e}, i] != 0.0:\n    mu += mass_{e}(coef[{e}, i], False, p{e}, s{e})\n" for e in massive
+            )
+            + f"total = 0.0\nfor k in range({last}):\n    total += out[k, i]\nout[{last}, i] = mu * total"
+        )
     work = f"""
 @numba.cfunc(WORK, **_OPTIONS)
 def work(x0, dx, m, body, coef, h, mode, P, I, T, S, out):
@@ -388,6 +410,11 @@ def potential(x, m, body, coef, P, I, T, S, out):
         if e in slot_of:
             line += f"\nif want_work:\n    out[{slot_of[e]}, f] = gx * (b0 - a0) + gy * (b1 - a1) + gz * (b2 - a2)"
         facet_lines.append(line)
+    if massive:  # the ledger row: the facet's mass mark
+        facet_lines.append(
+            "if want_work:\n"
+            + "".join(f"    out[{len(working)}, f] += mass_{e}(kf[3, f], True, p{e}, s{e})\n" for e in massive)
+        )
     facets = f"""
 @numba.cfunc(FACETS, **_OPTIONS)
 def facets(a, b, nrm, area, kf, h, P, I, T, S, F, out, want_work):
@@ -498,7 +525,7 @@ def rate(x, v, m, body, coef, P, I, T, S):
         imports="\n".join(imports),
         options=repr(options),
     )
-    return header + forces + prepare + work + potential + facets + cross + rate, tuple(working)
+    return header + forces + prepare + work + potential + facets + cross + rate, tuple(working), bool(massive)
 
 
 def _digest(source: str, effects) -> str:
@@ -538,7 +565,7 @@ def compile_set(effects, announce=None) -> Program:
     for cls in effects:  # a user's file is importable before the module that imports it
         if cls.PIECES.module.endswith(".py"):
             load_user_module(cls.PIECES.module)
-    template, working = set_source(effects)
+    template, working, ledger = set_source(effects)
     digest = _digest(template, effects)
     source = template.replace("{digest}", digest, 1)
     stem = "_".join(kinds)[:80] or "none"
@@ -577,6 +604,7 @@ def compile_set(effects, announce=None) -> Program:
         module.rate,
         kinds,
         working,
+        ledger,
         fresh,
     )
     _LOADED[key] = program

@@ -27,9 +27,10 @@ burns start and end where they did. The mass enters the force alone: the bodies'
 the work are those of the body at its initial mass m0, and the step keeps the balance ``m0
 (eps - eps0) - m0 sum dv e . (x1 - x0) / h = 0`` (``eps = v^2 / 2 + U`` per unit mass) to
 round-off (``invariants/energy_balance``; ``invariants/work_thrust`` is the burn's term).
-The body's true energy is ``m(t) eps``; :meth:`Thrust.mass` gives ``m(t)`` and
-``docs/methods.md`` the ledger that splits ``m0 eps`` into the body's energy, the burn's work
-and the energy the propellant carries away. Other effects' coefficients per unit mass (drag's
+The body's true energy is ``m(t) eps``; :meth:`Thrust.mass` gives ``m(t)``, and the run
+records the ledger (``invariants/ledger_*``, ``docs/methods.md``) that splits the change of
+``m(t) eps`` into the work done on the body at its true mass and the energy the propellant
+carries away, its balance at round-off. Other effects' coefficients per unit mass (drag's
 ``Cd A / m``, radiation's ``Cr A / m``) stay those of the initial mass.
 
 References: H. D. Curtis, Orbital Mechanics for Engineering Students, 3rd ed. (2014),
@@ -107,7 +108,11 @@ class Thrust(Effect):
     EXPLICIT = False
     OWN_FACETS = True
     PIECES = Pieces(
-        "emorbit.kernels.effects.thrust", force="thrust_piece", prepare="thrust_prepare", facet="thrust_facet"
+        "emorbit.kernels.effects.thrust",
+        force="thrust_piece",
+        prepare="thrust_prepare",
+        facet="thrust_facet",
+        mass="thrust_mass",
     )
     POTENTIAL = "none: a burn does work W = sum m0 dv e . (x1 - x0) / h, recorded as invariants/work_thrust"
     DISCRETE_FORCE = "F = (dv / h) e, dv = isp g0 ln(m(ta) / m(tb)) (or T (tb - ta) / m), e in its frame at x_m"
@@ -120,7 +125,7 @@ class Thrust(Effect):
     _named: tuple = ()
 
     def scratch_size(self, n_points: int) -> int:
-        return 1  # the sub-step's dv
+        return 2  # the sub-step's dv and mean mass change
 
     def same_as(self, other) -> bool:
         return False  # another burn; one that overlaps this one in time is refused by bind()
@@ -270,6 +275,16 @@ class Thrust(Effect):
         before it), after :meth:`bind`."""
         tau = np.clip(np.asarray(t, float) - self.start, 0.0, self.end - self.start)
         return self.mass_start - self.mass_flow * tau
+
+    def mass_lost(self, t) -> dict:
+        """The mass this burn has expelled from its body by times ``t``: {body: (len(t),) kg}
+        (0 before it starts; {} without isp)."""
+        t = np.atleast_1d(np.asarray(t, float))
+        if self.mass_flow == 0.0:
+            return {}
+        if not math.isfinite(self.start):
+            return {self.body: np.zeros(t.shape)}
+        return {self.body: self.mass_flow * np.clip(t - self.start, 0.0, self.end - self.start)}
 
     def facts(self) -> dict:
         return {

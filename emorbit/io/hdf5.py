@@ -229,6 +229,12 @@ class Writer:
     jacobi : bool
         Each record holds the Jacobi integral ``E - w . L`` of a turning central body's field
         in ``invariants/jacobi`` (J); :meth:`append` takes it by ``jacobi``.
+    ledger : bool
+        Each record holds the mass ledger of burns that expel mass (J): the bodies' energy at
+        their true masses ``invariants/ledger_energy``, the work done on them there
+        ``invariants/ledger_work``, the energy the propellant has carried away
+        ``invariants/ledger_expelled`` and the balance ``invariants/ledger_balance``;
+        :meth:`append` takes them by those names.
 
     Raises
     ------
@@ -248,6 +254,7 @@ class Writer:
         potentials=(),
         works=(),
         jacobi: bool = False,
+        ledger: bool = False,
     ):
         path = file_path(path, "output")
         if (what := not_regular(path)) is not None:  # checked before anything opens it
@@ -272,7 +279,7 @@ class Writer:
             except OSError as exc:
                 raise InputError("output", f"cannot create a file in {folder!r}: {exc}") from None
             self._identity = _identity(os.fstat(self.file.id.get_vfd_handle()))
-            self._layout(bodies, attrs, chunk_rows, potentials, works, jacobi)
+            self._layout(bodies, attrs, chunk_rows, potentials, works, jacobi, ledger)
             self.file.flush()
             self._flushed_size = self._size()
         except BaseException:
@@ -320,7 +327,7 @@ class Writer:
             self._held.close()
             self._held = None
 
-    def _layout(self, bodies, attrs: dict, chunk_rows: int, potentials=(), works=(), jacobi=False) -> None:
+    def _layout(self, bodies, attrs: dict, chunk_rows: int, potentials=(), works=(), jacobi=False, ledger=False):
         f = self.file
         f.attrs["creator"] = f"emorbit {__version__}"
         f.attrs["emorbit_version"] = __version__
@@ -340,6 +347,8 @@ class Writer:
             self._ds[name] = _growable(f, name, None, "J", chunk_rows)  # the non-conservative effects' work
         if jacobi:  # E - w . L of a turning field
             self._ds["invariants/jacobi"] = _growable(f, "invariants/jacobi", None, "J", chunk_rows)
+        for name in ("energy", "work", "expelled", "balance") if ledger else ():  # burns that expel mass
+            self._ds[f"invariants/ledger_{name}"] = _growable(f, f"invariants/ledger_{name}", None, "J", chunk_rows)
         self._body_ds = {}
         group = f.create_group("bodies", track_order=True)
         for body in bodies:

@@ -418,7 +418,13 @@ _probe = probe  # read() takes an argument of this name
 
 
 #: the record datasets of effects, one per effect (or the balance of those that do work)
-EFFECT_RECORDS = ("invariants/potential_", "invariants/work_", "invariants/energy_balance", "invariants/jacobi")
+EFFECT_RECORDS = (
+    "invariants/potential_",
+    "invariants/work_",
+    "invariants/energy_balance",
+    "invariants/jacobi",
+    "invariants/ledger_",
+)
 
 
 def check_layout(f: h5py.File, path: str, key: str = "file") -> None:
@@ -709,6 +715,7 @@ def _read(f, path: str, at: list) -> Result:
         attrs=attrs,
         work={k[len("work_") :]: read_dataset(ds, path, n) for k, ds in invariants.items() if k.startswith("work_")},
         energy_balance=read_dataset(invariants["energy_balance"], path, n) if "energy_balance" in invariants else None,
+        ledger={k[7:]: read_dataset(ds, path, n) for k, ds in invariants.items() if k.startswith("ledger_")},
         events=read_events(f, path),
         **diag,
     )

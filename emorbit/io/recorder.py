@@ -121,6 +121,11 @@ class Sink:
     energy0 : float or None
         Under effects that do work (drag): the energy of the run file's first record, J, the
         E0 of ``invariants/energy_balance = E - E0 - sum W``.
+    ledger0 : float or None
+        Under burns that expel mass: the bodies' energy at their true masses at the run
+        file's first record, J (the ledger's E_b0).
+    ledger : bool
+        Whether the records hold the mass ledger (``invariants/ledger_*``).
     works : list of dict
         Under effects that do work: each emitted block's ``work_<label>`` (the work since the
         run's start, J, summed over the points) and ``energy_balance`` (J).
@@ -138,6 +143,8 @@ class Sink:
         self.monitor = getattr(sim, "_drift", None)
         self.range_pending = np.array([np.inf, -np.inf])
         self.energy0 = None  # E0 of the energy balance: the run file's first record
+        self.ledger0 = None  # the bodies' energy at their true masses at the run file's first record
+        self.ledger = bool(getattr(sim, "effects", None) is not None and sim.effects.ledger())
         self.works: list[dict] = []  # {work_<label>, energy_balance: (rows,) J} per emitted block
         self.last_energy = None  # the last record's total energy, J
 
@@ -234,6 +241,8 @@ class Sink:
                 substeps = rec.solves[:nrec].max(axis=1, initial=0)
             else:  # solves per step: points, bodies, or 1 per structure
                 solves = solves + rec.iterations.shape[1] * coefficients(sim.order).size
+        lost = sim.effects.mass_lost(times[:nrec]) if self.ledger else {}
+        terms = [system.ledger(rec, nrec, lost) for system, rec in recs if self.ledger and hasattr(system, "ledger")]
         if sim.events.impulses:  # the impulses' work so far (emorbit.events)
             works["work_manoeuvres"] = np.full(nrec, sim.events.impulse_work)
         its = iters / np.maximum(k * solves, 1) if k else np.zeros(nrec)
@@ -280,6 +289,8 @@ class Sink:
                 resumed = self.writer is not None and self.rows > 0  # the file's first record is E0
                 self.energy0 = float(self.writer.file["invariants/energy"][0]) if resumed else float(energy[0])
             works["energy_balance"] = energy - self.energy0 - sum(works.values())
+            if self.ledger:
+                works.update(self._ledger(energy, works, terms, nrec))
             entry = {k: np.array(w, float) for k, w in works.items()}
             if self.keep or not self.works:  # as the blocks: all, or the first and the last
                 self.works.append(entry if self.keep else {k: w[:1] for k, w in entry.items()})
@@ -308,6 +319,25 @@ class Sink:
             self.blocks.append(block if self.keep else _row(block, 0))
         if not self.keep:
             self.blocks[1:] = [_row(block, -1)]
+
+    def _ledger(self, energy, works, terms, nrec) -> dict:
+        """The mass ledger of a run whose burns expel mass (``docs/methods.md``, "Finite
+        burns"): the bodies' energy at their true masses, the work done on them there, the
+        energy the propellant has carried away, and the ledger's balance ``E_b - E_b0 - W_b +
+        X``, which stays at round-off (each (nrec,) J)."""
+        body = energy + sum(t.get("energy", 0.0) for t in terms)
+        done = sum(w for k, w in works.items() if k != "energy_balance")
+        done = done + sum(t.get("work", 0.0) for t in terms) + np.zeros(nrec)
+        expelled = np.zeros(nrec) + sum(t.get("expelled", 0.0) for t in terms)
+        if self.ledger0 is None:
+            resumed = self.writer is not None and self.rows > 0  # the file's first record is E_b0
+            self.ledger0 = float(self.writer.file["invariants/ledger_energy"][0]) if resumed else float(body[0])
+        return {
+            "ledger_energy": body,
+            "ledger_work": done,
+            "ledger_expelled": expelled,
+            "ledger_balance": body - self.ledger0 - done + expelled,
+        }
 
     def _refuse(self, recs, steps, times, nrec, k, span, rel, energy, kept, scales, substeps) -> None:
         """Refuse a block before anything of it is recorded: an energy-conserving step that moved
@@ -381,12 +411,15 @@ class Sink:
         )
 
     def _works(self, rows: int) -> dict:
-        """``work`` and ``energy_balance`` of the kept records (empty when none were kept)."""
+        """``work``, ``energy_balance`` and the mass ``ledger`` of the kept records (empty when
+        none were kept)."""
         if not self.works or sum(len(w["energy_balance"]) for w in self.works) != rows:
             return {}
         cat = {k: np.concatenate([w[k] for w in self.works]) for k in self.works[0]}
         balance = cat.pop("energy_balance")
-        return {"work": {k[len("work_") :]: v for k, v in cat.items()}, "energy_balance": balance}
+        ledger = {k[len("ledger_") :]: cat.pop(k) for k in list(cat) if k.startswith("ledger_")}
+        work = {k[len("work_") :]: v for k, v in cat.items()}
+        return {"work": work, "energy_balance": balance, "ledger": ledger}
 
 
 def _row(block, i):

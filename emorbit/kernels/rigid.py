@@ -479,7 +479,7 @@ def rigid_step(
 def rigid_chunk(
     forces, prepare, work_of, facets_fn, method, models, q, v, cq, cv, lam, mass, E, Einv, offsets, X, mp, coef,
     pcoef, foff, facets, gm, center, dt, gammas, every, nrec, max_iter, rec_q, rec_v, rec_iters, rec_stalled, fail, P,
-    I, T, S, work, cwork, rec_work, clock_base, clock_n0,
+    I, T, S, work, cwork, rec_work, clock_base, clock_n0, ledger,
 ):  # fmt: skip
     """Advance every rigid body ``nrec * every`` composed steps, recording every ``every``.
 
@@ -494,7 +494,8 @@ def rigid_chunk(
     rec_stalled (nrec, nb) counts each interval's sub-steps that :func:`rigid_step` accepted
     at its floor, above round-off. Step j starts at ``clock_base + (clock_n0 + j) dt``.
     ``work`` and ``cwork`` (nb, w) sum each working effect's work on each body (Kahan),
-    recorded in ``rec_work`` (nrec, nb, w).
+    recorded in ``rec_work`` (nrec, nb, w); ``ledger``: the last of them is the set's ledger row
+    (:func:`_body_work`).
     """
     nb = q.shape[0]
     ns = gammas.shape[0]
@@ -558,7 +559,7 @@ def rigid_chunk(
                             q1[jj] = tp[jj] + dq[jj]
                         _body_work(
                             work_of, facets_fn, mode, models[b], tp, q1, Xb, mb, mass[b], h, cb, pb, P, I, T, S,
-                            facets, f0, f1, fscratch, wpts, tw, tcw,
+                            facets, f0, f1, fscratch, wpts, tw, tcw, ledger,
                         )  # fmt: skip
                     for j_ in range(12):
                         tp[j_], te[j_] = kahan_add(tp[j_], te[j_], dq[j_])
@@ -618,13 +619,17 @@ def body_points(model, q, X, m, mp, out, mout):
 @kernel
 def _body_work(
     work_of, facets_fn, mode, model, q0, q1, X, mp, m, h, coef, pcoef, P, I, T, S, facets, f0, f1, fscratch,
-    wpts, tw, tcw,
+    wpts, tw, tcw, ledger,
 ):  # fmt: skip
     """Add each working effect's work on the body over the step (its points' and its facets')
-    into ``tw`` with Kahan compensation ``tcw``."""
+    into ``tw`` with Kahan compensation ``tcw``. Where the set has a ledger row (``ledger``, the
+    last), add to it the body's work at its true mean mass: the sum of the others times ``1 +``
+    its facets' mass marks (the body loses its mass evenly)."""
     x0, dx, bb, out, mm = wpts
     n = x0.shape[1]
     nw = tw.shape[0]
+    nk = nw - 1 if ledger else nw
+    body = 0.0
     if n > 0:
         body_points(model, q0, X, m, mp, x0, mm)
         body_points(model, q1, X, m, mp, dx, mm)
@@ -632,17 +637,25 @@ def _body_work(
             for d in range(3):
                 dx[d, i] -= x0[d, i]
         work_of(x0, dx, mm, bb, pcoef if model == GRAVITY_POINT else coef, h, mode, P, I, T, S, out)
-        for k in range(nw):
+        for k in range(nk):
             total = 0.0
             for i in range(n):
                 total += out[k, i]
             tw[k], tcw[k] = kahan_add(tw[k], tcw[k], total)
+            body += total
+    mu = 1.0
     if f1 > f0:
         F = np.zeros(12)
         facet_forces(facets_fn, q0, q1, h, F, facets, f0, f1, P, I, T, S, fscratch, True)
         fo = fscratch[6]
-        for k in range(nw):
+        for k in range(nk):
             total = 0.0
             for j in range(f1 - f0):
                 total += fo[k, j]
             tw[k], tcw[k] = kahan_add(tw[k], tcw[k], total)
+            body += total
+        if ledger:
+            for j in range(f1 - f0):
+                mu += fo[nk, j]
+    if ledger:
+        tw[nk], tcw[nk] = kahan_add(tw[nk], tcw[nk], mu * body)

@@ -113,7 +113,7 @@ def _composed(ctx, s, rho, eps, fixed, t):
     rho, duration ``dur - dlo`` as a Kahan pair, iterations, status); the stalled sub-steps are
     counted into ``ctx``'s counter."""
     (method, model, m, E, Einv, Jinv, X, mp, gm, c, eta, gammas, max_iter, work, fx, wpts, buf, counter) = ctx
-    forces, facets_fn, prepare, work_of, coef, pcoef, P, I, T, S, facets, f0, f1, fscratch = fx
+    forces, facets_fn, prepare, work_of, coef, pcoef, P, I, T, S, facets, f0, f1, fscratch, ledger = fx
     tp, tu, te, tf, tl, tw, tcw = buf
     for j in range(12):
         tp[j] = s[0][j]
@@ -162,7 +162,7 @@ def _composed(ctx, s, rho, eps, fixed, t):
                 q1[j] = tp[j] + dq[j]
             _body_work(
                 work_of, facets_fn, mode, model, tp, q1, X, mp, m, h, coef, pcoef, P, I, T, S, facets, f0, f1,
-                fscratch, wpts, tw, tcw,
+                fscratch, wpts, tw, tcw, ledger,
             )  # fmt: skip
         for j in range(12):
             tp[j], te[j] = kahan_add(tp[j], te[j], dq[j])
@@ -201,12 +201,12 @@ def _accept(ctx, s, q):
 
 
 @kernel
-def _effects(forces, facets_fn, prepare, work_of, coef, pcoef, foff, facets, P, I, T, S, offsets, b, nw):
+def _effects(forces, facets_fn, prepare, work_of, coef, pcoef, foff, facets, P, I, T, S, offsets, b, nw, ledger):
     """Body b's share of the effect set, as :func:`_composed` reads it."""
     f0, f1 = foff[b], foff[b + 1]
     return (
         forces, facets_fn, prepare, work_of, np.ascontiguousarray(coef[:, offsets[b] : offsets[b + 1]]),
-        np.ascontiguousarray(pcoef[:, b : b + 1]), P, I, T, S, facets, f0, f1, facet_scratch(f1 - f0, nw),
+        np.ascontiguousarray(pcoef[:, b : b + 1]), P, I, T, S, facets, f0, f1, facet_scratch(f1 - f0, nw), ledger,
     )  # fmt: skip
 
 
@@ -244,7 +244,7 @@ def _store(s, q, v, cq, cv, lam, work, cwork, b):
 def rigid_adaptive_chunk(
     forces, facets_fn, prepare, work_of, method, models, q, v, cq, cv, lam, rho, mass, E, Einv, Jinv, offsets, X, mp,
     coef, pcoef, foff, facets, gm, center, interval_length, every, eta, gammas, nrec, max_iter, rec_q, rec_v,
-    rec_iters, rec_steps, rec_stalled, fail, P, I, T, S, work, cwork, rec_work, clock_base, clock_n0,
+    rec_iters, rec_steps, rec_stalled, fail, P, I, T, S, work, cwork, rec_work, clock_base, clock_n0, ledger,
 ):  # fmt: skip
     """Advance every rigid body by ``nrec`` records of ``every`` intervals of
     ``interval_length`` seconds (the landing grid: steps end on every multiple of it) with
@@ -262,7 +262,9 @@ def rigid_adaptive_chunk(
     nb = q.shape[0]
     nw = work.shape[1]
     for b in range(nb):
-        fx = _effects(forces, facets_fn, prepare, work_of, coef, pcoef, foff, facets, P, I, T, S, offsets, b, nw)
+        fx = _effects(
+            forces, facets_fn, prepare, work_of, coef, pcoef, foff, facets, P, I, T, S, offsets, b, nw, ledger
+        )
         ctx = _body(method, models, mass, E, Einv, Jinv, offsets, X, mp, gm, center, eta, gammas, max_iter, fx, b, nw)
         s = _state(q, v, cq, cv, lam, work, cwork, b)
         r = rho[b]
@@ -301,7 +303,7 @@ def rigid_adaptive_chunk(
 @kernel
 def rigid_reversible_steps(
     forces, facets_fn, prepare, work_of, method, models, q, v, cq, cv, lam, rho, mass, E, Einv, Jinv, offsets, X, mp,
-    coef, pcoef, foff, facets, gm, center, eta, gammas, nsteps, max_iter, elapsed, P, I, T, S, work, cwork,
+    coef, pcoef, foff, facets, gm, center, eta, gammas, nsteps, max_iter, elapsed, P, I, T, S, work, cwork, ledger,
 ):  # fmt: skip
     """Take exactly ``nsteps`` composed steps of size 1 in tau from every body (no records, no
     landing on a time): the scheme alone, for its time symmetry. ``elapsed`` (nb,) gets the
@@ -310,7 +312,9 @@ def rigid_reversible_steps(
     nb = q.shape[0]
     nw = work.shape[1]
     for b in range(nb):
-        fx = _effects(forces, facets_fn, prepare, work_of, coef, pcoef, foff, facets, P, I, T, S, offsets, b, nw)
+        fx = _effects(
+            forces, facets_fn, prepare, work_of, coef, pcoef, foff, facets, P, I, T, S, offsets, b, nw, ledger
+        )
         ctx = _body(method, models, mass, E, Einv, Jinv, offsets, X, mp, gm, center, eta, gammas, max_iter, fx, b, nw)
         s = _state(q, v, cq, cv, lam, work, cwork, b)
         r = rho[b]

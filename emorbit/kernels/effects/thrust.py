@@ -10,10 +10,9 @@ step straddles t0 or t1) changes the velocity by the rocket equation's::
 
     dv = ve ln(mu(ta) / mu(tb)) = ve log1p(q (tb - ta) / mu(tb))
 
-exactly (``ve = 0``: no mass flow, ``dv = (T / m0) (tb - ta)`` with m0 the mass at the
-start); outside, by 0. The sub-steps of a step telescope to the rocket equation over the
-step, and the force is smooth in time within each step, so a composition keeps its order.
-Over a step x0 -> x1 of length h
+exactly (``ve = 0``: ``dv = (T / m0) (tb - ta)``, m0 the mass at the start); outside, by 0.
+The sub-steps telescope to the rocket equation over the step, and the force is smooth in
+time within each step, so a composition keeps its order. Over a step x0 -> x1 of length h
 the force per unit mass is ``F = (dv / h) e``, e the burn's unit direction: fixed in the
 scene's axes, or in the local frame of the step's midpoint ``r = (x0 + x1) / 2 - c`` and mean
 velocity ``v = (x1 - x0) / h``: RSW (``r / |r|``, ``w x r``, ``w = r x v / |r x v|``) or VNC
@@ -24,19 +23,19 @@ frame with respect to x1 (of order ``|F| / (|v| h)``, below 1e-9 of the central 
 the thrusts of spacecraft) stays out of Newton's matrix.
 
 On a rigid body the burn acts through a thruster of its own, a facet of area 0 at the point
-the thrust acts on, its normal the thrust's direction in the body (``thrust_facet``; drag and
-radiation pressure give an area of 0 nothing). The body loses mass evenly, its inertia in
-proportion, so that its motion under the thrust is its motion at its initial mass M0 under
-``T m0 / m(t)``: the facet's force is ``M0 (dv / h) n`` (N), n the facet's normal at the
-step's middle, and its work ``F . (b - a)`` over the thruster's own path gives the torque's
-work as well as the thrust's. On an elastic body the thruster is one node (a facet whose
-three corners are that node: its area and normal 0), pushed with T along the direction in its
-frame over the node's own path; its mass is held (``M0 = 1``, ``a0 = T``).
+the thrust acts on, its normal the thrust's direction in the body (``thrust_facet``). The body
+loses mass evenly, so it moves as at its initial mass M0 under ``T m0 / m(t)``: the facet's
+force is ``M0 (dv / h) n`` (N), n its normal at the step's middle, and its work ``F . (b - a)``
+over the thruster's path counts the torque's work too. On an elastic body the thruster is one
+node (a facet whose three corners are that node), pushed with T along the direction in its
+frame, its mass held (``M0 = 1``, ``a0 = T``).
+
+Mass ledger: ``thrust_mass`` gives this burn's part of the body's mean mass over m0, less 1,
+over a sub-step, for the set's ledger row (``docs/methods.md``, "Finite burns").
 
 Data layout: ``p = [t0, t1, mu0, q, ve, a0, frame (0 inertial, 1 rsw, 2 vnc, 3 body), e0,
-e1, e2, c0, c1, c2, M0, mark]``, ``a0 = T / m0`` (m/s^2, used where ``ve = 0``), ``mark`` the
-thruster facet's last coefficient (k3, negative: its own facets only); ``s`` (1,) the
-sub-step's dv.
+e1, e2, c0, c1, c2, M0, mark]``, ``a0 = T / m0`` (m/s^2, where ``ve = 0``), q (1/s), ``mark``
+the thruster facet's k3 (negative: its own facets only); ``s`` (2,): dv, ``mu_mean - 1``.
 """
 
 from __future__ import annotations
@@ -45,7 +44,7 @@ import math
 
 from ..jit import kernel
 
-__all__ = ["thrust_piece", "thrust_prepare", "thrust_facet", "burn_dv"]
+__all__ = ["thrust_piece", "thrust_prepare", "thrust_facet", "thrust_mass", "burn_dv"]
 
 _inline = kernel(inline="always")
 
@@ -68,8 +67,25 @@ def burn_dv(ta, tm, tb, p):
 
 @_inline
 def thrust_prepare(ta, tm, tb, p, tab, s):
-    """The sub-step's dv (0 outside the window)."""
+    """The sub-step's dv (0 outside the window) and the mean mass the burn has expelled over
+    it, negated, over m0."""
     s[0] = burn_dv(ta, tm, tb, p)
+    if p[0] < tm < p[1]:
+        s[1] = -p[3] * (0.5 * (ta + tb) - p[0])
+    elif tm >= p[1]:
+        s[1] = -p[3] * (p[1] - p[0])
+    else:
+        s[1] = 0.0
+
+
+@_inline
+def thrust_mass(c, facet, p, s):
+    """This burn's part of the body's mean mass over its initial mass, less 1, over the sub-step:
+    at a point it acts on (c its coefficient, not 0) or at its own thruster facet (``facet``, c
+    the facet's mark); 0 at other facets."""
+    if facet and c != p[14]:
+        return 0.0
+    return s[1]
 
 
 @_inline
