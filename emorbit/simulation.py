@@ -74,9 +74,11 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
         The field; ``None`` is free space (no gravity; rigid and elastic bodies only).
     method : str
         A name in :data:`emorbit.METHODS`: ``"em"`` (energy-momentum, the default),
-        ``"midpoint"`` or ``"leapfrog"``.
+        ``"midpoint"``, ``"leapfrog"``, or ``"tfe"`` (energy-momentum time finite elements:
+        point masses in the central field, fixed steps).
     order : int
-        2 (the base step) or 4, 6, 8 (symmetric compositions of it, :data:`emorbit.ORDERS`).
+        2 (the base step) or 4, 6, 8 (symmetric compositions of it, :data:`emorbit.ORDERS`);
+        ``"tfe"`` runs at 4 or 6 (its 2 or 3 Gauss stages).
     dt : Quantity, str or float
         The step, s.
     max_newton_iterations : int

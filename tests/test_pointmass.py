@@ -79,15 +79,15 @@ def test_newton_iterations(em_long, midpoint_long):
     assert 2.8 <= mid <= 3.4, f"midpoint: {mid:.3f} iterations per step, measured 3.103"
 
 
-@pytest.mark.parametrize("method", list(emorbit.METHODS))
-@pytest.mark.parametrize("order", emorbit.ORDERS)
+@pytest.mark.parametrize(("method", "order"), [(m, o) for m, spec in emorbit.METHODS.items() for o in spec.orders])
 def test_convergence_order(method, order):
     """Position error after one orbit against the analytic Kepler solution. Orders 2-6:
     dt = T/100 ... T/800; order 8: T/100 ... T/400 (asymptotic there and above round-off;
     measured errors 8.6e-9 ... 1.2e-13 for em). Measured slopes: em 1.989, 4.041, 5.997,
-    8.020; midpoint 2.043, 4.278, 6.003, 8.101; leapfrog 1.986, 3.916, 5.998, 7.967. The fit
-    must lie within 0.15 of the nominal order (0.35 for the midpoint rule at order 4, whose
-    error constant still changes over these steps)."""
+    8.020; midpoint 2.043, 4.278, 6.003, 8.101; leapfrog 1.986, 3.916, 5.998, 7.967; tfe
+    (orders 4 and 6 only) 3.95, 5.77. The fit must lie within 0.15 of the nominal order (0.35
+    for the midpoint rule at order 4, whose error constant still changes over these steps; 0.3
+    for tfe, whose error constant depends on where the periapsis falls in a step)."""
     t_end = PAPER_T
     ref, _ = orbits.propagate(PAPER_X0, PAPER_V0, PAPER_GM, t_end)
     divs = [100, 200, 400, 800] if order < 8 else [100, 141, 200, 283, 400]
@@ -96,7 +96,7 @@ def test_convergence_order(method, order):
         r = paper_sim(method, order, dt=t_end / n).run(steps=n, every=n)
         errs.append(np.linalg.norm(r.si.positions["satellite"][-1] - ref))
     slope = -np.polyfit(np.log(divs), np.log(errs), 1)[0]
-    tol = 0.35 if (method, order) == ("midpoint", 4) else 0.15
+    tol = 0.35 if (method, order) == ("midpoint", 4) else 0.3 if method == "tfe" else 0.15
     assert abs(slope - order) < tol, f"fitted order {slope:.3f} for {method} {order}; errors {errs}"
     assert min(errs) > 1e-13  # still above round-off, so the fit means something
 
@@ -142,7 +142,7 @@ def test_roundoff_fast_is_the_same_step_to_round_off():
 
 @pytest.mark.parametrize("method", list(emorbit.METHODS))
 def test_angular_momentum_exact_for_every_method(method):
-    """All three methods apply central forces only: angular momentum is exact for each (50
+    """Every method applies central forces only: angular momentum is exact for each (50
     orbits at order 4, measured 1.2e-15, 2.9e-15, 1.1e-15 for em, midpoint, leapfrog)."""
     r = paper_sim(method, 4).run(steps=5000, every=50)
     dL = r.relative_angular_momentum_error().max()
@@ -153,7 +153,7 @@ def test_angular_momentum_exact_for_every_method(method):
 #: forward and back, about 10x the measured (em 3.2e-13, 9.7e-13; midpoint 7.5e-13, 2.3e-12;
 #: leapfrog 3.0e-14, 9.0e-14: the round-off of 2 x 2000 composed steps, amplified by the
 #: orbit's shear over 20 orbits of e = 2/3)
-BACK = {"em": (3e-12, 1e-11), "midpoint": (7.5e-12, 2.5e-11), "leapfrog": (3e-13, 1e-12)}
+BACK = {"em": (3e-12, 1e-11), "midpoint": (7.5e-12, 2.5e-11), "leapfrog": (3e-13, 1e-12), "tfe": (3e-12, 1e-11)}
 
 
 @pytest.mark.parametrize("method", list(emorbit.METHODS))

@@ -4,10 +4,13 @@ orders, exact energy and angular momentum at large steps, time symmetry, and the
 refuses. Every run goes through the kernel that dispatch names for the method, as
 PointMasses.advance calls it."""
 
+import importlib.resources
+
 import numpy as np
 import pytest
 from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 
+import emorbit
 from emorbit import orbits
 from emorbit.errors import InputError
 from emorbit.integrators import METHODS, check_method_order, coefficients, dispatch, get_method
@@ -139,23 +142,43 @@ def test_tables_are_gauss():
 
 
 def test_refuses_what_it_does_not_run():
-    """Orders other than 4 and 6, points under effects (the only caller asking for the
-    'fast' code), adaptive steps and the GPU: each an InputError naming its key and value."""
-    assert get_method("tfe").orders == (4, 6) and "tfe" not in METHODS  # staged: see emorbit.integrators
+    """Orders other than 4 and 6, effects beyond the central field, rigid and elastic bodies,
+    adaptive steps and the GPU: each an InputError naming its key and value, when the
+    simulation is built."""
+    assert get_method("tfe").orders == (4, 6) and "tfe" in METHODS
     assert check_method_order("tfe", 6) == 6
+    field = emorbit.CentralField(gm=PAPER_GM)
     for order in (2, 8):
         with pytest.raises(InputError) as info:
-            check_method_order("tfe", order, key="integrator.order")
-        assert info.value.key == "integrator.order" and str(order) in str(info.value)
+            emorbit.Simulation(field, method="tfe", order=order, dt=1.0)
+        assert info.value.key == "order" and str(order) in str(info.value) and "'tfe'" in str(info.value)
         with pytest.raises(InputError) as info:
             run(order, PAPER_T / 100, 1)
         assert info.value.key == "order" and str(order) in str(info.value)
+    sim = emorbit.Simulation(emorbit.CentralField(body="earth"), method="tfe", order=4, dt=10.0)
     with pytest.raises(InputError) as info:
-        dispatch.method_code("tfe", "fast")
-    assert info.value.key == "method" and "'tfe'" in str(info.value) and "effects" in str(info.value)
+        sim.add_effect("zonal", model="earth", degree=2)
+    assert info.value.key == "method" and "'tfe'" in str(info.value) and "zonal" in str(info.value)
+    with pytest.raises(InputError) as info:
+        sim.add_rigid("box", "box", size=[1.0, 1.0, 1.0], mass=1.0, position=[7e6, 0, 0], velocity=[0, 7.5e3, 0])
+    assert info.value.key == "method" and "'tfe'" in str(info.value)
+    with pytest.raises(InputError) as info:
+        emorbit.Simulation(field, method="tfe", order=4, dt=1.0, adaptive=0.01)
+    assert info.value.key == "adaptive" and "'tfe'" in str(info.value)
+    with pytest.raises(InputError) as info:
+        emorbit.Simulation(field, method="tfe", order=4, dt=1.0).device = "gpu"
+    assert info.value.key == "device" and "'tfe'" in str(info.value)
     with pytest.raises(InputError) as info:
         dispatch.adaptive_chunk("tfe")
     assert info.value.key == "adaptive" and "'tfe'" in str(info.value)
-    with pytest.raises(InputError) as info:
-        dispatch.point_chunk("tfe", device="gpu")
-    assert info.value.key == "device" and "'gpu'" in str(info.value)
+
+
+def test_a_scene_runs_it():
+    """A scene's ``method = "tfe"``: the paper's orbit at order 6 and T/100 keeps the energy
+    within 1e-12 over 10 orbits, as the kernel does."""
+    text = (importlib.resources.files("emorbit") / "scenes" / "paper-ellipse.toml").read_text()
+    text = text.replace('method = "em"\norder = 2', 'method = "tfe"\norder = 6')
+    sim = emorbit.parse_scene(text).build()
+    res = sim.run(steps=1000, every=100, progress=False)
+    assert res.si.method == "tfe" and res.si.order == 6
+    assert np.abs(res.relative_energy_error()).max() <= 1e-12

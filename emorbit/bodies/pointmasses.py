@@ -595,7 +595,7 @@ class PointMasses(WorkSums, BodySystem):
     #: per-body datasets (width, unit) written to the output file
     DATASETS = {"position": (3, "m"), "velocity": (3, "m / s")}
     #: methods with a point-mass kernel
-    METHODS = ("em", "midpoint", "leapfrog")
+    METHODS = ("em", "midpoint", "leapfrog", "tfe")
     #: the state of fixed steps: what their checkpoints store
     BASE_FIELDS = ("x", "v", "cx", "cv")
     #: units of the state arrays beyond emorbit.io.reader.STATE_UNITS

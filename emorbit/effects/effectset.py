@@ -176,14 +176,22 @@ class EffectSet:
 
     # -- checks against the run ----------------------------------------------------------------
     def check_method(self, method: str, key: str = "method") -> None:
-        """Refuse a method an effect cannot run with: leapfrog kicks with forces that depend on
-        the velocity (drag) or that act between pairs of bodies of other kinds.
+        """Refuse a method an effect cannot run with: one whose kernels step the central field
+        alone (:attr:`~emorbit.integrators.Method.effects`), and leapfrog kicks with forces
+        that depend on the velocity (drag) or that act between pairs of bodies of other kinds.
 
         Raises
         ------
         InputError
             Naming the method's key and the effect.
         """
+        from ..integrators import get_method
+
+        if self._named and not get_method(method).effects:
+            e = self._named[0]
+            raise InputError(
+                key, f"method {method!r} steps the central field alone, and the run has {e.key} ({e.kind}); use em"
+            )
         if method != "leapfrog":
             return
         for e in self._named:

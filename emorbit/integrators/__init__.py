@@ -2,8 +2,7 @@
 them: :data:`ORDERS`, :data:`ROUNDOFF` and :data:`DEVICES`, each checked here and nowhere else.
 
 Every method but one is a symmetric second-order step; :mod:`.composition` raises it to order
-4, 6 or 8. ``"tfe"`` (in :data:`STAGED` until the point-mass system offers it) reaches its
-orders (4 and 6, :attr:`Method.orders`) in one implicit solve of 2 or 3 stages instead
+4, 6 or 8. ``"tfe"`` reaches its orders (4 and 6, :attr:`Method.orders`) in one implicit solve of 2 or 3 stages instead
 (:mod:`emorbit.kernels.pointmass.tfe`). :mod:`.dispatch` maps
 (method, roundoff, device) to the kernel that runs it. To add a method: give it a code in
 :mod:`emorbit.kernels.codes`, write its step kernel for each body kind it supports (see
@@ -23,7 +22,6 @@ from .composition import ORDERS, coefficients
 __all__ = [
     "Method",
     "METHODS",
-    "STAGED",
     "ORDERS",
     "ROUNDOFF",
     "DEVICES",
@@ -60,6 +58,8 @@ class Method:
         central field (every method conserves angular momentum there).
     orders : tuple of int
         The orders it runs at: :data:`ORDERS` for a second-order step and its compositions.
+    effects : bool
+        Whether its kernels run under effects beyond the central field.
     """
 
     name: str
@@ -67,6 +67,7 @@ class Method:
     implicit: bool
     conserves: tuple[str, ...]
     orders: tuple[int, ...] = ORDERS
+    effects: bool = True
 
 
 METHODS = {
@@ -88,24 +89,18 @@ METHODS = {
         implicit=False,
         conserves=("angular_momentum",),
     ),
-}
-"""The methods by name: ``"em"`` (energy-momentum), ``"midpoint"`` and ``"leapfrog"``."""
-
-STAGED = {
     "tfe": Method(
         "tfe",
         "energy-momentum time finite element: order 2k in one solve of k Gauss stages (point masses, central field)",
         implicit=True,
         conserves=("energy", "angular_momentum"),
         orders=(4, 6),
+        effects=False,
     ),
 }
-"""Methods with a kernel that :func:`get_method`, :mod:`.dispatch` and the point-mass system's
-``advance`` take, but that :data:`METHODS` does not list yet: the scene keys, the docs'
-tables and the suite's parametrised checks iterate :data:`METHODS`, and the point-mass system
-does not offer them to a :class:`~emorbit.simulation.Simulation`. ``"tfe"``: energy-momentum
-time finite elements of orders 4 and 6 (:mod:`emorbit.kernels.pointmass.tfe`); it joins
-:data:`METHODS` once ``PointMasses.METHODS`` lists it."""
+"""The methods by name: ``"em"`` (energy-momentum), ``"midpoint"``, ``"leapfrog"`` and ``"tfe"``
+(energy-momentum time finite elements of orders 4 and 6, :mod:`emorbit.kernels.pointmass.tfe`:
+point masses in the central field, fixed steps on the CPU)."""
 
 
 def get_method(name, key: str = "method") -> Method:
@@ -114,7 +109,7 @@ def get_method(name, key: str = "method") -> Method:
     Parameters
     ----------
     name : str
-        A key of :data:`METHODS` or :data:`STAGED`.
+        A key of :data:`METHODS`.
     key : str
         Where the name came from, for the error message.
 
@@ -128,8 +123,6 @@ def get_method(name, key: str = "method") -> Method:
     InputError
         An unknown name.
     """
-    if isinstance(name, str) and name in STAGED:
-        return STAGED[name]
     if not isinstance(name, str) or name not in METHODS:
         raise InputError(key, f"unknown method {name!r}; known: {', '.join(METHODS)}")
     return METHODS[name]

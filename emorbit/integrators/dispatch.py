@@ -111,9 +111,6 @@ def method_code(method: str, roundoff: str = "brouwer") -> int:
         An unknown method or roundoff.
     """
     name = get_method(method).name
-    if check_roundoff(roundoff) == "fast" and name == "tfe":
-        # every caller that asks for "fast" steps points under effects, rigid bodies or structures
-        _refuse_tfe(name, "method", "this run has effects or bodies of another kind: use method 'em'")
     if check_roundoff(roundoff) == "fast" and name == "em":
         return codes.METHOD_EM_PLAIN
     return _CODES[name]

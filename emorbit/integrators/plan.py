@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..units import to_count
-from . import check_device, check_order, check_roundoff, coefficients, get_method
+from . import check_device, check_method_order, check_roundoff, coefficients, get_method
 
 __all__ = ["Plan", "MAX_NEWTON_ITERATIONS", "NEWTON"]
 
@@ -74,7 +74,7 @@ class Plan:
     def __post_init__(self):
         key = self.key
         object.__setattr__(self, "method", get_method(self.method, key("method")).name)
-        object.__setattr__(self, "order", check_order(self.order, key("order")))
+        object.__setattr__(self, "order", check_method_order(self.method, self.order, key("order")))
         object.__setattr__(self, "roundoff", check_roundoff(self.roundoff, key("roundoff")))
         object.__setattr__(self, "device", check_device(self.device, key("device")))
         eta = self.adaptive
@@ -89,6 +89,9 @@ class Plan:
         )
         if self.newton not in NEWTON:
             raise InputError(key("newton"), f"must be 'auto', 'reuse' or 'full', got {self.newton!r}")
+        if self.method == "tfe" and (self.adaptive is not None or self.device != "cpu"):
+            name = "adaptive" if self.adaptive is not None else "device"
+            raise InputError(key(name), "method 'tfe' takes fixed steps on the CPU; use method 'em' for this run")
         if self.device == "gpu" and self.adaptive is not None:
             raise InputError(key("device"), "adaptive steps run on the CPU only; use device 'cpu'")
 
