@@ -6,9 +6,11 @@ crossings as (step, event, g before, g after). After a chunk, :meth:`EventRun.lo
 puts the systems back to the chunk's start, re-runs them to each crossing's step (the kernels
 are deterministic), locates it there with steps of shorter length (:meth:`EventRun.find`),
 logs it and puts the systems back where the chunk left them, so the run's states do not
-depend on its events. A stopping event's crossing is handled before the chunk is recorded
-(:meth:`EventRun.stop_at`): the records before it are emitted again, the run ends at the
-event's state, and its clock goes on from the event's time.
+depend on its events. A step redone in sub-steps after a failed Newton iteration is checked
+on its own (:meth:`EventRun.redone`), its crossings located with the same sub-steps. A
+stopping event's crossing is handled before the chunk is recorded (:meth:`EventRun.stop_at`):
+the records before it are emitted again, the run ends at the event's state, and its clock
+goes on from the event's time.
 
 Data layout: crossings are tuples (step: int, the step number after which g has its new
 sign; event index; g before; g after); the log is :attr:`emorbit.events.EventSet.log`.
@@ -80,7 +82,8 @@ class EventRun:
         return self._mark
 
     def reset(self, mark) -> None:
-        """A chunk failed: forget its crossings; steps redone in sub-steps are not scanned."""
+        """A chunk failed: forget its crossings (the steps before the failure are logged, the
+        step redone in sub-steps is checked by :meth:`redone`)."""
         self.events.previous, self.events.fired = mark[0], set(mark[1])
         self._crossings, self._scanning = [], False
 
@@ -89,6 +92,75 @@ class EventRun:
         self._scanning = True
         self._crossings = []
         self._from_here()
+
+    def before_redo(self):
+        """g at the start of a step about to be redone in sub-steps (None without events)."""
+        if not self.events:
+            return None
+        return self.g(self.sim._current(), 1, np.array([self.sim.time]))[0]
+
+    def _sub_step(self, j: int, tau: float, t0: float, parts: int, gammas):
+        """``parts`` sub-steps of ``tau / parts`` from the systems' state at time ``t0`` (as a
+        redone step takes them): (g of event j after them, the records)."""
+        sim = self.sim
+        its = sim.max_newton_iterations
+        recs = [
+            (s, s.advance(sim.method, sim.gm, sim.center, tau / parts, gammas, parts, 1, its, (t0, 0)))
+            for s in sim.systems
+        ]
+        if any(r.first_failure() is not None for _, r in recs):
+            return float("nan"), recs
+        return float(self.g(recs, 1, np.array([t0 + tau]))[0, j]), recs
+
+    def redone(self, start, t0: float, parts: int, g0, gammas, sink) -> str:
+        """A step from ``start`` (snapshots at time ``t0``) redone in ``parts`` sub-steps after
+        its Newton iteration failed: its crossings against g0 (g at its start), located by
+        the same sub-steps of shorter length and logged; a stop ends the run at its event
+        (as :meth:`stop_at`), an impulse or a burn's switch splits the step there (as
+        :meth:`kick_at`). Returns "stop", "split" or "" (the systems then at the step's end);
+        the caller counts the step."""
+        if g0 is None:
+            return ""
+        sim = self.sim
+        step = sim._steps + 1
+        self.events.previous = g0
+        found = self.events.crossings(self.g(sim._current(), 1, np.array([t0 + sim._dt])))
+        if not found:
+            return ""
+        end = [s.snapshot() for s in sim.systems]
+
+        def at(j, g_a, g_b):
+            def g_of(tau):
+                for s, snap in zip(sim.systems, start):
+                    s.restore(snap)
+                return self._sub_step(j, tau, t0, parts, gammas)[0]
+
+            tau = locate(g_of, sim._dt, g_a, g_b, t0)
+            for s, snap in zip(sim.systems, start):
+                s.restore(snap)
+            return tau, self._sub_step(j, tau, t0, parts, gammas)[1]
+
+        located = sorted((at(j, a, b)[0], j, a, b) for _, j, a, b in found)
+        for tau, j, a, b in located:
+            crossing, e, t = (step, j, a, b), self.events.events[j], t0 + tau
+            _, recs = at(j, a, b)
+            if e.stop:
+                sim._steps = step
+                sim._t_base = t - step * sim._dt  # the clock goes on from the event
+                sink.emit(recs, np.array([step]), 1, 1, times=np.array([t]))
+                self.log_event(crossing, t, recs, sink)
+                sim.stopped_by = e
+                return "stop"
+            if e.splits:
+                self._kick(crossing, t, recs, sink)
+                rest = self._sub_step(j, sim._dt - tau, t, parts, gammas)[1] if tau < sim._dt else recs
+                if any(r.first_failure() is not None for _, r in rest):
+                    raise IntegrationError(t, e.body or "", f"the rest of the step after {e.label} failed")
+                return "split"
+            self.log_event(crossing, t, recs, sink)
+        for s, snap in zip(sim.systems, end):
+            s.restore(snap)
+        return ""
 
     def first_stop(self, failed=None):
         """The earliest crossing in the chunk of an event that stops the run or splits its step
@@ -197,15 +269,7 @@ class EventRun:
             raise refused[0]
         t, tau, recs, _ = self.find(crossing, gammas)
         e = self.events.events[j]
-        if e.dv is not None:
-            state = self.data(recs, 1, np.array([t]))[e.body]
-            x, v = np.array(state["position"][0]), np.array(state["velocity"][0])
-            dv = e.impulse(x, v, sim.center)
-            system = next(s for s in sim.systems if e.body in s.names)
-            mass, before = system.kick(e.body, dv, f"{e.key}.dv")
-            self.log_event(crossing, t, recs, sink, dv=dv, work=mass * (float(before @ dv) + 0.5 * float(dv @ dv)))
-        else:  # an effect acts at it (log_event tells the effects)
-            self.log_event(crossing, t, recs, sink)
+        self._kick(crossing, t, recs, sink)
         # the rest of the step (none where the event ends it: a step of length 0 divides by it)
         rest = self._step(sim._dt - tau, t, gammas) if tau < sim._dt else sim._current()
         if any(r.first_failure() is not None for _, r in rest):
@@ -217,6 +281,20 @@ class EventRun:
         self._from_here()
         self._scanning, self._crossings = True, []
         return pre + 1
+
+    def _kick(self, crossing, t: float, recs, sink) -> None:
+        """At a located event that splits its step (the systems at it, their records ``recs``):
+        add its impulse and log it with its work, or log it and let the effects act."""
+        e = self.events.events[crossing[1]]
+        if e.dv is not None:
+            state = self.data(recs, 1, np.array([t]))[e.body]
+            x, v = np.array(state["position"][0]), np.array(state["velocity"][0])
+            dv = e.impulse(x, v, self.sim.center)
+            system = next(s for s in self.sim.systems if e.body in s.names)
+            mass, before = system.kick(e.body, dv, f"{e.key}.dv")
+            self.log_event(crossing, t, recs, sink, dv=dv, work=mass * (float(before @ dv) + 0.5 * float(dv @ dv)))
+        else:  # an effect acts at it (log_event tells the effects)
+            self.log_event(crossing, t, recs, sink)
 
     def stop_at(self, crossing, snapshots, k: int, gammas, sink) -> int:
         """A stopping event in the chunk that started from ``snapshots``: record the chunk's

@@ -368,6 +368,8 @@ class EventSet:
         row before the first: :attr:`previous`), in the order of their rows: [(row, event, g
         before, g after)]. Updates :attr:`previous` to the last row."""
         g = np.asarray(g, float)
+        if not g.shape[0]:  # no steps (a chunk whose first step failed)
+            return []
         before = np.vstack([g[:1] if self.previous is None else self.previous[None], g[:-1]])
         sign = np.array([e.direction for e in self.events])
         with np.errstate(invalid="ignore"):

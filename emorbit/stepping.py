@@ -588,6 +588,8 @@ class ChunkDriver:
                             self._ev.restart()
                             done += taken
                             bar.update(taken)
+                            if self.stopped_by is not None:  # a stop in the step redone in sub-steps
+                                break
                 since = self._steps - origin
                 # the last record on the grid before a shorter last interval: the run's last checkpoint
                 last = since % every == 0 and 0 < n_steps - done < every
@@ -645,6 +647,7 @@ class ChunkDriver:
             return self._recover(again, snapshots, earlier, k, every, gammas, sink, origin)
         self._steps += step
         start = [s.snapshot() for s in self.systems]
+        g0 = self._ev.before_redo()
         gate = self._drift is not None and self._drift.gate
         e0 = self._energies(self._current(), 1)[0] if gate else 0.0
         for level in range(1, self.MAX_SPLIT + 1):
@@ -669,6 +672,11 @@ class ChunkDriver:
             if all(r.first_failure() is None for _, r in sub) and not (gate and self._unsolved(sub, e0, parts)):
                 self.retried_steps = self.retried_steps + 1
                 sink.split_pending += 1
+                acted = self._ev.redone(start, self.time, parts, g0, gammas, sink)
+                if acted == "stop":  # the run ends at the event, its record emitted
+                    return step + 1
+                if acted == "split":
+                    sub = self._current()
                 self._steps += 1
                 if (self._steps - origin) % every == 0:
                     sink.emit(sub, np.array([self._steps]), 1, 1)

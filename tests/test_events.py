@@ -518,3 +518,46 @@ def test_events_on_adaptive_steps():
     half = math.pi * math.sqrt(((r1 + r2) / 2) ** 3 / mu)
     assert abs(res.si.events[1]["time"] - 1000.0 - half) <= 1e-9
     assert np.abs(res.si.relative_energy_balance()).max() <= 1e-14
+
+
+def _redone(stop=False, impulse=False, output=None):
+    """The paper's ellipse at T/20 with at most 4 Newton iterations per step: the steps
+    around each periapsis fail as a whole and are redone in sub-steps."""
+    from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
+
+    sim = emorbit.Simulation(
+        emorbit.CentralField(gm=PAPER_GM), method="em", order=2, dt=PAPER_T / 20, max_newton_iterations=4
+    )
+    sim.add_point("s", mass=1.0, position=PAPER_X0, velocity=PAPER_V0)
+    if impulse:
+        sim.add_event("periapsis", body="s", label="peri", dv=["0.01 m/s", "0 m/s", "0 m/s"], frame="vnc")
+    else:
+        sim.add_event("periapsis", body="s", label="peri")
+    sim.add_event("apoapsis", body="s", label="apo")
+    if stop:
+        sim.add_event("radius", body="s", value="2.5 m", direction="falling", label="low", stop=True)
+    return sim, sim.run(steps=60, every=1, progress=False, output=output), PAPER_T
+
+
+def test_events_in_steps_redone_in_sub_steps(tmp_path):
+    """Crossings in a step whose Newton iteration failed and which was redone in sub-steps
+    are located with the same sub-steps: the three periapses of three orbits (each in a
+    redone step) logged between the apoapses, at x . v within 8 eps of |x| |v| (measured
+    1.4 eps); a stop at r = 2.5 m in such a step ends the run at its first crossing, r within
+    2 ulp; an impulse at the periapsis there is logged with its work, and E - E0 - W stays
+    within 1e-13 of E0 (measured 1.9e-15)."""
+    sim, res, period = _redone()
+    assert sim.retried_steps >= 3
+    assert [e["label"] for e in res.si.events] == ["peri", "apo"] * 3
+    for e in res.si.events:
+        x, v = e["position"], e["velocity"]
+        assert abs(x @ v) <= 8 * np.finfo(float).eps * np.linalg.norm(x) * np.linalg.norm(v)
+    sim, res, period = _redone(stop=True, output=tmp_path / "stop.h5")
+    assert sim.stopped_by.label == "low" and res.si.time[-1] < 0.5 * period
+    assert abs(np.linalg.norm(res.si.positions["s"][-1]) - 2.5) <= 2 * math.ulp(2.5)
+    with h5py.File(tmp_path / "stop.h5") as f:
+        assert f.attrs["status"] == "stopped"
+    sim, res, period = _redone(impulse=True)
+    kicks = [e for e in res.si.events if e["label"] == "peri"]
+    assert len(kicks) == 1 and kicks[0]["work"] > 0.0  # an impulse fires once
+    assert np.abs(res.si.energy_balance).max() <= 1e-13 * abs(res.si.energy[0])
