@@ -430,7 +430,7 @@ class Assembly:
     # -- events -------------------------------------------------------------------------
     def add_event(
         self, kind: str, *, body=None, value=None, direction=None, stop: bool = False, other=None, label=None,
-        dv=None, frame=None, after=None, sun=None, key: str | None = None, strict: bool = False,
+        dv=None, frame=None, after=None, sun=None, shadow=None, key: str | None = None, strict: bool = False,
     ):  # fmt: skip
         """Add an event: a zero crossing of a function of the state, found after every step and
         located to round-off in time (:mod:`emorbit.events` has the kinds and the method).
@@ -439,7 +439,8 @@ class Assembly:
         ----------
         kind : str
             ``"radius"``, ``"altitude"`` (above the field's radius), ``"periapsis"``,
-            ``"apoapsis"``, ``"node"`` (the scene's z = 0 plane), ``"time"`` or ``"distance"``.
+            ``"apoapsis"``, ``"node"`` (the scene's z = 0 plane), ``"time"``, ``"distance"`` or
+            ``"eclipse"``.
         body : str, optional
             The body whose state it reads (a rigid or elastic body's centre of mass); not for
             ``time``.
@@ -467,6 +468,9 @@ class Assembly:
         sun : sequence of 3, optional
             An eclipse's fixed direction to the Sun, in the scene's axes (default: the Sun of
             astropy's builtin ephemeris, from the run's epoch).
+        shadow : str, optional
+            An eclipse's edge: ``"cylindrical"`` (default), or the conical shadow's
+            ``"penumbra"`` or ``"umbra"`` (the edges of radiation pressure's default shadow).
         key : str, optional
             Its name in errors (default ``event[<i>]``).
         strict : bool
@@ -491,6 +495,7 @@ class Assembly:
         return self.events.add(
             kind, body=body, value=value, direction=direction, stop=stop, other=other, label=label, dv=dv,
             frame=frame, after=after, sun=sun, epoch=self.epoch, key=key, strict=strict, has_radius=has_radius,
+            shadow=shadow,
         )  # fmt: skip
 
     # -- effects ------------------------------------------------------------------------

@@ -235,14 +235,19 @@ class EventRun:
         for s, snap in zip(self.sim.systems, snapshots):
             s.restore(snap)
         at = first
-        for crossing in crossings:
+        located = []  # the crossings of one step, logged in time order
+        for n, crossing in enumerate(crossings):
             if crossing[0] - 1 > at:
                 self.sim._advance_all(gammas, crossing[0] - 1 - at, 1, at)
                 at = crossing[0] - 1
             t, _, recs, start = self.find(crossing, gammas)
-            self.log_event(crossing, t, recs, sink)
+            located.append((t, crossing, recs))
             for s, snap in zip(self.sim.systems, start):
                 s.restore(snap)
+            if n + 1 == len(crossings) or crossings[n + 1][0] != crossing[0]:
+                for t, c, recs in sorted(located, key=lambda item: (item[0], item[1])):
+                    self.log_event(c, t, recs, sink)
+                located = []
         for s, snap in zip(self.sim.systems, end):
             s.restore(snap)
 

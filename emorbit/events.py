@@ -18,11 +18,17 @@ kind           g                                           direction by default
                else ``R + d . s`` (``d = x - c``)
 =============  ==========================================  ======================
 
-``eclipse`` is the central body's cylindrical shadow: ``s`` is the unit vector to the Sun,
-``d_perp = d - (d . s) s``; g is continuous across the shadow's edge (it changes sign
-only there). The Sun's direction is ``sun`` (fixed, in the scene's axes) or, by default, the
-Sun's geocentric position from :class:`emorbit.effects.ephemeris.EphemerisTable` (astropy's
-builtin ephemeris, sampled hourly from the run's epoch, which it then needs).
+``eclipse`` is by default the central body's cylindrical shadow: ``s`` is the unit vector to
+the Sun, ``d_perp = d - (d . s) s``; g is continuous across the shadow's edge (it changes
+sign only there). With ``shadow = "penumbra"`` or ``"umbra"`` it is an edge of the conical
+shadow that radiation pressure's default shadow model has (the plane-disc model): seen from
+the body, the Sun's disc of angular radius ``a = asin(R_sun / |S - d|)`` and the central
+body's of ``b = asin(R / |d|)`` lie ``c`` apart (S the Sun's position), and ``g = c - (a +
+b)`` (the penumbra's edge: the Sun starts to be covered) or ``g = c - (b - a)`` (the umbra's:
+it is covered whole), both continuous. R_sun is astropy's IAU 2015 nominal solar radius. The
+Sun's direction is ``sun`` (fixed, in the scene's axes, at 1 au for the conical edges) or, by
+default, the Sun's geocentric position from :class:`emorbit.effects.ephemeris.EphemerisTable`
+(astropy's builtin ephemeris, sampled hourly from the run's epoch, which it then needs).
 
 ``direction`` picks the crossings that count: ``rising`` (g from below zero to zero or
 above), ``falling``, or ``either``.
@@ -69,7 +75,7 @@ import numpy as np
 from .errors import InputError
 from .units import to_si, vector_to_si
 
-__all__ = ["KINDS", "DIRECTIONS", "DIRECTION_NAMES", "MAX_EVENTS", "Event", "EventSet", "locate"]
+__all__ = ["KINDS", "DIRECTIONS", "DIRECTION_NAMES", "SHADOWS", "MAX_EVENTS", "Event", "EventSet", "locate"]
 
 #: kind -> (the unit kind of its value or None, the default direction, whether it names a body)
 KINDS = {
@@ -90,6 +96,9 @@ MAX_EVENTS = 64
 MAX_LOCATE = 100
 #: the frames an impulse may be given in
 FRAMES = ("inertial", "rsw", "vnc")
+#: the shadow edges an eclipse event may follow: the cylindrical shadow's, or the conical
+#: shadow's penumbra or umbra
+SHADOWS = ("cylindrical", "penumbra", "umbra")
 
 
 @dataclass
@@ -120,6 +129,8 @@ class Event:
         A name of :data:`FRAMES`.
     after : str or None
         The label of the event that arms this one.
+    shadow : str
+        An eclipse's edge, a name of :data:`SHADOWS`.
     acts : bool
         Whether an effect acts at it (a burn starts or ends there): like an impulse, it
         splits its step and fires once.
@@ -141,6 +152,7 @@ class Event:
     _table: object = None
     #: whether an effect acts at it (a burn starts or ends): the step is split there, once
     acts: bool = False
+    shadow: str = "cylindrical"
 
     @property
     def splits(self) -> bool:
@@ -150,9 +162,17 @@ class Event:
 
     def sun_direction(self, times) -> np.ndarray:
         """Unit vectors to the Sun at ``times`` (s from the epoch): (m, 3)."""
+        p = self.sun_position(times)
+        return p / np.linalg.norm(p, axis=-1, keepdims=True)
+
+    def sun_position(self, times) -> np.ndarray:
+        """The Sun's position from the field's centre at ``times`` (s from the epoch): (m, 3)
+        m (a fixed direction at 1 au)."""
         times = np.asarray(times, float)
         if self.sun is not None:
-            return np.broadcast_to(self.sun, (times.size, 3))
+            from astropy.constants import au
+
+            return np.broadcast_to(self.sun * float(au.si.value), (times.size, 3))
         table = self._table
         if table is None or times.min() < table.start or times.max() > table.end:
             from astropy.time import TimeDelta
@@ -162,8 +182,7 @@ class Event:
             lo, hi = float(times.min()) - 3600.0, float(times.max()) + 10 * 86400.0
             start, end = (self.epoch + TimeDelta(t, format="sec") for t in (lo, hi))
             table = self._table = EphemerisTable("sun", start, end, 3600.0, epoch=self.epoch, check=False)
-        p = table.position(times)
-        return p / np.linalg.norm(p, axis=-1, keepdims=True)
+        return table.position(times)
 
     def impulse(self, x, v, center) -> np.ndarray:
         """The impulse in the scene's axes at the body's position ``x`` and velocity ``v``."""
@@ -193,6 +212,8 @@ class Event:
             return np.einsum("ij,ij->i", d, np.asarray(data[self.body]["velocity"], float))
         if self.kind == "node":
             return d[:, 2].copy()
+        if self.kind == "eclipse" and self.shadow != "cylindrical":
+            return self._conical(times, d, radius)
         if self.kind == "eclipse":
             s = self.sun_direction(times)
             along = np.einsum("ij,ij->i", d, s)
@@ -200,6 +221,16 @@ class Event:
             return np.where(along < 0.0, across - radius, radius + along)
         other = np.asarray(data[self.other]["position"], float)
         return np.linalg.norm(np.asarray(data[self.body]["position"], float) - other, axis=1) - self.value
+
+    def _conical(self, times, d, radius) -> np.ndarray:
+        """g of an edge of the conical shadow at the body's positions d (m, 3) from the centre."""
+        from astropy.constants import R_sun
+
+        q = self.sun_position(times) - d  # to the Sun, from the body
+        a = np.arcsin(np.minimum(float(R_sun.si.value) / np.linalg.norm(q, axis=1), 1.0))
+        b = np.arcsin(np.minimum(radius / np.linalg.norm(d, axis=1), 1.0))
+        c = np.arctan2(np.linalg.norm(np.cross(-d, q), axis=1), np.einsum("ij,ij->i", -d, q))
+        return c - (a + b) if self.shadow == "penumbra" else c - (b - a)
 
     def describe(self) -> str:
         """The event in words, for messages: ``altitude of sat below 120000 m``."""
@@ -210,7 +241,8 @@ class Event:
             return f"{self.label}: {self.kind} of {self.body}"
         if self.kind == "eclipse":
             which = {1: "exit from ", -1: "entry into ", 0: "edge of "}[self.direction]
-            return f"{self.label}: {which}the shadow of {self.body}"
+            shadow = "the shadow" if self.shadow == "cylindrical" else f"the {self.shadow}"
+            return f"{self.label}: {which}{shadow} of {self.body}"
         if self.kind == "node":
             which = {1: "ascending ", -1: "descending ", 0: ""}[self.direction]
             return f"{self.label}: {which}node of {self.body}"
@@ -248,7 +280,7 @@ class EventSet:
 
     def add(self, kind, *, body=None, value=None, direction=None, stop=False, other=None, label=None,
             dv=None, frame=None, after=None, sun=None, epoch=None, key=None, strict=False,
-            has_radius=True) -> Event:  # fmt: skip
+            has_radius=True, shadow=None) -> Event:  # fmt: skip
         """Check and add an event; see :meth:`emorbit.Simulation.add_event` for the keys.
 
         Raises
@@ -300,6 +332,8 @@ class EventSet:
                 )
         elif sun is not None:
             raise InputError(f"{key}.sun", f"only an eclipse event has a Sun direction, got {sun!r}")
+        if shadow is not None and (kind != "eclipse" or shadow not in SHADOWS):
+            raise InputError(f"{key}.shadow", f"one of {', '.join(SHADOWS)}, for an eclipse, expected, got {shadow!r}")
         if kind in ("altitude", "eclipse") and not has_radius:
             raise InputError(f"{key}.kind", f"an {kind} is measured with the field's radius: give the [field] a radius")
         if direction is None:
@@ -332,7 +366,7 @@ class EventSet:
             known = ", ".join(e.label for e in self.events) or "none yet"
             raise InputError(f"{key}.after", f"the label of an event before this one expected ({known}), got {after!r}")
         event = Event(kind, body, float(level), sign, stop, other, label, key, impulse, frame or "inertial", after, sun,
-                      None if sun is not None else epoch)  # fmt: skip
+                      None if sun is not None else epoch, shadow=shadow or "cylindrical")  # fmt: skip
         self.events.append(event)
         self.previous = None
         return event

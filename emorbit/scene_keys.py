@@ -229,7 +229,7 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("kind", True, "string", "", _choices(EVENT_KINDS),
             "what crosses zero: |x - c| - value, the altitude above the field's radius less value, (x - c) . v, "
             "the z coordinate of x - c, t - value, the distance to other less value, or the edge of the "
-            "central body's cylindrical shadow"),
+            "central body's shadow (shadow)"),
         Key("body", False, "string", "", "the name of a body; not for time",
             "the body whose state it reads (a rigid or elastic body's centre of mass)"),
         Key("value", False, "length (m), or time (s) for time", "", "finite; radius, altitude, distance and time only",
@@ -247,6 +247,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
             "the event counts only once that one has happened"),
         Key("sun", False, "3 numbers", "the Sun of astropy's builtin ephemeris (needs the epoch)",
             "a direction other than 0; eclipse only", "the direction to the Sun, in the scene's axes"),
+        Key("shadow", False, "string", '"cylindrical"', _choices(("cylindrical", "penumbra", "umbra")) +
+            "; eclipse only", "the shadow's edge: cylindrical, or the conical shadow's penumbra or umbra"),
     ),
     "coupling": (
         Key("kind", True, "string", "", _choices(COUPLING_KINDS), "the kind of coupling"),

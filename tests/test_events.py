@@ -561,3 +561,44 @@ def test_events_in_steps_redone_in_sub_steps(tmp_path):
     kicks = [e for e in res.si.events if e["label"] == "peri"]
     assert len(kicks) == 1 and kicks[0]["work"] > 0.0  # an impulse fires once
     assert np.abs(res.si.energy_balance).max() <= 1e-13 * abs(res.si.energy[0])
+
+
+def test_eclipse_edges_of_the_conical_shadow():
+    """A 7000 km circular orbit with the Sun fixed at 1 au along x: the penumbra's and the
+    umbra's entry and exit (``shadow = "penumbra"``, ``"umbra"``) against the plane-disc
+    geometry's roots (brentq to round-off), within 1e-9 s on order-8 adaptive steps (measured
+    2e-12 s), in order: penumbra in, umbra in, umbra out, penumbra out. At them radiation
+    pressure's conical shadow function sees the Sun whole (1) or covered (0), within 1e-6."""
+    from astropy.constants import R_sun, au
+    from scipy.optimize import brentq
+
+    from emorbit.kernels.effects.radiation import shadow_conical
+
+    r, big = 7000e3, float(au.si.value)
+    period = 2 * math.pi * math.sqrt(r**3 / EARTH.gm)
+    sim = emorbit.Simulation(EARTH, dt=60.0, order=8, adaptive=0.05)
+    sim.add_point("sat", mass=1.0, position=[r, 0, 0], velocity=[0, math.sqrt(EARTH.gm / r), 0])
+    for shadow in ("penumbra", "umbra"):
+        for direction, word in (("falling", "in"), ("rising", "out")):
+            sim.add_event("eclipse", body="sat", sun=[1, 0, 0], shadow=shadow, direction=direction,
+                          label=f"{shadow} {word}")  # fmt: skip
+    res = sim.run(t_end=f"{period!r} s", every=1, progress=False)
+    assert [e["label"] for e in res.si.events] == ["penumbra in", "umbra in", "umbra out", "penumbra out"]
+
+    def edge(theta, penumbra):
+        d = r * np.array([math.cos(theta), math.sin(theta), 0.0])
+        q = np.array([big, 0.0, 0.0]) - d
+        a = math.asin(float(R_sun.si.value) / np.linalg.norm(q))
+        b = math.asin(EARTH.radius / r)
+        c = math.atan2(np.linalg.norm(np.cross(-d, q)), float(-d @ q))
+        return c - (a + b) if penumbra else c - (b - a)
+
+    pen = brentq(lambda th: edge(th, True), 0.5 * math.pi, math.pi, xtol=1e-15)
+    umb = brentq(lambda th: edge(th, False), 0.5 * math.pi, math.pi, xtol=1e-15)
+    angles = [pen, umb, 2 * math.pi - umb, 2 * math.pi - pen]
+    times = np.array([e["time"] for e in res.si.events])
+    assert np.abs(times - np.array(angles) * period / (2 * math.pi)).max() <= 1e-9
+    for e, full in zip(res.si.events, (1.0, 0.0, 0.0, 1.0)):
+        x = e["position"]
+        nu = shadow_conical(x[0], x[1], x[2], big, 0.0, 0.0, EARTH.radius, float(R_sun.si.value))
+        assert abs(nu - full) <= 1e-6, (e["label"], nu)

@@ -280,6 +280,8 @@ def event_lines(events) -> list[str]:
             lines.append(f"after = {json.dumps(event.after)}")
         if event.sun is not None:
             lines.append(f"sun = [{', '.join(repr(float(c)) for c in event.sun)}]")
+        if event.kind == "eclipse" and event.shadow != "cylindrical":
+            lines.append(f'shadow = "{event.shadow}"')
     return lines
 
 
