@@ -57,9 +57,11 @@ Its work, ``m (|v + dv|^2 - |v|^2) / 2``, is logged with it and counted in the e
 event of that label has happened (a Hohmann transfer's second burn at the apoapsis after
 the first). An event that starts or ends a burn (``[[effect]] kind = "thrust"`` with
 ``start_event`` or ``end_event``) splits its step the same way, fires once, and the burn
-switches there. Other events leave the run's states as they are (the located step is taken from
-a copy) and are logged: :attr:`EventSet.log`, the run file's ``events/`` group,
-``Result.events``.
+switches there. An effect may add events that steps land on (:attr:`Event.lands`): each
+crossing splits its step there, every time, so that the effect's force is smooth within
+every step (radiation pressure's ``land``: its shadow's edges). Other events leave the run's
+states as they are (the located step is taken from a copy) and are logged:
+:attr:`EventSet.log`, the run file's ``events/`` group, ``Result.events``.
 
 Data layout: :class:`Event` holds SI values; :meth:`EventSet.values` takes (m,) times and the
 systems' datasets for m records and returns (m, events) float64.
@@ -131,6 +133,16 @@ class Event:
         The label of the event that arms this one.
     shadow : str
         An eclipse's edge, a name of :data:`SHADOWS`.
+    lands : bool
+        Whether steps land on it: each crossing splits its step there (as an impulse does),
+        every time, and nothing acts (an effect's discontinuity: radiation pressure's shadow
+        edges).
+    added_by : str or None
+        The key of the effect that added it (a scene's text leaves it out: the effect adds
+        it again).
+    sun_path, occulting, sun_radius
+        An eclipse's Sun from an effect's own path (a callable of times giving (m, 3) m from
+        the centre), and its occulting and solar radii (m; None: the field's and the IAU's).
     acts : bool
         Whether an effect acts at it (a burn starts or ends there): like an impulse, it
         splits its step and fires once.
@@ -153,12 +165,17 @@ class Event:
     #: whether an effect acts at it (a burn starts or ends): the step is split there, once
     acts: bool = False
     shadow: str = "cylindrical"
+    lands: bool = False
+    added_by: str | None = None
+    sun_path: object = None
+    occulting: float | None = None
+    sun_radius: float | None = None
 
     @property
     def splits(self) -> bool:
-        """Whether it splits its step where it is located and fires once: an impulse, or an
-        event an effect acts at."""
-        return self.dv is not None or self.acts
+        """Whether it splits its step where it is located: an impulse or an event an effect
+        acts at (once), or one steps land on (every time)."""
+        return self.dv is not None or self.acts or self.lands
 
     def sun_direction(self, times) -> np.ndarray:
         """Unit vectors to the Sun at ``times`` (s from the epoch): (m, 3)."""
@@ -169,6 +186,8 @@ class Event:
         """The Sun's position from the field's centre at ``times`` (s from the epoch): (m, 3)
         m (a fixed direction at 1 au)."""
         times = np.asarray(times, float)
+        if self.sun_path is not None:
+            return np.asarray(self.sun_path(times), float)
         if self.sun is not None:
             from astropy.constants import au
 
@@ -212,6 +231,8 @@ class Event:
             return np.einsum("ij,ij->i", d, np.asarray(data[self.body]["velocity"], float))
         if self.kind == "node":
             return d[:, 2].copy()
+        if self.kind == "eclipse" and self.occulting is not None:
+            radius = self.occulting
         if self.kind == "eclipse" and self.shadow != "cylindrical":
             return self._conical(times, d, radius)
         if self.kind == "eclipse":
@@ -227,7 +248,8 @@ class Event:
         from astropy.constants import R_sun
 
         q = self.sun_position(times) - d  # to the Sun, from the body
-        a = np.arcsin(np.minimum(float(R_sun.si.value) / np.linalg.norm(q, axis=1), 1.0))
+        sun = float(R_sun.si.value) if self.sun_radius is None else self.sun_radius
+        a = np.arcsin(np.minimum(sun / np.linalg.norm(q, axis=1), 1.0))
         b = np.arcsin(np.minimum(radius / np.linalg.norm(d, axis=1), 1.0))
         c = np.arctan2(np.linalg.norm(np.cross(-d, q), axis=1), np.einsum("ij,ij->i", -d, q))
         return c - (a + b) if self.shadow == "penumbra" else c - (b - a)
@@ -412,7 +434,7 @@ class EventSet:
         found = []
         for r, j in zip(*np.nonzero(rising | falling)):  # row by row: an event armed in a row counts after it
             e = self.events[j]
-            if (e.after is None or e.after in self.fired) and not (e.splits and e.label in self.fired):
+            if (e.after is None or e.after in self.fired) and not (e.splits and not e.lands and e.label in self.fired):
                 found.append((int(r), int(j), float(before[r, j]), float(g[r, j])))
                 self.fired.add(e.label)
         self.previous = g[-1].copy()

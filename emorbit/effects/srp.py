@@ -23,7 +23,11 @@ the shadow's contacts compositions of order 4 to 8 converge at about order 5/2 (
 the ``srp-ias15`` validation case: order 2 keeps 2.00; order 8 falls to about 3 where the
 shadow's error dominates, 7.97 without shadow). The cylindrical shadow jumps:
 a step whose midpoint ends within the Newton iteration's last update of the shadow's edge
-(about 1e-9 m) may fail to converge, and is then redone in sub-steps. Radiation pressure has no potential: the step sums
+(about 1e-9 m) may fail to converge, and is then redone in sub-steps. With ``land = true``
+steps land on the shadow's edges instead (:mod:`emorbit.events`: each body's crossings of the
+cylinder, or of the penumbra's and the umbra's cones, with this effect's Sun and radii, split
+their steps there), so the force is smooth within every step and the compositions keep their
+order. Radiation pressure has no potential: the step sums
 its discrete work ``F . (x1 - x0)`` (per facet, ``F . (x_f1 - x_f0)``) into
 ``invariants/work_<label>`` and ``E - E0 - W`` stays at round-off. A point mass's force is
 left out of Newton's matrix (below 1e-12 of the central field's derivative); a rigid body's
@@ -65,6 +69,8 @@ def _constants() -> tuple[float, float, float]:
 
 #: radiation pressure at 1 au (N/m^2), the au (m), the Sun's radius (m): IAU 2015 nominal values
 P_AU, AU, SUN_RADIUS = _constants()
+#: the most bodies whose steps land on the shadow's edges (two events each for a conical shadow)
+MAX_LANDING = 16
 _KEYS = (
     Key("shadow", False, "string", '"conical"', '"conical", "cylindrical", "none"',
         "the central body's shadow: with penumbra, a cylinder, or none"),
@@ -76,6 +82,8 @@ _KEYS = (
         "the radius of the central body's shadow-casting sphere"),
     Key("sun_radius", False, "length (m)", '"695700 km"', "> 0", "the Sun's radius (the penumbra's width)"),
     Key("table_step", False, "time (s)", '"6 h"', "> 0", "the sampling interval of the Sun's path"),
+    Key("land", False, "boolean", "false", f"true or false; at most {MAX_LANDING} bodies",
+        "steps land on the shadow's edges, so the force is smooth within every step"),
 )  # fmt: skip
 
 
@@ -112,6 +120,9 @@ class RadiationPressure(Effect):
 
     time_dependent = True
     needs_epoch = True
+    land = False
+    _landing: list = []
+    _epoch = None
 
     def scratch_size(self, n_points: int) -> int:
         return 3  # the Sun at the sub-step's middle time
@@ -130,6 +141,7 @@ class RadiationPressure(Effect):
                 f"{self.key} takes the Sun's position from an ephemeris: the run needs an epoch "
                 '(e.g. epoch = "2026-01-01T00:00:00 TDB")',
             )
+        self._epoch = epoch
         k_first = math.floor(t0 / self.step) - 1
         k_last = max(math.ceil(t1 / self.step) + 1, k_first + 2)
         stamp = (float(epoch.tdb.jd1), float(epoch.tdb.jd2))
@@ -140,6 +152,40 @@ class RadiationPressure(Effect):
         self.p[10] = len(tab)
         self.tab = np.ascontiguousarray(tab.ravel())
         self._span = (k_first, k_last, stamp)
+
+    def bind(self, kinds: dict, masses: dict, named) -> None:
+        """With ``land``, take the bodies whose steps land on the shadow's edges: all of them.
+
+        Raises
+        ------
+        InputError
+            More than :data:`MAX_LANDING` bodies, naming ``land``.
+        """
+        self._landing = list(kinds) if self.land else []
+        if len(self._landing) > MAX_LANDING:
+            raise InputError(
+                f"{self.key}.land",
+                f"steps land on the shadow's edges of at most {MAX_LANDING} bodies (two events each), and the "
+                f"scene has {len(self._landing)}: set land = false",
+            )
+
+    def attach(self, events) -> None:
+        """With ``land``, add the events that steps land on: each body's crossings of the
+        shadow's edges (the cylinder's, or the penumbra's and the umbra's), with this effect's
+        Sun, occulting radius and solar radius, labelled ``<label>.<edge>.<body>``."""
+        edges = ("cylindrical",) if self.shadow == "cylindrical" else ("penumbra", "umbra")
+        have = {e.label for e in events.events}
+        for body in self._landing:
+            for edge in edges:
+                label = f"{self.label}.{edge}.{body}"
+                if label in have:
+                    continue
+                event = events.add(
+                    "eclipse", body=body, direction="either", shadow=edge, label=label, key=f"{self.key}.land",
+                    epoch=self._epoch,
+                )  # fmt: skip
+                event.lands, event.added_by, event.sun_path = True, self.key, self.positions
+                event.occulting, event.sun_radius = float(self.p[2]), float(self.p[3])
 
     def positions(self, t) -> np.ndarray:
         """The Sun on the sampled path at times ``t`` (s from the epoch), relative to the central
@@ -191,8 +237,14 @@ class RadiationPressure(Effect):
                 raise InputError(
                     f"{key}.table_step", f"{step!r} s samples the Sun's path more finely than needed; give >= 1 min"
                 )
+        land = table.get("land", False)
+        if not isinstance(land, bool):
+            raise InputError(f"{key}.land", f"true or false expected, got {land!r}")
+        if land and shadow == "none":
+            raise InputError(f"{key}.land", "steps land on the shadow's edges, and shadow is none")
         ephemeris = _ephemeris(table.get("ephemeris", "builtin"), f"{key}.ephemeris")
         c = np.asarray(field.center, float)
         effect = cls(table, [pressure, AU, occulting, sun_radius, SHADOWS[shadow], *c, step, 0.0, 2.0], np.zeros(12))
         effect.shadow, effect.step, effect._ephemeris, effect._span = shadow, float(step), ephemeris, None
+        effect.land, effect._landing, effect._epoch = land, [], None
         return effect

@@ -363,7 +363,8 @@ def _switch_at(events, t: float, label: str, key: str) -> None:
     """Add the time event ``label`` at t (s) that splits its step for a burn, unless the run has
     it already (a resumed run replays the event that added it)."""
     if all(e.label != label for e in events.events):
-        events.add("time", value=t, label=label, key=key).acts = True
+        event = events.add("time", value=t, label=label, key=key)
+        event.acts, event.added_by = True, key
 
 
 def _label(table: dict, name: str, key: str) -> str:

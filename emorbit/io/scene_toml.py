@@ -262,6 +262,8 @@ def event_lines(events) -> list[str]:
 
     lines: list[str] = []
     for event in events.events:
+        if event.added_by is not None:  # an effect's own: it adds it again
+            continue
         lines += ["", "[[event]]", f'kind = "{event.kind}"', f"label = {json.dumps(event.label)}"]
         if event.body is not None:
             lines.append(f"body = {json.dumps(event.body)}")
