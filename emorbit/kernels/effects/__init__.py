@@ -14,7 +14,9 @@ Data layout: every kernel takes components as float64 scalars (positions ``x, y,
 centre ``c0, c1, c2``, pole ``p0, p1, p2``, a unit vector), parameters as scalars or a
 small float64 array (``jn``), and returns a tuple ``(fx, fy, fz)``; the Jacobian kernels
 add ``dF_i/dx1_j`` into a (3, 3) float64 array ``J`` (so several effects sum into one
-matrix). All are ``inline="always"`` Numba kernels, callable from Python too.
+matrix). All are Numba kernels callable from Python too: helpers ``inline="always"``, the
+effect-set pieces (``*_piece`` and the like) ``forceinline=True``, compiled once per install
+and inlined by LLVM, so that a new effect set does not compile them again.
 
 - :mod:`.central`: a point mass at ``c``, ``V = -gm / r``, with Greenspan's conserving
   pair force (Greenspan 1984; the ``g_em`` of Goettlicher & Schweizerhof)

@@ -54,6 +54,8 @@ __all__ = [
 ]
 
 _inline = kernel(inline="always")
+# an effect-set piece: compiled on its own (cached per install) and inlined by LLVM into the set
+_piece = kernel(forceinline=True)
 
 
 @_inline
@@ -155,7 +157,7 @@ def central_jacobian(x0, y0, z0, x1, y1, z1, c0, c1, c2, gm, J):
     J[2, 2] += s2 * b2 - k
 
 
-@_inline
+@_piece
 def central_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     """The effect-set piece (:mod:`.signatures`): :func:`central_force` and, where ``jac``,
     :func:`central_jacobian`, with ``p = [c0, c1, c2, gm]``."""
@@ -164,7 +166,7 @@ def central_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     return central_force(x0, y0, z0, x1, y1, z1, p[0], p[1], p[2], p[3])
 
 
-@_inline
+@_piece
 def central_rate(x, y, z, vx, vy, vz, c, p):
     """The effect-set piece that sets adaptive steps' time scale: ``W = gm / r**3`` (the
     squared Kepler rate, 1/s^2) and its rate of change along the motion, ``-3 W (d . v) /
@@ -177,7 +179,7 @@ def central_rate(x, y, z, vx, vy, vz, c, p):
     return w, -3.0 * w * (d0 * vx + d1 * vy + d2 * vz) / r2
 
 
-@_inline
+@_piece
 def central_potential_piece(x, y, z, c, p, tab, s):
     """The effect-set piece: :func:`central_potential` with ``p = [c0, c1, c2, gm]``."""
     return central_potential(x, y, z, p[0], p[1], p[2], p[3])

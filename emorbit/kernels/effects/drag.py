@@ -32,6 +32,8 @@ from .third_body import table_position
 __all__ = ["drag_piece", "drag_prepare", "drag_facet"]
 
 _inline = kernel(inline="always")
+# an effect-set piece: compiled on its own (cached per install) and inlined by LLVM into the set
+_piece = kernel(forceinline=True)
 
 
 @_inline
@@ -88,7 +90,7 @@ def drag_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     return fx, fy, fz
 
 
-@_inline
+@_piece
 def drag_prepare(ta, tm, tb, p, tab, s):
     """NRLMSIS's local time follows the Sun: its position at the sub-step's middle time."""
     if p[7] != 0.0:

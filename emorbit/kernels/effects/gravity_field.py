@@ -64,6 +64,8 @@ _EPS = 2.0**-52
 #: the length of ``p``
 P_SIZE = 31
 _inline = kernel(inline="always")
+# an effect-set piece: compiled on its own (cached per install) and inlined by LLVM into the set
+_piece = kernel(forceinline=True)
 
 
 def tables(C, S, degree, order):
@@ -308,7 +310,7 @@ def _matrix(s, x):
 # -- the pieces of an effect set (.signatures)
 
 
-@_inline
+@_piece
 def gravity_field_prepare(ta, tm, tb, p, tab, s):
     """The body's frame at the sub-step's start, middle and end (the angle's cos and sin into
     s[0:6], B and P into s[13:67]), the sub-step's length (s[6]) and its turn (s[67:70]):
@@ -335,14 +337,14 @@ def gravity_field_prepare(ta, tm, tb, p, tab, s):
     s[_SK + 2] = 2.0 * (R[1, 0] - R[0, 1]) / den
 
 
-@_inline
+@_piece
 def gravity_field_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     """:func:`gravity_field_force` (no Jacobian: the central effect's carries Newton)."""
     f0, f1, f2, _ = gravity_field_force(x0, y0, z0, x1, y1, z1, p, tab, s)
     return f0, f1, f2
 
 
-@_inline
+@_piece
 def gravity_field_time_work(x0, y0, z0, x1, y1, z1, c, p, tab, s):
     """The work per unit mass of the field's motion over the sub-step: the energy the step's
     force leaves, ``F . (x1 - x0) - dU``."""
@@ -350,7 +352,7 @@ def gravity_field_time_work(x0, y0, z0, x1, y1, z1, c, p, tab, s):
     return f0 * (x1 - x0) + f1 * (y1 - y0) + f2 * (z1 - z0) - du
 
 
-@_inline
+@_piece
 def gravity_field_potential_piece(x, y, z, c, p, tab, s):
     """The potential energy per unit mass, ``-U``, at the prepared middle time."""
     return -field_at(x - p[0], y - p[1], z - p[2], p, tab, s, 1, False, s[_WORK:])[0]

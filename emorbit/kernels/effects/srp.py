@@ -27,6 +27,8 @@ from .third_body import table_position
 __all__ = ["srp_piece", "srp_prepare", "srp_facet"]
 
 _inline = kernel(inline="always")
+# an effect-set piece: compiled on its own (cached per install) and inlined by LLVM into the set
+_piece = kernel(forceinline=True)
 
 
 @_inline
@@ -39,7 +41,7 @@ def _shade(dx, dy, dz, p, s):
     return 1.0
 
 
-@_inline
+@_piece
 def srp_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     """Radiation pressure on a cannonball of coefficient ``c`` at the step's midpoint (per unit mass)."""
     mx = 0.5 * (x0 + x1) - p[5]
@@ -48,14 +50,14 @@ def srp_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     return srp_cannonball(mx, my, mz, s[0], s[1], s[2], p[0], p[1], c, _shade(mx, my, mz, p, s))
 
 
-@_inline
+@_piece
 def srp_prepare(ta, tm, tb, p, tab, s):
     """The Sun at the sub-step's middle time."""
     ns = int(p[10])
     s[0], s[1], s[2] = table_position(tm, p[8], p[9], tab[0 : 6 * ns].reshape((ns, 6)))
 
 
-@_inline
+@_piece
 def srp_facet(ax, ay, az, bx, by, bz, nx, ny, nz, area, k0, k1, k2, k3, h, p, tab, s):
     """Radiation pressure on a flat facet (specular k1, diffuse k2, two-sided where k3 > 0.5), N."""
     mx = 0.5 * (ax + bx) - p[5]

@@ -53,6 +53,8 @@ __all__ = [
 ]
 
 _inline = kernel(inline="always")
+# an effect-set piece: compiled on its own (cached per install) and inlined by LLVM into the set
+_piece = kernel(forceinline=True)
 
 
 @_inline
@@ -232,7 +234,7 @@ def _table(p, tab):
     return tab[0 : 6 * rows].reshape((rows, 6))
 
 
-@_inline
+@_piece
 def third_body_prepare(ta, tm, tb, p, tab, s):
     """The body at the sub-step's start, middle and end (into s[0:3], s[3:6], s[6:9])."""
     t = _table(p, tab)
@@ -241,7 +243,7 @@ def third_body_prepare(ta, tm, tb, p, tab, s):
     s[6], s[7], s[8] = table_position(tb, p[5], p[6], t)
 
 
-@_inline
+@_piece
 def third_body_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     """:func:`third_body_force` at the body's position at the sub-step's middle time, and its
     Jacobian where ``jac``."""
@@ -250,7 +252,7 @@ def third_body_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     return third_body_force(x0, y0, z0, x1, y1, z1, p[2], p[3], p[4], s[3], s[4], s[5], p[0], p[1] != 0.0)
 
 
-@_inline
+@_piece
 def third_body_time_work(x0, y0, z0, x1, y1, z1, c, p, tab, s):
     """The work per unit mass of the potential's change in time over the sub-step: the body
     at the end against its middle at x1, the middle against the start at x0."""
@@ -267,7 +269,7 @@ def third_body_time_work(x0, y0, z0, x1, y1, z1, c, p, tab, s):
     return ue + us
 
 
-@_inline
+@_piece
 def third_body_potential_piece(x, y, z, c, p, tab, s):
     """:func:`tidal_potential` with the body at the prepared middle position."""
     return tidal_potential(x - p[2], y - p[3], z - p[4], s[3], s[4], s[5], p[0], p[1] != 0.0)

@@ -55,6 +55,8 @@ __all__ = [
 ]
 
 _inline = kernel(inline="always")
+# an effect-set piece: compiled on its own (cached per install) and inlined by LLVM into the set
+_piece = kernel(forceinline=True)
 
 #: the highest degree the kernels take (``jn`` holds J2..J_NMAX)
 NMAX = 6
@@ -309,6 +311,12 @@ def zonal_jacobian(x0, y0, z0, x1, y1, z1, c0, c1, c2, p0, p1, p2, gm, R, jn, J)
     b1 = y1 - c1
     b2 = z1 - c2
     A, B, dAr, dAz, dBr, dBz, r0, r1 = _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, True)
+    _add_jacobian(a0, a1, a2, b0, b1, b2, p0, p1, p2, gm, R, A, dAr, dAz, dBr, dBz, r0, r1, J)
+
+
+@_inline
+def _add_jacobian(a0, a1, a2, b0, b1, b2, p0, p1, p2, gm, R, A, dAr, dAz, dBr, dBz, r0, r1, J):
+    """:func:`zonal_jacobian` from :func:`_zonal_parts` (``a = x0 - c``, ``b = x1 - c``)."""
     # physical units: A, B carry gm / R^2; their x1-derivatives one more 1/R
     k = gm / (R * R)
     A *= k
@@ -346,18 +354,26 @@ def zonal_jacobian(x0, y0, z0, x1, y1, z1, c0, c1, c2, p0, p1, p2, gm, R, jn, J)
     J[2, 2] -= e2 * b2 + h2 * p2 + ai
 
 
-@_inline
+@_piece
 def zonal_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     """The effect-set piece (:mod:`.signatures`): :func:`zonal_force` and, where ``jac``,
     :func:`zonal_jacobian`, with ``p = [c0, c1, c2, p0, p1, p2, gm, R, J2, ...]``."""
     jn = p[8:]
-    fx, fy, fz = zonal_force(x0, y0, z0, x1, y1, z1, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], jn)
-    if jac:
-        zonal_jacobian(x0, y0, z0, x1, y1, z1, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], jn, J)
-    return fx, fy, fz
+    if not jac:
+        return zonal_force(x0, y0, z0, x1, y1, z1, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], jn)
+    # one pass of the sums for the force and its Jacobian (A and B do not depend on jac): the
+    # arithmetic of zonal_force and zonal_jacobian
+    a0, a1, a2 = x0 - p[0], y0 - p[1], z0 - p[2]
+    b0, b1, b2 = x1 - p[0], y1 - p[1], z1 - p[2]
+    A, B, dAr, dAz, dBr, dBz, r0, r1 = _zonal_parts(a0, a1, a2, b0, b1, b2, p[3], p[4], p[5], p[7], jn, True)
+    k = p[6] / (p[7] * p[7])
+    ku = -k * A / (r0 + r1)
+    kp = -k * B
+    _add_jacobian(a0, a1, a2, b0, b1, b2, p[3], p[4], p[5], p[6], p[7], A, dAr, dAz, dBr, dBz, r0, r1, J)
+    return ku * (a0 + b0) + kp * p[3], ku * (a1 + b1) + kp * p[4], ku * (a2 + b2) + kp * p[5]
 
 
-@_inline
+@_piece
 def zonal_potential_piece(x, y, z, c, p, tab, s):
     """The effect-set piece: :func:`zonal_potential` with :func:`zonal_piece`'s ``p``."""
     return zonal_potential(x, y, z, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8:])
