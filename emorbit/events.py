@@ -394,6 +394,11 @@ class EventSet:
         return event
 
     @property
+    def splitting(self) -> bool:
+        """Whether an event splits its step (an impulse, a burn's switch, one steps land on)."""
+        return any(e.splits for e in self.events)
+
+    @property
     def impulses(self) -> bool:
         """Whether an event fires an impulse (the run then records ``work_manoeuvres``)."""
         return any(e.dv is not None for e in self.events)

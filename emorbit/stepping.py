@@ -86,6 +86,10 @@ CHECKPOINT_SECONDS = 5.0
 CHUNK_BYTES = 128 * 2**20
 #: bytes of step-by-step states that one call records at most to measure energy ranges
 RANGE_BYTES = 32 * 2**20
+#: steps per chunk at most where events split their steps (impulses, a burn's switches, steps
+#: landing on an effect's edges): a split drops the chunk's steps after it, which are taken
+#: again, so long chunks would take the steps after every split many times over
+SPLIT_STEPS = 64
 #: what ``energy_range`` may be set to
 RANGE_CHOICES = ("auto", True, False)
 
@@ -99,6 +103,16 @@ class _Pace:
         self.per_record = 0.0  # s
         self.steps = 1024  # steps of one call in a record interval longer than a chunk
         self.last_checkpoint = _time.monotonic()
+        self.split_cap = SPLIT_STEPS  # steps per chunk at most where events split steps
+        self.split_at = None  # the step count at the last split
+
+    def split(self, steps: int) -> None:
+        """A step was split at step count ``steps``: chunks of about half the steps between
+        the last two splits (from 8 to :data:`SPLIT_STEPS`), so that the steps a split drops
+        and takes again stay few beside the calls' own cost."""
+        if self.split_at is not None and steps > self.split_at:
+            self.split_cap = max(8, min(SPLIT_STEPS, (steps - self.split_at) // 2))
+        self.split_at = steps
 
     def measured(self, nrec: int, seconds: float, steps: int | None = None) -> None:
         self.per_record = seconds / nrec
@@ -424,7 +438,7 @@ class ChunkDriver:
         while taken < k:
             if stop is not None and stop.is_set():
                 return taken
-            m = min(pace.steps, k - taken)
+            m = min(pace.steps, pace.split_cap if self.events.splitting else pace.steps, k - taken)
             snapshots = [s.snapshot() for s in self.systems]
             start = _time.monotonic()
             before = self._ev.mark()
@@ -439,7 +453,9 @@ class ChunkDriver:
                     sink.stalled_pending += _stalled(acc)
                 sink.widen([lo, hi] if lo <= hi else [])
                 if halt is not None:
-                    return taken + self._ev.act(halt, snapshots, k, every, gammas, sink)
+                    taken += self._ev.act(halt, snapshots, k, every, gammas, sink)
+                    pace.split(self._steps)
+                    return taken
                 self._ev.log_crossings(snapshots, self._steps, gammas, sink)  # those before the failure
                 self._ev.reset(before)
                 taken += self._recover(recs, snapshots, min(failures), k - taken, every, gammas, sink, origin)
@@ -526,6 +542,7 @@ class ChunkDriver:
         if self._steps == origin:  # the run's start: Simulation.run has written its checkpoint
             self._checkpointed_at = self._steps
         by_clock = not cp and sink.writer is not None
+        split = self.events.splitting
         done = 0
         with progress_bar(n_steps, progress) as bar:
             while done < n_steps:
@@ -543,7 +560,9 @@ class ChunkDriver:
                     nrec = min(most, pace.records)
                     if most - nrec == 1:  # leave no chunk of a lone record
                         nrec = most
-                if k > pace.steps:  # a record interval longer than a chunk: in calls that a stop can end
+                    if split:  # a split drops the chunk's steps after it: keep chunks short
+                        nrec = min(nrec, max(1, pace.split_cap // k))
+                if k > (min(pace.steps, pace.split_cap) if split else pace.steps):  # in calls that a stop can end
                     taken = self._advance_long(gammas, k, every, sink, origin, pace, stop)
                     done += taken
                     bar.update(taken)
@@ -563,6 +582,7 @@ class ChunkDriver:
                     halt = self._ev.first_stop(min(failures)[0][0] if failures else None)
                     if halt is not None:
                         taken = self._ev.act(halt, snapshots, k, every, gammas, sink)
+                        pace.split(self._steps)
                         done += taken
                         bar.update(taken)
                         if self.stopped_by is not None:

@@ -33,6 +33,7 @@ class EffectSet:
     def __init__(self, field):
         self.field = field
         self._named: list[Effect] = []  # the effects of add(), in the order named
+        self._all = None  # (the registry's size, all), kept until the set changes
         self._central = None
         if field is not None:
             from . import EFFECTS
@@ -80,11 +81,13 @@ class EffectSet:
         if same:
             effect.label = f"{effect.kind}_{len(same) + 1}"
         self._named.append(effect)
+        self._all = None
         return effect
 
     def remove(self, effect: Effect) -> None:
         """Take an effect out again (one that a check refused after it was added)."""
         self._named = [e for e in self._named if e is not effect]
+        self._all = None
 
     @property
     def named(self) -> tuple[Effect, ...]:
@@ -96,9 +99,12 @@ class EffectSet:
         """Every effect, the central field's first, in the order a step sums their forces."""
         from . import EFFECTS
 
-        rank = {k: i for i, k in enumerate(EFFECTS)}
-        named = sorted(self._named, key=lambda e: rank.get(e.kind, len(rank)))
-        return ((self._central,) if self._central is not None else ()) + tuple(named)
+        key = len(EFFECTS)  # a user's registered effect ranks after the shipped ones
+        if self._all is None or self._all[0] != key:  # asked in every call of a step kernel
+            rank = {k: i for i, k in enumerate(EFFECTS)}
+            named = sorted(self._named, key=lambda e: rank.get(e.kind, len(rank)))
+            self._all = (key, ((self._central,) if self._central is not None else ()) + tuple(named))
+        return self._all[1]
 
     def __iter__(self):
         return iter(self.all)
