@@ -11,7 +11,9 @@ epoch :data:`EPOCH` (an equinox: low orbits cross the Earth's shadow every revol
   m^2/kg, cannonball radiation pressure with a cylindrical shadow, Cr A / m = 0.01 m^2/kg,
   the Moon and the Sun;
 * ``leo-no-shadow``: the same without the shadow (radiation pressure always on): what the
-  shadow's jumps, which only heyoka locates (by its events), cost the engines;
+  shadow's jumps cost the engines (heyoka locates them by its events, em's fixed steps land on
+  them, radiation pressure's ``land``; em's adaptive steps, IAS15 and DOP853 step across them:
+  events are scanned on the record grid's unit, which would bound em's adaptive steps);
 * ``molniya``: a of half a sidereal day, e = 0.74, i = 63.4 deg, argument of perigee 270 deg,
   10 days; J2..J4, the Moon and the Sun;
 * ``geo``: a of a sidereal day, e = 0, i = 0.05 deg, 30 days; EGM2008 to degree and order 2
@@ -293,8 +295,8 @@ def simulation(case: Case, dt: float, order: int = 8, adaptive: float | None = N
     if case.drag:
         h0, rho0, scale = _band(case.elements[0][1])
         sim.add_effect("drag", atmosphere="exponential", density=rho0, reference_altitude=h0, scale_height=scale)
-    if case.srp:
-        sim.add_effect("srp", shadow=case.shadow)
+    if case.srp:  # fixed steps land on the shadow's edges, as heyoka's events find them
+        sim.add_effect("srp", shadow=case.shadow, land=case.shadow != "none" and adaptive is None)
     sim.add_effect("third_body", body="moon")
     sim.add_effect("third_body", body="sun")
     x0, v0, _ = initial_state(case)
