@@ -44,7 +44,8 @@ compile time per effect set, and the warm start-up
     :func:`~emorbit.effects.program.compile_set` go there; the user's own cache is neither
     used nor touched), then warm; compile time = cold - warm (median of the warm runs).
 the shipped scenes' compile time and start-up
-    ``emorbit run`` of each shipped scene with effects, shortened to 20 steps, in a fresh
+    ``emorbit run`` of shipped scenes (every one in the full configuration, four in the
+    quick one: :data:`~.effects_compile.SCENES`), shortened to 20 steps, in a fresh
     process with an empty cache (the cold run's CPU time: every kernel it needs compiles,
     the body kinds' step kernels and the effect set's functions), again with the effect
     set's compiled module alone removed (the set's own compile: what a new effect set costs
@@ -68,6 +69,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..scene import list_scenes
 from .common import CONFIGS, MAX_ITER, SystemRunner, ensemble_states, points_of
 from .effects_compile import SCENES, SETS, compile_rows, scene_compile_rows
 from .effects_mutual import mutual_rows, plummer
@@ -131,12 +133,12 @@ class Size:
     sets: tuple  # effect sets of the start-up rows
     n_effects: int  # point masses of the per-effect rows
     effect_sets: tuple  # names of EFFECT_SETS timed (and all of them together)
-    scenes: tuple  # shipped scenes whose cold compile and warm start are timed
+    scenes: tuple  # shipped scenes whose cold compile and warm start are timed (full: all of them)
 
 
 #: by the name of the configuration in :data:`emorbit.bench.common.CONFIGS`
 SIZES = {
-    "full": Size(1000, 1000, 5, SETS, 1000, tuple(EFFECT_SETS), SCENES),
+    "full": Size(1000, 1000, 5, SETS, 1000, tuple(EFFECT_SETS), tuple(list_scenes())),  # every shipped scene
     "quick": Size(1000, 1000, 2, SETS, 1000, tuple(EFFECT_SETS), SCENES),
     # a smoke run for the tests: its timings mean nothing
     "tiny": Size(20, 20, 1, SETS[:2], 20, ("J2", "Moon"), SCENES[1:2]),
