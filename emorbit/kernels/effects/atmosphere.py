@@ -42,6 +42,7 @@ __all__ = [
     "exponential_density",
     "exponential_density_derivative",
     "band_index",
+    "band_at",
     "ussa1976_density",
     "ussa1976_density_derivative",
     "altitude",
@@ -111,13 +112,20 @@ def band_index(h, table_h0):
         The last ``i`` with ``table_h0[i] <= h``; 0 below ``table_h0[0]`` (and for a NaN
         altitude, whose density is then NaN).
     """
-    hi = table_h0.shape[0] - 1
-    if h >= table_h0[hi]:
+    return band_at(h, table_h0, table_h0.shape[0])
+
+
+@_inline
+def band_at(h, tab, nb):
+    """:func:`band_index` of the base altitudes ``tab[0:nb]`` read by index (no array view, so
+    a loop over points that calls it keeps no reference counts)."""
+    hi = nb - 1
+    if h >= tab[hi]:
         return hi
     lo = 0
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        if table_h0[mid] <= h:
+        if tab[mid] <= h:
             lo = mid
         else:
             hi = mid

@@ -27,7 +27,7 @@ import math
 
 from ..jit import kernel
 
-__all__ = ["grid_density"]
+__all__ = ["grid_density", "grid_density_at"]
 
 _inline = kernel(inline="always")
 
@@ -56,6 +56,18 @@ def grid_density(d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, g_p, grid):
     tuple of float
         ``(rho, drho)``: kg/m^3 and kg/m^4.
     """
+    flat = grid.reshape(grid.size)
+    return grid_density_at(
+        d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, g_p[0], g_p[1], g_p[2], g_p[3], g_p[4], flat, 0,
+        grid.shape[0], grid.shape[1], grid.shape[2],
+    )  # fmt: skip
+
+
+@_inline
+def grid_density_at(d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, a0, da, phi0, dphi, dlam, tab, o, na, nphi, nl):
+    """:func:`grid_density` with the axes as scalars and the grid read from a flat array,
+    ``grid[i, j, k] = tab[o + (i nphi + j) nl + k]`` (nl = nlam + 1): no array views, so a loop
+    over points that calls it keeps no reference counts."""
     r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
     z = d0 * p0 + d1 * p1 + d2 * p2
     zs = s0 * p0 + s1 * p1 + s2 * p2
@@ -64,25 +76,25 @@ def grid_density(d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, g_p, grid):
     cross = p0 * (f1 * e2 - f2 * e1) + p1 * (f2 * e0 - f0 * e2) + p2 * (f0 * e1 - f1 * e0)
     lam = math.atan2(cross, f0 * e0 + f1 * e1 + f2 * e2) + math.pi
     phi = math.asin(max(-1.0, min(1.0, z / r)))
-    na, nphi, nlam = grid.shape[0], grid.shape[1], grid.shape[2] - 1
+    nlam = nl - 1
     # altitude: the layer below (the end layers extend)
-    x = (r - radius - g_p[0]) / g_p[1]
+    x = (r - radius - a0) / da
     i = min(max(int(math.floor(x)), 0), na - 2)
     fa = x - i
     # latitude: clamped at the poles' rows
-    y = (phi - g_p[2]) / g_p[3]
+    y = (phi - phi0) / dphi
     j = min(max(int(math.floor(y)), 0), nphi - 2)
     fp = min(max(y - j, 0.0), 1.0)
     # local time: periodic
-    w = lam / g_p[4]
+    w = lam / dlam
     k = int(math.floor(w)) % nlam
     fl = w - math.floor(w)
     lo = 0.0
     hi = 0.0
     for jj, wj in ((j, 1.0 - fp), (j + 1, fp)):
         for kk, wk in ((k, 1.0 - fl), (k + 1, fl)):
-            lo += wj * wk * grid[i, jj, kk]
-            hi += wj * wk * grid[i + 1, jj, kk]
-    slope = (hi - lo) / g_p[1]
+            lo += wj * wk * tab[o + (i * nphi + jj) * nl + kk]
+            hi += wj * wk * tab[o + ((i + 1) * nphi + jj) * nl + kk]
+    slope = (hi - lo) / da
     rho = math.exp(lo + fa * (hi - lo))
     return rho, rho * slope

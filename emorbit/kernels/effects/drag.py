@@ -24,8 +24,8 @@ from __future__ import annotations
 import math
 
 from ..jit import kernel
-from .atmosphere import drag_force, drag_force_rho, drag_jacobian, drag_jacobian_rho, ussa1976_density
-from .atmosphere_grid import grid_density
+from .atmosphere import band_at, drag_force_rho, drag_jacobian_rho
+from .atmosphere_grid import grid_density_at
 from .radiation import drag_plate
 from .third_body import table_position
 
@@ -34,15 +34,6 @@ __all__ = ["drag_piece", "drag_prepare", "drag_facet"]
 _inline = kernel(inline="always")
 # an effect-set piece: compiled on its own (cached per install) and inlined by LLVM into the set
 _piece = kernel(forceinline=True)
-
-
-@_inline
-def _grid(p, tab):
-    """The NRLMSIS grid's axes and its values (views into ``tab``)."""
-    nb = int(p[13])
-    na, nphi, nl = int(p[14]), int(p[15]), int(p[16])
-    o = 3 * nb
-    return tab[o : o + 5], tab[o + 5 : o + 5 + na * nphi * nl].reshape((na, nphi, nl))
 
 
 @_inline
@@ -55,35 +46,50 @@ def _sun(p, tab):
 
 
 @_inline
+def _band(a, tab, nb):
+    """The band table's density at altitude ``a`` and the band's scale height: (rho, H), read
+    from ``tab`` by index (:func:`.atmosphere.ussa1976_density`'s band and arithmetic; no
+    array views, so the loops over points keep no reference counts)."""
+    i = band_at(a, tab, nb)
+    H = tab[2 * nb + i]
+    return tab[nb + i] * math.exp(-(a - tab[i]) / H), H
+
+
+@_inline
+def _grid_at(d0, d1, d2, p, tab, s):
+    """The NRLMSIS grid's density and its altitude derivative at d (relative to the centre)."""
+    o = 3 * int(p[13])
+    return grid_density_at(
+        d0, d1, d2, s[0], s[1], s[2], p[10], p[11], p[12], p[6], tab[o], tab[o + 1], tab[o + 2], tab[o + 3],
+        tab[o + 4], tab, o + 5, int(p[14]), int(p[15]), int(p[16]),
+    )  # fmt: skip
+
+
+@_inline
 def _density(mx, my, mz, p, tab, s):
     """The density at the point m (absolute coordinates), kg/m^3."""
     d0 = mx - p[0]
     d1 = my - p[1]
     d2 = mz - p[2]
     if p[7] == 0.0:
-        nb = int(p[13])
-        a = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) - p[6]
-        return ussa1976_density(a, tab[0:nb], tab[nb : 2 * nb], tab[2 * nb : 3 * nb])
-    gp, grid = _grid(p, tab)
-    rho, _ = grid_density(d0, d1, d2, s[0], s[1], s[2], p[10], p[11], p[12], p[6], gp, grid)
-    return rho
+        return _band(math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) - p[6], tab, int(p[13]))[0]
+    return _grid_at(d0, d1, d2, p, tab, s)[0]
 
 
 @_inline
 def drag_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
-    """Drag on a point of ballistic coefficient ``c`` over the step (per unit mass)."""
+    """Drag on a point of ballistic coefficient ``c`` over the step (per unit mass): the
+    density at the midpoint once, then :func:`.atmosphere.drag_force_rho` and, where ``jac``,
+    :func:`.atmosphere.drag_jacobian_rho` (the arithmetic of :func:`.atmosphere.drag_force`
+    and :func:`.atmosphere.drag_jacobian` for a band table)."""
+    d0 = 0.5 * (x0 + x1) - p[0]
+    d1 = 0.5 * (y0 + y1) - p[1]
+    d2 = 0.5 * (z0 + z1) - p[2]
     if p[7] == 0.0:
-        nb = int(p[13])
-        t0, t1, t2 = tab[0:nb], tab[nb : 2 * nb], tab[2 * nb : 3 * nb]
-        fx, fy, fz = drag_force(x0, y0, z0, x1, y1, z1, h, p[0], p[1], p[2], p[3], p[4], p[5], c, p[6], t0, t1, t2)
-        if jac:
-            drag_jacobian(x0, y0, z0, x1, y1, z1, h, p[0], p[1], p[2], p[3], p[4], p[5], c, p[6], t0, t1, t2, J)
-        return fx, fy, fz
-    gp, grid = _grid(p, tab)
-    rho, drho = grid_density(
-        0.5 * (x0 + x1) - p[0], 0.5 * (y0 + y1) - p[1], 0.5 * (z0 + z1) - p[2], s[0], s[1], s[2], p[10], p[11],
-        p[12], p[6], gp, grid,
-    )  # fmt: skip
+        rho, H = _band(math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) - p[6], tab, int(p[13]))
+        drho = -rho / H
+    else:
+        rho, drho = _grid_at(d0, d1, d2, p, tab, s)
     fx, fy, fz = drag_force_rho(x0, y0, z0, x1, y1, z1, h, p[0], p[1], p[2], p[3], p[4], p[5], c, rho)
     if jac:
         drag_jacobian_rho(x0, y0, z0, x1, y1, z1, h, p[0], p[1], p[2], p[3], p[4], p[5], c, rho, drho, J)
