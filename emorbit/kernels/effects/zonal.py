@@ -55,6 +55,7 @@ __all__ = [
 ]
 
 _inline = kernel(inline="always")
+_force = kernel(forceinline=True)
 # an effect-set piece: compiled on its own (cached per install) and inlined by LLVM into the set
 _piece = kernel(forceinline=True)
 
@@ -146,69 +147,87 @@ def zonal_sums(q0, q1, z0, z1, nmax, j2, j3, j4, j5, j6, jac):
 
     ``q0, q1`` = 1 / rho and ``z0, z1`` = zeta at the two ends, ``nmax`` the highest degree
     and ``j2 .. j6`` the coefficients (those above ``nmax`` unused). Returns (A, B, dA/drho1,
-    dA/dzeta1, dB/drho1, dB/dzeta1); the four derivatives are zero unless ``jac``. Compiled
-    with ``nmax`` a constant (:mod:`.zonal_packed`), both loops have constant trip counts
-    and LLVM unrolls them.
+    dA/dzeta1, dB/drho1, dB/dzeta1); the four derivatives are zero unless ``jac``. The powers
+    m = 1 .. 2 nmax + 1 of 1/rho are written out, one call of :func:`_order` each, so that
+    with ``nmax`` a constant (:mod:`.zonal_packed`) every loop has a constant trip count and
+    LLVM unrolls them into straight code that vectorises over points.
     """
-    A = 0.0
-    B = 0.0
-    dAr = 0.0
-    dAz = 0.0
-    dBr = 0.0
-    dBz = 0.0
     # q = 1/rho; f = q^m at both ends; S = -df = sum_{i<m} q0^(i+1) q1^(m-i) and
     # T = sum_{i<m} (m-i) q0^(i+1) q1^(m-i), so that dS/drho1 = -q1 T; from m = 1 up:
     # S' = q1 S + q0^(m+1) q1, T' = q1 (T + S) + q0^(m+1) q1 (all terms positive)
-    f0 = q0
-    f1 = q1
-    S = q0 * q1
-    T = S
-    for m in range(1, 2 * nmax + 2):
-        if m >= 3 and m % 2 == 1:
-            # k from max(0, m - 1 - nmax) to min((m - 1) // 2, m - 3), written out (no call
-            # to min or max: with nmax a constant the trip count is one at once)
-            kmin = m - 1 - nmax if m - 1 - nmax > 0 else 0
-            kmax = (m - 1) // 2 if (m - 1) // 2 < m - 3 else m - 3
-            g0 = 0.0
-            g1 = 0.0
-            gd = 0.0  # sum c dg, dg = (g1 - g0) / (zeta1 - zeta0)
-            gdd = 0.0  # sum c d(dg)/dzeta1
-            g1d = 0.0  # sum c dg/dzeta at zeta1
-            zp0 = 1.0
-            zp1 = 1.0
-            zp1m = 0.0
-            G = 0.0  # dg of zeta^k: sum_{i<k} zeta0^i zeta1^(k-1-i); G' = zeta1 G + zeta0^k
-            H = 0.0  # dG/dzeta1; H' = G + zeta1 H
-            for k in range(kmax + 1):
-                if k >= kmin:
-                    n = m - 1 - k
-                    c = _coef(n, j2, j3, j4, j5, j6) * _LEGENDRE[n, k]
-                    g0 += c * zp0
-                    g1 += c * zp1
-                    gd += c * G
-                    if jac:
-                        gdd += c * H
-                        g1d += c * k * zp1m
-                H = G + z1 * H
-                G = z1 * G + zp0
-                zp1m = zp1
-                zp0 *= z0
-                zp1 *= z1
-            gs = 0.5 * (g0 + g1)
-            fs = 0.5 * (f0 + f1)
-            A -= gs * S
-            B += fs * gd
-            if jac:
-                dAr += gs * q1 * T
-                dAz -= 0.5 * g1d * S
-                dBr -= 0.5 * m * f1 * q1 * gd
-                dBz += fs * gdd
-        f0n = f0 * q0
-        T = q1 * (T + S) + f0n * q1
-        S = q1 * S + f0n * q1
-        f0 = f0n
-        f1 *= q1
-    return A, B, dAr, dAz, dBr, dBz
+    c = (q0, q1, z0, z1, nmax, j2, j3, j4, j5, j6, jac)
+    st = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, q0, q1, q0 * q1, q0 * q1)
+    st = _order(1, c, st)
+    st = _order(2, c, st)
+    st = _order(3, c, st)
+    st = _order(4, c, st)
+    st = _order(5, c, st)
+    if nmax >= 3:
+        st = _order(6, c, st)
+        st = _order(7, c, st)
+    if nmax >= 4:
+        st = _order(8, c, st)
+        st = _order(9, c, st)
+    if nmax >= 5:
+        st = _order(10, c, st)
+        st = _order(11, c, st)
+    if nmax >= 6:
+        st = _order(12, c, st)
+        st = _order(13, c, st)
+    return st[0], st[1], st[2], st[3], st[4], st[5]
+
+
+@_force
+def _order(m, c, st):
+    """One power m of :func:`zonal_sums`: the term of the polynomial in zeta that multiplies
+    rho^-m (odd m >= 3) added to (A, B and their derivatives), then the recurrences' step to
+    m + 1. ``c`` = (q0, q1, z0, z1, nmax, j2, .., j6, jac), ``st`` = (A, B, dA/drho1,
+    dA/dzeta1, dB/drho1, dB/dzeta1, f0, f1, S, T); returns the new ``st``."""
+    q0, q1, z0, z1, nmax, j2, j3, j4, j5, j6, jac = c
+    A, B, dAr, dAz, dBr, dBz, f0, f1, S, T = st
+    if m >= 3 and m % 2 == 1:
+        # k from max(0, m - 1 - nmax) to min((m - 1) // 2, m - 3), written out (no call
+        # to min or max: with nmax a constant the trip count is one at once)
+        kmin = m - 1 - nmax if m - 1 - nmax > 0 else 0
+        kmax = (m - 1) // 2 if (m - 1) // 2 < m - 3 else m - 3
+        g0 = 0.0
+        g1 = 0.0
+        gd = 0.0  # sum c dg, dg = (g1 - g0) / (zeta1 - zeta0)
+        gdd = 0.0  # sum c d(dg)/dzeta1
+        g1d = 0.0  # sum c dg/dzeta at zeta1
+        zp0 = 1.0
+        zp1 = 1.0
+        zp1m = 0.0
+        G = 0.0  # dg of zeta^k: sum_{i<k} zeta0^i zeta1^(k-1-i); G' = zeta1 G + zeta0^k
+        H = 0.0  # dG/dzeta1; H' = G + zeta1 H
+        for k in range(kmax + 1):
+            if k >= kmin:
+                n = m - 1 - k
+                cn = _coef(n, j2, j3, j4, j5, j6) * _LEGENDRE[n, k]
+                g0 += cn * zp0
+                g1 += cn * zp1
+                gd += cn * G
+                if jac:
+                    gdd += cn * H
+                    g1d += cn * k * zp1m
+            H = G + z1 * H
+            G = z1 * G + zp0
+            zp1m = zp1
+            zp0 *= z0
+            zp1 *= z1
+        gs = 0.5 * (g0 + g1)
+        fs = 0.5 * (f0 + f1)
+        A -= gs * S
+        B += fs * gd
+        if jac:
+            dAr += gs * q1 * T
+            dAz -= 0.5 * g1d * S
+            dBr -= 0.5 * m * f1 * q1 * gd
+            dBz += fs * gdd
+    f0n = f0 * q0
+    T = q1 * (T + S) + f0n * q1
+    S = q1 * S + f0n * q1
+    return A, B, dAr, dAz, dBr, dBz, f0n, f1 * q1, S, T
 
 
 @_inline
