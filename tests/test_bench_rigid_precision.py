@@ -33,7 +33,7 @@ def test_json_has_the_documented_shape(bench):
         if case["kind"] == "field":
             assert ref["gradient_model_floor"]["attitude"] < 1e-10, ref
         series = {p["series"] for p in case["points"]}
-        assert {f"{m} {o}" for m in rp.EM_METHODS for o in rp.ORDERS} <= series
+        assert {rp.series_name(m, o) for m in rp.EM_METHODS for o in rp.METHOD_ORDERS[m]} <= series
         for p in case["points"]:
             assert p["engine"] in ("emorbit", "exudyn", "basilisk") and ("dt" in p or "tolerance" in p)
             if p["status"] == "ok":
@@ -65,6 +65,8 @@ def test_em_energy_at_round_off_on_every_point(bench):
     worst = max(p["energy_error"] for p in em)
     assert worst <= 4e-14, f"em energy error {worst:.2e} over 4e-14 (3.5e-15 measured)"
     assert s["targets"][-1]["met"] is True
+    tfe = [p for c in s["cases"] for p in c["points"] if p["method"] == "tfe" and p["status"] == "ok"]
+    assert len(tfe) >= 10 and max(p["energy_error"] for p in tfe) <= 1e-12
 
 
 def test_em_errors_fall_at_its_order():

@@ -142,8 +142,8 @@ def test_tables_are_gauss():
 
 
 def test_refuses_what_it_does_not_run():
-    """Orders other than 4 and 6, effects beyond the central field, rigid and elastic bodies,
-    adaptive steps and the GPU: each an InputError naming its key and value, when the
+    """Orders other than 4 and 6, effects beyond the central field, elastic bodies, adaptive
+    steps and the GPU: each an InputError naming its key and value, when the
     simulation is built."""
     assert get_method("tfe").orders == (4, 6) and "tfe" in METHODS
     assert check_method_order("tfe", 6) == 6
@@ -160,7 +160,10 @@ def test_refuses_what_it_does_not_run():
         sim.add_effect("zonal", model="earth", degree=2)
     assert info.value.key == "method" and "'tfe'" in str(info.value) and "zonal" in str(info.value)
     with pytest.raises(InputError) as info:
-        sim.add_rigid("box", "box", size=[1.0, 1.0, 1.0], mass=1.0, position=[7e6, 0, 0], velocity=[0, 7.5e3, 0])
+        sim.add_elastic(
+            "bar", "beam", size=[2, 0.1, 0.1], elements=[4, 1, 1], young=1e5, poisson=0.3, density=1000.0,
+            position=[7e6, 0, 0], velocity=[0, 7.5e3, 0],
+        )  # fmt: skip
     assert info.value.key == "method" and "'tfe'" in str(info.value)
     with pytest.raises(InputError) as info:
         emorbit.Simulation(field, method="tfe", order=4, dt=1.0, adaptive=0.01)

@@ -12,7 +12,9 @@ Cases (:data:`CASES`):
 
 Engines, each a series of settings from coarse to fine:
 
-* emorbit em and midpoint at orders 2, 4, 6 and 8, fixed step dt;
+* emorbit em and midpoint at orders 2, 4, 6 and 8 (compositions of the second-order step),
+  and tfe at orders 4 and 6 (one implicit solve of 2 or 3 Gauss stages per step,
+  :mod:`emorbit.kernels.rigid_tfe`), fixed step dt;
 * Exudyn (torque-free only; it has no gravity gradient): generalized-alpha (its default
   spectral radius) with rotation-vector and with Euler-parameter nodes, and its explicit RK44
   (rotation-vector node, Lie-group integration; Exudyn refuses explicit solvers on
@@ -76,7 +78,19 @@ from .timing import best_cpu, loadavg, machine, package_version
 from .workprecision import _pareto
 from .workprecision import reach as _reach_series
 
-__all__ = ["CASES", "CONFIGS", "ACCURACIES", "LIMIT", "run", "table", "plot", "reach", "targets", "attitude_angle"]
+__all__ = [
+    "CASES",
+    "CONFIGS",
+    "ACCURACIES",
+    "LIMIT",
+    "run",
+    "table",
+    "plot",
+    "reach",
+    "targets",
+    "attitude_angle",
+    "series_name",
+]
 
 #: the attitude errors (rad) of the targets table
 ACCURACIES = (1e-4, 1e-7, 1e-10)
@@ -103,8 +117,15 @@ CASES = {
     },
     "leo": {"kind": "field", "dts": (1200.0, 600.0, 300.0, 120.0, 60.0, 30.0, 10.0, 5.0, 2.0)},
 }
-EM_METHODS = ("em", "midpoint")
+EM_METHODS = ("em", "midpoint", "tfe")
 ORDERS = (2, 4, 6, 8)
+#: the orders each method runs at (tfe: its Gauss stages times 2)
+METHOD_ORDERS = {"em": ORDERS, "midpoint": ORDERS, "tfe": (4, 6)}
+
+
+def series_name(method: str, order: int) -> str:
+    """How the section names emorbit's series: ``"em 4"``, ``"tfe 6 (one solve, 3 stages)"``."""
+    return f"tfe {order} (one solve, {order // 2} stages)" if method == "tfe" else f"{method} {order}"
 
 
 @dataclass(frozen=True)
@@ -402,14 +423,14 @@ def _case(name: str, cfg: Config, ex: _Exudyn, bsk: _Basilisk) -> dict:
     dts = CASES[name]["dts"][:: cfg.every]
     points = []
     for method in EM_METHODS:
-        for order in cfg.orders:
+        for order in (o for o in cfg.orders if o in METHOD_ORDERS[method]):
             warm = (
                 free_sim(0.01, body.w0, method, order)
                 if body.kind == "free"
                 else leo_sim(1, 60.0, order=order, method=method)
             )
             warm.run(steps=2, every=2, keep=False)  # warm-up: compile or load the kernel
-            label = {"engine": "emorbit", "method": method, "order": order, "series": f"{method} {order}"}
+            label = {"engine": "emorbit", "method": method, "order": order, "series": series_name(method, order)}
             _series_runs(
                 points, label, dts, "dt", lambda dt, m=method, o=order: _emorbit(body, m, o, dt), cfg.max_run_s
             )
@@ -473,7 +494,8 @@ def _case(name: str, cfg: Config, ex: _Exudyn, bsk: _Basilisk) -> dict:
 
 #: the groups of the targets table: which points each takes (its best series wins)
 GROUPS = {
-    "em": lambda p: p["engine"] == "emorbit" and p["method"] == "em",
+    "em": lambda p: p["engine"] == "emorbit" and p["method"] in ("em", "tfe"),
+    "tfe": lambda p: p["engine"] == "emorbit" and p["method"] == "tfe",
     "midpoint": lambda p: p["engine"] == "emorbit" and p["method"] == "midpoint",
     "exudyn": lambda p: p["engine"] == "exudyn",
     "basilisk": lambda p: p["engine"] == "basilisk",
@@ -554,7 +576,7 @@ def targets(section: dict) -> list:
     for case in section["cases"]:
         for row in case["reach"]:
             t = {
-                "target": f"rigid {case['name']}: em (best order) CPU time to an attitude error of "
+                "target": f"rigid {case['name']}: em (best order or tfe) CPU time to an attitude error of "
                 f"{row['accuracy']:g} rad <= {LIMIT:g}x the best Exudyn/Basilisk configuration's",
                 "limit": LIMIT,
                 "met": None,
@@ -570,12 +592,11 @@ def targets(section: dict) -> list:
                 t.update(measured=r, met=r <= LIMIT)
                 t["note"] = f"{em['series']} {1e3 * em['cpu_s']:.2f} ms, {peer['series']} {1e3 * peer['cpu_s']:.2f} ms"
             out.append(t)
-    em = [p for c in section["cases"] for p in c["points"] if p["engine"] == "emorbit" and p["method"] == "em"]
-    em = [p for p in em if p.get("status") == "ok"]
+    em = [p for c in section["cases"] for p in c["points"] if GROUPS["em"](p) and p.get("status") == "ok"]
     worst = max((p["energy_error"] for p in em), default=None)
     out.append(
         {
-            "target": "rigid work-precision: energy error of every em point at round-off",
+            "target": "rigid work-precision: energy error of every em and tfe point at round-off",
             "measured": worst,
             "limit": ROUND_OFF,
             "met": None if worst is None else worst <= ROUND_OFF,
@@ -709,7 +730,7 @@ def table(section: dict) -> list[str]:
     return lines
 
 
-_COLORS = {"em": "Blues", "midpoint": "Greens"}
+_COLORS = {"em": "Blues", "midpoint": "Greens", "tfe": "Reds"}
 _PEERS = {
     "Exudyn generalized-alpha, rotation-vector": ("tab:red", "v", "-"),
     "Exudyn generalized-alpha, euler-parameters": ("tab:orange", "^", "-"),
@@ -756,7 +777,8 @@ def plot(section: dict, path: str) -> None:
                 pts = sorted(pts, key=lambda p: p["cpu_s"])
                 if pts[0]["engine"] == "emorbit":
                     color = matplotlib.colormaps[_COLORS[pts[0]["method"]]](0.35 + 0.65 * (pts[0]["order"] - 2) / 6)
-                    marker, ls = _MARKERS[pts[0]["order"]], "-" if pts[0]["method"] == "em" else ":"
+                    marker = _MARKERS[pts[0]["order"]]
+                    ls = {"em": "-", "tfe": "--"}.get(pts[0]["method"], ":")
                 else:
                     color, marker, ls = _PEERS.get(name, ("gray", ".", "-"))
                 ax.loglog(

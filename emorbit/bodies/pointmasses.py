@@ -753,11 +753,12 @@ class PointMasses(WorkSums, BodySystem):
     def newton_facts(self, index: int, method: str, gm: float, center, h: float, max_iter: int):
         """The reference kernel's Newton iteration (:mod:`emorbit.kernels.pointmass.reference`) on
         the point's next step: status, its last update and the residual ``|dx - h (v + h/2 g)|``
-        of its last iterate (g evaluated there), both relative to ``|dx|``; None for leapfrog."""
+        of its last iterate (g evaluated there), both relative to ``|dx|``; None for leapfrog and
+        tfe."""
         from ..kernels import gravity
         from ..kernels.pointmass import reference
 
-        if method == "leapfrog" or self.under_effects():  # the sweeps have no per-point account
+        if method in ("leapfrog", "tfe") or self.under_effects():  # no per-point account of a sweep
             return None
         x, v, c = self.x[:, index], self.v[:, index], np.asarray(center, float)
         args = (x[0], x[1], x[2], v[0], v[1], v[2], h, gm, c[0], c[1], c[2])

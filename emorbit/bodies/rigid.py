@@ -136,7 +136,7 @@ class RigidBodies(WorkSums, BodySystem):
         "attitude": (4, "1"),
         "angular_velocity": (3, "rad / s"),
     }
-    METHODS = ("em", "midpoint")
+    METHODS = ("em", "midpoint", "tfe")
     #: the state of every set of rigid bodies
     BASE_FIELDS = ("q", "v", "cq", "cv", "lam")
     #: the state that effects doing work add: their work so far and its compensation
@@ -340,6 +340,8 @@ class RigidBodies(WorkSums, BodySystem):
         """
         if self.adaptive is not None:
             return self._advance_adaptive(method, gm, center, dt, gammas, every, nrec, max_iter, clock)
+        if method == "tfe":
+            return self._advance_tfe(gm, center, dt, gammas, every, nrec, max_iter)
         rec = self._records(nrec)
         prog = self.effects.program
         P, I, T, S = self.effects.arrays(self.mp.size)
@@ -444,6 +446,24 @@ class RigidBodies(WorkSums, BodySystem):
         return RigidRecords(
             np.empty((nrec, nb, 12)), np.empty((nrec, nb, 12)), z, np.full((nb, 2), -1, np.int64), z.copy()
         )
+
+    def _advance_tfe(self, gm, center, dt, gammas, every, nrec, max_iter) -> RigidRecords:
+        """Fixed steps of the time finite element (:mod:`emorbit.kernels.rigid_tfe`), the
+        central field alone: its order is its number of Gauss stages times 2, so ``gammas``
+        only gives the order (:func:`emorbit.integrators.dispatch.tfe_tables`)."""
+        from ..integrators.dispatch import tfe_tables
+        from ..kernels.rigid_tfe import low_parts, rigid_tfe_chunk
+
+        rec = self._records(nrec)
+        tab = tfe_tables(gammas)
+        rigid_tfe_chunk(
+            tab, low_parts(2 * tab.shape[0]), self.models, self.q, self.v, self.cq, self.cv, self.mass, self.E,
+            self.inverse_inertias(), self.offsets, self.X, self.mp, float(gm), np.ascontiguousarray(center, float),
+            float(dt), int(every), int(nrec), int(max_iter), rec.q, rec.v, rec.iterations, rec.fail,
+        )  # fmt: skip
+        if self._work_shape()[1]:
+            rec.work = np.repeat(self.work[None], nrec, axis=0)
+        return rec
 
     def _advance_adaptive(self, method, gm, center, dt, gammas, every, nrec, max_iter, clock) -> RigidRecords:
         """Adaptive, time-symmetric steps (:mod:`emorbit.kernels.rigid_adaptive`) that land on
@@ -640,8 +660,12 @@ class RigidBodies(WorkSums, BodySystem):
     def newton_facts(self, index: int, method: str, gm: float, center, h: float, max_iter: int):
         """:func:`emorbit.kernels.rigid.rigid_step` on the body's next step (under the effects
         prepared for the last step's times): status and its last update relative to the
-        mass-weighted scale of the increments (residual: None)."""
+        mass-weighted scale of the increments (residual: None); None for tfe, whose Newton
+        iteration is not the em step's."""
         from ..kernels.rigid_surface import facet_scratch
+
+        if method == "tfe":
+            return None
 
         b = index
         sl = slice(self.offsets[b], self.offsets[b + 1])

@@ -2,8 +2,9 @@
 them: :data:`ORDERS`, :data:`ROUNDOFF` and :data:`DEVICES`, each checked here and nowhere else.
 
 Every method but one is a symmetric second-order step; :mod:`.composition` raises it to order
-4, 6 or 8. ``"tfe"`` reaches its orders (4 and 6, :attr:`Method.orders`) in one implicit solve of 2 or 3 stages instead
-(:mod:`emorbit.kernels.pointmass.tfe`). :mod:`.dispatch` maps
+4, 6 or 8. ``"tfe"`` reaches its orders (4 and 6, :attr:`Method.orders`) in one implicit
+solve of 2 or 3 stages instead (:mod:`emorbit.kernels.pointmass.tfe`,
+:mod:`emorbit.kernels.rigid_tfe`). :mod:`.dispatch` maps
 (method, roundoff, device) to the kernel that runs it. To add a method: give it a code in
 :mod:`emorbit.kernels.codes`, write its step kernel for each body kind it supports (see
 :mod:`emorbit.kernels.pointmass`), add a :class:`Method` entry here and its code to
@@ -91,7 +92,8 @@ METHODS = {
     ),
     "tfe": Method(
         "tfe",
-        "energy-momentum time finite element: order 2k in one solve of k Gauss stages (point masses, central field)",
+        "energy-momentum time finite element: order 2k in one solve of k Gauss stages "
+        "(point masses and rigid bodies, central field)",
         implicit=True,
         conserves=("energy", "angular_momentum"),
         orders=(4, 6),
@@ -99,8 +101,9 @@ METHODS = {
     ),
 }
 """The methods by name: ``"em"`` (energy-momentum), ``"midpoint"``, ``"leapfrog"`` and ``"tfe"``
-(energy-momentum time finite elements of orders 4 and 6, :mod:`emorbit.kernels.pointmass.tfe`:
-point masses in the central field, fixed steps on the CPU)."""
+(energy-momentum time finite elements of orders 4 and 6, :mod:`emorbit.kernels.pointmass.tfe`
+and :mod:`emorbit.kernels.rigid_tfe`: point masses and rigid bodies in the central field,
+fixed steps on the CPU)."""
 
 
 def get_method(name, key: str = "method") -> Method:

@@ -33,7 +33,15 @@ from ..errors import InputError
 from ..kernels import codes
 from . import ORDERS, check_device, check_method_order, check_roundoff, coefficients, get_method
 
-__all__ = ["method_code", "point_chunk", "point_ensemble", "adaptive_chunk", "require_device", "tfe_chunk"]
+__all__ = [
+    "method_code",
+    "point_chunk",
+    "point_ensemble",
+    "adaptive_chunk",
+    "require_device",
+    "tfe_chunk",
+    "tfe_tables",
+]
 
 _CODES = {
     "em": codes.METHOD_EM,
@@ -54,14 +62,13 @@ def _order_of(gammas) -> int | None:
     return None
 
 
-def tfe_chunk(code, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
-    """Fixed steps of the time finite element (``"tfe"``) with the arguments of every
-    point-mass chunk kernel (:func:`point_chunk`).
+def tfe_tables(gammas) -> np.ndarray:
+    """The Gauss tables of the time finite element (``"tfe"``) whose order ``gammas`` says.
 
     ``gammas`` must be the composition coefficients of order 4 or 6
     (:func:`emorbit.integrators.coefficients`): they say the order, and the step is one solve
-    of 2 or 3 Gauss stages (:func:`emorbit.kernels.pointmass.tfe.tfe_chunk`), not their
-    composition. ``rec_iters`` counts Newton iterations per step.
+    of 2 or 3 Gauss stages (:func:`emorbit.kernels.pointmass.tfe.tables`), not their
+    composition.
 
     Raises
     ------
@@ -76,8 +83,18 @@ def tfe_chunk(code, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
 
     if order not in _TABLES:
         _TABLES[order] = tfe.tables(order)
+    return _TABLES[order]
+
+
+def tfe_chunk(code, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
+    """Fixed steps of the time finite element (``"tfe"``) with the arguments of every
+    point-mass chunk kernel (:func:`point_chunk`): one solve of 2 or 3 Gauss stages per step
+    (:func:`emorbit.kernels.pointmass.tfe.tfe_chunk`, tables by :func:`tfe_tables`).
+    ``rec_iters`` counts Newton iterations per step."""
+    from ..kernels.pointmass import tfe
+
     tfe.tfe_chunk(
-        _TABLES[order], x, v, cx, cv, float(gm), np.ascontiguousarray(center, float), float(dt), int(every),
+        tfe_tables(gammas), x, v, cx, cv, float(gm), np.ascontiguousarray(center, float), float(dt), int(every),
         int(nrec), int(max_iter), rec_x, rec_v, rec_iters, fail,
     )  # fmt: skip
 
@@ -85,7 +102,7 @@ def tfe_chunk(code, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
 def _refuse_tfe(name: str, key: str, what: str) -> None:
     if name == "tfe":
         raise InputError(
-            key, f"method 'tfe' steps point masses in the central field alone, on the CPU with fixed steps; {what}"
+            key, f"method 'tfe' steps the central field alone, on the CPU with fixed steps; {what}"
         )
 
 

@@ -12,6 +12,8 @@ directors' correction is ``D1^-T (Sig + W)`` with ``Sig`` symmetric (fixed by th
 rows) and ``W`` skew, whose 3 unknowns come from a 3 x 3 system; the rest are 3 x 3 blocks.
 Otherwise :func:`dense_solve` eliminates the 18 x 18 matrix (partial pivoting), also the
 fallback where a 3 x 3 block is singular. Same equations, same solution to round-off.
+:func:`lu` and :func:`lu_solve` keep the factors for several right-hand sides (the time
+finite element's Newton, :mod:`.rigid_tfe_newton`).
 
 K for ``GRAVITY_VOLUME`` is the sum over the mass points or, for a body small against its
 distance (``h^2 GM rho / r^4 <= 1e-8``, rho the farthest mass point from the centre of
@@ -33,9 +35,39 @@ from .codes import GRAVITY_NONE
 from .gravity import accel
 from .jit import kernel
 
-__all__ = ["predict", "central_stiffness", "dense_solve", "dense_kkt", "inv3", "kkt_solve", "body_radius"]
+__all__ = [
+    "predict",
+    "central_stiffness",
+    "dense_solve",
+    "dense_kkt",
+    "inv3",
+    "kkt_solve",
+    "body_radius",
+    "lu",
+    "lu_solve",
+]
 
 _PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
+
+@kernel(inline="always")
+def _pivot(A, col, n):
+    """Partial pivoting at column ``col``: swap the row of the largest ``|A[r, col]|``, r >=
+    col, into row col (whole rows); returns that row, or -1 where the column is zero."""
+    p = col
+    big = abs(A[col, col])
+    for r in range(col + 1, n):
+        if abs(A[r, col]) > big:
+            big = abs(A[r, col])
+            p = r
+    if not (big > 0.0):
+        return -1
+    if p != col:
+        for j in range(n):
+            t = A[col, j]
+            A[col, j] = A[p, j]
+            A[p, j] = t
+    return p
 
 
 @kernel
@@ -43,19 +75,10 @@ def dense_solve(A, b, n):
     """Solve A x = b in place (b becomes x) by Gaussian elimination with partial pivoting.
     Returns False if A is singular."""
     for col in range(n):
-        p = col
-        big = abs(A[col, col])
-        for r in range(col + 1, n):
-            if abs(A[r, col]) > big:
-                big = abs(A[r, col])
-                p = r
-        if not (big > 0.0):
+        p = _pivot(A, col, n)
+        if p < 0:
             return False
         if p != col:
-            for j in range(n):
-                t = A[col, j]
-                A[col, j] = A[p, j]
-                A[p, j] = t
             t = b[col]
             b[col] = b[p]
             b[p] = t
@@ -72,6 +95,45 @@ def dense_solve(A, b, n):
             s -= A[r, j] * b[j]
         b[r] = s / A[r, r]
     return True
+
+
+@kernel
+def lu(A, piv, n):
+    """LU factors of A in place (partial pivoting, rows swapped whole, the multipliers below
+    the diagonal), the pivot rows in ``piv``, for :func:`lu_solve`; False if A is singular."""
+    for col in range(n):
+        p = _pivot(A, col, n)
+        if p < 0:
+            return False
+        piv[col] = p
+        inv = 1.0 / A[col, col]
+        for r in range(col + 1, n):
+            A[r, col] *= inv
+            f = A[r, col]
+            if f != 0.0:
+                for j in range(col + 1, n):
+                    A[r, j] -= f * A[col, j]
+    return True
+
+
+@kernel
+def lu_solve(A, piv, b, n):
+    """Solve with :func:`lu`'s factors, b in place: the row swaps first (the factors' rows
+    were swapped whole, multipliers included), then the two triangles."""
+    for col in range(n):
+        p = piv[col]
+        if p != col:
+            t = b[col]
+            b[col] = b[p]
+            b[p] = t
+    for col in range(n):
+        for r in range(col + 1, n):
+            b[r] -= A[r, col] * b[col]
+    for r in range(n - 1, -1, -1):
+        s = b[r]
+        for j in range(r + 1, n):
+            s -= A[r, j] * b[j]
+        b[r] = s / A[r, r]
 
 
 @kernel
