@@ -19,14 +19,13 @@ is exact, not the rule's order; nu is O(h^{2k}) and P_l mirrors under ``h -> -h`
 order stays 2k and the step symmetric.
 
 Solve: Newton on the stage increments Z (k, 18), residual ``Z_l - h sum_j a_lj f_j(y0 + Z_j)``,
-matrix ``I - h a (x) Jf`` at the first guess: the rotation's (12k, the torque's derivatives
-in all 9 axis components), the centre's (3k, gravity's gradient as of a point mass) and the
-torque's response to the centre, block triangular, factored once per step; nu's response
-through P (rank k) by Woodbury. Newton holds nu; a safeguarded secant on nu zeroes the energy
-change ``e(nu)`` below 2 eps of the power's terms. First guess: the last step's stage
-derivatives extrapolated; the axes' rounding is taken off after each step (first-order polar
-factor). Stops as :func:`.pointmass.tfe.tfe_step` does, each group of y against its increment
-(the axes also against the centre's over the body's size, M also against the torque's moments).
+matrix ``I - h a (x) Jf`` (:mod:`.rigid_tfe_newton`) factored at a first guess and kept for the
+next step after one of at most 3 iterations; nu's response through P (rank k) by Woodbury.
+Newton holds nu; a safeguarded secant on nu zeroes the energy change ``e(nu)`` below 2 eps of
+the power's terms. First guess: the last step's stage derivatives extrapolated; the axes'
+rounding is taken off after each step (first-order polar factor). Stops as
+:func:`.pointmass.tfe.tfe_step` does, each group of y against its increment (the axes also
+against the centre's over the body's size, M also against the torque's moments).
 Limits: in a near-circular orbit P is small; beyond about h n = 0.14 (order 4) or 0.27 (order
 6) the secant may not settle and the step fails with ``STATUS_NO_CONVERGENCE``.
 
@@ -62,6 +61,8 @@ _E_TOL = 2.0 * 2.0**-52
 _E_FLOOR = 64.0 * 2.0**-52
 #: secant updates of the energy correction at most
 _SECANTS = 8
+#: Newton's factors are kept for the next step after a step of at most this many iterations
+_REUSE_ITERATIONS = 3
 #: a secant slope below this fraction of the direct response is not trusted
 _SLOPE_MIN = 0.01
 #: the groups of y whose updates are weighed against their own increments
@@ -342,7 +343,9 @@ def _newton(tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, n
 
 
 @kernel
-def rigid_tfe_step(tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, tidal, max_iter, predicted, nu, work):
+def rigid_tfe_step(
+    tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, tidal, max_iter, predicted, nu, refactor, work
+):
     """One step of the k-stage element from ``y0`` (18); returns ``(dy, dlo, iterations,
     status, nu)``: the increment ``h sum_l b_l K_l`` in two parts, from the weights' float64
     values and from their low parts (``lo``: :func:`low_parts`), and the energy correction.
@@ -365,42 +368,43 @@ def rigid_tfe_step(tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, tida
         for l in range(k):
             for i in range(18):
                 Z[l, i] = h * tab[l, 0] * Kst[0, i]
-    # Newton's matrix: I - h a_lj Jf(Y_j), Jf the torque-free field's at the first guess of
-    # each stage (the axes turn by up to h omega across the step)
-    for j in range(k):
-        for i in range(18):
-            Y[i] = y0[i] + Z[j, i]
-        rotation_jacobian(Y, Jinv, Jr)
-        if tidal:
-            torque_jacobian(Y, Xg, mg, gm, c, R, Ri, Jr, Ts[j])
-        for l in range(k):
-            ha = h * tab[l, 3 + j]
-            for r in range(12):
-                for s in range(12):
-                    N[12 * l + r, 12 * j + s] = -ha * Jr[r, s]
-    for r in range(n):
-        N[r, r] += 1.0
-    # the centre's: gravity's gradient at the first guess of each stage, as of a point mass
-    for j in range(k):
-        p0 = y0[0] + Z[j, 0] - c[0]
-        p1 = y0[1] + Z[j, 1] - c[1]
-        p2 = y0[2] + Z[j, 2] - c[2]
-        r2 = p0 * p0 + p1 * p1 + p2 * p2
-        w = 0.0
-        if gm != 0.0 and mg.shape[0] > 0:
-            w = gm / (r2 * math.sqrt(r2))
-        pj = (p0, p1, p2)
-        for r in range(3):
-            for q in range(3):
-                Gs[j, 3 * r + q] = w * (3.0 * pj[r] * pj[q] / r2 - (1.0 if r == q else 0.0)) if w != 0.0 else 0.0
-    for l in range(k):
+    if refactor:
+        # Newton's matrix: I - h a_lj Jf(Y_j), Jf the torque-free field's at the first guess of
+        # each stage (the axes turn by up to h omega across the step)
         for j in range(k):
-            hh = h * h * tab[l, 3 + k + j]
+            for i in range(18):
+                Y[i] = y0[i] + Z[j, i]
+            rotation_jacobian(Y, Jinv, Jr)
+            if tidal:
+                torque_jacobian(Y, Xg, mg, gm, c, R, Ri, Jr, Ts[j])
+            for l in range(k):
+                ha = h * tab[l, 3 + j]
+                for r in range(12):
+                    for s in range(12):
+                        N[12 * l + r, 12 * j + s] = -ha * Jr[r, s]
+        for r in range(n):
+            N[r, r] += 1.0
+        # the centre's: gravity's gradient at the first guess of each stage, as of a point mass
+        for j in range(k):
+            p0 = y0[0] + Z[j, 0] - c[0]
+            p1 = y0[1] + Z[j, 1] - c[1]
+            p2 = y0[2] + Z[j, 2] - c[2]
+            r2 = p0 * p0 + p1 * p1 + p2 * p2
+            w = 0.0
+            if gm != 0.0 and mg.shape[0] > 0:
+                w = gm / (r2 * math.sqrt(r2))
+            pj = (p0, p1, p2)
             for r in range(3):
                 for q in range(3):
-                    Nt[3 * l + r, 3 * j + q] = -hh * Gs[j, 3 * r + q] + (1.0 if l == j and r == q else 0.0)
-    if not (lu(N, piv, n) and lu(Nt, pivt, 3 * k)):
-        return dy, dlo, 0, STATUS_SINGULAR, nu
+                    Gs[j, 3 * r + q] = w * (3.0 * pj[r] * pj[q] / r2 - (1.0 if r == q else 0.0)) if w != 0.0 else 0.0
+        for l in range(k):
+            for j in range(k):
+                hh = h * h * tab[l, 3 + k + j]
+                for r in range(3):
+                    for q in range(3):
+                        Nt[3 * l + r, 3 * j + q] = -hh * Gs[j, 3 * r + q] + (1.0 if l == j and r == q else 0.0)
+        if not (lu(N, piv, n) and lu(Nt, pivt, 3 * k)):
+            return dy, dlo, 0, STATUS_SINGULAR, nu
     its, status, e, scale, den = _newton(tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, nu, work)
     if status == STATUS_OK and den > 0.0 and not abs(e) <= _E_TOL * scale:
         # a secant on nu, safeguarded: its slope from the last two solves where that one has
@@ -487,6 +491,25 @@ def step_scratch(k):
         np.zeros((k, 9)),
         np.empty((k, 18)),
     )
+
+
+@kernel
+def _predict(ext, tab, Kp, Kst, Z, h):
+    """The first guess from the last step's stage derivatives ``Kp``: their polynomial at
+    this step's nodes (weights ``ext``) into ``Kst``, integrated, ``Z = h a Kst``."""
+    k = tab.shape[0]
+    for l in range(k):
+        for i in range(18):
+            t = 0.0
+            for j in range(k):
+                t += ext[l, j] * Kp[j, i]
+            Kst[l, i] = t
+    for l in range(k):
+        for i in range(18):
+            t = 0.0
+            for j in range(k):
+                t += tab[l, 3 + j] * Kst[j, i]
+            Z[l, i] = h * t
 
 
 @kernel
@@ -582,26 +605,26 @@ def rigid_tfe_chunk(
         have = False
         failed = False
         nu = 0.0
+        last = 0
         for r in range(nrec):
             its = 0
             for s in range(every):
-                if have:
-                    for l in range(k):
-                        for i in range(18):
-                            t = 0.0
-                            for j in range(k):
-                                t += ext[l, j] * Kp[j, i]
-                            Kst[l, i] = t
-                    for l in range(k):
-                        for i in range(18):
-                            t = 0.0
-                            for j in range(k):
-                                t += tab[l, 3 + j] * Kst[j, i]
-                            Z[l, i] = dt * t
-                dy, dlo, it, status, nu = rigid_tfe_step(
-                    tab, lo, y, Z, Kst, dt, Ji, Xg, mg, mass[b], gm, center, size, tidal, max_iter, have, nu, work
-                )
-                its += it
+                # Newton's factors are kept from step to step while it converges fast; a step
+                # that fails on kept factors is tried again on new ones
+                refactor = not have or last > _REUSE_ITERATIONS
+                nu0 = nu
+                for _attempt in range(2):
+                    if have:
+                        _predict(ext, tab, Kp, Kst, Z, dt)
+                    dy, dlo, it, status, nu = rigid_tfe_step(
+                        tab, lo, y, Z, Kst, dt, Ji, Xg, mg, mass[b], gm, center, size, tidal, max_iter, have, nu0,
+                        refactor, work,
+                    )  # fmt: skip
+                    its += it
+                    if status == STATUS_OK or refactor:
+                        break
+                    refactor = True
+                last = it
                 if status == STATUS_OK:
                     total = 0.0
                     for i in range(18):
