@@ -59,7 +59,7 @@ def test_observed_order_in_orbit(order, dts):
 @pytest.mark.parametrize("order", [4, 6])
 def test_invariants_over_1e5_large_steps_torque_free(order):
     """1e5 steps of 0.2 s at 5 rad/s (one radian per step): energy and angular momentum within
-    1e-12 (measured 8.9e-14 and 4.3e-14 at order 4, 6.9e-14 and 3.6e-14 at order 6), the
+    1e-12 (measured 8.8e-14 and 4.2e-14 at order 4, 7.7e-14 and 4.3e-14 at order 6), the
     axes orthonormal to 4 eps (measured 1 eps)."""
     res, q, _ = end_state(free_sim(0.2, FAST_OMEGA, method="tfe", order=order), 2e4, every=10_000)
     assert np.abs(res.relative_energy_error()).max() <= 1e-12
@@ -71,18 +71,18 @@ def test_invariants_over_1e5_large_steps_torque_free(order):
 @pytest.mark.parametrize("order, dt", [(4, 120.0), (6, 240.0)])
 def test_invariants_in_orbit_at_large_steps(order, dt):
     """Steps of 1/50 and 1/25 of the orbit, 2000 of them: energy and angular momentum about the
-    centre within 3e-13 (measured 1.6e-13 and 2.6e-14 at order 4, 3.1e-14 and 1.7e-14 at
+    centre within 5e-13 (measured 2.1e-13 and 2.7e-14 at order 4, 3.3e-14 and 1.7e-14 at
     order 6)."""
     sim = leo_sim(1, dt, method="tfe", order=order)
     res, _, _ = end_state(sim, 2000 * dt, every=200)
-    assert np.abs(res.relative_energy_error()).max() <= 3e-13
-    assert np.abs(res.relative_angular_momentum_error()).max() <= 3e-13
+    assert np.abs(res.relative_energy_error()).max() <= 5e-13
+    assert np.abs(res.relative_angular_momentum_error()).max() <= 5e-13
 
 
 @pytest.mark.parametrize("case", ["free", "orbit"])
 def test_time_symmetric(case):
     """n = 500 steps forward, the velocities reversed, n steps back: the start returns within
-    1e3 eps n = 1.1e-10 (measured 1.0e-12 of the state torque-free, 2.6e-13 in orbit at
+    1e3 eps n = 1.1e-10 (measured 1.0e-12 of the state torque-free, 2.5e-13 in orbit at
     1/50 of the orbit per step: Newton's factors, kept from step to step, take another path
     back, within its tolerance)."""
     n = 500

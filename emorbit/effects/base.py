@@ -73,8 +73,10 @@ class Pieces:
             step: its work equals the drop of the effect's potential), and, where ``jac``, its
             derivative with respect to the end point added into J (3, 3): ``J[a, b] += dF_a /
             dx1_b``. With x0 = x1 = x it is the force at x. c is the point's coefficient for
-            the effect (a body key such as drag's ``Cd A / m``; 1 where the effect has none; the
-            set skips points whose c is 0).
+            the effect (a body key such as drag's ``Cd A / m``; 1 where the effect has none).
+            The set evaluates it at every point of a block, so that its loop has no branches
+            (:mod:`emorbit.effects.program`), and keeps the force and J only where c is not 0:
+            at c = 0 it may return anything, but must return.
         potential(x, y, z, c, p, tab, s) -> V
             the potential energy per unit mass (conservative effects).
         prepare(ta, tm, tb, p, tab, s)

@@ -19,6 +19,10 @@ source and of any user module it imports, and is compiled with ``cache=True``: a
 compiled once loads from disk in later processes. A file found there is imported only if its
 content has the digest its name states.
 
+``forces`` and ``work`` run over blocks of points (:mod:`emorbit.kernels.effects.blocks`), each
+per-point effect in a loop of its own over the block that vectorises where its piece does,
+evaluated at every point and kept where the point's coefficient is not 0.
+
 Summation order: a point's force is the pair effects' forces, then each per-point effect's
 in the set's order (that of :data:`emorbit.effects.EFFECTS`, then user effects in the order
 they were registered); every piece adds its Jacobian into the same 3 x 3 block in that
@@ -123,6 +127,7 @@ import numba
 import numpy as np
 
 from emorbit.kernels.codes import STATUS_OK, STATUS_SINGULAR
+from emorbit.kernels.effects.blocks import BLOCK, LD, block33, load_row
 from emorbit.kernels.effects.signatures import CROSS, FACETS, FORCES, MODE_MIDPOINT, MODE_WEIGHTED
 from emorbit.kernels.effects.signatures import POTENTIAL, PREPARE, RATE, WORK
 {imports}
@@ -139,6 +144,50 @@ def _literal_jac(loop: str, literal: str) -> str:
     """The loop with ``jac`` a literal, so that Numba prunes the code of the branch not taken
     (a loop with the Jacobians' code in it, even untaken, runs about ten times slower)."""
     return loop.replace("if jac:", f"if {literal}:").replace(", J, jac)", f", J, {literal})")
+
+
+#: rows of a block's buffer ``B`` (:mod:`emorbit.kernels.effects.blocks`): x0 (0-2), x1 or dx
+#: (3-5), F (6-8), W (9-17), then each effect's coefficients (and, in ``work``, each working
+#: effect's work)
+_ROW_COEF = 18
+
+#: one per-point effect's loop over a block of ``forces``: its force added into the rows of F
+#: where its coefficient is not 0, its Jacobian block (on the stack, so that LLVM keeps it in
+#: registers) into those of W; computed at every point and kept where it acts, so that the loop
+#: has no branches
+_EFFECT_LOOP = """for j in range(nb):
+    k = B[{ko} + j]
+    a0 = B[j]
+    a1 = B[LD + j]
+    a2 = B[2 * LD + j]
+{ends}
+    J = block33()
+    if jac:
+        for a in range(3):
+            for b in range(3):
+                J[a, b] = B[(9 + 3 * a + b) * LD + j]
+    gx, gy, gz = force_{e}({at}, h, k, p{e}, t{e}, s{e}, J, jac)
+    on = k != 0.0
+    B[6 * LD + j] = B[6 * LD + j] + gx if on else B[6 * LD + j]
+    B[7 * LD + j] = B[7 * LD + j] + gy if on else B[7 * LD + j]
+    B[8 * LD + j] = B[8 * LD + j] + gz if on else B[8 * LD + j]
+    if jac:
+        for a in range(3):
+            for b in range(3):
+                B[(9 + 3 * a + b) * LD + j] = J[a, b] if on else B[(9 + 3 * a + b) * LD + j]"""
+
+
+def _ends(e0: str, e1: str, e2: str, conservative: bool) -> str:
+    """The step's end ``b`` from the expressions of its components and, for a conservative
+    effect, the points its force takes: ``u = w =`` the midpoint with ``mid``, else ``a, b``."""
+    code = f"b0 = {e0}\nb1 = {e1}\nb2 = {e2}"
+    if conservative:
+        code += (
+            "\nif mid:\n    u0 = 0.5 * (a0 + b0)\n    u1 = 0.5 * (a1 + b1)\n    u2 = 0.5 * (a2 + b2)\n"
+            "    w0 = u0\n    w1 = u1\n    w2 = u2\nelse:\n    u0 = a0\n    u1 = a1\n    u2 = a2\n"
+            "    w0 = b0\n    w1 = b1\n    w2 = b2"
+        )
+    return _indent(code, 4)
 
 
 def _indent(code: str, spaces: int) -> str:
@@ -224,63 +273,15 @@ def set_source(effects) -> tuple[str, tuple[int, ...], bool]:
         for e in range(len(effects))
         if "pairs" in has[e]
     )
+    # every per-point effect's own loop over a block of points (it vectorises where its piece does)
     own = []
     for e, cls in enumerate(effects):
         if "force" not in has[e]:
             continue
-        at = "u0, u1, u2, w0, w1, w2" if "energy" in cls.CONSERVES else "a0, a1, a2, b0, b1, b2"
-        own.append(
-            f"k = coef[{e}, i]\n"
-            f"if k != 0.0:\n"
-            f"    gx, gy, gz = force_{e}({at}, h, k, p{e}, t{e}, s{e}, J, jac)\n"
-            f"    fx += gx\n    fy += gy\n    fz += gz"
-        )
-    LOOP = f"""
-    for i in range(n):
-        a0 = x0[0, i]
-        a1 = x0[1, i]
-        a2 = x0[2, i]
-        b0 = x1[0, i]
-        b1 = x1[1, i]
-        b2 = x1[2, i]
-        if mid:
-            u0 = 0.5 * (a0 + b0)
-            u1 = 0.5 * (a1 + b1)
-            u2 = 0.5 * (a2 + b2)
-            w0 = u0
-            w1 = u1
-            w2 = u2
-        else:
-            u0 = a0
-            u1 = a1
-            u2 = a2
-            w0 = b0
-            w1 = b1
-            w2 = b2
-        # weighted, the own effects' sum times the mass joins the pair forces (N)
-        fx = 0.0 if weighted else F[0, i]
-        fy = 0.0 if weighted else F[1, i]
-        fz = 0.0 if weighted else F[2, i]
-        if jac:
-            for a in range(3):
-                for b in range(3):
-                    J[a, b] = 0.0 if weighted else W[3 * a + b, i]
-{_indent(chr(10).join(own), 8) if own else "        pass"}
-        if weighted:
-            mi = m[i]
-            fx = F[0, i] + mi * fx
-            fy = F[1, i] + mi * fy
-            fz = F[2, i] + mi * fz
-        F[0, i] = fx
-        F[1, i] = fy
-        F[2, i] = fz
-        if jac:
-            for a in range(3):
-                for b in range(3):
-                    W[3 * a + b, i] = W[3 * a + b, i] + m[i] * J[a, b] if weighted else J[a, b]
-        if not (abs(fx) + abs(fy) + abs(fz) < math.inf):
-            bad = True
-"""
+        cons = "energy" in cls.CONSERVES
+        at = "u0, u1, u2, w0, w1, w2" if cons else "a0, a1, a2, b0, b1, b2"
+        ends = _ends("B[3 * LD + j]", "B[4 * LD + j]", "B[5 * LD + j]", cons)
+        own.append(_EFFECT_LOOP.format(e=e, ko=f"{_ROW_COEF + e} * LD", ends=ends, at=at))
     forces = f"""
 @numba.cfunc(FORCES, **_OPTIONS)
 def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
@@ -288,21 +289,47 @@ def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
     weighted = (mode & MODE_WEIGHTED) != 0
     mode = mode & (MODE_WEIGHTED - 1)
 {_indent(views, 4)}
-    for i in range(n):
-        for c in range(3):
-            F[c, i] = 0.0
+    for c in range(3):
+        F[c, :] = 0.0
     if jac:
-        for i in range(n):
-            for c in range(9):
-                W[c, i] = 0.0
+        for c in range(9):
+            W[c, :] = 0.0
 {_indent(pairs, 4) if pairs else ""}
-    J = np.empty((3, 3))
     mid = mode == MODE_MIDPOINT
-    bad = False
-    if jac:  # two copies of the loop, so that the one without Jacobians has none of their code
-{_indent(_literal_jac(LOOP, "True"), 4)}
-    else:
-{_indent(_literal_jac(LOOP, "False"), 4)}
+    B = np.empty(({_ROW_COEF + len(effects)}) * LD)
+    bad = 0
+    for lo in range(0, n, BLOCK):
+        nb = min(BLOCK, n - lo)
+        # the block's rows (weighted, the own effects' sum times the mass joins the pair
+        # forces (N), so that it starts at 0)
+        for c in range(3):
+            load_row(B, c, x0, c, lo, nb)
+            load_row(B, 3 + c, x1, c, lo, nb)
+            load_row(B, 6 + c, F, c, lo, nb)
+        if jac:
+            for c in range(9):
+                load_row(B, 9 + c, W, c, lo, nb)
+        if weighted:
+            B[6 * LD : 18 * LD] = 0.0
+        for e in range({len(effects)}):
+            load_row(B, {_ROW_COEF} + e, coef, e, lo, nb)
+        if jac:  # two copies of the loops, so that those without Jacobians have none of their code
+{_indent(_literal_jac(chr(10).join(own), "True"), 12) if own else "            pass"}
+        else:
+{_indent(_literal_jac(chr(10).join(own), "False"), 12) if own else "            pass"}
+        mb = m[lo : lo + nb]
+        for c in range(3):
+            r = F[c, lo : lo + nb]
+            for j in range(nb):
+                r[j] = r[j] + mb[j] * B[(6 + c) * LD + j] if weighted else B[(6 + c) * LD + j]
+        if jac:
+            for c in range(9):
+                r = W[c, lo : lo + nb]
+                for j in range(nb):
+                    r[j] = r[j] + mb[j] * B[(9 + c) * LD + j] if weighted else B[(9 + c) * LD + j]
+        f0, f1, f2 = F[0, lo : lo + nb], F[1, lo : lo + nb], F[2, lo : lo + nb]
+        for j in range(nb):
+            bad += 0 if abs(f0[j]) + abs(f1[j]) + abs(f2[j]) < math.inf else 1
     return STATUS_SINGULAR if bad else STATUS_OK
 """
     prep = "\n".join(f"prepare_{e}(ta, tm, tb, p{e}, t{e}, s{e})" for e in range(len(effects)) if "prepare" in has[e])
@@ -312,30 +339,37 @@ def prepare(ta, tm, tb, P, I, T, S):
 {_indent(views, 4)}
 {_indent(prep, 4) if prep else "    pass"}
 """
-    work_lines = []
+    work_loops = []
     for e in working:
         cls = effects[e]
-        k = slot_of[e]
+        row = f"B[{_ROW_COEF + len(effects) + slot_of[e]} * LD + j]"
         if "time_work" in has[e]:
-            work_lines.append(
-                f"k = coef[{e}, i]\n"
-                f"out[{k}, i] = m[i] * time_work_{e}(a0, a1, a2, b0, b1, b2, k, p{e}, t{e}, s{e}) if k != 0.0 else 0.0"
+            body = (
+                f"tw = mb[j] * time_work_{e}(a0, a1, a2, b0, b1, b2, kc, p{e}, t{e}, s{e})\n"
+                f"{row} = tw if kc != 0.0 else 0.0"
             )
+            cons = False
         elif "force" in has[e]:
             at = "u0, u1, u2, w0, w1, w2" if "energy" in cls.CONSERVES else "a0, a1, a2, b0, b1, b2"
-            work_lines.append(
-                f"k = coef[{e}, i]\n"
-                f"out[{k}, i] = 0.0\n"
-                f"if k != 0.0:\n"
-                f"    gx, gy, gz = force_{e}({at}, h, k, p{e}, t{e}, s{e}, J, False)\n"
-                f"    out[{k}, i] = m[i] * (gx * d0 + gy * d1 + gz * d2)"
+            body = (
+                f"gx, gy, gz = force_{e}({at}, h, kc, p{e}, t{e}, s{e}, J, False)\n"
+                f"{row} = mb[j] * (gx * d0 + gy * d1 + gz * d2) if kc != 0.0 else 0.0"
             )
+            cons = "energy" in cls.CONSERVES
         else:
-            work_lines.append(f"out[{k}, i] = 0.0")
+            work_loops.append(f"for j in range(nb):\n    {row} = 0.0")
+            continue
+        ends = _ends("a0 + d0", "a1 + d1", "a2 + d2", cons)
+        work_loops.append(
+            f"for j in range(nb):\n    kc = B[{_ROW_COEF + e} * LD + j]\n    J = block33()\n"
+            "    a0 = B[j]\n    a1 = B[LD + j]\n    a2 = B[2 * LD + j]\n"
+            f"    d0 = B[3 * LD + j]\n    d1 = B[4 * LD + j]\n    d2 = B[5 * LD + j]\n{ends}\n{_indent(body, 4)}"
+        )
     massive = [e for e in range(len(effects)) if "mass" in has[e]]
+    ledger = ""
     if massive:  # the ledger row: the point's work at its true mean mass
         last = len(working)
-        work_lines.append(
+        ledger = (
             "mu = 1.0\n"
             + "".join(
                 f"if coef[{e}, i] != 0.0:\n    mu += mass_{e}(coef[{e}, i], False, p{e}, s{e})\n" for e in massive
@@ -347,33 +381,24 @@ def prepare(ta, tm, tb, P, I, T, S):
 def work(x0, dx, m, body, coef, h, mode, P, I, T, S, out):
     n = m.shape[0]
 {_indent(views, 4)}
-    J = np.empty((3, 3))
     mid = mode == MODE_MIDPOINT
-    for i in range(n):
-        a0 = x0[0, i]
-        a1 = x0[1, i]
-        a2 = x0[2, i]
-        d0 = dx[0, i]
-        d1 = dx[1, i]
-        d2 = dx[2, i]
-        b0 = a0 + d0
-        b1 = a1 + d1
-        b2 = a2 + d2
-        if mid:
-            u0 = 0.5 * (a0 + b0)
-            u1 = 0.5 * (a1 + b1)
-            u2 = 0.5 * (a2 + b2)
-            w0 = u0
-            w1 = u1
-            w2 = u2
-        else:
-            u0 = a0
-            u1 = a1
-            u2 = a2
-            w0 = b0
-            w1 = b1
-            w2 = b2
-{_indent(chr(10).join(work_lines), 8) if work_lines else "        pass"}
+    B = np.empty(({_ROW_COEF + len(effects) + len(working)}) * LD)
+    for lo in range(0, n, BLOCK):
+        nb = min(BLOCK, n - lo)
+        for c in range(3):
+            load_row(B, c, x0, c, lo, nb)
+            load_row(B, 3 + c, dx, c, lo, nb)
+        for e in range({len(effects)}):
+            load_row(B, {_ROW_COEF} + e, coef, e, lo, nb)
+        mb = m[lo : lo + nb]
+{_indent(chr(10).join(work_loops), 8) if work_loops else "        pass"}
+        for k in range({len(working)}):
+            r = out[k, lo : lo + nb]
+            for j in range(nb):
+                r[j] = B[({_ROW_COEF + len(effects)} + k) * LD + j]
+        for j in range(nb if {bool(ledger)} else 0):
+            i = lo + j
+{_indent(ledger, 12) if ledger else ""}
 """
     pot_lines = []
     for e in range(len(effects)):

@@ -116,7 +116,7 @@ def lu(A, piv, n):
     return True
 
 
-@kernel
+@kernel(forceinline=True)
 def lu_solve(A, piv, b, n):
     """Solve with :func:`lu`'s factors, b in place: the row swaps first (the factors' rows
     were swapped whole, multipliers included), then the two triangles."""

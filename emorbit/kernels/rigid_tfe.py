@@ -19,7 +19,7 @@ is exact, not the rule's order; nu is O(h^{2k}) and P_l mirrors under ``h -> -h`
 order stays 2k and the step symmetric.
 
 Solve: Newton on the stage increments Z (k, 18), residual ``Z_l - h sum_j a_lj f_j(y0 + Z_j)``,
-matrix ``I - h a (x) Jf`` (:mod:`.rigid_tfe_newton`) factored at a first guess and kept for the
+matrix ``I - h a (x) Jf`` (:mod:`.rigid_tfe_newton`: 3k x 3k blocks) factored at a first guess and kept for the
 next step after one of at most 3 iterations; nu's response through P (rank k) by Woodbury.
 Newton holds nu; a safeguarded secant on nu zeroes the energy change ``e(nu)`` below 2 eps of
 the power's terms. First guess: the last step's stage derivatives extrapolated; the axes'
@@ -49,7 +49,7 @@ from .eft import kahan_add
 from .jit import kernel
 from .pointmass.tfe import _extrapolation
 from .rigid_solve import lu, lu_solve
-from .rigid_tfe_newton import inverse3, rotation_jacobian, solve_without_correction, torque_jacobian
+from .rigid_tfe_newton import factor_rotation, inverse3, rotation_jacobian, solve_without_correction, torque_jacobian
 
 __all__ = ["low_parts", "rigid_tfe_chunk", "rigid_tfe_step", "step_scratch"]
 
@@ -92,7 +92,7 @@ def low_parts(order: int) -> np.ndarray:
     return out
 
 
-@kernel
+@kernel(forceinline=True)
 def _field(y, Jinv, Xg, mg, mass, gm, c, K, D, R, Ri, Dh, gP):
     """The field at ``y`` (18) into ``K`` (18) without the energy correction, and the
     correction per unit nu, ``P`` times gravity's acceleration and torque, into ``D`` (18);
@@ -200,7 +200,7 @@ def _field(y, Jinv, Xg, mg, mass, gm, c, K, D, R, Ri, Dh, gP):
     return sa, ss, ta, pa
 
 
-@kernel
+@kernel(forceinline=True)
 def _drop(y0, dy, Xg, mg, gm, c):
     """The potential's rise ``U(y0 + dy) - U(y0)`` over the gravity points, from the
     increments: ``GM m (r1^2 - r0^2) / (r0 r1 (r0 + r1))`` each."""
@@ -232,7 +232,38 @@ def _newton(tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, n
     increment over the body's size (``sqrt(tr E / m)``: what moves its mass points as much),
     the angular momentum's also against the moments that the torque sums, so that the
     torque's rounding (and through it the axes') is a floor, not a failure."""
-    N, piv, rhs, Jr, D, Y, R, Ri, dy, sa, ss, ta, pa, dlo, Nt, pivt, rt, Gs, W, Dh, gP, S, pivs, zv, Ts, Zb = work
+    (
+        Jst,
+        P,
+        pivP,
+        Pinv,
+        V,
+        Sr,
+        pivS,
+        tm,
+        D,
+        Y,
+        R,
+        Ri,
+        dy,
+        sa,
+        ss,
+        ta,
+        pa,
+        dlo,
+        Nt,
+        pivt,
+        rt,
+        Gs,
+        W,
+        Dh,
+        gP,
+        S,
+        pivs,
+        zv,
+        Ts,
+        Zb,
+    ) = work
     k = tab.shape[0]
     prev = math.inf
     status = STATUS_NO_CONVERGENCE
@@ -278,14 +309,14 @@ def _newton(tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, n
         if not abs(D[0, 3] + D[0, 0] + D[0, 12] + D[0, 15]) < math.inf:
             status = STATUS_SINGULAR
             break
-        solve_without_correction(tab, h, N, piv, Nt, pivt, Gs, Ts, rhs, rt, D)
+        solve_without_correction(tab, h, Jst, Pinv, V, Sr, pivS, Nt, pivt, Gs, Ts, rt, tm, D)
         if nu != 0.0:  # the correction's response to the stages' power (Woodbury)
             for j in range(k):
                 W[j, :, :] = 0.0
                 for l in range(k):
                     for i in range(6):
                         W[j, l, 12 + i] = h * tab[l, 3 + j] * nu * Dh[j, i]
-                solve_without_correction(tab, h, N, piv, Nt, pivt, Gs, Ts, rhs, rt, W[j])
+                solve_without_correction(tab, h, Jst, Pinv, V, Sr, pivS, Nt, pivt, Gs, Ts, rt, tm, W[j])
             for i in range(k):
                 t = gP[i, 0] * D[i, 0] + gP[i, 1] * D[i, 1] + gP[i, 2] * D[i, 2]
                 for c2 in range(6):
@@ -358,9 +389,39 @@ def rigid_tfe_step(
     ``e(nu)``, each new nu starting Newton from the stages of the last. Solved inside Newton
     alongside the stages, nu chased the stages' small powers near a circular orbit and the
     iteration stalled."""
-    N, piv, rhs, Jr, D, Y, R, Ri, dy, sa, ss, ta, pa, dlo, Nt, pivt, rt, Gs, W, Dh, gP, S, pivs, zv, Ts, Zb = work
+    (
+        Jst,
+        P,
+        pivP,
+        Pinv,
+        V,
+        Sr,
+        pivS,
+        tm,
+        D,
+        Y,
+        R,
+        Ri,
+        dy,
+        sa,
+        ss,
+        ta,
+        pa,
+        dlo,
+        Nt,
+        pivt,
+        rt,
+        Gs,
+        W,
+        Dh,
+        gP,
+        S,
+        pivs,
+        zv,
+        Ts,
+        Zb,
+    ) = work
     k = tab.shape[0]
-    n = 12 * k
     if not predicted:
         _field(y0, Jinv, Xg, mg, mass, gm, c, Kst[0], D[0], R, Ri, Dh[0], gP[0])
         for l in range(1, k):
@@ -369,21 +430,14 @@ def rigid_tfe_step(
             for i in range(18):
                 Z[l, i] = h * tab[l, 0] * Kst[0, i]
     if refactor:
-        # Newton's matrix: I - h a_lj Jf(Y_j), Jf the torque-free field's at the first guess of
-        # each stage (the axes turn by up to h omega across the step)
+        # Newton's matrix: I - h a_lj Jf(Y_j) at the first guess of each stage (the axes turn
+        # by up to h omega across the step)
         for j in range(k):
             for i in range(18):
                 Y[i] = y0[i] + Z[j, i]
-            rotation_jacobian(Y, Jinv, Jr)
+            rotation_jacobian(Y, Jinv, Jst[j])
             if tidal:
-                torque_jacobian(Y, Xg, mg, gm, c, R, Ri, Jr, Ts[j])
-            for l in range(k):
-                ha = h * tab[l, 3 + j]
-                for r in range(12):
-                    for s in range(12):
-                        N[12 * l + r, 12 * j + s] = -ha * Jr[r, s]
-        for r in range(n):
-            N[r, r] += 1.0
+                torque_jacobian(Y, Xg, mg, gm, c, R, Ri, Jst[j], Ts[j])
         # the centre's: gravity's gradient at the first guess of each stage, as of a point mass
         for j in range(k):
             p0 = y0[0] + Z[j, 0] - c[0]
@@ -403,7 +457,7 @@ def rigid_tfe_step(
                 for r in range(3):
                     for q in range(3):
                         Nt[3 * l + r, 3 * j + q] = -hh * Gs[j, 3 * r + q] + (1.0 if l == j and r == q else 0.0)
-        if not (lu(N, piv, n) and lu(Nt, pivt, 3 * k)):
+        if not (factor_rotation(tab, h, Jst, P, pivP, Pinv, V, Sr, pivS) and lu(Nt, pivt, 3 * k)):
             return dy, dlo, 0, STATUS_SINGULAR, nu
     its, status, e, scale, den = _newton(tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, nu, work)
     if status == STATUS_OK and den > 0.0 and not abs(e) <= _E_TOL * scale:
@@ -462,12 +516,16 @@ def rigid_tfe_step(
 @kernel
 def step_scratch(k):
     """The scratch arrays of :func:`rigid_tfe_step` for k stages."""
-    n = 12 * k
+    n3 = 3 * k
     return (
-        np.empty((n, n)),
-        np.zeros(n, np.int64),
-        np.empty(n),
-        np.empty((12, 12)),
+        np.empty((k, 12, 12)),
+        np.empty((n3, n3)),
+        np.zeros(n3, np.int64),
+        np.empty((n3, n3)),
+        np.empty((3 * n3, n3)),
+        np.empty((n3, n3)),
+        np.zeros(n3, np.int64),
+        np.empty(n3),
         np.empty((k, 18)),
         np.empty(18),
         np.empty((3, 3)),
@@ -478,9 +536,9 @@ def step_scratch(k):
         np.zeros(k),
         np.zeros(k),
         np.empty(18),
-        np.empty((3 * k, 3 * k)),
-        np.zeros(3 * k, np.int64),
-        np.empty(3 * k),
+        np.empty((n3, n3)),
+        np.zeros(n3, np.int64),
+        np.empty(n3),
         np.empty((k, 9)),
         np.empty((k, k, 18)),
         np.zeros((k, 6)),
@@ -512,7 +570,7 @@ def _predict(ext, tab, Kp, Kst, Z, h):
             Z[l, i] = h * t
 
 
-@kernel
+@kernel(forceinline=True)
 def _orthonormalize(y, cy, Eo):
     """Take the axes' rounding off the rotations: ``d_k -= 1/2 sum_l (d_k . d_l - delta_kl) d_l``
     (the polar factor to first order), added with compensation."""

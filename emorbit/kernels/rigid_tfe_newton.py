@@ -12,12 +12,17 @@ M)``. Its matrix ``I - h a (x) Jf`` is taken at the first guess of each stage, w
 
 The force's response to the axes is left out (it cancels to first order over the body), so
 the matrix is block triangular: the centre's 3k unknowns first (their factors ``Nt``), then
-the rotation's 12k (factors ``N``) with the torque's response to the centre on the right
-(:func:`solve_without_correction`), by LU factors with partial pivoting
+the rotation's 12k with the torque's response to the centre on the right
+(:func:`solve_without_correction`). The axes' rows act on each space component alike, so the
+rotation's block needs only 3k x 3k factors: ``Pm = I - h a_lj W_j`` for the axes and the
+Schur complement for M (:func:`factor_rotation`), by LU with partial pivoting
 (:func:`.rigid_solve.lu`); 3 x 3 inverses by the adjugate (:func:`inverse3`).
 
-Data layout: ``Gs`` and ``Ts`` (k, 9) the centre's gravity gradient and the torque's
-derivative in the centre per stage, rows first; X (k, 18) a right-hand side, solved in place.
+Data layout: ``Jst`` (k, 12, 12) the stages' rotation Jacobians; ``Gs`` and ``Ts`` (k, 9) the
+centre's gravity gradient and the torque's derivative in the centre per stage, rows first;
+``Pinv`` and ``Sr`` (3k, 3k), ``V`` (9k, 3k); X (k, 18) a right-hand side, solved in place.
+The Jacobian and the solve are inlined where they are called (``forceinline``): as calls, the
+reference counts of their array arguments took about a fifth of a step.
 """
 
 from __future__ import annotations
@@ -27,12 +32,12 @@ import math
 import numpy as np
 
 from .jit import kernel
-from .rigid_solve import lu_solve
+from .rigid_solve import lu, lu_solve
 
-__all__ = ["inverse3", "rotation_jacobian", "solve_without_correction", "torque_jacobian"]
+__all__ = ["factor_rotation", "inverse3", "rotation_jacobian", "solve_without_correction", "torque_jacobian"]
 
 
-@kernel
+@kernel(forceinline=True)
 def inverse3(R, out):
     """The inverse of a 3 x 3 matrix by its adjugate; returns the determinant."""
     out[0, 0] = R[1, 1] * R[2, 2] - R[1, 2] * R[2, 1]
@@ -51,7 +56,7 @@ def inverse3(R, out):
     return det
 
 
-@kernel
+@kernel(forceinline=True)
 def rotation_jacobian(y, Jinv, Jr):
     """The torque-free field's Jacobian in (d1, d2, d3, M) at ``y`` into ``Jr`` (12, 12)."""
     Jr[:, :] = 0.0
@@ -170,19 +175,73 @@ def torque_jacobian(y, Xg, mg, gm, c, R, Ri, Jr, Ts):
 
 
 @kernel
-def solve_without_correction(tab, h, N, piv, Nt, pivt, Gs, Ts, rhs, rt, X):
+def factor_rotation(tab, h, Jst, P, pivP, Pinv, V, Sr, pivS):
+    """Factors of the rotation's block of Newton's matrix from the stages' Jacobians ``Jst``
+    (k, 12, 12) (:func:`rotation_jacobian`, :func:`torque_jacobian`); False if singular.
+
+    In (d, M) per stage the block is ``[[I - h a (x) kron(W, I3), -h a (x) B], [-h a (x) C,
+    I - h a (x) Q]]``: the axes' rows act on each space component alike (``d_k' = sum_m
+    W_km d_m``), so their part is ``kron(Pm, I3)`` with ``Pm = I - h a_lj W_j`` (3k x 3k:
+    ``P``, ``pivP``, and its inverse ``Pinv``); ``V = kron(Pm, I3)^-1 (h a (x) B)`` (9k x 3k)
+    and the Schur complement ``Sr = I - h a (x) Q - (h a (x) C) V`` (3k x 3k, ``pivS``)."""
+    k = tab.shape[0]
+    n3 = 3 * k
+    for l in range(k):
+        for kk in range(3):
+            for j in range(k):
+                ha = h * tab[l, 3 + j]
+                for m in range(3):
+                    P[3 * l + kk, 3 * j + m] = (1.0 if l == j and kk == m else 0.0) - ha * Jst[j, 3 * kk, 3 * m]
+    if not lu(P, pivP, n3):
+        return False
+    for c in range(n3):
+        for r in range(n3):
+            Pinv[r, c] = 1.0 if r == c else 0.0
+    for c in range(n3):
+        lu_solve(P, pivP, Pinv[:, c], n3)
+    for j in range(k):
+        for m in range(3):
+            col = 3 * j + m
+            for l in range(k):
+                for kk in range(3):
+                    for i in range(3):
+                        t = 0.0
+                        for l2 in range(k):
+                            ha = h * tab[l2, 3 + j]
+                            for k2 in range(3):
+                                t += Pinv[3 * l + kk, 3 * l2 + k2] * ha * Jst[j, 3 * k2 + i, 9 + m]
+                        V[9 * l + 3 * kk + i, col] = t
+    for l in range(k):
+        for a in range(3):
+            for col in range(n3):
+                j = col // 3
+                m = col - 3 * j
+                t = (1.0 if 3 * l + a == col else 0.0) - h * tab[l, 3 + j] * Jst[j, 9 + a, 9 + m]
+                for j2 in range(k):
+                    ha = h * tab[l, 3 + j2]
+                    for r in range(9):
+                        t -= ha * Jst[j2, 9 + a, r] * V[9 * j2 + r, col]
+                Sr[3 * l + a, col] = t
+    return lu(Sr, pivS, n3)
+
+
+@kernel(forceinline=True)
+def solve_without_correction(tab, h, Jst, Pinv, V, Sr, pivS, Nt, pivt, Gs, Ts, rt, tm, X):
     """Apply the inverse of Newton's matrix without the correction's response to ``X`` (k,
     18) in place. It is block triangular: the centre first, by the factors of Nt,
     ``(I - h^2 a^2 (x) G) dphi = x_phi + h a x_u``, ``du = x_u + h a G dphi``; then the
-    rotation by those of N, the torque's response to the centre (``Ts``) on the right."""
+    rotation (:func:`factor_rotation`), the torque's response to the centre (``Ts``) on the
+    right: ``x0 = kron(Pm, I3)^-1 x_d``, ``Sr dM = x_M + (h a (x) C) x0``, ``dd = x0 + V dM``.
+    ``rt``, ``tm``: 3k scratch."""
     k = tab.shape[0]
+    n3 = 3 * k
     for l in range(k):
         for i in range(3):
             t = X[l, i]
             for j in range(k):
                 t += h * tab[l, 3 + j] * X[j, 12 + i]
             rt[3 * l + i] = t
-    lu_solve(Nt, pivt, rt, 3 * k)
+    lu_solve(Nt, pivt, rt, n3)
     for l in range(k):
         for i in range(3):
             X[l, i] = rt[3 * l + i]
@@ -197,14 +256,31 @@ def solve_without_correction(tab, h, N, piv, Nt, pivt, Gs, Ts, rhs, rt, X):
                 u += tab[l, 3 + j] * td
             X[l, 12 + i] += h * t
             X[l, 15 + i] += h * u
+    for i in range(3):  # x0, one space component at a time
+        for l in range(k):
+            for kk in range(3):
+                t = 0.0
+                for l2 in range(k):
+                    for k2 in range(3):
+                        t += Pinv[3 * l + kk, 3 * l2 + k2] * X[l2, 3 + 3 * k2 + i]
+                tm[3 * l + kk] = t
+        for l in range(k):
+            for kk in range(3):
+                X[l, 3 + 3 * kk + i] = tm[3 * l + kk]
     for l in range(k):
-        for r in range(9):
-            rhs[12 * l + r] = X[l, 3 + r]
-        for r in range(3):
-            rhs[12 * l + 9 + r] = X[l, 15 + r]
-    lu_solve(N, piv, rhs, 12 * k)
+        for a in range(3):
+            t = X[l, 15 + a]
+            for j in range(k):
+                ha = h * tab[l, 3 + j]
+                for r in range(9):
+                    t += ha * Jst[j, 9 + a, r] * X[j, 3 + r]
+            tm[3 * l + a] = t
+    lu_solve(Sr, pivS, tm, n3)
     for l in range(k):
+        for a in range(3):
+            X[l, 15 + a] = tm[3 * l + a]
         for r in range(9):
-            X[l, 3 + r] = rhs[12 * l + r]
-        for r in range(3):
-            X[l, 15 + r] = rhs[12 * l + 9 + r]
+            t = X[l, 3 + r]
+            for col in range(n3):
+                t += V[9 * l + r, col] * tm[col]
+            X[l, 3 + r] = t

@@ -47,6 +47,7 @@ import math
 import numpy as np
 
 from ..codes import METHOD_LEAPFROG, METHOD_MIDPOINT, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from ..effects.blocks import block33
 from ..effects.newton import newton_update
 from ..effects.signatures import MODE_EXPLICIT, MODE_MIDPOINT, MODE_STEP
 from ..jit import kernel
@@ -103,12 +104,22 @@ def step_scratch(n, nw, dense):
 def _end(x, cx, dx, x1):
     """The end positions ``x + dx`` (rows 0-2 of ``x1``, rounded as a plain sum) with their low
     parts (rows 3-5: the sum's rounding error plus the compensation ``cx``)."""
-    for i in range(x.shape[1]):
-        for c in range(3):
-            s = x[c, i] + dx[c, i]
-            bb = s - x[c, i]
-            x1[c, i] = s
-            x1[3 + c, i] = ((x[c, i] - (s - bb)) + (dx[c, i] - bb)) + cx[c, i]
+    for c in range(3):
+        xr, dr, cr, hi, lo = x[c], dx[c], cx[c], x1[c], x1[3 + c]
+        for i in range(xr.shape[0]):
+            s = xr[i] + dr[i]
+            bb = s - xr[i]
+            hi[i] = s
+            lo[i] = ((xr[i] - (s - bb)) + (dr[i] - bb)) + cr[i]
+
+
+@kernel(inline="always")
+def _increments(dx, v, w, h):
+    """``dx = h v + w``, row by row."""
+    for c in range(3):
+        dr, vr, wr = dx[c], v[c], w[c]
+        for i in range(dr.shape[0]):
+            dr[i] = h * vr[i] + wr[i]
 
 
 @kernel
@@ -155,10 +166,9 @@ def effect_substep(
     dense = A.shape[0] > 0
     n = x.shape[1]
     hh = 0.5 * h * h
-    for i in range(n):  # the start with its compensation: pair effects form separations from both
-        for c in range(3):
-            x0[c, i] = x[c, i]
-            x0[3 + c, i] = cx[c, i]
+    for c in range(3):  # the start with its compensation: pair effects form separations from both
+        x0[c, :] = x[c]
+        x0[3 + c, :] = cx[c]
     prepare(ta, 0.5 * (ta + tb), tb, P, I, T, S)
     status = STATUS_OK
     sweeps = 0
@@ -176,10 +186,11 @@ def effect_substep(
                 w[c, i] = 0.25 * h * h * (F[c, i] + G[c, i])  # v1 = v0 + 2 w / h
     else:
         scale = (h / hp[0]) ** 2 if hp[0] != 0.0 else 0.0  # the last sub-step's w, rescaled
-        for i in range(n):
-            for c in range(3):
-                w[c, i] = wp[c, i] * scale
-                dx[c, i] = h * v[c, i] + w[c, i]
+        for c in range(3):
+            wr, pr = w[c], wp[c]
+            for i in range(n):
+                wr[i] = pr[i] * scale
+        _increments(dx, v, w, h)
         prev = math.inf
         status = STATUS_NO_CONVERGENCE
         for it in range(max_iter):
@@ -194,6 +205,7 @@ def effect_substep(
                 if dense:
                     d0, d1, d2 = rhs[3 * i], rhs[3 * i + 1], rhs[3 * i + 2]
                 else:
+                    J = block33()
                     for a in range(3):
                         for b in range(3):
                             J[a, b] = W[3 * a + b, i]
@@ -212,9 +224,7 @@ def effect_substep(
                 worst = max(worst, upd)
                 coupling = max(coupling, 6.0 * hh * R[i])
             sweeps += 1
-            for i in range(n):  # Jacobi: the next sweep's forces see every update
-                for c in range(3):
-                    dx[c, i] = h * v[c, i] + w[c, i]
+            _increments(dx, v, w, h)  # Jacobi: the next sweep's forces see every update
             if st != STATUS_OK or not worst < math.inf:
                 status = STATUS_SINGULAR
                 break
@@ -235,11 +245,13 @@ def effect_substep(
     if work.shape[0] > 0:
         work_of(x, dx, m, body, coef, h, mode, P, I, T, S, out)
         _add_work(work, cwork, out)
-    for i in range(n):
-        for c in range(3):
-            x[c, i], cx[c, i] = _kahan(x[c, i], cx[c, i], dx[c, i])
-            v[c, i], cv[c, i] = _kahan(v[c, i], cv[c, i], 2.0 * w[c, i] / h)
-            wp[c, i] = w[c, i]
+    for c in range(3):
+        xr, cxr, dr, vr, cvr, wr = x[c], cx[c], dx[c], v[c], cv[c], w[c]
+        for i in range(n):
+            xr[i], cxr[i] = _kahan(xr[i], cxr[i], dr[i])
+        for i in range(n):
+            vr[i], cvr[i] = _kahan(vr[i], cvr[i], 2.0 * wr[i] / h)
+        wp[c, :] = wr
     hp[0] = h
     return sweeps, STATUS_OK
 

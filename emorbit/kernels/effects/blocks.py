@@ -1,0 +1,61 @@
+"""Blocks of points for the loops of a compiled effect set (:mod:`emorbit.effects.program`).
+
+Method: ``forces`` and ``work`` run over the points in blocks of :data:`BLOCK`. A block's
+inputs and sums live in one buffer ``B`` whose rows lie :data:`LD` apart (row r holds the
+block's values at ``B[r LD : r LD + nb]``), so that in every loop over the block LLVM sees
+accesses at constant distances that cannot overlap and vectorises the loop where the
+effect's piece allows (no calls, no inner loops); each point's Jacobian block is a (3, 3)
+array on the stack (:func:`block33`), which LLVM keeps in registers. The arithmetic per
+point is the pieces' own, in the set's order: a point's bits do not depend on the block.
+
+Data layout: ``B`` float64 (rows * LD,); a row's source a row of a float64 (k, n) array, the
+block its entries ``lo`` to ``lo + nb``.
+"""
+
+from __future__ import annotations
+
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from ..jit import kernel
+
+__all__ = ["BLOCK", "LD", "block33", "load_row"]
+
+#: points per block
+BLOCK = 64
+#: the distance between two rows of a block's buffer
+LD = 72
+
+_BLOCK = types.Array(types.float64, 2, "C")
+
+
+@intrinsic
+def block33(typingctx):
+    """A (3, 3) float64 C-contiguous array in the calling function's stack frame (contents
+    undefined): no allocation and no reference count. Valid while that function runs; a loop
+    that takes one per iteration reuses the same slot."""
+
+    def codegen(context, builder, signature, args):
+        ary = context.make_array(_BLOCK)(context, builder)
+        data = cgutils.alloca_once(builder, context.get_data_type(types.float64), size=9)
+        intp = context.get_value_type(types.intp)
+        context.populate_array(
+            ary,
+            data=data,
+            shape=cgutils.pack_array(builder, [intp(3), intp(3)]),
+            strides=cgutils.pack_array(builder, [intp(24), intp(8)]),
+            itemsize=intp(8),
+            meminfo=None,
+        )
+        return ary._getvalue()
+
+    return _BLOCK(), codegen
+
+
+@kernel(inline="always")
+def load_row(B, row, src, c, lo, nb):
+    """Row ``row`` of the buffer from ``src[c, lo : lo + nb]``."""
+    r = src[c, lo : lo + nb]
+    for j in range(nb):
+        B[row * LD + j] = r[j]
