@@ -232,38 +232,8 @@ def _newton(tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, n
     increment over the body's size (``sqrt(tr E / m)``: what moves its mass points as much),
     the angular momentum's also against the moments that the torque sums, so that the
     torque's rounding (and through it the axes') is a floor, not a failure."""
-    (
-        Jst,
-        P,
-        pivP,
-        Pinv,
-        V,
-        Sr,
-        pivS,
-        tm,
-        D,
-        Y,
-        R,
-        Ri,
-        dy,
-        sa,
-        ss,
-        ta,
-        pa,
-        dlo,
-        Nt,
-        pivt,
-        rt,
-        Gs,
-        W,
-        Dh,
-        gP,
-        S,
-        pivs,
-        zv,
-        Ts,
-        Zb,
-    ) = work
+    (Jst, P, pivP, Pinv, V, Sr, pivS, tm, D, Y, R, Ri, dy, sa, ss, ta, pa, dlo, Nt, pivt, rt, Gs, W, Dh, gP, S,
+     pivs, zv, Ts, Zb) = work  # fmt: skip
     k = tab.shape[0]
     prev = math.inf
     status = STATUS_NO_CONVERGENCE
@@ -389,38 +359,8 @@ def rigid_tfe_step(
     ``e(nu)``, each new nu starting Newton from the stages of the last. Solved inside Newton
     alongside the stages, nu chased the stages' small powers near a circular orbit and the
     iteration stalled."""
-    (
-        Jst,
-        P,
-        pivP,
-        Pinv,
-        V,
-        Sr,
-        pivS,
-        tm,
-        D,
-        Y,
-        R,
-        Ri,
-        dy,
-        sa,
-        ss,
-        ta,
-        pa,
-        dlo,
-        Nt,
-        pivt,
-        rt,
-        Gs,
-        W,
-        Dh,
-        gP,
-        S,
-        pivs,
-        zv,
-        Ts,
-        Zb,
-    ) = work
+    (Jst, P, pivP, Pinv, V, Sr, pivS, tm, D, Y, R, Ri, dy, sa, ss, ta, pa, dlo, Nt, pivt, rt, Gs, W, Dh, gP, S,
+     pivs, zv, Ts, Zb) = work  # fmt: skip
     k = tab.shape[0]
     if not predicted:
         _field(y0, Jinv, Xg, mg, mass, gm, c, Kst[0], D[0], R, Ri, Dh[0], gP[0])

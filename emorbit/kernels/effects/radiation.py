@@ -123,8 +123,15 @@ def shadow_conical(dx, dy, dz, sx, sy, sz, radius, sun_radius):
     qy = sy - dy
     qz = sz - dz
     rq = math.sqrt(qx * qx + qy * qy + qz * qz)
-    a = math.asin(min(sun_radius / rq, 1.0))
-    b = math.asin(radius / rd)
+    # in full sunlight without a transcendental where the body lies behind (p . q <= 0, so
+    # c >= pi/2) and both discs are small (u^2 + w^2 <= 0.9 bounds a + b by 2 asin(sqrt(0.45))
+    # < 1.48): the branch c >= a + b below would return the same 1.0
+    u = sun_radius / rq
+    w = radius / rd
+    if px * qx + py * qy + pz * qz <= 0.0 and u * u + w * w <= 0.9:
+        return 1.0
+    a = math.asin(min(u, 1.0))
+    b = math.asin(w)
     cx = py * qz - pz * qy
     cy = pz * qx - px * qz
     cz = px * qy - py * qx

@@ -231,29 +231,31 @@ def _order(m, c, st):
 
 
 @_inline
-def _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, jac):
+def _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, o, jac):
     """The discrete partials of :func:`zonal_potential` / (gm / R) in rho = r/R, zeta = z/R.
 
-    ``a = x0 - c``, ``b = x1 - c``. Returns (A, B, dA/drho1, dA/dzeta1, dB/drho1,
-    dB/dzeta1, r0, r1) (:func:`zonal_sums`); the four derivatives are zero unless ``jac``."""
+    ``a = x0 - c``, ``b = x1 - c``, J2, J3, ... from ``jn[o:]`` (read by index: no array view,
+    so a loop over points that calls it keeps no reference counts). Returns (A, B, dA/drho1,
+    dA/dzeta1, dB/drho1, dB/dzeta1, r0, r1) (:func:`zonal_sums`); the four derivatives are
+    zero unless ``jac``."""
     r0 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
     r1 = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
     z0 = (a0 * p0 + a1 * p1 + a2 * p2) / R
     z1 = (b0 * p0 + b1 * p1 + b2 * p2) / R
     q0 = 1.0 / (r0 / R)
     q1 = 1.0 / (r1 / R)
-    nj = jn.shape[0]
+    nj = jn.shape[0] - o
     A, B, dAr, dAz, dBr, dBz = zonal_sums(
         q0,
         q1,
         z0,
         z1,
         nj + 1,
-        jn[0],
-        jn[1] if nj > 1 else 0.0,
-        jn[2] if nj > 2 else 0.0,
-        jn[3] if nj > 3 else 0.0,
-        jn[4] if nj > 4 else 0.0,
+        jn[o],
+        jn[o + 1] if nj > 1 else 0.0,
+        jn[o + 2] if nj > 2 else 0.0,
+        jn[o + 3] if nj > 3 else 0.0,
+        jn[o + 4] if nj > 4 else 0.0,
         jac,
     )
     return A, B, dAr, dAz, dBr, dBz, r0, r1
@@ -293,7 +295,7 @@ def zonal_force(x0, y0, z0, x1, y1, z1, c0, c1, c2, p0, p1, p2, gm, R, jn):
     b0 = x1 - c0
     b1 = y1 - c1
     b2 = z1 - c2
-    A, B, _, _, _, _, r0, r1 = _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, False)
+    A, B, _, _, _, _, r0, r1 = _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, 0, False)
     k = gm / (R * R)
     ku = -k * A / (r0 + r1)
     kp = -k * B
@@ -329,7 +331,7 @@ def zonal_jacobian(x0, y0, z0, x1, y1, z1, c0, c1, c2, p0, p1, p2, gm, R, jn, J)
     b0 = x1 - c0
     b1 = y1 - c1
     b2 = z1 - c2
-    A, B, dAr, dAz, dBr, dBz, r0, r1 = _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, True)
+    A, B, dAr, dAz, dBr, dBz, r0, r1 = _zonal_parts(a0, a1, a2, b0, b1, b2, p0, p1, p2, R, jn, 0, True)
     _add_jacobian(a0, a1, a2, b0, b1, b2, p0, p1, p2, gm, R, A, dAr, dAz, dBr, dBz, r0, r1, J)
 
 
@@ -377,18 +379,16 @@ def _add_jacobian(a0, a1, a2, b0, b1, b2, p0, p1, p2, gm, R, A, dAr, dAz, dBr, d
 def zonal_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     """The effect-set piece (:mod:`.signatures`): :func:`zonal_force` and, where ``jac``,
     :func:`zonal_jacobian`, with ``p = [c0, c1, c2, p0, p1, p2, gm, R, J2, ...]``."""
-    jn = p[8:]
-    if not jac:
-        return zonal_force(x0, y0, z0, x1, y1, z1, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], jn)
-    # one pass of the sums for the force and its Jacobian (A and B do not depend on jac): the
-    # arithmetic of zonal_force and zonal_jacobian
+    # one pass of the sums for the force and, where jac, its Jacobian (A and B do not depend on
+    # jac): the arithmetic of zonal_force and zonal_jacobian, the coefficients read from p
     a0, a1, a2 = x0 - p[0], y0 - p[1], z0 - p[2]
     b0, b1, b2 = x1 - p[0], y1 - p[1], z1 - p[2]
-    A, B, dAr, dAz, dBr, dBz, r0, r1 = _zonal_parts(a0, a1, a2, b0, b1, b2, p[3], p[4], p[5], p[7], jn, True)
+    A, B, dAr, dAz, dBr, dBz, r0, r1 = _zonal_parts(a0, a1, a2, b0, b1, b2, p[3], p[4], p[5], p[7], p, 8, jac)
     k = p[6] / (p[7] * p[7])
     ku = -k * A / (r0 + r1)
     kp = -k * B
-    _add_jacobian(a0, a1, a2, b0, b1, b2, p[3], p[4], p[5], p[6], p[7], A, dAr, dAz, dBr, dBz, r0, r1, J)
+    if jac:
+        _add_jacobian(a0, a1, a2, b0, b1, b2, p[3], p[4], p[5], p[6], p[7], A, dAr, dAz, dBr, dBz, r0, r1, J)
     return ku * (a0 + b0) + kp * p[3], ku * (a1 + b1) + kp * p[4], ku * (a2 + b2) + kp * p[5]
 
 
