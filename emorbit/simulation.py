@@ -75,7 +75,7 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
     method : str
         A name in :data:`emorbit.METHODS`: ``"em"`` (energy-momentum, the default),
         ``"midpoint"``, ``"leapfrog"``, or ``"tfe"`` (energy-momentum time finite elements:
-        point masses and rigid bodies in the central field, fixed steps).
+        point masses and rigid bodies in the central field; adaptive steps for point masses).
     order : int
         2 (the base step) or 4, 6, 8 (symmetric compositions of it, :data:`emorbit.ORDERS`);
         ``"tfe"`` runs at 4 or 6 (its 2 or 3 Gauss stages).

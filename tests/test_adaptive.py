@@ -9,8 +9,8 @@ import pytest
 import emorbit
 from emorbit import orbits
 from emorbit.integrators import coefficients
-from emorbit.kernels.codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_LEAPFROG, METHOD_MIDPOINT
-from emorbit.kernels.pointmass import adaptive
+from emorbit.kernels.codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_LEAPFROG, METHOD_MIDPOINT, METHOD_TFE
+from emorbit.kernels.pointmass import adaptive, tfe
 
 EPS = np.finfo(float).eps
 GM = 1.0
@@ -22,10 +22,14 @@ def _state(e, nu=np.pi):
 
 
 def _steps(method, order, x, v, cx, cv, rho, eta, n):
+    """n composed steps of size 1 in tau; tfe (METHOD_TFE) takes one step of its order's Gauss
+    stages for each."""
     elapsed = np.zeros(1)
-    status = adaptive.reversible_steps(
-        method, x, v, cx, cv, rho, GM, np.zeros(3), eta, np.ascontiguousarray(coefficients(order)), n, 50, elapsed
-    )
+    if method == METHOD_TFE:
+        gammas, tab = np.ones(1), tfe.tables(order)
+    else:
+        gammas, tab = np.ascontiguousarray(coefficients(order)), np.zeros((1, 5))
+    status = adaptive.reversible_steps(method, x, v, cx, cv, rho, GM, np.zeros(3), eta, gammas, n, 50, elapsed, tab)
     assert status == 0
     return elapsed[0]
 
@@ -36,8 +40,11 @@ def _steps(method, order, x, v, cx, cv, rho, eta, n):
 BACK = {0.667: (80, 1.2e-12), 0.9: (420, 1.6e-11), 0.99: (1100, 2e-10)}
 
 
-@pytest.mark.parametrize("method", [METHOD_EM, METHOD_MIDPOINT, METHOD_LEAPFROG])
-@pytest.mark.parametrize("order", [2, 4, 8])
+@pytest.mark.parametrize(
+    "method, order",
+    [(m, o) for m in (METHOD_EM, METHOD_MIDPOINT, METHOD_LEAPFROG) for o in (2, 4, 8)]
+    + [(METHOD_TFE, 4), (METHOD_TFE, 6)],
+)
 @pytest.mark.parametrize("e", sorted(BACK))
 def test_the_steps_run_back_to_the_start(method, order, e):
     """2000 steps of eta = 0.01 forward (11 to 18 orbits), the velocities (and their

@@ -78,19 +78,8 @@ from .timing import best_cpu, loadavg, machine, package_version
 from .workprecision import _pareto
 from .workprecision import reach as _reach_series
 
-__all__ = [
-    "CASES",
-    "CONFIGS",
-    "ACCURACIES",
-    "LIMIT",
-    "run",
-    "table",
-    "plot",
-    "reach",
-    "targets",
-    "attitude_angle",
-    "series_name",
-]
+__all__ = ["CASES", "CONFIGS", "ACCURACIES", "LIMIT", "run", "table", "plot", "reach", "targets"]
+__all__ += ["attitude_angle", "series_name"]
 
 #: the attitude errors (rad) of the targets table
 ACCURACIES = (1e-4, 1e-7, 1e-10)

@@ -137,6 +137,7 @@ class RigidBodies(WorkSums, BodySystem):
         "angular_velocity": (3, "rad / s"),
     }
     METHODS = ("em", "midpoint", "tfe")
+    FIXED_ONLY = ("tfe",)
     #: the state of every set of rigid bodies
     BASE_FIELDS = ("q", "v", "cq", "cv", "lam")
     #: the state that effects doing work add: their work so far and its compensation

@@ -143,6 +143,8 @@ class BodySystem:
         The kind's name: the group of its state in checkpoints (``"<kind>/<field>"``).
     METHODS : tuple of str
         The methods (names of :data:`emorbit.integrators.METHODS`) it has kernels for.
+    FIXED_ONLY : tuple of str
+        Those of them it runs with fixed steps only.
     names : list of str
         The bodies' names, in the order of adding (an attribute or a property of the kind).
     STATE_FIELDS : tuple of str
@@ -155,6 +157,7 @@ class BodySystem:
 
     kind: str = ""
     METHODS: tuple[str, ...] = ()
+    FIXED_ONLY: tuple[str, ...] = ()
     STATE_FIELDS: tuple[str, ...] = ()
     plan: Plan = Plan()
 

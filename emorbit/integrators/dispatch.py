@@ -8,7 +8,8 @@ device      steps       kernel
 ==========  ==========  ==========================================================
 "cpu"       fixed       :func:`emorbit.kernels.pointmass.packed.ensemble_chunk`,
                         ``ensemble_chunk_parallel`` from ``PARALLEL_MIN`` points on
-"cpu"       adaptive    :func:`emorbit.kernels.pointmass.adaptive.adaptive_chunk`
+"cpu"       adaptive    :func:`emorbit.kernels.pointmass.adaptive.adaptive_chunk` through
+                        :func:`adaptive_points` (tfe's composed step: one step of it)
 "cpu"       fixed, tfe  :func:`emorbit.kernels.pointmass.tfe.tfe_chunk` through
                         :func:`tfe_chunk` (one point at a time, one thread)
 "gpu"       fixed       :func:`emorbit.kernels.pointmass.cuda.chunk` (state copied in and
@@ -21,8 +22,9 @@ The order of a method does not pick a kernel: every kernel takes the composition
 sub-step coefficients (:func:`emorbit.integrators.coefficients`) as an array. The one
 exception is ``"tfe"``, whose order is its number of Gauss stages: :func:`tfe_chunk` reads
 the order from the coefficients it is handed (those of order 4 or 6) and runs one step of
-2 or 3 stages per step, not the composition. It runs point masses in the central field
-alone, on the CPU, with fixed steps; the other paths refuse it naming their key.
+2 or 3 stages per step, not the composition, with fixed steps or adaptive ones
+(:func:`adaptive_points`). It runs point masses (and rigid bodies, fixed steps) in the
+central field alone, on the CPU; the other paths refuse it naming their key.
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ __all__ = [
     "require_device",
     "tfe_chunk",
     "tfe_tables",
+    "adaptive_points",
 ]
 
 _CODES = {
@@ -101,9 +104,7 @@ def tfe_chunk(code, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter,
 
 def _refuse_tfe(name: str, key: str, what: str) -> None:
     if name == "tfe":
-        raise InputError(
-            key, f"method 'tfe' steps the central field alone, on the CPU with fixed steps; {what}"
-        )
+        raise InputError(key, f"method 'tfe' steps the central field alone, on the CPU; {what}")
 
 
 def method_code(method: str, roundoff: str = "brouwer") -> int:
@@ -249,7 +250,7 @@ def adaptive_chunk(method: str, roundoff: str = "brouwer", device: str = "cpu"):
     code : int
         The method code.
     chunk : callable
-        The kernel.
+        :func:`adaptive_points`: the kernel's arguments without its Gauss tables.
 
     Raises
     ------
@@ -257,9 +258,28 @@ def adaptive_chunk(method: str, roundoff: str = "brouwer", device: str = "cpu"):
         An unknown name, or a device other than the CPU.
     """
     code = method_code(method, roundoff)
-    _refuse_tfe(get_method(method).name, "adaptive", "adaptive steps are not written for it yet: use fixed steps")
     if check_device(device) != "cpu":
         raise InputError("device", f"adaptive steps run on the CPU only, got device {device!r}")
+    return code, adaptive_points
+
+
+#: the tables that methods other than tfe hand the adaptive kernel (it does not read them)
+_NO_TABLES = np.zeros((1, 5))
+_ONE_STEP = np.ones(1)
+
+
+def adaptive_points(
+    code, x, v, cx, cv, rho, gm, center, interval, every, eta, gammas, nrec, max_iter, rec_x, rec_v, rec_iters,
+    rec_steps, fail,
+):  # fmt: skip
+    """:func:`emorbit.kernels.pointmass.adaptive.adaptive_chunk` with the tables it needs: for
+    tfe (``code`` METHOD_TFE) ``gammas`` (those of order 4 or 6) says the order, and the
+    composed step is one step of 2 or 3 Gauss stages (:func:`tfe_tables`)."""
     from ..kernels.pointmass import adaptive
 
-    return code, adaptive.adaptive_chunk
+    tab, gammas = (tfe_tables(gammas), _ONE_STEP) if code == codes.METHOD_TFE else (_NO_TABLES, gammas)
+    adaptive.adaptive_chunk(
+        code, x, v, cx, cv, rho, float(gm), np.ascontiguousarray(center, float), float(interval), int(every),
+        float(eta), np.ascontiguousarray(gammas, float), tab, int(nrec), int(max_iter), rec_x, rec_v, rec_iters,
+        rec_steps, fail,
+    )  # fmt: skip

@@ -89,9 +89,8 @@ class Plan:
         )
         if self.newton not in NEWTON:
             raise InputError(key("newton"), f"must be 'auto', 'reuse' or 'full', got {self.newton!r}")
-        if self.method == "tfe" and (self.adaptive is not None or self.device != "cpu"):
-            name = "adaptive" if self.adaptive is not None else "device"
-            raise InputError(key(name), "method 'tfe' takes fixed steps on the CPU; use method 'em' for this run")
+        if self.method == "tfe" and self.device != "cpu":
+            raise InputError(key("device"), "method 'tfe' runs on the CPU; use method 'em' for this run")
         if self.device == "gpu" and self.adaptive is not None:
             raise InputError(key("device"), "adaptive steps run on the CPU only; use device 'cpu'")
 

@@ -1,5 +1,6 @@
 """Adaptive, time-symmetric steps for point masses in the central field: the reversible
-controller of :mod:`emorbit.kernels.adaptive` around the symmetric em, midpoint or leapfrog
+controller of :mod:`emorbit.kernels.adaptive` around the symmetric em, midpoint, leapfrog or
+time finite element (tfe, :mod:`.tfe`: one step of 2 or 3 Gauss stages is the composed step)
 step of one point.
 
 Control. On the exact motion ``rho = 1 / s(x)``, ``s(x) = eta 2 pi sqrt(r**3 / GM)`` (``r =
@@ -11,7 +12,7 @@ E over 100 orbits of e = 0.9, 1e-12 of a along the track). em's composed step en
 restoring it (:func:`_restore_energy`): ``cv += (dE / |v|^2) v``, ``dE`` the end state's
 energy minus the interval's first, both double-double; zero in exact arithmetic, skipped
 beyond :data:`~emorbit.kernels.adaptive.RESTORE_MAX` of ``|v|^2 + GM/r``, applied to em
-(either roundoff), not to midpoint or leapfrog. The energy target travels with the state.
+(either roundoff) and tfe, not to midpoint or leapfrog. The energy target travels with the state.
 
 Data layout: ``x, v, cx, cv`` (3, n) state and Kahan compensations as in :mod:`.chunk`;
 ``rho`` (n,) the control variables (<= 0: set from ``s(x)``), part of a checkpoint. A point's
@@ -23,13 +24,24 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ..adaptive import KICK_MAX, RESTORE_MAX, U_MAX, interval, kick
-from ..codes import METHOD_EM, METHOD_EM_PLAIN, METHOD_LEAPFROG, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from ..codes import (
+    METHOD_EM,
+    METHOD_EM_PLAIN,
+    METHOD_LEAPFROG,
+    METHOD_TFE,
+    STATUS_NO_CONVERGENCE,
+    STATUS_OK,
+    STATUS_SINGULAR,
+)
 from ..eft import dd_add, dd_div, dd_mul, dd_sqrt, kahan_add
 from ..gravity import accel
 from ..jit import kernel
 from .point_step import _implicit_point_em, _implicit_point_em_plain, _implicit_point_mid, _leapfrog_point
 from .roots import _tau
+from .tfe import tfe_step
 
 __all__ = ["adaptive_chunk", "reversible_steps", "control"]
 
@@ -57,11 +69,26 @@ def _g(x0, x1, x2, y0, y1, y2, c0, c1, c2, gm, eta):
 
 
 @kernel
-def _sub(method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2, max_iter):
-    """One sub-step of physical size h of the symmetric method: 15 values, iterations, status."""
+def _sub(method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2, max_iter, tab):
+    """One sub-step of physical size h of the symmetric method: 15 values, iterations, status.
+    ``tab``: the time finite element's Gauss tables (:func:`.tfe.tables`; read by METHOD_TFE,
+    whose one step is the composed step)."""
     extra = 0
     status = STATUS_OK
-    if method == METHOD_LEAPFROG:
+    if method == METHOD_TFE:
+        k = tab.shape[0]
+        phi = np.empty((k, 2))
+        work = np.empty((2 * k, 2 * k + 8))
+        d0, d1, d2, w0, w1, w2, _, _, extra, status = tfe_step(
+            tab, phi, work, t0 - c0, t1 - c1, t2 - c2, u0, u1, u2, h, gm, max_iter, False
+        )
+        t0, e0 = kahan_add(t0, e0, d0)
+        t1, e1 = kahan_add(t1, e1, d1)
+        t2, e2 = kahan_add(t2, e2, d2)
+        u0, f0 = kahan_add(u0, f0, w0)
+        u1, f1 = kahan_add(u1, f1, w1)
+        u2, f2 = kahan_add(u2, f2, w2)
+    elif method == METHOD_LEAPFROG:
         (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, good) = _leapfrog_point(
             t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2
         )
@@ -125,7 +152,7 @@ def _restore_energy(s, eh, el, gm, c0, c1, c2):
 
 
 @kernel
-def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter, eh, el):
+def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter, eh, el, tab):
     """One composed step from the 15 values ``s`` (x, v, cx, cv, the leapfrog acceleration)
     and ``rho``: sub-steps ``gammas[k] eps`` in tau, or (``fixed`` > 0) of physical size
     ``gammas[k] fixed``, with ``rho`` then set to ``1 / s(x)`` at its end. Returns (new 15
@@ -152,7 +179,7 @@ def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter,
             rho = kick(rho, a)
             h = (4.0 * ak) / rho
         (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, it, status) = _sub(
-            method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2, max_iter
+            method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2, max_iter, tab
         )
         its += it
         if status != STATUS_OK:
@@ -171,7 +198,7 @@ def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter,
         if not (u > 1.0 / U_MAX and u < U_MAX):  # the control ran away from 1 / s(x)
             return s, rho, dur, dlo, its, STATUS_NO_CONVERGENCE, eh, el
     q = (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2)
-    if method == METHOD_EM or method == METHOD_EM_PLAIN:
+    if method == METHOD_EM or method == METHOD_EM_PLAIN or method == METHOD_TFE:
         q, eh, el = _restore_energy(q, eh, el, gm, c0, c1, c2)
     return q, rho, dur, dlo, its, STATUS_OK, eh, el
 
@@ -203,17 +230,17 @@ def _store(s, r, x, v, cx, cv, rho, i):
 def _step(ctx, s, rho, eps, fixed, t):
     """The controller's composed step of one point (:func:`emorbit.kernels.adaptive.interval`):
     the 17 values of ``s`` (the state and the energy target) and the context ``ctx``
-    (method, gm, c0, c1, c2, eta, gammas, max_iter)."""
-    method, gm, c0, c1, c2, eta, gammas, max_iter = ctx
+    (method, gm, c0, c1, c2, eta, gammas, max_iter, tab)."""
+    method, gm, c0, c1, c2, eta, gammas, max_iter, tab = ctx
     q, rq, dur, dlo, its, status, eh, el = _composed(
-        method, s[:15], rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter, s[15], s[16]
+        method, s[:15], rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter, s[15], s[16], tab
     )
     return q + (eh, el), rq, dur, dlo, its, status
 
 
 @kernel
 def _control(ctx, s):
-    method, gm, c0, c1, c2, eta, gammas, max_iter = ctx
+    method, gm, c0, c1, c2, eta, gammas, max_iter, tab = ctx
     return control(s[0], s[1], s[2], c0, c1, c2, gm, eta)
 
 
@@ -223,12 +250,12 @@ def _accept(ctx, s, q):
 
 
 @kernel
-def _interval(method, s, r, length, gammas, gm, c0, c1, c2, eta, max_iter):
+def _interval(method, s, r, length, gammas, gm, c0, c1, c2, eta, max_iter, tab):
     """Composed steps from ``s, r`` that end exactly ``length`` seconds later: returns (s, r,
     iterations, composed steps, status). It starts afresh (its first step is a trial one), so
     what it does depends on the state alone, not on where a chunk started."""
     eh, el, _scale = _energy_dd(s, gm, c0, c1, c2)
-    ctx = (method, gm, c0, c1, c2, eta, gammas, max_iter)
+    ctx = (method, gm, c0, c1, c2, eta, gammas, max_iter, tab)
     q, r, its, steps, status = interval(_step, _control, _accept, ctx, s + (eh, el), r, length, 0.0)
     return q[:15], r, its, steps, status
 
@@ -247,6 +274,7 @@ def adaptive_chunk(
     every,
     eta,
     gammas,
+    tab,
     nrec,
     max_iter,
     rec_x,
@@ -259,7 +287,9 @@ def adaptive_chunk(
     (the landing grid: steps end on every multiple of it) with adaptive, time-symmetric
     steps, recording at the end of each record.
 
-    method       METHOD_EM, METHOD_EM_PLAIN, METHOD_MIDPOINT or METHOD_LEAPFROG
+    method       METHOD_EM, METHOD_EM_PLAIN, METHOD_MIDPOINT, METHOD_LEAPFROG or METHOD_TFE
+    gammas       the composition's sub-step fractions ([1.0] for METHOD_TFE: one step)
+    tab          METHOD_TFE's Gauss tables (:func:`.tfe.tables`); any (k, 3 + 2k) array otherwise
     rho          (n,) control variables, updated in place (<= 0: set from the state)
     eta          the accuracy knob: steps of eta times the local Kepler time scale
     rec_steps    (nrec, n) composed steps each point took in each interval
@@ -281,7 +311,7 @@ def adaptive_chunk(
             r_start = r
             status = STATUS_OK
             for _j in range(every):
-                s, r, it, st, status = _interval(method, s, r, interval, gammas, gm, c0, c1, c2, eta, max_iter)
+                s, r, it, st, status = _interval(method, s, r, interval, gammas, gm, c0, c1, c2, eta, max_iter, tab)
                 its += it
                 steps += st
                 if status != STATUS_OK:
@@ -304,7 +334,7 @@ def adaptive_chunk(
 
 
 @kernel
-def reversible_steps(method, x, v, cx, cv, rho, gm, center, eta, gammas, nsteps, max_iter, elapsed):
+def reversible_steps(method, x, v, cx, cv, rho, gm, center, eta, gammas, nsteps, max_iter, elapsed, tab):
     """Take exactly ``nsteps`` composed steps of size 1 in tau from every point (no records,
     no landing on a time): the scheme alone, for its time symmetry. ``elapsed`` (n,) gets the
     physical time each point advanced. Reversing the velocities and their compensations and
@@ -321,7 +351,7 @@ def reversible_steps(method, x, v, cx, cv, rho, gm, center, eta, gammas, nsteps,
         eh, el, _scale = _energy_dd(s, gm, c0, c1, c2)
         for _ in range(nsteps):
             s, r, dur, dlo, it, status, eh, el = _composed(
-                method, s, r, 1.0, 0.0, gammas, gm, c0, c1, c2, eta, max_iter, eh, el
+                method, s, r, 1.0, 0.0, gammas, gm, c0, c1, c2, eta, max_iter, eh, el, tab
             )
             if status != STATUS_OK:
                 return status
