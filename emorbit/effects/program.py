@@ -298,7 +298,8 @@ def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
     mid = mode == MODE_MIDPOINT
     B = np.empty(({_ROW_COEF + len(effects)}) * LD)
     bad = 0
-    for lo in range(0, n, BLOCK):
+    # (a set of pair effects alone has nothing to add, unless weighted: F + m 0)
+    for lo in range(0, n if {bool(own)} or weighted else 0, BLOCK):
         nb = min(BLOCK, n - lo)
         # the block's rows (weighted, the own effects' sum times the mass joins the pair
         # forces (N), so that it starts at 0)
@@ -327,9 +328,9 @@ def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
                 r = W[c, lo : lo + nb]
                 for j in range(nb):
                     r[j] = r[j] + mb[j] * B[(9 + c) * LD + j] if weighted else B[(9 + c) * LD + j]
-        f0, f1, f2 = F[0, lo : lo + nb], F[1, lo : lo + nb], F[2, lo : lo + nb]
-        for j in range(nb):
-            bad += 0 if abs(f0[j]) + abs(f1[j]) + abs(f2[j]) < math.inf else 1
+    f0, f1, f2 = F[0], F[1], F[2]
+    for i in range(n):
+        bad += 0 if abs(f0[i]) + abs(f1[i]) + abs(f2[i]) < math.inf else 1
     return STATUS_SINGULAR if bad else STATUS_OK
 """
     prep = "\n".join(f"prepare_{e}(ta, tm, tb, p{e}, t{e}, s{e})" for e in range(len(effects)) if "prepare" in has[e])
