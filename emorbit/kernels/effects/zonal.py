@@ -49,6 +49,7 @@ __all__ = [
     "zonal_force",
     "zonal_jacobian",
     "zonal_sums",
+    "zonal_sums_unrolled",
     "zonal_piece",
     "zonal_potential_piece",
     "NMAX",
@@ -147,14 +148,25 @@ def zonal_sums(q0, q1, z0, z1, nmax, j2, j3, j4, j5, j6, jac):
 
     ``q0, q1`` = 1 / rho and ``z0, z1`` = zeta at the two ends, ``nmax`` the highest degree
     and ``j2 .. j6`` the coefficients (those above ``nmax`` unused). Returns (A, B, dA/drho1,
-    dA/dzeta1, dB/drho1, dB/dzeta1); the four derivatives are zero unless ``jac``. The powers
-    m = 1 .. 2 nmax + 1 of 1/rho are written out, one call of :func:`_order` each, so that
-    with ``nmax`` a constant (:mod:`.zonal_packed`) every loop has a constant trip count and
-    LLVM unrolls them into straight code that vectorises over points.
+    dA/dzeta1, dB/drho1, dB/dzeta1); the four derivatives are zero unless ``jac``. One
+    :func:`_order` per power m = 1 .. 2 nmax + 1 of 1/rho, in a loop (compact code, for a
+    degree known only at run time; :func:`zonal_sums_unrolled` writes them out).
     """
     # q = 1/rho; f = q^m at both ends; S = -df = sum_{i<m} q0^(i+1) q1^(m-i) and
     # T = sum_{i<m} (m-i) q0^(i+1) q1^(m-i), so that dS/drho1 = -q1 T; from m = 1 up:
     # S' = q1 S + q0^(m+1) q1, T' = q1 (T + S) + q0^(m+1) q1 (all terms positive)
+    c = (q0, q1, z0, z1, nmax, j2, j3, j4, j5, j6, jac)
+    st = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, q0, q1, q0 * q1, q0 * q1)
+    for m in range(1, 2 * nmax + 2):
+        st = _order(m, c, st)
+    return st[0], st[1], st[2], st[3], st[4], st[5]
+
+
+@_inline
+def zonal_sums_unrolled(q0, q1, z0, z1, nmax, j2, j3, j4, j5, j6, jac):
+    """:func:`zonal_sums` with the powers written out, one call of :func:`_order` each (the
+    same operations): with ``nmax`` a constant (:mod:`.zonal_packed`) every loop has a constant
+    trip count and LLVM unrolls them into straight code that vectorises over points."""
     c = (q0, q1, z0, z1, nmax, j2, j3, j4, j5, j6, jac)
     st = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, q0, q1, q0 * q1, q0 * q1)
     st = _order(1, c, st)

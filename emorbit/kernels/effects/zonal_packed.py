@@ -49,7 +49,7 @@ from numba import prange
 from ..codes import STATUS_NO_CONVERGENCE, STATUS_SINGULAR
 from ..eft import fma
 from ..jit import kernel
-from .zonal import NMAX, zonal_sums
+from .zonal import NMAX, zonal_sums_unrolled
 
 __all__ = ["BLOCK", "LD", "PARALLEL_MIN", "chunk", "variant"]
 
@@ -159,13 +159,13 @@ def _grad_2(pa, z, js):
 @_force
 def _sums_6(pa, q1, z0, z1, js):
     """:func:`.zonal.zonal_sums` of degree 6 (J above the model's degree zero: the same sums)."""
-    return zonal_sums(pa[0], q1, z0, z1, NMAX, js[0], js[1], js[2], js[3], js[4], True)
+    return zonal_sums_unrolled(pa[0], q1, z0, z1, NMAX, js[0], js[1], js[2], js[3], js[4], True)
 
 
 @_force
 def _grad_6(pa, z, js):
     """(A, B) of :func:`_sums_6` at equal ends."""
-    return zonal_sums(pa[0], pa[0], z, z, NMAX, js[0], js[1], js[2], js[3], js[4], False)[:2]
+    return zonal_sums_unrolled(pa[0], pa[0], z, z, NMAX, js[0], js[1], js[2], js[3], js[4], False)[:2]
 
 
 @_force
