@@ -178,8 +178,8 @@ MUTANTS = (
         "D1",
         "the recorded work of a force on a point off by 1e-9 relative (not m F . (x1 - x0) exactly)",
         "emorbit/effects/program.py",
-        '{row} = mb[j] * (gx * d0 + gy * d1 + gz * d2) if kc',
-        '{row} = mb[j] * (gx * d0 + gy * d1 + gz * d2) * (1.0 + 1e-9) if kc',
+        "{row} = mb[j] * (gx * d0 + gy * d1 + gz * d2) if kc",
+        "{row} = mb[j] * (gx * d0 + gy * d1 + gz * d2) * (1.0 + 1e-9) if kc",
         ("tests/test_energy_balance.py", "-k", "balance_closes and drag and point"),
     ),
     Mutant(
