@@ -14,9 +14,10 @@ block its entries ``lo`` to ``lo + nb``.
 
 from __future__ import annotations
 
+import numpy as np
 from numba import types
 from numba.core import cgutils
-from numba.extending import intrinsic
+from numba.extending import intrinsic, overload
 
 from ..jit import kernel
 
@@ -30,11 +31,25 @@ LD = 72
 _BLOCK = types.Array(types.float64, 2, "C")
 
 
+def block33():
+    """A (3, 3) float64 C-contiguous array, contents undefined. Compiled, it lies in the
+    calling function's stack frame (:func:`_stack33`, inlined into the caller): no allocation
+    and no reference count, valid while that function runs, one slot reused by a loop that
+    takes one per iteration. In Python (a kernel's ``py_func``) it is a new array."""
+    return np.empty((3, 3))
+
+
+@overload(block33, inline="always")
+def _block33():
+    def impl():
+        return _stack33()
+
+    return impl
+
+
 @intrinsic
-def block33(typingctx):
-    """A (3, 3) float64 C-contiguous array in the calling function's stack frame (contents
-    undefined): no allocation and no reference count. Valid while that function runs; a loop
-    that takes one per iteration reuses the same slot."""
+def _stack33(typingctx):
+    """:func:`block33`'s array in the stack frame of the function it is compiled into."""
 
     def codegen(context, builder, signature, args):
         ary = context.make_array(_BLOCK)(context, builder)
