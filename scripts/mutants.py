@@ -146,8 +146,8 @@ MUTANTS = (
         "Z1",
         "the zonal force off by 1e-9 relative, 1e-12 of gravity (rigid and elastic bodies)",
         "emorbit/kernels/effects/zonal.py",
-        "    k = gm / (R * R)\n    ku = -k * A / (r0 + r1)\n",
-        "    k = gm / (R * R) * (1.0 + 1e-9)\n    ku = -k * A / (r0 + r1)\n",
+        "    k = p[6] / (p[7] * p[7])\n    ku = -k * A / (r0 + r1)\n",
+        "    k = p[6] / (p[7] * p[7]) * (1.0 + 1e-9)\n    ku = -k * A / (r0 + r1)\n",
         ("tests/test_effects.py", "-k", "tumbling_box_with_j2"),
     ),
     Mutant(
