@@ -646,6 +646,20 @@ class Assembly:
                 masses[b["name"]] = b["mass"]
         self.effects.check_bodies(kinds, masses)
         self.effects.check_method(self.method)
+        for system in self.systems:
+            if len(system) and self.method in system.FIELD_ONLY:
+                acting = [e for e in self.effects.named if e.acts_on(system.kind) and any(map(e.reaches, system.names))]
+                if acting:
+                    e = acting[0]
+                    raise InputError(
+                        "method",
+                        f"method {self.method!r} steps {system.kind} bodies in the central field alone, and "
+                        f"{e.key} ({e.kind}) acts on them; use em",
+                    )
+        if self.adaptive is not None and self.method == "tfe" and self.points.under_effects():
+            raise InputError(
+                "adaptive", "method 'tfe' takes fixed steps for point masses under effects; leave adaptive unset"
+            )
         if self.adaptive is not None and self.points.under_effects() and not self.effects.sets_time_scale("point"):
             raise InputError(
                 "adaptive",

@@ -3,9 +3,8 @@
 In the central field alone the points are independent and advanced by the kernels in
 :mod:`emorbit.kernels.pointmass` that :mod:`emorbit.integrators.dispatch` names. Under a set
 of effects (:mod:`emorbit.effects`: zonal harmonics, drag, third bodies, mutual gravity, a
-user's) they are advanced by :func:`emorbit.kernels.pointmass.effect_step.effect_chunk` with
-the set compiled (:class:`~emorbit.bodies.effect_binding.EffectBinding`), or by a packed kernel
-an effect declares for exactly its set (:meth:`emorbit.effects.base.Effect.packed`). The state
+user's) they are advanced by the kernels :class:`~emorbit.bodies.point_effects.EffectRun`
+calls with the set compiled (:class:`~emorbit.bodies.effect_binding.EffectBinding`). The state
 is (3, n) float64 arrays of positions ``x`` (m) and velocities ``v`` (m/s) with Kahan
 compensation terms ``cx`` and ``cv``: the exact state is ``x - cx``, ``v - cv``. Under
 effects it adds the Newton iteration's warm start (``wp`` (3, n), ``hp`` (1,)) and, where an
@@ -427,41 +426,34 @@ class PointMasses(WorkSums, BodySystem):
         """(k, n) each point's coefficient for each effect of the set."""
         return self.effects.coefficients(self.names, self.values)
 
-    def _advance_effects(self, method, dt, gammas, every, nrec, max_iter, clock) -> ChunkRecords:
-        """Steps under the simulation's effects: adaptive steps of the whole set
-        (:func:`~emorbit.kernels.pointmass.effect_adaptive.effect_adaptive_chunk`); fixed ones
-        by the packed kernel an effect declares for exactly this set (em), else
-        :func:`~emorbit.kernels.pointmass.effect_step.effect_chunk` with the set compiled."""
-        from ..kernels.pointmass.effect_step import effect_chunk
+    def _effect_run(self):
+        """The points' arrays as the step kernels under effects take them."""
+        from .point_effects import EffectRun
 
-        if self.adaptive is not None:
-            return self._advance_effects_adaptive(method, dt, gammas, every, nrec, max_iter, clock)
+        return EffectRun(
+            self.effects, self.x, self.v, self.cx, self.cv, self.wp, self.hp, self.masses, self.coefficients(),
+            self.work, self.cwork, self._dense(),
+        )  # fmt: skip
+
+    def _advance_effects(self, method, dt, gammas, every, nrec, max_iter, clock) -> ChunkRecords:
+        """Steps under the simulation's effects (:class:`~emorbit.bodies.point_effects.EffectRun`):
+        adaptive steps of the whole set, whose control variable is ``rho[0]`` (every entry holds
+        it), or fixed steps."""
+        run = self._effect_run()
         n = len(self)
         rec = ChunkRecords(
-            x=np.empty((nrec, 3, n)),
-            v=np.empty((nrec, 3, n)),
-            iterations=np.zeros((nrec, n), dtype=np.int64),
-            fail=np.full((n, 2), -1, dtype=np.int64),
+            np.empty((nrec, 3, n)), np.empty((nrec, 3, n)), np.zeros((nrec, n), np.int64), np.full((n, 2), -1, np.int64)
         )
-        wp = self.wp
-        args = (float(dt), np.ascontiguousarray(gammas, float), int(every), int(nrec), int(max_iter))
-        records = (rec.x, rec.v, rec.iterations, rec.fail)
-        packed = self.effects.effects.packed_points() if method == "em" else None
-        if packed is not None:
-            chunk, params = packed
-            chunk(self.x, self.v, self.cx, self.cv, wp, self.hp, self.masses, *params, *args, *records)
-            return rec
-        prog = self.effects.program
-        P, I, T, S = self.effects.arrays(n)
-        work = self.work
-        rec.work = np.empty((nrec,) + work.shape)
-        effect_chunk(
-            prog.forces, prog.cross, prog.prepare, prog.work, dispatch.method_code(method, "fast"), self.x, self.v,
-            self.cx, self.cv, wp, self.hp, self.masses, np.arange(n, dtype=np.int64), self.coefficients(), P, I, T, S,
-            work, self.cwork, rec.work, float(clock[0]), float(clock[1]), *args, self._dense(), *records,
-        )  # fmt: skip
-        if not work.shape[0]:
-            rec.work = None
+        rec.work = np.empty((nrec,) + self.work.shape)
+        if self.adaptive is None:
+            return run.fixed(rec, method, dt, gammas, every, nrec, max_iter, clock)
+        if self.rho.shape != (n,):
+            self.rho = np.zeros(n)
+        rho = self.rho[:1].copy()
+        rec, steps = run.adaptive(rec, method, rho, self.adaptive, dt, gammas, every, nrec, max_iter, clock)
+        self.rho[:] = rho[0]
+        rec.solves = steps * len(gammas)
+        self.adaptive_steps += int(steps[:, 0].sum()) if n else 0
         return rec
 
     #: up to this many points under effects between pairs, each sweep solves Newton's whole
@@ -473,37 +465,6 @@ class PointMasses(WorkSums, BodySystem):
     def _dense(self) -> bool:
         """Whether the points' Newton sweeps solve the whole system (:attr:`DENSE_MAX`)."""
         return bool(self.effects.effects.pair_effects()) and 1 < len(self) <= self.DENSE_MAX
-
-    def _advance_effects_adaptive(self, method, dt, gammas, every, nrec, max_iter, clock) -> ChunkRecords:
-        """Adaptive, time-symmetric steps of all points together under the effects, landing on
-        every multiple of ``dt``; the set's control variable is ``rho[0]`` (every entry holds it)."""
-        from ..kernels.pointmass.effect_adaptive import effect_adaptive_chunk
-
-        n = len(self)
-        steps = np.zeros((nrec, n), dtype=np.int64)
-        rec = ChunkRecords(
-            np.empty((nrec, 3, n)), np.empty((nrec, 3, n)), np.zeros((nrec, n), np.int64), np.full((n, 2), -1, np.int64)
-        )
-        if self.rho.shape != (n,):
-            self.rho = np.zeros(n)
-        rho = self.rho[:1].copy()
-        prog = self.effects.program
-        P, I, T, S = self.effects.arrays(n)
-        work = self.work
-        rec.work = np.empty((nrec,) + work.shape)
-        effect_adaptive_chunk(
-            prog.forces, prog.cross, prog.prepare, prog.work, prog.rate, dispatch.method_code(method, "fast"), self.x,
-            self.v, self.cx, self.cv, self.wp, self.hp, rho, self.masses, np.arange(n, dtype=np.int64),
-            self.coefficients(), P, I, T, S, work, self.cwork, rec.work, float(clock[0]), float(clock[1]),
-            float(dt), int(every), float(self.adaptive), np.ascontiguousarray(gammas, float), int(nrec),
-            int(max_iter), self._dense(), rec.x, rec.v, rec.iterations, steps, rec.fail,
-        )  # fmt: skip
-        self.rho[:] = rho[0]
-        if not work.shape[0]:
-            rec.work = None
-        rec.solves = steps * len(gammas)
-        self.adaptive_steps += int(steps[:, 0].sum()) if n else 0
-        return rec
 
     def reversible_steps(self, method: str, gammas, nsteps: int, max_iter: int, t0: float = 0.0, direction=1.0):
         """Take exactly ``nsteps`` adaptive composed steps of size 1 in tau of the points under
@@ -520,18 +481,11 @@ class PointMasses(WorkSums, BodySystem):
         RuntimeError
             A step failed (its status in the message).
         """
-        from ..kernels.pointmass.effect_adaptive import effect_reversible_steps
-
         n = len(self)
         rho = self.rho[:1].copy() if self.rho.shape == (n,) else np.zeros(1)
-        prog = self.effects.program
-        P, I, T, S = self.effects.arrays(n)
-        elapsed, status = effect_reversible_steps(
-            prog.forces, prog.cross, prog.prepare, prog.work, prog.rate, dispatch.method_code(method, "fast"), self.x,
-            self.v, self.cx, self.cv, self.wp, self.hp, rho, self.masses, np.arange(n, dtype=np.int64),
-            self.coefficients(), P, I, T, S, self.work, self.cwork, float(t0), float(direction),
-            float(self.adaptive), np.ascontiguousarray(gammas, float), int(nsteps), int(max_iter), self._dense(),
-        )  # fmt: skip
+        elapsed, status = self._effect_run().reversible(
+            method, rho, self.adaptive, gammas, nsteps, max_iter, t0, direction
+        )
         if status != 0:
             raise RuntimeError(f"an adaptive step failed with status {status}")
         self.rho = np.full(n, rho[0])

@@ -138,6 +138,7 @@ class RigidBodies(WorkSums, BodySystem):
     }
     METHODS = ("em", "midpoint", "tfe")
     FIXED_ONLY = ("tfe",)
+    FIELD_ONLY = ("tfe",)
     #: the state of every set of rigid bodies
     BASE_FIELDS = ("q", "v", "cq", "cv", "lam")
     #: the state that effects doing work add: their work so far and its compensation
@@ -453,7 +454,8 @@ class RigidBodies(WorkSums, BodySystem):
         central field alone: its order is its number of Gauss stages times 2, so ``gammas``
         only gives the order (:func:`emorbit.integrators.dispatch.tfe_tables`)."""
         from ..integrators.dispatch import tfe_tables
-        from ..kernels.rigid_tfe import low_parts, rigid_tfe_chunk
+        from ..kernels.pointmass.tfe import low_parts
+        from ..kernels.rigid_tfe import rigid_tfe_chunk
 
         rec = self._records(nrec)
         tab = tfe_tables(gammas)

@@ -145,6 +145,8 @@ class BodySystem:
         The methods (names of :data:`emorbit.integrators.METHODS`) it has kernels for.
     FIXED_ONLY : tuple of str
         Those of them it runs with fixed steps only.
+    FIELD_ONLY : tuple of str
+        Those of them it runs in the central field alone (no effect may act on its bodies).
     names : list of str
         The bodies' names, in the order of adding (an attribute or a property of the kind).
     STATE_FIELDS : tuple of str
@@ -158,6 +160,7 @@ class BodySystem:
     kind: str = ""
     METHODS: tuple[str, ...] = ()
     FIXED_ONLY: tuple[str, ...] = ()
+    FIELD_ONLY: tuple[str, ...] = ()
     STATE_FIELDS: tuple[str, ...] = ()
     plan: Plan = Plan()
 

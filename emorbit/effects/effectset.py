@@ -183,8 +183,10 @@ class EffectSet:
     # -- checks against the run ----------------------------------------------------------------
     def check_method(self, method: str, key: str = "method") -> None:
         """Refuse a method an effect cannot run with: one whose kernels step the central field
-        alone (:attr:`~emorbit.integrators.Method.effects`), and leapfrog kicks with forces
-        that depend on the velocity (drag) or that act between pairs of bodies of other kinds.
+        alone (:attr:`~emorbit.integrators.Method.effects`), leapfrog kicks with forces
+        that depend on the velocity (drag) or that act between pairs of bodies of other kinds,
+        and tfe's stages with forces that depend on the velocity, act between pairs or change
+        the mass.
 
         Raises
         ------
@@ -198,6 +200,20 @@ class EffectSet:
             raise InputError(
                 key, f"method {method!r} steps the central field alone, and the run has {e.key} ({e.kind}); use em"
             )
+        if method == "tfe":
+            for e in self._named:
+                cls = type(e)
+                why = (
+                    "depends on the velocity" if not cls.EXPLICIT
+                    else "acts between pairs of bodies" if cls.pairs()
+                    else "changes the mass" if cls.changes_mass()
+                    else ""
+                )  # fmt: skip
+                if why:
+                    raise InputError(
+                        key,
+                        f"tfe evaluates forces at points of single bodies, and {e.key} ({e.kind}) {why}; use em",
+                    )
         if method != "leapfrog":
             return
         for e in self._named:

@@ -44,7 +44,9 @@ step) or :data:`MODE_EXPLICIT` (x0 = x1 = x: the force at a point, leapfrog's ki
     work(x0, dx, m, body, coef, h, mode, P, I, T, S, out)
         out (w, n): each working effect's work on each point over the step from x0 to
         x0 + dx (J): ``m F . dx`` for a force that does work, the ``time_work`` of a potential
-        that changes in time; w is the number of working effects, in the set's order. A set
+        that changes in time; w is the number of working effects, in the set's order. With
+        :data:`MODE_POINT`, every working effect's ``m F(x0) . dx``: its force at x0 (a stage
+        of a time finite element) times a displacement. A set
         with an effect that changes mass (a ``mass`` piece) has one more row, its *ledger
         row* (the last): the point's work over the step at its true mean mass, ``(1 + sum
         dmu) sum_k out[k, i]``, dmu the ``mass`` pieces' parts where they act on the point.
@@ -128,7 +130,7 @@ import numpy as np
 
 from emorbit.kernels.codes import STATUS_OK, STATUS_SINGULAR
 from emorbit.kernels.effects.blocks import BLOCK, LD, block33, load_row
-from emorbit.kernels.effects.signatures import CROSS, FACETS, FORCES, MODE_MIDPOINT, MODE_WEIGHTED
+from emorbit.kernels.effects.signatures import CROSS, FACETS, FORCES, MODE_MIDPOINT, MODE_POINT, MODE_WEIGHTED
 from emorbit.kernels.effects.signatures import POTENTIAL, PREPARE, RATE, WORK
 {imports}
 
@@ -177,10 +179,13 @@ _EFFECT_LOOP = """for j in range(nb):
                 B[(9 + 3 * a + b) * LD + j] = J[a, b] if on else B[(9 + 3 * a + b) * LD + j]"""
 
 
-def _ends(e0: str, e1: str, e2: str, conservative: bool) -> str:
+def _ends(e0: str, e1: str, e2: str, conservative: bool, point: bool = False) -> str:
     """The step's end ``b`` from the expressions of its components and, for a conservative
-    effect, the points its force takes: ``u = w =`` the midpoint with ``mid``, else ``a, b``."""
+    effect, the points its force takes: ``u = w =`` the midpoint with ``mid``, else ``a, b``;
+    where ``point`` (the work function), ``b = a`` with ``pt`` (MODE_POINT: the force at a)."""
     code = f"b0 = {e0}\nb1 = {e1}\nb2 = {e2}"
+    if point:
+        code += "\nif pt:\n    b0 = a0\n    b1 = a1\n    b2 = a2"
     if conservative:
         code += (
             "\nif mid:\n    u0 = 0.5 * (a0 + b0)\n    u1 = 0.5 * (a1 + b1)\n    u2 = 0.5 * (a2 + b2)\n"
@@ -344,9 +349,11 @@ def prepare(ta, tm, tb, P, I, T, S):
     for e in working:
         cls = effects[e]
         row = f"B[{_ROW_COEF + len(effects) + slot_of[e]} * LD + j]"
-        if "time_work" in has[e]:
+        if "time_work" in has[e]:  # at a point (MODE_POINT), its force's work instead
             body = (
-                f"tw = mb[j] * time_work_{e}(a0, a1, a2, b0, b1, b2, kc, p{e}, t{e}, s{e})\n"
+                f"if pt:\n    gx, gy, gz = force_{e}(a0, a1, a2, a0, a1, a2, h, kc, p{e}, t{e}, s{e}, J, False)\n"
+                "    tw = mb[j] * (gx * d0 + gy * d1 + gz * d2)\n"
+                f"else:\n    tw = mb[j] * time_work_{e}(a0, a1, a2, b0, b1, b2, kc, p{e}, t{e}, s{e})\n"
                 f"{row} = tw if kc != 0.0 else 0.0"
             )
             cons = False
@@ -360,7 +367,7 @@ def prepare(ta, tm, tb, P, I, T, S):
         else:
             work_loops.append(f"for j in range(nb):\n    {row} = 0.0")
             continue
-        ends = _ends("a0 + d0", "a1 + d1", "a2 + d2", cons)
+        ends = _ends("a0 + d0", "a1 + d1", "a2 + d2", cons, point=True)
         work_loops.append(
             f"for j in range(nb):\n    kc = B[{_ROW_COEF + e} * LD + j]\n    J = block33()\n"
             "    a0 = B[j]\n    a1 = B[LD + j]\n    a2 = B[2 * LD + j]\n"
@@ -383,6 +390,7 @@ def work(x0, dx, m, body, coef, h, mode, P, I, T, S, out):
     n = m.shape[0]
 {_indent(views, 4)}
     mid = mode == MODE_MIDPOINT
+    pt = mode == MODE_POINT
     B = np.empty(({_ROW_COEF + len(effects) + len(working)}) * LD)
     for lo in range(0, n, BLOCK):
         nb = min(BLOCK, n - lo)

@@ -93,17 +93,17 @@ METHODS = {
     "tfe": Method(
         "tfe",
         "energy-momentum time finite element: order 2k in one solve of k Gauss stages "
-        "(point masses and rigid bodies, central field)",
+        "(point masses, also under effects whose force is explicit; rigid bodies in the central field)",
         implicit=True,
         conserves=("energy", "angular_momentum"),
         orders=(4, 6),
-        effects=False,
     ),
 }
 """The methods by name: ``"em"`` (energy-momentum), ``"midpoint"``, ``"leapfrog"`` and ``"tfe"``
 (energy-momentum time finite elements of orders 4 and 6, :mod:`emorbit.kernels.pointmass.tfe`
-and :mod:`emorbit.kernels.rigid_tfe`: point masses and rigid bodies in the central field,
-fixed steps on the CPU)."""
+and :mod:`emorbit.kernels.rigid_tfe`: point masses, also under effects whose force is a function
+of position and time (:mod:`emorbit.kernels.pointmass.effect_tfe`), and rigid bodies in the
+central field; on the CPU)."""
 
 
 def get_method(name, key: str = "method") -> Method:

@@ -10,7 +10,7 @@ over the gravity points (mass points; the centre of mass for the point model), `
 p / |p|^3``, P_l gravity's power ``F . u + tau . Omega`` at stage l. A step is k-stage Gauss
 collocation (Hairer's energy-preserving collocation; the cG(k) element of Betsch & Steinmann),
 order 2k. Quadratic invariants change by exact node sums (``b_i a_ij + b_j a_ji = b_i b_j``,
-kept to 20 digits by :func:`low_parts`), so for any stage values: ``R R^T`` stays I
+kept to 20 digits by :func:`.pointmass.tfe.low_parts`), so for any stage values: ``R R^T`` stays I
 (``(R R^T)' = 0`` for any R); ``L = (phi - c) x m u + R M`` changes by ``h sum_l b_l sum_i
 p_il x f_il = 0`` (radial forces; ``R^-1`` where a rotation has ``R^T``); ``T = m|u|^2/2 +
 M.J^-1 M/2`` by ``h sum_l b_l P_l (1 + nu P_l)``. nu makes that equal the potential's drop,
@@ -51,7 +51,7 @@ from .pointmass.tfe import _extrapolation
 from .rigid_solve import lu, lu_solve
 from .rigid_tfe_newton import factor_rotation, inverse3, rotation_jacobian, solve_without_correction, torque_jacobian
 
-__all__ = ["low_parts", "rigid_tfe_chunk", "rigid_tfe_step", "step_scratch"]
+__all__ = ["rigid_tfe_chunk", "rigid_tfe_step", "step_scratch"]
 
 _TOL = 2.0**-53
 _FLOOR = 2.0**-40
@@ -67,29 +67,6 @@ _REUSE_ITERATIONS = 3
 _SLOPE_MIN = 0.01
 #: the groups of y whose updates are weighed against their own increments
 _GROUPS = ((0, 3), (3, 12), (12, 15), (15, 18))
-
-
-def low_parts(order: int) -> np.ndarray:
-    """What the float64 Gauss tables of ``order`` (:func:`.pointmass.tfe.tables`) leave out:
-    (k, 1 + k), row l ``b_l - fl(b_l)``, then ``a_lj - fl(a_lj)``, from the 20-digit values.
-
-    The quadratic invariants are kept because ``b_i a_ij + b_j a_ji = b_i b_j``; rounded to
-    float64 the identity is off by about 1e-17, the same in every step, and the invariants
-    drift by that times ``(h omega)^2`` per step. With these parts the stage sums use the
-    coefficients to 20 digits, so the drift is far below round-off's random walk."""
-    from decimal import Decimal, getcontext
-
-    from .pointmass.tfe import _GAUSS
-
-    getcontext().prec = 40
-    c, b, a, _, _ = _GAUSS[order // 2]
-    k = len(c)
-    out = np.empty((k, 1 + k))
-    for i in range(k):
-        out[i, 0] = float(Decimal(b[i]) - Decimal(float(b[i])))
-        for j in range(k):
-            out[i, 1 + j] = float(Decimal(a[i][j]) - Decimal(float(a[i][j])))
-    return out
 
 
 @kernel(forceinline=True)
@@ -349,7 +326,7 @@ def rigid_tfe_step(
 ):
     """One step of the k-stage element from ``y0`` (18); returns ``(dy, dlo, iterations,
     status, nu)``: the increment ``h sum_l b_l K_l`` in two parts, from the weights' float64
-    values and from their low parts (``lo``: :func:`low_parts`), and the energy correction.
+    values and from their low parts (``lo``: :func:`.pointmass.tfe.low_parts`), and the energy correction.
     ``Z`` (k, 18) holds the stage increments (a predictor in when ``predicted``), ``Kst`` (k,
     18) the stage derivatives out (for the next predictor), ``nu`` the first guess of the
     correction (the last step's); ``tidal``: whether the torque depends on the attitude

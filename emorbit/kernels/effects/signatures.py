@@ -23,7 +23,7 @@ Data layout of an effect set, k effects (the order in which their forces are sum
 ``mode``: :data:`MODE_STEP` (the em step's discrete forces), :data:`MODE_MIDPOINT`
 (conservative effects at the midpoint, others over the step) or :data:`MODE_EXPLICIT` (the
 force at a point, leapfrog's kicks), plus the flag :data:`MODE_WEIGHTED` (forces, not forces
-per unit mass).
+per unit mass); the work function also takes :data:`MODE_POINT` (the force at x0 times dx).
 """
 
 from __future__ import annotations
@@ -41,6 +41,7 @@ __all__ = [
     "MODE_STEP",
     "MODE_MIDPOINT",
     "MODE_EXPLICIT",
+    "MODE_POINT",
     "MODE_WEIGHTED",
     "SLICES",
 ]
@@ -51,6 +52,9 @@ MODE_STEP = 0
 MODE_MIDPOINT = 1
 #: the force at a point (x0 = x1): the explicit kicks of leapfrog
 MODE_EXPLICIT = 2
+#: the work function only: each effect's force at x0 times the displacement dx (the work at a
+#: stage of a time finite element, :mod:`emorbit.kernels.pointmass.effect_tfe`)
+MODE_POINT = 3
 #: a flag added to a mode: forces (N) rather than forces per unit mass
 MODE_WEIGHTED = 4
 #: the columns of ``I``: parameter, table and scratch slices (start, end)

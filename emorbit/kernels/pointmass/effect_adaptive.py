@@ -24,7 +24,7 @@ from ..adaptive import KICK_MAX, U_MAX, interval, kick
 from ..codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
 from ..eft import kahan_add
 from ..jit import kernel
-from .effect_step import effect_substep, method_mode, step_scratch
+from .effect_step import effect_substep, method_mode, step_scratch, stop_records
 
 __all__ = ["effect_adaptive_chunk", "effect_reversible_steps"]
 
@@ -175,13 +175,7 @@ def effect_adaptive_chunk(
         if status != STATUS_OK:
             _copy(s, start)
             r = r_start
-            for i in range(n):
-                fail[i, 0] = k
-                fail[i, 1] = status
-            for kk in range(k, nrec):
-                rec_x[kk, :, :] = x
-                rec_v[kk, :, :] = v
-                rec_work[kk, :, :] = work
+            stop_records(x, v, work, rec_x, rec_v, rec_work, fail, k, k, status)
             break
         for i in range(n):
             rec_iters[k, i] = its

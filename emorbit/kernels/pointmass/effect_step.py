@@ -52,7 +52,7 @@ from ..effects.newton import newton_update
 from ..effects.signatures import MODE_EXPLICIT, MODE_MIDPOINT, MODE_STEP
 from ..jit import kernel
 
-__all__ = ["effect_chunk", "effect_substep", "step_scratch", "method_mode", "substep_times"]
+__all__ = ["effect_chunk", "effect_substep", "step_scratch", "method_mode", "stop_records", "substep_times"]
 
 _EPS = 2.0**-52
 
@@ -257,6 +257,19 @@ def effect_substep(
 
 
 @kernel
+def stop_records(x, v, work, rec_x, rec_v, rec_work, fail, r, step, status):
+    """Where step ``step`` of record ``r`` failed: every point's ``fail`` row names it, and the
+    records from r on repeat the state (x, v, work) the points stop at."""
+    for i in range(x.shape[1]):
+        fail[i, 0] = step
+        fail[i, 1] = status
+    for rr in range(r, rec_x.shape[0]):
+        rec_x[rr, :, :] = x
+        rec_v[rr, :, :] = v
+        rec_work[rr, :, :] = work
+
+
+@kernel
 def effect_chunk(
     forces, cross, prepare, work_of, method, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork, rec_work,
     clock_base, clock_n0, dt, gammas, every, nrec, max_iter, dense, rec_x, rec_v, rec_iters, fail,
@@ -309,13 +322,7 @@ def effect_chunk(
                     hp[0] = hp0
                     work[:, :] = sw[0]
                     cwork[:, :] = sw[1]
-                    for i in range(n):
-                        fail[i, 0] = r * every + s
-                        fail[i, 1] = status
-                    for rr in range(r, nrec):
-                        rec_x[rr, :, :] = x
-                        rec_v[rr, :, :] = v
-                        rec_work[rr, :, :] = work
+                    stop_records(x, v, work, rec_x, rec_v, rec_work, fail, r, r * every + s, status)
                     return
         rec_x[r, :, :] = x
         rec_v[r, :, :] = v
