@@ -656,10 +656,6 @@ class Assembly:
                         f"method {self.method!r} steps {system.kind} bodies in the central field alone, and "
                         f"{e.key} ({e.kind}) acts on them; use em",
                     )
-        if self.adaptive is not None and self.method == "tfe" and self.points.under_effects():
-            raise InputError(
-                "adaptive", "method 'tfe' takes fixed steps for point masses under effects; leave adaptive unset"
-            )
         if self.adaptive is not None and self.points.under_effects() and not self.effects.sets_time_scale("point"):
             raise InputError(
                 "adaptive",

@@ -9,6 +9,9 @@ import pytest
 
 import emorbit
 from emorbit.errors import InputError
+from emorbit.integrators import coefficients
+
+EPS = np.finfo(float).eps
 
 EARTH = emorbit.CentralField(body="earth")
 EPOCH = "2026-03-20T00:00:00 TDB"
@@ -127,3 +130,72 @@ def test_refuses_what_it_cannot_step():
     with pytest.raises(InputError) as info:
         sim.run(steps=1, progress=False)
     assert info.value.key == "method" and "rigid" in str(info.value) and "zonal" in str(info.value)
+
+
+EXPLICIT_KEYS = {
+    "zonal": {"model": "earth"},
+    "gravity_field": {"model": "egm2008", "degree": 8, "rotation": "earth"},
+    "srp": {"shadow": "conical"},
+    "third_body": {"body": "moon"},
+}
+
+
+@pytest.mark.parametrize("kind", sorted(EXPLICIT_KEYS))
+def test_each_explicit_effect_with_fixed_and_adaptive_steps(kind):
+    """Each shipped effect whose force is a function of position and time, on a point from
+    LEO, 100 fixed steps of 20 s and 10 adaptive intervals (eta 0.05), orders 4 and 6: the
+    energy, or the balance E - E0 - W, within 1e-13 of |E0| (measured at most 5.4e-16, the
+    Moon)."""
+    worst = 0.0
+    for order in (4, 6):
+        for adaptive, steps in ((None, 100), (0.05, 10)):
+            sim = emorbit.Simulation(EARTH, method="tfe", order=order, dt=20.0, adaptive=adaptive, epoch=EPOCH)
+            sim.add_effect(kind, **EXPLICIT_KEYS[kind])
+            sim.add_point("a", mass=100.0, position=[R0, 0, 0], velocity=[0, 7750.0, 300.0], radiation_coefficient=0.02)
+            res = sim.run(steps=steps, every=steps // 2, progress=False)
+            b = res.relative_energy_balance()
+            worst = max(worst, float(np.abs(b if b is not None else res.relative_energy_error()).max()))
+    assert worst <= 1e-13, worst
+
+
+@pytest.mark.parametrize("order", [4, 6])
+def test_adaptive_steps_under_j2_and_the_moon_run_back_to_the_start(order):
+    """100 adaptive tfe steps (eta 0.02; one step of 2 or 3 Gauss stages is the composed step)
+    on an orbit of e = 0.9 under J2..J6 and the Moon, velocities reversed, 100 steps back with
+    the clock running backwards: back at the start within 1e3 eps n (measured 2.7 and 1.1 eps n
+    for position and velocity at order 4, 2.4 and 1.0 at order 6)."""
+    sim = emorbit.Simulation(EARTH, method="tfe", order=order, dt=600.0, adaptive=0.02, epoch=EPOCH)
+    sim.add_effect("zonal", model="earth")
+    sim.add_effect("third_body", body="moon")
+    sim.add_point("sat", mass=1.0, orbit={"periapsis_altitude": "500 km", "e": 0.9, "i": "30 deg"})
+    sim.run(steps=1, progress=False)  # samples the Moon's path
+    pm, n = sim.points, 100
+    sim._prepare_effects(2000, coefficients(order))
+    x0, v0 = pm.x.copy(), pm.v.copy()
+    t1 = pm.reversible_steps("tfe", coefficients(order), n, 50, t0=sim.time)
+    pm.v[...] *= -1
+    pm.cv[...] *= -1
+    t2 = pm.reversible_steps("tfe", coefficients(order), n, 50, t0=sim.time + t1, direction=-1.0)
+    dx = np.abs(pm.x - x0).max() / np.abs(x0).max() / (EPS * n)
+    dv = np.abs(pm.v + v0).max() / np.abs(v0).max() / (EPS * n)
+    assert dx <= 1e3 and dv <= 1e3, (dx, dv)
+    assert abs(t1 - t2) <= 1e3 * EPS * n * t1
+
+
+@pytest.mark.parametrize("order", [4, 6])
+def test_adaptive_steps_converge_and_keep_the_balance(order):
+    """Adaptive tfe on the e = 0.9 orbit under J2..J6 and the Moon over 400 intervals of 600 s
+    (about 1.3 orbits): the balance within 1e-14 of |E0| at every eta (measured at most
+    3.8e-15), and the end position converging as eta halves (against eta = 0.005, at eta =
+    0.04, 0.02, 0.01: 5.0e4, 1.5e3, 32 m at order 4; 45, 1.1, 0.083 m at order 6)."""
+    ends = []
+    for eta in (0.04, 0.02, 0.01, 0.005):
+        sim = emorbit.Simulation(EARTH, method="tfe", order=order, dt=600.0, adaptive=eta, epoch=EPOCH)
+        sim.add_effect("zonal", model="earth")
+        sim.add_effect("third_body", body="moon")
+        sim.add_point("sat", mass=1.0, orbit={"periapsis_altitude": "500 km", "e": 0.9, "i": "30 deg"})
+        res = sim.run(steps=400, every=100, progress=False)
+        assert np.abs(res.relative_energy_balance()).max() <= 1e-14
+        ends.append(res.positions["sat"][-1].value)
+    errors = [np.linalg.norm(e - ends[-1]) for e in ends[:-1]]
+    assert errors[0] > errors[1] > errors[2], errors

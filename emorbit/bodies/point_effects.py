@@ -10,8 +10,9 @@ for each effect (k, n) and the work sums ``work, cwork`` (w, n), J. Its methods 
   :meth:`emorbit.effects.base.Effect.packed`), the time finite element
   (:mod:`emorbit.kernels.pointmass.effect_tfe`), or
   :func:`~emorbit.kernels.pointmass.effect_step.effect_chunk` (em, midpoint, leapfrog);
-- adaptive steps of the whole set (:mod:`emorbit.kernels.pointmass.effect_adaptive`), and the
-  reversible steps that check their time symmetry.
+- adaptive steps of the whole set (:mod:`emorbit.kernels.pointmass.effect_adaptive`; for tfe
+  one step of it is the composed step), and the reversible steps that check their time
+  symmetry.
 
 Every array is updated in place; the records go into the caller's
 :class:`~emorbit.bodies.pointmasses.ChunkRecords` (with ``work`` (nrec, w, n) allocated).
@@ -77,30 +78,50 @@ class EffectRun:
     def _bodies(self) -> np.ndarray:
         return np.arange(self.x.shape[1], dtype=np.int64)
 
-    def _tfe(self, rec, dt, gammas, every, nrec, max_iter, clock):
-        """Fixed steps of the time finite element: the forces of the effects whose potential
-        does not change in time are scaled for the energy (``coef_c``), the others' are not
-        (``coef_n``); a working effect's work is its force's over the stages, plus its
-        potential's change where that changes in time (``row_effect``)."""
-        from ..kernels.pointmass.effect_tfe import effect_tfe_chunk
+    def _tfe_arrays(self, method: str, gammas) -> tuple:
+        """What the time finite element's step takes beside the set: (potential, Gauss tables,
+        their low parts, ``coef_c``, ``coef_n``, has_n, has_d, ``row_effect``). The forces of
+        the effects whose potential does not change in time are scaled for the energy
+        (``coef_c``), the others' are not (``coef_n``); a working effect's work is its force's
+        over the stages, plus its potential's change where that changes in time (``row_effect``
+        >= 0). For another method, placeholders of the same types (unread)."""
         from ..kernels.pointmass.tfe import low_parts
 
+        prog = self.binding.program
+        if method != "tfe":
+            w = self.work.shape[0]
+            return (prog.potential, np.zeros((1, 5)), np.zeros((1, 2)), self.coef, self.coef, False, False,
+                    np.full(w, -1, np.int64))  # fmt: skip
         effects = list(self.binding.effects.all)
         static = np.array([float(type(e).has_potential() and not type(e).PIECES.time_work) for e in effects])
         row_effect = np.array(
             [effects.index(e) if type(e).PIECES.time_work else -1 for e in self.binding.working()], np.int64
         )
         tab = dispatch.tfe_tables(gammas)
+        return (
+            prog.potential, tab, low_parts(2 * tab.shape[0]), np.ascontiguousarray(self.coef * static[:, None]),
+            np.ascontiguousarray(self.coef * (1.0 - static[:, None])), bool(static.min() == 0.0),
+            bool((row_effect >= 0).any()), row_effect,
+        )  # fmt: skip
+
+    def _tfe(self, rec, dt, gammas, every, nrec, max_iter, clock):
+        """Fixed steps of the time finite element (:meth:`_tfe_arrays`)."""
+        from ..kernels.pointmass.effect_tfe import effect_tfe_chunk
+
+        potential, tab, lo, coef_c, coef_n, has_n, has_d, row_effect = self._tfe_arrays("tfe", gammas)
         prog = self.binding.program
         P, I, T, S = self.binding.arrays(self.x.shape[1])
         effect_tfe_chunk(
-            prog.forces, prog.prepare, prog.work, prog.potential, tab, low_parts(2 * tab.shape[0]), self.x, self.v,
-            self.cx, self.cv, self.masses, self._bodies(), np.ascontiguousarray(self.coef * static[:, None]),
-            np.ascontiguousarray(self.coef * (1.0 - static[:, None])), bool(static.min() == 0.0),
-            bool((row_effect >= 0).any()), P, I, T, S, self.work, self.cwork, rec.work, row_effect, float(clock[0]),
-            float(clock[1]), float(dt), int(every), int(nrec), int(max_iter), rec.x, rec.v, rec.iterations, rec.fail,
+            prog.forces, prog.prepare, prog.work, potential, tab, lo, self.x, self.v, self.cx, self.cv, self.masses,
+            self._bodies(), coef_c, coef_n, has_n, has_d, P, I, T, S, self.work, self.cwork, rec.work, row_effect,
+            float(clock[0]), float(clock[1]), float(dt), int(every), int(nrec), int(max_iter), rec.x, rec.v,
+            rec.iterations, rec.fail,
         )  # fmt: skip
         return self._done(rec)
+
+    def _gammas(self, method: str, gammas) -> np.ndarray:
+        """The composed step's sub-steps: one step for tfe (its order is its Gauss stages')."""
+        return np.ones(1) if method == "tfe" else np.ascontiguousarray(gammas, float)
 
     def adaptive(self, rec, method, rho, eta, dt, gammas, every, nrec, max_iter, clock):
         """Adaptive, time-symmetric steps of all points together, landing on every multiple of
@@ -116,8 +137,8 @@ class EffectRun:
             prog.forces, prog.cross, prog.prepare, prog.work, prog.rate, dispatch.method_code(method, "fast"), self.x,
             self.v, self.cx, self.cv, self.wp, self.hp, rho, self.masses, self._bodies(), self.coef, P, I, T, S,
             self.work, self.cwork, rec.work, float(clock[0]), float(clock[1]), float(dt), int(every), float(eta),
-            np.ascontiguousarray(gammas, float), int(nrec), int(max_iter), self.dense, rec.x, rec.v, rec.iterations,
-            steps, rec.fail,
+            self._gammas(method, gammas), int(nrec), int(max_iter), self.dense, rec.x, rec.v, rec.iterations, steps,
+            rec.fail, self._tfe_arrays(method, gammas),
         )  # fmt: skip
         return self._done(rec), steps
 
@@ -132,6 +153,6 @@ class EffectRun:
         return effect_reversible_steps(
             prog.forces, prog.cross, prog.prepare, prog.work, prog.rate, dispatch.method_code(method, "fast"), self.x,
             self.v, self.cx, self.cv, self.wp, self.hp, rho, self.masses, self._bodies(), self.coef, P, I, T, S,
-            self.work, self.cwork, float(t0), float(direction), float(eta), np.ascontiguousarray(gammas, float),
-            int(nsteps), int(max_iter), self.dense,
+            self.work, self.cwork, float(t0), float(direction), float(eta), self._gammas(method, gammas),
+            int(nsteps), int(max_iter), self.dense, self._tfe_arrays(method, gammas),
         )  # fmt: skip

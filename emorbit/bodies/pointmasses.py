@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..integrators import dispatch
+from ..integrators import dispatch, get_method
 from ..integrators.plan import Plan
 from ..kernels import invariants as inv
 from .ledger import ledger_terms
@@ -452,7 +452,7 @@ class PointMasses(WorkSums, BodySystem):
         rho = self.rho[:1].copy()
         rec, steps = run.adaptive(rec, method, rho, self.adaptive, dt, gammas, every, nrec, max_iter, clock)
         self.rho[:] = rho[0]
-        rec.solves = steps * len(gammas)
+        rec.solves = steps * (len(gammas) if get_method(method).composed else 1)
         self.adaptive_steps += int(steps[:, 0].sum()) if n else 0
         return rec
 
@@ -541,7 +541,7 @@ class PointMasses(WorkSums, BodySystem):
             steps,
             rec.fail,
         )
-        rec.solves = steps * len(gammas)
+        rec.solves = steps * (len(gammas) if get_method(method).composed else 1)
         self.adaptive_steps += int(steps.sum())
         return rec
 

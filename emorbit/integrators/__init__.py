@@ -61,6 +61,9 @@ class Method:
         The orders it runs at: :data:`ORDERS` for a second-order step and its compositions.
     effects : bool
         Whether its kernels run under effects beyond the central field.
+    composed : bool
+        Whether its orders above 2 are compositions of second-order sub-steps (each a Newton
+        solve); otherwise a step is one solve at every order.
     """
 
     name: str
@@ -69,6 +72,11 @@ class Method:
     conserves: tuple[str, ...]
     orders: tuple[int, ...] = ORDERS
     effects: bool = True
+    composed: bool = True
+
+    def solves_per_step(self, order: int) -> int:
+        """The solves (sub-steps) one step of ``order`` takes."""
+        return coefficients(order).size if self.composed else 1
 
 
 METHODS = {
@@ -97,6 +105,7 @@ METHODS = {
         implicit=True,
         conserves=("energy", "angular_momentum"),
         orders=(4, 6),
+        composed=False,
     ),
 }
 """The methods by name: ``"em"`` (energy-momentum), ``"midpoint"``, ``"leapfrog"`` and ``"tfe"``

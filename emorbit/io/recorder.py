@@ -20,7 +20,7 @@ import sys
 import numpy as np
 
 from ..errors import IntegrationError
-from ..integrators import coefficients
+from ..integrators import get_method
 from ..result import Result
 from .drift import UnsolvedStep
 
@@ -240,7 +240,7 @@ class Sink:
                 solves = solves + rec.solves[:nrec].sum(axis=1) / max(k, 1)
                 substeps = rec.solves[:nrec].max(axis=1, initial=0)
             else:  # solves per step: points, bodies, or 1 per structure
-                solves = solves + rec.iterations.shape[1] * coefficients(sim.order).size
+                solves = solves + rec.iterations.shape[1] * get_method(sim.method).solves_per_step(sim.order)
         lost = sim.effects.mass_lost(times[:nrec]) if self.ledger else {}
         terms = [system.ledger(rec, nrec, lost) for system, rec in recs if self.ledger and hasattr(system, "ledger")]
         if sim.events.impulses:  # the impulses' work so far (emorbit.events)

@@ -1,5 +1,8 @@
 """Adaptive, time-symmetric steps for point masses under a set of effects: the reversible
-controller of :mod:`emorbit.kernels.adaptive` around :func:`.effect_step.effect_substep`.
+controller of :mod:`emorbit.kernels.adaptive` around :func:`.effect_step.effect_substep`, or,
+for the time finite element (METHOD_TFE), around one :func:`.effect_tfe.effect_tfe_step` as
+the composed step (``gammas`` = [1]; ``tfe`` its Gauss tables and force groups, unread by the
+other methods).
 
 The points step together (effects between pairs couple them), with one control variable for
 the set. Its time scale comes from the effects that declare one (the set's ``rate``,
@@ -21,10 +24,11 @@ import math
 import numpy as np
 
 from ..adaptive import KICK_MAX, U_MAX, interval, kick
-from ..codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from ..codes import METHOD_TFE, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
 from ..eft import kahan_add
 from ..jit import kernel
 from .effect_step import effect_substep, method_mode, step_scratch, stop_records
+from .effect_tfe import effect_tfe_step, tfe_scratch
 
 __all__ = ["effect_adaptive_chunk", "effect_reversible_steps"]
 
@@ -62,7 +66,9 @@ def _composed(ctx, s, rho, eps, fixed, t):
     (backwards where the context's direction is -1): the state ``s`` is copied into the
     context's buffers, which are stepped and returned."""
     forces, prepare, work_of, rate, m, body, coef, P, I, T, S, gammas, max_iter, eta, mode = ctx[:15]
-    buf, scratch, direction, cross = ctx[15], ctx[16], ctx[17], ctx[18]
+    buf, scratch, direction, cross, method = ctx[15], ctx[16], ctx[17], ctx[18], ctx[19]
+    potential, tab, lo, coef_c, coef_n, has_n, has_d, row_effect = ctx[20]
+    tsc, phi = ctx[21], ctx[22]
     _copy(buf, s)
     x, v, cx, cv, wp, hp, work, cwork = buf
     its = 0
@@ -84,10 +90,16 @@ def _composed(ctx, s, rho, eps, fixed, t):
             rho = kick(rho, a)
             h = (4.0 * ak) / rho
         ta = t + direction * (dur - dlo)
-        sweeps, status = effect_substep(
-            forces, cross, prepare, work_of, mode, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork, h,
-            ta, ta + direction * h, max_iter, scratch,
-        )  # fmt: skip
+        if method == METHOD_TFE:
+            sweeps, status = effect_tfe_step(
+                forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_c, coef_n, has_n, has_d, P,
+                I, T, S, work, cwork, row_effect, ta, h, direction, max_iter, False, phi, tsc,
+            )  # fmt: skip
+        else:
+            sweeps, status = effect_substep(
+                forces, cross, prepare, work_of, mode, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork,
+                h, ta, ta + direction * h, max_iter, scratch,
+            )  # fmt: skip
         its += sweeps
         if status != STATUS_OK:
             return buf, rho, dur, dlo, its, status
@@ -124,18 +136,20 @@ def _accept(ctx, s, q):
 @kernel
 def _context(
     forces, cross, prepare, work_of, rate, method, m, body, coef, P, I, T, S, gammas, max_iter, eta, x, work,
-    direction, dense,
+    direction, dense, tfe,
 ):  # fmt: skip
     """The controller's context of the set: the functions, the arrays, the buffers."""
     n = x.shape[1]
     nw = work.shape[0]
+    k = tfe[1].shape[0] if method == METHOD_TFE else 0
     buf = (
         np.empty((3, n)), np.empty((3, n)), np.empty((3, n)), np.empty((3, n)), np.empty((3, n)), np.empty(1),
         np.empty((nw, n)), np.empty((nw, n)),
     )  # fmt: skip
     return (
         forces, prepare, work_of, rate, m, body, coef, P, I, T, S, gammas, max_iter, eta, method_mode(method), buf,
-        step_scratch(n, nw, dense), direction, cross,
+        step_scratch(n, nw, dense), direction, cross, method, tfe, tfe_scratch(k, n, coef.shape[0], nw),
+        np.empty((k, 3, n)),
     )  # fmt: skip
 
 
@@ -143,17 +157,19 @@ def _context(
 def effect_adaptive_chunk(
     forces, cross, prepare, work_of, rate, method, x, v, cx, cv, wp, hp, rho, m, body, coef, P, I, T, S, work, cwork,
     rec_work, clock_base, clock_n0, length, every, eta, gammas, nrec, max_iter, dense, rec_x, rec_v, rec_iters,
-    rec_steps, fail,
+    rec_steps, fail, tfe,
 ):  # fmt: skip
     """Advance the points by ``nrec`` records of ``every`` intervals of ``length`` seconds
     (steps land on every multiple of it) with adaptive, time-symmetric steps, recording at the
     end of each record. Interval j of the chunk starts at ``clock_base + (clock_n0 + j)
     length``. ``rho`` (1,) the set's control variable, updated in place; ``rec_steps`` (nrec,
     n) composed steps per record; on a failure the points stop at the start of the failing
-    record and ``fail`` names the record and the status. Other arguments: :mod:`.effect_step`."""
+    record and ``fail`` names the record and the status. ``tfe``: (potential, tab, lo, coef_c,
+    coef_n, has_n, has_d, row_effect) of :func:`.effect_tfe.effect_tfe_step`. Other arguments:
+    :mod:`.effect_step`."""
     n = x.shape[1]
     ctx = _context(forces, cross, prepare, work_of, rate, method, m, body, coef, P, I, T, S, gammas, max_iter, eta, x,
-                   work, 1.0, dense)  # fmt: skip
+                   work, 1.0, dense, tfe)  # fmt: skip
     s = (x, v, cx, cv, wp, hp, work, cwork)
     r = rho[0]
     if not r > 0.0:
@@ -189,14 +205,14 @@ def effect_adaptive_chunk(
 @kernel
 def effect_reversible_steps(
     forces, cross, prepare, work_of, rate, method, x, v, cx, cv, wp, hp, rho, m, body, coef, P, I, T, S, work, cwork,
-    t0, direction, eta, gammas, nsteps, max_iter, dense,
+    t0, direction, eta, gammas, nsteps, max_iter, dense, tfe,
 ):  # fmt: skip
     """Take exactly ``nsteps`` composed steps of size 1 in tau from time ``t0``, the clock
     running forwards (``direction`` 1) or backwards (-1), no landing: the scheme alone, for its
     time symmetry (reversing the velocities and their compensations and calling it again
     backwards from the end time runs the same steps back). Returns (elapsed time, status)."""
     ctx = _context(forces, cross, prepare, work_of, rate, method, m, body, coef, P, I, T, S, gammas, max_iter, eta, x,
-                   work, direction, dense)  # fmt: skip
+                   work, direction, dense, tfe)  # fmt: skip
     s = (x, v, cx, cv, wp, hp, work, cwork)
     r = rho[0]
     if not r > 0.0:

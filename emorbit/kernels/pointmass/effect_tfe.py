@@ -136,7 +136,7 @@ def _update(tab, lo, phi, Fc, Fn, Wc, Wn, Pw, G, dx, h, i, A, rhs):
 
 @kernel
 def _work(forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_n, has_d, P, I, T, S, row_effect,
-          t0, h, phi, sc, work, cwork):  # fmt: skip
+          t0, h, sgn, phi, sc, work, cwork):  # fmt: skip
     """Add each working effect's work over the converged step into the sums: its force's over
     the stages (MODE_POINT), plus, for a potential that changes in time (``row_effect`` >= 0:
     its effect's index), the potential's change over the step."""
@@ -146,7 +146,7 @@ def _work(forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, c
     tot[:, :] = 0.0
     _stages(tab, lo, x, v, cx, cv, phi, Q, V, h)
     for l in range(k):
-        tl = t0 + tab[l, 0] * h
+        tl = t0 + sgn * tab[l, 0] * h
         prepare(tl, tl, tl, P, I, T, S)
         for c in range(3):
             for i in range(n):
@@ -158,7 +158,7 @@ def _work(forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, c
     if has_d:
         _end(tab, x, v, cx, phi, dx, X0, X1, h)
         for end in range(2):
-            te = t0 + h if end == 0 else t0
+            te = t0 + sgn * h if end == 0 else t0
             prepare(te, te, te, P, I, T, S)
             potential(X1 if end == 0 else X0, m, body, coef_n, P, I, T, S, U)
             for r in range(out.shape[0]):
@@ -174,12 +174,13 @@ def _work(forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, c
 @kernel
 def effect_tfe_step(
     forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_c, coef_n, has_n, has_d, P, I, T, S,
-    work, cwork, row_effect, t0, h, max_iter, predicted, phi, sc,
+    work, cwork, row_effect, t0, h, sgn, max_iter, predicted, phi, sc,
 ):  # fmt: skip
-    """One step of every point from time t0 to t0 + h (module notes): the state and the work
-    sums updated in place where it succeeds, left as they were where not. ``phi`` (k, 3, n)
-    holds the predictor where ``predicted`` and the solution after; ``sc`` is
-    :func:`tfe_scratch`. Returns (Newton sweeps, status)."""
+    """One step of size h > 0 of every point from time t0 to t0 + sgn h (module notes; ``sgn``
+    -1: the clock runs backwards, the velocities reversed): the state and the work sums
+    updated in place where it succeeds, left as they were where not. ``phi`` (k, 3, n) holds
+    the predictor where ``predicted`` and the solution after; ``sc`` is :func:`tfe_scratch`.
+    Returns (Newton sweeps, status)."""
     Q, V, Fc, Fn, Wc, Wn, Pw, dx, X0, X1, G, Wd, R, prev, A, rhs, out, tot, D, done, U = sc
     k = tab.shape[0]
     n = x.shape[1]
@@ -206,7 +207,7 @@ def effect_tfe_step(
         _stages(tab, lo, x, v, cx, cv, phi, Q, V, h)
         bad = 0
         for l in range(k):
-            tl = t0 + tab[l, 0] * h
+            tl = t0 + sgn * tab[l, 0] * h
             prepare(tl, tl, tl, P, I, T, S)
             bad += forces(Q[l], Q[l], m, body, coef_c, h, MODE_EXPLICIT, P, I, T, S, Fc[l], Wc[l], R, True, True)
             if has_n:
@@ -214,7 +215,7 @@ def effect_tfe_step(
             for i in range(n):
                 Pw[l, i] = V[l, 0, i] * Fc[l, 0, i] + V[l, 1, i] * Fc[l, 1, i] + V[l, 2, i] * Fc[l, 2, i]
         _end(tab, x, v, cx, phi, dx, X0, X1, h)
-        prepare(t0, t0 + 0.5 * h, t0 + h, P, I, T, S)
+        prepare(t0, t0 + sgn * 0.5 * h, t0 + sgn * h, P, I, T, S)
         bad += forces(X0, X1, m, body, coef_c, h, MODE_STEP, P, I, T, S, G, Wd, R, False, True)
         if bad:
             return sweeps, STATUS_SINGULAR
@@ -249,7 +250,7 @@ def effect_tfe_step(
     if work.shape[0] > 0:
         _work(
             forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_n, has_d, P, I, T, S,
-            row_effect, t0, h, phi, sc, work, cwork,
+            row_effect, t0, h, sgn, phi, sc, work, cwork,
         )  # fmt: skip
     for c in range(3):
         for i in range(n):
@@ -298,8 +299,8 @@ def effect_tfe_chunk(
                             phi[l, c, i] = f
             sweeps, status = effect_tfe_step(
                 forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_c, coef_n, has_n, has_d, P,
-                I, T, S, work, cwork, row_effect, clock_base + (clock_n0 + r * every + s) * dt, dt, max_iter, have,
-                phi, sc,
+                I, T, S, work, cwork, row_effect, clock_base + (clock_n0 + r * every + s) * dt, dt, 1.0, max_iter,
+                have, phi, sc,
             )  # fmt: skip
             for i in range(n):
                 rec_iters[r, i] += sweeps
