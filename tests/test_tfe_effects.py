@@ -62,21 +62,21 @@ def test_observed_order_under_zonal_terms(order):
 @pytest.mark.parametrize("order", [4, 6])
 def test_energy_balance_over_1e5_large_steps(order):
     """1e5 steps of T0/50 (about 1200 orbits of e = 0.3) under J2..J6, the Moon, the Sun and
-    radiation pressure with the Earth's conical shadow: |E - E0 - W| / |E0| within 3e-14
-    (measured 1.8e-14 and 8.3e-15 at orders 4 and 6), while each effect's work reaches
+    radiation pressure with the Earth's conical shadow: |E - E0 - W| / |E0| within 5e-14
+    (measured 8.1e-15 and 2.0e-14 at orders 4 and 6), while each effect's work reaches
     5.8e-8 (the Sun) to 1.7e-6 (radiation pressure) of |E0|."""
     sim = leo("tfe", order, T0 / 50, ZONAL + THIRD + SRP)
     res = sim.run(steps=100_000, every=1000, progress=False)
     e0 = abs(res.energy[0].value)
     balance = np.abs(res.relative_energy_balance()).max()
-    assert balance <= 3e-14, f"the balance reached {balance:.2e} of |E0|"
+    assert balance <= 5e-14, f"the balance reached {balance:.2e} of |E0|"
     work = {k: np.abs(w.value).max() / e0 for k, w in res.work.items()}
     assert min(work.values()) > 1e3 * balance, work
 
 
 def test_axial_angular_momentum_under_zonal_terms():
     """Under J2..J6 the angular momentum about the pole is kept: 1e4 steps of T0/50 at order 4
-    keep L_z within 5e-15 of |L| (measured 9.2e-16) and the energy within 2e-14 (6.5e-15),
+    keep L_z within 5e-15 of |L| (measured 9.2e-16) and the energy within 2e-14 (1.5e-15),
     while L_x, L_y turn with the node (by 0.3 of |L|)."""
     res = leo("tfe", 4, T0 / 50, ZONAL).run(steps=10_000, every=100, progress=False)
     L = res.angular_momentum.value
@@ -90,7 +90,7 @@ def test_work_of_each_effect_agrees_with_em():
     """Each working effect's work over one orbit, tfe order 6 at T0/100 against em order 8 at
     T0/800, radiation pressure without shadow (a shadow's edge within a step limits both to
     low order): radiation pressure's and the third bodies' rows agree to 1e-7 of their size
-    (measured 2.7e-9, the Moon 3.2e-11, the Sun 9.6e-9): the rows are each effect's own, not
+    (measured 2.6e-9, the Moon 3.1e-11, the Sun 6.5e-9): the rows are each effect's own, not
     a share of a sum, and a potential's change in time is summed to the method's order."""
     sunlit = [("srp", dict(shadow="none"))]
     steps = int(0.7**-1.5 * 100)
@@ -144,7 +144,7 @@ EXPLICIT_KEYS = {
 def test_each_explicit_effect_with_fixed_and_adaptive_steps(kind):
     """Each shipped effect whose force is a function of position and time, on a point from
     LEO, 100 fixed steps of 20 s and 10 adaptive intervals (eta 0.05), orders 4 and 6: the
-    energy, or the balance E - E0 - W, within 1e-13 of |E0| (measured at most 5.4e-16, the
+    energy, or the balance E - E0 - W, within 1e-13 of |E0| (measured at most 5.8e-16, the
     Moon)."""
     worst = 0.0
     for order in (4, 6):
@@ -162,8 +162,8 @@ def test_each_explicit_effect_with_fixed_and_adaptive_steps(kind):
 def test_adaptive_steps_under_j2_and_the_moon_run_back_to_the_start(order):
     """100 adaptive tfe steps (eta 0.02; one step of 2 or 3 Gauss stages is the composed step)
     on an orbit of e = 0.9 under J2..J6 and the Moon, velocities reversed, 100 steps back with
-    the clock running backwards: back at the start within 1e3 eps n (measured 2.7 and 1.1 eps n
-    for position and velocity at order 4, 2.4 and 1.0 at order 6)."""
+    the clock running backwards: back at the start within 1e3 eps n (measured 2.2 and 0.9 eps n
+    for position and velocity at order 4, 3.5 and 1.4 at order 6)."""
     sim = emorbit.Simulation(EARTH, method="tfe", order=order, dt=600.0, adaptive=0.02, epoch=EPOCH)
     sim.add_effect("zonal", model="earth")
     sim.add_effect("third_body", body="moon")
@@ -186,7 +186,7 @@ def test_adaptive_steps_under_j2_and_the_moon_run_back_to_the_start(order):
 def test_adaptive_steps_converge_and_keep_the_balance(order):
     """Adaptive tfe on the e = 0.9 orbit under J2..J6 and the Moon over 400 intervals of 600 s
     (about 1.3 orbits): the balance within 1e-14 of |E0| at every eta (measured at most
-    3.8e-15), and the end position converging as eta halves (against eta = 0.005, at eta =
+    5.5e-15), and the end position converging as eta halves (against eta = 0.005, at eta =
     0.04, 0.02, 0.01: 5.0e4, 1.5e3, 32 m at order 4; 45, 1.1, 0.083 m at order 6)."""
     ends = []
     for eta in (0.04, 0.02, 0.01, 0.005):

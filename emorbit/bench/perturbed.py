@@ -108,6 +108,8 @@ LIMIT_HEYOKA = 3.0
 LIMIT_BALANCE = 1e-12
 #: heyoka's tolerance in long double for the reference
 REFERENCE_TOL = 1e-18
+#: emorbit's series in the least-CPU-time table (names of emorbit.bench.workprecision.ENGINES)
+EMORBIT = ("em fixed", "em adaptive", "tfe", "tfe adaptive")
 #: the record interval of em's runs (adaptive steps land there) and of the peers' balance, s
 RECORD_S = 3600.0
 #: the point's Cd A / m and Cr A / m, m^2/kg
@@ -162,6 +164,8 @@ class Size:
     epsilons: tuple  # IAS15's, loosest first
     rtols: tuple  # DOP853's, loosest first
     max_run_s: float  # a run estimated (from the one before in its series) to take longer is skipped
+    tfe: tuple = ()  # the time finite element's fixed steps ((order, (dt, ...)), ...); not under drag
+    tfe_etas: tuple = ()  # and its adaptive steps ((order, (eta, ...)), ...)
 
 
 #: by configuration name, then by case
@@ -268,7 +272,7 @@ def _band(altitude: float):
     return float(t.h0[k]), float(t.rho0[k]), float(t.H[k])
 
 
-def simulation(case: Case, dt: float, order: int = 8, adaptive: float | None = None):
+def simulation(case: Case, dt: float, order: int = 8, adaptive: float | None = None, method: str = "em"):
     """The case as an emorbit simulation with the point ``sat``.
 
     Parameters
@@ -279,6 +283,8 @@ def simulation(case: Case, dt: float, order: int = 8, adaptive: float | None = N
     order : int
     adaptive : float, optional
         eta of adaptive steps.
+    method : str
+        ``"em"`` or ``"tfe"``.
 
     Returns
     -------
@@ -287,7 +293,7 @@ def simulation(case: Case, dt: float, order: int = 8, adaptive: float | None = N
     import emorbit
 
     keys = {} if adaptive is None else {"adaptive": adaptive}
-    sim = emorbit.Simulation(_field(), method="em", order=order, dt=dt, epoch=EPOCH, **keys)
+    sim = emorbit.Simulation(_field(), method=method, order=order, dt=dt, epoch=EPOCH, **keys)
     if case.field_order:
         sim.add_effect("gravity_field", gfc=field_file(), degree=case.degree, order=case.field_order, rotation="earth")
     else:
@@ -315,10 +321,12 @@ def model(case: Case, duration: float):
     return Model.from_simulation(sim, COEFFICIENTS), sim
 
 
-def _em(case: Case, order: int, dt: float | None, duration: float, adaptive: float | None = None) -> dict:
-    """One em run, timed over one record interval (adaptive steps land only at the end, as the
-    peers'); the energy balance from a second, untimed run with records every RECORD_S (where
-    adaptive steps land too)."""
+def _em(
+    case: Case, order: int, dt: float | None, duration: float, adaptive: float | None = None, method: str = "em"
+) -> dict:
+    """One em (or tfe) run, timed over one record interval (adaptive steps land only at the end,
+    as the peers'); the energy balance from a second, untimed run with records every RECORD_S
+    (where adaptive steps land too)."""
     from ..integrators import coefficients
 
     every_s = min(RECORD_S, duration)
@@ -334,7 +342,7 @@ def _em(case: Case, order: int, dt: float | None, duration: float, adaptive: flo
     def setup(h, n, k):
         """The simulation, its Sun's and Moon's paths sampled as its run will sample them (the
         set-up, not timed: the peers get the same samples from the model)."""
-        sim = simulation(case, h, order=order, adaptive=adaptive)
+        sim = simulation(case, h, order=order, adaptive=adaptive, method=method)
         sim._prepare_effects(n, coefficients(order))
         return sim, n, k
 
@@ -469,6 +477,20 @@ def work_precision(case: Case, size: Size) -> dict:
             lambda eta, o=order: _em(case, o, None, duration, adaptive=eta),
             lambda sc, eta: sc[0] * sc[1] / eta,
         )
+    for order, dts in size.tfe:
+        series(
+            dts,
+            lambda dt, o=order: {"engine": "emorbit", "method": "tfe", "order": o, "dt": dt, "adaptive": False},
+            lambda dt, o=order: _em(case, o, dt, duration, method="tfe"),
+            lambda sc, dt: sc[0] * sc[1] / dt,
+        )
+    for order, etas in size.tfe_etas:
+        series(
+            etas,
+            lambda eta, o=order: {"engine": "emorbit", "method": "tfe", "order": o, "tolerance": eta, "adaptive": True},
+            lambda eta, o=order: _em(case, o, None, duration, adaptive=eta, method="tfe"),
+            lambda sc, eta: sc[0] * sc[1] / eta,
+        )
     peers = (
         ("heyoka", "taylor", "tolerance", size.tolerances, lambda tol: heyoka_run(hey, tol)),
         (
@@ -527,10 +549,9 @@ def _reach_rows(points: list) -> list:
     dop = [dict(p, engine="heyoka", method="taylor") for p in points if p["engine"] == "scipy"]
     rows = []
     for accuracy in ACCURACIES:
-        engines = {name: reach(points, name, accuracy) for name in ("em fixed", "em adaptive", "heyoka", "ias15")}
+        engines = {name: reach(points, name, accuracy) for name in EMORBIT + ("heyoka", "ias15")}
         engines["dop853"] = reach(dop, "heyoka", accuracy)
-        ems = [e for e in (engines["em fixed"], engines["em adaptive"]) if e is not None]
-        best = min(ems, key=lambda e: e["cpu_s"]) if ems else None
+        best = _em_at(points, accuracy)
         row = {"accuracy": accuracy, "engines": engines, "em_best": best}
         for peer in ("heyoka", "ias15", "dop853"):
             theirs = engines[peer]
@@ -540,9 +561,11 @@ def _reach_rows(points: list) -> list:
 
 
 def _em_at(points: list, accuracy: float):
+    """emorbit's least CPU time to ``accuracy``: the best of em's and tfe's fixed and adaptive
+    series, with the series' name (``engine``); None where none reaches it."""
     from .workprecision import reach
 
-    ems = [e for e in (reach(points, n, accuracy) for n in ("em fixed", "em adaptive")) if e is not None]
+    ems = [dict(e, engine=n) for n in EMORBIT if (e := reach(points, n, accuracy)) is not None]
     return min(ems, key=lambda e: e["cpu_s"]) if ems else None
 
 
@@ -567,8 +590,8 @@ def targets(section: dict) -> list:
                 r = em["cpu_s"] / ias["cpu_s"]
                 t.update(measured=r, met=r <= LIMIT_IAS15)
                 t["note"] = (
-                    f"at {ias['position_error']:.1e} of a: em order {em['order']} {1e3 * em['cpu_s']:.1f} ms, "
-                    f"IAS15 {1e3 * ias['cpu_s']:.1f} ms"
+                    f"at {ias['position_error']:.1e} of a: {em['engine']} order {em['order']} "
+                    f"{1e3 * em['cpu_s']:.1f} ms, IAS15 {1e3 * ias['cpu_s']:.1f} ms"
                 )
         out.append(t)
         for row in wp["reach"]:
@@ -582,7 +605,9 @@ def targets(section: dict) -> list:
             else:
                 t.update(measured=r, met=r <= LIMIT_HEYOKA)
                 e = row["em_best"]
-                t["note"] = f"em order {e['order']} {1e3 * e['cpu_s']:.1f} ms, heyoka {1e3 * h['cpu_s']:.1f} ms"
+                t["note"] = (
+                    f"{e['engine']} order {e['order']} {1e3 * e['cpu_s']:.1f} ms, heyoka {1e3 * h['cpu_s']:.1f} ms"
+                )
             out.append(t)
         balances = [p["energy_balance"] for p in pts if p["engine"] == "emorbit" and p.get("status") == "ok"]
         t = {"target": f"perturbed {name}: em's energy balance |E - E0 - W| / |E0| <= {LIMIT_BALANCE:g} on every point"}
@@ -632,7 +657,7 @@ def run(cfg) -> dict:
 # -- the table and the figures -------------------------------------------------------------------
 def _label(p: dict) -> str:
     if p["engine"] == "emorbit":
-        return f"em{' adaptive' if p['adaptive'] else ''} order {p['order']}"
+        return f"{p['method']}{' adaptive' if p['adaptive'] else ''} order {p['order']}"
     return f"{p['engine']} {p['method']}" + (f" ({p['order']})" if p["order"] else "")
 
 
@@ -662,9 +687,10 @@ def table(section: dict) -> list[str]:
         for p in wp["points"]:
             lines.append(point_line(f"    {_label(p):<24} {_setting(p):<12}", p, "energy_balance", 14))
         lines += [
-            "    least CPU time to a final position error (em: best order; cheapest point or log-log interpolation)",
-            f"      {'error / a':<10} {'em fixed':>14} {'em adaptive':>14} {'heyoka':>14} {'IAS15':>12} {'DOP853':>12} "
-            f"{'em/hy':>7} {'em/IAS':>7} {'em/DOP':>7}",
+            "    least CPU time to a final position error (em, tfe: best order; em/...: the best of them; cheapest "
+            "point or log-log interpolation)",
+            f"      {'error / a':<10} {'em fixed':>14} {'em adaptive':>14} {'tfe fixed':>14} {'tfe adaptive':>14} "
+            f"{'heyoka':>14} {'IAS15':>12} {'DOP853':>12} {'em/hy':>7} {'em/IAS':>7} {'em/DOP':>7}",
         ]
         for row in wp["reach"]:
             eng = row["engines"]
@@ -673,6 +699,7 @@ def table(section: dict) -> list[str]:
             ]
             lines.append(
                 f"      {row['accuracy']:<10g} {_reached(eng['em fixed']):>14} {_reached(eng['em adaptive']):>14} "
+                f"{_reached(eng.get('tfe')):>14} {_reached(eng.get('tfe adaptive')):>14} "
                 f"{_reached(eng['heyoka']):>14} {_reached(eng['ias15']):>12} {_reached(eng['dop853']):>12} "
                 f"{cells[0]:>7} {cells[1]:>7} {cells[2]:>7}"
             )

@@ -71,6 +71,7 @@ ENGINES = {
     "em adaptive": ("emorbit", "em", True, "tolerance"),
     "em fixed": ("emorbit", "em", False, "dt"),
     "tfe": ("emorbit", "tfe", False, "dt"),
+    "tfe adaptive": ("emorbit", "tfe", True, "tolerance"),
     "ias15": ("rebound", "ias15", False, "epsilon"),
     "whfast": ("rebound", "whfast", False, "dt"),
     "heyoka": ("heyoka", "taylor", False, "tolerance"),

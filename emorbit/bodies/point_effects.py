@@ -80,27 +80,36 @@ class EffectRun:
 
     def _tfe_arrays(self, method: str, gammas) -> tuple:
         """What the time finite element's step takes beside the set: (potential, Gauss tables,
-        their low parts, ``coef_c``, ``coef_n``, has_n, has_d, ``row_effect``). The forces of
-        the effects whose potential does not change in time are scaled for the energy
-        (``coef_c``), the others' are not (``coef_n``); a working effect's work is its force's
-        over the stages, plus its potential's change where that changes in time (``row_effect``
-        >= 0). For another method, placeholders of the same types (unread)."""
+        their low parts, GM, the centre, ``coef_c``, ``coef_n``, has_n, has_d, ``row_effect``).
+        The kernel forms the central field itself (its row is 0 in both coefficient arrays);
+        the forces of the other effects whose potential does not change in time are scaled
+        with it for the energy (``coef_c``), the others' are not (``coef_n``); a working
+        effect's work is its force's over the stages, plus its potential's change where that
+        changes in time (``row_effect`` >= 0). For another method, placeholders of the same
+        types (unread)."""
         from ..kernels.pointmass.tfe import low_parts
 
         prog = self.binding.program
+        field = self.binding.effects.field
+        gm, center = (0.0, np.zeros(3)) if field is None else (float(field.gm), np.asarray(field.center, float))
         if method != "tfe":
             w = self.work.shape[0]
-            return (prog.potential, np.zeros((1, 5)), np.zeros((1, 2)), self.coef, self.coef, False, False,
+            return (prog.potential, np.zeros((1, 5)), np.zeros((1, 2)), gm, center, self.coef, self.coef, False, False,
                     np.full(w, -1, np.int64))  # fmt: skip
         effects = list(self.binding.effects.all)
-        static = np.array([float(type(e).has_potential() and not type(e).PIECES.time_work) for e in effects])
+        central = self.binding.effects.central  # the kernel's own, in closed form
+        static = np.array(
+            [float(type(e).has_potential() and not type(e).PIECES.time_work and e is not central) for e in effects]
+        )
+        every = np.array([float(e is not central) for e in effects])
         row_effect = np.array(
             [effects.index(e) if type(e).PIECES.time_work else -1 for e in self.binding.working()], np.int64
         )
         tab = dispatch.tfe_tables(gammas)
         return (
-            prog.potential, tab, low_parts(2 * tab.shape[0]), np.ascontiguousarray(self.coef * static[:, None]),
-            np.ascontiguousarray(self.coef * (1.0 - static[:, None])), bool(static.min() == 0.0),
+            prog.potential, tab, low_parts(2 * tab.shape[0]), gm, center,
+            np.ascontiguousarray(self.coef * static[:, None]),
+            np.ascontiguousarray(self.coef * (every - static)[:, None]), bool((every - static).max(initial=0.0) > 0.0),
             bool((row_effect >= 0).any()), row_effect,
         )  # fmt: skip
 
@@ -108,13 +117,13 @@ class EffectRun:
         """Fixed steps of the time finite element (:meth:`_tfe_arrays`)."""
         from ..kernels.pointmass.effect_tfe import effect_tfe_chunk
 
-        potential, tab, lo, coef_c, coef_n, has_n, has_d, row_effect = self._tfe_arrays("tfe", gammas)
+        potential, tab, lo, gm, center, coef_c, coef_n, has_n, has_d, row_effect = self._tfe_arrays("tfe", gammas)
         prog = self.binding.program
         P, I, T, S = self.binding.arrays(self.x.shape[1])
         effect_tfe_chunk(
             prog.forces, prog.prepare, prog.work, potential, tab, lo, self.x, self.v, self.cx, self.cv, self.masses,
-            self._bodies(), coef_c, coef_n, has_n, has_d, P, I, T, S, self.work, self.cwork, rec.work, row_effect,
-            float(clock[0]), float(clock[1]), float(dt), int(every), int(nrec), int(max_iter), rec.x, rec.v,
+            self._bodies(), gm, center, coef_c, coef_n, has_n, has_d, P, I, T, S, self.work, self.cwork, rec.work,
+            row_effect, float(clock[0]), float(clock[1]), float(dt), int(every), int(nrec), int(max_iter), rec.x, rec.v,
             rec.iterations, rec.fail,
         )  # fmt: skip
         return self._done(rec)

@@ -95,6 +95,11 @@ class EffectSet:
         return tuple(self._named)
 
     @property
+    def central(self) -> Effect | None:
+        """The central field's effect (the first of :attr:`all`), or None in free space."""
+        return self._central
+
+    @property
     def all(self) -> tuple[Effect, ...]:
         """Every effect, the central field's first, in the order a step sums their forces."""
         from . import EFFECTS

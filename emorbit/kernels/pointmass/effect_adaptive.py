@@ -67,7 +67,7 @@ def _composed(ctx, s, rho, eps, fixed, t):
     context's buffers, which are stepped and returned."""
     forces, prepare, work_of, rate, m, body, coef, P, I, T, S, gammas, max_iter, eta, mode = ctx[:15]
     buf, scratch, direction, cross, method = ctx[15], ctx[16], ctx[17], ctx[18], ctx[19]
-    potential, tab, lo, coef_c, coef_n, has_n, has_d, row_effect = ctx[20]
+    potential, tab, lo, gm, ctr, coef_c, coef_n, has_n, has_d, row_effect = ctx[20]
     tsc, phi = ctx[21], ctx[22]
     _copy(buf, s)
     x, v, cx, cv, wp, hp, work, cwork = buf
@@ -92,8 +92,8 @@ def _composed(ctx, s, rho, eps, fixed, t):
         ta = t + direction * (dur - dlo)
         if method == METHOD_TFE:
             sweeps, status = effect_tfe_step(
-                forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_c, coef_n, has_n, has_d, P,
-                I, T, S, work, cwork, row_effect, ta, h, direction, max_iter, False, phi, tsc,
+                forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, gm, ctr, coef_c, coef_n, has_n,
+                has_d, P, I, T, S, work, cwork, row_effect, ta, h, direction, max_iter, False, phi, tsc,
             )  # fmt: skip
         else:
             sweeps, status = effect_substep(
@@ -164,8 +164,8 @@ def effect_adaptive_chunk(
     end of each record. Interval j of the chunk starts at ``clock_base + (clock_n0 + j)
     length``. ``rho`` (1,) the set's control variable, updated in place; ``rec_steps`` (nrec,
     n) composed steps per record; on a failure the points stop at the start of the failing
-    record and ``fail`` names the record and the status. ``tfe``: (potential, tab, lo, coef_c,
-    coef_n, has_n, has_d, row_effect) of :func:`.effect_tfe.effect_tfe_step`. Other arguments:
+    record and ``fail`` names the record and the status. ``tfe``: (potential, tab, lo, gm, ctr,
+    coef_c, coef_n, has_n, has_d, row_effect) of :func:`.effect_tfe.effect_tfe_step`. Other arguments:
     :mod:`.effect_step`."""
     n = x.shape[1]
     ctx = _context(forces, cross, prepare, work_of, rate, method, m, body, coef, P, I, T, S, gammas, max_iter, eta, x,

@@ -1,37 +1,37 @@
 r"""Energy-momentum time finite elements for point masses under a set of effects: orders 4 and 6.
 
-Method: the Gauss collocation of :mod:`.tfe` in space, unknowns the scaled stage forces
-``phi_l = h^2 F_l`` (k, 3) of each point,
+Method: :mod:`.tfe`'s Gauss collocation in space, unknowns ``phi_l = h^2 F_l`` (k, 3) per point,
+``V_l = v0 + sum_j a_lj phi_j / h``, ``Q_l = x0 + h sum_j a_lj V_j``, ``x1 = x0 + h sum_j b_j V_j``,
+``v1 = v0 + sum_j b_j phi_j / h`` (a, b with their 20-digit low parts), and
 
-    Q_l = x0 + h c_l v0 + sum_j (a^2)_lj phi_j,   V_l = v0 + sum_j a_lj phi_j / h,
-    x1 = x0 + h v0 + sum_j b_j (1 - c_j) phi_j,    v1 = v0 + sum_j b_j phi_j / h,
-    F_l = N_l + (1 + nu P_l) C_l,   P_l = V_l . C_l,
-    nu = (G . (x1 - x0) - h sum_l b_l P_l) / (h sum_l b_l P_l^2),
+    F_l = N_l + (1 + nu P_l) C_l,   P_l = V_l . C_l,   s_l = (Q_l - c) . V_l,
+    nu = (GM h sum_l b_l s_l (r_l^-3 - K) + G . (x1 - x0) - h sum_l b_l P^o_l) / (h sum_l b_l P_l^2),
 
-C_l the force per unit mass at (Q_l, t0 + c_l h) of the effects whose potential U does not
-change in time, N_l the others' (MODE_EXPLICIT), G their em step's discrete force over
-(x0, x1), whose work is exactly ``U(x0) - U(x1)``. Gauss' ``b_i a_ij + b_j a_ji = b_i b_j``
-(a and b to 20 digits with their low parts) makes ``|v1|^2/2 - |v0|^2/2 = h sum b_l V_l . F_l``
-exact for any stage values, so nu makes C's work equal U's drop, and ``E1 - E0 = W`` exactly,
-W each working effect's row: its force's work at the stages, ``h sum_l b_l m V_l . N_l``
-(MODE_POINT), plus, for a potential that changes in time (a third body, a turning field), the
-potential's change over the step: that row is the work of the change in time to order 2k.
-nu is O(h^{2k}), so the order is 2k; C's forces are scaled by one number, so the angular
-momentum they keep (about the centre, about the pole) is kept. Near a circular orbit every
-P_l is small and a step may fail (it is then redone in sub-steps); it is never wrong in
-energy.
+C_l the central field (formed here) plus the set's effects whose potential does not change in
+time, N_l the others' (each at (Q_l, t0 + c_l h), MODE_EXPLICIT), G the static effects' em
+force over (x0, x1) (its work is their potential's drop exactly), P^o_l their power,
+``K = 2 / (r0 r1 (r0 + r1))``. ``b_i a_ij + b_j a_ji = b_i b_j`` makes ``|v1|^2/2 - |v0|^2/2 = h
+sum b_l V_l . F_l`` and ``r1^2 - r0^2 = 2 h sum b_l s_l`` exact for any stage values, so nu
+makes the scaled forces' work equal the potentials' drop and ``E1 - E0 = W`` exactly, W each
+working effect's row: its force's work at the stages (MODE_POINT), plus, for a potential that
+changes in time, its change over the step (the work of that change to order 2k). The central
+part of nu is a sum of terms in s_l, so its round-off shrinks with the radial motion as the
+denominator does. nu is O(h^{2k}): order 2k; one factor per stage keeps the angular momentum
+the scaled forces keep (about the centre, about the pole).
 
-Newton on each point's 3k unknowns: Jacobian ``delta_lj I - 2 h^2 (a^2)_lj W_l`` (W_l the
-set's x0 = x1 Jacobian, half the gradient for symmetric discrete forces; nu's response left
-out), a dense 3k x 3k solve; started from the last step's force polynomial, or the forces at
-x0. A point stops when its update is below ``2^-53`` of its largest phi, or the next would be,
-or it stalls below ``2^-40``; a point's steps do not depend on the other points.
+Newton on each point's 3k unknowns: ``delta_lj I - 2 h^2 (a^2)_lj W_l`` (W_l the set's x0 = x1
+Jacobian, half the gradient) plus nu's response (rank one), a dense solve, started from the
+last step's force polynomial or the forces at x0. A point stops when its update is below
+``2^-53`` of phi (or the next would be), stalls below ``2^-40``, or, below ``2^-36``, where the
+iterate's energy balance closes to 16 eps of its terms; a point's steps do not depend on the
+others'.
 
-Data layout: x, v, cx, cv (3, n) with Kahan compensation; m (n,); body (n,); ``coef_c``
-(k_e, n) the set's coefficients of C's effects (others' rows 0), ``coef_n`` of the others;
-the set's P, I, T, S; work, cwork (w, n), rec_work (nrec, w, n); ``row_effect`` (w,) the set
-index of a row's effect where its potential changes in time, else -1; records rec_x, rec_v
-(nrec, 3, n), rec_iters (nrec, n), fail (n, 2).
+Data layout: x, v, cx, cv (3, n) with Kahan compensation; m (n,); body (n,); gm, ctr (3,) the
+central field (gm 0: none); ``coef_c`` (k_e, n) the set's coefficients of the other static
+effects (others' rows 0), ``coef_n`` of the rest (the central row 0 in both); P, I, T, S;
+work, cwork (w, n), rec_work (nrec, w, n); ``row_effect`` (w,) the set index of a row's effect
+where its potential changes in time, else -1; records rec_x, rec_v (nrec, 3, n), rec_iters
+(nrec, n), fail (n, 2).
 
 References: P. Betsch, P. Steinmann, J. Comput. Phys. 160 (2000) 88-116; E. Hairer, JNAIAM 5
 (2010) 73-84; E. Hairer, C. Lubich, G. Wanner, Geometric Numerical Integration (2006), IV.2.
@@ -55,6 +55,12 @@ __all__ = ["effect_tfe_chunk", "effect_tfe_step", "tfe_scratch"]
 
 _TOL = 2.0**-53
 _FLOOR = 2.0**-40
+#: updates of a point that may grow (above the floor) before its step fails
+_REGRESSIONS = 3
+#: an update below this fraction of phi ends Newton where the iterate keeps the energy ...
+_LOOSE = 2.0**-36
+#: ... to this many eps of the energy change's terms (:func:`_energy_gap`)
+_GAP = 16.0 * 2.0**-52
 
 
 @kernel
@@ -65,41 +71,48 @@ def tfe_scratch(k, n, ne, nw):
         np.zeros((k, 9, n)), np.empty((k, n)), np.empty((3, n)), np.empty((6, n)), np.empty((6, n)),
         np.empty((3, n)), np.empty((9, n)), np.zeros(n), np.empty(n), np.empty((3 * k, 3 * k)), np.empty(3 * k),
         np.empty((nw, n)), np.zeros((nw, n)), np.empty((3, n)), np.zeros(n, np.int64), np.empty((ne, n)),
+        np.empty((k, 3 * k)), np.empty(3 * k), np.zeros((3, k, n)), np.zeros((3, n)),
     )  # fmt: skip
 
 
 @kernel
 def _stages(tab, lo, x, v, cx, cv, phi, Q, V, h):
-    """The stage positions Q (k, 6, n: high parts, then low parts with the compensation cx) and
-    velocities V (k, 3, n) from phi (a's low parts ``lo`` joining the velocities' sums)."""
+    """The stage velocities ``V_l = v0 + sum_j a_lj phi_j / h`` (k, 3, n) and positions ``Q_l =
+    x0 + h sum_j a_lj V_j`` (k, 6, n: high parts, then low parts with the compensation cx),
+    with a's low parts ``lo``: so ``|Q|^2`` and ``|V|^2`` change over the step by the exact node
+    sums, whatever the stage values, to the round-off of the sums themselves."""
     k = tab.shape[0]
     for l in range(k):
         for c in range(3):
             for i in range(x.shape[1]):
-                p = h * tab[l, 0] * v[c, i]
                 u = 0.0
                 ul = 0.0
                 for j in range(k):
-                    p += tab[l, 3 + k + j] * phi[j, c, i]
                     u += tab[l, 3 + j] * phi[j, c, i]
                     ul += lo[l, 1 + j] * phi[j, c, i]
+                V[l, c, i] = v[c, i] + ((u + ul) / h + cv[c, i])
+    for l in range(k):
+        for c in range(3):
+            for i in range(x.shape[1]):
+                p = 0.0
+                for j in range(k):
+                    p += h * (tab[l, 3 + j] + lo[l, 1 + j]) * V[j, c, i]
                 s = x[c, i] + p
                 bb = s - x[c, i]
                 Q[l, c, i] = s
                 Q[l, 3 + c, i] = ((x[c, i] - (s - bb)) + (p - bb)) + cx[c, i]
-                V[l, c, i] = v[c, i] + ((u + ul) / h + cv[c, i])
 
 
 @kernel
-def _end(tab, x, v, cx, phi, dx, X0, X1, h):
-    """The step's increment dx = h v0 + sum_j b_j (1 - c_j) phi_j, and its start X0 and end X1
-    (6, n: high parts, then low parts with the compensation cx)."""
+def _end(tab, lo, x, cx, V, dx, X0, X1, h):
+    """The step's increment ``dx = h sum_j b_j V_j`` (b with its low parts), and its start X0
+    and end X1 (6, n: high parts, then low parts with the compensation cx)."""
     k = tab.shape[0]
     for c in range(3):
         for i in range(x.shape[1]):
-            d = h * v[c, i]
+            d = 0.0
             for j in range(k):
-                d += tab[j, 2] * phi[j, c, i]
+                d += h * (tab[j, 1] + lo[j, 0]) * V[j, c, i]
             dx[c, i] = d
             s = x[c, i] + d
             bb = s - x[c, i]
@@ -110,18 +123,130 @@ def _end(tab, x, v, cx, phi, dx, X0, X1, h):
 
 
 @kernel
-def _update(tab, lo, phi, Fc, Fn, Wc, Wn, Pw, G, dx, h, i, A, rhs):
-    """Newton's update of point i's phi (in ``rhs``), with its energy correction nu."""
+def _central_stage(gm, ctr, Q, V, F, W, Pw, Cs):
+    """Add the central field at the stage positions Q (6, n) to the static forces F (3, n) and
+    their half gradients W (9, n), and set the powers Pw (n,); keep s = q . V, 1 / r^3 and the
+    other static effects' power in Cs (3, n)."""
+    for i in range(Q.shape[1]):
+        po = V[0, i] * F[0, i] + V[1, i] * F[1, i] + V[2, i] * F[2, i]
+        Cs[2, i] = po
+        Pw[i] = po
+        if gm == 0.0:
+            continue
+        q0 = (Q[0, i] - ctr[0]) + Q[3, i]
+        q1 = (Q[1, i] - ctr[1]) + Q[4, i]
+        q2 = (Q[2, i] - ctr[2]) + Q[5, i]
+        r2 = q0 * q0 + q1 * q1 + q2 * q2
+        ir3 = 1.0 / (r2 * math.sqrt(r2))
+        s = q0 * V[0, i] + q1 * V[1, i] + q2 * V[2, i]
+        Cs[0, i] = s
+        Cs[1, i] = ir3
+        g = -gm * ir3
+        F[0, i] += g * q0
+        F[1, i] += g * q1
+        F[2, i] += g * q2
+        Pw[i] += g * s
+        t = -3.0 / r2
+        W[0, i] += 0.5 * g * (1.0 + t * q0 * q0)
+        W[1, i] += 0.5 * g * t * q0 * q1
+        W[2, i] += 0.5 * g * t * q0 * q2
+        W[3, i] += 0.5 * g * t * q1 * q0
+        W[4, i] += 0.5 * g * (1.0 + t * q1 * q1)
+        W[5, i] += 0.5 * g * t * q1 * q2
+        W[6, i] += 0.5 * g * t * q2 * q0
+        W[7, i] += 0.5 * g * t * q2 * q1
+        W[8, i] += 0.5 * g * (1.0 + t * q2 * q2)
+
+
+@kernel
+def _central_ends(gm, ctr, X0, X1, dx, Ce):
+    """The central field over the step from X0 to X1 (6, n): ``K = 2 / (r0 r1 (r0 + r1))``,
+    ``dK/dr1 / r1`` and the potential's drop ``GM (1/r1 - 1/r0)`` as its em force's work,
+    ``-GM K (q0 + q1) . dx / 2`` (per unit mass), into Ce (3, n)."""
+    for i in range(X0.shape[1]):
+        if gm == 0.0:
+            Ce[0, i] = 0.0
+            Ce[1, i] = 0.0
+            Ce[2, i] = 0.0
+            continue
+        a0 = (X0[0, i] - ctr[0]) + X0[3, i]
+        a1 = (X0[1, i] - ctr[1]) + X0[4, i]
+        a2 = (X0[2, i] - ctr[2]) + X0[5, i]
+        b0 = (X1[0, i] - ctr[0]) + X1[3, i]
+        b1 = (X1[1, i] - ctr[1]) + X1[4, i]
+        b2 = (X1[2, i] - ctr[2]) + X1[5, i]
+        r0 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+        r1 = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+        kk = 2.0 / (r0 * r1 * (r0 + r1))
+        Ce[0, i] = kk
+        Ce[1, i] = -kk * (r0 + 2.0 * r1) / (r1 * r1 * (r0 + r1))
+        Ce[2, i] = -0.5 * gm * kk * ((a0 + b0) * dx[0, i] + (a1 + b1) * dx[1, i] + (a2 + b2) * dx[2, i])
+
+
+@kernel
+def _energy_gap(tab, lo, phi, Fn, V, G, dx, Ce, h, i):
+    """How far point i's iterate phi misses the energy balance, and the size of its terms:
+    ``h sum_l b_l V_l . (phi_l / h^2 - N_l) - G . dx - drop`` (the kinetic energy's change less
+    the non-conservative work, less the potentials' drop: the other static effects' and the
+    central field's ``Ce[2]``), per unit mass."""
+    k = tab.shape[0]
+    gap = 0.0
+    size = 0.0
+    for l in range(k):
+        w = (tab[l, 1] + lo[l, 0]) / h
+        for a in range(3):
+            t = w * V[l, a, i] * (phi[l, a, i] - h * h * Fn[l, a, i])
+            gap += t
+            size += abs(t)
+    for a in range(3):
+        t = G[a, i] * dx[a, i]
+        gap -= t
+        size += abs(t)
+    gap -= Ce[2, i]
+    return gap, size + abs(Ce[2, i])
+
+
+@kernel
+def _update(tab, lo, phi, Fc, Fn, Wc, Wn, Pw, V, G, Wd, dx, gm, ctr, Q, X1, Cs, Ce, h, i, A, rhs, dP, dnu):
+    """Newton's update of point i's phi (in ``rhs``), with its energy correction nu and nu's
+    response to phi (a rank-one term of the matrix: where every P_l is small, nu's denominator
+    is, and leaving it out would stall Newton)."""
     k = tab.shape[0]
     hh = h * h
-    # the potentials' drop over the step, U(x0, t0) - U(x1, t1) + W_t, is the work of the em
-    # step's discrete forces over (x0, x1) (G): exact to the round-off of F . dx, not of U
+    # nu's numerator: the other static effects' drop over the step, U(x0) - U(x1), is the work
+    # of their em forces over (x0, x1) (G), less their work at the stages; the central field's,
+    # GM h sum_l b_l s_l (1 / r_l^3 - K), is a sum of terms in s_l, so that its round-off
+    # shrinks with the radial motion as the denominator does
     num = G[0, i] * dx[0, i] + G[1, i] * dx[1, i] + G[2, i] * dx[2, i]
     den = 0.0
     for l in range(k):
-        num -= h * (tab[l, 1] + lo[l, 0]) * Pw[l, i]
+        w = h * (tab[l, 1] + lo[l, 0])
+        num += w * (gm * Cs[0, l, i] * (Cs[1, l, i] - Ce[0, i]) - Cs[2, l, i])
         den += h * tab[l, 1] * Pw[l, i] * Pw[l, i]
     nu = num / den if den > 0.0 else 0.0
+    # dP_l / dphi_j = (a_lj / h) C_l + (a^2)_lj J_l^T V_l, J_l = 2 Wc_l the force's gradient
+    for l in range(k):
+        for b in range(3):
+            jv = 2.0 * (Wc[l, b, i] * V[l, 0, i] + Wc[l, 3 + b, i] * V[l, 1, i] + Wc[l, 6 + b, i] * V[l, 2, i])
+            for j in range(k):
+                dP[l, 3 * j + b] = (tab[l, 3 + j] + lo[l, 1 + j]) / h * Fc[l, b, i] + tab[l, 3 + k + j] * jv
+    # dnu / dphi_j = (dnum - nu dden) / den; dnum = b_j (1 - c_j) (G + Wd^T dx) - h sum_l b_l dP_l
+    for j in range(k):
+        for b in range(3):
+            c = 3 * j + b
+            wd = Wd[b, i] * dx[0, i] + Wd[3 + b, i] * dx[1, i] + Wd[6 + b, i] * dx[2, i]
+            dn = tab[j, 2] * (G[b, i] + wd)
+            dd = 0.0
+            q1 = (X1[b, i] - ctr[b]) + X1[3 + b, i]
+            for l in range(k):
+                w = h * (tab[l, 1] + lo[l, 0])
+                dn -= w * dP[l, c]
+                dd += 2.0 * h * tab[l, 1] * Pw[l, i] * dP[l, c]
+                if gm != 0.0:  # the central part: -GM h sum_l b_l (ds_l K + s_l dK)
+                    ql = (Q[l, b, i] - ctr[b]) + Q[l, 3 + b, i]
+                    ds = tab[l, 3 + k + j] * V[l, b, i] + (tab[l, 3 + j] + lo[l, 1 + j]) / h * ql
+                    dn -= gm * w * (ds * Ce[0, i] + Cs[0, l, i] * Ce[1, i] * tab[j, 2] * q1)
+            dnu[c] = (dn - nu * dd) / den if den > 0.0 else 0.0
     for l in range(k):
         f = 1.0 + nu * Pw[l, i]
         for a in range(3):
@@ -129,7 +254,10 @@ def _update(tab, lo, phi, Fc, Fn, Wc, Wn, Pw, G, dx, h, i, A, rhs):
             for j in range(k):
                 s = -2.0 * hh * tab[l, 3 + k + j]
                 for b in range(3):
-                    A[3 * l + a, 3 * j + b] = s * (f * Wc[l, 3 * a + b, i] + Wn[l, 3 * a + b, i])
+                    c = 3 * j + b
+                    A[3 * l + a, c] = s * (f * Wc[l, 3 * a + b, i] + Wn[l, 3 * a + b, i]) - hh * Fc[l, a, i] * (
+                        Pw[l, i] * dnu[c] + nu * dP[l, c]
+                    )
             A[3 * l + a, 3 * l + a] += 1.0
     return abs(nu) < math.inf and dense_solve(A, rhs, 3 * k)
 
@@ -140,7 +268,7 @@ def _work(forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, c
     """Add each working effect's work over the converged step into the sums: its force's over
     the stages (MODE_POINT), plus, for a potential that changes in time (``row_effect`` >= 0:
     its effect's index), the potential's change over the step."""
-    Q, V, Fc, Fn, Wc, Wn, Pw, dx, X0, X1, G, Wd, R, prev, A, rhs, out, tot, D, done, U = sc
+    Q, V, Fc, Fn, Wc, Wn, Pw, dx, X0, X1, G, Wd, R, prev, A, rhs, out, tot, D, done, U, dP, dnu, Cs, Ce = sc
     k = tab.shape[0]
     n = x.shape[1]
     tot[:, :] = 0.0
@@ -156,7 +284,7 @@ def _work(forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, c
             for i in range(n):
                 tot[r, i] += out[r, i]
     if has_d:
-        _end(tab, x, v, cx, phi, dx, X0, X1, h)
+        _end(tab, lo, x, cx, V, dx, X0, X1, h)
         for end in range(2):
             te = t0 + sgn * h if end == 0 else t0
             prepare(te, te, te, P, I, T, S)
@@ -173,15 +301,15 @@ def _work(forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, c
 
 @kernel
 def effect_tfe_step(
-    forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_c, coef_n, has_n, has_d, P, I, T, S,
-    work, cwork, row_effect, t0, h, sgn, max_iter, predicted, phi, sc,
+    forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, gm, ctr, coef_c, coef_n, has_n, has_d, P, I,
+    T, S, work, cwork, row_effect, t0, h, sgn, max_iter, predicted, phi, sc,
 ):  # fmt: skip
     """One step of size h > 0 of every point from time t0 to t0 + sgn h (module notes; ``sgn``
     -1: the clock runs backwards, the velocities reversed): the state and the work sums
     updated in place where it succeeds, left as they were where not. ``phi`` (k, 3, n) holds
     the predictor where ``predicted`` and the solution after; ``sc`` is :func:`tfe_scratch`.
     Returns (Newton sweeps, status)."""
-    Q, V, Fc, Fn, Wc, Wn, Pw, dx, X0, X1, G, Wd, R, prev, A, rhs, out, tot, D, done, U = sc
+    Q, V, Fc, Fn, Wc, Wn, Pw, dx, X0, X1, G, Wd, R, prev, A, rhs, out, tot, D, done, U, dP, dnu, Cs, Ce = sc
     k = tab.shape[0]
     n = x.shape[1]
     if not predicted:  # the forces at x0 at every stage
@@ -212,18 +340,20 @@ def effect_tfe_step(
             bad += forces(Q[l], Q[l], m, body, coef_c, h, MODE_EXPLICIT, P, I, T, S, Fc[l], Wc[l], R, True, True)
             if has_n:
                 bad += forces(Q[l], Q[l], m, body, coef_n, h, MODE_EXPLICIT, P, I, T, S, Fn[l], Wn[l], R, True, True)
-            for i in range(n):
-                Pw[l, i] = V[l, 0, i] * Fc[l, 0, i] + V[l, 1, i] * Fc[l, 1, i] + V[l, 2, i] * Fc[l, 2, i]
-        _end(tab, x, v, cx, phi, dx, X0, X1, h)
+            _central_stage(gm, ctr, Q[l], V[l], Fc[l], Wc[l], Pw[l], Cs[:, l])
+        _end(tab, lo, x, cx, V, dx, X0, X1, h)
+        _central_ends(gm, ctr, X0, X1, dx, Ce)
         prepare(t0, t0 + sgn * 0.5 * h, t0 + sgn * h, P, I, T, S)
-        bad += forces(X0, X1, m, body, coef_c, h, MODE_STEP, P, I, T, S, G, Wd, R, False, True)
+        bad += forces(X0, X1, m, body, coef_c, h, MODE_STEP, P, I, T, S, G, Wd, R, True, True)
         if bad:
             return sweeps, STATUS_SINGULAR
         running = 0
         for i in range(n):
             if done[i] == 1:
                 continue
-            if not _update(tab, lo, phi, Fc, Fn, Wc, Wn, Pw, G, dx, h, i, A, rhs):
+            gap, size = _energy_gap(tab, lo, phi, Fn, V, G, dx, Ce, h, i)
+            ok = _update(tab, lo, phi, Fc, Fn, Wc, Wn, Pw, V, G, Wd, dx, gm, ctr, Q, X1, Cs, Ce, h, i, A, rhs, dP, dnu)
+            if not ok:
                 return sweeps, STATUS_SINGULAR
             d = 0.0
             scale = 0.0
@@ -236,11 +366,20 @@ def effect_tfe_step(
                 return sweeps, STATUS_SINGULAR
             if d <= _TOL * scale or (prev[i] < math.inf and d * d <= _TOL * scale * prev[i]):
                 done[i] = 1  # at round-off, or the next update, by the contraction seen, would be
-            elif d >= prev[i]:
-                if not d < _FLOOR * scale:
-                    return sweeps, STATUS_NO_CONVERGENCE
+            elif d >= prev[i] and d < _FLOOR * scale:
                 done[i] = 1  # stalled at round-off
+            elif d < _LOOSE * scale and abs(gap) <= _GAP * size:
+                # nu's round-off, amplified where every P_l is small, keeps the update above
+                # the floor: the iterate before it keeps the energy to round-off, take it
+                for l in range(k):
+                    for a in range(3):
+                        phi[l, a, i] += rhs[3 * l + a]
+                done[i] = 1
             else:
+                if d >= prev[i]:  # an update that grew: a few are allowed while nu settles
+                    done[i] -= 1
+                    if done[i] < -_REGRESSIONS:
+                        return sweeps, STATUS_NO_CONVERGENCE
                 prev[i] = d
                 running += 1
         if running == 0:
@@ -252,24 +391,25 @@ def effect_tfe_step(
             forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_n, has_d, P, I, T, S,
             row_effect, t0, h, sgn, phi, sc, work, cwork,
         )  # fmt: skip
+    _stages(tab, lo, x, v, cx, cv, phi, Q, V, h)  # the solution's, for its end
+    _end(tab, lo, x, cx, V, dx, X0, X1, h)
     for c in range(3):
         for i in range(n):
-            d = h * v[c, i]
             u = 0.0
             ul = 0.0
             for j in range(k):
-                d += tab[j, 2] * phi[j, c, i]
                 u += tab[j, 1] * phi[j, c, i]
                 ul += lo[j, 0] * phi[j, c, i]
-            x[c, i], cx[c, i] = kahan_add(x[c, i], cx[c, i], d)
+            x[c, i], cx[c, i] = kahan_add(x[c, i], cx[c, i], dx[c, i])
             v[c, i], cv[c, i] = kahan_add(v[c, i], cv[c, i], (u + ul) / h)
     return sweeps, STATUS_OK
 
 
 @kernel
 def effect_tfe_chunk(
-    forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_c, coef_n, has_n, has_d, P, I, T, S,
-    work, cwork, rec_work, row_effect, clock_base, clock_n0, dt, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail,
+    forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, gm, ctr, coef_c, coef_n, has_n, has_d, P, I,
+    T, S, work, cwork, rec_work, row_effect, clock_base, clock_n0, dt, every, nrec, max_iter, rec_x, rec_v, rec_iters,
+    fail,
 ):  # fmt: skip
     """Advance every point ``nrec * every`` steps of size ``dt``, recording every ``every``.
 
@@ -298,9 +438,9 @@ def effect_tfe_chunk(
                                 f += ext[l, j] * last[j, c, i]
                             phi[l, c, i] = f
             sweeps, status = effect_tfe_step(
-                forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_c, coef_n, has_n, has_d, P,
-                I, T, S, work, cwork, row_effect, clock_base + (clock_n0 + r * every + s) * dt, dt, 1.0, max_iter,
-                have, phi, sc,
+                forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, gm, ctr, coef_c, coef_n, has_n,
+                has_d, P, I, T, S, work, cwork, row_effect, clock_base + (clock_n0 + r * every + s) * dt, dt, 1.0,
+                max_iter, have, phi, sc,
             )  # fmt: skip
             for i in range(n):
                 rec_iters[r, i] += sweeps
