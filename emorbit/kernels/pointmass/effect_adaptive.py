@@ -148,7 +148,7 @@ def _context(
     )  # fmt: skip
     return (
         forces, prepare, work_of, rate, m, body, coef, P, I, T, S, gammas, max_iter, eta, method_mode(method), buf,
-        step_scratch(n, nw, dense), direction, cross, method, tfe, tfe_scratch(k, n, coef.shape[0], nw),
+        step_scratch(n, nw, dense), direction, cross, method, tfe, tfe_scratch(k, n, coef.shape[0], nw, S.shape[0]),
         np.empty((k, 3, n)),
     )  # fmt: skip
 

@@ -64,14 +64,15 @@ _GAP = 16.0 * 2.0**-52
 
 
 @kernel
-def tfe_scratch(k, n, ne, nw):
-    """Scratch of :func:`effect_tfe_step` for k stages, n points, ne effects and nw work rows."""
+def tfe_scratch(k, n, ne, nw, ns):
+    """Scratch of :func:`effect_tfe_step` for k stages, n points, ne effects, nw work rows and
+    an effect scratch of ns values (what ``prepare`` fills, kept for each stage's time)."""
     return (
         np.zeros((k, 6, n)), np.empty((k, 3, n)), np.empty((k, 3, n)), np.zeros((k, 3, n)), np.empty((k, 9, n)),
         np.zeros((k, 9, n)), np.empty((k, n)), np.empty((3, n)), np.empty((6, n)), np.empty((6, n)),
         np.empty((3, n)), np.empty((9, n)), np.zeros(n), np.empty(n), np.empty((3 * k, 3 * k)), np.empty(3 * k),
         np.empty((nw, n)), np.zeros((nw, n)), np.empty((3, n)), np.zeros(n, np.int64), np.empty((ne, n)),
-        np.empty((k, 3 * k)), np.empty(3 * k), np.zeros((3, k, n)), np.zeros((3, n)),
+        np.empty((k, 3 * k)), np.empty(3 * k), np.zeros((3, k, n)), np.zeros((3, n)), np.empty((k + 1, ns)),
     )  # fmt: skip
 
 
@@ -268,14 +269,13 @@ def _work(forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, c
     """Add each working effect's work over the converged step into the sums: its force's over
     the stages (MODE_POINT), plus, for a potential that changes in time (``row_effect`` >= 0:
     its effect's index), the potential's change over the step."""
-    Q, V, Fc, Fn, Wc, Wn, Pw, dx, X0, X1, G, Wd, R, prev, A, rhs, out, tot, D, done, U, dP, dnu, Cs, Ce = sc
+    Q, V, Fc, Fn, Wc, Wn, Pw, dx, X0, X1, G, Wd, R, prev, A, rhs, out, tot, D, done, U, dP, dnu, Cs, Ce, Sk = sc
     k = tab.shape[0]
     n = x.shape[1]
     tot[:, :] = 0.0
     _stages(tab, lo, x, v, cx, cv, phi, Q, V, h)
     for l in range(k):
-        tl = t0 + sgn * tab[l, 0] * h
-        prepare(tl, tl, tl, P, I, T, S)
+        S[:] = Sk[l]  # the stage's time, as the sweeps prepared it
         for c in range(3):
             for i in range(n):
                 D[c, i] = h * (tab[l, 1] + lo[l, 0]) * V[l, c, i]
@@ -309,7 +309,7 @@ def effect_tfe_step(
     updated in place where it succeeds, left as they were where not. ``phi`` (k, 3, n) holds
     the predictor where ``predicted`` and the solution after; ``sc`` is :func:`tfe_scratch`.
     Returns (Newton sweeps, status)."""
-    Q, V, Fc, Fn, Wc, Wn, Pw, dx, X0, X1, G, Wd, R, prev, A, rhs, out, tot, D, done, U, dP, dnu, Cs, Ce = sc
+    Q, V, Fc, Fn, Wc, Wn, Pw, dx, X0, X1, G, Wd, R, prev, A, rhs, out, tot, D, done, U, dP, dnu, Cs, Ce, Sk = sc
     k = tab.shape[0]
     n = x.shape[1]
     if not predicted:  # the forces at x0 at every stage
@@ -322,29 +322,55 @@ def effect_tfe_step(
             bad += forces(Q[0], Q[0], m, body, coef_n, h, MODE_EXPLICIT, P, I, T, S, Fn[0], Wn[0], R, False, True)
         if bad:
             return 0, STATUS_SINGULAR
-        for l in range(k):
-            for c in range(3):
-                for i in range(n):
-                    phi[l, c, i] = h * h * (Fc[0, c, i] + Fn[0, c, i])
+        for i in range(n):
+            q0 = (x[0, i] - ctr[0]) + cx[0, i]
+            q1 = (x[1, i] - ctr[1]) + cx[1, i]
+            q2 = (x[2, i] - ctr[2]) + cx[2, i]
+            r2 = q0 * q0 + q1 * q1 + q2 * q2
+            g = -gm / (r2 * math.sqrt(r2)) if gm != 0.0 else 0.0
+            for l in range(k):
+                phi[l, 0, i] = h * h * (Fc[0, 0, i] + Fn[0, 0, i] + g * q0)
+                phi[l, 1, i] = h * h * (Fc[0, 1, i] + Fn[0, 1, i] + g * q1)
+                phi[l, 2, i] = h * h * (Fc[0, 2, i] + Fn[0, 2, i] + g * q2)
     for i in range(n):
         done[i] = 0
         prev[i] = math.inf
+    has_c = False  # static effects beside the central field
+    for e in range(coef_c.shape[0]):
+        for i in range(n):
+            has_c = has_c or coef_c[e, i] != 0.0
     sweeps = 0
     while sweeps < max_iter:
         sweeps += 1
         _stages(tab, lo, x, v, cx, cv, phi, Q, V, h)
         bad = 0
         for l in range(k):
-            tl = t0 + sgn * tab[l, 0] * h
-            prepare(tl, tl, tl, P, I, T, S)
-            bad += forces(Q[l], Q[l], m, body, coef_c, h, MODE_EXPLICIT, P, I, T, S, Fc[l], Wc[l], R, True, True)
+            if sweeps == 1:  # what the effects read at the stage's time, kept for the next sweeps
+                tl = t0 + sgn * tab[l, 0] * h
+                prepare(tl, tl, tl, P, I, T, S)
+                Sk[l, :] = S
+            else:
+                S[:] = Sk[l]
+            if has_c:
+                bad += forces(Q[l], Q[l], m, body, coef_c, h, MODE_EXPLICIT, P, I, T, S, Fc[l], Wc[l], R, True, True)
+            else:  # the central field alone is static: the kernel's own
+                Fc[l, :, :] = 0.0
+                Wc[l, :, :] = 0.0
             if has_n:
                 bad += forces(Q[l], Q[l], m, body, coef_n, h, MODE_EXPLICIT, P, I, T, S, Fn[l], Wn[l], R, True, True)
             _central_stage(gm, ctr, Q[l], V[l], Fc[l], Wc[l], Pw[l], Cs[:, l])
         _end(tab, lo, x, cx, V, dx, X0, X1, h)
         _central_ends(gm, ctr, X0, X1, dx, Ce)
-        prepare(t0, t0 + sgn * 0.5 * h, t0 + sgn * h, P, I, T, S)
-        bad += forces(X0, X1, m, body, coef_c, h, MODE_STEP, P, I, T, S, G, Wd, R, True, True)
+        if has_c:
+            if sweeps == 1:
+                prepare(t0, t0 + sgn * 0.5 * h, t0 + sgn * h, P, I, T, S)
+                Sk[k, :] = S
+            else:
+                S[:] = Sk[k]
+            bad += forces(X0, X1, m, body, coef_c, h, MODE_STEP, P, I, T, S, G, Wd, R, True, True)
+        else:
+            G[:, :] = 0.0
+            Wd[:, :] = 0.0
         if bad:
             return sweeps, STATUS_SINGULAR
         running = 0
@@ -420,7 +446,7 @@ def effect_tfe_chunk(
     """
     k = tab.shape[0]
     n = x.shape[1]
-    sc = tfe_scratch(k, n, coef_c.shape[0], work.shape[0])
+    sc = tfe_scratch(k, n, coef_c.shape[0], work.shape[0], S.shape[0])
     phi = np.empty((k, 3, n))
     last = np.empty((k, 3, n))
     ext = _extrapolation(tab, 1.0)
