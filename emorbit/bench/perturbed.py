@@ -33,7 +33,9 @@ is emorbit's to 1e-13.
 
 Engines (:data:`SIZES`): em at fixed steps dt (orders 4-8; the quick configuration 6 and 8) and
 with adaptive steps (``adaptive = eta``, orders 6 and 8), timed over one record interval, the
-whole run (adaptive steps land only at its end); heyoka's ``taylor_adaptive`` at several
+whole run (adaptive steps land only at its end); the time finite element (``method = "tfe"``,
+order 6) at fixed and adaptive steps on the cases without drag (it refuses forces that depend
+on the velocity); heyoka's ``taylor_adaptive`` at several
 tolerances (compile time in its own column, caches off); REBOUND's IAS15 at several epsilons
 (``additional_forces``, a Python callback: REBOUNDx's ``gravitational_harmonics`` has J2 and J4
 only, so it is not used); scipy's DOP853 at several rtol. Measured for each: the CPU time of
@@ -50,7 +52,8 @@ found by its event detection), checked against em order 8 at a small step; witho
 without a wide long double, em order 8 at a small step, checked against em order 8 at twice
 that step. The least CPU time to 1e-3, 1e-6 and 1e-9 of a (:data:`ACCURACIES`;
 :func:`emorbit.bench.workprecision.reach`). Targets per case (:func:`targets`): em (best of
-fixed and adaptive, best order) <= 1x IAS15's CPU time at IAS15's error at epsilon 1e-9;
+em's and tfe's fixed and adaptive series, best order) <= 1x IAS15's CPU time at IAS15's error
+at epsilon 1e-9;
 em <= :data:`LIMIT_HEYOKA` x heyoka's at 1e-6 and 1e-9 of a; em's energy balance <=
 :data:`LIMIT_BALANCE` on every point.
 
@@ -188,6 +191,8 @@ SIZES = {
             (1e-5, 1e-7, 1e-9, 1e-11),
             (1e-6, 1e-8, 1e-10, 1e-12),
             20.0,
+            ((6, (120.0, 60.0, 30.0)),),
+            ((6, (0.04, 0.02, 0.01, 0.005)),),
         ),
         "geo": Size(
             None,
@@ -197,6 +202,8 @@ SIZES = {
             (1e-5, 1e-7, 1e-9, 1e-11),
             (1e-6, 1e-8, 1e-10, 1e-12),
             20.0,
+            ((6, (1800.0, 900.0, 450.0)),),
+            ((6, (0.04, 0.02, 0.01, 0.005)),),
         ),
     },
     "quick": {
@@ -217,6 +224,8 @@ SIZES = {
             (1e-7, 1e-9),
             (1e-6, 1e-9),
             3.0,
+            ((6, (120.0, 60.0, 30.0)),),
+            ((6, (0.04, 0.02, 0.01, 0.005)),),
         ),
         "geo": Size(
             None,
@@ -226,6 +235,8 @@ SIZES = {
             (1e-7, 1e-9),
             (1e-6, 1e-9),
             3.0,
+            ((6, (1800.0, 900.0, 450.0)),),
+            ((6, (0.04, 0.02, 0.01, 0.005)),),
         ),
     },
     # a smoke run for the tests: its timings mean nothing
