@@ -41,12 +41,6 @@ class Assembly:
                 f"method {self.method!r} has no {system.kind}-body kernel "
                 f"(needed by {key}); use one of {', '.join(system.METHODS)}",
             )
-        if self.adaptive is not None and self.method in system.FIXED_ONLY:
-            raise InputError(
-                "adaptive",
-                f"method {self.method!r} takes fixed steps for {system.kind} bodies (needed by {key}); "
-                "leave adaptive unset or use method 'em'",
-            )
 
     def add_point(
         self,

@@ -142,9 +142,8 @@ def test_tables_are_gauss():
 
 
 def test_refuses_what_it_does_not_run():
-    """Orders other than 4 and 6, elastic bodies, adaptive steps of rigid bodies and the GPU:
-    each an InputError naming its key and value, when the simulation is built (effects:
-    tests/test_tfe_effects.py)."""
+    """Orders other than 4 and 6, elastic bodies and the GPU: each an InputError naming its
+    key and value, when the simulation is built (effects: tests/test_tfe_effects.py)."""
     assert get_method("tfe").orders == (4, 6) and "tfe" in METHODS
     assert check_method_order("tfe", 6) == 6
     field = emorbit.CentralField(gm=PAPER_GM)
@@ -162,10 +161,6 @@ def test_refuses_what_it_does_not_run():
             position=[7e6, 0, 0], velocity=[0, 7.5e3, 0],
         )  # fmt: skip
     assert info.value.key == "method" and "'tfe'" in str(info.value)
-    adaptive = emorbit.Simulation(emorbit.CentralField(body="earth"), method="tfe", order=4, dt=10.0, adaptive=0.01)
-    with pytest.raises(InputError) as info:
-        adaptive.add_rigid("box", "box", size=[1.0, 1.0, 1.0], mass=1.0, position=[7e6, 0, 0], velocity=[0, 7.5e3, 0])
-    assert info.value.key == "adaptive" and "'tfe'" in str(info.value) and "rigid" in str(info.value)
     with pytest.raises(InputError) as info:
         emorbit.Simulation(field, method="tfe", order=4, dt=1.0).device = "gpu"
     assert info.value.key == "device" and "'tfe'" in str(info.value)

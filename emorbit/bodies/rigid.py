@@ -137,7 +137,6 @@ class RigidBodies(WorkSums, BodySystem):
         "angular_velocity": (3, "rad / s"),
     }
     METHODS = ("em", "midpoint", "tfe")
-    FIXED_ONLY = ("tfe",)
     FIELD_ONLY = ("tfe",)
     #: the state of every set of rigid bodies
     BASE_FIELDS = ("q", "v", "cq", "cv", "lam")
@@ -340,10 +339,10 @@ class RigidBodies(WorkSums, BodySystem):
         RigidRecords
             The records.
         """
-        if self.adaptive is not None:
-            return self._advance_adaptive(method, gm, center, dt, gammas, every, nrec, max_iter, clock)
         if method == "tfe":
             return self._advance_tfe(gm, center, dt, gammas, every, nrec, max_iter)
+        if self.adaptive is not None:
+            return self._advance_adaptive(method, gm, center, dt, gammas, every, nrec, max_iter, clock)
         rec = self._records(nrec)
         prog = self.effects.program
         P, I, T, S = self.effects.arrays(self.mp.size)
@@ -450,20 +449,35 @@ class RigidBodies(WorkSums, BodySystem):
         )
 
     def _advance_tfe(self, gm, center, dt, gammas, every, nrec, max_iter) -> RigidRecords:
-        """Fixed steps of the time finite element (:mod:`emorbit.kernels.rigid_tfe`), the
-        central field alone: its order is its number of Gauss stages times 2, so ``gammas``
-        only gives the order (:func:`emorbit.integrators.dispatch.tfe_tables`)."""
+        """Steps of the time finite element, the central field alone: fixed
+        (:mod:`emorbit.kernels.rigid_tfe`), or adaptive, landing on every multiple of ``dt``
+        (:mod:`emorbit.kernels.rigid_tfe_adaptive`). Its order is its number of Gauss stages
+        times 2, so ``gammas`` only gives the order
+        (:func:`emorbit.integrators.dispatch.tfe_tables`)."""
         from ..integrators.dispatch import tfe_tables
         from ..kernels.pointmass.tfe import low_parts
         from ..kernels.rigid_tfe import rigid_tfe_chunk
+        from ..kernels.rigid_tfe_adaptive import rigid_tfe_adaptive_chunk
 
         rec = self._records(nrec)
         tab = tfe_tables(gammas)
-        rigid_tfe_chunk(
+        body = (
             tab, low_parts(2 * tab.shape[0]), self.models, self.q, self.v, self.cq, self.cv, self.mass, self.E,
             self.inverse_inertias(), self.offsets, self.X, self.mp, float(gm), np.ascontiguousarray(center, float),
-            float(dt), int(every), int(nrec), int(max_iter), rec.q, rec.v, rec.iterations, rec.fail,
+            float(dt), int(every),
         )  # fmt: skip
+        if self.adaptive is None:
+            rigid_tfe_chunk(*body, int(nrec), int(max_iter), rec.q, rec.v, rec.iterations, rec.fail)
+        else:
+            if self.rho.shape != (len(self),):
+                self.rho = np.zeros(len(self))
+            steps = np.zeros((nrec, len(self)), np.int64)
+            rigid_tfe_adaptive_chunk(
+                *body[:7], self.rho, *body[7:], float(self.adaptive), int(nrec), int(max_iter), rec.q, rec.v,
+                rec.iterations, steps, rec.fail,
+            )  # fmt: skip
+            rec.solves = steps
+            self.adaptive_steps += int(steps.sum())
         if self._work_shape()[1]:
             rec.work = np.repeat(self.work[None], nrec, axis=0)
         return rec
@@ -515,6 +529,8 @@ class RigidBodies(WorkSums, BodySystem):
         """
         from ..kernels.rigid_adaptive import rigid_reversible_steps
 
+        if method == "tfe":
+            return self._tfe_reversible_steps(gm, center, gammas, nsteps, max_iter)
         prog = self.effects.program
         P, I, T, S = self.effects.arrays(self.mp.size)
         coef, pcoef = self.coefficients()
@@ -530,6 +546,26 @@ class RigidBodies(WorkSums, BodySystem):
         if status != 0:
             raise RuntimeError(f"an adaptive step failed with status {status}")
         return elapsed
+
+    def _tfe_reversible_steps(self, gm, center, gammas, nsteps, max_iter) -> np.ndarray:
+        """:meth:`reversible_steps` of the time finite element
+        (:func:`emorbit.kernels.rigid_tfe_adaptive.rigid_tfe_reversible_steps`)."""
+        from ..integrators.dispatch import tfe_tables
+        from ..kernels.pointmass.tfe import low_parts
+        from ..kernels.rigid_tfe_adaptive import rigid_tfe_reversible_steps
+
+        tab = tfe_tables(gammas)
+        if self.rho.shape != (len(self),):
+            self.rho = np.zeros(len(self))
+        out = np.zeros((len(self), 2))
+        rigid_tfe_reversible_steps(
+            tab, low_parts(2 * tab.shape[0]), self.models, self.q, self.v, self.cq, self.cv, self.rho, self.mass,
+            self.E, self.inverse_inertias(), self.offsets, self.X, self.mp, float(gm),
+            np.ascontiguousarray(center, float), float(self.adaptive), int(nsteps), int(max_iter), out,
+        )  # fmt: skip
+        if np.any(out[:, 1] != 0):
+            raise RuntimeError(f"an adaptive step failed with status {int(out[out[:, 1] != 0, 1][0])}")
+        return out[:, 0]
 
     def gravity_points(self, q: np.ndarray):
         """Where the point effects act on each body at recorded states q (rows, nb, 12): for

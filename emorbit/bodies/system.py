@@ -143,8 +143,6 @@ class BodySystem:
         The kind's name: the group of its state in checkpoints (``"<kind>/<field>"``).
     METHODS : tuple of str
         The methods (names of :data:`emorbit.integrators.METHODS`) it has kernels for.
-    FIXED_ONLY : tuple of str
-        Those of them it runs with fixed steps only.
     FIELD_ONLY : tuple of str
         Those of them it runs in the central field alone (no effect may act on its bodies).
     names : list of str
@@ -159,7 +157,6 @@ class BodySystem:
 
     kind: str = ""
     METHODS: tuple[str, ...] = ()
-    FIXED_ONLY: tuple[str, ...] = ()
     FIELD_ONLY: tuple[str, ...] = ()
     STATE_FIELDS: tuple[str, ...] = ()
     plan: Plan = Plan()

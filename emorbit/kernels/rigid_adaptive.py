@@ -47,26 +47,36 @@ from .jit import kernel
 from .rigid import _body_work, _point_scratch, _work_arrays, rigid_step
 from .rigid_surface import facet_scratch
 
-__all__ = ["rigid_rates", "rigid_adaptive_chunk", "rigid_reversible_steps"]
+__all__ = ["motion_rates", "rigid_rates", "rigid_adaptive_chunk", "rigid_reversible_steps"]
 
 _TWO_PI = 2.0 * math.pi
 
 
 @kernel
-def rigid_rates(q, v, E, Jinv, gm, c):
-    """(W, W') of one body: the squared rate W = GM / r**3 + |w|**2, 1/s**2, and its rate of
-    change along the motion (the torque-free share for the rotation), 1/s**3."""
+def motion_rates(a0, a1, a2, u0, u1, u2, o0, o1, o2, l0, l1, l2, Jinv, gm):
+    """(W, W') from the centre's offset a from the field's centre and velocity u, the body-frame
+    rate Omega and angular momentum L = J Omega: W = GM / r**3 + |Omega|**2 (1/s**2) and its
+    rate of change along the motion (the torque-free share for the rotation), 1/s**3."""
     W = 0.0
     dW = 0.0
     if gm > 0.0:
-        a0 = q[0] - c[0]
-        a1 = q[1] - c[1]
-        a2 = q[2] - c[2]
         r2 = a0 * a0 + a1 * a1 + a2 * a2
-        r = math.sqrt(r2)
-        w2 = gm / (r2 * r)
+        w2 = gm / (r2 * math.sqrt(r2))
         W += w2
-        dW += -3.0 * w2 * (a0 * v[0] + a1 * v[1] + a2 * v[2]) / r2
+        dW += -3.0 * w2 * (a0 * u0 + a1 * u1 + a2 * u2) / r2
+    W += o0 * o0 + o1 * o1 + o2 * o2
+    t0 = l1 * o2 - l2 * o1  # (J Omega) x Omega
+    t1 = l2 * o0 - l0 * o2
+    t2 = l0 * o1 - l1 * o0
+    dW += 2.0 * o0 * (Jinv[0, 0] * t0 + Jinv[0, 1] * t1 + Jinv[0, 2] * t2)
+    dW += 2.0 * o1 * (Jinv[1, 0] * t0 + Jinv[1, 1] * t1 + Jinv[1, 2] * t2)
+    dW += 2.0 * o2 * (Jinv[2, 0] * t0 + Jinv[2, 1] * t1 + Jinv[2, 2] * t2)
+    return W, dW
+
+
+@kernel
+def rigid_rates(q, v, E, Jinv, gm, c):
+    """(W, W') of one body in the director form (:func:`motion_rates`), 1/s**2 and 1/s**3."""
     w0 = w1 = w2 = 0.0  # w = 1/2 sum d_k x dd_k, in space
     for k in range(3):
         d0 = q[3 + 3 * k]
@@ -81,18 +91,11 @@ def rigid_rates(q, v, E, Jinv, gm, c):
     o0 = q[3] * w0 + q[4] * w1 + q[5] * w2  # Omega = R^T w, the body-frame rate
     o1 = q[6] * w0 + q[7] * w1 + q[8] * w2
     o2 = q[9] * w0 + q[10] * w1 + q[11] * w2
-    W += o0 * o0 + o1 * o1 + o2 * o2
     tr = E[0, 0] + E[1, 1] + E[2, 2]  # L = J Omega = tr(E) Omega - E Omega
     l0 = tr * o0 - (E[0, 0] * o0 + E[0, 1] * o1 + E[0, 2] * o2)
     l1 = tr * o1 - (E[1, 0] * o0 + E[1, 1] * o1 + E[1, 2] * o2)
     l2 = tr * o2 - (E[2, 0] * o0 + E[2, 1] * o1 + E[2, 2] * o2)
-    t0 = l1 * o2 - l2 * o1  # (J Omega) x Omega
-    t1 = l2 * o0 - l0 * o2
-    t2 = l0 * o1 - l1 * o0
-    dW += 2.0 * o0 * (Jinv[0, 0] * t0 + Jinv[0, 1] * t1 + Jinv[0, 2] * t2)
-    dW += 2.0 * o1 * (Jinv[1, 0] * t0 + Jinv[1, 1] * t1 + Jinv[1, 2] * t2)
-    dW += 2.0 * o2 * (Jinv[2, 0] * t0 + Jinv[2, 1] * t1 + Jinv[2, 2] * t2)
-    return W, dW
+    return motion_rates(q[0] - c[0], q[1] - c[1], q[2] - c[2], v[0], v[1], v[2], o0, o1, o2, l0, l1, l2, Jinv, gm)
 
 
 @kernel

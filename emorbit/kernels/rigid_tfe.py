@@ -51,7 +51,7 @@ from .pointmass.tfe import _extrapolation
 from .rigid_solve import lu, lu_solve
 from .rigid_tfe_newton import factor_rotation, inverse3, rotation_jacobian, solve_without_correction, torque_jacobian
 
-__all__ = ["rigid_tfe_chunk", "rigid_tfe_step", "step_scratch"]
+__all__ = ["body_gravity", "rigid_tfe_chunk", "rigid_tfe_step", "step_scratch", "store_state"]
 
 _TOL = 2.0**-53
 _FLOOR = 2.0**-40
@@ -541,6 +541,38 @@ def _director_velocity(y, Jinv, out):
 
 
 @kernel
+def store_state(y, cy, Ji, q, v, cq, cv, b, vd):
+    """The element's state y (with its compensation cy) into the director form's arrays of body
+    b; ``vd`` (12,) scratch."""
+    _director_velocity(y, Ji, vd)
+    for i in range(12):
+        q[b, i] = y[i]
+        cq[b, i] = cy[i]
+        v[b, i] = vd[i]
+        cv[b, i] = 0.0
+    for i in range(3):
+        cv[b, i] = cy[12 + i]
+
+
+@kernel
+def body_gravity(models, mass, E, offsets, X, mp, gm, b, one):
+    """Body b's gravity points and masses by its model (its mass points, its centre of mass as
+    ``one``, a (3, 1) zero, or none), whether the torque depends on the attitude, and its size
+    ``sqrt(tr E / m)`` (m)."""
+    if models[b] == GRAVITY_NONE:
+        Xg = X[:, 0:0]
+        mg = mp[0:0]
+    elif models[b] == GRAVITY_POINT:
+        Xg = one
+        mg = mass[b : b + 1]
+    else:
+        Xg = X[:, offsets[b] : offsets[b + 1]]
+        mg = mp[offsets[b] : offsets[b + 1]]
+    tidal = gm != 0.0 and models[b] != GRAVITY_NONE and models[b] != GRAVITY_POINT
+    return Xg, mg, tidal, math.sqrt((E[b, 0, 0] + E[b, 1, 1] + E[b, 2, 2]) / mass[b])
+
+
+@kernel
 def rigid_tfe_chunk(
     tab, lo, models, q, v, cq, cv, mass, E, Jinv, offsets, X, mp, gm, center, dt, every, nrec, max_iter,
     rec_q, rec_v, rec_iters, fail,
@@ -564,18 +596,8 @@ def rigid_tfe_chunk(
     Eo = np.empty((3, 3))
     one = np.zeros((3, 1))[:, 0:1]
     for b in range(nb):
-        if models[b] == GRAVITY_NONE:
-            Xg = X[:, 0:0]
-            mg = mp[0:0]
-        elif models[b] == GRAVITY_POINT:
-            Xg = one
-            mg = mass[b : b + 1]
-        else:
-            Xg = X[:, offsets[b] : offsets[b + 1]]
-            mg = mp[offsets[b] : offsets[b + 1]]
+        Xg, mg, tidal, size = body_gravity(models, mass, E, offsets, X, mp, gm, b, one)
         Ji = Jinv[b]
-        tidal = gm != 0.0 and models[b] != GRAVITY_NONE and models[b] != GRAVITY_POINT
-        size = math.sqrt((E[b, 0, 0] + E[b, 1, 1] + E[b, 2, 2]) / mass[b])
         _to_state(q[b], v[b], cq[b], cv[b], E[b], y, cy)
         have = False
         failed = False
@@ -624,11 +646,4 @@ def rigid_tfe_chunk(
                 rec_q[r, b, i] = y[i]
                 rec_v[r, b, i] = vd[i]
             rec_iters[r, b] = its
-        _director_velocity(y, Ji, vd)
-        for i in range(12):
-            q[b, i] = y[i]
-            cq[b, i] = cy[i]
-            v[b, i] = vd[i]
-            cv[b, i] = 0.0
-        for i in range(3):
-            cv[b, i] = cy[12 + i]
+        store_state(y, cy, Ji, q, v, cq, cv, b, vd)
