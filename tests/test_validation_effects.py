@@ -87,6 +87,8 @@ def test_each_case_checks_what_it_is_for(quick):
             | {
                 "position-em8-vs-reboundx",
                 "position-em8-j4-vs-reboundx",
+                "position-tfe6-vs-reboundx",
+                "energy-tfe6",
                 "zonal-potential-convention",
                 "recorded-energy",
                 "angular-momentum-pole",
@@ -111,7 +113,7 @@ def test_list_names_the_effect_cases(capsys):
 def test_a_wrong_j2_sign_fails_the_reboundx_comparison(tmp_path):
     case = dataclasses.replace(_case("j2-reboundx"), zonal={"j": [-J2], "radius": R_EARTH})
     out = run_effect_case(case, "quick", str(tmp_path), figures=False)
-    assert {"position-em8-vs-reboundx", "recorded-energy"} <= _failed(out)
+    assert {"position-em8-vs-reboundx", "position-tfe6-vs-reboundx", "recorded-energy"} <= _failed(out)
     # em conserves its own (wrong) energy all the same
     assert "energy-em8" not in _failed(out)
 
@@ -148,7 +150,7 @@ def test_a_wrong_period_fails_the_figure_eight_return(tmp_path):
 REBOUNDX_CHECKS = {
     "j2-reboundx": {f"order-em{p}" for p in (2, 4, 6, 8)}
     | {"zonal-potential-convention", "referee-ias15-epsilon"}
-    | {"position-em8-vs-reboundx", "position-em8-j4-vs-reboundx"},
+    | {"position-em8-vs-reboundx", "position-em8-j4-vs-reboundx", "position-tfe6-vs-reboundx"},
     "j2-secular": {"rates-em8-vs-reboundx"},
 }
 
@@ -163,7 +165,7 @@ def test_without_reboundx_the_j2_cases_skip_their_reboundx_checks(tmp_path, monk
     out = tmp_path / "report"
     assert main(["validate", "--quick", "--cases", "j2-reboundx,j2-secular", "--report", str(out)]) == 0
     console = capsys.readouterr().out
-    assert console.count("skipped: REBOUNDx not installed") == 2 and "SKIP 8 check(s)" in console
+    assert console.count("skipped: REBOUNDx not installed") == 2 and "SKIP 9 check(s)" in console
     suite = json.loads((out / "results.json").read_text())
     assert suite["passed"] and suite["environment"]["versions"]["reboundx"] == "not installed"
     for case in suite["cases"]:

@@ -150,7 +150,17 @@ def _j2_reboundx(run, ias, reference):
         "1",
         "em conserves the energy with every zonal term exactly up to round-off",
     )
-    run.named.update({"Kepler": kep, "IAS15, J2 = 0": ias0, "em8 J2+J4": em8j4})
+    tfe6 = run.em(6, c.main[8], label=f"tfe 6 with J2, dt = T/{c.main[8]}", key=False, method="tfe")
+    run.check(
+        "energy-tfe6",
+        "tfe order 6 (one solve of 3 Gauss stages) with J2, max |E - E0| / |E0|",
+        "the initial energy",
+        tfe6.rel_energy_error().max(),
+        C.ENERGY_HIGH,
+        "1",
+        "the time finite element keeps the energy with every zonal term exactly up to round-off, as em does",
+    )
+    run.named.update({"Kepler": kep, "IAS15, J2 = 0": ias0, "em8 J2+J4": em8j4, "tfe6 J2": tfe6})
     if ias is None:
         _j2_reboundx_skipped(run)
         return
@@ -166,6 +176,14 @@ def _j2_reboundx(run, ias, reference):
         "a",
         f"at the end {err8[-1]:.3g} a; J2 moves the satellite {ias.position_error(kep, a).max():.3g} a from the "
         f"Kepler orbit over the run; IAS15's own error (epsilon test) {eps_err.max():.2g} a",
+    )
+    _position(
+        run,
+        "position-tfe6-vs-reboundx",
+        f"tfe order 6 (dt = T/{c.main[8]}) with J2, position, max over {run.n} orbits",
+        "REBOUND IAS15 + REBOUNDx gravitational_harmonics (J2) on the same records",
+        tfe6.position_error(ias, a),
+        "a",
     )
     ias4 = run_ias15(c, run.times, harmonics=c.extra["harmonics_j4"], label="IAS15 + REBOUNDx, J2 and J4")
     run.runs[ias4.label] = ias4
@@ -195,6 +213,12 @@ def _j2_reboundx_skipped(run):
     run.skip(
         "position-em8-vs-reboundx",
         f"em order 8 (dt = T/{c.main[8]}) with J2, position, max over {run.n} orbits",
+        "REBOUND IAS15 + REBOUNDx gravitational_harmonics (J2) on the same records",
+        "a",
+    )
+    run.skip(
+        "position-tfe6-vs-reboundx",
+        f"tfe order 6 (dt = T/{c.main[8]}) with J2, position, max over {run.n} orbits",
         "REBOUND IAS15 + REBOUNDx gravitational_harmonics (J2) on the same records",
         "a",
     )

@@ -75,8 +75,8 @@ class EffectRun:
         v = value.item() if isinstance(value, np.generic) else value
         self.metrics[key] = {"value": v, "unit": unit, "note": note}
 
-    def em(self, order, steps, *, zonal=None, label=None, key=True) -> EffectTrajectory:
-        tr = run_em(self.case, order, steps, self.n, zonal=zonal, label=label)
+    def em(self, order, steps, *, zonal=None, label=None, key=True, method="em") -> EffectTrajectory:
+        tr = run_em(self.case, order, steps, self.n, zonal=zonal, label=label, method=method)
         self.runs[tr.label] = tr
         if key:
             self.em_runs[(order, steps)] = tr

@@ -133,9 +133,9 @@ def _scales(masses, x, v):
 
 
 def run_em(
-    case: EffectCase, order: int, steps_per_period: int, periods: int, *, zonal=None, label=None
+    case: EffectCase, order: int, steps_per_period: int, periods: int, *, zonal=None, label=None, method="em"
 ) -> EffectTrajectory:
-    """Run emorbit's em method with the case's effects, through the public API.
+    """Run emorbit's em method (or ``method``) with the case's effects, through the public API.
 
     Parameters
     ----------
@@ -151,6 +151,8 @@ def run_em(
         Keys of the zonal effect instead of ``case.zonal``.
     label : str, optional
         The trajectory's label.
+    method : str
+        The method (``"em"``; ``"tfe"``, whose step is one solve at every order).
 
     Returns
     -------
@@ -163,10 +165,10 @@ def run_em(
         field_ = emorbit.CentralField(body="earth")
         if field_.gm != case.gm:  # the case takes GM from the same field
             raise RuntimeError(f"field GM {field_.gm!r} differs from the case's {case.gm!r}")
-        sim = emorbit.Simulation(field_, method="em", order=order, dt=dt * u.s)
+        sim = emorbit.Simulation(field_, method=method, order=order, dt=dt * u.s)
         sim.add_effect("zonal", **(zonal or case.zonal))
     else:
-        sim = emorbit.Simulation(None, method="em", order=order, dt=dt * u.s)
+        sim = emorbit.Simulation(None, method=method, order=order, dt=dt * u.s)
         sim.add_effect("mutual")
     for name, m, x, v in case.bodies:
         sim.add_point(name, mass=m * u.kg, position=np.asarray(x) * u.m, velocity=np.asarray(v) * u.m / u.s)
@@ -177,10 +179,10 @@ def run_em(
     res = result.si
     x = np.stack([res.positions[n] for n in case.names], axis=1)
     v = np.stack([res.velocities[n] for n in case.names], axis=1)
-    substeps = steps * len(emorbit.integrators.coefficients(order))
+    substeps = steps * emorbit.integrators.get_method(method).solves_per_step(order)
     p_scale, l_scale = _scales(case.masses, x, v)
     return EffectTrajectory(
-        label or f"em {order}, dt = T/{steps_per_period}",
+        label or f"{method} {order}, dt = T/{steps_per_period}",
         res.time,
         x,
         v,
@@ -189,7 +191,7 @@ def run_em(
         res.angular_momentum,
         wall,
         {
-            "method": "em",
+            "method": method,
             "order": order,
             "dt_s": dt,
             "steps_per_period": steps_per_period,
