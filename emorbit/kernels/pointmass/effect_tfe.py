@@ -23,7 +23,7 @@ Newton on each point's 3k unknowns: ``delta_lj I - 2 h^2 (a^2)_lj W_l`` (W_l the
 Jacobian, half the gradient) plus nu's response (rank one), a dense solve, started from the
 last step's force polynomial or the forces at x0. A point stops when its update is below
 ``2^-53`` of phi (or the next would be), stalls below ``2^-40``, or, below ``2^-36``, where the
-iterate's energy balance closes to 16 eps of its terms; a point's steps do not depend on the
+iterate's energy balance closes to 2 eps of its terms; a point's steps do not depend on the
 others'.
 
 Data layout: x, v, cx, cv (3, n) with Kahan compensation; m (n,); body (n,); gm, ctr (3,) the
@@ -60,7 +60,7 @@ _REGRESSIONS = 3
 #: an update below this fraction of phi ends Newton where the iterate keeps the energy ...
 _LOOSE = 2.0**-36
 #: ... to this many eps of the energy change's terms (:func:`_energy_gap`)
-_GAP = 16.0 * 2.0**-52
+_GAP = 2.0 * 2.0**-52
 
 
 @kernel
