@@ -44,7 +44,8 @@ A third body's potential changes in time: the step sums the work of that change
 not conserved. The Sun and the Moon are where the ephemeris puts them at the run's epoch
 (`[integrator] epoch = "2026-01-01T00:00:00 TDB"`) plus the clock. Every effect acts with
 the methods em and midpoint, and with leapfrog where its force is a function of position and
-time alone (*methods* below); point masses, rigid and elastic bodies feel each effect as its
+time alone, and so with tfe on point masses where it acts on single bodies (*methods*
+below); point masses, rigid and elastic bodies feel each effect as its
 *acts on* row says, at fixed and at adaptive steps.
 
 ```toml
@@ -175,10 +176,13 @@ def _acts(cls) -> str:
 
 
 def _methods(cls) -> str:
-    """The methods a step with the effect may use, from ``EXPLICIT``."""
-    if cls.EXPLICIT:
+    """The methods a step with the effect may use, from ``EXPLICIT`` and the pieces (tfe's
+    stages take forces at points of single bodies at fixed mass)."""
+    if not cls.EXPLICIT:
+        return "em, midpoint (its force depends on the velocity: leapfrog's kicks and tfe's stages cannot take it)"
+    if cls.pairs() or cls.changes_mass():
         return "em, midpoint, leapfrog"
-    return "em, midpoint (its force depends on the velocity: leapfrog's kicks cannot take it)"
+    return "em, midpoint, leapfrog, tfe (point masses)"
 
 
 def markdown() -> str:
