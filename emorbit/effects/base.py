@@ -11,7 +11,7 @@ everything about the effect; nothing else in emorbit names it:
   surfaces, or not), whether a scene may name it more than once, what an em step with it
   conserves, whether it does work, whether it needs a central field, an epoch, or changes
   in time, and whether its force is explicit (a function of position and time alone, so
-  leapfrog's kicks may use it);
+  leapfrog's kicks and the time finite element's stages may use it);
 - its pieces (:class:`Pieces`): the force on a point over a step with its Jacobian, its
   potential, what it prepares per sub-step, the work of its change in time, its force on a
   facet, or its pair forces;
@@ -218,7 +218,8 @@ class Effect:
     #: its keys that name files: a relative path is found in the scene's folder where a file
     #: of that name is there
     PATH_KEYS: ClassVar[tuple[str, ...]] = ()
-    #: whether its force is a function of position (and time) alone: leapfrog may kick with it
+    #: whether its force is a function of position (and time) alone: leapfrog may kick with it,
+    #: and tfe's stages take it on point masses
     EXPLICIT: ClassVar[bool] = True
     #: whether its facet force acts on facets of its own that it adds to a body
     #: (:meth:`own_facets`: a burn's thruster) rather than on the body's surface
