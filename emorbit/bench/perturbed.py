@@ -451,6 +451,10 @@ def work_precision(case: Case, size: Size) -> dict:
     t = time.process_time()
     simulation(case, 60.0).run(steps=1, progress=False)  # compile the set, or load it from Numba's cache
     simulation(case, 600.0, adaptive=0.05).run(steps=1, progress=False)
+    for order, _ in size.tfe:  # and tfe's kernels, where the case runs them
+        simulation(case, 60.0, order=order, method="tfe").run(steps=1, progress=False)
+    for order, _ in size.tfe_etas:
+        simulation(case, 600.0, order=order, adaptive=0.05, method="tfe").run(steps=1, progress=False)
     em_compile = time.process_time() - t
     force_model, _ = model(case, duration)
     skipped = {name: why for name in ("heyoka", "rebound", "scipy") if (why := _peer_status(name))}
