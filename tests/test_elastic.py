@@ -17,12 +17,13 @@ N_ORBIT = np.sqrt(GM / R_ORBIT**3)
 T_ORBIT = 2 * np.pi / N_ORBIT
 
 
-def _tethered(method="em", k_ratio=None, dt=None, elements=4):
+def _tethered(method="em", k_ratio=None, dt=None, elements=4, order=2):
     """Two 100 kg point masses 100 m apart on the local vertical of a 7000 km orbit, joined by
     a chain of bars; the assembly turns with the orbit. k_ratio sets the bar's axial frequency
     to k_ratio times the orbital rate."""
     m, L = 100.0, 100.0
-    sim = emorbit.Simulation(emorbit.CentralField(body="earth"), method=method, dt=dt or T_ORBIT / 100)
+    field = emorbit.CentralField(body="earth")
+    sim = emorbit.Simulation(field, method=method, order=order, dt=dt or T_ORBIT / 100)
     for name, x in (("a", R_ORBIT - L / 2), ("b", R_ORBIT + L / 2)):
         sim.add_point(name, mass=m, position=[x, 0, 0], velocity=[0, N_ORBIT * x, 0])
     EA = 1e5 if k_ratio is None else (k_ratio * N_ORBIT) ** 2 * m / 2 * L
@@ -143,10 +144,13 @@ def test_axial_vibration_frequency_converges(mass_matrix, sign):
 
 def test_stiff_elastic_box_librates_like_the_rigid_one():
     """A 2 x 1 x 0.5 m elastic box (E = 10 MPa: lowest elastic mode ~7e4 times the orbital
-    rate) in a circular orbit, pitched 1 degree: its pitch libration matches the rigid-body
-    frequency n sqrt(3 (I_y - I_x) / I_z) (1 - theta0^2/4) within 3e-4 (measured 3e-5)."""
+    rate) in a circular orbit, pitched 1 degree, 4 orbits at T/1000: its pitch libration
+    matches the rigid-body frequency n sqrt(3 (I_y - I_x) / I_z) (1 - theta0^2/4) within 3e-4
+    (measured 5.7e-5). At T/500 (h w_el about 900) Newton fails in about 4 % of the steps on
+    some machines' rounding (AMD EPYC), and the steps redone in halves set the elastic modes
+    ringing at 0.5 % of the libration's amplitude, which moves its frequency by 5.8e-4."""
     th0 = np.radians(1.0)
-    sim = emorbit.Simulation(emorbit.CentralField(body="earth"), method="em", dt=T_ORBIT / 500)
+    sim = emorbit.Simulation(emorbit.CentralField(body="earth"), method="em", dt=T_ORBIT / 1000)
     sim.add_elastic(
         "b",
         "beam",
@@ -174,9 +178,9 @@ def test_stiff_elastic_box_librates_like_the_rigid_one():
     w = 2 * np.pi / np.polyfit(np.arange(tc.size), tc, 1)[0]
     theory = N_ORBIT * np.sqrt(3 * 0.6) * (1 - th0**2 / 4)
     assert tc.size >= 4
-    assert abs(w / theory - 1) < 3e-4, f"libration frequency off by {abs(w / theory - 1):.3g}, measured 3e-5"
+    assert abs(w / theory - 1) < 3e-4, f"libration frequency off by {abs(w / theory - 1):.3g}, measured 5.7e-5"
     dE = np.abs(res.relative_energy_error()).max()
-    assert dE <= 7.5e-14, f"|dE|/|E0| = {dE:.3g} over 4000 steps, measured 1.5e-14"
+    assert dE <= 7.5e-14, f"|dE|/|E0| = {dE:.3g} over 4000 steps, measured 8.0e-16"
 
 
 def test_newton_converges_quadratically():
@@ -197,7 +201,9 @@ def test_newton_converges_quadratically():
         velocity=[0, 0, 0],
         angular_velocity=[0.3, 0.2, 3.0],
     )
-    sim.run(steps=1, every=1)
+    # the one step's angular momentum is at round-off, 1 to 2 times the drift check's bound
+    # depending on the machine's BLAS: this test is about Newton's rate, not the drift
+    sim.run(steps=1, every=1, drift_tolerance=100)
     r = np.array(sim.structure.residuals)
     quad = r[r > 1e-8]
     assert quad.size >= 3 and quad[0] > 1e-4
