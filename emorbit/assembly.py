@@ -326,7 +326,7 @@ class Assembly:
         InputError
             A bad mesh, material or value, a taken name, a node at the
             centre or inside the central body, a radial fall into a centre without radius,
-            or a method without an elastic kernel (em and midpoint have one).
+            or a method without an elastic kernel (:attr:`~emorbit.bodies.coupled.Structure.METHODS`).
         """
         from .bodies import elastic as el
         from .bodies.facets import facet_coefficients
@@ -334,9 +334,13 @@ class Assembly:
         key = key or f"body[{name!r}]"
         self._new_name(name, key)
         position, velocity, xkey, vkey = initial_state(position, velocity, orbit, self.field, strict=strict, key=key)
-        if self.method not in ("em", "midpoint"):
+        from .bodies.coupled import Structure
+
+        if self.method not in Structure.METHODS:
             raise InputError(
-                "method", f"method {self.method!r} has no elastic-body kernel (needed by {key}); use em or midpoint"
+                "method",
+                f"method {self.method!r} has no elastic-body kernel (needed by {key}); "
+                f"use one of {', '.join(Structure.METHODS)}",
             )
         spec = el.build_elastic(
             name,
@@ -642,14 +646,21 @@ class Assembly:
         self.effects.check_method(self.method)
         for system in self.systems:
             if len(system) and self.method in system.FIELD_ONLY:
-                acting = [e for e in self.effects.named if e.acts_on(system.kind) and any(map(e.reaches, system.names))]
+                acting = [
+                    (e, kind)
+                    for kind, names in kinds.items()
+                    for e in self.effects.named
+                    if e.acts_on(kind) and any(n in system and e.reaches(n) for n in names)
+                ]
                 if acting:
-                    e = acting[0]
+                    e, kind = acting[0]
                     raise InputError(
                         "method",
-                        f"method {self.method!r} steps {system.kind} bodies in the central field alone, and "
+                        f"method {self.method!r} steps {kind} bodies in the central field alone, and "
                         f"{e.key} ({e.kind}) acts on them; use em",
                     )
+        if self.structure is not None and len(self.structure):
+            self.structure.check_method(self.method)
         if self.adaptive is not None and self.points.under_effects() and not self.effects.sets_time_scale("point"):
             raise InputError(
                 "adaptive",

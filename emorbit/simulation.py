@@ -75,7 +75,8 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
     method : str
         A name in :data:`emorbit.METHODS`: ``"em"`` (energy-momentum, the default),
         ``"midpoint"``, ``"leapfrog"``, or ``"tfe"`` (energy-momentum time finite elements:
-        point masses and rigid bodies in the central field; adaptive steps for point masses).
+        point masses, also under effects whose force is explicit; rigid bodies, and structures of
+        elastic bodies and point masses, in the central field; fixed or adaptive steps).
     order : int
         2 (the base step) or 4, 6, 8 (symmetric compositions of it, :data:`emorbit.ORDERS`);
         ``"tfe"`` runs at 4 or 6 (its 2 or 3 Gauss stages).

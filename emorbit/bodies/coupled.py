@@ -33,11 +33,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from ..integrators.dispatch import method_code
 from ..integrators.plan import Plan
 from ..kernels import coupled as kc
 from ..kernels import elastic as kel
-from ..kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from ..kernels.codes import METHOD_TFE, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
 from .coupled_adaptive import StructureAdaptive
 from .coupled_effects import StructureEffects
 from .coupled_layout import StructureLayout
@@ -87,7 +88,9 @@ class Structure(StructureAdaptive, StructureLayout):
 
     kind = "structure"
     #: methods with a structure kernel
-    METHODS = ("em", "midpoint")
+    METHODS = ("em", "midpoint", "tfe")
+    #: methods that step the structure in the central field alone (no other effect)
+    FIELD_ONLY = ("tfe",)
     #: the state of every structure
     BASE_FIELDS = ("u", "v", "cu", "cv", "lam", "acc")
     #: units of the state arrays beyond emorbit.io.reader.STATE_UNITS
@@ -241,6 +244,8 @@ class Structure(StructureAdaptive, StructureLayout):
             whether the iteration was accepted at a stall (its last update above the
             round-off tolerance, below the floor) rather than at round-off.
         """
+        if code == METHOD_TFE:
+            return self._tfe.step(u0, v0, acc, ref, h, max_iter)
         ns = u0.shape[0]
         nr = self.rb_slots.shape[0]
         hf = 0.5 * h
@@ -384,6 +389,7 @@ class Structure(StructureAdaptive, StructureLayout):
         """
         ns = self.u.shape[0]
         self._scratch()
+        code, gammas = self.method_setup(method, gm, center, gammas)
         rec = StructureRecords(
             np.empty((nrec, ns, 3)),
             np.empty((nrec, ns, 3)),
@@ -391,7 +397,6 @@ class Structure(StructureAdaptive, StructureLayout):
             np.full((1, 2), -1, np.int64),
             np.zeros((nrec, 1), np.int64),
         )
-        code = method_code(method)
         c = np.asarray(center, float)
         self.fx.begin()
         nw = self.work.size
@@ -429,6 +434,36 @@ class Structure(StructureAdaptive, StructureLayout):
             rec.iterations[r, 0] = its
             rec.stalled[r, 0] = stl
         return rec
+
+    def method_setup(self, method: str, gm: float, center, gammas) -> tuple:
+        """The method's code and the sub-steps of its composed step: the composition's, or
+        for ``"tfe"`` one step of the Gauss stages its order says
+        (:class:`~emorbit.bodies.structure_tfe.StructureTFE`, set up here)."""
+        if method != "tfe":
+            return method_code(method), gammas
+        from ..integrators.dispatch import tfe_tables
+        from .structure_tfe import StructureTFE
+
+        self.check_method(method)
+        self._tfe = StructureTFE(self, tfe_tables(gammas), gm, center)
+        return METHOD_TFE, np.ones(1)
+
+    def check_method(self, method: str) -> None:
+        """Refuse a method this structure's bodies do not take.
+
+        Raises
+        ------
+        InputError
+            ``method``: ``"tfe"`` on a structure with a rigid body (its axes' constraints
+            have no tfe stages).
+        """
+        rigid = [b["name"] for b in self.bodies if b["kind"] == "rigid"]
+        if method == "tfe" and rigid:
+            raise InputError(
+                "method",
+                f"method 'tfe' steps structures of elastic bodies and point masses; rigid body {rigid[0]!r} "
+                "is part of one (attached, or under an effect between pairs); use em",
+            )
 
     #: how often a failed step may be halved (2**MAX_SPLIT sub-steps at most)
     MAX_SPLIT = 4

@@ -245,12 +245,10 @@ class StructureAdaptive:
         RuntimeError
             A step failed (its status in the message).
         """
-        from ..integrators.dispatch import method_code
-
         self.build()
         self._scratch()
         self.start_adaptive()
-        code = method_code(method)
+        code, gammas = self.method_setup(method, gm, c, gammas)
         rho = float(self.rho[0])
         if not rho > 0.0:
             rho, _ = self.control(self.u - self.cu, self.v - self.cv, gm, c)

@@ -31,7 +31,7 @@ from .codes import STATUS_OK
 from .elastic import bar_forces, csc_find, spread_rows, tet_forces
 from .jit import kernel
 
-__all__ = ["fill_forces", "add_point_blocks", "add_block", "fill_constraints", "equilibrate", "scatter"]
+__all__ = ["fill_forces", "add_point_blocks", "add_block", "add_block_at", "fill_constraints", "equilibrate", "scatter"]
 
 
 @kernel
@@ -83,6 +83,13 @@ def add_point_blocks(p_node, p_w, K, scale, node_slot, node_coef, indptr, indice
 @kernel
 def add_block(na, nb, K, scale, node_slot, node_coef, indptr, indices, data):
     """data += scale * (c_i c_j) K for every slot pair of nodes na, nb."""
+    add_block_at(0, 0, na, nb, K, scale, node_slot, node_coef, 0, indptr, indices, data)
+
+
+@kernel
+def add_block_at(l, m, na, nb, K, scale, node_slot, node_coef, n, indptr, indices, data):
+    """:func:`add_block` into block (l, m) of a matrix of blocks of ``n`` rows and columns
+    (the time finite element's stage matrix, :mod:`.elastic_tfe`)."""
     for i in range(4):
         si = node_slot[na, i]
         if si < 0:
@@ -96,9 +103,9 @@ def add_block(na, nb, K, scale, node_slot, node_coef, indptr, indices, data):
             if f == 0.0:
                 continue
             for e in range(3):
-                col = 3 * sj + e
+                col = m * n + 3 * sj + e
                 for d in range(3):
-                    p = csc_find(indptr, indices, 3 * si + d, col)
+                    p = csc_find(indptr, indices, l * n + 3 * si + d, col)
                     data[p] += f * K[d, e]
 
 
