@@ -20,17 +20,12 @@ exactly (``q - Pq`` is orthogonal to degree k - 1); the force is ``f = -V F(Pq) 
 has no moment about ``Pq(sigma_i)``, and ``L1 - L0 = h int Pq x M V' = 0`` (``M V'`` has
 degree k - 1). The force is a polynomial in the unknowns: Newton's matrix is exact and smooth.
 
-Gravity points (relative to the field's centre, ``Q_l``, ``V_l`` their stage values): the
-central field's force at the nodes, ``A_l = m (g(Q_l) + mu s_l Q_l)`` with ``s_l = Q_l . V_l``
-and mu of :func:`emorbit.kernels.pointmass.tfe.tfe_step`, so each point's work equals its
-potential drop; the force is radial, so it has no moment. Newton's matrix has gravity's
-gradient at the stages, not mu's derivative (mu is O(h^{2k}) and, in a circular orbit, a ratio
-of two vanishing sums).
-
-Newton's matrix: ``I (x) M - h [sum_j a_lj dA_j / dV_m]`` in block (l, m), added into the
-values ``data`` of a CSC matrix of k x k blocks of ``n`` rows (slot ``s``, direction ``d`` is
-row ``l n + 3 s + d`` of block row l); nodes reach slots through ``node_slot, node_coef`` as in
-:mod:`.elastic`.
+Gravity points (``Q_l``, ``V_l`` relative to the field's centre): ``A_l = m (g(Q_l) + mu s_l
+Q_l)``, ``s_l = Q_l . V_l``, mu of :func:`emorbit.kernels.pointmass.tfe.tfe_step`: each point's
+work is its potential drop, the force radial. Newton's matrix ``I (x) M - h [sum_j a_lj dA_j /
+dV_m]`` (block (l, m) of k x k blocks of ``n`` rows, row ``l n + 3 s + d`` for slot s, direction
+d; nodes reach slots as in :mod:`.elastic`) holds the exact derivatives, mu's too: near an apse
+of a point's radial motion mu is a ratio of two small sums, and without them Newton stalls.
 
 Data layout: nodes ``x0n`` (nn, 3) at the step's start, stage increments ``Zn`` and velocities
 ``Vn`` (k, nn, 3) of the nodes; the forces ``fn`` (k, nn, 3) at the nodes (the A_l); gravity
