@@ -142,8 +142,9 @@ def test_tables_are_gauss():
 
 
 def test_refuses_what_it_does_not_run():
-    """Orders other than 4 and 6, elastic bodies and the GPU: each an InputError naming its
-    key and value, when the simulation is built (effects: tests/test_tfe_effects.py)."""
+    """Orders other than 4 and 6 and the GPU: each an InputError naming its key and value, when
+    the simulation is built (effects: tests/test_tfe_effects.py; structures with rigid bodies:
+    tests/test_tfe_elastic.py)."""
     assert get_method("tfe").orders == (4, 6) and "tfe" in METHODS
     assert check_method_order("tfe", 6) == 6
     field = emorbit.CentralField(gm=PAPER_GM)
@@ -154,13 +155,6 @@ def test_refuses_what_it_does_not_run():
         with pytest.raises(InputError) as info:
             run(order, PAPER_T / 100, 1)
         assert info.value.key == "order" and str(order) in str(info.value)
-    sim = emorbit.Simulation(emorbit.CentralField(body="earth"), method="tfe", order=4, dt=10.0)
-    with pytest.raises(InputError) as info:
-        sim.add_elastic(
-            "bar", "beam", size=[2, 0.1, 0.1], elements=[4, 1, 1], young=1e5, poisson=0.3, density=1000.0,
-            position=[7e6, 0, 0], velocity=[0, 7.5e3, 0],
-        )  # fmt: skip
-    assert info.value.key == "method" and "'tfe'" in str(info.value)
     with pytest.raises(InputError) as info:
         emorbit.Simulation(field, method="tfe", order=4, dt=1.0).device = "gpu"
     assert info.value.key == "device" and "'tfe'" in str(info.value)
