@@ -659,8 +659,6 @@ class Assembly:
                         f"method {self.method!r} steps {kind} bodies in the central field alone, and "
                         f"{e.key} ({e.kind}) acts on them; use em",
                     )
-        if self.structure is not None and len(self.structure):
-            self.structure.check_method(self.method)
         if self.adaptive is not None and self.points.under_effects() and not self.effects.sets_time_scale("point"):
             raise InputError(
                 "adaptive",

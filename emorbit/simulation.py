@@ -76,7 +76,7 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
         A name in :data:`emorbit.METHODS`: ``"em"`` (energy-momentum, the default),
         ``"midpoint"``, ``"leapfrog"``, or ``"tfe"`` (energy-momentum time finite elements:
         point masses, also under effects whose force is explicit; rigid bodies, and structures of
-        elastic bodies and point masses, in the central field; fixed or adaptive steps).
+        elastic and rigid bodies and point masses, in the central field; fixed or adaptive steps).
     order : int
         2 (the base step) or 4, 6, 8 (symmetric compositions of it, :data:`emorbit.ORDERS`);
         ``"tfe"`` runs at 4 or 6 (its 2 or 3 Gauss stages).

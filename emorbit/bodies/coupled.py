@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
 from ..integrators.dispatch import method_code
 from ..integrators.plan import Plan
 from ..kernels import coupled as kc
@@ -245,7 +244,7 @@ class Structure(StructureAdaptive, StructureLayout):
             round-off tolerance, below the floor) rather than at round-off.
         """
         if code == METHOD_TFE:
-            return self._tfe.step(u0, v0, acc, ref, h, max_iter)
+            return self._tfe.step(u0, v0, lam, acc, ref, h, max_iter)
         ns = u0.shape[0]
         nr = self.rb_slots.shape[0]
         hf = 0.5 * h
@@ -444,26 +443,8 @@ class Structure(StructureAdaptive, StructureLayout):
         from ..integrators.dispatch import tfe_tables
         from .structure_tfe import StructureTFE
 
-        self.check_method(method)
         self._tfe = StructureTFE(self, tfe_tables(gammas), gm, center)
         return METHOD_TFE, np.ones(1)
-
-    def check_method(self, method: str) -> None:
-        """Refuse a method this structure's bodies do not take.
-
-        Raises
-        ------
-        InputError
-            ``method``: ``"tfe"`` on a structure with a rigid body (its axes' constraints
-            have no tfe stages).
-        """
-        rigid = [b["name"] for b in self.bodies if b["kind"] == "rigid"]
-        if method == "tfe" and rigid:
-            raise InputError(
-                "method",
-                f"method 'tfe' steps structures of elastic bodies and point masses; rigid body {rigid[0]!r} "
-                "is part of one (attached, or under an effect between pairs); use em",
-            )
 
     #: how often a failed step may be halved (2**MAX_SPLIT sub-steps at most)
     MAX_SPLIT = 4

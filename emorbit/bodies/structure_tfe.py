@@ -1,38 +1,55 @@
 """A structure's energy-momentum time finite element steps (``method = "tfe"``): Newton on the
-stage velocities of :mod:`emorbit.kernels.elastic_tfe`.
+stage velocities of :mod:`emorbit.kernels.elastic_tfe`, with the rigid bodies' axes held by
+velocity constraints at the stages.
 
-A step of k Gauss stages (order 2k) solves, for the stage velocities ``V_l`` (k, n_slots, 3),
+A step of k Gauss stages (order 2k) solves, for the stage velocities ``V_l`` (k, n_slots, 3)
+and the rigid bodies' constraint forces ``lam_l`` (k, 6 n_rigid),
 
-    R_l = M (V_l - v0) - h sum_j a_lj A_j(V) = 0,
+    R_l = M (V_l - v0) - h sum_j a_lj (A_j(V) - G(Q_j)^T lam_j) = 0,
+    S_l = G(Q_l) V_l = 0,                    Q_l = u0 + h sum_j a_lj V_j,
 
 ``A_j`` the stage forces of :mod:`emorbit.kernels.elastic_tfe` (the elements' assumed strain
-forces at the 2k - 1 point rule, the field's corrected forces at the nodes), by Newton's method
-with their exact derivatives: the matrix ``I (x) M - h [sum_j a_lj dA_j / dV_m]_lm`` on k x k
-blocks of the em step's sparse pattern, factored by SuperLU at the first iterate and again when
-an iteration contracts by less than 1 / :data:`SLOW`. The first guess carries the last step's
-mean acceleration (the structure's ``acc``, so results do not depend on where chunks or
-checkpoints fall). It stops once the update is below 4 eps of the slot's scale (the increment,
-``h v0`` and the size of the coordinates, as :meth:`~emorbit.bodies.coupled.Structure.step`
-measures it). A stall above that (the update no longer halving three times running, below
-2**20 eps) is not accepted: the step fails and the structure redoes it in halves, so every
-accepted step keeps energy and momenta to round-off. The end state is ``u1 = u0 + h sum_l b_l
-V_l``, ``v1 = v0 + h sum_l b_l M^-1 A_l`` (M solved with one step of refinement).
+forces at the 2k - 1 point rule, the field's corrected forces at the nodes) and ``G`` the
+gradient of a rigid body's six axis constraints ``g = (|d_i|^2 - 1) / 2, d_i . d_j``.
 
-Structures of elastic bodies and point masses, in the central field or in free space: a rigid
-body's axes would need their constraints at the stages, and other effects their stage forces
-(both are refused, by :meth:`~emorbit.bodies.coupled.Structure.check_method` and
-:attr:`~emorbit.bodies.coupled.Structure.FIELD_ONLY`).
+How the invariants are kept. The position path q(t) is the collocation polynomial of degree k,
+``q'(c_l) = V_l``, so ``g(q(t))`` is a polynomial whose derivative ``G(q) q'`` has degree 2k - 1
+and the k-point Gauss rule integrates it exactly: ``g(q1) - g(q0) = h sum_l b_l G(Q_l) V_l = 0``.
+The axes stay orthonormal to round-off at the step's end. The constraint forces' work, ``h
+sum_l b_l lam_l . G(Q_l) V_l``, vanishes stage by stage, so the energy is the elements' and the
+field's, exact as for elastic structures alone. Their moment ``sum d_i x lam_ij d_j`` is zero
+(lam symmetric), so the angular momentum is kept too. The velocities' component across the
+constraints (the axes' stretching rate ``d_i . d_j' + d_j . d_i'``) is not held at zero: it is
+of order k in the step and does not grow, since every step's stages meet the constraints
+again. Positions, the attitude and the angular velocity converge at order 2k.
+
+Newton's method uses the exact derivatives: the matrix ``I (x) M - h [sum_j a_lj dA_j / dV_m]``
+on k x k blocks of the em step's sparse pattern, bordered by the constraints' rows and columns
+(``h a_lj G(Q_j)^T``, ``G(Q_l) + h a_lm G(V_l)``, and ``h^2 sum_j a_lj a_jm lam_j`` between a
+body's axes), equilibrated and factored by SuperLU at the first iterate and again when an
+iteration contracts by less than 1 / :data:`SLOW`. The first guess carries the last step's mean
+acceleration and constraint force (the structure's ``acc`` and ``lam``, so results do not depend
+on where chunks or checkpoints fall). It stops once the update is below 4 eps of the slot's
+scale (the increment, ``h v0`` and the size of the coordinates, as
+:meth:`~emorbit.bodies.coupled.Structure.step` measures it). A stall above that (the update no
+longer halving three times running, below 2**20 eps) is not accepted: the step fails and the
+structure redoes it in halves, so every accepted step keeps energy and momenta to round-off.
+The end state is ``u1 = u0 + h sum_l b_l V_l``, ``v1 = v0 + h sum_l b_l M^-1 (A_l - G_l^T
+lam_l)`` (M solved with one step of refinement).
+
+Structures in the central field or in free space; other effects would need their stage forces
+(refused through :attr:`~emorbit.bodies.coupled.Structure.FIELD_ONLY`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..kernels import elastic as kel
 from ..kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
 from ..kernels.elastic_tfe import assumed_strain_tables, stage_element_forces, stage_gravity_forces
+from .coupled_sparse import EquilibratedLU
 
 __all__ = ["StructureTFE"]
 
@@ -42,6 +59,8 @@ _FLOOR2 = (2.0**20 * _EPS) ** 2
 _STALLS = 3
 #: contraction above which the matrix is formed and factored again
 SLOW = 0.2
+#: a rigid body's six axis constraints, as pairs of axes (em's order)
+_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
 
 class StructureTFE:
@@ -62,18 +81,33 @@ class StructureTFE:
     def __init__(self, st, tab, gm: float, center):
         self.st = st
         self.tab = np.ascontiguousarray(tab, float)
-        self.k = self.tab.shape[0]
-        self.a = self.tab[:, 3 : 3 + self.k].copy()
+        self.k = k = self.tab.shape[0]
+        self.a = self.tab[:, 3 : 3 + k].copy()
         self.b = self.tab[:, 1].copy()
-        self.rule = assumed_strain_tables(2 * self.k)
+        self.rule = assumed_strain_tables(2 * k)
         self.gm = float(gm)
         self.center = np.asarray(center, float)
-        self.n = 3 * st.u.shape[0]
-        if st.J.shape[0] != self.n:
-            raise ValueError("a structure with rigid bodies has no tfe step")
-        # the stage matrix's pattern: k x k blocks of the em step's; (block, entry) of each value
-        nnz, k = st.J.data.size, self.k
-        entry = sp.csc_matrix((np.arange(1.0, nnz + 1.0), st.J.indices, st.J.indptr), shape=st.J.shape)
+        ns = st.u.shape[0]
+        self.n = 3 * ns
+        self.nr = st.rb_slots.shape[0]
+        self._ref = int(np.argmax(st.slot_pos)) if st.slot_pos.any() else -1
+        self._velocity_pattern(st.J, st.J_mass)
+        self._constraint_layout(st.rb_slots, st.rb_es)
+        nn, ng = st.node_slot.shape[0], st.gp_m.size
+        self._fn = np.empty((k, nn, 3))
+        self._fg = np.empty((k, ng, 3))
+        self._nodata = np.zeros(0)
+
+    def _velocity_pattern(self, J, J_mass) -> None:
+        """The stage matrix's velocity part: k x k blocks of the em step's pattern over the
+        slots (its constraint rows and columns left out), its mass values, and the (row,
+        column) of each entry for the bordered matrix."""
+        n, k = self.n, self.k
+        label = sp.csc_matrix((np.arange(1.0, J.data.size + 1.0), J.indices, J.indptr), shape=J.shape)[:n, :n]
+        label.sort_indices()
+        orig = label.data.astype(np.int64) - 1  # each slot entry's place in J's values
+        nnz = orig.size
+        entry = sp.csc_matrix((np.arange(1.0, nnz + 1.0), label.indices, label.indptr), shape=(n, n))
         block = sp.kron(np.arange(1.0, k * k + 1.0).reshape(k, k), sp.csc_matrix(entry.astype(bool)), format="csc")
         which = sp.kron(np.ones((k, k)), entry, format="csc")
         block.sort_indices()
@@ -81,15 +115,30 @@ class StructureTFE:
         if not (np.array_equal(block.indices, which.indices) and np.array_equal(block.indptr, which.indptr)):
             raise RuntimeError("stage matrix pattern mismatch")
         where = (block.data.astype(np.int64) - 1) * nnz + which.data.astype(np.int64) - 1
-        self._pattern = (block.indices, block.indptr)
-        # the mass on the diagonal blocks, in the stage matrix's values
+        self._pattern = (block.indices.astype(np.int64), block.indptr.astype(np.int64))
         diag = np.zeros((k * k, nnz))
-        diag[:: k + 1] = st.J_mass.data
+        diag[:: k + 1] = J_mass.data[orig]
         self._mass_big = diag.ravel()[where]
-        nn, ng = st.node_slot.shape[0], st.gp_m.size
-        self._fn = np.empty((self.k, nn, 3))
-        self._fg = np.empty((self.k, ng, 3))
-        self._nodata = np.zeros(0)
+        self._vv_rows = block.indices.astype(np.int64)
+        self._vv_cols = np.repeat(np.arange(k * n), np.diff(block.indptr))
+
+    def _constraint_layout(self, rb_slots, rb_es) -> None:
+        """Index arrays of the axis constraints: entry e pairs slot A_e with slot B_e under
+        multiplier i_e, so ``G(Q)^T lam`` puts ``lam_i Q[B]`` on slot A and ``G(Q) V`` sums
+        ``Q[A] . V[B]`` into row i (both orders for two different axes, one for an axis
+        with itself)."""
+        A, B, i = [], [], []
+        for r in range(self.nr):
+            for j, (p, q) in enumerate(_PAIRS):
+                sp_, sq = int(rb_slots[r, 1 + p]), int(rb_slots[r, 1 + q])
+                A.append(sp_), B.append(sq), i.append(6 * r + j)
+                if p != q:
+                    A.append(sq), B.append(sp_), i.append(6 * r + j)
+        self._A = np.array(A, dtype=np.int64)
+        self._B = np.array(B, dtype=np.int64)
+        self._i = np.array(i, dtype=np.int64)
+        self._es = np.repeat(np.asarray(rb_es, float), 6)  # constraint rows in units of the axes' inertia
+        self.nc = 6 * self.nr
 
     def _nodes(self, s):
         """Node values (k, nn, 3) of slot values (k, ns, 3) (the maps are linear)."""
@@ -108,11 +157,15 @@ class StructureTFE:
 
     def forces(self, x0n, p0, V, h, want_J=False):
         """The stage forces (k, n_slots, 3), N, for stage velocities V (k, n_slots, 3), the
-        stage increments Z (k, n_slots, 3) and, if ``want_J``, Newton's matrix (CSC, k x k
-        blocks of 3 n_slots): ``I (x) M - h [sum_j a_lj dA_j / dV_m]``."""
+        stage increments Z (k, n_slots, 3) and, if ``want_J``, the values of Newton's matrix
+        on the velocity pattern: ``I (x) M - h [sum_j a_lj dA_j / dV_m]``."""
         st = self.st
         Z = h * np.einsum("lj,jsd->lsd", self.a, V)
-        Zn, Vn = self._nodes(Z), self._nodes(V)
+        # the elements see differences of nodes alone: they take the stages relative to the
+        # reference slot's own motion, whose rounding (eps |h v| in orbit) would be stress noise
+        move = st.slot_pos[None, :, None] * (Z[:, self._ref, None] if self._ref >= 0 else 0.0)
+        turn = st.slot_pos[None, :, None] * (V[:, self._ref, None] if self._ref >= 0 else 0.0)
+        Zn, Vn = self._nodes(Z - move), self._nodes(V - turn)
         fn = self._fn
         indices, indptr = self._pattern
         data = self._mass_big.copy() if want_J else self._nodata
@@ -120,7 +173,7 @@ class StructureTFE:
         maps = (st.node_slot, st.node_coef, self.n, indptr, indices, data)
         stage_element_forces(self.tab, *self.rule, h, x0n, Zn, Vn, *elements, fn, want_J, *maps)
         if self.gm != 0.0 and st.gp_m.size:
-            Zg, Vg = self._gravity_points(Zn), self._gravity_points(Vn)
+            Zg, Vg = self._gravity_points(self._nodes(Z)), self._gravity_points(self._nodes(V))
             stage_gravity_forces(
                 self.tab, h, self.gm, p0, Zg, Vg, st.gp_m, self._fg, want_J, st.gp_node, st.gp_w, *maps
             )
@@ -129,19 +182,83 @@ class StructureTFE:
         F = np.zeros(V.shape)
         for l in range(self.k):
             kel.spread_rows(fn[l], st.node_slot, st.node_coef, F[l])
-        J = sp.csc_matrix((data, indices, indptr), shape=(self.k * self.n,) * 2) if want_J else None
-        return F, Z, J
+        return F, Z, (data if want_J else None)
 
-    def step(self, u0, v0, acc, ref, h, max_iter):
+    def constraint_forces(self, Q, lam):
+        """``G(Q_l)^T lam_l`` (k, n_slots, 3) for stage positions Q (k, n_slots, 3) and
+        multipliers lam (k, 6 n_rigid)."""
+        Fc = np.zeros(Q.shape)
+        np.add.at(Fc, (slice(None), self._A), lam[:, self._i, None] * Q[:, self._B])
+        return Fc
+
+    def constraint_rates(self, Q, V):
+        """``G(Q_l) V_l`` (k, 6 n_rigid), in units of the axes' inertia (kg m^2 / s)."""
+        S = np.zeros((Q.shape[0], self.nc))
+        np.add.at(S, (slice(None), self._i), np.sum(Q[:, self._A] * V[:, self._B], axis=2))
+        return S * self._es
+
+    def matrix(self, data, Q, V, lam, h):
+        """Newton's matrix (CSC) for the unknowns ``(V, lam)``: the velocity part's values
+        ``data`` bordered by the constraints' derivatives (module notes)."""
+        k, n, nc, a = self.k, self.n, self.nc, self.a
+        rows, cols, vals = [self._vv_rows], [self._vv_cols], [data]
+        if nc:
+            A, B, i = self._A, self._B, self._i
+            d = np.arange(3)
+            es = self._es[i]
+            for l in range(k):
+                for m in range(k):
+                    ra = (l * n + 3 * A[:, None] + d).ravel()  # rows of slot A's components in R_l
+                    # d R_l / d lam_m: h a_lm Q_m[B]
+                    rows.append(ra)
+                    cols.append(np.repeat(k * n + m * nc + i, 3))
+                    vals.append((h * a[l, m] * Q[m][B]).ravel())
+                    # d R_l / d V_m: h^2 sum_j a_lj a_jm lam_j (between slots A and B)
+                    c = h * h * np.einsum("j,ji->i", a[l] * a[:, m], lam[:, i])
+                    rows.append(ra)
+                    cols.append((m * n + 3 * B[:, None] + d).ravel())
+                    vals.append(np.repeat(c, 3))
+                    # d S_l / d V_m: delta_lm Q_l[A] on slot B, h a_lm V_l[B] on slot A
+                    rs = np.repeat(k * n + l * nc + i, 3)
+                    rows.append(rs)
+                    cols.append((m * n + 3 * A[:, None] + d).ravel())
+                    vals.append((es[:, None] * h * a[l, m] * V[l][B]).ravel())
+                    if l == m:
+                        rows.append(rs)
+                        cols.append((m * n + 3 * B[:, None] + d).ravel())
+                        vals.append((es[:, None] * Q[l][A]).ravel())
+        size = k * (n + nc)
+        mat = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(size, size))
+        mat.sum_duplicates()
+        mat.sort_indices()
+        return mat
+
+    def residual(self, u0, v0, x0n, p0, V, lam, h, want_J=False):
+        """The stage equations' residual ``(R, S)`` flattened, the stage increments Z (k,
+        n_slots, 3) and, if ``want_J``, Newton's matrix (:meth:`matrix`), for stage velocities
+        V (k, n_slots, 3) and multipliers lam (k, 6 n_rigid) from ``(u0, v0)`` (relative
+        coordinates), with x0n, p0 the nodes and gravity points at u0 (p0 from the field's
+        centre)."""
+        st = self.st
+        F, Z, data = self.forces(x0n, p0, V, h, want_J)
+        Q = u0[None] + Z
+        F = F - self.constraint_forces(Q, lam)
+        R = np.stack([st._Mmul @ (V[l] - v0) for l in range(self.k)]) - h * np.einsum("lj,jsd->lsd", self.a, F)
+        R = np.concatenate([R.ravel(), self.constraint_rates(Q, V).ravel()])
+        return R, Z, (self.matrix(data, Q, V, lam, h) if want_J else None)
+
+    def step(self, u0, v0, lam0, acc, ref, h, max_iter):
         """One step (module notes), with the signature and returns of
         :meth:`~emorbit.bodies.coupled.Structure.step`: ``(du, dv, iterations, status,
-        stalled)``; ``acc`` (the predictor) becomes this step's mean acceleration."""
+        stalled)``; ``acc`` (the predictor) becomes this step's mean acceleration and ``lam0``
+        its mean constraint force."""
         st = self.st
-        k = self.k
+        k, n, nc = self.k, self.n, self.nc
         x0n = self._nodes(u0[None])[0]
         p0 = self._gravity_points(x0n[None])[0] + (np.asarray(ref, float) - self.center)
         c = self.tab[:, 0]
         V = v0[None] + h * c[:, None, None] * acc[None]
+        lam = np.tile(np.asarray(lam0, float), (k, 1))
         size2 = float(np.max(np.sum(u0 * u0, axis=1) * st.slot_pos, initial=0.0))
         base2 = np.sum((h * v0) ** 2, axis=1) + np.where(st.slot_pos > 0, size2, 1.0)
         lu = None
@@ -152,17 +269,20 @@ class StructureTFE:
         while it < max_iter:
             it += 1
             fresh = lu is None
-            F, Z, J = self.forces(x0n, p0, V, h, fresh)
-            R = np.stack([st._Mmul @ (V[l] - v0) for l in range(k)]) - h * np.einsum("lj,jsd->lsd", self.a, F)
+            R, Z, J = self.residual(u0, v0, x0n, p0, V, lam, h, fresh)
             if fresh:
                 try:
-                    lu = spla.splu(J)
+                    ind32, ptr32 = J.indices.astype(np.int32), J.indptr.astype(np.int32)
+                    lu = EquilibratedLU(J.data, J.indices.astype(np.int64), J.indptr.astype(np.int64), J.shape[0],
+                                        ind32, ptr32)  # fmt: skip
                 except RuntimeError:  # singular
                     status = STATUS_SINGULAR
                     break
                 st.factorizations += 1
-            dV = lu.solve(R.ravel()).reshape(V.shape)
+            delta = lu.solve(R)
+            dV = delta[: k * n].reshape(V.shape)
             V = V - dV
+            lam = lam - delta[k * n :].reshape(k, nc)
             d2 = float(np.max(np.sum((h * dV) ** 2, axis=2) / (base2[None] + np.sum(Z * Z, axis=2))))
             if not np.isfinite(d2):
                 status = STATUS_SINGULAR
@@ -180,8 +300,10 @@ class StructureTFE:
             prev2 = d2
         if status != STATUS_OK:
             return np.zeros_like(u0), np.zeros_like(v0), it, status, False
-        F, _, _ = self.forces(x0n, p0, V, h)
+        F, Z, _ = self.forces(x0n, p0, V, h)
+        F = F - self.constraint_forces(u0[None] + Z, lam)
         du = h * np.einsum("l,lsd->sd", self.b, V)
         dv = h * sum(self.b[l] * st._solve_mass(F[l]) for l in range(k))
         acc[:] = dv / h
+        lam0[:] = self.b @ lam
         return du, dv, it, status, False

@@ -102,7 +102,7 @@ METHODS = {
         "tfe",
         "energy-momentum time finite element: order 2k in one solve of k Gauss stages "
         "(point masses, also under effects whose force is explicit; rigid bodies, and structures of elastic "
-        "bodies and point masses, in the central field)",
+        "and rigid bodies and point masses, in the central field)",
         implicit=True,
         conserves=("energy", "angular_momentum"),
         orders=(4, 6),
@@ -113,8 +113,8 @@ METHODS = {
 (energy-momentum time finite elements of orders 4 and 6, :mod:`emorbit.kernels.pointmass.tfe`,
 :mod:`emorbit.kernels.rigid_tfe` and :mod:`emorbit.kernels.elastic_tfe`: point masses, also
 under effects whose force is a function of position and time
-(:mod:`emorbit.kernels.pointmass.effect_tfe`), rigid bodies, and structures of elastic bodies
-and point masses, in the central field; on the CPU)."""
+(:mod:`emorbit.kernels.pointmass.effect_tfe`), rigid bodies, and structures of elastic and
+rigid bodies and point masses, in the central field; on the CPU)."""
 
 
 def get_method(name, key: str = "method") -> Method:
