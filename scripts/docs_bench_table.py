@@ -5,6 +5,7 @@
     python scripts/docs_bench_table.py --run --only rigid-precision  # the same for the rigid-body one
     python scripts/docs_bench_table.py --run --only gravity-field    # the same for the gravity-field one
     python scripts/docs_bench_table.py --run --only perturbed        # the same for the perturbed one
+    python scripts/docs_bench_table.py --run --only elastic          # the same for the elastic one
     python scripts/docs_bench_table.py                 # rewrite the page from the JSON already there
     python scripts/docs_bench_table.py --check         # exit 1 if the page differs from the JSON
     python scripts/docs_bench_table.py FILE.json --print   # print the tables of any run
@@ -596,6 +597,22 @@ def _elastic(s: dict) -> list[str]:
             f"target <= {h['target_s']:g} s).",
             "",
         ]
+    p = s.get("precision")
+    if p:
+        out += [f"Work against precision of a coupled structure: {p['case']}.", ""]
+        rows = [
+            [x["method"], str(x["order"]), f"{1e3 * x['dt']:g}", _f(x["cpu_s"], 2), _e(x["position_error"]),
+             _e(x["omega_error"]), _e(x["energy_error"])]
+            for x in p["points"]
+        ]  # fmt: skip
+        head = ["method", "order", "dt, ms", "CPU s", "position error, m", "omega error, rad/s", "\\|dE/E\\|"]
+        out += _table(head, rows)
+        for x in p["summary"]:
+            em = "not reached" if x["em_cpu_s"] is None else f"{x['em_cpu_s']:.2f} s"
+            tfe = "not reached" if x["tfe_cpu_s"] is None else f"{x['tfe_cpu_s']:.2f} s"
+            ratio = "" if x["em_over_tfe"] is None else f" (em / tfe = {x['em_over_tfe']:.2f}x)"
+            out.append(f"- to {x['precision_m']:g} m: em (best order) {em}, tfe {tfe}{ratio}")
+        out.append("")
     return out
 
 

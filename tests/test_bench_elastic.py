@@ -20,3 +20,17 @@ def test_tiny_bench_section():
         assert row["newton"] != "full" or row["factorizations_per_step"] == row["newton_iterations"], row
         assert row["energy_error"] < 4e-15, row
     assert "ms/step" in bench_elastic.table(section)
+
+
+def test_tiny_precision_rows():
+    """The coupled structure's tiny work-precision rows: em order 2 and tfe order 4 at 20 ms
+    over 0.2 s against tfe order 6 at 5 ms. At the same step tfe is the more accurate (measured
+    1.1e-5 m against 2.7e-4 m), both keep the energy at round-off, and neither reaches 1e-5 m,
+    so the summary has no ratio."""
+    p = bench_elastic.run(config="tiny")["precision"]
+    em, tfe = p["points"]
+    assert (em["method"], tfe["method"]) == ("em", "tfe")
+    assert tfe["position_error"] < 0.2 * em["position_error"], p["points"]
+    assert tfe["omega_error"] < 0.1 * em["omega_error"], p["points"]
+    assert max(em["energy_error"], tfe["energy_error"]) < 1e-15
+    assert all(s["em_over_tfe"] is None for s in p["summary"])

@@ -9,31 +9,11 @@ import numpy as np
 import pytest
 from test_tfe_elastic import forth_and_back
 
-import emorbit
+from emorbit.bench.elastic_precision import bus_boom as _bus_boom
 from emorbit.bodies.structure_tfe import StructureTFE
 from emorbit.integrators import coefficients
 from emorbit.integrators.dispatch import tfe_tables
 from emorbit.scene import load_scene, parse_scene
-
-W = np.array([0.3, 0.5, 2.0])
-
-
-def _bus_boom(dt, order, young=1e4, method="tfe", **kw):
-    """A 500 kg box (2 x 1.5 x 1 m) with a 4 m boom of tetrahedra (2 x 1 x 1 cells, 160 kg)
-    clamped to its +x face, tumbling at (0.3, 0.5, 2) rad/s in free space. At young = 1e4 Pa
-    the boom's fastest mode is resolved by steps of 10 ms; at 1e6 Pa it is not."""
-    sim = emorbit.Simulation(None, method=method, dt=dt, order=order, **kw)
-    sim.add_rigid(
-        "bus", "box", size=[2, 1.5, 1], mass=500.0, position=[0, 0, 0], velocity=[0, 0, 0], angular_velocity=W,
-        angular_velocity_frame="space",
-    )  # fmt: skip
-    sim.add_elastic(
-        "boom", "beam", size=[4.0, 0.2, 0.2], elements=[2, 1, 1], young=young, poisson=0.3, density=1000.0,
-        position=[3.0, 0, 0], velocity=np.cross(W, [3.0, 0, 0]), angular_velocity=W, angular_velocity_frame="space",
-    )  # fmt: skip
-    face = np.flatnonzero(np.isclose(sim.structure._body("boom")["spec"].ref[:, 0], -2.0))
-    sim.attach("boom", face, "bus")
-    return sim
 
 
 def _end(dt, order, t=1.0):

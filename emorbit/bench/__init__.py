@@ -25,7 +25,8 @@ rigid-precision attitude, omega and energy errors against CPU time for rigid bod
                 midpoint at orders 2-8 beside Exudyn (generalized-alpha, RK44) and Basilisk
                 (RK4, RKF78), torque-free and in orbit (:mod:`.rigid_precision`)
 elastic         the elastic-body rows of :mod:`emorbit.bench.elastic` (cost per step against
-                degrees of freedom, up to a 10,000-DOF beam)
+                degrees of freedom, up to a 10,000-DOF beam) and a coupled structure's work
+                against precision, em beside tfe (:mod:`.elastic_precision`)
 effects         effects beyond the central field (:mod:`.effects`): central + J2 against
                 central only per particle-step (1000 Earth orbits), 1000 mutually attracting
                 point masses against REBOUND's leapfrog with direct summation (time per step,

@@ -6,7 +6,8 @@ to 10,000 degrees of freedom. Each size is warmed up (compilation, the Jacobian'
 the first factorisation) and then timed over several steps; the section reports the median
 CPU time per step, Newton iterations, factorisations and energy error, and (full
 configuration) the time for 100 steps of the largest body against the bench's target for
-it: a 10,000-DOF body, 100 steps in <= 10 s.
+it: a 10,000-DOF body, 100 steps in <= 10 s. The section ends with a coupled structure's work
+against precision, em's compositions beside the time finite element (:mod:`.elastic_precision`).
 """
 
 from __future__ import annotations
@@ -65,10 +66,14 @@ def run(quick: bool = True, *, config: str | None = None) -> dict:
     -------
     dict
         JSON-ready: one row per beam length (DOF, tetrahedra, Jacobian nonzeros, Newton
-        mode, CPU and wall s per step, iterations, factorisations per step, energy error)
-        and, in the full configuration, ``hundred_steps_largest``.
+        mode, CPU and wall s per step, iterations, factorisations per step, energy error),
+        ``precision`` (:func:`.elastic_precision.run`) and, in the full configuration,
+        ``hundred_steps_largest``.
     """
-    cfg = CONFIGS[config or ("quick" if quick else "full")]
+    from . import elastic_precision
+
+    name = config or ("quick" if quick else "full")
+    cfg = CONFIGS[name]
     rows = []
     for n in cfg["lengths"]:
         sim = _beam(n)
@@ -100,6 +105,7 @@ def run(quick: bool = True, *, config: str | None = None) -> dict:
         "name": "elastic",
         "case": "free tumbling beam of tetrahedra, 3 x 3 elements across, dt = 1e-4 s",
         "rows": rows,
+        "precision": elastic_precision.run(name),
     }
     if cfg["hundred"]:
         sim = _beam(cfg["lengths"][-1])
@@ -145,4 +151,8 @@ def table(section: dict) -> str:
             f"100 steps at {h['dof']} DOF: {h['cpu_s']:.2f} s CPU ({h['wall_s']:.2f} s wall), "
             f"target <= {h['target_s']:.0f} s"
         )
+    if "precision" in section:
+        from .elastic_precision import table as precision_table
+
+        lines += precision_table(section["precision"])
     return "\n".join(lines)
