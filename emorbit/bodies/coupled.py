@@ -186,10 +186,10 @@ class Structure(StructureAdaptive, StructureLayout):
                 status = st
         return status, F, data
 
-    def _solve_mass(self, b):
+    def solve_mass(self, b):
         """M x = b for (n_slots, 3) b with one step of iterative refinement."""
         x = self.Ms_lu.solve(b)
-        r = b - self._Mmul @ x
+        r = b - self.Mmul @ x
         return x + self.Ms_lu.solve(r)
 
     def relative(self, u, cu):
@@ -248,7 +248,7 @@ class Structure(StructureAdaptive, StructureLayout):
         ns = u0.shape[0]
         nr = self.rb_slots.shape[0]
         hf = 0.5 * h
-        Mv0 = self._Mmul @ v0
+        Mv0 = self.Mmul @ v0
         du = h * (v0 + hf * acc)  # predictor: the last step's mean acceleration
         nu = h * lam
         # round-off scale per slot: the increment, h v0, and the size of the coordinates (node
@@ -276,7 +276,7 @@ class Structure(StructureAdaptive, StructureLayout):
             if st != STATUS_OK:
                 status = st
                 break
-            R1 = (self._Mmul @ du - h * (Mv0 + hf * F)).ravel()
+            R1 = (self.Mmul @ du - h * (Mv0 + hf * F)).ravel()
             R2 = np.zeros(6 * nr)
             if nr:
                 kc.fill_constraints(
@@ -350,7 +350,7 @@ class Structure(StructureAdaptive, StructureLayout):
                 gen[sk] -= nu[6 * r + j] * u05[sl]
                 if k != l:
                     gen[sl] -= nu[6 * r + j] * u05[sk]
-        dv = self._solve_mass(gen)
+        dv = self.solve_mass(gen)
         lam[:] = nu / h
         acc[:] = dv / h
         return du, dv, it, status, stalled

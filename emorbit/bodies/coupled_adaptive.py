@@ -93,9 +93,9 @@ class StructureAdaptive:
             fp = self._element_forces(METHOD_MIDPOINT, u + d, u + d)
             fm = self._element_forces(METHOD_MIDPOINT, u - d, u - d)
             kx = -(fp - fm) / (2e-6 * np.where(pos > 0, size, 1.0))
-            mx = self._Mmul @ x
+            mx = self.Mmul @ x
             lam = max(lam, float(np.sum(x * kx) / np.sum(x * mx)))
-            x = self._solve_mass(kx)
+            x = self.solve_mass(kx)
         return lam
 
     def control(self, u, v, gm: float, c) -> tuple[float, float]:

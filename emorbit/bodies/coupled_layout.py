@@ -340,7 +340,7 @@ class StructureLayout(StructureOutput):
         self.Ms.sum_duplicates()
         self.Ms_lu = spla.splu(self.Ms)
         self.mdiag = self.Ms.diagonal()
-        self._Mmul = self.Ms.toarray() if ns <= 300 else self.Ms  # dense matvec for small structures
+        self.Mmul = self.Ms.toarray() if ns <= 300 else self.Ms  # dense matvec for small structures
         self.bar_node = np.array(self._bars, dtype=np.int64).reshape(-1, 2)
         self.bar_EA = np.array(self._bar_EA, dtype=float)
         self.bar_L = np.array(self._bar_L, dtype=float)

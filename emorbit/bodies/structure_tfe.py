@@ -243,7 +243,7 @@ class StructureTFE:
         F, Z, data = self.forces(x0n, p0, V, h, want_J)
         Q = u0[None] + Z
         F = F - self.constraint_forces(Q, lam)
-        R = np.stack([st._Mmul @ (V[l] - v0) for l in range(self.k)]) - h * np.einsum("lj,jsd->lsd", self.a, F)
+        R = np.stack([st.Mmul @ (V[l] - v0) for l in range(self.k)]) - h * np.einsum("lj,jsd->lsd", self.a, F)
         R = np.concatenate([R.ravel(), self.constraint_rates(Q, V).ravel()])
         return R, Z, (self.matrix(data, Q, V, lam, h) if want_J else None)
 
@@ -303,7 +303,7 @@ class StructureTFE:
         F, Z, _ = self.forces(x0n, p0, V, h)
         F = F - self.constraint_forces(u0[None] + Z, lam)
         du = h * np.einsum("l,lsd->sd", self.b, V)
-        dv = h * sum(self.b[l] * st._solve_mass(F[l]) for l in range(k))
+        dv = h * sum(self.b[l] * st.solve_mass(F[l]) for l in range(k))
         acc[:] = dv / h
         lam0[:] = self.b @ lam
         return du, dv, it, status, False
