@@ -25,8 +25,8 @@ points, with em, midpoint, leapfrog and adaptive steps. Reference: G. W. Hill, A
 from __future__ import annotations
 
 from emorbit.effects.base import Effect, Pieces
-from emorbit.keys import Key
 from emorbit.kernels.jit import kernel
+from emorbit.keys import Key
 from emorbit.units import to_si
 
 
