@@ -18,6 +18,7 @@ import numpy as np
 
 from .bodies.effect_binding import EffectBinding
 from .bodies.system import check_body_name
+from .effects.base import ON_SURFACES
 from .errors import InputError
 from .orbits import initial_state
 from .units import to_si, vector_to_si
@@ -645,20 +646,21 @@ class Assembly:
         self.effects.check_bodies(kinds, masses)
         self.effects.check_method(self.method)
         for system in self.systems:
-            if len(system) and self.method in system.FIELD_ONLY:
-                acting = [
-                    (e, kind)
-                    for kind, names in kinds.items()
-                    for e in self.effects.named
-                    if e.acts_on(kind) and any(n in system and e.reaches(n) for n in names)
-                ]
-                if acting:
-                    e, kind = acting[0]
-                    raise InputError(
-                        "method",
-                        f"method {self.method!r} steps {kind} bodies in the central field alone, and "
-                        f"{e.key} ({e.kind}) acts on them; use em",
-                    )
+            if not len(system) or self.method not in system.POINTS_ONLY:
+                continue
+            acting = [
+                (e, kind)
+                for kind, names in kinds.items()
+                for e in self.effects.named
+                if e.acts_on(kind) == ON_SURFACES and any(n in system and e.reaches(n) for n in names)
+            ]
+            if acting:
+                e, kind = acting[0]
+                raise InputError(
+                    "method",
+                    f"method {self.method!r} steps {kind} bodies under effects at their points alone, and "
+                    f"{e.key} ({e.kind}) acts on their surfaces; use em",
+                )
         if self.adaptive is not None and self.points.under_effects() and not self.effects.sets_time_scale("point"):
             raise InputError(
                 "adaptive",

@@ -44,7 +44,7 @@ A third body's potential changes in time: the step sums the work of that change
 not conserved. The Sun and the Moon are where the ephemeris puts them at the run's epoch
 (`[integrator] epoch = "2026-01-01T00:00:00 TDB"`) plus the clock. Every effect acts with
 the methods em and midpoint, and with leapfrog where its force is a function of position and
-time alone, and so with tfe on point masses where it acts on single bodies (*methods*
+time alone, and so with tfe where it acts at the points of single bodies (*methods*
 below); point masses, rigid and elastic bodies feel each effect as its
 *acts on* row says, at fixed and at adaptive steps.
 
@@ -182,7 +182,10 @@ def _methods(cls) -> str:
         return "em, midpoint (its force depends on the velocity: leapfrog's kicks and tfe's stages cannot take it)"
     if cls.pairs() or cls.changes_mass():
         return "em, midpoint, leapfrog"
-    return "em, midpoint, leapfrog, tfe (point masses)"
+    at_points = [KINDS[kind][0] for kind in BODY_KINDS if cls.acts_on(kind) == AT_POINTS]
+    if len(at_points) == len([kind for kind in BODY_KINDS if cls.acts_on(kind)]):
+        return "em, midpoint, leapfrog, tfe"
+    return f"em, midpoint, leapfrog, tfe ({', '.join(at_points)}: its stages take no surfaces)"
 
 
 def markdown() -> str:

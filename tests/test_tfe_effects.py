@@ -115,8 +115,9 @@ def test_points_do_not_see_each_other():
 
 
 def test_refuses_what_it_cannot_step():
-    """Forces that depend on the velocity (drag) or act between pairs (mutual gravity), and
-    zonal terms on a rigid body: InputErrors naming the key, the effect and the reason."""
+    """Forces that depend on the velocity (drag) or act between pairs (mutual gravity):
+    InputErrors naming the key, the effect and the reason (effects on rigid and elastic
+    bodies' surfaces: tests/test_tfe_rigid_effects.py, tests/test_tfe_structure_effects.py)."""
     sim = emorbit.Simulation(EARTH, method="tfe", order=4, dt=10.0, epoch=EPOCH)
     drag = dict(atmosphere="exponential", density="3.7e-12 kg/m3", reference_altitude="400 km", scale_height="58 km")
     with pytest.raises(InputError) as info:
@@ -125,11 +126,6 @@ def test_refuses_what_it_cannot_step():
     with pytest.raises(InputError) as info:
         sim.add_effect("mutual")
     assert info.value.key == "method" and "mutual" in str(info.value) and "pairs" in str(info.value)
-    sim.add_effect("zonal", model="earth", degree=2)
-    sim.add_rigid("box", "box", size=[1.0, 1.0, 1.0], mass=1.0, position=[7e6, 0, 0], velocity=[0, 7.5e3, 0])
-    with pytest.raises(InputError) as info:
-        sim.run(steps=1, progress=False)
-    assert info.value.key == "method" and "rigid" in str(info.value) and "zonal" in str(info.value)
 
 
 EXPLICIT_KEYS = {

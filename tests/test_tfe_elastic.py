@@ -206,10 +206,10 @@ def test_newton_matrix_matches_finite_differences(case, order):
 
 
 def test_refusals():
-    """tfe refuses an effect beyond the field, naming it (rigid bodies in a structure are
-    stepped: tests/test_tfe_coupled.py)."""
-    sim = _pair(60.0, 4)
-    sim.add_effect("zonal", model="earth", degree=2)
-    with pytest.raises(InputError, match="zonal") as err:
+    """tfe refuses an effect on the elastic bodies' surfaces, naming it (effects at the points:
+    tests/test_tfe_structure_effects.py)."""
+    sim = _pair(60.0, 4, epoch="2026-03-20T00:00:00 TDB")
+    sim.add_effect("srp", shadow="none")
+    with pytest.raises(InputError, match="srp") as err:
         sim.run(steps=1, every=1, progress=False)
-    assert err.value.key == "method"
+    assert err.value.key == "method" and "surfaces" in str(err.value)

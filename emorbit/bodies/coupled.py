@@ -88,8 +88,9 @@ class Structure(StructureAdaptive, StructureLayout):
     kind = "structure"
     #: methods with a structure kernel
     METHODS = ("em", "midpoint", "tfe")
-    #: methods that step the structure in the central field alone (no other effect)
-    FIELD_ONLY = ("tfe",)
+    #: methods whose steps take effects at the gravity points only, not on surfaces
+    #: (:class:`~emorbit.bodies.structure_tfe.StructureTFE`)
+    POINTS_ONLY = ("tfe",)
     #: the state of every structure
     BASE_FIELDS = ("u", "v", "cu", "cv", "lam", "acc")
     #: units of the state arrays beyond emorbit.io.reader.STATE_UNITS
@@ -215,7 +216,7 @@ class Structure(StructureAdaptive, StructureLayout):
         ref = u[int(np.argmax(self.slot_pos))] * (1.0 if self.slot_pos.any() else 0.0)
         return (u - ref[None, :] * self.slot_pos[:, None]) - cu, ref
 
-    def step(self, code: int, u0, v0, lam, acc, ref, h, max_iter):
+    def step(self, code: int, u0, v0, lam, acc, ref, h, max_iter, t0=0.0):
         """One step of the energy-momentum (or midpoint) scheme by Newton's method.
 
         Parameters
@@ -234,6 +235,9 @@ class Structure(StructureAdaptive, StructureLayout):
             The step, s.
         max_iter : int
             Newton iterations at most.
+        t0 : float
+            The step's start, s from the epoch (the time finite element's stages read the
+            effects at their own times; em's set is prepared by the caller).
 
         Returns
         -------
@@ -244,7 +248,7 @@ class Structure(StructureAdaptive, StructureLayout):
             round-off tolerance, below the floor) rather than at round-off.
         """
         if code == METHOD_TFE:
-            return self._tfe.step(u0, v0, lam, acc, ref, h, max_iter)
+            return self._tfe.step(u0, v0, lam, acc, ref, h, max_iter, t0)
         ns = u0.shape[0]
         nr = self.rb_slots.shape[0]
         hf = 0.5 * h
@@ -459,14 +463,17 @@ class Structure(StructureAdaptive, StructureLayout):
         saved = tuple(a.copy() for a in state)
         urel, ref = self.relative(u, cu)
         self.fx.prepare(t0, t0 + 0.5 * h, t0 + h)
-        du, dv, it, status, stalled = self.step(code, urel, v, lam, acc, ref, h, max_iter)
+        du, dv, it, status, stalled = self.step(code, urel, v, lam, acc, ref, h, max_iter, t0)
         if status == STATUS_OK:
             u2, cu2 = _kahan(u, cu, du)
             v2, cv2 = _kahan(v, cv, dv)
             if np.all(np.isfinite(u2)) and np.all(np.isfinite(v2)):
                 if state[6].size:  # the work of the converged step
-                    x0n, x1n = self._nodes_at(urel, urel + du)
-                    w = self.fx.work(code, x0n, x1n, urel, urel + du, ref, h)
+                    if code == METHOD_TFE:
+                        w = self._tfe.step_work
+                    else:
+                        x0n, x1n = self._nodes_at(urel, urel + du)
+                        w = self.fx.work(code, x0n, x1n, urel, urel + du, ref, h)
                     state[6][...], state[7][...] = _kahan(state[6], state[7], w)
                 u[...], cu[...], v[...], cv[...] = u2, cu2, v2, cv2
                 return status, it, int(stalled)

@@ -137,7 +137,9 @@ class RigidBodies(WorkSums, BodySystem):
         "angular_velocity": (3, "rad / s"),
     }
     METHODS = ("em", "midpoint", "tfe")
-    FIELD_ONLY = ("tfe",)
+    #: methods whose steps take effects at the gravity points only, not on surfaces
+    #: (:class:`~emorbit.bodies.rigid_tfe.RigidTFE`)
+    POINTS_ONLY = ("tfe",)
     #: the state of every set of rigid bodies
     BASE_FIELDS = ("q", "v", "cq", "cv", "lam")
     #: the state that effects doing work add: their work so far and its compensation
@@ -314,7 +316,7 @@ class RigidBodies(WorkSums, BodySystem):
         Parameters
         ----------
         method : str
-            ``"em"`` or ``"midpoint"``.
+            ``"em"``, ``"midpoint"`` or ``"tfe"`` (:class:`~emorbit.bodies.rigid_tfe.RigidTFE`).
         gm : float
             GM, m^3/s^2.
         center : array_like
@@ -340,7 +342,9 @@ class RigidBodies(WorkSums, BodySystem):
             The records.
         """
         if method == "tfe":
-            return self._advance_tfe(gm, center, dt, gammas, every, nrec, max_iter)
+            from .rigid_tfe import RigidTFE
+
+            return RigidTFE(self, gammas).advance(gm, center, dt, every, nrec, max_iter, clock)
         if self.adaptive is not None:
             return self._advance_adaptive(method, gm, center, dt, gammas, every, nrec, max_iter, clock)
         rec = self._records(nrec)
@@ -448,40 +452,6 @@ class RigidBodies(WorkSums, BodySystem):
             np.empty((nrec, nb, 12)), np.empty((nrec, nb, 12)), z, np.full((nb, 2), -1, np.int64), z.copy()
         )
 
-    def _advance_tfe(self, gm, center, dt, gammas, every, nrec, max_iter) -> RigidRecords:
-        """Steps of the time finite element, the central field alone: fixed
-        (:mod:`emorbit.kernels.rigid_tfe`), or adaptive, landing on every multiple of ``dt``
-        (:mod:`emorbit.kernels.rigid_tfe_adaptive`). Its order is its number of Gauss stages
-        times 2, so ``gammas`` only gives the order
-        (:func:`emorbit.integrators.dispatch.tfe_tables`)."""
-        from ..integrators.dispatch import tfe_tables
-        from ..kernels.pointmass.tfe import low_parts
-        from ..kernels.rigid_tfe import rigid_tfe_chunk
-        from ..kernels.rigid_tfe_adaptive import rigid_tfe_adaptive_chunk
-
-        rec = self._records(nrec)
-        tab = tfe_tables(gammas)
-        body = (
-            tab, low_parts(2 * tab.shape[0]), self.models, self.q, self.v, self.cq, self.cv, self.mass, self.E,
-            self.inverse_inertias(), self.offsets, self.X, self.mp, float(gm), np.ascontiguousarray(center, float),
-            float(dt), int(every),
-        )  # fmt: skip
-        if self.adaptive is None:
-            rigid_tfe_chunk(*body, int(nrec), int(max_iter), rec.q, rec.v, rec.iterations, rec.fail)
-        else:
-            if self.rho.shape != (len(self),):
-                self.rho = np.zeros(len(self))
-            steps = np.zeros((nrec, len(self)), np.int64)
-            rigid_tfe_adaptive_chunk(
-                *body[:7], self.rho, *body[7:], float(self.adaptive), int(nrec), int(max_iter), rec.q, rec.v,
-                rec.iterations, steps, rec.fail,
-            )  # fmt: skip
-            rec.solves = steps
-            self.adaptive_steps += int(steps.sum())
-        if self._work_shape()[1]:
-            rec.work = np.repeat(self.work[None], nrec, axis=0)
-        return rec
-
     def _advance_adaptive(self, method, gm, center, dt, gammas, every, nrec, max_iter, clock) -> RigidRecords:
         """Adaptive, time-symmetric steps (:mod:`emorbit.kernels.rigid_adaptive`) that land on
         every multiple of ``dt``, recorded every ``every * dt`` seconds."""
@@ -530,7 +500,9 @@ class RigidBodies(WorkSums, BodySystem):
         from ..kernels.rigid_adaptive import rigid_reversible_steps
 
         if method == "tfe":
-            return self._tfe_reversible_steps(gm, center, gammas, nsteps, max_iter)
+            from .rigid_tfe import RigidTFE
+
+            return RigidTFE(self, gammas).reversible_steps(gm, center, nsteps, max_iter)
         prog = self.effects.program
         P, I, T, S = self.effects.arrays(self.mp.size)
         coef, pcoef = self.coefficients()
@@ -546,26 +518,6 @@ class RigidBodies(WorkSums, BodySystem):
         if status != 0:
             raise RuntimeError(f"an adaptive step failed with status {status}")
         return elapsed
-
-    def _tfe_reversible_steps(self, gm, center, gammas, nsteps, max_iter) -> np.ndarray:
-        """:meth:`reversible_steps` of the time finite element
-        (:func:`emorbit.kernels.rigid_tfe_adaptive.rigid_tfe_reversible_steps`)."""
-        from ..integrators.dispatch import tfe_tables
-        from ..kernels.pointmass.tfe import low_parts
-        from ..kernels.rigid_tfe_adaptive import rigid_tfe_reversible_steps
-
-        tab = tfe_tables(gammas)
-        if self.rho.shape != (len(self),):
-            self.rho = np.zeros(len(self))
-        out = np.zeros((len(self), 2))
-        rigid_tfe_reversible_steps(
-            tab, low_parts(2 * tab.shape[0]), self.models, self.q, self.v, self.cq, self.cv, self.rho, self.mass,
-            self.E, self.inverse_inertias(), self.offsets, self.X, self.mp, float(gm),
-            np.ascontiguousarray(center, float), float(self.adaptive), int(nsteps), int(max_iter), out,
-        )  # fmt: skip
-        if np.any(out[:, 1] != 0):
-            raise RuntimeError(f"an adaptive step failed with status {int(out[out[:, 1] != 0, 1][0])}")
-        return out[:, 0]
 
     def gravity_points(self, q: np.ndarray):
         """Where the point effects act on each body at recorded states q (rows, nb, 12): for

@@ -37,8 +37,16 @@ structure redoes it in halves, so every accepted step keeps energy and momenta t
 The end state is ``u1 = u0 + h sum_l b_l V_l``, ``v1 = v0 + h sum_l b_l M^-1 (A_l - G_l^T
 lam_l)`` (M solved with one step of refinement).
 
-Structures in the central field or in free space; other effects would need their stage forces
-(refused through :attr:`~emorbit.bodies.coupled.Structure.FIELD_ONLY`).
+Effects at the gravity points (:meth:`StructureTFE.effect_forces`): the kernels form the
+central field; the set's other effects act at the gravity points' stage positions (MODE_EXPLICIT,
+at each stage's time). Those with a potential that does not change in time (static) are scaled
+per point, ``C_il (1 + nu_i P_il)`` with ``P_il = C_il . V_il``, where ``nu_i = (G_i . dx_i - h
+sum_l b_l P_il) / (h sum_l b_l P_il^2)``, ``G_i`` their em force over the step (whose work is
+their potential's drop exactly): each point's work is that drop, and the energy stays exact.
+The others act unscaled; their work is their force's at the stages, ``sum_l h b_l N_il .
+V_il``, plus the change of a potential that changes in time, so ``E1 - E0 = W`` to round-off.
+Newton's matrix leaves the effects' derivatives out. Effects on surfaces are refused
+(:attr:`~emorbit.bodies.coupled.Structure.POINTS_ONLY`).
 """
 
 from __future__ import annotations
@@ -48,7 +56,9 @@ import scipy.sparse as sp
 
 from ..kernels import elastic as kel
 from ..kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from ..kernels.effects.signatures import MODE_EXPLICIT, MODE_POINT, MODE_STEP
 from ..kernels.elastic_tfe import assumed_strain_tables, stage_element_forces, stage_gravity_forces
+from ..kernels.structure_effects import point_effects, point_effects_work, point_potentials, prepare_set
 from .coupled_sparse import EquilibratedLU
 
 __all__ = ["StructureTFE"]
@@ -97,6 +107,111 @@ class StructureTFE:
         self._fn = np.empty((k, nn, 3))
         self._fg = np.empty((k, ng, 3))
         self._nodata = np.zeros(0)
+        self._effects_setup()
+        #: each working effect's work over the last converged step, J
+        self.step_work = np.zeros(len(self.row_effect))
+
+    def _effects_setup(self) -> None:
+        """Split the set's coefficients at the gravity points into the static effects' and the
+        others' (the central field's row 0 in both: the kernels form it), and note each work
+        row's effect where its potential changes in time (else -1)."""
+        fx = self.st.fx
+        binding = fx.binding
+        effects = list(binding.effects.all)
+        central = binding.effects.central
+        static = np.array(
+            [float(type(e).has_potential() and not type(e).PIECES.time_work and e is not central) for e in effects]
+        )
+        other = np.array([float(e is not central) for e in effects]) - static
+        coef = fx.gp_coef if fx.gp_coef.shape[0] == len(effects) else np.zeros((len(effects), self.st.gp_m.size))
+        self.coef_c = np.ascontiguousarray(coef * static[:, None])
+        self.coef_n = np.ascontiguousarray(coef * other[:, None])
+        self.has_c = bool(np.any(self.coef_c != 0.0))
+        self.has_n = bool(np.any(self.coef_n != 0.0))
+        self.row_effect = np.array(
+            [effects.index(e) if type(e).PIECES.time_work else -1 for e in binding.working()], np.int64
+        )
+        self._zeros = np.zeros(self.st.gp_m.size)
+        self._t0 = 0.0
+        self._sk = None
+
+    def _prepare(self, t0: float, h: float) -> None:
+        """The set's scratch at each stage's time ``t0 + c_l h`` and over the step (last)."""
+        self._t0 = t0
+        if not (self.has_c or self.has_n):
+            return
+        prog, (P, I, T, S) = self.st.fx._arrays()
+        sk = []
+        for c in self.tab[:, 0]:
+            prepare_set(prog.prepare, t0 + c * h, t0 + c * h, t0 + c * h, P, I, T, S)
+            sk.append(S.copy())
+        prepare_set(prog.prepare, t0, t0 + 0.5 * h, t0 + h, P, I, T, S)
+        sk.append(S.copy())
+        self._sk = sk
+
+    def _at(self, coef, l, x0, x1, h, mode):
+        """The effects of ``coef`` at the gravity points (relative positions (ng, 3) at both
+        ends) with the scratch of stage l (the step's: l = k), N (ng, 3)."""
+        st = self.st
+        prog, (P, I, T, S) = st.fx._arrays()
+        S[:] = self._sk[l]
+        f = np.empty((st.gp_m.size, 3))
+        status = point_effects(
+            prog.forces, mode, x0, x1, self._origin, st.gp_m, st.gp_body, coef, h, P, I, T, S, self._zeros, f,
+            np.empty((st.gp_m.size, 3, 3)), False, True,
+        )  # fmt: skip
+        if status != STATUS_OK:  # Newton sees a residual that is not finite: the step fails
+            f[...] = np.nan
+        return f
+
+    def effect_forces(self, Zg, Vg, h):
+        """The effects' stage forces at the gravity points (k, ng, 3), N, for their stage
+        increments and velocities (k, ng, 3) from ``self._xg0`` (module notes)."""
+        k = self.k
+        out = np.zeros(Zg.shape)
+        x0 = self._xg0
+        if self.has_n:
+            for l in range(k):
+                x = x0 + Zg[l]
+                out[l] += self._at(self.coef_n, l, x, x, h, MODE_EXPLICIT)
+        if self.has_c:
+            C = np.stack([self._at(self.coef_c, l, x0 + Zg[l], x0 + Zg[l], h, MODE_EXPLICIT) for l in range(k)])
+            P = np.einsum("lid,lid->li", C, Vg)
+            dx = h * np.einsum("l,lid->id", self.b, Vg)
+            G = self._at(self.coef_c, k, x0, x0 + dx, h, MODE_STEP)
+            num = np.einsum("id,id->i", G, dx) - h * np.einsum("l,li->i", self.b, P)
+            den = h * np.einsum("l,li->i", self.b, P * P)
+            nu = np.divide(num, den, out=np.zeros_like(num), where=den > 0.0)
+            out += C * (1.0 + nu[None, :] * P)[:, :, None]
+        return out
+
+    def _work(self, Zg, Vg, h) -> np.ndarray:
+        """Each working effect's work over the converged step (module notes), J."""
+        st = self.st
+        out = np.zeros(len(self.row_effect))
+        if not (out.size and self.has_n):
+            return out
+        prog, (P, I, T, S) = st.fx._arrays()
+        x0 = self._xg0
+        full = np.zeros(st.fx.nw)
+        for l in range(self.k):
+            S[:] = self._sk[l]
+            x = x0 + Zg[l]
+            point_effects_work(
+                prog.work, MODE_POINT, x, x + h * self.b[l] * Vg[l], self._origin, st.gp_m, st.gp_body, self.coef_n, h,
+                P, I, T, S, full,
+            )  # fmt: skip
+        out += full[: out.size]
+        if np.any(self.row_effect >= 0):
+            x1 = x0 + h * np.einsum("l,lid->id", self.b, Vg)
+            U = np.zeros((self.coef_n.shape[0], st.gp_m.size))
+            for x, t, sign in ((x1, self._t0 + h, 1.0), (x0, self._t0, -1.0)):
+                prepare_set(prog.prepare, t, t, t, P, I, T, S)
+                point_potentials(prog.potential, x, self._origin, st.gp_m, st.gp_body, self.coef_n, P, I, T, S, U)
+                for r, e in enumerate(self.row_effect):
+                    if e >= 0:
+                        out[r] += sign * U[e].sum()
+        return out
 
     def _velocity_pattern(self, J, J_mass) -> None:
         """The stage matrix's velocity part: k x k blocks of the em step's pattern over the
@@ -172,11 +287,18 @@ class StructureTFE:
         elements = (st.bar_node, st.bar_EA, st.bar_L, st.tet_node, st.tet_g, st.tet_V, st.tet_lam, st.tet_mu)
         maps = (st.node_slot, st.node_coef, self.n, indptr, indices, data)
         stage_element_forces(self.tab, *self.rule, h, x0n, Zn, Vn, *elements, fn, want_J, *maps)
-        if self.gm != 0.0 and st.gp_m.size:
+        effects = self.has_c or self.has_n
+        if (self.gm != 0.0 or effects) and st.gp_m.size:
             Zg, Vg = self._gravity_points(self._nodes(Z)), self._gravity_points(self._nodes(V))
-            stage_gravity_forces(
-                self.tab, h, self.gm, p0, Zg, Vg, st.gp_m, self._fg, want_J, st.gp_node, st.gp_w, *maps
-            )
+            if self.gm != 0.0:
+                stage_gravity_forces(
+                    self.tab, h, self.gm, p0, Zg, Vg, st.gp_m, self._fg, want_J, st.gp_node, st.gp_w, *maps
+                )
+            else:
+                self._fg[...] = 0.0
+            if effects:
+                self._fg += self.effect_forces(Zg, Vg, h)
+                self._stage_points = (Zg, Vg)
             for l in range(self.k):
                 kel.spread_rows(self._fg[l], st.gp_node, st.gp_w, fn[l])
         F = np.zeros(V.shape)
@@ -247,15 +369,18 @@ class StructureTFE:
         R = np.concatenate([R.ravel(), self.constraint_rates(Q, V).ravel()])
         return R, Z, (self.matrix(data, Q, V, lam, h) if want_J else None)
 
-    def step(self, u0, v0, lam0, acc, ref, h, max_iter):
-        """One step (module notes), with the signature and returns of
-        :meth:`~emorbit.bodies.coupled.Structure.step`: ``(du, dv, iterations, status,
-        stalled)``; ``acc`` (the predictor) becomes this step's mean acceleration and ``lam0``
-        its mean constraint force."""
+    def step(self, u0, v0, lam0, acc, ref, h, max_iter, t0=0.0):
+        """One step from time ``t0`` (s from the epoch; module notes), with the signature and
+        returns of :meth:`~emorbit.bodies.coupled.Structure.step`: ``(du, dv, iterations,
+        status, stalled)``; ``acc`` (the predictor) becomes this step's mean acceleration and
+        ``lam0`` its mean constraint force, and :attr:`step_work` the effects' work."""
         st = self.st
         k, n, nc = self.k, self.n, self.nc
         x0n = self._nodes(u0[None])[0]
-        p0 = self._gravity_points(x0n[None])[0] + (np.asarray(ref, float) - self.center)
+        self._xg0 = self._gravity_points(x0n[None])[0]
+        self._origin = np.asarray(ref, float)
+        self._prepare(t0, h)
+        p0 = self._xg0 + (np.asarray(ref, float) - self.center)
         c = self.tab[:, 0]
         V = v0[None] + h * c[:, None, None] * acc[None]
         lam = np.tile(np.asarray(lam0, float), (k, 1))
@@ -301,6 +426,8 @@ class StructureTFE:
         if status != STATUS_OK:
             return np.zeros_like(u0), np.zeros_like(v0), it, status, False
         F, Z, _ = self.forces(x0n, p0, V, h)
+        if self.step_work.size:
+            self.step_work = self._work(*self._stage_points, h) if self.has_n else np.zeros(self.step_work.size)
         F = F - self.constraint_forces(u0[None] + Z, lam)
         du = h * np.einsum("l,lsd->sd", self.b, V)
         dv = h * sum(self.b[l] * st.solve_mass(F[l]) for l in range(k))

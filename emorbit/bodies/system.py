@@ -143,8 +143,8 @@ class BodySystem:
         The kind's name: the group of its state in checkpoints (``"<kind>/<field>"``).
     METHODS : tuple of str
         The methods (names of :data:`emorbit.integrators.METHODS`) it has kernels for.
-    FIELD_ONLY : tuple of str
-        Those of them it runs in the central field alone (no effect may act on its bodies).
+    POINTS_ONLY : tuple of str
+        Those of them whose steps take effects at points only (none may act on its surfaces).
     names : list of str
         The bodies' names, in the order of adding (an attribute or a property of the kind).
     STATE_FIELDS : tuple of str
@@ -157,7 +157,7 @@ class BodySystem:
 
     kind: str = ""
     METHODS: tuple[str, ...] = ()
-    FIELD_ONLY: tuple[str, ...] = ()
+    POINTS_ONLY: tuple[str, ...] = ()
     STATE_FIELDS: tuple[str, ...] = ()
     plan: Plan = Plan()
 

@@ -23,8 +23,9 @@ sub-step coefficients (:func:`emorbit.integrators.coefficients`) as an array. Th
 exception is ``"tfe"``, whose order is its number of Gauss stages: :func:`tfe_chunk` reads
 the order from the coefficients it is handed (those of order 4 or 6) and runs one step of
 2 or 3 stages per step, not the composition, with fixed steps or adaptive ones
-(:func:`adaptive_points`). It runs point masses (and rigid bodies, fixed steps) in the
-central field alone, on the CPU; the other paths refuse it naming their key.
+(:func:`adaptive_points`). These run point masses in the central field alone, on the CPU
+(point masses under effects, rigid bodies and structures have their own tfe paths); the
+other paths refuse it naming their key.
 """
 
 from __future__ import annotations

@@ -27,8 +27,8 @@ rounding is taken off after each step (first-order polar factor). Stops as
 :func:`.pointmass.tfe.tfe_step` does, each group of y against its increment (the axes also
 against the centre's over the body's size, M also against the torque's moments).
 Limits: in a near-circular orbit P is small; beyond about h n = 0.14 (order 4) or 0.27 (order
-6) the secant may not settle and the step fails with ``STATUS_NO_CONVERGENCE``.
-
+6) the secant may not settle and the step fails with ``STATUS_NO_CONVERGENCE``. Effects at the
+gravity points (:mod:`.rigid_tfe_effects`): static ones scaled with f_i and in U, others not.
 Data layout: the rigid kernels' ``q, v, cq, cv`` (nb, 12), converted at a chunk's start (``M =
 R^T sum E_kl d_k x dd_l``) and back at its end (``dd_k = R (Omega x e_k)``); records ``rec_q,
 rec_v`` (nrec, nb, 12), ``rec_iters`` (nrec, nb), ``fail`` (nb, 2).
@@ -49,6 +49,7 @@ from .eft import kahan_add
 from .jit import kernel
 from .pointmass.tfe import _extrapolation
 from .rigid_solve import lu, lu_solve
+from .rigid_tfe_effects import body_context, prepare_step, stage_forces, static_rise, step_work
 from .rigid_tfe_newton import factor_rotation, inverse3, rotation_jacobian, solve_without_correction, torque_jacobian
 
 __all__ = ["body_gravity", "rigid_tfe_chunk", "rigid_tfe_step", "step_scratch", "store_state"]
@@ -70,14 +71,36 @@ _GROUPS = ((0, 3), (3, 12), (12, 15), (15, 18))
 
 
 @kernel(forceinline=True)
-def _field(y, Jinv, Xg, mg, mass, gm, c, K, D, R, Ri, Dh, gP):
+def _load(L, mj, A, j, q0, q1, q2, V0, V1, V2):
+    """Add point j's load ``e = mj A[:, j]`` to L (9): its force, its moment ``q x e``, its
+    power ``e . V`` and the round-off scales ``|e| |q|``, ``|e| |V|``."""
+    e0 = mj * A[0, j]
+    e1 = mj * A[1, j]
+    e2 = mj * A[2, j]
+    L[0] += e0
+    L[1] += e1
+    L[2] += e2
+    L[3] += q1 * e2 - q2 * e1
+    L[4] += q2 * e0 - q0 * e2
+    L[5] += q0 * e1 - q1 * e0
+    L[6] += e0 * V0 + e1 * V1 + e2 * V2
+    f = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    L[7] += f * math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+    L[8] += f * math.sqrt(V0 * V0 + V1 * V1 + V2 * V2)
+
+
+@kernel(forceinline=True)
+def _field(y, Jinv, Xg, mg, mass, gm, c, K, D, R, Ri, Dh, gP, Fc, Fn, has_c, has_n, Lx):
     """The field at ``y`` (18) into ``K`` (18) without the energy correction, and the
     correction per unit nu, ``P`` times gravity's acceleration and torque, into ``D`` (18);
-    returns ``(sum_i m_i s_i / r_i^3, P^2, sum_i |f_i| |R X_i|, sum_i |f_i| |V_i|)`` with
-    ``s_i = p_i . V_i``, ``V_i = u + (R^-T Omega) x (R X_i)`` (so ``P = -GM`` times the first):
-    the torque's and the power's round-off scales last. ``Dh`` (6): gravity's acceleration
-    and torque; ``gP`` (9): P's gradient in (phi, u, M), ``(m G u, m a, J^-1 tau)``. ``Xg``
-    (3, N), ``mg`` (N,): the gravity points; R, Ri: 3 x 3 scratch."""
+    returns ``(sum_i m_i s_i / r_i^3, P^2, sum_i |f_i| |R X_i|, sum_i |f_i| |V_i|, P_s)`` with
+    ``s_i = p_i . V_i``, ``V_i = u + (R^-T Omega) x (R X_i)`` (so ``P = -GM`` times the first
+    plus ``P_s``): the torque's and the power's round-off scales, then the static effects'
+    power. ``Dh`` (6): gravity's acceleration and torque; ``gP`` (9): P's gradient in (phi, u,
+    M), ``(m G u, m a, J^-1 tau)``. ``Xg`` (3, N), ``mg`` (N,): the gravity points; ``Fc``,
+    ``Fn`` (3, N): the static and the other effects' accelerations there (read where
+    ``has_c``, ``has_n``; :mod:`.rigid_tfe_effects`), the first scaled with the field, the
+    second not; R, Ri: 3 x 3 scratch; Lx (2, 9): their loads (:func:`_load`)."""
     for k in range(3):
         for i in range(3):
             R[i, k] = y[3 + 3 * k + i]
@@ -97,7 +120,7 @@ def _field(y, Jinv, Xg, mg, mass, gm, c, K, D, R, Ri, Dh, gP):
     K[16] = y[17] * om0 - y[15] * om2
     K[17] = y[15] * om1 - y[16] * om0
     n = mg.shape[0]
-    if gm == 0.0 or n == 0:
+    if (gm == 0.0 and not (has_c or has_n)) or n == 0:
         for i in range(12, 15):
             K[i] = 0.0
         for i in range(12, 18):
@@ -106,7 +129,7 @@ def _field(y, Jinv, Xg, mg, mass, gm, c, K, D, R, Ri, Dh, gP):
             Dh[i] = 0.0
         for i in range(9):
             gP[i] = 0.0
-        return 0.0, 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, 0.0, 0.0
     inverse3(R, Ri)
     # R^-T Omega, the angular velocity that pairs with the torque R^-1 w
     a0 = Ri[0, 0] * om0 + Ri[1, 0] * om1 + Ri[2, 0] * om2
@@ -117,6 +140,11 @@ def _field(y, Jinv, Xg, mg, mass, gm, c, K, D, R, Ri, Dh, gP):
     sa = 0.0
     ta = 0.0
     pa = 0.0
+    # the static effects' force, torque and power; the others' force and torque
+    Fs0 = Fs1 = Fs2 = ws0 = ws1 = ws2 = po = 0.0
+    Fn0 = Fn1 = Fn2 = wn0 = wn1 = wn2 = 0.0
+    if has_c or has_n:
+        Lx[:, :] = 0.0
     for j in range(n):
         X0 = Xg[0, j]
         X1 = Xg[1, j]
@@ -128,7 +156,7 @@ def _field(y, Jinv, Xg, mg, mass, gm, c, K, D, R, Ri, Dh, gP):
         p1 = y[1] - c[1] + q1
         p2 = y[2] - c[2] + q2
         r2 = p0 * p0 + p1 * p1 + p2 * p2
-        ir3 = 1.0 / (r2 * math.sqrt(r2))
+        ir3 = 1.0 / (r2 * math.sqrt(r2)) if gm != 0.0 else 0.0
         V0 = y[12] + (a1 * q2 - a2 * q1)
         V1 = y[13] + (a2 * q0 - a0 * q2)
         V2 = y[14] + (a0 * q1 - a1 * q0)
@@ -144,12 +172,27 @@ def _field(y, Jinv, Xg, mg, mass, gm, c, K, D, R, Ri, Dh, gP):
         sa += mj * s * ir3
         ta += abs(g) * math.sqrt(r2 * (q0 * q0 + q1 * q1 + q2 * q2))
         pa += abs(g) * math.sqrt(r2 * (V0 * V0 + V1 * V1 + V2 * V2))
+        if has_c:
+            _load(Lx[0], mj, Fc, j, q0, q1, q2, V0, V1, V2)
+        if has_n:
+            _load(Lx[1], mj, Fn, j, q0, q1, q2, V0, V1, V2)
+    if has_c:
+        Fs0, Fs1, Fs2, ws0, ws1, ws2, po = Lx[0, 0], Lx[0, 1], Lx[0, 2], Lx[0, 3], Lx[0, 4], Lx[0, 5], Lx[0, 6]
+        ta += Lx[0, 7]
+        pa += Lx[0, 8]
+    if has_n:
+        Fn0, Fn1, Fn2, wn0, wn1, wn2 = Lx[1, 0], Lx[1, 1], Lx[1, 2], Lx[1, 3], Lx[1, 4], Lx[1, 5]
+        ta += Lx[1, 7]
     # the correction: gravity's force and torque times its power P = -GM sum_i m_i s_i / r_i^3
-    P = -gm * sa
+    # (with no effects the added zeros leave every bit as the field's alone)
+    P = -gm * sa + po
     im = 1.0 / mass
-    K[12] = F0 * im
-    K[13] = F1 * im
-    K[14] = F2 * im
+    K[12] = (F0 + Fs0) * im
+    K[13] = (F1 + Fs1) * im
+    K[14] = (F2 + Fs2) * im
+    w0 += ws0
+    w1 += ws1
+    w2 += ws2
     for i in range(3):
         t = Ri[i, 0] * w0 + Ri[i, 1] * w1 + Ri[i, 2] * w2
         K[15 + i] += t
@@ -163,18 +206,24 @@ def _field(y, Jinv, Xg, mg, mass, gm, c, K, D, R, Ri, Dh, gP):
         gP[3 + i] = mass * K[12 + i]
     for i in range(3):
         gP[6 + i] = Jinv[i, 0] * Dh[3] + Jinv[i, 1] * Dh[4] + Jinv[i, 2] * Dh[5]
+    if has_n:  # the other effects: unscaled
+        K[12] += Fn0 * im
+        K[13] += Fn1 * im
+        K[14] += Fn2 * im
+        for i in range(3):
+            K[15 + i] += Ri[i, 0] * wn0 + Ri[i, 1] * wn1 + Ri[i, 2] * wn2
     # and in phi: m G u, G gravity's gradient at the centre of mass, as of a point mass
     c0 = y[0] - c[0]
     c1 = y[1] - c[1]
     c2 = y[2] - c[2]
     rc2 = c0 * c0 + c1 * c1 + c2 * c2
-    w = gm * mass / (rc2 * math.sqrt(rc2))
-    cu = 3.0 * (c0 * y[12] + c1 * y[13] + c2 * y[14]) / rc2
+    w = gm * mass / (rc2 * math.sqrt(rc2)) if gm != 0.0 else 0.0
+    cu = 3.0 * (c0 * y[12] + c1 * y[13] + c2 * y[14]) / rc2 if gm != 0.0 else 0.0
     gP[0] = w * (cu * c0 - y[12])
     gP[1] = w * (cu * c1 - y[13])
     gP[2] = w * (cu * c2 - y[14])
     ss = P * P
-    return sa, ss, ta, pa
+    return sa, ss, ta, pa, po
 
 
 @kernel(forceinline=True)
@@ -200,7 +249,16 @@ def _drop(y0, dy, Xg, mg, gm, c):
 
 
 @kernel
-def _newton(tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, nu, work):
+def _stage(forces, fx, l, Y, Jinv, Xg, mg, mass, gm, c, h, K, D, R, Ri, Dh, gP):
+    """:func:`_field` at stage l's state Y with the effects' accelerations there
+    (:func:`.rigid_tfe_effects.stage_forces`); returns its values and the set's status."""
+    bad = stage_forces(forces, fx, l, Y, Xg, mg, h)
+    a, b, t, p, po = _field(Y, Jinv, Xg, mg, mass, gm, c, K, D, R, Ri, Dh, gP, fx[15], fx[16], fx[8], fx[9], fx[22])
+    return a, b, t, p, po, bad
+
+
+@kernel
+def _newton(forces, fx, tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, nu, work):
     """Newton on the stage increments ``Z`` at a fixed energy correction ``nu``; returns
     ``(iterations, status, e, scale, den)``: the energy's change per unit time over the step,
     ``e = sum_l b_l P_l (1 + nu P_l) + (U(y1) - U(y0)) / h``, its round-off scale and ``de /
@@ -208,7 +266,8 @@ def _newton(tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, n
     y's update is weighed against its increment; an axis's also against the centre's
     increment over the body's size (``sqrt(tr E / m)``: what moves its mass points as much),
     the angular momentum's also against the moments that the torque sums, so that the
-    torque's rounding (and through it the axes') is a floor, not a failure."""
+    torque's rounding (and through it the axes') is a floor, not a failure. The static effects'
+    power and potential rise join the field's (:mod:`.rigid_tfe_effects`)."""
     (Jst, P, pivP, Pinv, V, Sr, pivS, tm, D, Y, R, Ri, dy, sa, ss, ta, pa, dlo, Nt, pivt, rt, Gs, W, Dh, gP, S,
      pivs, zv, Ts, Zb) = work  # fmt: skip
     k = tab.shape[0]
@@ -218,18 +277,26 @@ def _newton(tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, n
     num = 0.0
     den = 0.0
     pw = 0.0
+    numo = 0.0
+    bad = 0
     while its < max_iter:
         its += 1
+        numo = 0.0
         for l in range(k):
             for i in range(18):
                 Y[i] = y0[i] + Z[l, i]
-            a, b, t, p = _field(Y, Jinv, Xg, mg, mass, gm, c, Kst[l], D[l], R, Ri, Dh[l], gP[l])
+            a, b, t, p, po, bad = _stage(forces, fx, l, Y, Jinv, Xg, mg, mass, gm, c, h, Kst[l], D[l], R, Ri, Dh[l],
+                                         gP[l])  # fmt: skip
             sa[l] = a
             ss[l] = b
             ta[l] = t
             pa[l] = p
+            numo += tab[l, 1] * po
             for i in range(12, 18):
                 Kst[l, i] += nu * D[l, i]
+        if bad:
+            status = STATUS_SINGULAR
+            break
         num = 0.0
         den = 0.0
         pw = 0.0
@@ -313,24 +380,31 @@ def _newton(tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, n
             break
         prev = worst
     e = 0.0
-    if gm != 0.0 and mg.shape[0] > 0:
+    if mg.shape[0] > 0 and (gm != 0.0 or fx[8] or fx[9]):
         for i in range(12):
             dy[i] *= h
-        e = -gm * num + nu * den + _drop(y0, dy, Xg, mg, gm, c) / h
+        e = -gm * num + nu * den
+        if gm != 0.0:
+            e += _drop(y0, dy, Xg, mg, gm, c) / h
+        if fx[8]:
+            e += numo + static_rise(forces, fx, y0, dy, Xg, mg, h) / h
     return its, status, e, pw, den
 
 
 @kernel
 def rigid_tfe_step(
-    tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, tidal, max_iter, predicted, nu, refactor, work
-):
+    forces, fx, tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, tidal, max_iter, predicted, nu, refactor,
+    work,
+):  # fmt: skip
     """One step of the k-stage element from ``y0`` (18); returns ``(dy, dlo, iterations,
     status, nu)``: the increment ``h sum_l b_l K_l`` in two parts, from the weights' float64
     values and from their low parts (``lo``: :func:`.pointmass.tfe.low_parts`), and the energy correction.
     ``Z`` (k, 18) holds the stage increments (a predictor in when ``predicted``), ``Kst`` (k,
     18) the stage derivatives out (for the next predictor), ``nu`` the first guess of the
     correction (the last step's); ``tidal``: whether the torque depends on the attitude
-    (volume gravity); ``work``: :func:`step_scratch`'s tuple.
+    (volume gravity); ``work``: :func:`step_scratch`'s tuple; ``forces``, ``fx``: the effect
+    set's forces and the body's effect context, prepared for the step
+    (:mod:`.rigid_tfe_effects`).
 
     Newton holds nu fixed (:func:`_newton`); a secant on nu then zeroes the energy's change
     ``e(nu)``, each new nu starting Newton from the stages of the last. Solved inside Newton
@@ -340,7 +414,8 @@ def rigid_tfe_step(
      pivs, zv, Ts, Zb) = work  # fmt: skip
     k = tab.shape[0]
     if not predicted:
-        _field(y0, Jinv, Xg, mg, mass, gm, c, Kst[0], D[0], R, Ri, Dh[0], gP[0])
+        if _stage(forces, fx, 0, y0, Jinv, Xg, mg, mass, gm, c, h, Kst[0], D[0], R, Ri, Dh[0], gP[0])[5]:
+            return dy, dlo, 0, STATUS_SINGULAR, nu
         for l in range(1, k):
             Kst[l, :] = Kst[0]
         for l in range(k):
@@ -376,7 +451,9 @@ def rigid_tfe_step(
                         Nt[3 * l + r, 3 * j + q] = -hh * Gs[j, 3 * r + q] + (1.0 if l == j and r == q else 0.0)
         if not (factor_rotation(tab, h, Jst, P, pivP, Pinv, V, Sr, pivS) and lu(Nt, pivt, 3 * k)):
             return dy, dlo, 0, STATUS_SINGULAR, nu
-    its, status, e, scale, den = _newton(tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, nu, work)
+    its, status, e, scale, den = _newton(
+        forces, fx, tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, nu, work
+    )
     if status == STATUS_OK and den > 0.0 and not abs(e) <= _E_TOL * scale:
         # a secant on nu, safeguarded: its slope from the last two solves where that one has
         # the sign of the direct response ``den`` and is not far below it, ``den`` otherwise;
@@ -390,7 +467,7 @@ def rigid_tfe_step(
         for _ in range(_SECANTS):
             nu = nu_b - e_b / slope
             it, status, e, scale, den = _newton(
-                tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, nu, work
+                forces, fx, tab, lo, y0, Z, Kst, h, Jinv, Xg, mg, mass, gm, c, size, max_iter, nu, work
             )
             its += it
             if status != STATUS_OK or not abs(e) < abs(e_b):
@@ -416,7 +493,7 @@ def rigid_tfe_step(
     for l in range(k):
         for i in range(18):
             Y[i] = y0[i] + Z[l, i]
-        _field(Y, Jinv, Xg, mg, mass, gm, c, Kst[l], D[l], R, Ri, Dh[l], gP[l])
+        _stage(forces, fx, l, Y, Jinv, Xg, mg, mass, gm, c, h, Kst[l], D[l], R, Ri, Dh[l], gP[l])
         for i in range(12, 18):
             Kst[l, i] += nu * D[l, i]
     for i in range(18):
@@ -574,17 +651,24 @@ def body_gravity(models, mass, E, offsets, X, mp, gm, b, one):
 
 @kernel
 def rigid_tfe_chunk(
-    tab, lo, models, q, v, cq, cv, mass, E, Jinv, offsets, X, mp, gm, center, dt, every, nrec, max_iter,
-    rec_q, rec_v, rec_iters, fail,
+    forces, prepare, work_of, potential, eff, tab, lo, models, q, v, cq, cv, mass, E, Jinv, offsets, X, mp, gm,
+    center, dt, every, nrec, max_iter, rec_q, rec_v, rec_iters, fail,
 ):  # fmt: skip
     """Advance every body ``nrec * every`` steps of size ``dt`` of the element whose Gauss
     tables are ``tab`` (:func:`emorbit.kernels.pointmass.tfe.tables`), recording every
     ``every`` steps. Gravity per body by ``models`` (the rigid kernels' codes): its mass
     points ``X[:, offsets[b]:offsets[b + 1]]`` with masses ``mp``, its centre of mass, or
     none. ``q, v, cq, cv`` (nb, 12) are updated in place; ``fail`` (nb, 2) pre-filled with
-    -1 gets the step index and status of a body's failing step, which it stops before."""
+    -1 gets the step index and status of a body's failing step, which it stops before.
+
+    Effects: the set's compiled ``forces, prepare, work_of, potential`` and ``eff = (P, I, T, S,
+    coefs, row_effect, has_d, work, cwork, rec_work, clock_base, clock_n0)``
+    (:func:`.rigid_tfe_effects.body_context`; ``work, cwork`` (nb, w) the work sums, updated in
+    place, ``rec_work`` (nrec, nb, w)); step j of the chunk starts at ``clock_base + (clock_n0
+    + j) dt`` (s from the epoch)."""
     k = tab.shape[0]
     nb = q.shape[0]
+    Pe, Ie, Te, Se, coefs, row_effect, has_d, wsum, cwsum, rec_work, clock_base, clock_n0 = eff
     ext = _extrapolation(tab, 1.0)
     work = step_scratch(k)
     Z = np.empty((k, 18))
@@ -594,9 +678,11 @@ def rigid_tfe_chunk(
     cy = np.empty(18)
     vd = np.empty(12)
     Eo = np.empty((3, 3))
+    Rw = np.empty((3, 3))
     one = np.zeros((3, 1))[:, 0:1]
     for b in range(nb):
         Xg, mg, tidal, size = body_gravity(models, mass, E, offsets, X, mp, gm, b, one)
+        fx = body_context(models, offsets, Pe, Ie, Te, Se, k, coefs, row_effect, has_d, b)
         Ji = Jinv[b]
         _to_state(q[b], v[b], cq[b], cv[b], E[b], y, cy)
         have = False
@@ -610,12 +696,14 @@ def rigid_tfe_chunk(
                 # that fails on kept factors is tried again on new ones
                 refactor = not have or last > _REUSE_ITERATIONS
                 nu0 = nu
+                t0 = clock_base + (clock_n0 + r * every + s) * dt
+                prepare_step(prepare, fx, tab, t0, dt)
                 for _attempt in range(2):
                     if have:
                         _predict(ext, tab, Kp, Kst, Z, dt)
                     dy, dlo, it, status, nu = rigid_tfe_step(
-                        tab, lo, y, Z, Kst, dt, Ji, Xg, mg, mass[b], gm, center, size, tidal, max_iter, have, nu0,
-                        refactor, work,
+                        forces, fx, tab, lo, y, Z, Kst, dt, Ji, Xg, mg, mass[b], gm, center, size, tidal, max_iter,
+                        have, nu0, refactor, work,
                     )  # fmt: skip
                     its += it
                     if status == STATUS_OK or refactor:
@@ -633,6 +721,9 @@ def rigid_tfe_chunk(
                     fail[b, 1] = status
                     failed = True
                     break
+                if wsum.shape[1] > 0:
+                    step_work(work_of, prepare, potential, fx, tab, lo, y, Z, dy, Ji, Xg, mg, dt, t0, Eo, Rw,
+                              wsum[b], cwsum[b])  # fmt: skip
                 for i in range(18):
                     y[i], cy[i] = kahan_add(y[i], cy[i], dy[i])
                     y[i], cy[i] = kahan_add(y[i], cy[i], dlo[i])
@@ -646,4 +737,5 @@ def rigid_tfe_chunk(
                 rec_q[r, b, i] = y[i]
                 rec_v[r, b, i] = vd[i]
             rec_iters[r, b] = its
+            rec_work[r, b, :] = wsum[b]
         store_state(y, cy, Ji, q, v, cq, cv, b, vd)

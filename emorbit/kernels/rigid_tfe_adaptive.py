@@ -38,6 +38,7 @@ from .eft import kahan_add
 from .jit import kernel
 from .rigid_adaptive import motion_rates
 from .rigid_tfe import _orthonormalize, _to_state, body_gravity, rigid_tfe_step, step_scratch, store_state
+from .rigid_tfe_effects import body_context, prepare_step, step_work
 
 __all__ = ["rigid_tfe_adaptive_chunk", "rigid_tfe_reversible_steps"]
 
@@ -64,10 +65,13 @@ def _composed(ctx, s, rho, eps, fixed, t):
     """One composed step of a body (:func:`.adaptive.interval`): one element step of ``h = eps
     / rho`` between the kicks, or (``fixed`` > 0) of ``fixed`` with rho then ``1 / s``. The
     state ``s`` = (y, cy) is copied into the context's buffers, which are stepped and returned."""
-    tab, lo, Ji, Xg, mg, mass, gm, c, size, tidal, max_iter, eta, work, Z, Kst, Eo, buf = ctx
-    ty, tcy = buf
+    tab, lo, Ji, Xg, mg, mass, gm, c, size, tidal, max_iter, eta, work, Z, Kst, Eo, buf = ctx[:17]
+    forces, prepare, work_of, potential, fx, t_off, Rw = ctx[17:]
+    ty, tcy, tw, tcw = buf
     ty[:] = s[0]
     tcy[:] = s[1]
+    tw[:] = s[2]
+    tcw[:] = s[3]
     g = 0.0
     if fixed > 0.0:
         h = fixed
@@ -78,11 +82,15 @@ def _composed(ctx, s, rho, eps, fixed, t):
             return buf, rho, 0.0, 0.0, 0, STATUS_NO_CONVERGENCE if r0 > 0.0 else STATUS_SINGULAR
         rho = kick(rho, a)
         h = eps / rho
+    t0 = t_off + t
+    prepare_step(prepare, fx, tab, t0, h)
     dy, dlo, its, status, _ = rigid_tfe_step(
-        tab, lo, ty, Z, Kst, h, Ji, Xg, mg, mass, gm, c, size, tidal, max_iter, False, 0.0, True, work
+        forces, fx, tab, lo, ty, Z, Kst, h, Ji, Xg, mg, mass, gm, c, size, tidal, max_iter, False, 0.0, True, work
     )
     if status != STATUS_OK:
         return buf, rho, 0.0, 0.0, its, status
+    if tw.shape[0] > 0:
+        step_work(work_of, prepare, potential, fx, tab, lo, ty, Z, dy, Ji, Xg, mg, h, t0, Eo, Rw, tw, tcw)
     for i in range(18):
         ty[i], tcy[i] = kahan_add(ty[i], tcy[i], dy[i])
         ty[i], tcy[i] = kahan_add(ty[i], tcy[i], dlo[i])
@@ -112,27 +120,34 @@ def _control_of(ctx, s):
 
 @kernel
 def _accept(ctx, s, q):
-    s[0][:] = q[0]
-    s[1][:] = q[1]
+    for i in range(4):
+        s[i][:] = q[i]
     return s
 
 
 @kernel
-def _context(tab, lo, models, mass, E, Jinv, offsets, X, mp, gm, center, eta, max_iter, b, one):
-    """Body b's context: its gravity points, constants and the element's scratch."""
+def _context(fns, eff, t_off, tab, lo, models, mass, E, Jinv, offsets, X, mp, gm, center, eta, max_iter, b, one):
+    """Body b's context: its gravity points, constants, the element's scratch, the effect
+    set's functions ``fns = (forces, prepare, work_of, potential)`` and its effect context."""
     k = tab.shape[0]
+    Pe, Ie, Te, Se, coefs, row_effect, has_d, wsum = eff[:8]
     Xg, mg, tidal, size = body_gravity(models, mass, E, offsets, X, mp, gm, b, one)
+    fx = body_context(models, offsets, Pe, Ie, Te, Se, k, coefs, row_effect, has_d, b)
+    w = wsum.shape[1]
     return (
         tab, lo, Jinv[b], Xg, mg, mass[b], gm, center, size, tidal, max_iter, eta, step_scratch(k),
-        np.empty((k, 18)), np.empty((k, 18)), np.empty((3, 3)), (np.empty(18), np.empty(18)),
+        np.empty((k, 18)), np.empty((k, 18)), np.empty((3, 3)), (np.empty(18), np.empty(18), np.empty(w), np.empty(w)),
+        fns[0], fns[1], fns[2], fns[3], fx, t_off, np.empty((3, 3)),
     )  # fmt: skip
 
 
 @kernel
-def _start(tab, lo, models, q, v, cq, cv, rho, mass, E, Jinv, offsets, X, mp, gm, center, eta, max_iter, b, one):
-    """Body b's context, its state (y, cy) from the director form and its control variable."""
-    ctx = _context(tab, lo, models, mass, E, Jinv, offsets, X, mp, gm, center, eta, max_iter, b, one)
-    s = (np.empty(18), np.empty(18))
+def _start(fns, eff, t_off, tab, lo, models, q, v, cq, cv, rho, mass, E, Jinv, offsets, X, mp, gm, center, eta,
+           max_iter, b, one):  # fmt: skip
+    """Body b's context, its state (y, cy, work, cwork) from the director form and its work
+    sums, and its control variable; its steps' times count from ``t_off`` (s from the epoch)."""
+    ctx = _context(fns, eff, t_off, tab, lo, models, mass, E, Jinv, offsets, X, mp, gm, center, eta, max_iter, b, one)
+    s = (np.empty(18), np.empty(18), eff[7][b].copy(), eff[8][b].copy())
     _to_state(q[b], v[b], cq[b], cv[b], E[b], s[0], s[1])
     r = rho[b]
     if not r > 0.0:
@@ -142,25 +157,28 @@ def _start(tab, lo, models, q, v, cq, cv, rho, mass, E, Jinv, offsets, X, mp, gm
 
 @kernel
 def rigid_tfe_adaptive_chunk(
-    tab, lo, models, q, v, cq, cv, rho, mass, E, Jinv, offsets, X, mp, gm, center, interval_length, every, eta, nrec,
-    max_iter, rec_q, rec_v, rec_iters, rec_steps, fail,
+    fns, eff, tab, lo, models, q, v, cq, cv, rho, mass, E, Jinv, offsets, X, mp, gm, center, interval_length, every,
+    eta, nrec, max_iter, rec_q, rec_v, rec_iters, rec_steps, fail,
 ):  # fmt: skip
     """Advance every rigid body by ``nrec`` records of ``every`` intervals of
     ``interval_length`` seconds (steps land on every multiple of it) with adaptive,
     time-symmetric element steps, recording at the end of each record; ``fail[b]`` gets the
     record index and status of a body that failed (it stops at the start of that record).
-    Other arguments: the module's docstring and :func:`.rigid_tfe.rigid_tfe_chunk`."""
+    ``fns = (forces, prepare, work_of, potential)`` and ``eff`` the effect set's, as
+    :func:`.rigid_tfe.rigid_tfe_chunk` takes them (the intervals are its steps). Other
+    arguments: the module's docstring and :func:`.rigid_tfe.rigid_tfe_chunk`."""
     one = np.zeros((3, 1))[:, 0:1]
     vd = np.empty(12)
+    t_off = eff[10] + eff[11] * interval_length
     for b in range(q.shape[0]):
-        ctx, s, r = _start(tab, lo, models, q, v, cq, cv, rho, mass, E, Jinv, offsets, X, mp, gm, center, eta,
-                           max_iter, b, one)  # fmt: skip
-        start = (np.empty(18), np.empty(18))
+        ctx, s, r = _start(fns, eff, t_off, tab, lo, models, q, v, cq, cv, rho, mass, E, Jinv, offsets, X, mp, gm,
+                           center, eta, max_iter, b, one)  # fmt: skip
+        start = (np.empty(18), np.empty(18), s[2].copy(), s[3].copy())
         for k in range(nrec):
             its = 0
             steps = 0
-            start[0][:] = s[0]
-            start[1][:] = s[1]
+            for i in range(4):
+                start[i][:] = s[i]
             r_start = r
             status = STATUS_OK
             for j in range(every):
@@ -172,8 +190,8 @@ def rigid_tfe_adaptive_chunk(
                 if status != STATUS_OK:
                     break
             if status != STATUS_OK:
-                s[0][:] = start[0]
-                s[1][:] = start[1]
+                for i in range(4):
+                    s[i][:] = start[i]
                 r = r_start
                 fail[b, 0] = k
                 fail[b, 1] = status
@@ -183,22 +201,26 @@ def rigid_tfe_adaptive_chunk(
             rec_v[k, b, :] = v[b]
             rec_iters[k, b] = its
             rec_steps[k, b] = steps
+            eff[9][k, b, :] = s[2]
         store_state(s[0], s[1], Jinv[b], q, v, cq, cv, b, vd)
+        eff[7][b, :] = s[2]
+        eff[8][b, :] = s[3]
         rho[b] = r
 
 
 @kernel
 def rigid_tfe_reversible_steps(
-    tab, lo, models, q, v, cq, cv, rho, mass, E, Jinv, offsets, X, mp, gm, center, eta, nsteps, max_iter, out
+    fns, eff, tab, lo, models, q, v, cq, cv, rho, mass, E, Jinv, offsets, X, mp, gm, center, eta, nsteps, max_iter, out
 ):  # fmt: skip
     """Exactly ``nsteps`` composed steps of size 1 in tau of every body, no landing: the scheme
     alone, for its time symmetry (reversing the velocities and calling it again runs the
-    steps back). ``out`` (nb, 2) gets each body's elapsed time and status."""
+    steps back; time-dependent effects are read at the chunk's start, ``eff``'s clock).
+    ``out`` (nb, 2) gets each body's elapsed time and status."""
     one = np.zeros((3, 1))[:, 0:1]
     vd = np.empty(12)
     for b in range(q.shape[0]):
-        ctx, s, r = _start(tab, lo, models, q, v, cq, cv, rho, mass, E, Jinv, offsets, X, mp, gm, center, eta,
-                           max_iter, b, one)  # fmt: skip
+        ctx, s, r = _start(fns, eff, eff[10], tab, lo, models, q, v, cq, cv, rho, mass, E, Jinv, offsets, X, mp, gm,
+                           center, eta, max_iter, b, one)  # fmt: skip
         t = 0.0
         tc = 0.0
         status = STATUS_OK
@@ -209,6 +231,8 @@ def rigid_tfe_reversible_steps(
             s = _accept(ctx, s, w)
             t, tc = kahan_add(t, tc + dlo, dur)
         store_state(s[0], s[1], Jinv[b], q, v, cq, cv, b, vd)
+        eff[7][b, :] = s[2]
+        eff[8][b, :] = s[3]
         rho[b] = r
         out[b, 0] = t - tc
         out[b, 1] = status

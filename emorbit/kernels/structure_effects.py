@@ -27,7 +27,7 @@ from .effects.signatures import MODE_WEIGHTED
 from .elastic import csc_find
 from .jit import kernel
 
-__all__ = ["point_effects", "point_effects_work", "triangle_effects", "prepare_set", "cross_blocks"]
+__all__ = ["point_effects", "point_effects_work", "point_potentials", "triangle_effects", "prepare_set", "cross_blocks"]
 
 
 @kernel
@@ -79,6 +79,14 @@ def point_effects_work(work_of, mode, x0, x1, ref, m, body, coef, h, P, I, T, S,
         for i in range(q):
             total += each[s, i]
         out[s] += total
+
+
+@kernel
+def point_potentials(potential, x, ref, m, body, coef, P, I, T, S, out):
+    """Each effect's potential energy at each point (relative positions x (q, 3)) into ``out``
+    (k, q), J, after ``prepare`` at the points' time."""
+    a, _ = _absolute(x, x, ref)
+    potential(a, m, body, coef, P, I, T, S, out)
 
 
 @kernel
