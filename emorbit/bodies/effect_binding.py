@@ -63,6 +63,22 @@ class EffectBinding:
         """The effects whose work the step sums, in slot order."""
         return self.effects.working()
 
+    def tfe_split(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """How the time finite element's stages take the set: ``(static, other, row_effect)``.
+        ``static`` (k,) is 1 for the effects whose potential does not change in time (scaled
+        with the central field for exact energy), ``other`` (k,) 1 for the rest; the central
+        field is in neither (the kernels form it in closed form). ``row_effect`` (w,) gives each
+        work row's effect where its potential changes in time (its change joins the work), else
+        -1."""
+        effects = list(self.effects.all)
+        central = self.effects.central
+        static = np.array(
+            [float(type(e).has_potential() and not type(e).PIECES.time_work and e is not central) for e in effects]
+        )
+        other = np.array([float(e is not central) for e in effects]) - static
+        row_effect = np.array([effects.index(e) if type(e).PIECES.time_work else -1 for e in self.working()], np.int64)
+        return static, other, row_effect
+
     def working_labels(self) -> list[str]:
         """Their labels (``invariants/work_<label>``)."""
         return [e.label for e in self.working()]

@@ -96,21 +96,12 @@ class EffectRun:
             w = self.work.shape[0]
             return (prog.potential, np.zeros((1, 5)), np.zeros((1, 2)), gm, center, self.coef, self.coef, False, False,
                     np.full(w, -1, np.int64))  # fmt: skip
-        effects = list(self.binding.effects.all)
-        central = self.binding.effects.central  # the kernel's own, in closed form
-        static = np.array(
-            [float(type(e).has_potential() and not type(e).PIECES.time_work and e is not central) for e in effects]
-        )
-        every = np.array([float(e is not central) for e in effects])
-        row_effect = np.array(
-            [effects.index(e) if type(e).PIECES.time_work else -1 for e in self.binding.working()], np.int64
-        )
+        static, other, row_effect = self.binding.tfe_split()
         tab = dispatch.tfe_tables(gammas)
         return (
             prog.potential, tab, low_parts(2 * tab.shape[0]), gm, center,
-            np.ascontiguousarray(self.coef * static[:, None]),
-            np.ascontiguousarray(self.coef * (every - static)[:, None]), bool((every - static).max(initial=0.0) > 0.0),
-            bool((row_effect >= 0).any()), row_effect,
+            np.ascontiguousarray(self.coef * static[:, None]), np.ascontiguousarray(self.coef * other[:, None]),
+            bool(other.max(initial=0.0) > 0.0), bool((row_effect >= 0).any()), row_effect,
         )  # fmt: skip
 
     def _tfe(self, rec, dt, gammas, every, nrec, max_iter, clock):

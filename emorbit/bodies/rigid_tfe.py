@@ -50,15 +50,7 @@ class RigidTFE:
         binding = s.effects
         prog = binding.program
         P, I, T, S = binding.arrays(max(s.mp.size, len(s)))
-        effects = list(binding.effects.all)
-        central = binding.effects.central  # the kernels' own, in closed form
-        static = np.array(
-            [float(type(e).has_potential() and not type(e).PIECES.time_work and e is not central) for e in effects]
-        )
-        other = np.array([float(e is not central) for e in effects]) - static
-        row_effect = np.array(
-            [effects.index(e) if type(e).PIECES.time_work else -1 for e in binding.working()], np.int64
-        )
+        static, other, row_effect = binding.tfe_split()
         coef, pcoef = s.coefficients()
         pairs = ((coef, static), (coef, other), (pcoef, static), (pcoef, other))
         coefs = tuple(np.ascontiguousarray(c * w[:, None]) for c, w in pairs)

@@ -116,22 +116,14 @@ class StructureTFE:
         others' (the central field's row 0 in both: the kernels form it), and note each work
         row's effect where its potential changes in time (else -1)."""
         fx = self.st.fx
-        binding = fx.binding
-        effects = list(binding.effects.all)
-        central = binding.effects.central
-        static = np.array(
-            [float(type(e).has_potential() and not type(e).PIECES.time_work and e is not central) for e in effects]
-        )
-        other = np.array([float(e is not central) for e in effects]) - static
-        coef = fx.gp_coef if fx.gp_coef.shape[0] == len(effects) else np.zeros((len(effects), self.st.gp_m.size))
-        self.coef_c = np.ascontiguousarray(coef * static[:, None])
-        self.coef_n = np.ascontiguousarray(coef * other[:, None])
+        static, other, self.row_effect = fx.binding.tfe_split()
+        self.coef_c = np.ascontiguousarray(fx.gp_coef * static[:, None])
+        self.coef_n = np.ascontiguousarray(fx.gp_coef * other[:, None])
         self.has_c = bool(np.any(self.coef_c != 0.0))
         self.has_n = bool(np.any(self.coef_n != 0.0))
-        self.row_effect = np.array(
-            [effects.index(e) if type(e).PIECES.time_work else -1 for e in binding.working()], np.int64
-        )
-        self._zeros = np.zeros(self.st.gp_m.size)
+        ng = self.st.gp_m.size
+        self._zeros = np.zeros(ng)
+        self._blocks = np.empty((ng, 3, 3))  # the points' Jacobian blocks, not asked for
         self._t0 = 0.0
         self._sk = None
 
@@ -158,7 +150,7 @@ class StructureTFE:
         f = np.empty((st.gp_m.size, 3))
         status = point_effects(
             prog.forces, mode, x0, x1, self._origin, st.gp_m, st.gp_body, coef, h, P, I, T, S, self._zeros, f,
-            np.empty((st.gp_m.size, 3, 3)), False, True,
+            self._blocks, False, True,
         )  # fmt: skip
         if status != STATUS_OK:  # Newton sees a residual that is not finite: the step fails
             f[...] = np.nan
@@ -189,8 +181,6 @@ class StructureTFE:
         """Each working effect's work over the converged step (module notes), J."""
         st = self.st
         out = np.zeros(len(self.row_effect))
-        if not (out.size and self.has_n):
-            return out
         prog, (P, I, T, S) = st.fx._arrays()
         x0 = self._xg0
         full = np.zeros(st.fx.nw)
@@ -426,8 +416,8 @@ class StructureTFE:
         if status != STATUS_OK:
             return np.zeros_like(u0), np.zeros_like(v0), it, status, False
         F, Z, _ = self.forces(x0n, p0, V, h)
-        if self.step_work.size:
-            self.step_work = self._work(*self._stage_points, h) if self.has_n else np.zeros(self.step_work.size)
+        if self.step_work.size and self.has_n:
+            self.step_work = self._work(*self._stage_points, h)
         F = F - self.constraint_forces(u0[None] + Z, lam)
         du = h * np.einsum("l,lsd->sd", self.b, V)
         dv = h * sum(self.b[l] * st.solve_mass(F[l]) for l in range(k))
