@@ -35,10 +35,11 @@ def announce(message: str) -> None:
 class _Watch:
     """Counts the compilations in progress and when the outermost began."""
 
-    def __init__(self):
+    def __init__(self, first=None):
         self.active = 0
         self.since = 0.0
         self.lock = threading.Lock()
+        self.first = first  # called when the first compilation starts
 
     def listener(self):
         from numba.core import event
@@ -51,6 +52,9 @@ class _Watch:
                     if watch.active == 0:
                         watch.since = time.monotonic()
                     watch.active += 1
+                    first, watch.first = watch.first, None
+                if first is not None:
+                    first()
 
             def on_end(self, ev):
                 with watch.lock:
@@ -72,8 +76,8 @@ def compile_notice(enabled: bool = True):
         return
     from numba.core import event
 
-    watch = _Watch()
     done = threading.Event()
+    threads = []
 
     def wait():
         while not done.wait(0.1):
@@ -83,11 +87,15 @@ def compile_notice(enabled: bool = True):
                 announce(COMPILING)
                 return
 
-    thread = threading.Thread(target=wait, name="emorbit-compile-notice", daemon=True)
+    def first():  # a warm run compiles nothing and starts no thread
+        threads.append(threading.Thread(target=wait, name="emorbit-compile-notice", daemon=True))
+        threads[0].start()
+
+    watch = _Watch(first)
     with event.install_listener("numba:compile", watch.listener()):
-        thread.start()
         try:
             yield
         finally:
             done.set()
-            thread.join()
+            for thread in threads:
+                thread.join()

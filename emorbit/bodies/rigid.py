@@ -26,9 +26,9 @@ import numpy as np
 from ..integrators.dispatch import method_code
 from ..integrators.plan import Plan
 from ..kernels import rigid as kern
+from ..kernels.rigid_records import rigid_record_values
 from .ledger import ledger_terms
 from .pointmasses import earliest_failure
-from .rotations import matrix_to_quaternion
 from .shapes import MassPoints
 from .system import BodySystem, WorkSums, roundoff_scales
 
@@ -568,19 +568,26 @@ class RigidBodies(WorkSums, BodySystem):
     def invariants(self, rec: RigidRecords, nrec: int, gm: float, center):
         """Energy (kinetic plus every effect's potential), momentum and angular momentum
         (orbital plus spin) about the field's centre at each record."""
-        q, v = rec.q[:nrec], rec.v[:nrec]
-        c = np.asarray(center, float)
-        m = self.mass
-        phi, dphi = q[..., 0:3], v[..., 0:3]
-        D = q[..., 3:].reshape(q.shape[:-1] + (3, 3))  # [..., k, :] = d_k
-        dD = v[..., 3:].reshape(v.shape[:-1] + (3, 3))
-        T = 0.5 * m * np.einsum("rbi,rbi->rb", dphi, dphi) + 0.5 * np.einsum("bkl,rbki,rbli->rb", self.E, dD, dD)
-        P = np.einsum("b,rbi->rbi", m, dphi)
-        L = np.cross(phi - c, P) + np.einsum(
-            "bkl,rbklj->rbj", self.E, np.cross(D[:, :, :, None, :], dD[:, :, None, :, :])
-        )
-        energy = T.sum(axis=1) + sum(self._potentials(rec, nrec).values())
-        return energy, P.sum(axis=1), L.sum(axis=1)
+        sums = self._values(rec, nrec, center)[0]
+        return sums[:, 0] + sum(self._potentials(rec, nrec).values()), sums[:, 1:4], sums[:, 4:7]
+
+    def _values(self, rec: RigidRecords, nrec: int, center=None):
+        """The records' kinetic energy, momenta about ``center`` (None: any, for the attitudes
+        and spins alone), attitudes and spins (:func:`~emorbit.kernels.rigid_records.rigid_record_values`),
+        once per records: a record's invariants, their scales and its datasets ask for the same."""
+        c = np.zeros(3) if center is None else np.ascontiguousarray(center, float)
+        key = (nrec, tuple(c))
+        cached = self.__dict__.get("_last_values")
+        if cached is not None and cached[0] is rec and (cached[1] == key or center is None and cached[1][0] == nrec):
+            return cached[2]
+        nb = len(self)
+        out = (np.empty((nrec, 8)), np.empty((nrec, nb, 4)), np.empty((nrec, nb, 3)))
+        rigid_record_values(
+            np.ascontiguousarray(rec.q[:nrec]), np.ascontiguousarray(rec.v[:nrec]), self.mass, self.E,
+            self.inverse_inertias(), c, *out,
+        )  # fmt: skip
+        self._last_values = (rec, key, out)
+        return out
 
     def _potentials(self, rec: RigidRecords, nrec: int, only: int | None = None) -> dict:
         """Every effect's potential energy at each record, of the bodies' points (``only``: of
@@ -638,14 +645,9 @@ class RigidBodies(WorkSums, BodySystem):
         """Round-off scales of the invariants at each record (:func:`~emorbit.bodies.system.roundoff_scales`):
         kinetic energy (translation and spin), the potential's magnitude, the mass, and
         m |phi - c|^2 + tr E, each summed over the bodies."""
-        q, v = rec.q[:nrec], rec.v[:nrec]
-        c = np.asarray(center, float)
-        energy, _, _ = self.invariants(rec, nrec, gm, center)
-        dD = v[..., 3:].reshape(v.shape[:-1] + (3, 3))
-        T = 0.5 * np.einsum("b,rbi,rbi->r", self.mass, v[..., 0:3], v[..., 0:3])
-        T = T + 0.5 * np.einsum("bkl,rbki,rbli->r", self.E, dD, dD)
-        moment = np.einsum("b,rbi,rbi->r", self.mass, q[..., 0:3] - c, q[..., 0:3] - c)
-        moment = moment + np.trace(self.E, axis1=1, axis2=2).sum()
+        sums = self._values(rec, nrec, center)[0]
+        T, moment = sums[:, 0], sums[:, 7]
+        energy = T + sum(self._potentials(rec, nrec).values())
         return roundoff_scales(T, np.abs(energy - T), self.mass.sum(), moment)
 
     def newton_facts(self, index: int, method: str, gm: float, center, h: float, max_iter: int):
@@ -683,10 +685,7 @@ class RigidBodies(WorkSums, BodySystem):
         """{name: {dataset: (nrec, width)}}: ``position`` (m), ``velocity`` (m/s), ``attitude`` (unit
         quaternion w, x, y, z) and ``angular_velocity`` (rad/s, body frame)."""
         q, v = rec.q[:nrec], rec.v[:nrec]
-        D = q[..., 3:].reshape(q.shape[:-1] + (3, 3))
-        dD = v[..., 3:].reshape(v.shape[:-1] + (3, 3))
-        Omega = body_angular_velocity(self.E, D, dD)
-        quat = matrix_to_quaternion(np.swapaxes(D, -1, -2))  # R has the d_k as columns
+        _, quat, Omega = self._values(rec, nrec)
         out = {}
         for b, name in enumerate(self.names):
             out[name] = {

@@ -114,17 +114,24 @@ def low_parts(order: int) -> np.ndarray:
     float64 the identity is off by about 1e-17, the same in every step, and the invariants
     drift by that times ``(h omega)^2`` per step. With these parts the stage sums use the
     coefficients to 20 digits, so the drift is far below round-off's random walk."""
-    from decimal import Decimal, getcontext
+    if order not in _LOW:
+        from decimal import Decimal, localcontext
 
-    getcontext().prec = 40
-    c, b, a, _, _ = _GAUSS[order // 2]
-    k = len(c)
-    out = np.empty((k, 1 + k))
-    for i in range(k):
-        out[i, 0] = float(Decimal(b[i]) - Decimal(float(b[i])))
-        for j in range(k):
-            out[i, 1 + j] = float(Decimal(a[i][j]) - Decimal(float(a[i][j])))
-    return out
+        c, b, a, _, _ = _GAUSS[order // 2]
+        k = len(c)
+        out = np.empty((k, 1 + k))
+        with localcontext() as ctx:  # the caller's decimal context stays as it was
+            ctx.prec = 40
+            for i in range(k):
+                out[i, 0] = float(Decimal(b[i]) - Decimal(float(b[i])))
+                for j in range(k):
+                    out[i, 1 + j] = float(Decimal(a[i][j]) - Decimal(float(a[i][j])))
+        _LOW[order] = out
+    return _LOW[order].copy()
+
+
+#: :func:`low_parts` by order, computed once per process
+_LOW: dict = {}
 
 
 @kernel
