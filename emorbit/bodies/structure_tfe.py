@@ -31,9 +31,12 @@ iteration contracts by less than 1 / :data:`SLOW`. The first guess carries the l
 acceleration and constraint force (the structure's ``acc`` and ``lam``, so results do not depend
 on where chunks or checkpoints fall). It stops once the update is below 4 eps of the slot's
 scale (the increment, ``h v0`` and the size of the coordinates, as
-:meth:`~emorbit.bodies.coupled.Structure.step` measures it). A stall above that (the update no
-longer halving three times running, below 2**20 eps) is not accepted: the step fails and the
-structure redoes it in halves, so every accepted step keeps energy and momenta to round-off.
+:meth:`~emorbit.bodies.coupled.Structure.step` measures it). A rigid body's axes are also
+weighed against its centre's scale over its size ``sqrt(tr E / m)``, what moves its points as
+much: its gravity points' large forces, whose moments nearly cancel, round the axes' update
+above 4 eps of the unit axes in orbit. A stall above that (the update no longer halving three
+times running, below 2**20 eps) is not accepted: the step fails and the structure redoes it in
+halves, so every accepted step keeps energy and momenta to round-off.
 The end state is ``u1 = u0 + h sum_l b_l V_l``, ``v1 = v0 + h sum_l b_l M^-1 (A_l - G_l^T
 lam_l)`` (M solved with one step of refinement).
 
@@ -103,6 +106,12 @@ class StructureTFE:
         self._ref = int(np.argmax(st.slot_pos)) if st.slot_pos.any() else -1
         self._velocity_pattern(st.J, st.J_mass)
         self._constraint_layout(st.rb_slots, st.rb_es)
+        # a rigid body's axes are weighed against its centre's scale over its size sqrt(tr E / m)
+        diag = st.Ms.diagonal()
+        rb = np.asarray(st.rb_slots, np.int64).reshape(-1, 4)
+        self._axes = rb[:, 1:].ravel()
+        self._axes_centre = np.repeat(rb[:, 0], 3)
+        self._axes_weight = np.repeat(diag[rb[:, 0]] / (3.0 * np.asarray(st.rb_es, float)), 3)
         nn, ng = st.node_slot.shape[0], st.gp_m.size
         self._fn = np.empty((k, nn, 3))
         self._fg = np.empty((k, ng, 3))
@@ -376,6 +385,7 @@ class StructureTFE:
         lam = np.tile(np.asarray(lam0, float), (k, 1))
         size2 = float(np.max(np.sum(u0 * u0, axis=1) * st.slot_pos, initial=0.0))
         base2 = np.sum((h * v0) ** 2, axis=1) + np.where(st.slot_pos > 0, size2, 1.0)
+        base2[self._axes] += base2[self._axes_centre] * self._axes_weight
         lu = None
         prev2 = np.inf
         stalls = 0
