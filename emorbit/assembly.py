@@ -648,18 +648,19 @@ class Assembly:
         for system in self.systems:
             if not len(system) or self.method not in system.POINTS_ONLY:
                 continue
-            acting = [
-                (e, kind)
+            acting = [  # on surfaces, or at points with a force that depends on the velocity
+                (e, kind, "acts on their surfaces" if e.acts_on(kind) == ON_SURFACES else "depends on the velocity")
                 for kind, names in kinds.items()
                 for e in self.effects.named
-                if e.acts_on(kind) == ON_SURFACES and any(n in system and e.reaches(n) for n in names)
+                if (e.acts_on(kind) == ON_SURFACES or e.acts_on(kind) and not type(e).EXPLICIT)
+                and any(n in system and e.reaches(n) for n in names)
             ]
             if acting:
-                e, kind = acting[0]
+                e, kind, why = acting[0]
                 raise InputError(
                     "method",
-                    f"method {self.method!r} steps {kind} bodies under effects at their points alone, and "
-                    f"{e.key} ({e.kind}) acts on their surfaces; use em",
+                    f"method {self.method!r} steps {kind} bodies under effects at their points' positions alone, "
+                    f"and {e.key} ({e.kind}) {why}; use em",
                 )
         if self.adaptive is not None and self.points.under_effects() and not self.effects.sets_time_scale("point"):
             raise InputError(

@@ -43,9 +43,9 @@ A third body's potential changes in time: the step sums the work of that change
 = E - E0 - W stays at round-off, and the drift monitor checks it where the energy itself is
 not conserved. The Sun and the Moon are where the ephemeris puts them at the run's epoch
 (`[integrator] epoch = "2026-01-01T00:00:00 TDB"`) plus the clock. Every effect acts with
-the methods em and midpoint, and with leapfrog where its force is a function of position and
-time alone, and so with tfe where it acts at the points of single bodies (*methods*
-below); point masses, rigid and elastic bodies feel each effect as its
+the methods em and midpoint, with leapfrog where its force is a function of position and
+time alone, and with tfe where it acts at the points of single bodies, a force that depends
+on the velocity at point masses (*methods* below); point masses, rigid and elastic bodies feel each effect as its
 *acts on* row says, at fixed and at adaptive steps.
 
 ```toml
@@ -177,15 +177,18 @@ def _acts(cls) -> str:
 
 def _methods(cls) -> str:
     """The methods a step with the effect may use, from ``EXPLICIT`` and the pieces (tfe's
-    stages take forces at points of single bodies at fixed mass)."""
+    stages take forces at points of single bodies at fixed mass, and a force that depends on
+    the velocity at point masses alone)."""
+    kinds = [kind for kind in BODY_KINDS if cls.acts_on(kind)]
+    at_points = [kind for kind in kinds if cls.acts_on(kind) == AT_POINTS and (cls.EXPLICIT or kind == "point")]
+    methods = ["em", "midpoint"] + (["leapfrog"] if cls.EXPLICIT else [])
+    if at_points and not (cls.pairs() or cls.changes_mass()):
+        names = ", ".join(KINDS[k][0] for k in at_points)
+        methods.append("tfe" if len(at_points) == len(kinds) else f"tfe ({names}: its stages take no surfaces)")
+    text = ", ".join(methods)
     if not cls.EXPLICIT:
-        return "em, midpoint (its force depends on the velocity: leapfrog's kicks and tfe's stages cannot take it)"
-    if cls.pairs() or cls.changes_mass():
-        return "em, midpoint, leapfrog"
-    at_points = [KINDS[kind][0] for kind in BODY_KINDS if cls.acts_on(kind) == AT_POINTS]
-    if len(at_points) == len([kind for kind in BODY_KINDS if cls.acts_on(kind)]):
-        return "em, midpoint, leapfrog, tfe"
-    return f"em, midpoint, leapfrog, tfe ({', '.join(at_points)}: its stages take no surfaces)"
+        text += "; not leapfrog, whose kicks take no force that depends on the velocity"
+    return text
 
 
 def markdown() -> str:

@@ -34,8 +34,7 @@ is emorbit's to 1e-13.
 Engines (:data:`SIZES`): em at fixed steps dt (orders 4-8; the quick configuration 6 and 8) and
 with adaptive steps (``adaptive = eta``, orders 6 and 8), timed over one record interval, the
 whole run (adaptive steps land only at its end); the time finite element (``method = "tfe"``,
-order 6) at fixed and adaptive steps on the cases without drag (it refuses forces that depend
-on the velocity); heyoka's ``taylor_adaptive`` at several
+order 6) at fixed and adaptive steps; heyoka's ``taylor_adaptive`` at several
 tolerances (compile time in its own column, caches off); REBOUND's IAS15 at several epsilons
 (``additional_forces``, a Python callback: REBOUNDx's ``gravitational_harmonics`` has J2 and J4
 only, so it is not used); scipy's DOP853 at several rtol. Measured for each: the CPU time of
@@ -167,7 +166,7 @@ class Size:
     epsilons: tuple  # IAS15's, loosest first
     rtols: tuple  # DOP853's, loosest first
     max_run_s: float  # a run estimated (from the one before in its series) to take longer is skipped
-    tfe: tuple = ()  # the time finite element's fixed steps ((order, (dt, ...)), ...); not under drag
+    tfe: tuple = ()  # the time finite element's fixed steps ((order, (dt, ...)), ...)
     tfe_etas: tuple = ()  # and its adaptive steps ((order, (eta, ...)), ...)
 
 
@@ -182,6 +181,8 @@ SIZES = {
             (1e-5, 1e-7, 1e-9, 1e-11),
             (1e-6, 1e-8, 1e-10, 1e-12),
             20.0,
+            ((6, (120.0, 60.0, 30.0)),),
+            ((6, (0.04, 0.02, 0.01, 0.005)),),
         ),
         "molniya": Size(
             None,
@@ -215,6 +216,8 @@ SIZES = {
             (1e-7, 1e-9),
             (1e-6, 1e-9),
             3.0,
+            ((6, (120.0, 60.0, 30.0)),),
+            ((6, (0.04, 0.02, 0.01, 0.005)),),
         ),
         "molniya": Size(
             None,

@@ -83,7 +83,8 @@ class EffectRun:
         their low parts, GM, the centre, ``coef_c``, ``coef_n``, has_n, has_d, ``row_effect``).
         The kernel forms the central field itself (its row is 0 in both coefficient arrays);
         the forces of the other effects whose potential does not change in time are scaled
-        with it for the energy (``coef_c``), the others' are not (``coef_n``); a working
+        with it for the energy (``coef_c``), the others' are not (``coef_n``; ``has_n`` 1 where
+        there are any, 2 where a force among them depends on the velocity); a working
         effect's work is its force's over the stages, plus its potential's change where that
         changes in time (``row_effect`` >= 0). For another method, placeholders of the same
         types (unread)."""
@@ -94,14 +95,15 @@ class EffectRun:
         gm, center = (0.0, np.zeros(3)) if field is None else (float(field.gm), np.asarray(field.center, float))
         if method != "tfe":
             w = self.work.shape[0]
-            return (prog.potential, np.zeros((1, 5)), np.zeros((1, 2)), gm, center, self.coef, self.coef, False, False,
+            return (prog.potential, np.zeros((1, 5)), np.zeros((1, 2)), gm, center, self.coef, self.coef, 0, False,
                     np.full(w, -1, np.int64))  # fmt: skip
         static, other, row_effect = self.binding.tfe_split()
+        moving = any(w and not type(e).EXPLICIT for w, e in zip(other, self.binding.effects.all))
         tab = dispatch.tfe_tables(gammas)
         return (
             prog.potential, tab, low_parts(2 * tab.shape[0]), gm, center,
             np.ascontiguousarray(self.coef * static[:, None]), np.ascontiguousarray(self.coef * other[:, None]),
-            bool(other.max(initial=0.0) > 0.0), bool((row_effect >= 0).any()), row_effect,
+            (2 if moving else 1) if other.max(initial=0.0) > 0.0 else 0, bool((row_effect >= 0).any()), row_effect,
         )  # fmt: skip
 
     def _tfe(self, rec, dt, gammas, every, nrec, max_iter, clock):

@@ -144,7 +144,8 @@ class BodySystem:
     METHODS : tuple of str
         The methods (names of :data:`emorbit.integrators.METHODS`) it has kernels for.
     POINTS_ONLY : tuple of str
-        Those of them whose steps take effects at points only (none may act on its surfaces).
+        Those of them whose steps take effects at its points' positions only (none may act on
+        its surfaces, nor at its points with a force that depends on the velocity).
     names : list of str
         The bodies' names, in the order of adding (an attribute or a property of the kind).
     STATE_FIELDS : tuple of str

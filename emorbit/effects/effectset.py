@@ -190,8 +190,8 @@ class EffectSet:
         """Refuse a method an effect cannot run with: one whose kernels step the central field
         alone (:attr:`~emorbit.integrators.Method.effects`), leapfrog kicks with forces
         that depend on the velocity (drag) or that act between pairs of bodies of other kinds,
-        and tfe's stages with forces that depend on the velocity, act between pairs or change
-        the mass.
+        and tfe's stages with forces that act between pairs or change the mass (the body
+        systems refuse what their stages do not take: :attr:`~emorbit.bodies.system.BodySystem.POINTS_ONLY`).
 
         Raises
         ------
@@ -209,8 +209,7 @@ class EffectSet:
             for e in self._named:
                 cls = type(e)
                 why = (
-                    "depends on the velocity" if not cls.EXPLICIT
-                    else "acts between pairs of bodies" if cls.pairs()
+                    "acts between pairs of bodies" if cls.pairs()
                     else "changes the mass" if cls.changes_mass()
                     else ""
                 )  # fmt: skip

@@ -32,8 +32,11 @@ field's gradient, as the midpoint rule's), and the others the step ``(x0, x1)``.
 
 The compiled functions, with ``mode`` :data:`MODE_STEP` (the em step's discrete forces),
 :data:`MODE_MIDPOINT` (conservative effects at the midpoint (x0 + x1) / 2, others over the
-step) or :data:`MODE_EXPLICIT` (x0 = x1 = x: the force at a point, leapfrog's kicks), plus
-:data:`MODE_WEIGHTED` for forces rather than forces per unit mass::
+step), :data:`MODE_EXPLICIT` (x0 = x1 = x: the force at a point, leapfrog's kicks) or
+:data:`MODE_POINT` (a time finite element's stage at the midpoint of a segment (x0, x1) over
+which its velocity is the mean: forces that depend on the velocity over the segment, every
+other at the midpoint), plus :data:`MODE_WEIGHTED` for forces rather than forces per unit
+mass::
 
     forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first) -> status
         F (3, n) per unit mass, W (9, n) its diagonal Jacobian blocks ``W[3 a + b, i] =
@@ -46,7 +49,8 @@ step) or :data:`MODE_EXPLICIT` (x0 = x1 = x: the force at a point, leapfrog's ki
         x0 + dx (J): ``m F . dx`` for a force that does work, the ``time_work`` of a potential
         that changes in time; w is the number of working effects, in the set's order. With
         :data:`MODE_POINT`, every working effect's ``m F(x0) . dx``: its force at x0 (a stage
-        of a time finite element) times a displacement. A set
+        of a time finite element) times a displacement; a force that depends on the velocity
+        takes it as ``dx / h``, over ``(x0 - dx / 2, x0 + dx / 2)``. A set
         with an effect that changes mass (a ``mass`` piece) has one more row, its *ledger
         row* (the last): the point's work over the step at its true mean mass, ``(1 + sum
         dmu) sum_k out[k, i]``, dmu the ``mass`` pieces' parts where they act on the point.
@@ -179,12 +183,19 @@ _EFFECT_LOOP = """for j in range(nb):
                 B[(9 + 3 * a + b) * LD + j] = J[a, b] if on else B[(9 + 3 * a + b) * LD + j]"""
 
 
-def _ends(e0: str, e1: str, e2: str, conservative: bool, point: bool = False) -> str:
+def _ends(e0: str, e1: str, e2: str, conservative: bool, point: bool = False, moving: bool = False) -> str:
     """The step's end ``b`` from the expressions of its components and, for a conservative
     effect, the points its force takes: ``u = w =`` the midpoint with ``mid``, else ``a, b``;
-    where ``point`` (the work function), ``b = a`` with ``pt`` (MODE_POINT: the force at a)."""
+    where ``point`` (the work function), with ``pt`` (MODE_POINT): ``b = a`` (the force at a),
+    or, for a force that depends on the velocity (``moving``), the displacement d centred on a,
+    ``(a - d / 2, a + d / 2)``, whose velocity is ``d / h``."""
     code = f"b0 = {e0}\nb1 = {e1}\nb2 = {e2}"
-    if point:
+    if point and moving:
+        code += (
+            "\nif pt:\n    a0 = a0 - 0.5 * d0\n    a1 = a1 - 0.5 * d1\n    a2 = a2 - 0.5 * d2\n"
+            "    b0 = a0 + d0\n    b1 = a1 + d1\n    b2 = a2 + d2"
+        )
+    elif point:
         code += "\nif pt:\n    b0 = a0\n    b1 = a1\n    b2 = a2"
     if conservative:
         code += (
@@ -192,6 +203,21 @@ def _ends(e0: str, e1: str, e2: str, conservative: bool, point: bool = False) ->
             "    w0 = u0\n    w1 = u1\n    w2 = u2\nelse:\n    u0 = a0\n    u1 = a1\n    u2 = a2\n"
             "    w0 = b0\n    w1 = b1\n    w2 = b2"
         )
+    return _indent(code, 4)
+
+
+def _force_ends(e0: str, e1: str, e2: str, conservative: bool) -> str:
+    """``forces``' step end ``b`` and the points ``u, w`` the force of an effect whose force is a
+    function of position and time takes: with ``pt`` (MODE_POINT: a time finite element's stage
+    at the segment's midpoint, beside forces that read their velocity from the segment) the
+    midpoint twice, as with ``mid`` for a conservative effect; else ``a, b``."""
+    cond = "mid or pt" if conservative else "pt"
+    code = (
+        f"b0 = {e0}\nb1 = {e1}\nb2 = {e2}\n"
+        f"if {cond}:\n    u0 = 0.5 * (a0 + b0)\n    u1 = 0.5 * (a1 + b1)\n    u2 = 0.5 * (a2 + b2)\n"
+        "    w0 = u0\n    w1 = u1\n    w2 = u2\nelse:\n    u0 = a0\n    u1 = a1\n    u2 = a2\n"
+        "    w0 = b0\n    w1 = b1\n    w2 = b2"
+    )
     return _indent(code, 4)
 
 
@@ -284,8 +310,11 @@ def set_source(effects) -> tuple[str, tuple[int, ...], bool]:
         if "force" not in has[e]:
             continue
         cons = "energy" in cls.CONSERVES
-        at = "u0, u1, u2, w0, w1, w2" if cons else "a0, a1, a2, b0, b1, b2"
-        ends = _ends("B[3 * LD + j]", "B[4 * LD + j]", "B[5 * LD + j]", cons)
+        at = "u0, u1, u2, w0, w1, w2" if cons or cls.EXPLICIT else "a0, a1, a2, b0, b1, b2"
+        if cls.EXPLICIT:
+            ends = _force_ends("B[3 * LD + j]", "B[4 * LD + j]", "B[5 * LD + j]", cons)
+        else:
+            ends = _ends("B[3 * LD + j]", "B[4 * LD + j]", "B[5 * LD + j]", cons)
         own.append(_EFFECT_LOOP.format(e=e, ko=f"{_ROW_COEF + e} * LD", ends=ends, at=at))
     forces = f"""
 @numba.cfunc(FORCES, **_OPTIONS)
@@ -301,6 +330,7 @@ def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
             W[c, :] = 0.0
 {_indent(pairs, 4) if pairs else ""}
     mid = mode == MODE_MIDPOINT
+    pt = mode == MODE_POINT
     B = np.empty(({_ROW_COEF + len(effects)}) * LD)
     bad = 0
     # (a set of pair effects alone has nothing to add, unless weighted: F + m 0)
@@ -367,7 +397,7 @@ def prepare(ta, tm, tb, P, I, T, S):
         else:
             work_loops.append(f"for j in range(nb):\n    {row} = 0.0")
             continue
-        ends = _ends("a0 + d0", "a1 + d1", "a2 + d2", cons, point=True)
+        ends = _ends("a0 + d0", "a1 + d1", "a2 + d2", cons, point=True, moving=not cls.EXPLICIT)
         work_loops.append(
             f"for j in range(nb):\n    kc = B[{_ROW_COEF + e} * LD + j]\n    J = block33()\n"
             "    a0 = B[j]\n    a1 = B[LD + j]\n    a2 = B[2 * LD + j]\n"

@@ -21,9 +21,11 @@ Data layout of an effect set, k effects (the order in which their forces are sum
     the points' masses and the body each belongs to (pair effects act between bodies only).
 
 ``mode``: :data:`MODE_STEP` (the em step's discrete forces), :data:`MODE_MIDPOINT`
-(conservative effects at the midpoint, others over the step) or :data:`MODE_EXPLICIT` (the
-force at a point, leapfrog's kicks), plus the flag :data:`MODE_WEIGHTED` (forces, not forces
-per unit mass); the work function also takes :data:`MODE_POINT` (the force at x0 times dx).
+(conservative effects at the midpoint, others over the step), :data:`MODE_EXPLICIT` (the
+force at a point, leapfrog's kicks) or :data:`MODE_POINT` (a stage: the forces at the
+midpoint, those that depend on the velocity over the step), plus the flag
+:data:`MODE_WEIGHTED` (forces, not forces per unit mass); the work function's
+:data:`MODE_POINT` is the force at x0 times dx.
 """
 
 from __future__ import annotations
@@ -52,8 +54,10 @@ MODE_STEP = 0
 MODE_MIDPOINT = 1
 #: the force at a point (x0 = x1): the explicit kicks of leapfrog
 MODE_EXPLICIT = 2
-#: the work function only: each effect's force at x0 times the displacement dx (the work at a
-#: stage of a time finite element, :mod:`emorbit.kernels.pointmass.effect_tfe`)
+#: a stage of a time finite element (:mod:`emorbit.kernels.pointmass.effect_tfe`) at the
+#: midpoint of (x0, x1): the forces there, those that depend on the velocity over the segment;
+#: the work function: each effect's force at x0 times the displacement dx (a force that
+#: depends on the velocity takes it as dx / h, over (x0 - dx / 2, x0 + dx / 2))
 MODE_POINT = 3
 #: a flag added to a mode: forces (N) rather than forces per unit mass
 MODE_WEIGHTED = 4

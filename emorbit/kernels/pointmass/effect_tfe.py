@@ -8,16 +8,18 @@ Method: :mod:`.tfe`'s Gauss collocation in space, unknowns ``phi_l = h^2 F_l`` (
     nu = (GM h sum_l b_l s_l (r_l^-3 - K) + G . (x1 - x0) - h sum_l b_l P^o_l) / (h sum_l b_l P_l^2),
 
 C_l the central field (formed here) plus the set's effects whose potential does not change in
-time, N_l the others' (each at (Q_l, t0 + c_l h), MODE_EXPLICIT), G the static effects' em
-force over (x0, x1) (its work is their potential's drop exactly), P^o_l their power,
-``K = 2 / (r0 r1 (r0 + r1))``. ``b_i a_ij + b_j a_ji = b_i b_j`` makes ``|v1|^2/2 - |v0|^2/2 = h
-sum b_l V_l . F_l`` and ``r1^2 - r0^2 = 2 h sum b_l s_l`` exact for any stage values, so nu
-makes the scaled forces' work equal the potentials' drop and ``E1 - E0 = W`` exactly, W each
-working effect's row: its force's work at the stages (MODE_POINT), plus, for a potential that
-changes in time, its change over the step (the work of that change to order 2k). The central
-part of nu is a sum of terms in s_l, so its round-off shrinks with the radial motion as the
-denominator does. nu is O(h^{2k}): order 2k; one factor per stage keeps the angular momentum
-the scaled forces keep (about the centre, about the pole).
+time, N_l the others' (each at (Q_l, t0 + c_l h), MODE_EXPLICIT; where a force among them depends
+on the velocity, over ``Q_l -+ h V_l / 2``, MODE_POINT: the others at its midpoint Q_l, drag
+with its mean velocity V_l), G the static effects' em force over (x0, x1) (its work is
+their potential's drop exactly), P^o_l their power, ``K = 2 / (r0 r1 (r0 + r1))``. ``b_i a_ij +
+b_j a_ji = b_i b_j`` makes ``|v1|^2/2 - |v0|^2/2 = h sum b_l V_l . F_l`` and ``r1^2 - r0^2 = 2 h
+sum b_l s_l`` exact for any stage values, so nu makes the scaled forces' work equal the
+potentials' drop and ``E1 - E0 = W`` exactly, W each working effect's row: its force's work at
+the stages (MODE_POINT, the velocity V_l), plus, for a potential that changes in time, its change
+over the step (the work of that change to order 2k). The central part of nu is a sum of terms in
+s_l, so its round-off shrinks with the radial motion as the denominator does. nu is O(h^{2k}):
+order 2k; one factor per stage keeps the angular momentum the scaled forces keep (about the
+centre, about the pole).
 
 Newton on each point's 3k unknowns: ``delta_lj I - 2 h^2 (a^2)_lj W_l`` (W_l the set's x0 = x1
 Jacobian, half the gradient) plus nu's response (rank one), a dense solve, started from the
@@ -57,6 +59,8 @@ _TOL = 2.0**-53
 _FLOOR = 2.0**-40
 #: updates of a point that may grow (above the floor) before its step fails
 _REGRESSIONS = 3
+#: ``has_n`` where some of the other effects' forces depend on the velocity (drag)
+_MOVING = 2
 #: an update below this fraction of phi ends Newton where the iterate keeps the energy ...
 _LOOSE = 2.0**-36
 #: ... to this many eps of the energy change's terms (:func:`_energy_gap`)
@@ -264,11 +268,12 @@ def _update(tab, lo, phi, Fc, Fn, Wc, Wn, Pw, V, G, Wd, dx, gm, ctr, Q, X1, Cs, 
 
 
 @kernel
-def _work(forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_n, has_d, P, I, T, S, row_effect,
-          t0, h, sgn, phi, sc, work, cwork):  # fmt: skip
+def _work(forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_n, has_n, has_d, P, I, T, S,
+          row_effect, t0, h, sgn, phi, sc, work, cwork):  # fmt: skip
     """Add each working effect's work over the converged step into the sums: its force's over
-    the stages (MODE_POINT), plus, for a potential that changes in time (``row_effect`` >= 0:
-    its effect's index), the potential's change over the step."""
+    the stages (MODE_POINT; a force that depends on the velocity, ``has_n`` 2, reads the stage
+    velocity as the displacement over ``sgn h b_l``), plus, for a potential that changes in time
+    (``row_effect`` >= 0: its effect's index), the potential's change over the step."""
     Q, V, Fc, Fn, Wc, Wn, Pw, dx, X0, X1, G, Wd, R, prev, A, rhs, out, tot, D, done, U, dP, dnu, Cs, Ce, Sk = sc
     k = tab.shape[0]
     n = x.shape[1]
@@ -279,7 +284,8 @@ def _work(forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, c
         for c in range(3):
             for i in range(n):
                 D[c, i] = h * (tab[l, 1] + lo[l, 0]) * V[l, c, i]
-        work_of(Q[l], D, m, body, coef_n, h, MODE_POINT, P, I, T, S, out)
+        hl = sgn * h * (tab[l, 1] + lo[l, 0]) if has_n == _MOVING else h
+        work_of(Q[l], D, m, body, coef_n, hl, MODE_POINT, P, I, T, S, out)
         for r in range(out.shape[0]):
             for i in range(n):
                 tot[r, i] += out[r, i]
@@ -297,6 +303,22 @@ def _work(forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, c
     for r in range(tot.shape[0]):
         for i in range(n):
             work[r, i], cwork[r, i] = kahan_add(work[r, i], cwork[r, i], tot[r, i])
+
+
+@kernel
+def _others(forces, has_n, q, v, hs, m, body, coef_n, h, P, I, T, S, F, W, R, X0, X1, jac):
+    """The other effects' forces at the points q with velocities v (``has_n`` :data:`_MOVING`:
+    some depend on the velocity, which they read from the segment ``(q - hs v / 2, q + hs v /
+    2)`` over h, the others at its midpoint, MODE_POINT; else at q, MODE_EXPLICIT); ``X0``,
+    ``X1`` scratch (at least 3, n). Returns the set's status."""
+    if has_n != _MOVING:
+        return forces(q, q, m, body, coef_n, h, MODE_EXPLICIT, P, I, T, S, F, W, R, jac, True)
+    for c in range(3):
+        for i in range(m.shape[0]):
+            d = 0.5 * hs * v[c, i]
+            X0[c, i] = q[c, i] - d
+            X1[c, i] = q[c, i] + d
+    return forces(X0, X1, m, body, coef_n, h, MODE_POINT, P, I, T, S, F, W, R, jac, True)
 
 
 @kernel
@@ -319,7 +341,9 @@ def effect_tfe_step(
         prepare(t0, t0, t0, P, I, T, S)
         bad = forces(Q[0], Q[0], m, body, coef_c, h, MODE_EXPLICIT, P, I, T, S, Fc[0], Wc[0], R, False, True)
         if has_n:
-            bad += forces(Q[0], Q[0], m, body, coef_n, h, MODE_EXPLICIT, P, I, T, S, Fn[0], Wn[0], R, False, True)
+            bad += _others(
+                forces, has_n, Q[0], v, sgn * h, m, body, coef_n, h, P, I, T, S, Fn[0], Wn[0], R, X0, X1, False
+            )
         if bad:
             return 0, STATUS_SINGULAR
         for i in range(n):
@@ -357,7 +381,8 @@ def effect_tfe_step(
                 Fc[l, :, :] = 0.0
                 Wc[l, :, :] = 0.0
             if has_n:
-                bad += forces(Q[l], Q[l], m, body, coef_n, h, MODE_EXPLICIT, P, I, T, S, Fn[l], Wn[l], R, True, True)
+                bad += _others(forces, has_n, Q[l], V[l], sgn * h, m, body, coef_n, h, P, I, T, S, Fn[l], Wn[l], R, X0,
+                               X1, True)  # fmt: skip
             _central_stage(gm, ctr, Q[l], V[l], Fc[l], Wc[l], Pw[l], Cs[:, l])
         _end(tab, lo, x, cx, V, dx, X0, X1, h)
         _central_ends(gm, ctr, X0, X1, dx, Ce)
@@ -414,7 +439,7 @@ def effect_tfe_step(
         return sweeps, STATUS_NO_CONVERGENCE
     if work.shape[0] > 0:
         _work(
-            forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_n, has_d, P, I, T, S,
+            forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, coef_n, has_n, has_d, P, I, T, S,
             row_effect, t0, h, sgn, phi, sc, work, cwork,
         )  # fmt: skip
     _stages(tab, lo, x, v, cx, cv, phi, Q, V, h)  # the solution's, for its end
