@@ -456,7 +456,7 @@ def _perturbed(s: dict) -> list[str]:
         rows = []
         for p in wp["points"]:
             if p["engine"] == "emorbit":
-                label = f"em{' adaptive' if p['adaptive'] else ''} order {p['order']}"
+                label = f"{p.get('method', 'em')}{' adaptive' if p['adaptive'] else ''} order {p['order']}"
                 setting = f"eta {p['tolerance']:g}" if p["adaptive"] else f"dt {p['dt']:g} s"
             else:
                 label = f"{p['engine']} {p['method']}" + (f" (order {p['order']})" if p["order"] else "")
@@ -467,22 +467,27 @@ def _perturbed(s: dict) -> list[str]:
         rows = []
         for row in wp["reach"]:
             eng = row["engines"]
+            cells = _reach_cells(eng, (("ias15", "eps"), ("dop853", "tol")))
+            tfe = [_gf_reach(eng.get("tfe"), "dt", "{:g}", " s"), _gf_reach(eng.get("tfe adaptive"), "eta", "{:g}")]
             rows.append(
-                [f"{row['accuracy']:g}", *_reach_cells(eng, (("ias15", "eps"), ("dop853", "tol")))]
+                [f"{row['accuracy']:g}", *cells[:2], *tfe, *cells[2:]]
                 + [
                     "-" if row[f"em_over_{k}"] is None else f"{row[f'em_over_{k}']:.2f}x"
                     for k in ("heyoka", "ias15", "dop853")
                 ]
             )
         out += [
-            "Least CPU time (ms) to reach a final position error (as for the gravity field; em: the better of "
-            "fixed and adaptive steps, its best order; heyoka's compile time not counted).",
+            "Least CPU time (ms) to reach a final position error (as for the gravity field; em and tfe: their "
+            "best order; em / peer: the best of em's and tfe's fixed and adaptive steps; heyoka's compile time "
+            "not counted).",
             "",
         ]
         head = [
             "error / a",
             "em fixed",
             "em adaptive",
+            "tfe fixed",
+            "tfe adaptive",
             "heyoka",
             "IAS15",
             "DOP853",
