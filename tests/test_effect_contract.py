@@ -100,6 +100,25 @@ def test_a_users_effect_keeps_the_energy_with_tfe_on_every_body_kind(hill):
         assert err <= 1e-13, f"{add}: |dE|/|E0| = {err:.3g}"
 
 
+def test_tfe_refuses_a_force_that_depends_on_the_velocity_at_a_rigid_bodys_points(hill):
+    """An effect that declares its force a function of the velocity (``EXPLICIT = False``) and
+    acts at a rigid body's points: tfe's rigid stages take their points' positions alone, so
+    the run is refused before it starts, naming the method, the effect and the reason."""
+    cls, _ = hill
+    moving = type("MovingTide", (cls,), {"NAME": "moving_tide", "EXPLICIT": False})
+    emorbit.effects.register(moving)
+    try:
+        sim = _free(dt=10.0, method="tfe", order=4)
+        sim.add_effect("moving_tide", mean_motion=N)
+        sim.add_rigid("p", "box", size=[2, 1, 0.5], density=100.0, position=[0.0, 20.0, 30.0], velocity=[0.0, 0.0, 0.1])
+        with pytest.raises(InputError) as info:
+            sim.run(steps=1, progress=False)
+        text = str(info.value)
+        assert info.value.key == "method" and "moving_tide" in text and "velocity" in text, text
+    finally:
+        unregister("moving_tide")
+
+
 def test_a_users_effect_does_the_work_of_its_potential_and_its_jacobian_is_right(hill):
     """Random steps: F . (x1 - x0) = V(x0) - V(x1) to round-off of the terms (measured 1e-16
     relative), and dF/dx1 against central differences (exact for a linear force: 1e-10)."""
