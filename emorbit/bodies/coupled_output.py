@@ -7,8 +7,9 @@ mutual gravity's over the pairs of mass points); linear momentum is the
 mass matrix times the velocities of the position slots; angular momentum sums u x (M v)
 over all slots (for a rigid body's director slots, its spin) and is taken about the field's
 centre. A rigid body's attitude and body-frame angular velocity come from its director
-slots as in :mod:`emorbit.bodies.rigid`; an elastic body's position is its nodes' centre of
-mass, and its nodal positions are written every ``node_output_every`` records.
+slots as a rigid body's records do (:mod:`emorbit.kernels.rigid_records`); an elastic body's
+position is its nodes' centre of mass, and its nodal positions are written every
+``node_output_every`` records.
 """
 
 from __future__ import annotations
@@ -18,8 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..kernels import elastic as kel
-from .rigid import body_angular_velocity
-from .rotations import matrix_to_quaternion
+from ..kernels.rigid_records import rigid_record_values
 from .system import BodySystem, roundoff_scales
 
 __all__ = ["StructureRecords", "StructureOutput"]
@@ -207,14 +207,17 @@ class StructureOutput(BodySystem):
                 out[b["name"]] = {"position": u[:, s].copy(), "velocity": v[:, s].copy()}
             elif b["kind"] == "rigid":
                 s = b["slots"]
-                D = u[:, s[1:]]  # (nrec, 3, 3): rows d_k
-                dD = v[:, s[1:]]
-                E = b["points"].second_moment
+                E = np.ascontiguousarray(b["points"].second_moment, float)[None]
+                Jinv = np.linalg.inv(np.trace(E[0]) * np.eye(3) - E[0])[None]
+                values = (np.empty((nrec, 8)), np.empty((nrec, 1, 4)), np.empty((nrec, 1, 3)))
+                q = np.ascontiguousarray(u[:, s].reshape(nrec, 1, 12))  # a rigid body's record rows
+                dq = np.ascontiguousarray(v[:, s].reshape(nrec, 1, 12))
+                rigid_record_values(q, dq, np.array([b["mass"]]), E, Jinv, np.zeros(3), *values)
                 out[b["name"]] = {
                     "position": u[:, s[0]].copy(),
                     "velocity": v[:, s[0]].copy(),
-                    "attitude": matrix_to_quaternion(np.swapaxes(D, -1, -2)),
-                    "angular_velocity": body_angular_velocity(E, D, dD),
+                    "attitude": values[1][:, 0],
+                    "angular_velocity": values[2][:, 0],
                 }
             else:
                 spec = b["spec"]

@@ -6,7 +6,7 @@ arrays) with Kahan compensation terms, and a warm start for the 6 multipliers of
 orthonormality constraints d_k . d_l = delta_kl. The attitude is R = [d1 d2 d3] (body axes
 in space); it is recorded as a unit quaternion (scalar first) and the angular velocity in
 the body frame, Omega = J^-1 R^T L from the spin angular momentum
-(:func:`body_angular_velocity`). The director mass matrix is E = sum m X X^T over the mass
+(:mod:`emorbit.kernels.rigid_records`). The director mass matrix is E = sum m X X^T over the mass
 points (:mod:`emorbit.bodies.shapes`), the inertia J = tr(E) I - E.
 
 Effects (the simulation's set, :class:`~emorbit.bodies.effect_binding.EffectBinding`) act at
@@ -32,7 +32,7 @@ from .pointmasses import earliest_failure
 from .shapes import MassPoints
 from .system import BodySystem, WorkSums, roundoff_scales
 
-__all__ = ["RigidBodies", "RigidRecords", "GRAVITY_MODELS", "body_angular_velocity"]
+__all__ = ["RigidBodies", "RigidRecords", "GRAVITY_MODELS"]
 
 #: gravity models a rigid body can ask for
 GRAVITY_MODELS = {"volume": kern.GRAVITY_VOLUME, "point": kern.GRAVITY_POINT, "none": kern.GRAVITY_NONE}
@@ -80,38 +80,6 @@ class RigidRecords:
             (step index in the chunk, body index, status), or None.
         """
         return earliest_failure(self.fail)
-
-
-def body_angular_velocity(E, D, dD):
-    """The body-frame angular velocity Omega = J^-1 R^T L from the spin angular momentum.
-
-    L = sum_kl E_kl d_k x dd_l is what the scheme conserves, J = tr(E) I - E. The director
-    velocities meet the velocity-level constraints only to O(dt^2), so their skew part
-    (1/2 sum d_k x dd_k) is a second-order angular velocity even when a composition makes
-    the attitude fourth order; this form follows the attitude's order
-    (tests/test_rigid.py::test_angular_velocity_follows_the_composition_order).
-
-    Parameters
-    ----------
-    E : ndarray
-        (..., 3, 3) director mass matrices, kg m^2.
-    D : ndarray
-        (..., 3, 3) with rows d_k, the body axes in space.
-    dD : ndarray
-        (..., 3, 3) with rows the velocities of d_k, 1/s.
-
-    Returns
-    -------
-    ndarray
-        (..., 3) angular velocity in the body frame, rad/s.
-    """
-    L = np.einsum("...kl,...ki,...lj->...ij", E, D, dD)
-    L = L[..., [1, 2, 0], [2, 0, 1]] - L[..., [2, 0, 1], [1, 2, 0]]  # the vector of sum E_kl d_k x dd_l
-    J = np.trace(E, axis1=-2, axis2=-1)[..., None, None] * np.eye(3) - E
-    # R^T L, the components along the body axes, summed in a fixed order: einsum's order depends
-    # on the arrays' strides, which would make the records depend on how a run is chunked
-    body = (D[..., 0] * L[..., None, 0] + D[..., 1] * L[..., None, 1]) + D[..., 2] * L[..., None, 2]
-    return np.linalg.solve(np.broadcast_to(J, body.shape[:-1] + (3, 3)), body[..., None])[..., 0]
 
 
 class RigidBodies(WorkSums, BodySystem):
