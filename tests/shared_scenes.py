@@ -1,5 +1,16 @@
 """Scenes that several test modules run."""
 
+import emorbit
+
+#: the orbit and effect sets of the tfe effect tests of rigid bodies and structures: the Earth,
+#: an epoch for the Moon's and the Sun's ephemerides, a 500 km perigee, J2..J6 and the third bodies
+EARTH = emorbit.CentralField(body="earth")
+EPOCH = "2026-03-20T00:00:00 TDB"
+R0 = EARTH.radius + 500e3
+ZONAL = [("zonal", dict(model="earth", degree=6))]
+MOON = [("third_body", dict(body="moon"))]
+SUN = [("third_body", dict(body="sun"))]
+
 
 def reuse_structure(t_end: str = "2 s", node_output_every: int = 2) -> str:
     """A tumbling elastic bar (4 tetrahedra along it) solved with Newton "reuse" (sparse LU

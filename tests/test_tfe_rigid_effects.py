@@ -6,18 +6,13 @@ refusal of effects on surfaces. Every run goes through Simulation, as a user's d
 
 import numpy as np
 import pytest
+from shared_scenes import EARTH, EPOCH, MOON, R0, SUN, ZONAL
 
 import emorbit
 from emorbit.errors import InputError
 from emorbit.integrators import coefficients
 
 EPS = np.finfo(float).eps
-EARTH = emorbit.CentralField(body="earth")
-EPOCH = "2026-03-20T00:00:00 TDB"
-R0 = EARTH.radius + 500e3
-ZONAL = [("zonal", dict(model="earth", degree=6))]
-MOON = [("third_body", dict(body="moon"))]
-SUN = [("third_body", dict(body="sun"))]
 
 
 def box_sim(method, order, dt, effects, adaptive=None, gravity="volume", spin=1.0):

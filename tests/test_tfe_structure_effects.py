@@ -6,16 +6,10 @@ effects on surfaces. Every run goes through Simulation, as a user's does."""
 
 import numpy as np
 import pytest
+from shared_scenes import EARTH, EPOCH, MOON, R0, SUN, ZONAL
 
 import emorbit
 from emorbit.errors import InputError
-
-EARTH = emorbit.CentralField(body="earth")
-EPOCH = "2026-03-20T00:00:00 TDB"
-R0 = EARTH.radius + 500e3
-ZONAL = [("zonal", dict(model="earth", degree=6))]
-MOON = [("third_body", dict(body="moon"))]
-SUN = [("third_body", dict(body="sun"))]
 
 
 def bar_sim(method, order, dt, effects, adaptive=None, box=False):
