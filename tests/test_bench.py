@@ -93,11 +93,11 @@ def test_sections_hang_together(result):
         assert orbit["heyoka"] == "ok" or orbit["heyoka"].startswith(("skipped", "failed"))
 
 
-def _adaptive(orbit):
-    """{order: [(eta, point), ...] from the largest eta} of an orbit's adaptive em points."""
+def _adaptive(orbit, method="em"):
+    """{order: [(eta, point), ...] from the largest eta} of an orbit's adaptive em (or tfe) points."""
     out = {}
     for p in orbit["points"]:
-        if p.get("adaptive"):
+        if p.get("adaptive") and p["method"] == method:
             out.setdefault(p["order"], []).append((p["tolerance"], p))
     return {o: sorted(pts, key=lambda t: -t[0]) for o, pts in out.items()}
 
@@ -128,6 +128,11 @@ def test_work_precision_adaptive_points(result):
                 assert errors[0] > 8 * errors[1], (orbit["name"], errors)
         for (_, p4), (_, p8) in zip(series[4], series[8]):
             assert p8["position_error"] < p4["position_error"], orbit["name"]
+        tfe = _adaptive(orbit, "tfe")
+        assert list(tfe) == [6] and [eta for eta, _ in tfe[6]] == [0.02, 0.008]
+        assert all(p["status"] == "ok" and p["energy_error"] < 1e-12 for _, p in tfe[6]), tfe
+        errors = [p["position_error"] for _, p in tfe[6]]
+        assert errors[0] > 60 * errors[1], (orbit["name"], errors)  # order 6: 244x nominal, 129-9651x measured
 
 
 def test_work_precision_targets(result):

@@ -16,7 +16,8 @@ ten checkpoints per orbit. Engines:
 * emorbit em with adaptive, time-symmetric steps (:mod:`emorbit.kernels.pointmass.adaptive`,
   ``h ~ eta 2 pi sqrt(r^3/GM)``) at orders 2-8 for several eta: points with ``method = "em"``,
   ``adaptive = True`` and eta as ``tolerance`` (a step too long for the control fails the run,
-  which is kept as a failed point);
+  which is kept as a failed point); tfe with the same adaptive steps at orders 4 and 6
+  (``method = "tfe"``, ``adaptive = True``);
 * REBOUND IAS15 at several epsilons (its adaptive step, exact finish time), WHFast (without
   safe mode) and leapfrog at the same dt as emorbit;
 * heyoka's Taylor integrator at tolerances from 1e-6 to machine precision, when it is
@@ -122,8 +123,8 @@ def _emorbit(x0, v0, method, order, N, T, orbits) -> dict:
     }
 
 
-def _emorbit_adaptive(x0, v0, order, eta, T, orbits) -> dict:
-    """em with adaptive steps (``h ~ eta 2 pi sqrt(r^3/GM)``, not capped), timed over the whole
+def _emorbit_adaptive(x0, v0, order, eta, T, orbits, method="em") -> dict:
+    """em (or tfe, ``method``) with adaptive steps (``h ~ eta 2 pi sqrt(r^3/GM)``, not capped), timed over the whole
     run with steps landing only at its end, as the peers run; the energy at the records
     T / CHECKPOINTS_PER_ORBIT apart comes from a second run that lands on each (a step that
     would pass one is replaced by one of the remaining time)."""
@@ -132,7 +133,7 @@ def _emorbit_adaptive(x0, v0, order, eta, T, orbits) -> dict:
     def run(dt, nrec_):
         pm = point_masses(x0[:, None], v0[:, None])
         pm.plan = pm.plan.with_(adaptive=eta)
-        rec = pm.advance("em", GM, np.zeros(3), dt, coefficients(order), 1, nrec_, 50)
+        rec = pm.advance(method, GM, np.zeros(3), dt, coefficients(order), 1, nrec_, 50)
         return pm, rec
 
     (pm, rec), cpu = best_cpu(lambda: run(orbits * T, 1))
@@ -140,7 +141,7 @@ def _emorbit_adaptive(x0, v0, order, eta, T, orbits) -> dict:
         return {"status": "failed: the run without records", "cpu_s": cpu}
     x_end = pm.x[:, 0].copy()
     steps = pm.adaptive_steps
-    newton = float(rec.iterations.sum()) / (steps * len(coefficients(order)))
+    newton = float(rec.iterations.sum()) / (steps * (1 if method == "tfe" else len(coefficients(order))))
     pm, rec = run(T / CHECKPOINTS_PER_ORBIT, nrec)
     if rec.first_failure() is not None:
         return {"status": f"failed: record {rec.first_failure()[0]}", "cpu_s": cpu}
@@ -275,19 +276,20 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
                 res = _emorbit(x0, v0, method, order, N, T, orbits)
                 per_step = res["cpu_s"] / (N * orbits)
                 add("emorbit", method, order, T / N, "dt", res)
-    scale = None  # CPU s x eta / sub-steps of the last adaptive run that finished (steps ~ 1 / eta)
-    _emorbit_adaptive(x0, v0, 2, cfg.adaptive_eta[0], T, 1)  # warm-up: load the kernel (one for every order)
-    for order in cfg.adaptive_orders:
-        stages = len(coefficients(order))
-        for eta in cfg.adaptive_eta:
-            estimate = None if scale is None else scale * stages / eta
-            if estimate is not None and estimate > MAX_RUN_S:
-                add("emorbit", "em", order, eta, "tolerance", dict(skipped), adaptive=True)
-                continue
-            res = _emorbit_adaptive(x0, v0, order, eta, T, orbits)
-            if "steps" in res:
-                scale = res["cpu_s"] * eta / stages
-            add("emorbit", "em", order, eta, "tolerance", res, adaptive=True)
+    for method, orders in (("em", cfg.adaptive_orders), ("tfe", cfg.tfe_adaptive_orders)):
+        scale = None  # CPU s x eta / solves per step of the last run that finished (steps ~ 1 / eta)
+        _emorbit_adaptive(x0, v0, orders[0], cfg.adaptive_eta[0], T, 1, method)  # warm-up: load the kernel
+        for order in orders:
+            solves = 1 if method == "tfe" else len(coefficients(order))
+            for eta in cfg.adaptive_eta:
+                estimate = None if scale is None else scale * solves / eta
+                if estimate is not None and estimate > MAX_RUN_S:
+                    add("emorbit", method, order, eta, "tolerance", dict(skipped), adaptive=True)
+                    continue
+                res = _emorbit_adaptive(x0, v0, order, eta, T, orbits, method)
+                if "steps" in res:
+                    scale = res["cpu_s"] * eta / solves
+                add("emorbit", method, order, eta, "tolerance", res, adaptive=True)
     for integrator in ("leapfrog", "whfast"):
         per_step = None
         for N in divisions:
@@ -513,7 +515,14 @@ def run(cfg) -> dict:
 
 
 # -- figures ---------------------------------------------------------------------------------
-_MAPS = {"em": "Blues", "midpoint": "Greens", "leapfrog": "Oranges", "em adaptive": "Purples", "tfe": "Reds"}
+_MAPS = {
+    "em": "Blues",
+    "midpoint": "Greens",
+    "leapfrog": "Oranges",
+    "em adaptive": "Purples",
+    "tfe": "Reds",
+    "tfe adaptive": "RdPu",
+}
 _PEERS = {
     ("rebound", "ias15"): ("REBOUND IAS15 (epsilon)", "tab:red", "*", "-"),
     ("rebound", "whfast"): ("REBOUND WHFast (exact Kepler drift)", "tab:purple", "x", "--"),
@@ -528,11 +537,12 @@ def _style(engine, method, adaptive, order):
     if engine == "emorbit":
         import matplotlib
 
-        kind = "em adaptive" if adaptive else method
+        kind = f"{method} adaptive" if adaptive else method
         color = matplotlib.colormaps[_MAPS[kind]](0.35 + 0.65 * (order - 2) / 6)
-        ls = {"em": "-", "em adaptive": "-.", "tfe": "--"}.get(kind, ":")
-        if kind == "tfe":  # the scheme beside the compositions: one solve of order / 2 Gauss stages
-            return f"emorbit tfe {order} (one solve, {order // 2} stages)", color, _MARKERS[order], ls
+        ls = {"em": "-", "em adaptive": "-.", "tfe": "--", "tfe adaptive": (0, (3, 1, 1, 1, 1, 1))}.get(kind, ":")
+        if method == "tfe":  # the scheme beside the compositions: one solve of order / 2 Gauss stages
+            eta = " (eta)" if adaptive else ""
+            return f"emorbit {kind} {order} (one solve, {order // 2} stages){eta}", color, _MARKERS[order], ls
         scheme = f" (composition of {len(coefficients(order))})" if order > 2 and not adaptive else ""
         return f"emorbit {kind} {order}{scheme}" + (" (eta)" if adaptive else ""), color, _MARKERS[order], ls
     return _PEERS[(engine, method)]
@@ -692,7 +702,7 @@ def table(section: dict) -> list[str]:
                 if b is None or p["position_error"] < b["position_error"]:
                     best[p["order"]] = p
         for p in orbit["points"]:
-            if p.get("status") == "ok" and p["method"] == "tfe":
+            if p.get("status") == "ok" and p["method"] == "tfe" and not p.get("adaptive"):
                 b = best.get(("tfe", p["order"]))
                 if b is None or p["position_error"] < b["position_error"]:
                     best[("tfe", p["order"])] = p
@@ -704,7 +714,7 @@ def table(section: dict) -> list[str]:
             )
         for p in orbit["points"]:
             if p.get("adaptive"):
-                head = f"    em adaptive order {p['order']}, eta {p['tolerance']:g}: "
+                head = f"    {p['method']} adaptive order {p['order']}, eta {p['tolerance']:g}: "
                 if p.get("status") != "ok":
                     lines.append(head + p.get("status", "?"))
                     continue
