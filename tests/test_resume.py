@@ -1,6 +1,7 @@
 """Checkpoints and restarts: a resumed run is bit for bit the run that never stopped, for
 point masses, rigid and elastic bodies, after a finished run, SIGINT or SIGKILL."""
 
+import shutil
 import signal
 import subprocess
 import sys
@@ -13,6 +14,7 @@ from shared_scenes import reuse_structure
 
 import emorbit
 from emorbit.cli import main
+from emorbit.io.hdf5 import Writer
 from emorbit.io.resume import resume
 
 
@@ -134,6 +136,35 @@ def test_killed_or_interrupted_run_resumes(tmp_path, sig, code, status):
         assert f["bodies/satellite/position"].shape[0] == n
     assert main(["resume", str(out), "--t-end", "2323790 s", "-q"]) == 0
     assert _same_files(full, out) == []
+
+
+@pytest.mark.parametrize("opened", ["created", "reopened"])
+def test_a_kill_between_flushes_leaves_the_file_of_the_last_flush(tmp_path, opened):
+    """HDF5's metadata cache writes what it evicts between flushes, and a kill then leaves
+    structures past the end the superblock records: the file cannot be read (CI once met this
+    in the test above). The writer keeps them until its flush, so a copy of its file taken
+    between flushes (what a kill leaves) reads as the last flush left it. 4000 new groups
+    overflow the cache (without the hold their copy cannot be read from 2000 on)."""
+    path = tmp_path / "run.h5"
+    if opened == "created":
+        writer = Writer(path, [], {})
+    else:
+        assert main(["run", "paper-ellipse", "-o", str(path), "-q", "--t-end", "600 s"]) == 0
+        with h5py.File(path, "r") as f:
+            records = f["time"].shape[0]
+        writer = Writer.reopen(path, records, {})
+    f = writer.file
+    f.flush()
+    flushed = []
+    f.visit(flushed.append)
+    for i in range(4000):
+        f.create_group(f"churn{i}").attrs["note"] = "x" * 200
+    shutil.copyfile(f.filename, tmp_path / "killed.h5")
+    writer.file.close()
+    with h5py.File(tmp_path / "killed.h5", "r") as copy:
+        names = []
+        copy.visit(names.append)
+        assert names == flushed
 
 
 def test_resume_errors(tmp_path):

@@ -5,8 +5,9 @@ one row per record in ``/time``, ``/invariants/`` and ``/diagnostics/``, the bod
 datasets under ``/bodies/<name>/``, every dataset with a ``unit`` attribute, and root
 attributes that say how the run was made (method, order, ``dt``, the field, the scene as
 TOML text, ``status``, ...), each with a unit followed by ``<name>_unit``. Datasets are
-chunked and growable and every appended block is flushed, so a run that stops early leaves
-a readable file.
+chunked and growable and every appended block is flushed, and HDF5's metadata cache keeps
+what changed in memory until that flush (:func:`_hold_metadata`), so a run that stops early,
+killed at any moment included, leaves the readable file of its last flush.
 
 A new file is created under a temporary name in the output's folder and renamed into place
 with its first checkpoint (a run to the same path removes the temporary files of killed
@@ -137,6 +138,17 @@ def _constant(group, name, data):
     data = np.asarray(data)
     checked = data.ndim > 0 and data.size > 0
     return group.create_dataset(name, data=data, fletcher32=checked)
+
+
+def _hold_metadata(f) -> None:
+    """Keep changed metadata in memory until the next flush: HDF5's cache otherwise writes what
+    it evicts, and a kill then leaves structures past the end the superblock records (a file
+    that cannot be read). Without evictions the file on disk is that of the last flush, plus
+    raw data past its end; the cache grows until the flush that every appended block makes."""
+    config = f.id.get_mdc_config()
+    config.evictions_enabled = False
+    config.incr_mode = config.flash_incr_mode = config.decr_mode = 0  # HDF5 needs the size fixed
+    f.id.set_mdc_config(config)
 
 
 def _append(ds, block):
@@ -278,6 +290,7 @@ class Writer:
                 self.file = h5py.File(self._temp, "x")
             except OSError as exc:
                 raise InputError("output", f"cannot create a file in {folder!r}: {exc}") from None
+            _hold_metadata(self.file)
             self._identity = _identity(os.fstat(self.file.id.get_vfd_handle()))
             self._layout(bodies, attrs, chunk_rows, potentials, works, jacobi, ledger)
             self.file.flush()
@@ -641,6 +654,7 @@ class Writer:
                 raise InputError("file", _busy_message(self.path)) from None
             raise InputError("file", f"cannot open {self.path!r} for writing ({exc})") from None
         f = self.file
+        _hold_metadata(f)
         self._identity = _identity(os.fstat(f.id.get_vfd_handle()))
         for name, fill in OPTIONAL.items():  # a file of an earlier version: its rows read as OPTIONAL says
             if name not in f:
