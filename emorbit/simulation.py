@@ -115,7 +115,7 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
         (:meth:`~emorbit.integrators.plan.Plan.check_roundoff`).
     epoch : astropy.time.Time or str, optional
         The instant the run's time 0 stands for (:func:`emorbit.epochs.to_epoch`:
-        ``"2026-01-01T00:00:00 TDB"``); the clock then counts seconds of TDB from it.
+        ``"2000-01-01T12:00:00 TDB"``); the clock then counts seconds of TDB from it.
         Required by the effects that take the Sun's or the Moon's position from an
         ephemeris (``srp``, ``third_body``).
 

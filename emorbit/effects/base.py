@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import InputError
 from ..keys import Key
 
-__all__ = ["Effect", "Pieces", "BodyKey", "AT_POINTS", "ON_SURFACES", "BODY_KINDS"]
+__all__ = ["Effect", "Pieces", "BodyKey", "AT_POINTS", "ON_SURFACES", "BODY_KINDS", "epoch_needed"]
 
 #: the body kinds an effect may act on
 BODY_KINDS = ("point", "rigid", "elastic")
@@ -167,6 +167,12 @@ class BodyKey:
         from ..units import to_si
 
         return to_si(raw, self.quantity, key, strict=strict, nonnegative=True)
+
+
+def epoch_needed(why: str) -> InputError:
+    """The error of an effect that needs the run's epoch and has none: ``why`` (the effect's key
+    and what it needs the date for), then how to give one."""
+    return InputError("integrator.epoch", f'{why}: the run needs an epoch (e.g. epoch = "2000-01-01T12:00:00 TDB")')
 
 
 class Effect:

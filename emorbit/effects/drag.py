@@ -38,7 +38,7 @@ from ..errors import InputError
 from ..keys import Key
 from ..units import to_si, vector_to_si
 from .atmosphere_tables import USSA1976, VALLADO_2013, exponential_table
-from .base import AT_POINTS, ON_SURFACES, BodyKey, Effect, Pieces
+from .base import AT_POINTS, ON_SURFACES, BodyKey, Effect, Pieces, epoch_needed
 
 __all__ = ["Drag", "EARTH_ROTATION", "ATMOSPHERES"]
 
@@ -147,11 +147,7 @@ class Drag(Effect):
         from .ephemeris import sample_table
 
         if epoch is None:
-            raise InputError(
-                "integrator.epoch",
-                f"{self.key} (NRLMSIS) needs the date and the Sun's position: the run needs an epoch "
-                '(e.g. epoch = "2026-01-01T00:00:00 TDB")',
-            )
+            raise epoch_needed(f"{self.key} (NRLMSIS) needs the date and the Sun's position")
         bands, gp, grid, sun = self._parts
         stamp = (float(epoch.tdb.jd1), float(epoch.tdb.jd2))
         if self._grid_epoch != stamp:

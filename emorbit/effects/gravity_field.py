@@ -59,7 +59,7 @@ from ..errors import InputError
 from ..io.icgem import MAX_DEGREE, model, read_gfc
 from ..keys import Key
 from ..units import to_si, vector_to_si
-from .base import AT_POINTS, Effect, Pieces
+from .base import AT_POINTS, Effect, Pieces, epoch_needed
 
 __all__ = ["GravityField", "EARTH_RATE"]
 
@@ -210,11 +210,7 @@ class GravityField(Effect):
         if self.angle is not None:
             return
         if epoch is None:
-            raise InputError(
-                "integrator.epoch",
-                f"{self.key}.rotation turns the field by the body's rotation angle at the epoch: "
-                'the run needs an epoch (e.g. epoch = "2026-01-01T00:00:00 TDB")',
-            )
+            raise epoch_needed(f"{self.key}.rotation turns the field by the body's rotation angle at the epoch")
         if self.itrs:
             self._itrs_table(t0, t1, epoch)
             return

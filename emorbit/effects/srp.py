@@ -48,7 +48,7 @@ import numpy as np
 from ..errors import InputError
 from ..keys import Key
 from ..units import to_si
-from .base import AT_POINTS, ON_SURFACES, BodyKey, Effect, Pieces
+from .base import AT_POINTS, ON_SURFACES, BodyKey, Effect, Pieces, epoch_needed
 from .ephemeris import _ephemeris, sample_table
 
 __all__ = ["RadiationPressure", "SHADOWS", "P_AU", "AU", "SUN_RADIUS"]
@@ -136,11 +136,7 @@ class RadiationPressure(Effect):
             No epoch, or times the ephemeris cannot give.
         """
         if epoch is None:
-            raise InputError(
-                "integrator.epoch",
-                f"{self.key} takes the Sun's position from an ephemeris: the run needs an epoch "
-                '(e.g. epoch = "2026-01-01T00:00:00 TDB")',
-            )
+            raise epoch_needed(f"{self.key} takes the Sun's position from an ephemeris")
         self._epoch = epoch
         k_first = math.floor(t0 / self.step) - 1
         k_last = max(math.ceil(t1 / self.step) + 1, k_first + 2)

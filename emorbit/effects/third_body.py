@@ -42,7 +42,7 @@ import numpy as np
 from ..errors import InputError
 from ..keys import Key
 from ..units import to_si
-from .base import AT_POINTS, Effect, Pieces
+from .base import AT_POINTS, Effect, Pieces, epoch_needed
 from .ephemeris import BODIES, GM, MAX_SAMPLES, KeplerThirdBody, _ephemeris, sample_table
 
 __all__ = ["ThirdBody", "TABLE_STEP", "MAX_SAMPLES"]
@@ -135,11 +135,7 @@ class ThirdBody(Effect):
             of more than :data:`MAX_SAMPLES` samples (naming ``table_step``).
         """
         if self.needs_epoch and epoch is None:
-            raise InputError(
-                "integrator.epoch",
-                f"{self.key} takes the {self.body}'s position from an ephemeris: the run needs an epoch "
-                '(e.g. epoch = "2026-01-01T00:00:00 TDB")',
-            )
+            raise epoch_needed(f"{self.key} takes the {self.body}'s position from an ephemeris")
         if self.span_samples(t0, t1) > MAX_SAMPLES:
             raise InputError(
                 f"{self.key}.table_step",
