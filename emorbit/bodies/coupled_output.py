@@ -208,7 +208,7 @@ class StructureOutput(BodySystem):
             elif b["kind"] == "rigid":
                 s = b["slots"]
                 E = np.ascontiguousarray(b["points"].second_moment, float)[None]
-                Jinv = np.linalg.inv(np.trace(E[0]) * np.eye(3) - E[0])[None]
+                Jinv = np.linalg.inv(b["points"].inertia)[None]
                 values = (np.empty((nrec, 8)), np.empty((nrec, 1, 4)), np.empty((nrec, 1, 3)))
                 q = np.ascontiguousarray(u[:, s].reshape(nrec, 1, 12))  # a rigid body's record rows
                 dq = np.ascontiguousarray(v[:, s].reshape(nrec, 1, 12))
