@@ -79,6 +79,11 @@ ENGINES = {
 }
 
 
+def _solves(method: str, order: int) -> int:
+    """Implicit solves in one step: a composition's sub-steps, or one (tfe)."""
+    return len(coefficients(order)) if get_method(method).composed else 1
+
+
 def _errors(x_end, x_ref, energies_, e0, a) -> dict:
     return {
         "position_error": float(np.linalg.norm(np.asarray(x_end) - x_ref) / a),
@@ -119,13 +124,13 @@ def _emorbit(x0, v0, method, order, N, T, orbits) -> dict:
         "energies": e,
         "steps": steps,
         # Newton iterations per solve: a tfe step is one solve, a composed step one per sub-step
-        "newton": its / (steps * (1 if method == "tfe" else len(coefficients(order)))) if method != "leapfrog" else 0.0,
+        "newton": its / (steps * _solves(method, order)) if method != "leapfrog" else 0.0,
     }
 
 
 def _emorbit_adaptive(x0, v0, order, eta, T, orbits, method="em") -> dict:
-    """em (or tfe, ``method``) with adaptive steps (``h ~ eta 2 pi sqrt(r^3/GM)``, not capped), timed over the whole
-    run with steps landing only at its end, as the peers run; the energy at the records
+    """em (or tfe, ``method``) with adaptive steps (``h ~ eta 2 pi sqrt(r^3/GM)``, not capped),
+    timed over the whole run with steps landing only at its end, as the peers run; the energy at the records
     T / CHECKPOINTS_PER_ORBIT apart comes from a second run that lands on each (a step that
     would pass one is replaced by one of the remaining time)."""
     nrec = CHECKPOINTS_PER_ORBIT * orbits
@@ -141,7 +146,7 @@ def _emorbit_adaptive(x0, v0, order, eta, T, orbits, method="em") -> dict:
         return {"status": "failed: the run without records", "cpu_s": cpu}
     x_end = pm.x[:, 0].copy()
     steps = pm.adaptive_steps
-    newton = float(rec.iterations.sum()) / (steps * (1 if method == "tfe" else len(coefficients(order))))
+    newton = float(rec.iterations.sum()) / (steps * _solves(method, order))
     pm, rec = run(T / CHECKPOINTS_PER_ORBIT, nrec)
     if rec.first_failure() is not None:
         return {"status": f"failed: record {rec.first_failure()[0]}", "cpu_s": cpu}
@@ -280,7 +285,7 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
         scale = None  # CPU s x eta / solves per step of the last run that finished (steps ~ 1 / eta)
         _emorbit_adaptive(x0, v0, orders[0], cfg.adaptive_eta[0], T, 1, method)  # warm-up: load the kernel
         for order in orders:
-            solves = 1 if method == "tfe" else len(coefficients(order))
+            solves = _solves(method, order)
             for eta in cfg.adaptive_eta:
                 estimate = None if scale is None else scale * solves / eta
                 if estimate is not None and estimate > MAX_RUN_S:
