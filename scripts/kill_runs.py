@@ -1,6 +1,6 @@
 """Kill runs at random moments and count the files that cannot be read afterwards.
 
-Each trial starts ``emorbit run paper-ellipse`` (27 orbits, a checkpoint every 2000 steps) in
+Each trial starts ``emorbit run paper-ellipse`` (5e6 steps, a checkpoint every 2000) in
 a child process, waits until more than 400 records are checkpointed, waits a random 0-0.3 s
 more and sends SIGKILL; then it opens the file as ``emorbit resume`` does
 (:func:`emorbit.io.reader.open_run_file`, which checks the layout) and prints each file that

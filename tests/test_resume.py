@@ -141,10 +141,10 @@ def test_killed_or_interrupted_run_resumes(tmp_path, sig, code, status):
 @pytest.mark.parametrize("opened", ["created", "reopened"])
 def test_a_kill_between_flushes_leaves_the_file_of_the_last_flush(tmp_path, opened):
     """HDF5's metadata cache writes what it evicts between flushes, and a kill then leaves
-    structures past the end the superblock records: the file cannot be read (CI once met this
-    in the test above). The writer keeps them until its flush, so a copy of its file taken
-    between flushes (what a kill leaves) reads as the last flush left it. 4000 new groups
-    overflow the cache (without the hold their copy cannot be read from 2000 on)."""
+    structures past the end the superblock records: the file cannot be read. The writer keeps
+    them until its flush, so a copy of its file taken between flushes (what a kill leaves)
+    reads as the last flush left it. 4000 new groups overflow the cache (without the hold
+    their copy cannot be read from 2000 on)."""
     path = tmp_path / "run.h5"
     if opened == "created":
         writer = Writer(path, [], {})
