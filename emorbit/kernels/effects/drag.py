@@ -76,7 +76,7 @@ def _density(mx, my, mz, p, tab, s):
     return _grid_at(d0, d1, d2, p, tab, s)[0]
 
 
-@_inline
+@_piece
 def drag_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     """Drag on a point of ballistic coefficient ``c`` over the step (per unit mass): the
     density at the midpoint once, then :func:`.atmosphere.drag_force_rho` and, where ``jac``,
@@ -103,7 +103,7 @@ def drag_prepare(ta, tm, tb, p, tab, s):
         s[0], s[1], s[2] = table_position(tm, p[8], p[9], _sun(p, tab))
 
 
-@_inline
+@_piece
 def drag_facet(ax, ay, az, bx, by, bz, nx, ny, nz, area, k0, k1, k2, k3, h, p, tab, s):
     """Drag on a flat facet (drag coefficient k0, two-sided where k3 > 0.5), N."""
     mx, my, mz = 0.5 * (ax + bx), 0.5 * (ay + by), 0.5 * (az + bz)

@@ -47,6 +47,8 @@ from ..jit import kernel
 __all__ = ["thrust_piece", "thrust_prepare", "thrust_facet", "thrust_mass", "burn_dv"]
 
 _inline = kernel(inline="always")
+# an effect-set piece: compiled on its own (cached per install) and inlined by LLVM into the set
+_piece = kernel(forceinline=True)
 
 
 @_inline
@@ -65,7 +67,7 @@ def burn_dv(ta, tm, tb, p):
     return p[4] * math.log1p(p[3] * (tb - ta) / mu_b)
 
 
-@_inline
+@_piece
 def thrust_prepare(ta, tm, tb, p, tab, s):
     """The sub-step's dv (0 outside the window) and the mean mass the burn has expelled over
     it, negated, over m0."""
@@ -78,7 +80,7 @@ def thrust_prepare(ta, tm, tb, p, tab, s):
         s[1] = 0.0
 
 
-@_inline
+@_piece
 def thrust_mass(c, facet, p, s):
     """This burn's part of the body's mean mass over its initial mass, less 1, over the sub-step:
     at a point it acts on (c its coefficient, not 0) or at its own thruster facet (``facet``, c
@@ -116,7 +118,7 @@ def _direction(x0, y0, z0, x1, y1, z1, h, p):
     )
 
 
-@_inline
+@_piece
 def thrust_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     """The burn's force per unit mass over the step, ``(dv / h) e``."""
     if s[0] == 0.0:
@@ -126,7 +128,7 @@ def thrust_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     return a * ex, a * ey, a * ez
 
 
-@_inline
+@_piece
 def thrust_facet(ax, ay, az, bx, by, bz, nx, ny, nz, area, k0, k1, k2, k3, h, p, tab, s):
     """The burn's force on its thruster facet (k3 its mark), N: ``M0 (dv / h) e``, e the
     facet's normal (a rigid body's thruster) or the direction in its frame over the facet's
