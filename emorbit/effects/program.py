@@ -92,6 +92,7 @@ import sys
 import tempfile
 from dataclasses import dataclass
 
+from ..kernels.effects.blocks import ROW_COEF
 from ..kernels.jit import cache_dir, cache_enabled, cached_sources_digest
 
 __all__ = ["Program", "compile_set", "set_source"]
@@ -140,7 +141,7 @@ import numba
 import numpy as np
 
 from emorbit.kernels.codes import STATUS_OK, STATUS_SINGULAR
-from emorbit.kernels.effects.blocks import BLOCK, LD, block33, load_row
+from emorbit.kernels.effects.blocks import BLOCK, LD, load_forces, load_work, store_forces, store_work
 from emorbit.kernels.effects.signatures import CROSS, FACETS, FORCES, MODE_MIDPOINT, MODE_POINT, MODE_WEIGHTED
 from emorbit.kernels.effects.signatures import POTENTIAL, PREPARE, RATE, WORK
 {imports}
@@ -164,11 +165,6 @@ def _with_views(function: str, k: int) -> str:
     used = [v.format(e=e) for e in range(k) for name, v in _VIEWS.items() if re.search(rf"\b{name}{e}\b", code[-1])]
     return function.replace(_VIEWS_AT, "\n    ".join(used) or "pass", 1)
 
-
-#: rows of a block's buffer ``B`` (:mod:`emorbit.kernels.effects.blocks`): x0 (0-2), x1 or dx
-#: (3-5), F (6-8), W (9-17), then each effect's coefficients (and, in ``work``, each working
-#: effect's work)
-_ROW_COEF = 18
 
 #: one per-point effect's loop over a block of ``forces``: its force added into the rows of F
 #: where its coefficient is not 0, its Jacobian block (on the stack, so that LLVM keeps it in
@@ -312,9 +308,9 @@ def _loops_source(cls) -> str:
     Jacobian) add the effect's force at each point of a block (its coefficients in the row at
     ``B[ko]``) into the rows of F and its Jacobian block into those of W; ``work(B, nb, ko,
     row, mb, h, p, t, s, mid, pt)`` writes its work at each point (masses ``mb``) into the row
-    at ``B[row]`` (the layout of :data:`_ROW_COEF`). Compiled once per install and effect: a
-    set's functions call them (a call per block), so that a new set compiles only its own
-    short functions."""
+    at ``B[row]`` (the rows of :mod:`emorbit.kernels.effects.blocks`). Compiled once per
+    install and effect: a set's functions call them (a call per block), so that a new set
+    compiles only its own short functions."""
     line, names = _import_line("", cls.PIECES)
     has = set(names)
     code = []
@@ -422,7 +418,7 @@ def set_source(effects) -> tuple[str, tuple[int, ...], bool]:
     own_jac, own_plain = [], []
     for e in range(len(effects)):
         if "force" in has[e]:
-            args = f"(B, nb, {_ROW_COEF + e} * LD, h, p{e}, t{e}, s{e}, mid, pt)"
+            args = f"(B, nb, {ROW_COEF + e} * LD, h, p{e}, t{e}, s{e}, mid, pt)"
             own_jac.append(f"forces_jac_{e}{args}")
             own_plain.append(f"forces_plain_{e}{args}")
     own = own_jac
@@ -441,38 +437,17 @@ def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
 {_indent(pairs, 4) if pairs else ""}
     mid = mode == MODE_MIDPOINT
     pt = mode == MODE_POINT
-    B = np.empty(({_ROW_COEF + len(effects)}) * LD)
+    B = np.empty(({ROW_COEF + len(effects)}) * LD)
     bad = 0
     # (a set of pair effects alone has nothing to add, unless weighted: F + m 0)
     for lo in range(0, n if {bool(own)} or weighted else 0, BLOCK):
         nb = min(BLOCK, n - lo)
-        # the block's rows (weighted, the own effects' sum times the mass joins the pair
-        # forces (N), so that it starts at 0)
-        for c in range(3):
-            load_row(B, c, x0, c, lo, nb)
-            load_row(B, 3 + c, x1, c, lo, nb)
-            load_row(B, 6 + c, F, c, lo, nb)
-        if jac:
-            for c in range(9):
-                load_row(B, 9 + c, W, c, lo, nb)
-        if weighted:
-            B[6 * LD : 18 * LD] = 0.0
-        for e in range({len(effects)}):
-            load_row(B, {_ROW_COEF} + e, coef, e, lo, nb)
+        load_forces(B, x0, x1, F, W, coef, lo, nb, jac, weighted)
         if jac:  # two copies of the loops, so that those without Jacobians have none of their code
 {_indent(chr(10).join(own_jac), 12) if own else "            pass"}
         else:
 {_indent(chr(10).join(own_plain), 12) if own else "            pass"}
-        mb = m[lo : lo + nb]
-        for c in range(3):
-            r = F[c, lo : lo + nb]
-            for j in range(nb):
-                r[j] = r[j] + mb[j] * B[(6 + c) * LD + j] if weighted else B[(6 + c) * LD + j]
-        if jac:
-            for c in range(9):
-                r = W[c, lo : lo + nb]
-                for j in range(nb):
-                    r[j] = r[j] + mb[j] * B[(9 + c) * LD + j] if weighted else B[(9 + c) * LD + j]
+        store_forces(B, F, W, m, lo, nb, jac, weighted)
     f0, f1, f2 = F[0], F[1], F[2]
     for i in range(n):
         bad += 0 if abs(f0[i]) + abs(f1[i]) + abs(f2[i]) < math.inf else 1
@@ -486,7 +461,7 @@ def prepare(ta, tm, tb, P, I, T, S):
 {_indent(prep, 4) if prep else "    pass"}
 """
     work_loops = [
-        f"work_{e}(B, nb, {_ROW_COEF + e} * LD, {_ROW_COEF + len(effects) + slot_of[e]} * LD, mb, h, p{e}, t{e}, s{e}, "
+        f"work_{e}(B, nb, {ROW_COEF + e} * LD, {ROW_COEF + len(effects) + slot_of[e]} * LD, mb, h, p{e}, t{e}, s{e}, "
         "mid, pt)"
         for e in working
     ]
@@ -508,20 +483,13 @@ def work(x0, dx, m, body, coef, h, mode, P, I, T, S, out):
 {_indent(views, 4)}
     mid = mode == MODE_MIDPOINT
     pt = mode == MODE_POINT
-    B = np.empty(({_ROW_COEF + len(effects) + len(working)}) * LD)
+    B = np.empty(({ROW_COEF + len(effects) + len(working)}) * LD)
     for lo in range(0, n, BLOCK):
         nb = min(BLOCK, n - lo)
-        for c in range(3):
-            load_row(B, c, x0, c, lo, nb)
-            load_row(B, 3 + c, dx, c, lo, nb)
-        for e in range({len(effects)}):
-            load_row(B, {_ROW_COEF} + e, coef, e, lo, nb)
+        load_work(B, x0, dx, coef, lo, nb)
         mb = m[lo : lo + nb]
 {_indent(chr(10).join(work_loops), 8) if work_loops else "        pass"}
-        for k in range({len(working)}):
-            r = out[k, lo : lo + nb]
-            for j in range(nb):
-                r[j] = B[({_ROW_COEF + len(effects)} + k) * LD + j]
+        store_work(B, out, {len(effects)}, lo, nb, {len(working)})
         for j in range(nb if {bool(ledger)} else 0):
             i = lo + j
 {_indent(ledger, 12) if ledger else ""}

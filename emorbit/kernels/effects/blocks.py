@@ -21,12 +21,16 @@ from numba.extending import intrinsic, overload
 
 from ..jit import kernel
 
-__all__ = ["BLOCK", "LD", "block33", "load_row"]
+__all__ = ["BLOCK", "LD", "ROW_COEF", "block33", "load_row", "load_forces", "store_forces", "load_work", "store_work"]
 
 #: points per block
 BLOCK = 64
 #: the distance between two rows of a block's buffer
 LD = 72
+#: the first row of the effects' coefficients in a block's buffer: x0 (rows 0-2), x1 or dx
+#: (3-5), F (6-8), W (9-17), then each effect's coefficients (and, in ``work``, after them
+#: each working effect's work)
+ROW_COEF = 18
 
 _BLOCK = types.Array(types.float64, 2, "C")
 
@@ -74,3 +78,58 @@ def load_row(B, row, src, c, lo, nb):
     r = src[c, lo : lo + nb]
     for j in range(nb):
         B[row * LD + j] = r[j]
+
+
+# the loads and stores of a set's ``forces`` and ``work`` (:mod:`emorbit.effects.program`):
+# compiled once per install, so that a new set compiles none of them
+
+
+@kernel
+def load_forces(B, x0, x1, F, W, coef, lo, nb, jac, weighted):
+    """A block's rows of ``forces``: x0, x1, F, W (where ``jac``) and the coefficients; weighted,
+    F and W at 0 (the own effects' sum times the mass joins the pair forces, N)."""
+    for c in range(3):
+        load_row(B, c, x0, c, lo, nb)
+        load_row(B, 3 + c, x1, c, lo, nb)
+        load_row(B, 6 + c, F, c, lo, nb)
+    if jac:
+        for c in range(9):
+            load_row(B, 9 + c, W, c, lo, nb)
+    if weighted:
+        B[6 * LD : 18 * LD] = 0.0
+    for e in range(coef.shape[0]):
+        load_row(B, ROW_COEF + e, coef, e, lo, nb)
+
+
+@kernel
+def store_forces(B, F, W, m, lo, nb, jac, weighted):
+    """A block's F and W (where ``jac``) back into F and W; weighted, added times the mass."""
+    mb = m[lo : lo + nb]
+    for c in range(3):
+        r = F[c, lo : lo + nb]
+        for j in range(nb):
+            r[j] = r[j] + mb[j] * B[(6 + c) * LD + j] if weighted else B[(6 + c) * LD + j]
+    if jac:
+        for c in range(9):
+            r = W[c, lo : lo + nb]
+            for j in range(nb):
+                r[j] = r[j] + mb[j] * B[(9 + c) * LD + j] if weighted else B[(9 + c) * LD + j]
+
+
+@kernel
+def load_work(B, x0, dx, coef, lo, nb):
+    """A block's rows of ``work``: x0, dx and the coefficients."""
+    for c in range(3):
+        load_row(B, c, x0, c, lo, nb)
+        load_row(B, 3 + c, dx, c, lo, nb)
+    for e in range(coef.shape[0]):
+        load_row(B, ROW_COEF + e, coef, e, lo, nb)
+
+
+@kernel
+def store_work(B, out, k, lo, nb, working):
+    """The block's work rows (``working`` of them, after the ``k`` coefficient rows) into out."""
+    for w in range(working):
+        r = out[w, lo : lo + nb]
+        for j in range(nb):
+            r[j] = B[(ROW_COEF + k + w) * LD + j]
