@@ -235,8 +235,9 @@ def _indent(code: str, spaces: int) -> str:
     return "\n".join(pad + line if line.strip() else "" for line in code.strip("\n").splitlines())
 
 
-def _import_line(index: int, pieces) -> tuple[str, list[str]]:
-    """The import of one effect's pieces (as ``<piece>_<index>``), and the names imported."""
+def _import_line(index: int | str, pieces) -> tuple[str, list[str]]:
+    """The import of one effect's pieces (as ``<piece>_<index>``: ``force_3`` in a set's module,
+    ``force_`` in the effect's loop module), and the names imported."""
     names = [
         (attr, getattr(pieces, attr))
         for attr in (
