@@ -551,7 +551,7 @@ class Assembly:
                 raise InputError(
                     "epoch",
                     f"{key} ({kind}) follows the calendar (an ephemeris, a dated atmosphere, the Earth's "
-                    'rotation): give the run\'s epoch, e.g. epoch = "2026-01-01T00:00:00 TDB"',
+                    'rotation): give the run\'s epoch, e.g. epoch = "2000-01-01T12:00:00 TDB"',
                 )
             self.effects.check_method(self.method)
             for system in self.systems:

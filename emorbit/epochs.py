@@ -4,8 +4,8 @@ A run's clock counts seconds of TDB from its epoch (``[integrator] epoch``, or
 ``Simulation(epoch=...)``), so the effects that follow the calendar, the Sun's and the
 Moon's positions from an ephemeris, know where the bodies are. An epoch is given as an
 astropy ``Time`` or as a string: an ISO 8601 date and time followed by its time scale,
-``"2026-01-01T00:00:00 TDB"`` (scales: TDB, TT, TAI, UTC, TCB, TCG, UT1; UTC where none
-is written), or a Julian date ``"JD 2461041.5 TDB"``. It is kept, written to scenes and
+``"2000-01-01T12:00:00 TDB"`` (scales: TDB, TT, TAI, UTC, TCB, TCG, UT1; UTC where none
+is written), or a Julian date ``"JD 2451545.0 TDB"``. It is kept, written to scenes and
 stored in run files in TDB with nine decimals of the second (:func:`epoch_text`): an epoch
 is rounded to the nanosecond when it is read, so the text reads back to the same instant.
 """
@@ -50,7 +50,7 @@ def to_epoch(value, key: str = "epoch"):
             raise InputError(key, f"one instant expected, got {len(value)} times")
         return _rounded(value)
     if not isinstance(value, str) or not value.strip():
-        raise InputError(key, f'a date such as "2026-01-01T00:00:00 TDB" or an astropy Time expected, got {value!r}')
+        raise InputError(key, f'a date such as "2000-01-01T12:00:00 TDB" or an astropy Time expected, got {value!r}')
     words = value.split()
     scale = "utc"
     if len(words) > 1 and words[-1].lower() in SCALES:
@@ -107,7 +107,7 @@ def epoch_text(epoch) -> str:
     Returns
     -------
     str
-        E.g. ``"2026-01-01T00:00:00.000000000 TDB"``.
+        E.g. ``"2000-01-01T12:00:00.000000000 TDB"``.
     """
     t = epoch.tdb.replicate()
     t.precision = 9

@@ -122,7 +122,7 @@ KEYS: dict[str, tuple[Key, ...]] = {
         Key("drift_tolerance", False, "number", "20", "> 0 (inf: no check)",
             "C of the drift bound C eps sqrt(n): a conserved invariant that drifts further from the first "
             "record, in units of its round-off scale, makes the run warn (exit 3 with emorbit run --strict)"),
-        Key("epoch", False, "date and time", "none", '"2026-01-01T00:00:00 TDB" (scales TDB, TT, TAI, UTC, ...)',
+        Key("epoch", False, "date and time", "none", '"2000-01-01T12:00:00 TDB" (scales TDB, TT, TAI, UTC, ...)',
             "the instant time 0 stands for; required by srp and by third bodies from an ephemeris"),
         Key("max_output", False, "information (B)", f'"{MAX_OUTPUT}"', "> 0",
             "the largest output the run may project (its records, nodal positions included, in the file and in "

@@ -42,7 +42,7 @@ A third body's potential changes in time: the step sums the work of that change
 (`invariants/work_third_body`) beside its potential. Either way `invariants/energy_balance`
 = E - E0 - W stays at round-off, and the drift monitor checks it where the energy itself is
 not conserved. The Sun and the Moon are where the ephemeris puts them at the run's epoch
-(`[integrator] epoch = "2026-01-01T00:00:00 TDB"`) plus the clock. Every effect acts with
+(`[integrator] epoch = "2000-01-01T12:00:00 TDB"`) plus the clock. Every effect acts with
 the methods em and midpoint, with leapfrog where its force is a function of position and
 time alone, and with tfe where it acts at the points of single bodies, a force that depends
 on the velocity at point masses (*methods* below); point masses, rigid and elastic bodies feel each effect as its
@@ -80,7 +80,7 @@ From Python: `sim.add_effect("zonal", model="earth", degree=2)`, `sim.add_effect
 `sim.add_effect("drag", atmosphere="ussa1976")` with
 `sim.add_point(..., ballistic_coefficient="0.02 m2/kg")`, `sim.add_effect("srp")` with
 `radiation_coefficient`, `sim.add_effect("third_body", body="sun")` (with
-`Simulation(..., epoch="2026-01-01T00:00:00 TDB")`); a rigid body's facets are its shape's
+`Simulation(..., epoch="2000-01-01T12:00:00 TDB")`); a rigid body's facets are its shape's
 surface and any `facet=[...]` tables (`add_rigid(..., specular=0.3, facet=[{"center": ...,
 "normal": ..., "area": ...}])`, [scenes](scenes.md));
 `sim.effects` lists them. [Architecture](architecture.md#how-to-add-an-effect) says how to add one.
