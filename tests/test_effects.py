@@ -15,7 +15,7 @@ import pytest
 
 import emorbit
 import emorbit.effects.mutual
-from emorbit.effects.program import set_source
+from emorbit.effects.program import loop_module, set_source
 from emorbit.errors import InputError
 
 EARTH = emorbit.CentralField(body="earth")
@@ -146,7 +146,9 @@ def test_a_scene_compiles_only_the_effects_it_names():
     with_zonal, _ = code("central", "zonal")
     with_drag, working = code("central", "zonal", "drag")
     assert "zonal" not in with_mutual and "mutual" not in with_zonal
-    assert "zonal_piece" in with_zonal and "mutual_pairs" in with_mutual
+    # a per-point effect's force is called from its loop module, which the set's module imports
+    assert "emorbit_effect_loops_zonal_" in with_zonal and "mutual_pairs" in with_mutual
+    assert "zonal_piece as force_" in loop_module(EFFECTS["zonal"])[1]
     assert "zonal" not in central_only and "mutual" not in central_only
     assert working == (2,) and "drag_facet" in with_drag  # drag does work (slot 0) and acts on surfaces
 

@@ -235,32 +235,23 @@ def _indent(code: str, spaces: int) -> str:
     return "\n".join(pad + line if line.strip() else "" for line in code.strip("\n").splitlines())
 
 
-def _import_line(index: int | str, pieces) -> tuple[str, list[str]]:
-    """The import of one effect's pieces (as ``<piece>_<index>``: ``force_3`` in a set's module,
-    ``force_`` in the effect's loop module), and the names imported."""
-    names = [
-        (attr, getattr(pieces, attr))
-        for attr in (
-            "force",
-            "potential",
-            "prepare",
-            "time_work",
-            "facet",
-            "pairs",
-            "pair_potential",
-            "pair_block",
-            "rate",
-            "pair_rate",
-            "mass",
-        )  # fmt: skip
-        if getattr(pieces, attr)
-    ]
-    aliases = ", ".join(f"{name} as {attr}_{index}" for attr, name in names)
+#: the pieces an effect's loop module calls (:func:`_loops_source`); a set's module the others
+_LOOP_PIECES = ("force", "time_work")
+_PIECES = ("force", "potential", "prepare", "time_work", "facet", "pairs", "pair_potential", "pair_block", "rate",
+           "pair_rate", "mass")  # fmt: skip
+
+
+def _import_line(index: int | str, pieces, loops: bool) -> tuple[str, list[str]]:
+    """The import of one effect's pieces that a module calls (as ``<piece>_<index>``): with
+    ``loops``, those of its loop module (``force_``), else the set module's (``prepare_3``); and
+    the names of every piece the effect has."""
+    names = [(attr, getattr(pieces, attr)) for attr in _PIECES if getattr(pieces, attr)]
+    aliases = ", ".join(f"{name} as {attr}_{index}" for attr, name in names if (attr in _LOOP_PIECES) == loops)
     if pieces.module.endswith(".py"):  # a user's file: imported as a module of its own name
         module = _user_module_name(pieces.module)
     else:
         module = pieces.module
-    return f"from {module} import {aliases}", [attr for attr, _ in names]
+    return (f"from {module} import {aliases}" if aliases else ""), [attr for attr, _ in names]
 
 
 def _user_module_name(path: str) -> str:
@@ -312,7 +303,7 @@ def _loops_source(cls) -> str:
     at ``B[row]`` (the rows of :mod:`emorbit.kernels.effects.blocks`). Compiled once per
     install and effect: a set's functions call them (a call per block), so that a new set
     compiles only its own short functions."""
-    line, names = _import_line("", cls.PIECES)
+    line, names = _import_line("", cls.PIECES, loops=True)
     has = set(names)
     code = []
     if "force" in has:
@@ -397,7 +388,7 @@ def set_source(effects) -> tuple[str, tuple[int, ...], bool]:
     """
     imports, has, working = [], [], []
     for e, cls in enumerate(effects):
-        line, names = _import_line(e, cls.PIECES)
+        line, names = _import_line(e, cls.PIECES, loops=False)
         imports.append(line)
         has.append(set(names))
         loops = [f"{kind} as {kind}_{e}" for kind in _loop_names(cls)]
@@ -422,7 +413,6 @@ def set_source(effects) -> tuple[str, tuple[int, ...], bool]:
             args = f"(B, nb, {ROW_COEF + e} * LD, h, p{e}, t{e}, s{e}, mid, pt)"
             own_jac.append(f"forces_jac_{e}{args}")
             own_plain.append(f"forces_plain_{e}{args}")
-    own = own_jac
     forces = f"""
 @numba.cfunc(FORCES, **_OPTIONS)
 def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
@@ -441,13 +431,13 @@ def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
     B = np.empty(({ROW_COEF + len(effects)}) * LD)
     bad = 0
     # (a set of pair effects alone has nothing to add, unless weighted: F + m 0)
-    for lo in range(0, n if {bool(own)} or weighted else 0, BLOCK):
+    for lo in range(0, n if {bool(own_jac)} or weighted else 0, BLOCK):
         nb = min(BLOCK, n - lo)
         load_forces(B, x0, x1, F, W, coef, lo, nb, jac, weighted)
         if jac:  # two copies of the loops, so that those without Jacobians have none of their code
-{_indent(chr(10).join(own_jac), 12) if own else "            pass"}
+{_indent(chr(10).join(own_jac), 12) if own_jac else "            pass"}
         else:
-{_indent(chr(10).join(own_plain), 12) if own else "            pass"}
+{_indent(chr(10).join(own_plain), 12) if own_plain else "            pass"}
         store_forces(B, F, W, m, lo, nb, jac, weighted)
     f0, f1, f2 = F[0], F[1], F[2]
     for i in range(n):
@@ -642,7 +632,7 @@ def rate(x, v, m, body, coef, P, I, T, S):
     header = _HEADER.format(
         names=", ".join(cls.NAME for cls in effects) or "none",
         digest="{digest}",
-        imports="\n".join(imports),
+        imports="\n".join(line for line in imports if line),
         options=repr(options),
     )
     functions = "".join(_with_views(f, len(effects)) for f in (forces, prepare, work, potential, facets, cross, rate))

@@ -7,9 +7,12 @@ accesses at constant distances that cannot overlap and vectorises the loop where
 effect's piece allows (no calls, no inner loops); each point's Jacobian block is a (3, 3)
 array on the stack (:func:`block33`), which LLVM keeps in registers. The arithmetic per
 point is the pieces' own, in the set's order: a point's bits do not depend on the block.
+A block's rows are loaded and stored by :func:`load_forces`, :func:`store_forces`,
+:func:`load_work` and :func:`store_work`, compiled once per install for every set.
 
 Data layout: ``B`` float64 (rows * LD,); a row's source a row of a float64 (k, n) array, the
-block its entries ``lo`` to ``lo + nb``.
+block its entries ``lo`` to ``lo + nb``; rows x0 (0-2), x1 or dx (3-5), F (6-8), W (9-17), then
+from :data:`ROW_COEF` each effect's coefficients and, in ``work``, each working effect's work.
 """
 
 from __future__ import annotations
