@@ -5,10 +5,11 @@ Method. :func:`sun_moon_positions` gives geometric geocentric positions (no ligh
 no aberration: the instantaneous separation that Newtonian gravity needs) as the difference
 of astropy's barycentric positions, ``get_body_barycentric(body) -
 get_body_barycentric("earth")``, in the ICRS axes (the axes of the GCRS). With
-``ephemeris="builtin"`` astropy evaluates ERFA's series (``epv00`` for the Earth and the
-Sun, ``moon98`` for the Moon) offline; from 2000 to 2050 they differ from JPL's DE421 by up
-to 25 km for the Moon (median 5 km) and up to 11 km for the Sun (measured every 2 days, in
-this module's axes). A JPL kernel file (``.bsp``, SPK types 2 and 3) given by its path is
+``ephemeris="builtin"`` these are ERFA's series (``epv00`` for the Earth and the Sun,
+``moon98`` for the Moon), evaluated offline by the calls astropy's builtin ephemeris makes
+(its bits, without importing ``astropy.coordinates``); from 2000 to 2050 they differ from
+JPL's DE421 by up to 25 km for the Moon (median 5 km) and up to 11 km for the Sun (measured
+every 2 days, in this module's axes). A JPL kernel file (``.bsp``, SPK types 2 and 3) given by its path is
 read through jplephem (astropy's ``ephemeris=`` argument). Astropy's ``get_body`` gives
 apparent positions instead (light time and aberration applied): up to 39 km from these for
 the Moon and 15000 km for the Sun (measured over 30 days).
@@ -120,8 +121,28 @@ def _times(times, key: str = "times"):
     return Time(np.atleast_1d(times.tdb).ravel())
 
 
+def _builtin(times, body: str):
+    """:func:`_posvel` from ERFA's series: the calls and the arithmetic of astropy's
+    ``get_body_barycentric_posvel(..., ephemeris="builtin")`` (``epv00``; ``moon98`` added to
+    the Earth's barycentric state with ``pvppv``, the Sun's as ``pvmpv``; the Earth's then
+    subtracted in au and au/day, and scaled by astropy's factors to m and m/s), so the same
+    bits, without importing ``astropy.coordinates`` (about 0.2 s of a run's start)."""
+    import astropy.units as u
+    import erfa
+
+    tdb = times if times.scale == "tdb" else times.tdb
+    jd1, jd2 = tdb.jd1, tdb.jd2
+    helio, bary = erfa.epv00(jd1, jd2)
+    pv = erfa.pvppv(erfa.moon98(jd1, jd2), bary) if body == "moon" else erfa.pvmpv(bary, helio)
+    pos = (pv["p"] - bary["p"]) * u.au._to(u.m)
+    vel = (pv["v"] - bary["v"]) * (u.au / u.day)._to(u.m / u.s)
+    return np.ascontiguousarray(pos, dtype=np.float64), np.ascontiguousarray(vel, dtype=np.float64)
+
+
 def _posvel(times, body: str, ephemeris: str, key: str):
     """Geocentric position (n, 3) m and velocity (n, 3) m/s of ``body`` at TDB ``times``."""
+    if ephemeris == "builtin":
+        return _builtin(times, body)
     import astropy.units as u
     from astropy.coordinates import get_body_barycentric_posvel
 
