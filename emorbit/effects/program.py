@@ -18,9 +18,12 @@ The per-point loops come from a second kind of generated module, one per effect
 of a block of points (:mod:`emorbit.kernels.effects.blocks`), with its Jacobian block and
 without, and ``work`` writes its work there. Each loop calls the effect's piece at every point
 of the block, keeps it where the point's coefficient is not 0, and vectorises where the piece
-does. These loops are compiled once per install and effect, and the set's ``forces`` and
-``work`` call them block by block, so that Numba types and lowers each effect's loops once:
-a new set compiles its own short functions, and links the loops it has.
+does. These loops are C callbacks compiled once per install and effect; the set's ``forces``
+and ``work`` call them block by block by name (:func:`~emorbit.kernels.effects.blocks.call_c`),
+as they call the block loads and stores (:mod:`emorbit.kernels.effects.block_calls`), each
+name bound to its code in this process before the set's functions compile or load. Linked
+instead, their code would be optimised and emitted again in every set; called by name, a new
+set compiles only its own short functions.
 
 Every module goes into the per-user kernel cache (:func:`emorbit.kernels.jit.cache_dir`,
 folder ``effects``), named by the set's kinds (an effect's kind) and a digest of its source,
@@ -92,6 +95,7 @@ import sys
 import tempfile
 from dataclasses import dataclass
 
+from ..kernels.effects import block_calls
 from ..kernels.effects.blocks import ROW_COEF
 from ..kernels.jit import cache_dir, cache_enabled, cached_sources_digest
 
@@ -141,7 +145,7 @@ import numba
 import numpy as np
 
 from emorbit.kernels.codes import STATUS_OK, STATUS_SINGULAR
-from emorbit.kernels.effects.blocks import BLOCK, LD, load_forces, load_work, store_forces, store_work
+from emorbit.kernels.effects.blocks import BLOCK, LD, call_c
 from emorbit.kernels.effects.signatures import CROSS, FACETS, FORCES, MODE_MIDPOINT, MODE_POINT, MODE_WEIGHTED
 from emorbit.kernels.effects.signatures import POTENTIAL, PREPARE, RATE, WORK
 {imports}
@@ -280,11 +284,24 @@ Digest of the kernel sources and user modules: {digest}
 
 import numba
 
-from emorbit.kernels.effects.blocks import LD, block33
+from emorbit.kernels.effects.blocks import FORCES_LOOP, LD, WORK_LOOP, block33
 {imports}
 
 _OPTIONS = {options}
 '''
+
+
+#: a loop's arrays from their pointers and lengths, its flags from int64
+#: (:data:`~emorbit.kernels.effects.blocks.FORCES_LOOP`)
+_UNPACK = _indent(
+    "B = numba.carray(Bp, nB)\np = numba.carray(pp, n_p)\nt = numba.carray(tp, n_t)\ns = numba.carray(sp, n_s)\n"
+    "mid = mid_ != 0\npt = pt_ != 0",
+    4,
+)
+
+
+#: the functions a loop module may have
+_LOOP_FUNCTIONS = ("forces_jac", "forces_plain", "work")
 
 
 def _loop_names(cls) -> list[str]:
@@ -300,9 +317,10 @@ def _loops_source(cls) -> str:
     Jacobian) add the effect's force at each point of a block (its coefficients in the row at
     ``B[ko]``) into the rows of F and its Jacobian block into those of W; ``work(B, nb, ko,
     row, mb, h, p, t, s, mid, pt)`` writes its work at each point (masses ``mb``) into the row
-    at ``B[row]`` (the rows of :mod:`emorbit.kernels.effects.blocks`). Compiled once per
-    install and effect: a set's functions call them (a call per block), so that a new set
-    compiles only its own short functions."""
+    at ``B[row]`` (the rows of :mod:`emorbit.kernels.effects.blocks`). Each is a C callback
+    (:data:`~emorbit.kernels.effects.blocks.FORCES_LOOP`, ``WORK_LOOP``: arrays as pointers
+    and lengths, flags as int64) compiled once per install and effect, and called by the name
+    ``<module>_<function>``: a new set compiles only its own short functions."""
     line, names = _import_line("", cls.PIECES, loops=True)
     has = set(names)
     code = []
@@ -318,7 +336,10 @@ def _loops_source(cls) -> str:
             # jac a literal, so that Numba prunes the branch not taken (a loop with the
             # Jacobians' code in it, even untaken, runs about ten times slower)
             body = loop.replace("if jac:", f"if {literal}:").replace(", J, jac)", f", J, {literal})")
-            code.append(f"@numba.njit(**_OPTIONS)\ndef {name}(B, nb, ko, h, p, t, s, mid, pt):\n{_indent(body, 4)}\n")
+            code.append(
+                f"@numba.cfunc(FORCES_LOOP, **_OPTIONS)\n"
+                f"def {name}(Bp, nB, nb, ko, h, pp, n_p, tp, n_t, sp, n_s, mid_, pt_):\n{_UNPACK}\n{_indent(body, 4)}\n"
+            )
     if cls.does_work():
         row = "B[row + j]"
         if "time_work" in has:  # at a point (MODE_POINT), its force's work instead
@@ -348,7 +369,9 @@ def _loops_source(cls) -> str:
                 f"    d0 = B[3 * LD + j]\n    d1 = B[4 * LD + j]\n    d2 = B[5 * LD + j]\n{ends}\n{_indent(body, 4)}"
             )
         code.append(
-            f"@numba.njit(**_OPTIONS)\ndef work(B, nb, ko, row, mb, h, p, t, s, mid, pt):\n{_indent(loop, 4)}\n"
+            "@numba.cfunc(WORK_LOOP, **_OPTIONS)\n"
+            "def work(Bp, nB, nb, ko, row, mbp, n_mb, h, pp, n_p, tp, n_t, sp, n_s, mid_, pt_):\n"
+            f"{_UNPACK}\n    mb = numba.carray(mbp, n_mb)\n{_indent(loop, 4)}\n"
         )
     options = {"cache": cache_enabled(), "error_model": "numpy", "fastmath": False}
     header = _LOOPS_HEADER.format(name=cls.NAME, digest="{digest}", imports=line, options=repr(options))
@@ -391,9 +414,6 @@ def set_source(effects) -> tuple[str, tuple[int, ...], bool]:
         line, names = _import_line(e, cls.PIECES, loops=False)
         imports.append(line)
         has.append(set(names))
-        loops = [f"{kind} as {kind}_{e}" for kind in _loop_names(cls)]
-        if loops:
-            imports.append(f"from {loop_module(cls)[0]} import {', '.join(loops)}")
         if cls.does_work():
             working.append(e)
     views = _VIEWS_AT
@@ -410,9 +430,10 @@ def set_source(effects) -> tuple[str, tuple[int, ...], bool]:
     own_jac, own_plain = [], []
     for e in range(len(effects)):
         if "force" in has[e]:
-            args = f"(B, nb, {ROW_COEF + e} * LD, h, p{e}, t{e}, s{e}, mid, pt)"
-            own_jac.append(f"forces_jac_{e}{args}")
-            own_plain.append(f"forces_plain_{e}{args}")
+            args = f"(B, nb, {ROW_COEF + e} * LD, h, p{e}, t{e}, s{e}, mid, pt))"
+            name = loop_module(effects[e])[0]
+            own_jac.append(f"call_c('{name}_forces_jac', {args}")
+            own_plain.append(f"call_c('{name}_forces_plain', {args}")
     forces = f"""
 @numba.cfunc(FORCES, **_OPTIONS)
 def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
@@ -433,12 +454,12 @@ def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
     # (a set of pair effects alone has nothing to add, unless weighted: F + m 0)
     for lo in range(0, n if {bool(own_jac)} or weighted else 0, BLOCK):
         nb = min(BLOCK, n - lo)
-        load_forces(B, x0, x1, F, W, coef, lo, nb, jac, weighted)
+        call_c('emorbit_block_load_forces', (B, x0, x1, F, W, coef, lo, nb, jac, weighted))
         if jac:  # two copies of the loops, so that those without Jacobians have none of their code
 {_indent(chr(10).join(own_jac), 12) if own_jac else "            pass"}
         else:
 {_indent(chr(10).join(own_plain), 12) if own_plain else "            pass"}
-        store_forces(B, F, W, m, lo, nb, jac, weighted)
+        call_c('emorbit_block_store_forces', (B, F, W, m, lo, nb, jac, weighted))
     f0, f1, f2 = F[0], F[1], F[2]
     for i in range(n):
         bad += 0 if abs(f0[i]) + abs(f1[i]) + abs(f2[i]) < math.inf else 1
@@ -452,8 +473,8 @@ def prepare(ta, tm, tb, P, I, T, S):
 {_indent(prep, 4) if prep else "    pass"}
 """
     work_loops = [
-        f"work_{e}(B, nb, {ROW_COEF + e} * LD, {ROW_COEF + len(effects) + slot_of[e]} * LD, mb, h, p{e}, t{e}, s{e}, "
-        "mid, pt)"
+        f"call_c('{loop_module(effects[e])[0]}_work', (B, nb, {ROW_COEF + e} * LD, "
+        f"{ROW_COEF + len(effects) + slot_of[e]} * LD, mb, h, p{e}, t{e}, s{e}, mid, pt))"
         for e in working
     ]
     massive = [e for e in range(len(effects)) if "mass" in has[e]]
@@ -477,10 +498,10 @@ def work(x0, dx, m, body, coef, h, mode, P, I, T, S, out):
     B = np.empty(({ROW_COEF + len(effects) + len(working)}) * LD)
     for lo in range(0, n, BLOCK):
         nb = min(BLOCK, n - lo)
-        load_work(B, x0, dx, coef, lo, nb)
+        call_c('emorbit_block_load_work', (B, x0, dx, coef, lo, nb))
         mb = m[lo : lo + nb]
 {_indent(chr(10).join(work_loops), 8) if work_loops else "        pass"}
-        store_work(B, out, {len(effects)}, lo, nb, {len(working)})
+        call_c('emorbit_block_store_work', (B, out, {len(effects)}, lo, nb, {len(working)}))
         for j in range(nb if {bool(ledger)} else 0):
             i = lo + j
 {_indent(ledger, 12) if ledger else ""}
@@ -694,7 +715,11 @@ def compile_set(effects, announce=None) -> Program:
     if fresh and announce is not None:
         what = f"the effect set {' + '.join(kinds)}" if kinds else "free motion"
         announce(f"compiling the kernels of {what} (first run only)")
-    for name, _ in modules:
+    for i, (name, _) in enumerate(modules):
+        if i == len(modules) - 1:  # the loops' names bound to their code before the set's functions
+            block_calls.bind()
+            block_calls.bind({f"{n}_{f}": getattr(sys.modules[n], f) for n, _ in modules[:-1] for f in _LOOP_FUNCTIONS
+                              if hasattr(sys.modules[n], f)})  # fmt: skip
         module = sys.modules.get(name)
         if module is None:
             spec = importlib.util.spec_from_file_location(name, os.path.join(folder, name + ".py"))

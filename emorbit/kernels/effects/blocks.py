@@ -10,6 +10,11 @@ point is the pieces' own, in the set's order: a point's bits do not depend on th
 A block's rows are loaded and stored by :func:`load_forces`, :func:`store_forces`,
 :func:`load_work` and :func:`store_work`, compiled once per install for every set.
 
+An effect's block loops (of the types :data:`FORCES_LOOP` and :data:`WORK_LOOP`) and the
+loads and stores (:mod:`.block_calls`) are C callbacks compiled once per install; a set's
+functions call them by name (:func:`call_c`: each array as its data pointer and shape, each
+flag an int64), so that LLVM neither optimises nor emits their code again in each set.
+
 Data layout: ``B`` float64 (rows * LD,); a row's source a row of a float64 (k, n) array, the
 block its entries ``lo`` to ``lo + nb``; rows x0 (0-2), x1 or dx (3-5), F (6-8), W (9-17), then
 from :data:`ROW_COEF` each effect's coefficients and, in ``work``, each working effect's work.
@@ -18,13 +23,28 @@ from :data:`ROW_COEF` each effect's coefficients and, in ``work``, each working 
 from __future__ import annotations
 
 import numpy as np
+from llvmlite import ir
 from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
 from ..jit import kernel
 
-__all__ = ["BLOCK", "LD", "ROW_COEF", "block33", "load_row", "load_forces", "store_forces", "load_work", "store_work"]
+__all__ = [
+    "BLOCK",
+    "LD",
+    "ROW_COEF",
+    "FORCES_LOOP",
+    "WORK_LOOP",
+    "block33",
+    "c_arguments",
+    "call_c",
+    "load_row",
+    "load_forces",
+    "store_forces",
+    "load_work",
+    "store_work",
+]
 
 #: points per block
 BLOCK = 64
@@ -136,3 +156,62 @@ def store_work(B, out, k, lo, nb, working):
         r = out[w, lo : lo + nb]
         for j in range(nb):
             r[j] = B[(ROW_COEF + k + w) * LD + j]
+
+
+# C callbacks called by symbol: an effect's block loops and the loads and stores above, compiled
+# once per install (:mod:`emorbit.effects.program`, :mod:`.block_calls`); a set's functions
+# call them by name, each process binding the names to the compiled code
+_P = types.CPointer(types.float64)
+_N = types.int64
+#: ``forces_jac`` and ``forces_plain``: (B, len B, nb, ko, h, p, len p, t, len t, s, len s, mid, pt)
+FORCES_LOOP = types.void(_P, _N, _N, _N, types.float64, _P, _N, _P, _N, _P, _N, _N, _N)
+#: ``work``: (B, len B, nb, ko, row, mb, len mb, h, p, len p, t, len t, s, len s, mid, pt)
+WORK_LOOP = types.void(_P, _N, _N, _N, _N, _P, _N, types.float64, _P, _N, _P, _N, _P, _N, _N, _N)
+
+
+def c_arguments(tys) -> list:
+    """The C callback's argument types for arguments of Numba types ``tys``: a C-contiguous
+    float64 array as its data pointer and its shape, a float as float64, an integer or a
+    boolean as int64."""
+    out = []
+    for ty in tys:
+        if isinstance(ty, types.Array):
+            if ty.layout != "C" or ty.dtype != types.float64:
+                raise TypeError(f"a C callback takes C-contiguous float64 arrays, not {ty}")
+            out += [_P] + [_N] * ty.ndim
+        elif isinstance(ty, types.Float):
+            out.append(types.float64)
+        elif isinstance(ty, (types.Integer, types.Boolean)):
+            out.append(_N)
+        else:
+            raise TypeError(f"a C callback takes arrays and scalars, not {ty}")
+    return out
+
+
+@intrinsic
+def call_c(typingctx, symbol, args):
+    """Call the C callback named ``symbol`` (a string literal) with the tuple ``args``, each
+    argument as :func:`c_arguments` passes it; the name is bound to its code in each process
+    (``llvmlite.binding.add_symbol``) before a function that calls it is loaded."""
+    if not isinstance(symbol, types.StringLiteral) or not isinstance(args, types.BaseTuple):
+        return None
+    tys = [types.unliteral(t) for t in args]
+    c_types = c_arguments(tys)
+    sig = types.void(symbol, args)
+
+    def codegen(context, builder, signature, llargs):
+        values = []
+        for i, (ty, raw) in enumerate(zip(args, tys)):
+            v = builder.extract_value(llargs[1], i)
+            if isinstance(raw, types.Array):
+                a = context.make_array(raw)(context, builder, v)
+                values.append(a.data)
+                values += cgutils.unpack_tuple(builder, a.shape, raw.ndim)
+            else:
+                values.append(context.cast(builder, v, ty, c_types[len(values)]))
+        fnty = ir.FunctionType(ir.VoidType(), [context.get_value_type(t) for t in c_types])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, symbol.literal_value)
+        builder.call(fn, values)
+        return context.get_dummy_value()
+
+    return sig, codegen
