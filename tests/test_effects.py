@@ -146,9 +146,13 @@ def test_a_scene_compiles_only_the_effects_it_names():
     with_zonal, _ = code("central", "zonal")
     with_drag, working = code("central", "zonal", "drag")
     assert "zonal" not in with_mutual and "mutual" not in with_zonal
-    # a per-point effect's force is called from its loop module, which the set's module imports
-    assert "emorbit_effect_loops_zonal_" in with_zonal and "mutual_pairs" in with_mutual
+    # a per-point effect's force is called from its loop module's C callbacks, by name: the set
+    # neither imports nor links them (linked, LLVM would optimise and emit them in every set)
+    zonal_loops = loop_module(EFFECTS["zonal"])[0]
+    assert f"call_c('{zonal_loops}_forces_jac'" in with_zonal and "mutual_pairs" in with_mutual
+    assert "from emorbit_effect_loops" not in with_zonal and "import emorbit_effect_loops" not in with_zonal
     assert "zonal_piece as force_" in loop_module(EFFECTS["zonal"])[1]
+    assert "@numba.cfunc(FORCES_LOOP" in loop_module(EFFECTS["zonal"])[1]
     assert "zonal" not in central_only and "mutual" not in central_only
     assert working == (2,) and "drag_facet" in with_drag  # drag does work (slot 0) and acts on surfaces
 
