@@ -44,6 +44,7 @@ import pytest
 
 import emorbit
 from emorbit.kernels.effects.atmosphere_grid import grid_density
+from emorbit.kernels.effects.blocks import run_forces
 from emorbit.kernels.effects.signatures import MODE_MIDPOINT
 from emorbit.kernels.effects.third_body import table_position
 
@@ -194,8 +195,8 @@ def _em_parts(sim, t, x, v, h=16.0):
     for keep in (~is_drag, is_drag):
         F, W = np.zeros((3, 1)), np.zeros((9, 1))
         c = np.ascontiguousarray(np.where(keep[:, None], coef, 0.0))
-        status = prog.forces(x0, x1, np.ones(1), np.zeros(1, np.int64), c, h, MODE_MIDPOINT, P, I, T, S, F, W,
-                             np.zeros(1), False, True)  # fmt: skip
+        status = run_forces(prog.forces, x0, x1, np.ones(1), np.zeros(1, np.int64), c, h, MODE_MIDPOINT, P, I, T, S,
+                            F, W, np.zeros(1), False, True)  # fmt: skip
         assert status == 0
         out.append(F[:, 0].copy())
     return tuple(out)

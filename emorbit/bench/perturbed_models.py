@@ -542,6 +542,7 @@ def em_acceleration(sim, values: dict, t: float, x, v, h: float = 10.0) -> np.nd
         (3,) m/s^2.
     """
     from ..kernels.effects.atmosphere import drag_force
+    from ..kernels.effects.blocks import run_forces
     from ..kernels.effects.signatures import MODE_EXPLICIT
 
     effects = sim.effects
@@ -556,9 +557,10 @@ def em_acceleration(sim, values: dict, t: float, x, v, h: float = 10.0) -> np.nd
     b = 0.0
     if drag is not None:
         b, coef[drag, 0] = float(coef[drag, 0]), 0.0
-    prog.forces(
-        xc, xc, np.ones(1), np.zeros(1, np.int64), coef, h, MODE_EXPLICIT, P, I, T, S, F, W, np.zeros(1), False, True
-    )
+    run_forces(
+        prog.forces, xc, xc, np.ones(1), np.zeros(1, np.int64), coef, h, MODE_EXPLICIT, P, I, T, S, F, W, np.zeros(1),
+        False, True,
+    )  # fmt: skip
     acc = F[:, 0].copy()
     if drag is not None:
         e = effects.all[drag]

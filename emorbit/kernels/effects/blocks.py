@@ -39,6 +39,7 @@ __all__ = [
     "block33",
     "c_arguments",
     "call_c",
+    "run_forces",
     "load_row",
     "load_forces",
     "store_forces",
@@ -215,3 +216,11 @@ def call_c(typingctx, symbol, args):
         return context.get_dummy_value()
 
     return sig, codegen
+
+
+@kernel
+def run_forces(forces, x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
+    """A set's ``forces`` (:mod:`.signatures`' ``FORCES``) called from Python: its compiled
+    code. A ``cfunc`` called from Python runs its Python source, where :func:`call_c` cannot
+    run; returns its status."""
+    return forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first)
