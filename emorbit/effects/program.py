@@ -109,7 +109,10 @@ class Program:
     Attributes
     ----------
     forces, prepare, work, potential, facets, cross, rate
-        The compiled functions (Numba cfuncs of :mod:`emorbit.kernels.effects.signatures`).
+        The compiled functions (Numba cfuncs of :mod:`emorbit.kernels.effects.signatures`),
+        for compiled callers: a cfunc called from Python runs its Python source, where
+        ``forces`` and ``work`` cannot call their loops (``forces`` from Python:
+        :func:`~emorbit.kernels.effects.blocks.run_forces`).
     kinds : tuple of str
         The effect kinds, in the set's order (a kind named twice appears twice).
     working : tuple of int
