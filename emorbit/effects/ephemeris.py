@@ -9,8 +9,8 @@ get_body_barycentric("earth")``, in the ICRS axes (the axes of the GCRS). With
 ``moon98`` for the Moon), evaluated offline by the calls astropy's builtin ephemeris makes
 (its bits, without importing ``astropy.coordinates``); from 2000 to 2050 they differ from
 JPL's DE421 by up to 25 km for the Moon (median 5 km) and up to 11 km for the Sun (measured
-every 2 days, in this module's axes). A JPL kernel file (``.bsp``, SPK types 2 and 3) given by its path is
-read through jplephem (astropy's ``ephemeris=`` argument). Astropy's ``get_body`` gives
+every 2 days, in this module's axes). A JPL kernel file (``.bsp``, SPK types 2 and 3) given
+by its path is read through jplephem (astropy's ``ephemeris=`` argument). Astropy's ``get_body`` gives
 apparent positions instead (light time and aberration applied): up to 39 km from these for
 the Moon and 15000 km for the Sun (measured over 30 days).
 

@@ -303,10 +303,6 @@ _UNPACK = _indent(
 )
 
 
-#: the functions a loop module may have
-_LOOP_FUNCTIONS = ("forces_jac", "forces_plain", "work")
-
-
 def _loop_names(cls) -> list[str]:
     """The functions of an effect's loop module (:func:`loop_module`; none: it has none)."""
     names = ["forces_jac", "forces_plain"] if cls.PIECES.force else []
@@ -395,6 +391,12 @@ def loop_module(cls) -> tuple[str, str]:
 _LOOPS: dict = {}
 
 
+def _symbol(cls, function: str) -> str:
+    """The name a set calls an effect's loop by: its loop module's (which states its digest)
+    and the function's."""
+    return f"{loop_module(cls)[0]}_{function}"
+
+
 def set_source(effects) -> tuple[str, tuple[int, ...], bool]:
     """The source of the module compiled for an ordered set of effect classes.
 
@@ -434,9 +436,8 @@ def set_source(effects) -> tuple[str, tuple[int, ...], bool]:
     for e in range(len(effects)):
         if "force" in has[e]:
             args = f"(B, nb, {ROW_COEF + e} * LD, h, p{e}, t{e}, s{e}, mid, pt))"
-            name = loop_module(effects[e])[0]
-            own_jac.append(f"call_c('{name}_forces_jac', {args}")
-            own_plain.append(f"call_c('{name}_forces_plain', {args}")
+            own_jac.append(f"call_c('{_symbol(effects[e], 'forces_jac')}', {args}")
+            own_plain.append(f"call_c('{_symbol(effects[e], 'forces_plain')}', {args}")
     forces = f"""
 @numba.cfunc(FORCES, **_OPTIONS)
 def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
@@ -476,7 +477,7 @@ def prepare(ta, tm, tb, P, I, T, S):
 {_indent(prep, 4) if prep else "    pass"}
 """
     work_loops = [
-        f"call_c('{loop_module(effects[e])[0]}_work', (B, nb, {ROW_COEF + e} * LD, "
+        f"call_c('{_symbol(effects[e], 'work')}', (B, nb, {ROW_COEF + e} * LD, "
         f"{ROW_COEF + len(effects) + slot_of[e]} * LD, mb, h, p{e}, t{e}, s{e}, mid, pt))"
         for e in working
     ]
@@ -718,17 +719,13 @@ def compile_set(effects, announce=None) -> Program:
     if fresh and announce is not None:
         what = f"the effect set {' + '.join(kinds)}" if kinds else "free motion"
         announce(f"compiling the kernels of {what} (first run only)")
-    for i, (name, _) in enumerate(modules):
-        if i == len(modules) - 1:  # the loops' names bound to their code before the set's functions
-            block_calls.bind()
-            block_calls.bind({f"{n}_{f}": getattr(sys.modules[n], f) for n, _ in modules[:-1] for f in _LOOP_FUNCTIONS
-                              if hasattr(sys.modules[n], f)})  # fmt: skip
-        module = sys.modules.get(name)
-        if module is None:
-            spec = importlib.util.spec_from_file_location(name, os.path.join(folder, name + ".py"))
-            module = importlib.util.module_from_spec(spec)
-            sys.modules[name] = module
-            spec.loader.exec_module(module)
+    for name, _ in modules[:-1]:
+        _import(folder, name)
+    # the names the set's functions call bound to their code before those compile or load
+    block_calls.bind()
+    block_calls.bind({_symbol(cls, f): getattr(_import(folder, loop_module(cls)[0]), f) for cls in effects
+                      for f in _loop_names(cls)})  # fmt: skip
+    module = _import(folder, modules[-1][0])
     program = Program(
         module.forces,
         module.prepare,
@@ -744,6 +741,17 @@ def compile_set(effects, announce=None) -> Program:
     )
     _LOADED[key] = program
     return program
+
+
+def _import(folder: str, name: str):
+    """Module ``name`` of ``folder`` (imported once per process)."""
+    module = sys.modules.get(name)
+    if module is None:
+        spec = importlib.util.spec_from_file_location(name, os.path.join(folder, name + ".py"))
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+    return module
 
 
 def _place(folder: str, name: str, source: str) -> bool:
