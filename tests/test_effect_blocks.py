@@ -19,14 +19,10 @@ import pytest
 import emorbit
 from emorbit.bench.effects import ALL, earth_orbits
 from emorbit.bench.effects import _effect_system as effect_system
+from emorbit.kernels.effects.blocks import run_forces
 from emorbit.kernels.effects.signatures import MODE_EXPLICIT, MODE_MIDPOINT, MODE_STEP, MODE_WEIGHTED
 
 N = 150
-
-
-@numba.njit
-def _forces(forces, x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac):
-    return forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, True)
 
 
 @numba.njit
@@ -66,11 +62,11 @@ def test_each_point_of_a_block_gets_its_own_bits(case, mode, jac):
         x1 = x0
     body = np.arange(N, dtype=np.int64)
     F, W, R = np.full((3, N), np.nan), np.full((9, N), np.nan), np.zeros(N)
-    assert _forces(prog.forces, x0, x1, m, body, coef, h, mode, *sets, F, W, R, jac) == 0
+    assert run_forces(prog.forces, x0, x1, m, body, coef, h, mode, *sets, F, W, R, jac, True) == 0
     for i in range(N):
         f, w, r = np.empty((3, 1)), np.empty((9, 1)), np.zeros(1)
         one = (_alone(x0, i), _alone(x1, i), m[i : i + 1].copy(), body[:1].copy(), _alone(coef, i))
-        _forces(prog.forces, *one, h, mode, *sets, f, w, r, jac)
+        run_forces(prog.forces, *one, h, mode, *sets, f, w, r, jac, True)
         assert np.array_equal(f[:, 0], F[:, i]), i
         if jac:
             assert np.array_equal(w[:, 0], W[:, i]), i
@@ -102,7 +98,7 @@ def test_the_forces_are_the_pieces_summed_in_the_sets_order(case):
     prog, (P, I, T, S), x0, x1, m, coef, h = case
     body = np.arange(N, dtype=np.int64)
     F, W, R = np.empty((3, N)), np.empty((9, N)), np.zeros(N)
-    _forces(prog.forces, x0, x1, m, body, coef, h, MODE_STEP, P, I, T, S, F, W, R, True)
+    run_forces(prog.forces, x0, x1, m, body, coef, h, MODE_STEP, P, I, T, S, F, W, R, True, True)
     pieces = []
     for e, kind in enumerate(prog.kinds):
         spec = emorbit.effects.EFFECTS[kind].PIECES
