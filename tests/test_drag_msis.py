@@ -108,3 +108,33 @@ def test_nrlmsis_keys_are_checked_by_name():
     with pytest.raises(InputError) as exc:
         no_epoch.add_effect("drag", atmosphere="nrlmsis", **WEATHER)
     assert exc.value.key == "epoch"
+
+
+def test_the_grid_is_kept_on_disk_and_read_back_bit_for_bit(tmp_path, monkeypatch):
+    """A second run with the same epoch and weather reads the grid from the per-user cache
+    without calling NRLMSIS; other weather samples anew; a damaged file is sampled again and
+    replaced; with ``EMORBIT_JIT_CACHE=0`` nothing is written."""
+    import pymsis
+
+    from emorbit.effects.atmosphere_msis import msis_grid
+    from emorbit.epochs import to_epoch
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    epoch = to_epoch(EPOCH)
+    first, axes = msis_grid(epoch, radius=EARTH.radius, **WEATHER)
+    (kept,) = (tmp_path / "emorbit" / "msis").glob("*.npy")
+    calls = []
+    real = pymsis.calculate
+    monkeypatch.setattr(pymsis, "calculate", lambda *a, **k: calls.append(1) or real(*a, **k))
+    again, axes2 = msis_grid(epoch, radius=EARTH.radius, **WEATHER)
+    assert calls == [] and np.array_equal(again, first) and np.array_equal(axes2, axes)
+    stormy, _ = msis_grid(epoch, radius=EARTH.radius, f107=150.0, f107a=150.0, ap=80.0)
+    assert calls == [1] and not np.array_equal(stormy, first)
+    kept.write_bytes(kept.read_bytes()[:100])  # a torn file
+    repaired, _ = msis_grid(epoch, radius=EARTH.radius, **WEATHER)
+    assert calls == [1, 1] and np.array_equal(repaired, first)
+    assert np.array_equal(np.load(kept), first)
+    monkeypatch.setenv("EMORBIT_JIT_CACHE", "0")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "off"))
+    off, _ = msis_grid(epoch, radius=EARTH.radius, **WEATHER)
+    assert calls == [1, 1, 1] and np.array_equal(off, first) and not (tmp_path / "off").exists()

@@ -11,7 +11,10 @@ densities carry 7 significant digits.
 Data layout: every argument broadcasts to one shape (scalars or arrays); altitudes in m
 above the WGS84 ellipsoid, latitudes and longitudes in degrees (or astropy Quantities),
 times as astropy ``Time`` (converted to UTC) or numpy ``datetime64``; the result is a
-float64 array of that shape, kg/m^3.
+float64 array of that shape, kg/m^3. :func:`msis_grid` keeps each grid it samples in the
+per-user cache (``<user cache>/msis/<digest>.npy``, named by a digest of its inputs and of
+pymsis's version), so that a run repeated with the same epoch and space weather reads it
+from disk instead of calling NRLMSIS 82,584 times again.
 
 References: J. T. Emmert et al., J. Geophys. Res. Space Phys. 127 (2022) e2022JA030896
 (NRLMSIS 2.1); J. T. Emmert et al., Earth Space Sci. 8 (2021) e2020EA001321 (NRLMSIS 2.0);
@@ -21,9 +24,14 @@ doi:10.5281/zenodo.5348502.
 
 from __future__ import annotations
 
+import hashlib
+import os
+import tempfile
+
 import numpy as np
 
 from ..errors import InputError
+from ..kernels.jit import cache_enabled, user_cache_dir
 
 __all__ = ["msis_density", "msis_grid", "MSIS_VERSIONS", "GRID"]
 
@@ -170,22 +178,57 @@ def msis_grid(epoch, f107, f107a, ap, radius, *, version=2.1) -> tuple[np.ndarra
     g_p : ndarray
         (5,) ``[a0, da, phi0, dphi, dlam]`` (m, m, rad, rad, rad).
     """
+    t = epoch.utc
+    weather = [np.asarray(v, dtype=np.float64).tolist() for v in (f107, f107a, ap, radius)]
+    key = (_pymsis().__version__, version, sorted(GRID.items()), t.jd1, t.jd2, weather)
+    path = os.path.join(user_cache_dir(), "msis", hashlib.sha1(repr(key).encode()).hexdigest() + ".npy")
+    g_p = np.array([GRID["a0"], GRID["da"], -np.pi / 2, np.radians(GRID["dphi_deg"]), 2.0 * np.pi / GRID["nlam"]])
+    nphi = int(round(180.0 / GRID["dphi_deg"])) + 1
+    shape = (GRID["na"], nphi, GRID["nlam"] + 1)
+    if cache_enabled():
+        try:
+            grid = np.load(path, allow_pickle=False)
+            if grid.shape == shape and grid.dtype == np.float64:
+                return np.ascontiguousarray(grid), g_p
+        except (OSError, ValueError):  # absent, unreadable or damaged: sample again
+            pass
+    grid = _sample(t, f107, f107a, ap, radius, version, nphi)
+    if cache_enabled():
+        _keep(path, grid)
+    return grid, g_p
+
+
+def _keep(path: str, grid: np.ndarray) -> None:
+    """Write ``grid`` to ``path`` whole or not at all (a temporary file renamed over it)."""
+    try:
+        os.makedirs(os.path.dirname(path), mode=0o700, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                np.save(f, grid, allow_pickle=False)
+            os.replace(tmp, path)
+        except BaseException:
+            os.unlink(tmp)
+            raise
+    except OSError:  # no writable cache: the next run samples again
+        pass
+
+
+def _sample(t, f107, f107a, ap, radius, version, nphi) -> np.ndarray:
+    """NRLMSIS's log density on the grid of :func:`msis_grid` at the UTC time ``t``."""
     import erfa
 
     a = GRID["a0"] + GRID["da"] * np.arange(GRID["na"])
-    nphi = int(round(180.0 / GRID["dphi_deg"])) + 1
     phi = np.radians(-90.0 + GRID["dphi_deg"] * np.arange(nphi))
     lam = (2.0 * np.pi / GRID["nlam"]) * np.arange(GRID["nlam"])
     A, P, L = np.meshgrid(a, phi, lam, indexing="ij")
     r = radius + A
     xyz = np.stack([r * np.cos(P), np.zeros_like(r), r * np.sin(P)], axis=-1)
     _, lat, height = erfa.gc2gd(1, xyz)  # 1: WGS84
-    t = epoch.utc
     ut = (t.jd2 + 0.5 + (t.jd1 % 1.0)) % 1.0 * 24.0  # hours of the day
     lon = (15.0 * (L * 12.0 / np.pi - ut) + 180.0) % 360.0 - 180.0
-    rho = msis_density(height, np.degrees(lat), lon, epoch, f107, f107a, ap, version=version)
+    rho = msis_density(height, np.degrees(lat), lon, t, f107, f107a, ap, version=version)
     grid = np.empty((GRID["na"], nphi, GRID["nlam"] + 1))
     grid[:, :, :-1] = np.log(rho)
     grid[:, :, -1] = grid[:, :, 0]
-    g_p = np.array([GRID["a0"], GRID["da"], -np.pi / 2, np.radians(GRID["dphi_deg"]), 2.0 * np.pi / GRID["nlam"]])
-    return np.ascontiguousarray(grid), g_p
+    return np.ascontiguousarray(grid)
