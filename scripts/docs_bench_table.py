@@ -624,7 +624,7 @@ def _elastic(s: dict) -> list[str]:
 def _effects(s: dict) -> list[str]:
     z, mu, co = s["zonal"], s["mutual"], s["compile"]
     rows = [[n, r["system"], _f(r["ns_per_particle_step"], 2), _e(r["max_energy_error"])] for n, r in z["rows"].items()]
-    out = ["### Effects", "", f"Central + J2: {z['case']}.", ""]
+    out = ["### Effects", ""] + _wp_run(s) + [f"Central + J2: {z['case']}.", ""]
     out += _table(["", "system", "ns per particle-step", "max \\|dE/E\\|"], rows)
     out += [
         f"Central + J2 over central only: {z['j2_over_central']:.2f}x ({z['n']} points), "
@@ -646,6 +646,23 @@ def _effects(s: dict) -> list[str]:
         [" + ".join(x["effects"]), _f(x["cold_s"], 2), _f(x["warm_s"], 2), _f(x["compile_s"], 2)] for x in co["sets"]
     ]
     out += _table(["effects", "cold s", "warm s", "compile s"], rows)
+    each = s.get("each")
+    if each:
+        out += [f"Each effect on many points: {each['case']}; CPU time per particle-step.", ""]
+        rows = [
+            [n, _f(r["ns_per_particle_step"], 2), f"{r['newton_per_substep']:.2f}", f"{r['over_central']:.2f}x"]
+            for n, r in each["rows"].items()
+            if "status" not in r
+        ]
+        out += _table(["", "ns per particle-step", "Newton sweeps per sub-step", "x central"], rows)
+    scenes = s.get("scenes")
+    if scenes:
+        out += [f"Shipped scenes: {scenes['case']}.", ""]
+        rows = [
+            [r["scene"], _f(r["cold_cpu_s"], 1), _f(r["set_cpu_s"], 2), _f(r["cold_s"], 1), _f(r["warm_s"], 2)]
+            for r in scenes["scenes"]
+        ]
+        out += _table(["scene", "cold CPU s", "new set CPU s", "cold s", "warm s"], rows)
     return out
 
 
