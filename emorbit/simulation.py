@@ -79,7 +79,7 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
         elastic and rigid bodies and point masses, in the central field; fixed or adaptive steps).
     order : int
         2 (the base step) or 4, 6, 8 (symmetric compositions of it, :data:`emorbit.ORDERS`);
-        ``"tfe"`` runs at 4 or 6 (its 2 or 3 Gauss stages).
+        ``"tfe"`` runs at 4, 6 or 8 (its 2, 3 or 4 Gauss stages).
     dt : Quantity, str or float
         The step, s.
     max_newton_iterations : int

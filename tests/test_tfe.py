@@ -130,7 +130,7 @@ def test_tables_are_gauss():
     """The tables' rows: the k-point rule integrates t^m exactly for m < 2k, the collocation
     matrix integrates the Lagrange polynomials, and b_i a_ij + b_j a_ji = b_i b_j (what makes
     the kinetic energy and |p|^2 exact sums over the nodes)."""
-    for order in (4, 6):
+    for order in (4, 6, 8):
         tab = tfe.tables(order)
         k = order // 2
         c, b, a, aa = tab[:, 0], tab[:, 1], tab[:, 3 : 3 + k], tab[:, 3 + k :]
@@ -142,13 +142,13 @@ def test_tables_are_gauss():
 
 
 def test_refuses_what_it_does_not_run():
-    """Orders other than 4 and 6 and the GPU: each an InputError naming its key and value, when
-    the simulation is built (effects: tests/test_tfe_effects.py; structures with rigid bodies:
-    tests/test_tfe_elastic.py)."""
-    assert get_method("tfe").orders == (4, 6) and "tfe" in METHODS
-    assert check_method_order("tfe", 6) == 6
+    """Orders other than 4, 6 and 8 and the GPU: each an InputError naming its key and value,
+    when the simulation is built (effects: tests/test_tfe_effects.py; structures with rigid
+    bodies: tests/test_tfe_elastic.py)."""
+    assert get_method("tfe").orders == (4, 6, 8) and "tfe" in METHODS
+    assert check_method_order("tfe", 8) == 8
     field = emorbit.CentralField(gm=PAPER_GM)
-    for order in (2, 8):
+    for order in (2,):
         with pytest.raises(InputError) as info:
             emorbit.Simulation(field, method="tfe", order=order, dt=1.0)
         assert info.value.key == "order" and str(order) in str(info.value) and "'tfe'" in str(info.value)

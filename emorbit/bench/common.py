@@ -74,7 +74,7 @@ class Config:
     heyoka_tol: tuple
     warm_runs: int  # repeats of the warm start-up
     adaptive_orders: tuple = (2, 4, 6, 8)  # em with adaptive steps in the work-precision runs
-    tfe_adaptive_orders: tuple = (4, 6)  # and tfe with adaptive steps
+    tfe_adaptive_orders: tuple = (4, 6, 8)  # and tfe with adaptive steps
     #: the adaptive steps' knob: h = eta 2 pi sqrt(r^3 / GM), a fraction of the local Kepler time scale
     adaptive_eta: tuple = (0.08, 0.06, 0.04, 0.02, 0.0125, 0.008, 0.005, 0.003)
 

@@ -10,13 +10,13 @@ ten checkpoints per orbit. Engines:
 * emorbit em, midpoint and leapfrog at orders 2, 4, 6 and 8 (symmetric compositions of 1, 3,
   9 and 17 second-order steps), dt = T/N for several N (through ``PointMasses.advance``,
   checkpoints recorded by the kernel); points carry ``dt``;
-* emorbit tfe, the energy-momentum time finite element, at orders 4 and 6 (one implicit solve
-  of 2 or 3 Gauss stages per step, :mod:`emorbit.kernels.pointmass.tfe`) at the same dt;
+* emorbit tfe, the energy-momentum time finite element, at orders 4, 6 and 8 (one implicit
+  solve of 2, 3 or 4 Gauss stages per step, :mod:`emorbit.kernels.pointmass.tfe`) at the same dt;
   labelled with its order and scheme beside the compositions;
 * emorbit em with adaptive, time-symmetric steps (:mod:`emorbit.kernels.pointmass.adaptive`,
   ``h ~ eta 2 pi sqrt(r^3/GM)``) at orders 2-8 for several eta: points with ``method = "em"``,
   ``adaptive = True`` and eta as ``tolerance`` (a step too long for the control fails the run,
-  which is kept as a failed point); tfe with the same adaptive steps at orders 4 and 6
+  which is kept as a failed point); tfe with the same adaptive steps at orders 4, 6 and 8
   (``method = "tfe"``, ``adaptive = True``);
 * REBOUND IAS15 at several epsilons (its adaptive step, exact finish time), WHFast (without
   safe mode) and leapfrog at the same dt as emorbit;

@@ -2,8 +2,8 @@
 them: :data:`ORDERS`, :data:`ROUNDOFF` and :data:`DEVICES`, each checked here and nowhere else.
 
 Every method but one is a symmetric second-order step; :mod:`.composition` raises it to order
-4, 6 or 8. ``"tfe"`` reaches its orders (4 and 6, :attr:`Method.orders`) in one implicit
-solve of 2 or 3 stages instead (:mod:`emorbit.kernels.pointmass.tfe`,
+4, 6 or 8. ``"tfe"`` reaches its orders (4, 6 and 8, :attr:`Method.orders`) in one
+implicit solve of 2, 3 or 4 stages instead (:mod:`emorbit.kernels.pointmass.tfe`,
 :mod:`emorbit.kernels.rigid_tfe`). :mod:`.dispatch` maps
 (method, roundoff, device) to the kernel that runs it. To add a method: give it a code in
 :mod:`emorbit.kernels.codes`, write its step kernel for each body kind it supports (see
@@ -105,12 +105,12 @@ METHODS = {
         "and rigid bodies and point masses, in the central field)",
         implicit=True,
         conserves=("energy", "angular_momentum"),
-        orders=(4, 6),
+        orders=(4, 6, 8),
         composed=False,
     ),
 }
 """The methods by name: ``"em"`` (energy-momentum), ``"midpoint"``, ``"leapfrog"`` and ``"tfe"``
-(energy-momentum time finite elements of orders 4 and 6, :mod:`emorbit.kernels.pointmass.tfe`,
+(energy-momentum time finite elements of orders 4, 6 and 8, :mod:`emorbit.kernels.pointmass.tfe`,
 :mod:`emorbit.kernels.rigid_tfe` and :mod:`emorbit.kernels.elastic_tfe`: point masses, also
 under effects whose force is a function of position and time
 (:mod:`emorbit.kernels.pointmass.effect_tfe`), rigid bodies, and structures of elastic and

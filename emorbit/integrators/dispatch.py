@@ -21,8 +21,8 @@ device      steps       kernel
 The order of a method does not pick a kernel: every kernel takes the composition's
 sub-step coefficients (:func:`emorbit.integrators.coefficients`) as an array. The one
 exception is ``"tfe"``, whose order is its number of Gauss stages: :func:`tfe_chunk` reads
-the order from the coefficients it is handed (those of order 4 or 6) and runs one step of
-2 or 3 stages per step, not the composition, with fixed steps or adaptive ones
+the order from the coefficients it is handed (those of order 4, 6 or 8) and runs one step
+of 2, 3 or 4 stages per step, not the composition, with fixed steps or adaptive ones
 (:func:`adaptive_points`). These run point masses in the central field alone, on the CPU
 (point masses under effects, rigid bodies and structures have their own tfe paths); the
 other paths refuse it naming their key.
@@ -69,9 +69,9 @@ def _order_of(gammas) -> int | None:
 def tfe_tables(gammas) -> np.ndarray:
     """The Gauss tables of the time finite element (``"tfe"``) whose order ``gammas`` says.
 
-    ``gammas`` must be the composition coefficients of order 4 or 6
+    ``gammas`` must be the composition coefficients of order 4, 6 or 8
     (:func:`emorbit.integrators.coefficients`): they say the order, and the step is one solve
-    of 2 or 3 Gauss stages (:func:`emorbit.kernels.pointmass.tfe.tables`), not their
+    of 2, 3 or 4 Gauss stages (:func:`emorbit.kernels.pointmass.tfe.tables`), not their
     composition.
 
     Raises
@@ -81,7 +81,7 @@ def tfe_tables(gammas) -> np.ndarray:
     """
     order = _order_of(gammas)
     if order is None:
-        raise InputError("order", f"method 'tfe' runs at order 4 or 6; got {len(gammas)} composition coefficients")
+        raise InputError("order", f"method 'tfe' runs at order 4, 6 or 8; got {len(gammas)} composition coefficients")
     check_method_order("tfe", order)
     from ..kernels.pointmass import tfe
 
@@ -92,7 +92,7 @@ def tfe_tables(gammas) -> np.ndarray:
 
 def tfe_chunk(code, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
     """Fixed steps of the time finite element (``"tfe"``) with the arguments of every
-    point-mass chunk kernel (:func:`point_chunk`): one solve of 2 or 3 Gauss stages per step
+    point-mass chunk kernel (:func:`point_chunk`): one solve of 2, 3 or 4 Gauss stages per step
     (:func:`emorbit.kernels.pointmass.tfe.tfe_chunk`, tables by :func:`tfe_tables`).
     ``rec_iters`` counts Newton iterations per step."""
     from ..kernels.pointmass import tfe
@@ -274,8 +274,8 @@ def adaptive_points(
     rec_steps, fail,
 ):  # fmt: skip
     """:func:`emorbit.kernels.pointmass.adaptive.adaptive_chunk` with the tables it needs: for
-    tfe (``code`` METHOD_TFE) ``gammas`` (those of order 4 or 6) says the order, and the
-    composed step is one step of 2 or 3 Gauss stages (:func:`tfe_tables`)."""
+    tfe (``code`` METHOD_TFE) ``gammas`` (those of order 4, 6 or 8) says the order, and the
+    composed step is one step of 2, 3 or 4 Gauss stages (:func:`tfe_tables`)."""
     from ..kernels.pointmass import adaptive
 
     tab, gammas = (tfe_tables(gammas), _ONE_STEP) if code == codes.METHOD_TFE else (_NO_TABLES, gammas)

@@ -1,4 +1,4 @@
-r"""Energy-momentum time finite elements for elastic structures: the stage forces of orders 4 and 6.
+r"""Energy-momentum time finite elements for elastic structures: the stage forces of orders 4, 6 and 8.
 
 A step of size h is the continuous Galerkin element cG(k) of Betsch & Steinmann on the
 structure's slots, written at the k Gauss nodes c_l (weights b_l, matrix a): the slots' path
@@ -44,13 +44,16 @@ import math
 import numpy as np
 
 from .coupled import add_block_at
+from .gauss import gauss_rule
 from .jit import kernel
 
 __all__ = ["assumed_strain_tables", "stage_element_forces", "stage_gravity_forces"]
 
 
 def _gauss(m: int) -> tuple[list, list]:
-    """Gauss-Legendre nodes and weights on [0, 1], m = 2, 3 or 5, as 40-digit Decimals."""
+    """Gauss-Legendre nodes and weights on [0, 1] as Decimals: closed forms at the context's
+    precision for m = 2, 3 and 5 (those of orders 4 and 6), Newton's roots of
+    :func:`.gauss.gauss_rule` for other m (order 8 takes 4 and 7)."""
     from decimal import Decimal as D
 
     if m == 2:
@@ -67,12 +70,12 @@ def _gauss(m: int) -> tuple[list, list]:
         x = [-x2, -x1, D(0), x1, x2]
         w = [w2, w1, D(128) / D(225), w1, w2]
     else:
-        raise ValueError(f"no {m}-point rule")
+        return gauss_rule(m)
     return [(1 + xi) / 2 for xi in x], [wi / 2 for wi in w]
 
 
 def assumed_strain_tables(order: int) -> tuple[np.ndarray, ...]:
-    """The element rule of a step of ``order`` (4 or 6): with the k Gauss nodes c (k = order /
+    """The element rule of a step of ``order`` (4, 6 or 8): with the k Gauss nodes c (k = order /
     2), the Lagrange basis ell_j on them and the 2k - 1 point Gauss rule (sigma_i, w_i) on [0, 1]:
 
     - ``ell`` (k, m): ``ell_j(sigma_i)``;
@@ -82,10 +85,15 @@ def assumed_strain_tables(order: int) -> tuple[np.ndarray, ...]:
     Computed with 40-digit decimals and rounded once.
     """
     from decimal import Decimal as D
-    from decimal import getcontext
+    from decimal import localcontext
 
-    getcontext().prec = 40
-    k = order // 2
+    with localcontext() as ctx:  # the caller's decimal context stays as it was
+        ctx.prec = 40
+        return _strain_tables(order // 2, D)
+
+
+def _strain_tables(k: int, D) -> tuple[np.ndarray, ...]:
+    """:func:`assumed_strain_tables` for k stages, in the current decimal context."""
     c, b = _gauss(k)
     sig, w = _gauss(2 * k - 1)
     m = len(sig)

@@ -1,4 +1,4 @@
-r"""Energy-momentum time finite elements: orders 4 and 6 for point masses in one implicit solve.
+r"""Energy-momentum time finite elements: orders 4, 6 and 8 for point masses in one implicit solve.
 
 One step of size ``h`` is the continuous Galerkin element cG(k) of Betsch & Steinmann (2000) in
 the form of Hairer's energy-preserving collocation (2010): ``p = x - X_Z`` and ``v`` polynomials
@@ -20,9 +20,9 @@ Data layout. The stages lie in the plane of ``p0`` and ``h v0``; the unknowns ar
 nodal forces ``phi_l = h^2 F_l`` in that basis, a (k, 2) array (2k unknowns per point), solved
 by Newton with gravity's 2 x 2 Jacobian at each stage and a dense 2k x 2k solve, started from
 the previous step's force polynomial. The Gauss tables are one (k, 3 + 2k) array
-(:func:`tables`). State and records are those of :func:`~.reference.implicit_chunk`: ``x, v,
-cx, cv`` (3, n) with compensated sums, ``rec_x, rec_v`` (nrec, 3, n), ``rec_iters`` (nrec, n)
-Newton iterations, ``fail`` (n, 2).
+(:func:`tables`), from :mod:`emorbit.kernels.gauss` rounded to 20 digits. State and records
+are those of :func:`~.reference.implicit_chunk`: ``x, v, cx, cv`` (3, n) with compensated
+sums, ``rec_x, rec_v`` (nrec, 3, n), ``rec_iters`` (nrec, n) Newton iterations, ``fail`` (n, 2).
 
 References: P. Betsch, P. Steinmann, Inherently energy conserving time finite elements for
 classical mechanics, J. Comput. Phys. 160 (2000) 88-116; E. Hairer, Energy-preserving variant
@@ -44,59 +44,61 @@ from ..rigid_solve import dense_solve
 __all__ = ["ORDERS", "low_parts", "tables", "tfe_chunk", "tfe_step"]
 
 #: the orders a step of k stages reaches: 2k
-ORDERS = (4, 6)
+ORDERS = (4, 6, 8)
 #: Newton's update is round-off once below this fraction of the largest nodal force
 _TOL = 2.0**-53
 #: an update that stops shrinking is Newton's round-off floor below this fraction
 _FLOOR = 2.0**-40
 
-# Gauss-Legendre on [0, 1] to 20 digits (mpmath, 40 digits): nodes c, weights b, the
-# collocation matrix a, its square a^2 and b (1 - c)
-_GAUSS = {
-    2: (
-        ("0.21132486540518711775", "0.78867513459481288225"),
-        ("0.5", "0.5"),
-        (("0.25", "-0.038675134594812882255"), ("0.53867513459481288225", "0.25")),
-        (
-            ("0.041666666666666666667", "-0.019337567297406441127"),
-            ("0.26933756729740644113", "0.041666666666666666667"),
-        ),
-        ("0.39433756729740644113", "0.10566243270259355887"),
-    ),
-    3: (
-        ("0.11270166537925831148", "0.5", "0.88729833462074168852"),
-        ("0.27777777777777777778", "0.44444444444444444444", "0.27777777777777777778"),
-        (
-            ("0.13888888888888888889", "-0.035976667524938903456", "0.0097894440153083260496"),
-            ("0.30026319498086459244", "0.22222222222222222222", "-0.02248541720308681466"),
-            ("0.26798833376246945173", "0.4804211119693833479", "0.13888888888888888889"),
-        ),
-        (
-            ("0.011111111111111111111", "-0.0082885188046092641151", "0.003528240383127308745"),
-            ("0.10240254647510301229", "0.027777777777777777778", "-0.0051803242528807900719"),
-            ("0.21869398183909491348", "0.16384407436016481967", "0.011111111111111111111"),
-        ),
-        ("0.24647175961687269125", "0.22222222222222222222", "0.031306018160905086523"),
-    ),
-}
+#: significant digits the tables keep (:func:`_gauss`)
+_TABLE_DIGITS = 20
+
+
+def _check(order: int) -> None:
+    if order not in ORDERS:
+        raise ValueError(f"a time finite element of order {ORDERS}, not {order!r}")
+
+
+def _gauss(k: int) -> tuple:
+    """The k-stage Gauss tables as Decimals rounded to 20 digits: nodes c, weights b, the
+    collocation matrix a, its square a^2 and b (1 - c) (:func:`emorbit.kernels.gauss.collocation`,
+    computed with 50 digits)."""
+    from decimal import localcontext
+
+    from ..gauss import DIGITS, collocation
+
+    c, b, a = collocation(k)
+    with localcontext() as ctx:
+        ctx.prec = DIGITS
+        aa = [[sum(a[i][m] * a[m][j] for m in range(k)) for j in range(k)] for i in range(k)]
+        bb = [b[i] * (1 - c[i]) for i in range(k)]
+        ctx.prec = _TABLE_DIGITS
+        return (
+            [+x for x in c],
+            [+x for x in b],
+            [[+x for x in row] for row in a],
+            [[+x for x in row] for row in aa],
+            [+x for x in bb],
+        )
 
 
 def tables(order: int) -> np.ndarray:
-    """The Gauss tables of a step of ``order`` (4 or 6) in one (k, 3 + 2k) array.
+    """The Gauss tables of a step of ``order`` (4, 6 or 8) in one (k, 3 + 2k) array.
 
     Row l holds ``c_l, b_l, b_l (1 - c_l)``, then ``a_l1 .. a_lk``, then ``(a^2)_l1 .. (a^2)_lk``.
 
     Parameters
     ----------
     order : int
-        4 or 6 (k = 2 or 3 stages).
+        4, 6 or 8 (k = 2, 3 or 4 stages).
 
     Returns
     -------
     ndarray
         (k, 3 + 2k) float64.
     """
-    c, b, a, aa, bb = _GAUSS[order // 2]
+    _check(order)
+    c, b, a, aa, bb = _gauss(order // 2)
     k = len(c)
     out = np.empty((k, 3 + 2 * k))
     for i in range(k):
@@ -117,7 +119,8 @@ def low_parts(order: int) -> np.ndarray:
     if order not in _LOW:
         from decimal import Decimal, localcontext
 
-        c, b, a, _, _ = _GAUSS[order // 2]
+        _check(order)
+        c, b, a, _, _ = _gauss(order // 2)
         k = len(c)
         out = np.empty((k, 1 + k))
         with localcontext() as ctx:  # the caller's decimal context stays as it was
