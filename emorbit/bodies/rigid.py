@@ -408,9 +408,15 @@ class RigidBodies(WorkSums, BodySystem):
         return self.BASE_FIELDS + work + (("rho",) if self.adaptive is not None else ())
 
     def inverse_inertias(self) -> np.ndarray:
-        """(nb, 3, 3) the inverse body-frame inertias J^-1, J = tr(E) I - E, 1/(kg m^2)."""
+        """(nb, 3, 3) the inverse body-frame inertias J^-1, J = tr(E) I - E, 1/(kg m^2), kept
+        while ``E`` is the same array (adding or removing a body replaces it)."""
+        cached = self.__dict__.get("_inverse_inertias")
+        if cached is not None and cached[0] is self.E:
+            return cached[1]
         tr = np.trace(self.E, axis1=1, axis2=2)[:, None, None]
-        return np.ascontiguousarray(np.linalg.inv(tr * np.eye(3) - self.E))
+        out = np.ascontiguousarray(np.linalg.inv(tr * np.eye(3) - self.E))
+        self._inverse_inertias = (self.E, out)
+        return out
 
     def _records(self, nrec: int) -> RigidRecords:
         """Empty records of ``nrec`` intervals (no failure, no stall yet)."""

@@ -12,11 +12,16 @@ what differs between effects is each one's declaration.
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 from ..errors import InputError
 from ..kernels.effects.signatures import SLICES
 from .base import AT_POINTS, ON_SURFACES, Effect
+
+#: the package, whose registry (``EFFECTS``) is complete by the time a set is asked for it
+_PACKAGE = sys.modules[__name__.rpartition(".")[0]]
 
 __all__ = ["EffectSet"]
 
@@ -102,11 +107,10 @@ class EffectSet:
     @property
     def all(self) -> tuple[Effect, ...]:
         """Every effect, the central field's first, in the order a step sums their forces."""
-        from . import EFFECTS
-
-        key = len(EFFECTS)  # a user's registered effect ranks after the shipped ones
-        if self._all is None or self._all[0] != key:  # asked in every call of a step kernel
-            rank = {k: i for i, k in enumerate(EFFECTS)}
+        registry = _PACKAGE.EFFECTS  # asked many times in every run: no import statement here
+        key = len(registry)  # a user's registered effect ranks after the shipped ones
+        if self._all is None or self._all[0] != key:
+            rank = {k: i for i, k in enumerate(registry)}
             named = sorted(self._named, key=lambda e: rank.get(e.kind, len(rank)))
             self._all = (key, ((self._central,) if self._central is not None else ()) + tuple(named))
         return self._all[1]
@@ -132,19 +136,31 @@ class EffectSet:
         """The effects that act on a body kind (at its points or on its surfaces, or ``how``)."""
         return [e for e in self.all if e.acts_on(body_kind) and (how is None or e.acts_on(body_kind) == how)]
 
+    def _of_all(self, name: str, fn):
+        """``fn(all)`` kept until the set changes (a step's set-up and every record ask the
+        same questions of it)."""
+        effects = self.all
+        memo = self.__dict__.setdefault("_memo", {})
+        if memo.get("all") is not effects:
+            memo.clear()
+            memo["all"] = effects
+        if name not in memo:
+            memo[name] = fn(effects)
+        return memo[name]
+
     def working(self) -> list[Effect]:
         """The effects whose work the step sums (their slots' order)."""
-        return [e for e in self.all if type(e).does_work()]
+        return list(self._of_all("working", lambda effects: tuple(e for e in effects if type(e).does_work())))
 
     def ledger(self) -> bool:
         """Whether an effect of the set changes a body's mass (a burn): the work then has a
         ledger row after the working effects' (:mod:`emorbit.effects.program`), and the run
         records the mass ledger."""
-        return any(type(e).changes_mass() for e in self.all)
+        return self._of_all("ledger", lambda effects: any(type(e).changes_mass() for e in effects))
 
     def work_rows(self) -> int:
         """The rows of the step's work sums: one per working effect, and the ledger row."""
-        return len(self.working()) + int(self.ledger())
+        return self._of_all("work_rows", lambda _: len(self.working()) + int(self.ledger()))
 
     def mass_lost(self, t) -> dict:
         """The mass the set's effects have taken from each body by times ``t`` (s):

@@ -95,11 +95,26 @@ import sys
 import tempfile
 from dataclasses import dataclass
 
+from numba.core.ccallback import CFunc
+from numba.core.typing.typeof import typeof_impl
+
 from ..kernels.effects import block_calls
 from ..kernels.effects.blocks import ROW_COEF
 from ..kernels.jit import cache_dir, cache_enabled, cached_sources_digest
 
 __all__ = ["Program", "compile_set", "set_source"]
+
+_numba_typeof_cfunc = typeof_impl.dispatch(CFunc)
+
+
+@typeof_impl.register(CFunc)
+def _typeof_cfunc(val, c):
+    """A cfunc's Numba type, built once per cfunc: Numba builds the same ``FunctionType`` anew
+    in every call of a kernel that takes the cfunc (four per run of a step kernel)."""
+    t = val.__dict__.get("_emorbit_numba_type")
+    if t is None:
+        t = val._emorbit_numba_type = _numba_typeof_cfunc(val, c)
+    return t
 
 
 @dataclass(frozen=True)

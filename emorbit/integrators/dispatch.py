@@ -53,6 +53,7 @@ _CODES = {
     "leapfrog": codes.METHOD_LEAPFROG,
     "tfe": codes.METHOD_TFE,
 }
+#: tfe's Gauss tables, by the bytes of the composition coefficients that name the order
 _TABLES: dict = {}
 
 
@@ -79,15 +80,17 @@ def tfe_tables(gammas) -> np.ndarray:
     InputError
         ``order``: any other order.
     """
+    key = np.asarray(gammas, dtype=float).tobytes()
+    if key in _TABLES:
+        return _TABLES[key]
     order = _order_of(gammas)
     if order is None:
         raise InputError("order", f"method 'tfe' runs at order 4, 6 or 8; got {len(gammas)} composition coefficients")
     check_method_order("tfe", order)
     from ..kernels.pointmass import tfe
 
-    if order not in _TABLES:
-        _TABLES[order] = tfe.tables(order)
-    return _TABLES[order]
+    _TABLES[key] = tfe.tables(order)
+    return _TABLES[key]
 
 
 def tfe_chunk(code, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
