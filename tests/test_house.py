@@ -438,3 +438,19 @@ def test_every_mutant_still_finds_its_code():
         if (n := (REPO / m.path).read_text().count(m.old) if (REPO / m.path).is_file() else 0) != 1
     ]
     assert not stale, "\n".join(stale)
+
+
+def test_house_count_reads_a_revision_as_the_tests_read_the_tree():
+    """scripts/house_count.py (the closing notes' counts) sees this tree's house as the tests
+    above do: three floors, no upward arrow, no cycle, no effect kind named outside the effects."""
+    if subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True).returncode:
+        pytest.skip("not a git checkout")
+    sys.path.insert(0, str(REPO / "scripts"))
+    try:
+        import house_count
+    finally:
+        sys.path.remove(str(REPO / "scripts"))
+    got = house_count.count("HEAD")
+    assert got["modules"] >= 150 and got["arrows"] > got["modules"]
+    assert (got["floors"], got["upward arrows"], got["cycles"]) == (3, 0, 0)
+    assert got["effect kinds"] >= 5 and got["kind references outside the effects"] == 0
