@@ -480,3 +480,30 @@ def test_zonal_on_a_structure_changes_its_motion_and_records_its_potential(tmp_p
         ratio = np.abs(zonal / f["invariants/potential_central"][()])
         # J2 (R/r)^2 P2 of the central part: measured 3.37e-4 to 3.39e-4 along this orbit
         assert np.all((2.5e-4 < ratio) & (ratio < 4.5e-4)), f"{ratio.min():.3g} to {ratio.max():.3g}"
+
+
+def test_the_sets_facts_follow_an_effect_added_after_they_were_asked():
+    """What a set says of itself is kept between questions (a run asks many times); adding or
+    removing an effect makes it answer anew: its order, the working effects, the work rows."""
+    sim = emorbit.Simulation(EARTH, method="em", dt=10.0)
+    effects = sim.effects
+    assert effects.kinds() == ("central",) and effects.working() == [] and effects.work_rows() == 0
+    drag = effects.add({"kind": "drag", "atmosphere": "ussa1976"}, "effect[0]")
+    assert effects.kinds() == ("central", "drag")
+    assert [e.kind for e in effects.working()] == ["drag"] and effects.work_rows() == 1
+    effects.add({"kind": "zonal", "model": "earth", "degree": 2}, "effect[1]")
+    assert effects.kinds() == ("central", "zonal", "drag") and effects.work_rows() == 1
+    effects.remove(drag)
+    assert effects.kinds() == ("central", "zonal") and effects.working() == [] and effects.work_rows() == 0
+
+
+def test_a_cfunc_is_typed_once_and_as_numba_types_it():
+    """A step kernel takes the set's cfuncs: their Numba type is built once per cfunc
+    (emorbit.effects.program), and it is the type Numba itself gives them."""
+    import numba
+    from numba.core.types import FunctionType
+
+    prog = emorbit.Simulation(EARTH, method="em", dt=10.0).effects.program()
+    for f in (prog.forces, prog.prepare, prog.work, prog.potential):
+        assert numba.typeof(f) is numba.typeof(f)
+        assert numba.typeof(f) == FunctionType(f._sig)
