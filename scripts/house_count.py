@@ -32,7 +32,8 @@ sys.path.insert(0, str(REPO / "tests"))
 
 import test_house as house  # noqa: E402  (the graph and the kind rule the tests use)
 
-TOOLS = ("emorbit.bench", "emorbit.sweep", "emorbit.cli", "emorbit.plot", "emorbit.validation")
+#: the top floor: what the model may not import, and the plots
+TOOLS = house.ABOVE_MODEL + ("emorbit.plot",)
 
 
 def floor(module: str) -> int:
@@ -57,17 +58,7 @@ def count(rev: str) -> dict:
         mods = house.modules(roots)
         edges = house.internal_edges(house.imports(mods), mods)
         arrows = [(a, b) for a, targets in edges.items() for b in targets]
-        kinds = set()  # NAME = "..." in an effect's class (or, in older trees, its module)
-        for path in (root / "emorbit" / "effects").glob("*.py"):
-            for node in ast.walk(ast.parse(path.read_text())):
-                if (
-                    isinstance(node, ast.Assign)
-                    and any(isinstance(x, ast.Name) and x.id == "NAME" for x in node.targets)
-                    and isinstance(node.value, ast.Constant)
-                    and isinstance(node.value.value, str)
-                ):
-                    kinds.add(node.value.value)
-        kinds -= {"central", ""}
+        kinds = house.effect_kinds(root / "emorbit" / "effects")
         refs, files = 0, 0
         for path in sorted((root / "emorbit").rglob("*.py")):
             rel = path.relative_to(root).as_posix()

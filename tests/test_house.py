@@ -318,19 +318,19 @@ SURFACE_PROPERTIES = {"drag_coefficient"}
 TOOLS = ("emorbit/bench/", "emorbit/sweep/", "emorbit/cli.py", "emorbit/plot.py")
 
 
-def effect_kinds() -> set[str]:
-    """The shipped effects' kinds (central aside: the field is the model's own)."""
+def effect_kinds(folder: Path = REPO / "emorbit" / "effects") -> set[str]:
+    """The shipped effects' kinds (central aside: the field is the model's own): every ``NAME =
+    "..."`` in the effects' modules (in their classes; in older trees, at module level)."""
     kinds = set()
-    for path in (REPO / "emorbit" / "effects").glob("*.py"):
+    for path in folder.glob("*.py"):
         for node in ast.walk(ast.parse(path.read_text())):
-            if isinstance(node, ast.ClassDef):
-                for stmt in node.body:
-                    if (
-                        isinstance(stmt, ast.Assign)
-                        and any(isinstance(t, ast.Name) and t.id == "NAME" for t in stmt.targets)
-                        and isinstance(stmt.value, ast.Constant)
-                    ):
-                        kinds.add(stmt.value.value)
+            if (
+                isinstance(node, ast.Assign)
+                and any(isinstance(t, ast.Name) and t.id == "NAME" for t in node.targets)
+                and isinstance(node.value, ast.Constant)
+                and isinstance(node.value.value, str)
+            ):
+                kinds.add(node.value.value)
     return kinds - {"central", ""}
 
 

@@ -125,6 +125,7 @@ class RigidBodies(WorkSums, BodySystem):
         self.mass = np.zeros(0)
         self.E = np.zeros((0, 3, 3))
         self.Einv = np.zeros((0, 3, 3))
+        self._inverse_inertias = None  # (E, J^-1 of that E): see inverse_inertias
         self.q = np.zeros((0, 12))
         self.v = np.zeros((0, 12))
         self.cq = np.zeros((0, 12))
@@ -410,7 +411,7 @@ class RigidBodies(WorkSums, BodySystem):
     def inverse_inertias(self) -> np.ndarray:
         """(nb, 3, 3) the inverse body-frame inertias J^-1, J = tr(E) I - E, 1/(kg m^2), kept
         while ``E`` is the same array (adding or removing a body replaces it)."""
-        cached = self.__dict__.get("_inverse_inertias")
+        cached = self._inverse_inertias
         if cached is not None and cached[0] is self.E:
             return cached[1]
         tr = np.trace(self.E, axis1=1, axis2=2)[:, None, None]

@@ -39,6 +39,7 @@ class EffectSet:
         self.field = field
         self._named: list[Effect] = []  # the effects of add(), in the order named
         self._all = None  # (the registry's size, all), kept until the set changes
+        self._memo: dict = {}  # what _of_all found, for the "all" it holds
         self._central = None
         if field is not None:
             from . import EFFECTS
@@ -140,7 +141,7 @@ class EffectSet:
         """``fn(all)`` kept until the set changes (a step's set-up and every record ask the
         same questions of it)."""
         effects = self.all
-        memo = self.__dict__.setdefault("_memo", {})
+        memo = self._memo
         if memo.get("all") is not effects:
             memo.clear()
             memo["all"] = effects

@@ -95,6 +95,7 @@ import sys
 import tempfile
 from dataclasses import dataclass
 
+import numba.experimental.function_type  # noqa: F401  (registers Numba's typeof of cfuncs, kept below)
 from numba.core.ccallback import CFunc
 from numba.core.typing.typeof import typeof_impl
 
@@ -109,8 +110,7 @@ _numba_typeof_cfunc = typeof_impl.dispatch(CFunc)
 
 @typeof_impl.register(CFunc)
 def _typeof_cfunc(val, c):
-    """A cfunc's Numba type, built once per cfunc: Numba builds the same ``FunctionType`` anew
-    in every call of a kernel that takes the cfunc (four per run of a step kernel)."""
+    """A cfunc's Numba type, built once (Numba built it anew in every call of a kernel taking it)."""
     t = val.__dict__.get("_emorbit_numba_type")
     if t is None:
         t = val._emorbit_numba_type = _numba_typeof_cfunc(val, c)
