@@ -135,15 +135,14 @@ class EventRun:
                     s.restore(snap)
                 return self._sub_step(j, tau, t0, parts, gammas)[0]
 
-            tau = locate(g_of, sim._dt, g_a, g_b, t0)
-            for s, snap in zip(sim.systems, start):
-                s.restore(snap)
-            return tau, self._sub_step(j, tau, t0, parts, gammas)[1]
+            return locate(g_of, sim._dt, g_a, g_b, t0)
 
-        located = sorted((at(j, a, b)[0], j, a, b) for _, j, a, b in found)
+        located = sorted((at(j, a, b), j, a, b) for _, j, a, b in found)
         for tau, j, a, b in located:
             crossing, e, t = (step, j, a, b), self.events.events[j], t0 + tau
-            _, recs = at(j, a, b)
+            for s, snap in zip(sim.systems, start):
+                s.restore(snap)
+            recs = self._sub_step(j, tau, t0, parts, gammas)[1]
             if e.stop:
                 sim._steps = step
                 sim._t_base = t - step * sim._dt  # the clock goes on from the event
@@ -191,18 +190,27 @@ class EventRun:
         (:func:`emorbit.events.locate`); the systems are left at the event. Returns (time, the
         step length, records at the event, the snapshots of the step's start)."""
         step, j, g0, g1 = crossing
-        start = [s.snapshot() for s in self.sim.systems]
+        systems = self.sim.systems
+        start = [s.snapshot() for s in systems]
         t0 = self.sim._t_base + (step - 1) * self.sim._dt
+        trials = {}  # tau: the records and the systems after that trial (the last one is kept)
 
         def g_of(tau):
-            for s, snap in zip(self.sim.systems, start):
+            for s, snap in zip(systems, start):
                 s.restore(snap)
-            return self.g_after(j, tau, t0, gammas)[0]
+            g, recs = self.g_after(j, tau, t0, gammas)
+            trials[tau] = recs, [s.snapshot() for s in systems]
+            return g
 
         tau = locate(g_of, self.sim._dt, g0, g1, t0)
-        for s, snap in zip(self.sim.systems, start):
-            s.restore(snap)
-        recs = self.g_after(j, tau, t0, gammas)[1]
+        if tau in trials:  # the systems as that trial left them: the same bits as a new step
+            recs, after = trials[tau]
+            for s, snap in zip(systems, after):
+                s.restore(snap)
+        else:
+            for s, snap in zip(systems, start):
+                s.restore(snap)
+            recs = self.g_after(j, tau, t0, gammas)[1]
         return t0 + tau, tau, recs, start
 
     def log_event(self, crossing, t: float, recs, sink, dv=None, work: float = 0.0) -> None:

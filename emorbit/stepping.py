@@ -105,14 +105,41 @@ class _Pace:
         self.last_checkpoint = _time.monotonic()
         self.split_cap = SPLIT_STEPS  # steps per chunk at most where events split steps
         self.split_at = None  # the step count at the last split
+        self.splits: list[int] = []  # the step counts of the last splits, at most 4
+        self.foreseen = False  # whether the last split came where the splits before it said
 
     def split(self, steps: int) -> None:
         """A step was split at step count ``steps``: chunks of about half the steps between
         the last two splits (from 8 to :data:`SPLIT_STEPS`), so that the steps a split drops
-        and takes again stay few beside the calls' own cost."""
+        and takes again stay few beside the calls' own cost; and whether it came where
+        :meth:`split_steps` expected it."""
+        due = self._due()
         if self.split_at is not None and steps > self.split_at:
             self.split_cap = max(8, min(SPLIT_STEPS, (steps - self.split_at) // 2))
+        self.foreseen = due is not None and abs(steps - due[0]) <= due[1]
         self.split_at = steps
+        self.splits = [*self.splits[-3:], steps]
+
+    def _due(self):
+        """The next split expected from the last ones, (step count, margin), or None: splits
+        that repeat every other gap (a shadow's entry and exit) come the gap before the last
+        after the last split, within a sixteenth of it (2 steps at least)."""
+        if len(self.splits) < 3:
+            return None
+        gap = self.splits[-2] - self.splits[-3]
+        return self.splits[-1] + gap, max(2, gap // 16)
+
+    def split_steps(self, at: int) -> int:
+        """Steps per chunk at most from step count ``at`` where events split steps. Once a
+        split came where the ones before it said (:meth:`_due`), the chunks run up to the
+        margin before the next one expected and then take the steps around it in one short
+        chunk, so that a split drops and takes again a few steps, not half a gap; else, and
+        once past the margin after the expected one, :attr:`split_cap`."""
+        due = self._due()
+        if not self.foreseen or due is None or at > due[0] + due[1]:
+            return self.split_cap
+        step, margin = due
+        return step - margin - at if at < step - margin else 2 * margin + 1
 
     def measured(self, nrec: int, seconds: float, steps: int | None = None) -> None:
         self.per_record = seconds / nrec
@@ -438,7 +465,7 @@ class ChunkDriver:
         while taken < k:
             if stop is not None and stop.is_set():
                 return taken
-            m = min(pace.steps, pace.split_cap if self.events.splitting else pace.steps, k - taken)
+            m = min(pace.steps, pace.split_steps(self._steps) if self.events.splitting else pace.steps, k - taken)
             snapshots = [s.snapshot() for s in self.systems]
             start = _time.monotonic()
             before = self._ev.mark()
@@ -561,8 +588,9 @@ class ChunkDriver:
                     if most - nrec == 1:  # leave no chunk of a lone record
                         nrec = most
                     if split:  # a split drops the chunk's steps after it: keep chunks short
-                        nrec = min(nrec, max(1, pace.split_cap // k))
-                if k > (min(pace.steps, pace.split_cap) if split else pace.steps):  # in calls that a stop can end
+                        nrec = min(nrec, max(1, pace.split_steps(self._steps) // k))
+                cap = min(pace.steps, pace.split_steps(self._steps)) if split else pace.steps
+                if k > cap:  # in calls that a stop can end
                     taken = self._advance_long(gammas, k, every, sink, origin, pace, stop)
                     done += taken
                     bar.update(taken)

@@ -602,3 +602,62 @@ def test_eclipse_edges_of_the_conical_shadow():
         x = e["position"]
         nu = shadow_conical(x[0], x[1], x[2], big, 0.0, 0.0, EARTH.radius, float(R_sun.si.value))
         assert abs(nu - full) <= 1e-6, (e["label"], nu)
+
+
+def _crossings(rng, count):
+    """Smooth g(tau) on steps of 1 to 600 s at times up to a day, each with one crossing."""
+    for k in range(count):
+        t0, dt = rng.uniform(0.0, 86400.0), float(rng.choice([1.0, 60.0, 600.0]))
+        root, a = rng.uniform(0.001, 0.999) * dt, rng.uniform(0.5, 3.0)
+        yield t0, dt, root, [
+            lambda t, r=root, a=a, dt=dt: math.sin(a * (t - r) / dt),
+            lambda t, r=root, dt=dt: (t - r) / dt + 0.3 * ((t - r) / dt) ** 2,
+            lambda t, r=root, a=a, dt=dt: math.expm1(a * (t - r) / dt),
+            lambda t, r=root, dt=dt: -(((t - r) / dt) ** 3) - 0.01 * (t - r) / dt,
+        ][k % 4]
+
+
+def test_locate_ends_at_the_crossing_in_few_trials():
+    """locate returns the step length on the crossing's side within 64 ulp of dt of the root
+    (the state there is at round-off of g = 0) on 400 smooth crossings, in 7.2 trials on average
+    at most (measured 6.91, 11 at most; the Illinois method took 8.15 and ended more than 64 ulp
+    past the root on 21 of them)."""
+    from emorbit.events import locate
+
+    trials = []
+    for t0, dt, root, f in _crossings(np.random.default_rng(0), 400):
+        count = [0]
+
+        def g(tau, f=f, count=count):
+            count[0] += 1
+            return f(tau)
+
+        tau = locate(g, dt, f(0.0), f(dt), t0)
+        assert f(tau) == 0.0 or (f(tau) > 0.0) == (f(dt) > 0.0)
+        assert -4 * math.ulp(dt) <= tau - root <= 64 * math.ulp(dt), (tau - root, dt)
+        trials.append(count[0])
+    assert np.mean(trials) <= 7.2 and max(trials) <= 12, (np.mean(trials), max(trials))
+
+
+def test_locate_bisects_where_interpolation_fails_and_steps_fail():
+    """A crossing at a kink (g = sign(t - r) sqrt|t - r|) and steps that fail beyond some tau
+    (g nan): the bracket still closes, on the crossing's side."""
+    from emorbit.events import MAX_LOCATE, locate
+
+    r, dt, t0 = 17.3, 60.0, 5000.0
+    width = 4.0 * math.ulp(t0 + dt) + math.ulp(dt)
+
+    def kink(t):
+        return math.copysign(math.sqrt(abs(t - r)), t - r)
+
+    tau = locate(kink, dt, kink(0.0), kink(dt), t0)
+    assert kink(tau) >= 0.0 and tau - r <= width
+
+    calls = [0]
+
+    def failing(t):  # the steps fail from 40 s to 50 s
+        calls[0] += 1
+        return math.nan if 40.0 < t < 50.0 else t - 45.0
+
+    tau = locate(failing, dt, -45.0, 15.0, t0)
+    assert tau >= 50.0 and calls[0] < MAX_LOCATE

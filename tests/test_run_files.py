@@ -405,6 +405,24 @@ def test_chunks_are_sized_from_their_measured_time():
     assert pace.records == 2  # slow records: short chunks
 
 
+def test_splits_that_repeat_are_foreseen():
+    """Splits every 35 and 57 steps in turn (a low orbit's shadow at dt = 60 s): once one came
+    where the gap before the last said, chunks run to 2 steps before the next one due and take
+    the 5 steps around it in one chunk; a split that comes elsewhere brings back half the last
+    gap."""
+    pace = stepping._Pace(max_records=10**6)
+    at = 0
+    for gap in (35, 57, 35, 57):
+        at += gap
+        pace.split(at)
+    assert pace.foreseen  # 35 + 57 + 35 + 57: the last came 57 after the one before, as due
+    assert pace.split_steps(at) == 35 - 2 and pace.split_steps(at + 10) == 35 - 2 - 10
+    assert pace.split_steps(at + 33) == 5 and pace.split_steps(at + 37) == 5
+    assert pace.split_steps(at + 38) == pace.split_cap == 28  # past the margin: half the last gap
+    pace.split(at + 20)  # not where it was due
+    assert not pace.foreseen and pace.split_steps(at + 20) == pace.split_cap == 10
+
+
 def test_a_killed_slow_run_keeps_a_recent_checkpoint(tmp_path):
     """satellite-flexible-boom takes seconds per thousand steps: killed after about 7 s of
     stepping, its file holds a checkpoint after the start (the default interval is 5 s)."""
