@@ -609,12 +609,17 @@ def _crossings(rng, count):
     for k in range(count):
         t0, dt = rng.uniform(0.0, 86400.0), float(rng.choice([1.0, 60.0, 600.0]))
         root, a = rng.uniform(0.001, 0.999) * dt, rng.uniform(0.5, 3.0)
-        yield t0, dt, root, [
-            lambda t, r=root, a=a, dt=dt: math.sin(a * (t - r) / dt),
-            lambda t, r=root, dt=dt: (t - r) / dt + 0.3 * ((t - r) / dt) ** 2,
-            lambda t, r=root, a=a, dt=dt: math.expm1(a * (t - r) / dt),
-            lambda t, r=root, dt=dt: -(((t - r) / dt) ** 3) - 0.01 * (t - r) / dt,
-        ][k % 4]
+        yield (
+            t0,
+            dt,
+            root,
+            [
+                lambda t, r=root, a=a, dt=dt: math.sin(a * (t - r) / dt),
+                lambda t, r=root, dt=dt: (t - r) / dt + 0.3 * ((t - r) / dt) ** 2,
+                lambda t, r=root, a=a, dt=dt: math.expm1(a * (t - r) / dt),
+                lambda t, r=root, dt=dt: -(((t - r) / dt) ** 3) - 0.01 * (t - r) / dt,
+            ][k % 4],
+        )
 
 
 def test_locate_ends_at_the_crossing_in_few_trials():
