@@ -5,9 +5,10 @@ body system in chunks of steps that end on records and never straddle a checkpoi
 each chunk's records to the :class:`~emorbit.io.recorder.Sink`, and writes the complete state
 at every checkpoint, so that a run restarted from one continues bit for bit
 (:mod:`emorbit.io.resume`). Chunks are sized from the measured wall time of the chunks before
-(:data:`CHUNK_SECONDS` each; :data:`CHUNK_BYTES` of records at most). Checkpoints fall every
+(:class:`~emorbit.pacing.Pace`; :data:`CHUNK_BYTES` of records at most). Checkpoints fall every
 ``checkpoint_every`` steps when that is given, else by wall time: at most
-:data:`CHECKPOINT_SECONDS` apart (or one record interval, where a single one takes longer).
+:data:`~emorbit.pacing.CHECKPOINT_SECONDS` apart (or one record interval, where a single one
+takes longer).
 Where chunks end and checkpoints fall changes no result.
 
 A step that fails (Newton does not converge) is redone from the chunk's snapshots in 2, 4,
@@ -48,6 +49,7 @@ import warnings
 
 import numpy as np
 
+from . import pacing
 from .bodies.system import newton_failure
 from .epochs import epoch_text
 from .errors import InputError, IntegrationError, RoundoffError, RoundoffWarning
@@ -68,98 +70,21 @@ from .io.drift import (
 from .io.hdf5 import FileLostError, Writer
 from .io.recorder import Sink, progress_bar
 from .kernels.codes import STATUS_NO_CONVERGENCE, STATUS_OK
+from .pacing import Pace
 from .result import Result
 
 __all__ = [
     "ChunkDriver",
-    "CHUNK_SECONDS",
-    "CHECKPOINT_SECONDS",
     "CHUNK_BYTES",
     "RunInterrupted",
 ]
 
-#: the wall time a chunk of steps aims at, s (chunks grow at most 4-fold from one to the next)
-CHUNK_SECONDS = 0.5
-#: the most wall time between checkpoints when ``checkpoint_every`` is not given, s
-CHECKPOINT_SECONDS = 5.0
 #: bytes of recorded state per chunk at most
 CHUNK_BYTES = 128 * 2**20
 #: bytes of step-by-step states that one call records at most to measure energy ranges
 RANGE_BYTES = 32 * 2**20
-#: steps per chunk at most where events split their steps (impulses, a burn's switches, steps
-#: landing on an effect's edges): a split drops the chunk's steps after it, which are taken
-#: again, so long chunks would take the steps after every split many times over
-SPLIT_STEPS = 64
 #: what ``energy_range`` may be set to
 RANGE_CHOICES = ("auto", True, False)
-
-
-class _Pace:
-    """Chunk sizes from the measured wall time of earlier chunks, and when a checkpoint is due."""
-
-    def __init__(self, max_records: int):
-        self.records = 2  # the first chunk is short: it is timed before chunks grow
-        self.max_records = max_records
-        self.per_record = 0.0  # s
-        self.steps = 1024  # steps of one call in a record interval longer than a chunk
-        self.last_checkpoint = _time.monotonic()
-        self.split_cap = SPLIT_STEPS  # steps per chunk at most where events split steps
-        self.split_at = None  # the step count at the last split
-        self.splits: list[int] = []  # the step counts of the last splits, at most 4
-        self.foreseen = False  # whether the last split came where the splits before it said
-
-    def split(self, steps: int) -> None:
-        """A step was split at step count ``steps``: chunks of about half the steps between
-        the last two splits (from 8 to :data:`SPLIT_STEPS`), so that the steps a split drops
-        and takes again stay few beside the calls' own cost; and whether it came where
-        :meth:`split_steps` expected it."""
-        due = self._due()
-        if self.split_at is not None and steps > self.split_at:
-            self.split_cap = max(8, min(SPLIT_STEPS, (steps - self.split_at) // 2))
-        self.foreseen = due is not None and abs(steps - due[0]) <= due[1]
-        self.split_at = steps
-        self.splits = [*self.splits[-3:], steps]
-
-    def _due(self):
-        """The next split expected from the last ones, (step count, margin), or None: splits
-        that repeat every other gap (a shadow's entry and exit) come the gap before the last
-        after the last split, within a sixteenth of it (2 steps at least)."""
-        if len(self.splits) < 3:
-            return None
-        gap = self.splits[-2] - self.splits[-3]
-        return self.splits[-1] + gap, max(2, gap // 16)
-
-    def split_steps(self, at: int) -> int:
-        """Steps per chunk at most from step count ``at`` where events split steps. Once a
-        split came where the ones before it said (:meth:`_due`), the chunks run up to the
-        margin before the next one expected and then take the steps around it in one short
-        chunk, so that a split drops and takes again a few steps, not half a gap; else, and
-        once past the margin after the expected one, :attr:`split_cap`."""
-        due = self._due()
-        if not self.foreseen or due is None or at > due[0] + due[1]:
-            return self.split_cap
-        step, margin = due
-        return step - margin - at if at < step - margin else 2 * margin + 1
-
-    def measured(self, nrec: int, seconds: float, steps: int | None = None) -> None:
-        self.per_record = seconds / nrec
-        target = int(CHUNK_SECONDS / max(self.per_record, 1e-12))
-        self.records = max(1, min(target, 4 * self.records, self.max_records))
-        if steps is not None:
-            self.measured_steps(steps, seconds)
-
-    def measured_steps(self, steps: int, seconds: float) -> None:
-        """Steps per call in a long record interval, from a call of ``steps`` steps."""
-        target = int(CHUNK_SECONDS * steps / max(seconds, 1e-12))
-        self.steps = max(1, min(target, 4 * max(self.steps, steps)))
-
-    def checkpoint_due(self) -> bool:
-        """A checkpoint now, or the next chunk would end more than CHECKPOINT_SECONDS after the last."""
-        ahead = self.per_record * self.records
-        return _time.monotonic() - self.last_checkpoint + ahead >= CHECKPOINT_SECONDS
-
-    def checkpointed(self) -> None:
-        self.last_checkpoint = _time.monotonic()
 
 
 class ChunkDriver:
@@ -308,7 +233,7 @@ class ChunkDriver:
             "t_end": self.time + n_steps * self._dt,
             "steps": n_steps,
             "output_every": every,
-            "checkpoint_seconds": CHECKPOINT_SECONDS,
+            "checkpoint_seconds": pacing.CHECKPOINT_SECONDS,
             "gm": self.gm,
             "center": self.center,
             "field_body": (self.field.body or "") if self.field is not None else "none (free space)",
@@ -454,7 +379,7 @@ class ChunkDriver:
         """Every system's current state as a one-row record: [(system, records)]."""
         return [(s, s.current()) for s in self.systems]
 
-    def _advance_long(self, gammas, k: int, every: int, sink: Sink, origin: int, pace: _Pace, stop) -> int:
+    def _advance_long(self, gammas, k: int, every: int, sink: Sink, origin: int, pace: Pace, stop) -> int:
         """One record interval of ``k`` steps in calls of ``pace.steps`` steps, so that a stop
         request ends it within about a chunk's time (the state is then inside the interval:
         the file's last checkpoint stays the one to resume from). A failed step is redone as
@@ -554,7 +479,7 @@ class ChunkDriver:
 
         With ``cp`` > 0 a checkpoint falls wherever the steps since the run's origin are a
         multiple of ``cp`` (chunks never straddle one); with ``cp`` 0 or None, and a file, it
-        falls on a record when the next chunk would end more than :data:`CHECKPOINT_SECONDS`
+        falls on a record when the next chunk would end more than :data:`~emorbit.pacing.CHECKPOINT_SECONDS`
         after the last checkpoint. Either way the last record on the record grid is one (the
         end of the run, written by :meth:`_write_end`, or the record before a shorter last
         interval), so that a run's last checkpoint does not depend on wall time. At each
@@ -564,7 +489,7 @@ class ChunkDriver:
         """
         gammas = coefficients(self.order)
         self._prepare_effects(n_steps, gammas)
-        pace = _Pace(max(1, CHUNK_BYTES // (128 * len(self.names))))
+        pace = Pace(max(1, CHUNK_BYTES // (128 * len(self.names))))
         origin = self._run_origin
         if self._steps == origin:  # the run's start: Simulation.run has written its checkpoint
             self._checkpointed_at = self._steps

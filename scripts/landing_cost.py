@@ -11,7 +11,7 @@ least CPU time of ``--repeats`` runs and, from the last run, the edges logged, t
 the point masses' step kernel (those of one step apart, with their mean CPU time: the trials
 of :func:`emorbit.events.locate` and the rest of a split step), the trials per edge and the
 steps taken against those the day needs. The steps beyond them are the trials
-and the chunks' steps that a split drops and takes again (:class:`emorbit.stepping._Pace`).
+and the chunks' steps that a split drops and takes again (:class:`emorbit.pacing.Pace`).
 """
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ import pytest
 from shared_scenes import reuse_structure
 
 import emorbit
-import emorbit.stepping as stepping
+import emorbit.pacing as pacing
 from emorbit.cli import main
 
 #: a run of a few seconds, started in another process
@@ -374,7 +374,7 @@ def test_default_checkpoints_follow_the_wall_clock(tmp_path, monkeypatch):
     """By default a checkpoint falls at least every CHECKPOINT_SECONDS of wall time (here
     0.3 s), and chunks are short enough for that: the gaps between checkpoints stay within
     it, plus one chunk."""
-    monkeypatch.setattr(stepping, "CHECKPOINT_SECONDS", 0.3)
+    monkeypatch.setattr(pacing, "CHECKPOINT_SECONDS", 0.3)
     times = []
     original = emorbit.io.hdf5.Writer.write_checkpoint
 
@@ -387,20 +387,20 @@ def test_default_checkpoints_follow_the_wall_clock(tmp_path, monkeypatch):
     sim = emorbit.load_scene("elastic-bar-tumbling").build()
     sim.run(t_end="20 s", every=5, output=path)
     gaps = np.diff(times)
-    assert len(times) >= 4 and gaps.max() < 0.3 + stepping.CHUNK_SECONDS + 0.5, gaps
+    assert len(times) >= 4 and gaps.max() < 0.3 + pacing.CHUNK_SECONDS + 0.5, gaps
     with h5py.File(path, "r") as f:
         assert f.attrs["checkpoint_every"] == 0 and f.attrs["checkpoint_seconds"] == 0.3
         assert f["checkpoint"].attrs["records"] == f["time"].shape[0]  # the end is a checkpoint
 
 
 def test_chunks_are_sized_from_their_measured_time():
-    pace = stepping._Pace(max_records=10**6)
+    pace = pacing.Pace(max_records=10**6)
     assert pace.records == 2
     pace.measured(2, 2e-4)
     assert pace.records == 8  # grows at most 4-fold
     for _ in range(10):
         pace.measured(pace.records, pace.records * 1e-4)
-    assert pace.records == int(stepping.CHUNK_SECONDS / 1e-4)
+    assert pace.records == int(pacing.CHUNK_SECONDS / 1e-4)
     pace.measured(pace.records, pace.records * 0.2)
     assert pace.records == 2  # slow records: short chunks
 
@@ -410,7 +410,7 @@ def test_splits_that_repeat_are_foreseen():
     where the gap before the last said, chunks run to 2 steps before the next one due and take
     the 5 steps around it in one chunk; a split that comes elsewhere brings back half the last
     gap."""
-    pace = stepping._Pace(max_records=10**6)
+    pace = pacing.Pace(max_records=10**6)
     at = 0
     for gap in (35, 57, 35, 57):
         at += gap

@@ -41,8 +41,8 @@ KILLS = 9  # of each signal: three runs of each kind
 #: already ended), during runs emorbit's handlers take them
 WORKER = """
 import json, signal, sys
-import emorbit.stepping
-emorbit.stepping.CHECKPOINT_SECONDS = 0.2
+import emorbit.pacing
+emorbit.pacing.CHECKPOINT_SECONDS = 0.2
 signal.signal(signal.SIGINT, signal.SIG_IGN)
 signal.signal(signal.SIGTERM, signal.SIG_IGN)
 from emorbit.cli import main
