@@ -497,13 +497,43 @@ def test_the_sets_facts_follow_an_effect_added_after_they_were_asked():
     assert effects.kinds() == ("central", "zonal") and effects.working() == [] and effects.work_rows() == 0
 
 
+def test_the_sets_arrays_follow_its_effects_tables_and_parameters():
+    """The set keeps its compiled program and its tables' concatenation between chunks; a
+    table an effect replaces, a parameter it writes in place and a new effect all show in the
+    next arrays, which equal the ones built from scratch."""
+    sim = emorbit.Simulation(EARTH, method="em", dt=10.0, epoch="2026-03-20T00:00:00 TDB")
+    effects = sim.effects
+    moon = effects.add({"kind": "third_body", "body": "moon"}, "effect[0]")
+    effects.prepare(0.0, 3600.0, sim.epoch)
+    assert effects.program() is effects.program()
+
+    def fresh(n):
+        return np.concatenate([e.p for e in effects.all]), np.concatenate([e.tab for e in effects.all])
+
+    P, I, T, S = effects.arrays(3)
+    assert np.array_equal(P, fresh(3)[0]) and np.array_equal(T, fresh(3)[1]) and S.shape == (max(I[-1, 5], 1),)
+    moon.p[0] *= 2.0  # in place
+    moon.tab = moon.tab * 1.5  # replaced
+    P, I2, T, _ = effects.arrays(3)
+    assert np.array_equal(P, fresh(3)[0]) and np.array_equal(T, fresh(3)[1]) and np.array_equal(I, I2)
+    effects.add({"kind": "zonal", "model": "earth", "degree": 2}, "effect[1]")
+    P, I3, T, _ = effects.arrays(3)
+    assert I3.shape[0] == 3 and np.array_equal(P, fresh(3)[0]) and np.array_equal(T, fresh(3)[1])
+    assert effects.program().kinds == ("central", "zonal", "third_body")
+    P, I, T, S = emorbit.Simulation(None, method="em", dt=10.0).effects.arrays(2)  # free space: no effects
+    assert (P.size, I.shape, T.size, S.size) == (0, (0, I.shape[1]), 1, 1)
+
+
 def test_a_cfunc_is_typed_once_and_as_numba_types_it():
     """A step kernel takes the set's cfuncs: their Numba type is built once per cfunc
-    (emorbit.effects.program), and it is the type Numba itself gives them."""
+    (emorbit.effects.program), it is the type Numba itself gives them, and the address a call
+    reads by the wrapper address protocol is the cfunc's own."""
     import numba
     from numba.core.types import FunctionType
+    from numba.experimental.function_type import _get_wrapper_address
 
     prog = emorbit.Simulation(EARTH, method="em", dt=10.0).effects.program()
     for f in (prog.forces, prog.prepare, prog.work, prog.potential):
         assert numba.typeof(f) is numba.typeof(f)
         assert numba.typeof(f) == FunctionType(f._sig)
+        assert f.__wrapper_address__() == f.address == _get_wrapper_address(f, f._sig) > 0

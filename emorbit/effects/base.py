@@ -199,7 +199,8 @@ class Effect:
     p : ndarray
         Its parameters (float64), in the order its pieces read them.
     tab : ndarray
-        Its tables, flat (float64).
+        Its tables, flat (float64). An effect replaces them, never writes into them: the set
+        keeps their concatenation while every effect's ``tab`` is the same array.
     """
 
     #: its ``kind`` in scenes

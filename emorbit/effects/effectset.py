@@ -341,10 +341,11 @@ class EffectSet:
 
     # -- what the kernels take -------------------------------------------------------------------
     def program(self, announce=None):
-        """The set compiled (:func:`emorbit.effects.program.compile_set`)."""
+        """The set compiled (:func:`emorbit.effects.program.compile_set`), kept until the set
+        changes (every chunk of steps asks for it)."""
         from .program import compile_set
 
-        return compile_set([type(e) for e in self.all], announce)
+        return self._of_all("program", lambda effects: compile_set([type(e) for e in effects], announce))
 
     def coefficients(self, body_kind: str, name: str, values: dict) -> np.ndarray:
         """(k,) a body's points' coefficient for each effect of :attr:`all` (0: not at its
@@ -379,19 +380,21 @@ class EffectSet:
             As :mod:`emorbit.kernels.effects.signatures` lays them out (S zeroed).
         """
         effects = self.all
-        I = np.zeros((len(effects), SLICES), np.int64)
-        p = t = s = 0
-        for e, effect in enumerate(effects):
-            I[e] = [p, p + effect.p.size, t, t + effect.tab.size, s, s + effect.scratch_size(n_points)]
-            p, t, s = I[e, 1], I[e, 3], I[e, 5]
-        P = np.concatenate([e.p for e in effects]) if effects else np.zeros(0)
-        T = np.concatenate([e.tab for e in effects]) if effects else np.zeros(0)
-        return (
-            np.ascontiguousarray(P, float),
-            I,
-            np.ascontiguousarray(T if T.size else np.zeros(1), float),
-            np.zeros(max(int(s), 1)),
-        )
+        sizes = tuple((e.p.size, e.tab.size, e.scratch_size(n_points)) for e in effects)
+        kept = self._of_all("arrays", lambda _: {})  # the slices by sizes, the tables by identity
+        if kept.get("sizes") != sizes:
+            I = np.zeros((len(effects), SLICES), np.int64)
+            p = t = s = 0
+            for e, (np_, nt, ns) in enumerate(sizes):
+                I[e] = [p, p + np_, t, t + nt, s, s + ns]
+                p, t, s = I[e, 1], I[e, 3], I[e, 5]
+            kept.update(sizes=sizes, I=I, scratch=max(int(s), 1))
+        tabs = tuple(e.tab for e in effects)
+        if "tabs" not in kept or len(kept["tabs"]) != len(tabs) or any(a is not b for a, b in zip(kept["tabs"], tabs)):
+            T = np.concatenate(tabs) if effects else np.zeros(0)
+            kept.update(tabs=tabs, T=np.ascontiguousarray(T if T.size else np.zeros(1), float))
+        P = np.concatenate([e.p for e in effects]) if effects else np.zeros(0)  # read anew: effects set p in place
+        return np.ascontiguousarray(P, float), kept["I"].copy(), kept["T"], np.zeros(kept["scratch"])
 
     def packed_points(self):
         """A packed point-mass kernel that an effect of the set declares for exactly this set

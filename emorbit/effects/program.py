@@ -110,10 +110,13 @@ _numba_typeof_cfunc = typeof_impl.dispatch(CFunc)
 
 @typeof_impl.register(CFunc)
 def _typeof_cfunc(val, c):
-    """A cfunc's Numba type, built once (Numba built it anew in every call of a kernel taking it)."""
+    """A cfunc's Numba type, built once (Numba built it anew in every call of a kernel taking
+    it), and its address by Numba's wrapper address protocol (``__wrapper_address__``), which
+    a call reads instead of comparing the cfunc's signature with its type's again."""
     t = val.__dict__.get("_emorbit_numba_type")
     if t is None:
         t = val._emorbit_numba_type = _numba_typeof_cfunc(val, c)
+        val.__wrapper_address__ = lambda address=val.address: address
     return t
 
 
@@ -741,19 +744,8 @@ def compile_set(effects, announce=None) -> Program:
     block_calls.bind({_symbol(cls, f): getattr(_import(folder, loop_module(cls)[0]), f) for cls in effects
                       for f in _loop_names(cls)})  # fmt: skip
     module = _import(folder, modules[-1][0])
-    program = Program(
-        module.forces,
-        module.prepare,
-        module.work,
-        module.potential,
-        module.facets,
-        module.cross,
-        module.rate,
-        kinds,
-        working,
-        ledger,
-        fresh,
-    )
+    functions = (module.forces, module.prepare, module.work, module.potential, module.facets, module.cross, module.rate)
+    program = Program(*functions, kinds, working, ledger, fresh)
     _LOADED[key] = program
     return program
 
