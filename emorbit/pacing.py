@@ -41,8 +41,7 @@ class Pace:
         self.steps = 1024  # steps of one call in a record interval longer than a chunk
         self.last_checkpoint = _time.monotonic()
         self.split_cap = SPLIT_STEPS  # steps per chunk at most where events split steps
-        self.split_at = None  # the step count at the last split
-        self.splits: list[int] = []  # the step counts of the last splits, at most 4
+        self.splits: list[int] = []  # the step counts of the last splits, at most 3
         self.foreseen = False  # whether the last split came where the splits before it said
 
     def split(self, steps: int) -> None:
@@ -51,11 +50,10 @@ class Pace:
         and takes again stay few beside the calls' own cost; and whether it came where
         :meth:`split_steps` expected it."""
         due = self._due()
-        if self.split_at is not None and steps > self.split_at:
-            self.split_cap = max(8, min(SPLIT_STEPS, (steps - self.split_at) // 2))
+        if self.splits and steps > self.splits[-1]:
+            self.split_cap = max(8, min(SPLIT_STEPS, (steps - self.splits[-1]) // 2))
         self.foreseen = due is not None and abs(steps - due[0]) <= due[1]
-        self.split_at = steps
-        self.splits = [*self.splits[-3:], steps]
+        self.splits = [*self.splits[-2:], steps]
 
     def _due(self):
         """The next split expected from the last ones, (step count, margin), or None: splits
