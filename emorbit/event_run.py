@@ -193,20 +193,18 @@ class EventRun:
         systems = self.sim.systems
         start = [s.snapshot() for s in systems]
         t0 = self.sim._t_base + (step - 1) * self.sim._dt
-        trials = {}  # tau: the records and the systems after that trial (the last one is kept)
+        last = [None]  # (tau, records) of the last trial, whose state the systems hold
 
         def g_of(tau):
             for s, snap in zip(systems, start):
                 s.restore(snap)
             g, recs = self.g_after(j, tau, t0, gammas)
-            trials[tau] = recs, [s.snapshot() for s in systems]
+            last[0] = tau, recs
             return g
 
         tau = locate(g_of, self.sim._dt, g0, g1, t0)
-        if tau in trials:  # the systems as that trial left them: the same bits as a new step
-            recs, after = trials[tau]
-            for s, snap in zip(systems, after):
-                s.restore(snap)
+        if last[0] is not None and last[0][0] == tau:  # the systems are at the event already
+            recs = last[0][1]
         else:
             for s, snap in zip(systems, start):
                 s.restore(snap)
