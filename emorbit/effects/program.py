@@ -100,7 +100,7 @@ from numba.core.ccallback import CFunc
 from numba.core.typing.typeof import typeof_impl
 
 from ..kernels.effects import block_calls
-from ..kernels.effects.blocks import ROW_COEF
+from ..kernels.effects.blocks import ROW_COEF, ROW_K, ROW_OUT
 from ..kernels.jit import cache_dir, cache_enabled, cached_sources_digest
 
 __all__ = ["Program", "compile_set", "set_source"]
@@ -166,7 +166,7 @@ import numba
 import numpy as np
 
 from emorbit.kernels.codes import STATUS_OK, STATUS_SINGULAR
-from emorbit.kernels.effects.blocks import BLOCK, LD, call_c
+from emorbit.kernels.effects.blocks import BLOCK, LD, call_c, copy_row
 from emorbit.kernels.effects.signatures import CROSS, FACETS, FORCES, MODE_MIDPOINT, MODE_POINT, MODE_WEIGHTED
 from emorbit.kernels.effects.signatures import POTENTIAL, PREPARE, RATE, WORK
 {imports}
@@ -196,7 +196,7 @@ def _with_views(function: str, k: int) -> str:
 #: registers) into those of W; computed at every point and kept where it acts, so that the loop
 #: has no branches
 _EFFECT_LOOP = """for j in range(nb):
-    k = B[ko + j]
+    k = B[ROW_K * LD + j]
     a0 = B[j]
     a1 = B[LD + j]
     a2 = B[2 * LD + j]
@@ -305,7 +305,7 @@ Digest of the kernel sources and user modules: {digest}
 
 import numba
 
-from emorbit.kernels.effects.blocks import FORCES_LOOP, LD, WORK_LOOP, block33
+from emorbit.kernels.effects.blocks import FORCES_LOOP, LD, ROW_K, ROW_OUT, WORK_LOOP, block33
 {imports}
 
 _OPTIONS = {options}
@@ -330,11 +330,11 @@ def _loop_names(cls) -> list[str]:
 def _loops_source(cls) -> str:
     """The source of an effect's loop module, with ``{digest}`` where its digest goes.
 
-    ``forces_jac(B, nb, ko, h, p, t, s, mid, pt)`` and ``forces_plain`` (the same without the
-    Jacobian) add the effect's force at each point of a block (its coefficients in the row at
-    ``B[ko]``) into the rows of F and its Jacobian block into those of W; ``work(B, nb, ko,
-    row, mb, h, p, t, s, mid, pt)`` writes its work at each point (masses ``mb``) into the row
-    at ``B[row]`` (the rows of :mod:`emorbit.kernels.effects.blocks`). Each is a C callback
+    ``forces_jac(B, nb, h, p, t, s, mid, pt)`` and ``forces_plain`` (the same without the
+    Jacobian) add the effect's force at each point of a block (its coefficients in the row
+    ``ROW_K``) into the rows of F and its Jacobian block into those of W; ``work(B, nb, mb, h,
+    p, t, s, mid, pt)`` writes its work at each point (masses ``mb``) into the row ``ROW_OUT``
+    (the rows of :mod:`emorbit.kernels.effects.blocks`, all at constant offsets). Each is a C callback
     (:data:`~emorbit.kernels.effects.blocks.FORCES_LOOP`, ``WORK_LOOP``: arrays as pointers
     and lengths, flags as int64) compiled once per install and effect, and called by the name
     ``<module>_<function>``: a new set compiles only its own short functions."""
@@ -355,10 +355,10 @@ def _loops_source(cls) -> str:
             body = loop.replace("if jac:", f"if {literal}:").replace(", J, jac)", f", J, {literal})")
             code.append(
                 f"@numba.cfunc(FORCES_LOOP, **_OPTIONS)\n"
-                f"def {name}(Bp, nB, nb, ko, h, pp, n_p, tp, n_t, sp, n_s, mid_, pt_):\n{_UNPACK}\n{_indent(body, 4)}\n"
+                f"def {name}(Bp, nB, nb, h, pp, n_p, tp, n_t, sp, n_s, mid_, pt_):\n{_UNPACK}\n{_indent(body, 4)}\n"
             )
     if cls.does_work():
-        row = "B[row + j]"
+        row = "B[ROW_OUT * LD + j]"
         if "time_work" in has:  # at a point (MODE_POINT), its force's work instead
             body = (
                 "if pt:\n    gx, gy, gz = force_(a0, a1, a2, a0, a1, a2, h, kc, p, t, s, J, False)\n"
@@ -381,13 +381,13 @@ def _loops_source(cls) -> str:
         else:
             ends = _ends("a0 + d0", "a1 + d1", "a2 + d2", cons, point=True, moving=not cls.EXPLICIT)
             loop = (
-                "for j in range(nb):\n    kc = B[ko + j]\n    J = block33()\n"
+                "for j in range(nb):\n    kc = B[ROW_K * LD + j]\n    J = block33()\n"
                 "    a0 = B[j]\n    a1 = B[LD + j]\n    a2 = B[2 * LD + j]\n"
                 f"    d0 = B[3 * LD + j]\n    d1 = B[4 * LD + j]\n    d2 = B[5 * LD + j]\n{ends}\n{_indent(body, 4)}"
             )
         code.append(
             "@numba.cfunc(WORK_LOOP, **_OPTIONS)\n"
-            "def work(Bp, nB, nb, ko, row, mbp, n_mb, h, pp, n_p, tp, n_t, sp, n_s, mid_, pt_):\n"
+            "def work(Bp, nB, nb, mbp, n_mb, h, pp, n_p, tp, n_t, sp, n_s, mid_, pt_):\n"
             f"{_UNPACK}\n    mb = numba.carray(mbp, n_mb)\n{_indent(loop, 4)}\n"
         )
     options = {"cache": cache_enabled(), "error_model": "numpy", "fastmath": False}
@@ -453,9 +453,10 @@ def set_source(effects) -> tuple[str, tuple[int, ...], bool]:
     own_jac, own_plain = [], []
     for e in range(len(effects)):
         if "force" in has[e]:
-            args = f"(B, nb, {ROW_COEF + e} * LD, h, p{e}, t{e}, s{e}, mid, pt))"
-            own_jac.append(f"call_c('{_symbol(effects[e], 'forces_jac')}', {args}")
-            own_plain.append(f"call_c('{_symbol(effects[e], 'forces_plain')}', {args}")
+            args = f"(B, nb, h, p{e}, t{e}, s{e}, mid, pt))"
+            row = f"copy_row(B, {ROW_COEF + e}, {ROW_K}, nb)\n"
+            own_jac.append(f"{row}call_c('{_symbol(effects[e], 'forces_jac')}', {args}")
+            own_plain.append(f"{row}call_c('{_symbol(effects[e], 'forces_plain')}', {args}")
     forces = f"""
 @numba.cfunc(FORCES, **_OPTIONS)
 def forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, jac, first):
@@ -495,8 +496,9 @@ def prepare(ta, tm, tb, P, I, T, S):
 {_indent(prep, 4) if prep else "    pass"}
 """
     work_loops = [
-        f"call_c('{_symbol(effects[e], 'work')}', (B, nb, {ROW_COEF + e} * LD, "
-        f"{ROW_COEF + len(effects) + slot_of[e]} * LD, mb, h, p{e}, t{e}, s{e}, mid, pt))"
+        f"copy_row(B, {ROW_COEF + e}, {ROW_K}, nb)\n"
+        f"call_c('{_symbol(effects[e], 'work')}', (B, nb, mb, h, p{e}, t{e}, s{e}, mid, pt))\n"
+        f"copy_row(B, {ROW_OUT}, {ROW_COEF + len(effects) + slot_of[e]}, nb)"
         for e in working
     ]
     massive = [e for e in range(len(effects)) if "mass" in has[e]]

@@ -16,8 +16,13 @@ functions call them by name (:func:`call_c`: each array as its data pointer and 
 flag an int64), so that LLVM neither optimises nor emits their code again in each set.
 
 Data layout: ``B`` float64 (rows * LD,); a row's source a row of a float64 (k, n) array, the
-block its entries ``lo`` to ``lo + nb``; rows x0 (0-2), x1 or dx (3-5), F (6-8), W (9-17), then
-from :data:`ROW_COEF` each effect's coefficients and, in ``work``, each working effect's work.
+block its entries ``lo`` to ``lo + nb``; rows x0 (0-2), x1 or dx (3-5), F (6-8), W (9-17), the
+running effect's coefficients (:data:`ROW_K`) and work (:data:`ROW_OUT`), then from
+:data:`ROW_COEF` each effect's coefficients and, in ``work``, each working effect's work. An
+effect's loop reads and writes rows at constant offsets only: a row passed at run time keeps
+LLVM from ruling out that it overlaps the others, and the loop then stays scalar (the Moon's
+``work`` about 3.5 times slower per point; ``python scripts/block_loops.py`` times each set's
+functions).
 """
 
 from __future__ import annotations
@@ -33,6 +38,8 @@ from ..jit import kernel
 __all__ = [
     "BLOCK",
     "LD",
+    "ROW_K",
+    "ROW_OUT",
     "ROW_COEF",
     "FORCES_LOOP",
     "WORK_LOOP",
@@ -41,6 +48,7 @@ __all__ = [
     "call_c",
     "run_forces",
     "load_row",
+    "copy_row",
     "load_forces",
     "store_forces",
     "load_work",
@@ -51,10 +59,15 @@ __all__ = [
 BLOCK = 64
 #: the distance between two rows of a block's buffer
 LD = 72
+#: the row of the coefficients of the effect whose loop runs (copied there from its own row:
+#: a loop reads rows at constant distances only, so that LLVM vectorises it)
+ROW_K = 18
+#: the row an effect's ``work`` loop writes its work into (then copied into its slot's row)
+ROW_OUT = 19
 #: the first row of the effects' coefficients in a block's buffer: x0 (rows 0-2), x1 or dx
-#: (3-5), F (6-8), W (9-17), then each effect's coefficients (and, in ``work``, after them
-#: each working effect's work)
-ROW_COEF = 18
+#: (3-5), F (6-8), W (9-17), :data:`ROW_K`, :data:`ROW_OUT`, then each effect's coefficients
+#: (and, in ``work``, after them each working effect's work)
+ROW_COEF = 20
 
 _BLOCK = types.Array(types.float64, 2, "C")
 
@@ -102,6 +115,13 @@ def load_row(B, row, src, c, lo, nb):
     r = src[c, lo : lo + nb]
     for j in range(nb):
         B[row * LD + j] = r[j]
+
+
+@kernel(inline="always")
+def copy_row(B, src, dst, nb):
+    """Row ``src`` of the buffer into row ``dst`` (the block's ``nb`` entries)."""
+    for j in range(nb):
+        B[dst * LD + j] = B[src * LD + j]
 
 
 # the loads and stores of a set's ``forces`` and ``work`` (:mod:`emorbit.effects.program`):
@@ -164,10 +184,10 @@ def store_work(B, out, k, lo, nb, working):
 # call them by name, each process binding the names to the compiled code
 _P = types.CPointer(types.float64)
 _N = types.int64
-#: ``forces_jac`` and ``forces_plain``: (B, len B, nb, ko, h, p, len p, t, len t, s, len s, mid, pt)
-FORCES_LOOP = types.void(_P, _N, _N, _N, types.float64, _P, _N, _P, _N, _P, _N, _N, _N)
-#: ``work``: (B, len B, nb, ko, row, mb, len mb, h, p, len p, t, len t, s, len s, mid, pt)
-WORK_LOOP = types.void(_P, _N, _N, _N, _N, _P, _N, types.float64, _P, _N, _P, _N, _P, _N, _N, _N)
+#: ``forces_jac`` and ``forces_plain``: (B, len B, nb, h, p, len p, t, len t, s, len s, mid, pt)
+FORCES_LOOP = types.void(_P, _N, _N, types.float64, _P, _N, _P, _N, _P, _N, _N, _N)
+#: ``work``: (B, len B, nb, mb, len mb, h, p, len p, t, len t, s, len s, mid, pt)
+WORK_LOOP = types.void(_P, _N, _N, _P, _N, types.float64, _P, _N, _P, _N, _P, _N, _N, _N)
 
 
 def c_arguments(tys) -> list:
