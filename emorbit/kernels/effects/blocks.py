@@ -20,9 +20,8 @@ block its entries ``lo`` to ``lo + nb``; rows x0 (0-2), x1 or dx (3-5), F (6-8),
 running effect's coefficients (:data:`ROW_K`) and work (:data:`ROW_OUT`), then from
 :data:`ROW_COEF` each effect's coefficients and, in ``work``, each working effect's work. An
 effect's loop reads and writes rows at constant offsets only: a row passed at run time keeps
-LLVM from ruling out that it overlaps the others, and the loop then stays scalar (the Moon's
-``work`` about 3.5 times slower per point; ``python scripts/block_loops.py`` times each set's
-functions).
+LLVM from ruling out that it overlaps the others, and the loop then stays scalar
+(``python scripts/block_loops.py`` times each set's functions per point).
 """
 
 from __future__ import annotations
