@@ -96,34 +96,37 @@ _KEYS = (
 
 def _earth_orientation(epoch, key):
     """UT1 (an astropy Time) and the polar motion (xp, yp, rad) at ``epoch`` from astropy's IERS
-    tables, without a download. Past their end, the last tabulated UT1 - UTC and polar motion
-    are held, with a warning naming the effect: UT1 - UTC drifts by under 1 s a year, so the
-    rotation angle is then off by under 7e-5 rad per year past the table."""
+    tables, without a download. Past their end (astropy would extrapolate without a word), the
+    tables' last UT1 - UTC and polar motion are held, with a warning naming the effect: UT1 -
+    UTC drifts by under 1 s a year, so the rotation angle is then off by under 7e-5 rad per year
+    past the table."""
     import warnings
 
     from astropy.utils import iers
 
-    try:
-        with iers.conf.set_temp("auto_download", False), warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            ut1 = epoch.ut1
-            xp, yp = iers.earth_orientation_table.get().pm_xy(epoch)
-        return ut1, np.asarray(xp.to_value("rad"), float), np.asarray(yp.to_value("rad"), float)
-    except (ValueError, IndexError):
-        table = iers.IERS_B.open()
-        last = Time(float(table["MJD"][-1].value), format="mjd", scale="utc")
-        warnings.warn(
-            f"{key}.rotation: astropy's IERS tables end at {last.iso[:10]}; the Earth's orientation at the epoch "
-            "holds their last UT1 - UTC and polar motion (the rotation angle off by under 7e-5 rad per year past "
-            "it)",
-            stacklevel=3,
-        )
+    with iers.conf.set_temp("auto_download", False), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        table = iers.earth_orientation_table.get()
         epoch_utc = epoch.utc
-        ut1 = Time(epoch_utc.jd1, epoch_utc.jd2 + float(table["UT1_UTC"][-1].to_value("s")) / 86400.0,
-                   format="jd", scale="ut1")  # fmt: skip
-        xp = np.full(np.shape(epoch_utc.jd1), float(table["PM_x"][-1].to_value("rad")))
-        yp = np.full(np.shape(epoch_utc.jd1), float(table["PM_y"][-1].to_value("rad")))
-        return ut1, xp, yp
+        last = float(table["MJD"][-1].to_value("d"))
+        if float(np.max(epoch_utc.mjd)) <= last:
+            try:
+                ut1 = epoch.ut1
+                xp, yp = table.pm_xy(epoch)
+                return ut1, np.asarray(xp.to_value("rad"), float), np.asarray(yp.to_value("rad"), float)
+            except (ValueError, IndexError):
+                pass
+    warnings.warn(
+        f"{key}.rotation: astropy's IERS tables end at {Time(last, format='mjd', scale='utc').iso[:10]}; the "
+        "Earth's orientation at the epoch holds their last UT1 - UTC and polar motion (the rotation angle off by "
+        "under 7e-5 rad per year past it)",
+        stacklevel=3,
+    )
+    ut1 = Time(epoch_utc.jd1, epoch_utc.jd2 + float(table["UT1_UTC"][-1].to_value("s")) / 86400.0,
+               format="jd", scale="ut1")  # fmt: skip
+    xp = np.full(np.shape(epoch_utc.jd1), float(table["PM_x"][-1].to_value("rad")))
+    yp = np.full(np.shape(epoch_utc.jd1), float(table["PM_y"][-1].to_value("rad")))
+    return ut1, xp, yp
 
 
 def _itrs(epoch, key):
