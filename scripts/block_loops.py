@@ -53,6 +53,10 @@ def main() -> None:
     ap.add_argument("--points", type=int, default=64)
     ap.add_argument("--calls", type=int, default=20000)
     args = ap.parse_args()
+    if not 1 <= args.points <= 100_000:
+        ap.error(f"--points: 1 to 100000 points expected, got {args.points}")
+    if not 1 <= args.calls <= 10_000_000:
+        ap.error(f"--calls: 1 to 10000000 calls expected, got {args.calls}")
     import emorbit
 
     field = emorbit.CentralField(body="earth")
