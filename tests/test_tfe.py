@@ -120,7 +120,8 @@ def test_step_solves_to_round_off_from_either_start():
     for predicted in (False, True):
         phi = np.full((3, 2), -0.05)  # a poor predictor, used only when predicted
         work = np.zeros((6, 14))
-        out = tfe.tfe_step(tab, phi, work, *PAPER_X0, *PAPER_V0, PAPER_T / 30, PAPER_GM, 50, predicted)
+        piv = np.zeros(6, np.int64)
+        out = tfe.tfe_step(tab, phi, work, piv, *PAPER_X0, *PAPER_V0, PAPER_T / 30, PAPER_GM, 50, predicted)
         assert out[-1] == STATUS_OK
         outs.append(np.array(out[:6]))
     assert np.allclose(outs[0], outs[1], rtol=0, atol=4 * EPS * 10)

@@ -59,6 +59,15 @@ def control(x0, x1, x2, c0, c1, c2, gm, eta):
 
 
 @kernel
+def tfe_scratch(tab):
+    """The time finite element's context of :func:`_sub`: its Gauss tables ``tab`` (k, 3 + 2k)
+    (:func:`.tfe.tables`) and the step's scratch, ``phi`` (k, 2), ``work`` (2k, 2k + 8) and
+    ``piv`` (2k,), allocated once per call rather than once per step."""
+    k = tab.shape[0]
+    return tab, np.empty((k, 2)), np.empty((2 * k, 2 * k + 8)), np.empty(2 * k, np.int64)
+
+
+@kernel
 def _g(x0, x1, x2, y0, y1, y2, c0, c1, c2, gm, eta):
     """g(y) = d ln(rho) / d tau = -3/2 (x - c).v s(x) / r**2 (odd in v)."""
     ax = x0 - c0
@@ -71,16 +80,14 @@ def _g(x0, x1, x2, y0, y1, y2, c0, c1, c2, gm, eta):
 @kernel
 def _sub(method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2, max_iter, tab):
     """One sub-step of physical size h of the symmetric method: 15 values, iterations, status.
-    ``tab``: the time finite element's Gauss tables (:func:`.tfe.tables`; read by METHOD_TFE,
-    whose one step is the composed step)."""
+    ``tab``: the time finite element's Gauss tables and its scratch (:func:`tfe_scratch`; read
+    by METHOD_TFE, whose one step is the composed step)."""
     extra = 0
     status = STATUS_OK
     if method == METHOD_TFE:
-        k = tab.shape[0]
-        phi = np.empty((k, 2))
-        work = np.empty((2 * k, 2 * k + 8))
+        tab, phi, work, piv = tab
         d0, d1, d2, w0, w1, w2, _, _, extra, status = tfe_step(
-            tab, phi, work, t0 - c0, t1 - c1, t2 - c2, u0, u1, u2, h, gm, max_iter, False
+            tab, phi, work, piv, t0 - c0, t1 - c1, t2 - c2, u0, u1, u2, h, gm, max_iter, False
         )
         t0, e0 = kahan_add(t0, e0, d0)
         t1, e1 = kahan_add(t1, e1, d1)
@@ -302,6 +309,7 @@ def adaptive_chunk(
     c0 = center[0]
     c1 = center[1]
     c2 = center[2]
+    tfe = tfe_scratch(tab)
     for i in range(n):
         s, r = _start(method, x, v, cx, cv, rho, gm, c0, c1, c2, eta, i)
         for k in range(nrec):
@@ -311,7 +319,7 @@ def adaptive_chunk(
             r_start = r
             status = STATUS_OK
             for _j in range(every):
-                s, r, it, st, status = _interval(method, s, r, interval, gammas, gm, c0, c1, c2, eta, max_iter, tab)
+                s, r, it, st, status = _interval(method, s, r, interval, gammas, gm, c0, c1, c2, eta, max_iter, tfe)
                 its += it
                 steps += st
                 if status != STATUS_OK:
@@ -344,6 +352,7 @@ def reversible_steps(method, x, v, cx, cv, rho, gm, center, eta, gammas, nsteps,
     c0 = center[0]
     c1 = center[1]
     c2 = center[2]
+    tfe = tfe_scratch(tab)
     for i in range(n):
         s, r = _start(method, x, v, cx, cv, rho, gm, c0, c1, c2, eta, i)
         t = 0.0
@@ -351,7 +360,7 @@ def reversible_steps(method, x, v, cx, cv, rho, gm, center, eta, gammas, nsteps,
         eh, el, _scale = _energy_dd(s, gm, c0, c1, c2)
         for _ in range(nsteps):
             s, r, dur, dlo, it, status, eh, el = _composed(
-                method, s, r, 1.0, 0.0, gammas, gm, c0, c1, c2, eta, max_iter, eh, el, tab
+                method, s, r, 1.0, 0.0, gammas, gm, c0, c1, c2, eta, max_iter, eh, el, tfe
             )
             if status != STATUS_OK:
                 return status

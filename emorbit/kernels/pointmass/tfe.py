@@ -18,8 +18,9 @@ the order is 2k; the step is symmetric. :func:`tfe_step` has the derivation.
 
 Data layout. The stages lie in the plane of ``p0`` and ``h v0``; the unknowns are the scaled
 nodal forces ``phi_l = h^2 F_l`` in that basis, a (k, 2) array (2k unknowns per point), solved
-by Newton with gravity's 2 x 2 Jacobian at each stage and a dense 2k x 2k solve, started from
-the previous step's force polynomial. The Gauss tables are one (k, 3 + 2k) array
+by Newton with gravity's 2 x 2 Jacobian at each stage and a dense 2k x 2k LU factorisation,
+kept for the next iterations while they contract fast (chord iterations), started from the
+previous step's force polynomial. The Gauss tables are one (k, 3 + 2k) array
 (:func:`tables`), from :mod:`emorbit.kernels.gauss` rounded to 20 digits. State and records
 are those of :func:`~.reference.implicit_chunk`: ``x, v, cx, cv`` (3, n) with compensated
 sums, ``rec_x, rec_v`` (nrec, 3, n), ``rec_iters`` (nrec, n) Newton iterations, ``fail`` (n, 2).
@@ -39,7 +40,7 @@ import numpy as np
 from ..codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
 from ..eft import kahan_add
 from ..jit import kernel
-from ..rigid_solve import dense_solve
+from ..rigid_solve import lu, lu_solve
 
 __all__ = ["ORDERS", "low_parts", "tables", "tfe_chunk", "tfe_step"]
 
@@ -49,6 +50,8 @@ ORDERS = (4, 6, 8)
 _TOL = 2.0**-53
 #: an update that stops shrinking is Newton's round-off floor below this fraction
 _FLOOR = 2.0**-40
+#: the matrix's factors are kept for the next iteration while updates shrink by this factor
+_REFRESH = 2.0**-6
 
 #: significant digits the tables keep (:func:`_gauss`)
 _TABLE_DIGITS = 20
@@ -185,7 +188,7 @@ def _predict(ext, phi, prevf, p0, p1, p2, hv0, hv1, hv2, g00, g01, g11, scale):
 
 
 @kernel
-def tfe_step(tab, phi, work, p0, p1, p2, v0, v1, v2, h, gm, max_iter, predicted):
+def tfe_step(tab, phi, work, piv, p0, p1, p2, v0, v1, v2, h, gm, max_iter, predicted):
     r"""One step of the k-stage energy-momentum time finite element (module notes).
 
     Why the energy is exact, not only accurate to the quadrature's order. Gauss' coefficients
@@ -217,12 +220,15 @@ def tfe_step(tab, phi, work, p0, p1, p2, v0, v1, v2, h, gm, max_iter, predicted)
     (G u_l)^T / r_l^2)`` (the correction's derivative, O(h^{2k}), left out). The end of the step
     is ``p1 - p0 = X p0 + Y h v0``, ``(X, Y) = (0, 1) + sum_j b_j (1 - c_j) phi_j``, and ``v1 - v0 =
     Xv p0 / h + Yv v0``, ``(Xv, Yv) = sum_j b_j phi_j``: the orbit's plane is kept by construction.
-    Newton stops when its update ``d`` falls below ``2^-53 max|phi|`` (relative to the forces,
+    The matrix is factored at the first iteration and its factors are kept while each update
+    shrinks by 2^-6 or more (chord iterations; refactored at the iteration after one that does
+    not). Newton stops when its update ``d`` falls below ``2^-53 max|phi|`` (relative to the forces,
     not to the basis: an absolute 1e-17 in phi is 1e-17 / (h omega) of the velocity's
     increment, which drifts the energy at small steps), or when the next update, estimated
     from the contraction just seen (``d^2 / d_prev``, an upper bound where convergence is
-    quadratic), would be below it, or when it stops shrinking below ``2^-40 max|phi|`` (its
-    round-off floor); otherwise it fails with ``STATUS_NO_CONVERGENCE``.
+    quadratic, the chord's own rate where it is linear), would be below it, or when it stops
+    shrinking below ``2^-40 max|phi|`` (its round-off floor) with fresh factors; otherwise it
+    fails with ``STATUS_NO_CONVERGENCE``.
 
     Parameters
     ----------
@@ -233,6 +239,8 @@ def tfe_step(tab, phi, work, p0, p1, p2, v0, v1, v2, h, gm, max_iter, predicted)
         ``predicted``), the solution out.
     work : ndarray
         (2k, 2k + 8) scratch.
+    piv : ndarray
+        (2k,) int64 scratch: the factors' pivot rows.
     p0, p1, p2 : float
         Offset of the point from the centre, m.
     v0, v1, v2 : float
@@ -282,6 +290,7 @@ def tfe_step(tab, phi, work, p0, p1, p2, v0, v1, v2, h, gm, max_iter, predicted)
     prev = math.inf
     status = STATUS_NO_CONVERGENCE
     its = 0
+    fresh = True  # factor the matrix at this iteration's stages (else keep the last factors)
     while its < max_iter:
         its += 1
         # stages, end point and the energy correction from phi
@@ -322,6 +331,8 @@ def tfe_step(tab, phi, work, p0, p1, p2, v0, v1, v2, h, gm, max_iter, predicted)
             f = s + nu * sig[l]
             rhs[2 * l] = phi[l, 0] - f * ux[l]
             rhs[2 * l + 1] = phi[l, 1] - f * uy[l]
+            if not fresh:
+                continue
             d00 = s * (1.0 - 3.0 * ux[l] * gx[l])
             d01 = s * (-3.0 * ux[l] * gy[l])
             d10 = s * (-3.0 * uy[l] * gx[l])
@@ -337,9 +348,10 @@ def tfe_step(tab, phi, work, p0, p1, p2, v0, v1, v2, h, gm, max_iter, predicted)
         if not abs(re + nu + rhs[0]) < math.inf:
             status = STATUS_SINGULAR
             break
-        if not dense_solve(J, rhs, n):
+        if fresh and not lu(J, piv, n):
             status = STATUS_SINGULAR
             break
+        lu_solve(J, piv, rhs, n)
         d = 0.0
         scale = 0.0
         for l in range(k):
@@ -351,10 +363,12 @@ def tfe_step(tab, phi, work, p0, p1, p2, v0, v1, v2, h, gm, max_iter, predicted)
             # below round-off, or the next update, by the contraction just seen, would be
             status = STATUS_OK
             break
-        if d >= prev:
+        if d >= prev and fresh:
             if d < _FLOOR * scale:
                 status = STATUS_OK
             break
+        # factors kept while they contract fast; refreshed where they do not (or diverge)
+        fresh = d > _REFRESH * prev
         prev = d
     ex = 0.0
     ey = 1.0
@@ -393,6 +407,7 @@ def tfe_chunk(tab, x, v, cx, cv, gm, center, dt, every, nrec, max_iter, rec_x, r
     n = x.shape[1]
     phi = np.empty((k, 2))
     work = np.empty((2 * k, 2 * k + 8))
+    piv = np.empty(2 * k, np.int64)
     prevf = np.empty((k, 3))
     ext = _extrapolation(tab, 1.0)
     for i in range(n):
@@ -436,7 +451,7 @@ def tfe_chunk(tab, x, v, cx, cv, gm, center, dt, every, nrec, max_iter, rec_x, r
                         1.0,
                     )
                 d0, d1, d2, w0, w1, w2, ex, ey, it, status = tfe_step(
-                    tab, phi, work, p0, p1, p2, u0, u1, u2, dt, gm, max_iter, have
+                    tab, phi, work, piv, p0, p1, p2, u0, u1, u2, dt, gm, max_iter, have
                 )
                 its += it
                 n0, m0 = kahan_add(t0, e0, d0)
