@@ -78,14 +78,14 @@ def _g(x0, x1, x2, y0, y1, y2, c0, c1, c2, gm, eta):
 
 
 @kernel
-def _sub(method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2, max_iter, tab):
+def _sub(method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2, max_iter, tfe):
     """One sub-step of physical size h of the symmetric method: 15 values, iterations, status.
-    ``tab``: the time finite element's Gauss tables and its scratch (:func:`tfe_scratch`; read
-    by METHOD_TFE, whose one step is the composed step)."""
+    ``tfe``: the time finite element's Gauss tables and scratch (:func:`tfe_scratch`; read by
+    METHOD_TFE, whose one step is the composed step)."""
     extra = 0
     status = STATUS_OK
     if method == METHOD_TFE:
-        tab, phi, work, piv = tab
+        tab, phi, work, piv = tfe
         d0, d1, d2, w0, w1, w2, _, _, extra, status = tfe_step(
             tab, phi, work, piv, t0 - c0, t1 - c1, t2 - c2, u0, u1, u2, h, gm, max_iter, False
         )
@@ -159,7 +159,7 @@ def _restore_energy(s, eh, el, gm, c0, c1, c2):
 
 
 @kernel
-def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter, eh, el, tab):
+def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter, eh, el, tfe):
     """One composed step from the 15 values ``s`` (x, v, cx, cv, the leapfrog acceleration)
     and ``rho``: sub-steps ``gammas[k] eps`` in tau, or (``fixed`` > 0) of physical size
     ``gammas[k] fixed``, with ``rho`` then set to ``1 / s(x)`` at its end. Returns (new 15
@@ -186,7 +186,7 @@ def _composed(method, s, rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter,
             rho = kick(rho, a)
             h = (4.0 * ak) / rho
         (t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, it, status) = _sub(
-            method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2, max_iter, tab
+            method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, gm, c0, c1, c2, max_iter, tfe
         )
         its += it
         if status != STATUS_OK:
@@ -237,17 +237,17 @@ def _store(s, r, x, v, cx, cv, rho, i):
 def _step(ctx, s, rho, eps, fixed, t):
     """The controller's composed step of one point (:func:`emorbit.kernels.adaptive.interval`):
     the 17 values of ``s`` (the state and the energy target) and the context ``ctx``
-    (method, gm, c0, c1, c2, eta, gammas, max_iter, tab)."""
-    method, gm, c0, c1, c2, eta, gammas, max_iter, tab = ctx
+    (method, gm, c0, c1, c2, eta, gammas, max_iter, tfe), ``tfe`` from :func:`tfe_scratch`."""
+    method, gm, c0, c1, c2, eta, gammas, max_iter, tfe = ctx
     q, rq, dur, dlo, its, status, eh, el = _composed(
-        method, s[:15], rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter, s[15], s[16], tab
+        method, s[:15], rho, eps, fixed, gammas, gm, c0, c1, c2, eta, max_iter, s[15], s[16], tfe
     )
     return q + (eh, el), rq, dur, dlo, its, status
 
 
 @kernel
 def _control(ctx, s):
-    method, gm, c0, c1, c2, eta, gammas, max_iter, tab = ctx
+    method, gm, c0, c1, c2, eta, gammas, max_iter, tfe = ctx
     return control(s[0], s[1], s[2], c0, c1, c2, gm, eta)
 
 
@@ -257,12 +257,12 @@ def _accept(ctx, s, q):
 
 
 @kernel
-def _interval(method, s, r, length, gammas, gm, c0, c1, c2, eta, max_iter, tab):
+def _interval(method, s, r, length, gammas, gm, c0, c1, c2, eta, max_iter, tfe):
     """Composed steps from ``s, r`` that end exactly ``length`` seconds later: returns (s, r,
     iterations, composed steps, status). It starts afresh (its first step is a trial one), so
     what it does depends on the state alone, not on where a chunk started."""
     eh, el, _scale = _energy_dd(s, gm, c0, c1, c2)
-    ctx = (method, gm, c0, c1, c2, eta, gammas, max_iter, tab)
+    ctx = (method, gm, c0, c1, c2, eta, gammas, max_iter, tfe)
     q, r, its, steps, status = interval(_step, _control, _accept, ctx, s + (eh, el), r, length, 0.0)
     return q[:15], r, its, steps, status
 
