@@ -45,7 +45,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--t-end", help='end time with a unit, e.g. "100 s"')
     run.add_argument("--dt", help='step with a unit, e.g. "0.1 s"')
     run.add_argument("--method", help="em | midpoint | leapfrog")
-    run.add_argument("--order", type=int, help="2 | 4 | 6 | 8")
+    run.add_argument("--order", type=int, help="2 | 4 | 6 | 8; tfe 4 | 6 | 8 | 10 | 12")
     run.add_argument("--every", type=int, help="steps between records (output_every)")
     run.add_argument(
         "--checkpoint-every",

@@ -13,7 +13,7 @@ from .bodies.facets import FACET_KEYS
 from .effects import EFFECTS, effect_kinds
 from .events import KINDS as _EVENT_KINDS
 from .field import BODIES
-from .integrators import METHODS, ORDERS, ROUNDOFF
+from .integrators import METHODS, ORDERS, ROUNDOFF, TFE_ORDERS
 from .integrators.plan import MAX_NEWTON_ITERATIONS
 from .keys import Key
 from .simulation import MAX_OUTPUT
@@ -95,8 +95,8 @@ KEYS: dict[str, tuple[Key, ...]] = {
     ),
     "integrator": (
         Key("method", False, "string", '"em"', _choices(METHODS), "the integration method"),
-        Key("order", False, "integer", "2", _choices(ORDERS),
-            "2 is the base step; 4, 6, 8 symmetric compositions of it"),
+        Key("order", False, "integer", "2", _choices(sorted(set(ORDERS) | set(TFE_ORDERS))),
+            "2 is the base step; 4, 6, 8 symmetric compositions of it; tfe runs at 4 to 12 in one solve"),
         Key("dt", True, "time (s)", "", "> 0", "the step (with adaptive: the unit of the record grid)"),
         Key("t_end", True, "time (s)", "", "> 0, at least one step",
             "the end time, rounded up to a whole step unless within 1e-9 (relative) of one"),

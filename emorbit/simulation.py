@@ -79,7 +79,7 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
         elastic and rigid bodies and point masses, in the central field; fixed or adaptive steps).
     order : int
         2 (the base step) or 4, 6, 8 (symmetric compositions of it, :data:`emorbit.ORDERS`);
-        ``"tfe"`` runs at 4, 6 or 8 (its 2, 3 or 4 Gauss stages).
+        ``"tfe"`` runs at 4, 6, 8, 10 or 12 (its 2 to 6 Gauss stages).
     dt : Quantity, str or float
         The step, s.
     max_newton_iterations : int
@@ -242,7 +242,8 @@ class Simulation(Assembly, StateQueries, ChunkDriver):
 
     @property
     def order(self) -> int:
-        """The composition's order (:data:`emorbit.ORDERS`)."""
+        """The step's order: a composition's (:data:`emorbit.ORDERS`), or tfe's
+        (:data:`emorbit.integrators.TFE_ORDERS`)."""
         return self.plan.order
 
     @property

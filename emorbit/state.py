@@ -70,9 +70,7 @@ class StateQueries:
     def _invariants_now(self):
         recs = [(s, s.current()) for s in self._measured()]
         if self.effects.time_dependent():  # potentials that follow the clock
-            from .integrators import coefficients
-
-            self._prepare_effects(1, coefficients(self.order))
+            self._prepare_effects(1, self.plan.gammas)
             for _, rec in recs:
                 rec.t = np.array([self.time])
         parts = [s.invariants(rec, 1, self.gm, self.center) for s, rec in recs]

@@ -54,7 +54,7 @@ from .bodies.system import newton_failure
 from .epochs import epoch_text
 from .errors import InputError, IntegrationError, RoundoffError, RoundoffWarning
 from .event_run import EventRun
-from .integrators import coefficients, get_method
+from .integrators import get_method
 from .interrupts import RunInterrupted, StopRequest, stop_on_signals
 from .io.drift import (
     DRIFT_TOLERANCE,
@@ -157,7 +157,7 @@ class ChunkDriver:
         working = bool(self._working_labels())
         if working:
             kept[1:] = False
-        self._drift = DriftMonitor(tol, coefficients(self.order).size, kept)
+        self._drift = DriftMonitor(tol, self.plan.gammas.size, kept)
         self._drift.gate = bool(kept[0]) and not working  # the recorded energy itself is conserved
 
     def _prepare_effects(self, n_steps: int, gammas) -> None:
@@ -250,7 +250,7 @@ class ChunkDriver:
         if self.structure is not None:
             self.structure.build()
         cp = self._checkpoint_steps(checkpoint_every, every)
-        self._prepare_effects(n_steps, coefficients(self.order))  # the first record's potentials need them
+        self._prepare_effects(n_steps, self.plan.gammas)  # the first record's potentials need them
         grid, what = (
             (self._dt, "fixed steps") if self.adaptive is None else (every * self._dt, "adaptive steps' records")
         )
@@ -487,7 +487,7 @@ class ChunkDriver:
         records, so that a restart from it continues bit for bit. A set ``stop`` ends the
         loop before the next chunk.
         """
-        gammas = coefficients(self.order)
+        gammas = self.plan.gammas
         self._prepare_effects(n_steps, gammas)
         pace = Pace(max(1, CHUNK_BYTES // (128 * len(self.names))))
         origin = self._run_origin
@@ -692,7 +692,7 @@ class ChunkDriver:
         energy from ``e0`` (J, at the step's start) beyond round-off (:mod:`emorbit.io.drift`)."""
         e1 = self._energies(sub, 1)[0]
         scale = max(sum(s.invariant_scales(r, 1, self.gm, self.center) for s, r in sub)[0][0], self._drift.scale[0])
-        return bool(self._drift.too_far(e1 - e0, scale, parts * coefficients(self.order).size))
+        return bool(self._drift.too_far(e1 - e0, scale, parts * self.plan.gammas.size))
 
     def _newton_note(self, system, index, gammas) -> str:
         """What failed in the Newton iteration of a step that failed even in sub-steps: its

@@ -17,6 +17,9 @@ from emorbit.integrators import METHODS, check_method_order, coefficients, dispa
 from emorbit.kernels.codes import STATUS_OK
 from emorbit.kernels.pointmass import tfe
 
+#: the time finite element: its coefficients (Gauss weights) name the order
+TFE = get_method("tfe")
+
 EPS = np.finfo(float).eps
 
 
@@ -40,7 +43,7 @@ def run(order, dt, steps, every=None, x0=PAPER_X0, v0=PAPER_V0, center=(0.0, 0.0
         PAPER_GM,
         np.asarray(center, float),
         dt,
-        coefficients(order),
+        TFE.coefficients(order),
         every,
         nrec,
         50,
@@ -131,7 +134,7 @@ def test_tables_are_gauss():
     """The tables' rows: the k-point rule integrates t^m exactly for m < 2k, the collocation
     matrix integrates the Lagrange polynomials, and b_i a_ij + b_j a_ji = b_i b_j (what makes
     the kinetic energy and |p|^2 exact sums over the nodes)."""
-    for order in (4, 6, 8):
+    for order in tfe.ORDERS:
         tab = tfe.tables(order)
         k = order // 2
         c, b, a, aa = tab[:, 0], tab[:, 1], tab[:, 3 : 3 + k], tab[:, 3 + k :]
@@ -143,19 +146,20 @@ def test_tables_are_gauss():
 
 
 def test_refuses_what_it_does_not_run():
-    """Orders other than 4, 6 and 8 and the GPU: each an InputError naming its key and value,
+    """Orders other than 4 to 12 and the GPU: each an InputError naming its key and value,
     when the simulation is built (effects: tests/test_tfe_effects.py; structures with rigid
-    bodies: tests/test_tfe_elastic.py)."""
-    assert get_method("tfe").orders == (4, 6, 8) and "tfe" in METHODS
-    assert check_method_order("tfe", 8) == 8
+    bodies: tests/test_tfe_elastic.py); coefficients other than tfe's, naming the order."""
+    assert get_method("tfe").orders == (4, 6, 8, 10, 12) == tfe.ORDERS and "tfe" in METHODS
+    assert check_method_order("tfe", 12) == 12
     field = emorbit.CentralField(gm=PAPER_GM)
-    for order in (2,):
+    for order in (2, 14):
         with pytest.raises(InputError) as info:
             emorbit.Simulation(field, method="tfe", order=order, dt=1.0)
         assert info.value.key == "order" and str(order) in str(info.value) and "'tfe'" in str(info.value)
+    for gammas in (coefficients(8), np.full(4, 0.25), np.ones(1)):  # a composition's, equal weights, one
         with pytest.raises(InputError) as info:
-            run(order, PAPER_T / 100, 1)
-        assert info.value.key == "order" and str(order) in str(info.value)
+            dispatch.tfe_tables(gammas)
+        assert info.value.key == "order" and f"got {gammas.size} coefficients" in str(info.value)
     with pytest.raises(InputError) as info:
         emorbit.Simulation(field, method="tfe", order=4, dt=1.0).device = "gpu"
     assert info.value.key == "device" and "'tfe'" in str(info.value)

@@ -11,9 +11,12 @@ from test_tfe_elastic import forth_and_back
 
 from emorbit.bench.elastic_precision import bus_boom as _bus_boom
 from emorbit.bodies.structure_tfe import StructureTFE
-from emorbit.integrators import coefficients
+from emorbit.integrators import get_method
 from emorbit.integrators.dispatch import tfe_tables
 from emorbit.scene import load_scene, parse_scene
+
+#: the time finite element: its coefficients (Gauss weights) name the order
+TFE = get_method("tfe")
 
 
 def _end(dt, order, t=1.0):
@@ -105,10 +108,10 @@ def test_adaptive_steps(order):
     assert res.relative_angular_momentum_error().max() <= 2e-15
     n, eps = 30, np.finfo(float).eps
     u0, v0 = st.u.copy(), st.v.copy()
-    t1 = st.reversible_steps("tfe", 0.0, np.zeros(3), coefficients(order), n, 50)
+    t1 = st.reversible_steps("tfe", 0.0, np.zeros(3), TFE.coefficients(order), n, 50)
     st.v[...] *= -1.0
     st.cv[...] *= -1.0
-    t2 = st.reversible_steps("tfe", 0.0, np.zeros(3), coefficients(order), n, 50)
+    t2 = st.reversible_steps("tfe", 0.0, np.zeros(3), TFE.coefficients(order), n, 50)
     assert np.abs(st.u - u0).max() / np.abs(u0).max() <= 1e3 * eps * n
     assert np.abs(-st.v - v0).max() / np.abs(v0).max() <= 1e3 * eps * n
     assert abs(t1 - t2) <= 1e3 * eps * n * t1
@@ -122,7 +125,7 @@ def test_newton_matrix_matches_finite_differences(order):
     sim = _bus_boom(0.02, order, young=1e6)
     sim.run(steps=2, every=2, progress=False)
     st = sim.structure
-    tfe = StructureTFE(st, tfe_tables(coefficients(order)), 0.0, np.zeros(3))
+    tfe = StructureTFE(st, tfe_tables(TFE.coefficients(order)), 0.0, np.zeros(3))
     u0, ref = st.relative(st.u, st.cu)
     x0n = tfe._nodes(u0[None])[0]
     p0 = tfe._gravity_points(x0n[None])[0] + ref

@@ -10,8 +10,11 @@ from test_elastic import _tethered
 import emorbit
 from emorbit.bodies.structure_tfe import StructureTFE
 from emorbit.errors import InputError
-from emorbit.integrators import coefficients
+from emorbit.integrators import get_method
 from emorbit.integrators.dispatch import tfe_tables
+
+#: the time finite element: its coefficients (Gauss weights) name the order
+TFE = get_method("tfe")
 
 EPS = np.finfo(float).eps
 GM = 3.986004418e14
@@ -165,10 +168,10 @@ def test_adaptive_steps(order):
     st = sim.structure
     n = 50
     u0, v0 = st.u.copy(), st.v.copy()
-    t1 = st.reversible_steps("tfe", GM, np.zeros(3), coefficients(order), n, 50)
+    t1 = st.reversible_steps("tfe", GM, np.zeros(3), TFE.coefficients(order), n, 50)
     st.v[...] *= -1.0
     st.cv[...] *= -1.0
-    t2 = st.reversible_steps("tfe", GM, np.zeros(3), coefficients(order), n, 50)
+    t2 = st.reversible_steps("tfe", GM, np.zeros(3), TFE.coefficients(order), n, 50)
     assert np.abs(st.u - u0).max() / np.abs(u0).max() <= 1e3 * EPS * n
     assert np.abs(-st.v - v0).max() / np.abs(v0).max() <= 1e3 * EPS * n
     assert abs(t1 - t2) <= 1e3 * EPS * n * t1
@@ -186,7 +189,7 @@ def test_newton_matrix_matches_finite_differences(case, order):
         sim, h, gm = _beam(0.01, 2, method="em"), 0.05, 0.0
     sim.run(steps=3, every=3, progress=False)
     st = sim.structure
-    tfe = StructureTFE(st, tfe_tables(coefficients(order)), gm, np.zeros(3))
+    tfe = StructureTFE(st, tfe_tables(TFE.coefficients(order)), gm, np.zeros(3))
     u0, ref = st.relative(st.u, st.cu)
     x0n = tfe._nodes(u0[None])[0]
     p0 = tfe._gravity_points(x0n[None])[0] + ref

@@ -9,7 +9,10 @@ import pytest
 
 from emorbit.bench.rigid_cases import FAST_OMEGA, free_sim, leo_sim
 from emorbit.bench.rigid_precision import attitude_angle
-from emorbit.integrators import coefficients
+from emorbit.integrators import get_method
+
+#: the time finite element: its coefficients (Gauss weights) name the order
+TFE = get_method("tfe")
 
 EPS = np.finfo(float).eps
 
@@ -130,10 +133,10 @@ def test_adaptive_steps_run_back_to_the_start(case, order, eta):
     sim = _adaptive(sim, eta)
     rb, gm, c = sim.rigid, sim.gm, sim.center
     q0, v0 = rb.q[0].copy(), rb.v[0].copy()
-    t1 = rb.reversible_steps("tfe", gm, c, coefficients(order), n, 50)[0]
+    t1 = rb.reversible_steps("tfe", gm, c, TFE.coefficients(order), n, 50)[0]
     rb.v[...] *= -1.0
     rb.cv[...] *= -1.0
-    t2 = rb.reversible_steps("tfe", gm, c, coefficients(order), n, 50)[0]
+    t2 = rb.reversible_steps("tfe", gm, c, TFE.coefficients(order), n, 50)[0]
     dq = np.abs(rb.q[0] - q0).max() / np.abs(q0).max() / (EPS * n)
     dv = np.abs(-rb.v[0] - v0).max() / np.abs(v0).max() / (EPS * n)
     assert dq <= 1e3 and dv <= 1e3, (dq, dv)

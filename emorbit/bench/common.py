@@ -74,9 +74,9 @@ class Config:
     heyoka_tol: tuple
     warm_runs: int  # repeats of the warm start-up
     adaptive_orders: tuple = (2, 4, 6, 8)  # em with adaptive steps in the work-precision runs
-    tfe_adaptive_orders: tuple = (4, 6, 8)  # and tfe with adaptive steps
+    tfe_adaptive_orders: tuple = (4, 6, 8, 10, 12)  # and tfe with adaptive steps
     #: the adaptive steps' knob: h = eta 2 pi sqrt(r^3 / GM), a fraction of the local Kepler time scale
-    adaptive_eta: tuple = (0.08, 0.06, 0.04, 0.02, 0.0125, 0.008, 0.005, 0.003)
+    adaptive_eta: tuple = (0.08, 0.06, 0.05, 0.04, 0.03, 0.02, 0.0125, 0.008, 0.005, 0.003)
 
 
 #: "full", "quick" (``emorbit bench --quick``) and "tiny"
@@ -104,7 +104,8 @@ CONFIGS = {
         ias15_eps=(1e-3, 1e-5, 1e-7, 1e-9),
         heyoka_tol=(1e-6, 1e-9, 1e-12, 2.220446049250313e-16),
         warm_runs=3,
-        adaptive_eta=(0.08, 0.06, 0.04, 0.02, 0.008, 0.003),
+        tfe_adaptive_orders=(8, 10, 12),
+        adaptive_eta=(0.08, 0.06, 0.05, 0.04, 0.03, 0.02, 0.008, 0.003),
     ),
     # a seconds-long smoke run for the tests: its timings mean nothing
     "tiny": Config(

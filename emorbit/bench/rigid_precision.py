@@ -13,7 +13,7 @@ Cases (:data:`CASES`):
 Engines, each a series of settings from coarse to fine:
 
 * emorbit em and midpoint at orders 2, 4, 6 and 8 (compositions of the second-order step),
-  and tfe at orders 4, 6 and 8 (one implicit solve of 2, 3 or 4 Gauss stages per step,
+  and tfe at orders 4 to 12 (one implicit solve of 2 to 6 Gauss stages per step,
   :mod:`emorbit.kernels.rigid_tfe`), fixed step dt;
 * Exudyn (torque-free only; it has no gravity gradient): generalized-alpha (its default
   spectral radius) with rotation-vector and with Euler-parameter nodes, and its explicit RK44
@@ -58,6 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..integrators import TFE_ORDERS
 from .rigid import ROUND_OFF, _Basilisk, _Exudyn
 from .rigid_cases import (
     FAST_OMEGA,
@@ -113,7 +114,7 @@ CASES = {
 EM_METHODS = ("em", "midpoint", "tfe")
 ORDERS = (2, 4, 6, 8)
 #: the orders each method runs at (tfe: its Gauss stages times 2)
-METHOD_ORDERS = {"em": ORDERS, "midpoint": ORDERS, "tfe": (4, 6, 8)}
+METHOD_ORDERS = {"em": ORDERS, "midpoint": ORDERS, "tfe": TFE_ORDERS}
 
 
 def series_name(method: str, order: int) -> str:
@@ -129,7 +130,7 @@ class Config:
     every: int  # take every k-th step size of a case
     max_run_s: float  # a run estimated to take longer is skipped
     rkf78_tolerances: tuple
-    orders: tuple = ORDERS
+    orders: tuple = tuple(sorted(set(ORDERS) | set(TFE_ORDERS)))  # each method runs those of its own
 
 
 #: "full", "quick" (``emorbit bench --quick``) and "tiny" (a smoke run for the tests)
@@ -731,7 +732,7 @@ _PEERS = {
     "Basilisk RK4": ("tab:brown", "+", "--"),
     "Basilisk RKF78": ("black", "P", "-."),
 }
-_MARKERS = {2: "o", 4: "s", 6: "^", 8: "D"}
+_MARKERS = {2: "o", 4: "s", 6: "^", 8: "D", 10: "v", 12: "P"}
 
 
 def plot(section: dict, path: str) -> None:
@@ -769,7 +770,7 @@ def plot(section: dict, path: str) -> None:
             for name, pts in series.items():
                 pts = sorted(pts, key=lambda p: p["cpu_s"])
                 if pts[0]["engine"] == "emorbit":
-                    color = matplotlib.colormaps[_COLORS[pts[0]["method"]]](0.35 + 0.65 * (pts[0]["order"] - 2) / 6)
+                    color = matplotlib.colormaps[_COLORS[pts[0]["method"]]](0.35 + 0.65 * (pts[0]["order"] - 2) / 10)
                     marker = _MARKERS[pts[0]["order"]]
                     ls = {"em": "-", "tfe": "--"}.get(pts[0]["method"], ":")
                 else:

@@ -10,14 +10,14 @@ ten checkpoints per orbit. Engines:
 * emorbit em, midpoint and leapfrog at orders 2, 4, 6 and 8 (symmetric compositions of 1, 3,
   9 and 17 second-order steps), dt = T/N for several N (through ``PointMasses.advance``,
   checkpoints recorded by the kernel); points carry ``dt``;
-* emorbit tfe, the energy-momentum time finite element, at orders 4, 6 and 8 (one implicit
-  solve of 2, 3 or 4 Gauss stages per step, :mod:`emorbit.kernels.pointmass.tfe`) at the same dt;
+* emorbit tfe, the energy-momentum time finite element, at orders 4 to 12 (one implicit
+  solve of 2 to 6 Gauss stages per step, :mod:`emorbit.kernels.pointmass.tfe`) at the same dt;
   labelled with its order and scheme beside the compositions;
 * emorbit em with adaptive, time-symmetric steps (:mod:`emorbit.kernels.pointmass.adaptive`,
   ``h ~ eta 2 pi sqrt(r^3/GM)``) at orders 2-8 for several eta: points with ``method = "em"``,
   ``adaptive = True`` and eta as ``tolerance`` (a step too long for the control fails the run,
-  which is kept as a failed point); tfe with the same adaptive steps at orders 4, 6 and 8
-  (``method = "tfe"``, ``adaptive = True``);
+  which is kept as a failed point); tfe with the same adaptive steps at the orders of
+  :attr:`Config.tfe_adaptive_orders` (``method = "tfe"``, ``adaptive = True``);
 * REBOUND IAS15 at several epsilons (its adaptive step, exact finish time), WHFast (without
   safe mode) and leapfrog at the same dt as emorbit;
 * heyoka's Taylor integrator at tolerances from 1e-6 to machine precision, when it is
@@ -81,7 +81,7 @@ ENGINES = {
 
 def _solves(method: str, order: int) -> int:
     """Implicit solves in one step: a composition's sub-steps, or one (tfe)."""
-    return len(coefficients(order)) if get_method(method).composed else 1
+    return get_method(method).solves_per_step(order)
 
 
 def _errors(x_end, x_ref, energies_, e0, a) -> dict:
@@ -105,9 +105,9 @@ def _emorbit(x0, v0, method, order, N, T, orbits) -> dict:
 
     def go():
         pm = point_masses(x0[:, None], v0[:, None])
-        recs = [pm.advance(method, GM, np.zeros(3), dt, coefficients(order), every, nrec, 50)]
+        recs = [pm.advance(method, GM, np.zeros(3), dt, get_method(method).coefficients(order), every, nrec, 50)]
         if rest and recs[0].first_failure() is None:
-            recs.append(pm.advance(method, GM, np.zeros(3), dt, coefficients(order), rest, 1, 50))
+            recs.append(pm.advance(method, GM, np.zeros(3), dt, get_method(method).coefficients(order), rest, 1, 50))
         return pm, recs
 
     (pm, recs), cpu = best_cpu(go)
@@ -138,7 +138,7 @@ def _emorbit_adaptive(x0, v0, order, eta, T, orbits, method="em") -> dict:
     def run(dt, nrec_):
         pm = point_masses(x0[:, None], v0[:, None])
         pm.plan = pm.plan.with_(adaptive=eta)
-        rec = pm.advance(method, GM, np.zeros(3), dt, coefficients(order), 1, nrec_, 50)
+        rec = pm.advance(method, GM, np.zeros(3), dt, get_method(method).coefficients(order), 1, nrec_, 50)
         return pm, rec
 
     (pm, rec), cpu = best_cpu(lambda: run(orbits * T, 1))
@@ -271,7 +271,7 @@ def _orbit(name, x0, v0, divisions, cfg, heyoka_system) -> dict:
     for method in METHODS:
         for order in get_method(method).orders:
             point_masses(x0[:, None], v0[:, None]).advance(
-                method, GM, np.zeros(3), T / 100, coefficients(order), 1, 1, 50
+                method, GM, np.zeros(3), T / 100, get_method(method).coefficients(order), 1, 1, 50
             )  # warm-up: load the kernels
             per_step = None
             for N in divisions:
@@ -534,7 +534,7 @@ _PEERS = {
     ("rebound", "leapfrog"): ("REBOUND leapfrog", "tab:brown", "+", "--"),
     ("heyoka", "taylor"): ("heyoka Taylor (tolerance)", "black", "P", "-"),
 }
-_MARKERS = {2: "o", 4: "s", 6: "^", 8: "D"}
+_MARKERS = {2: "o", 4: "s", 6: "^", 8: "D", 10: "v", 12: "P"}
 
 
 def _style(engine, method, adaptive, order):
@@ -543,7 +543,7 @@ def _style(engine, method, adaptive, order):
         import matplotlib
 
         kind = f"{method} adaptive" if adaptive else method
-        color = matplotlib.colormaps[_MAPS[kind]](0.35 + 0.65 * (order - 2) / 6)
+        color = matplotlib.colormaps[_MAPS[kind]](0.35 + 0.65 * (order - 2) / 10)
         ls = {"em": "-", "em adaptive": "-.", "tfe": "--", "tfe adaptive": (0, (3, 1, 1, 1, 1, 1))}.get(kind, ":")
         if method == "tfe":  # the scheme beside the compositions: one solve of order / 2 Gauss stages
             eta = " (eta)" if adaptive else ""

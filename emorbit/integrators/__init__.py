@@ -2,9 +2,11 @@
 them: :data:`ORDERS`, :data:`ROUNDOFF` and :data:`DEVICES`, each checked here and nowhere else.
 
 Every method but one is a symmetric second-order step; :mod:`.composition` raises it to order
-4, 6 or 8. ``"tfe"`` reaches its orders (4, 6 and 8, :attr:`Method.orders`) in one
-implicit solve of 2, 3 or 4 stages instead (:mod:`emorbit.kernels.pointmass.tfe`,
-:mod:`emorbit.kernels.rigid_tfe`). :mod:`.dispatch` maps
+4, 6 or 8. ``"tfe"`` reaches its orders (4 to 12, :attr:`Method.orders`) in one
+implicit solve of 2 to 6 stages instead (:mod:`emorbit.kernels.pointmass.tfe`,
+:mod:`emorbit.kernels.rigid_tfe`). A body's ``advance`` takes a step's coefficients
+(:meth:`Method.coefficients`): a composition's sub-step fractions, or a time finite
+element's Gauss weights, which name its order by their count. :mod:`.dispatch` maps
 (method, roundoff, device) to the kernel that runs it. To add a method: give it a code in
 :mod:`emorbit.kernels.codes`, write its step kernel for each body kind it supports (see
 :mod:`emorbit.kernels.pointmass`), add a :class:`Method` entry here and its code to
@@ -16,6 +18,9 @@ from __future__ import annotations
 
 import numbers
 from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
 
 from ..errors import InputError
 from .composition import ORDERS, coefficients
@@ -27,6 +32,8 @@ __all__ = [
     "ROUNDOFF",
     "DEVICES",
     "coefficients",
+    "gauss_weights",
+    "TFE_ORDERS",
     "get_method",
     "check_order",
     "check_method_order",
@@ -34,6 +41,8 @@ __all__ = [
     "check_device",
 ]
 
+TFE_ORDERS = (4, 6, 8, 10, 12)
+"""The orders of the time finite element ``"tfe"``: 2k for k = 2 to 6 Gauss stages."""
 ROUNDOFF = ("brouwer", "fast")
 """Round-off treatments of em steps of point masses: ``"brouwer"`` solves each step's scalar
 equation to its correctly rounded root, so that the energy error stays a random walk;
@@ -78,6 +87,22 @@ class Method:
         """The solves (sub-steps) one step of ``order`` takes."""
         return coefficients(order).size if self.composed else 1
 
+    def coefficients(self, order: int) -> np.ndarray:
+        """The coefficients a body's ``advance`` takes for a step of ``order``.
+
+        A composed method's are the sub-step fractions (:func:`coefficients`: 1, 3, 9 or 17
+        of them). A step in one solve (tfe) has k = order / 2 Gauss stages; its coefficients
+        are their weights (:func:`gauss_weights`), summing to 1, whose count names the order.
+
+        Raises
+        ------
+        ValueError
+            Not one of the method's :attr:`orders`.
+        """
+        if order not in self.orders:
+            raise ValueError(f"method {self.name!r} runs at order {self.orders}, not {order!r}")
+        return coefficients(order) if self.composed else gauss_weights(order // 2)
+
 
 METHODS = {
     "em": Method(
@@ -105,12 +130,12 @@ METHODS = {
         "and rigid bodies and point masses, in the central field)",
         implicit=True,
         conserves=("energy", "angular_momentum"),
-        orders=(4, 6, 8),
+        orders=TFE_ORDERS,
         composed=False,
     ),
 }
 """The methods by name: ``"em"`` (energy-momentum), ``"midpoint"``, ``"leapfrog"`` and ``"tfe"``
-(energy-momentum time finite elements of orders 4, 6 and 8, :mod:`emorbit.kernels.pointmass.tfe`,
+(energy-momentum time finite elements of orders 4 to 12, :mod:`emorbit.kernels.pointmass.tfe`,
 :mod:`emorbit.kernels.rigid_tfe` and :mod:`emorbit.kernels.elastic_tfe`: point masses, also
 under effects whose force is a function of position and time
 (:mod:`emorbit.kernels.pointmass.effect_tfe`), rigid bodies, and structures of elastic and
@@ -187,13 +212,25 @@ def check_method_order(method, order, key: str = "order") -> int:
     Raises
     ------
     InputError
-        Not an order of :data:`ORDERS`, or not one of the method's.
+        Not one of the method's orders.
     """
-    order = check_order(order, key)
     m = get_method(method)
-    if order not in m.orders:
+    if isinstance(order, bool) or not isinstance(order, numbers.Integral) or int(order) not in m.orders:
         raise InputError(key, f"method {m.name!r} runs at order {' or '.join(map(str, m.orders))}, got {order!r}")
-    return order
+    return int(order)
+
+
+@cache
+def _weights(k: int) -> tuple:
+    from ..kernels.gauss import gauss_rule
+
+    return tuple(float(w) for w in gauss_rule(k)[1])
+
+
+def gauss_weights(k: int) -> np.ndarray:
+    """The weights of the k-point Gauss rule on [0, 1] (:func:`emorbit.kernels.gauss.gauss_rule`,
+    50 digits, rounded): the coefficients of a tfe step of order 2k (:meth:`Method.coefficients`)."""
+    return np.array(_weights(int(k)))
 
 
 def check_roundoff(roundoff, key: str = "roundoff") -> str:

@@ -18,11 +18,11 @@ device      steps       kernel
                         (:func:`point_ensemble`; what :class:`~emorbit.bodies.pointmasses.PointMasses` uses)
 ==========  ==========  ==========================================================
 
-The order of a method does not pick a kernel: every kernel takes the composition's
-sub-step coefficients (:func:`emorbit.integrators.coefficients`) as an array. The one
-exception is ``"tfe"``, whose order is its number of Gauss stages: :func:`tfe_chunk` reads
-the order from the coefficients it is handed (those of order 4, 6 or 8) and runs one step
-of 2, 3 or 4 stages per step, not the composition, with fixed steps or adaptive ones
+The order of a method does not pick a kernel: every kernel takes the step's coefficients
+(:meth:`emorbit.integrators.Method.coefficients`) as an array, a composition's sub-step
+fractions. The one exception is ``"tfe"``, whose order is its number of Gauss stages: its
+coefficients are the stages' Gauss weights, :func:`tfe_chunk` reads the order from their
+count and runs one step of 2 to 6 stages per step, with fixed steps or adaptive ones
 (:func:`adaptive_points`). These run point masses in the central field alone, on the CPU
 (point masses under effects, rigid bodies and structures have their own tfe paths); the
 other paths refuse it naming their key.
@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..kernels import codes
-from . import ORDERS, check_device, check_method_order, check_roundoff, coefficients, get_method
+from . import TFE_ORDERS, check_device, check_roundoff, gauss_weights, get_method
 
 __all__ = [
     "method_code",
@@ -53,49 +53,50 @@ _CODES = {
     "leapfrog": codes.METHOD_LEAPFROG,
     "tfe": codes.METHOD_TFE,
 }
-#: tfe's Gauss tables, by the bytes of the composition coefficients that name the order
+#: tfe's Gauss tables, by order
 _TABLES: dict = {}
 
 
 def _order_of(gammas) -> int | None:
-    """The order whose composition coefficients ``gammas`` are, or None."""
+    """The tfe order whose coefficients (Gauss weights, :meth:`~emorbit.integrators.Method.coefficients`)
+    ``gammas`` are, or None."""
     g = np.asarray(gammas, dtype=float)
-    for order in ORDERS:
-        c = coefficients(order)
-        if c.shape == g.shape and np.array_equal(c, g):
-            return order
+    order = 2 * g.size
+    if g.ndim == 1 and order in TFE_ORDERS and np.array_equal(g, gauss_weights(g.size)):
+        return order
     return None
 
 
 def tfe_tables(gammas) -> np.ndarray:
     """The Gauss tables of the time finite element (``"tfe"``) whose order ``gammas`` says.
 
-    ``gammas`` must be the composition coefficients of order 4, 6 or 8
-    (:func:`emorbit.integrators.coefficients`): they say the order, and the step is one solve
-    of 2, 3 or 4 Gauss stages (:func:`emorbit.kernels.pointmass.tfe.tables`), not their
-    composition.
+    ``gammas`` must be tfe's coefficients of its order (``get_method("tfe").coefficients(order)``:
+    the weights of k = order / 2 Gauss stages): the step is one solve of those k stages
+    (:func:`emorbit.kernels.pointmass.tfe.tables`).
 
     Raises
     ------
     InputError
-        ``order``: any other order.
+        ``order``: any other coefficients.
     """
-    key = np.asarray(gammas, dtype=float).tobytes()
-    if key in _TABLES:
-        return _TABLES[key]
     order = _order_of(gammas)
     if order is None:
-        raise InputError("order", f"method 'tfe' runs at order 4, 6 or 8; got {len(gammas)} composition coefficients")
-    check_method_order("tfe", order)
+        raise InputError(
+            "order",
+            f"method 'tfe' runs at order {', '.join(map(str, TFE_ORDERS))} and takes its Gauss weights "
+            f"(get_method('tfe').coefficients(order)); got {np.size(gammas)} coefficients",
+        )
+    if order in _TABLES:
+        return _TABLES[order]
     from ..kernels.pointmass import tfe
 
-    _TABLES[key] = tfe.tables(order)
-    return _TABLES[key]
+    _TABLES[order] = tfe.tables(order)
+    return _TABLES[order]
 
 
 def tfe_chunk(code, x, v, cx, cv, gm, center, dt, gammas, every, nrec, max_iter, rec_x, rec_v, rec_iters, fail):
     """Fixed steps of the time finite element (``"tfe"``) with the arguments of every
-    point-mass chunk kernel (:func:`point_chunk`): one solve of 2, 3 or 4 Gauss stages per step
+    point-mass chunk kernel (:func:`point_chunk`): one solve of 2 to 6 Gauss stages per step
     (:func:`emorbit.kernels.pointmass.tfe.tfe_chunk`, tables by :func:`tfe_tables`).
     ``rec_iters`` counts Newton iterations per step."""
     from ..kernels.pointmass import tfe
@@ -277,8 +278,8 @@ def adaptive_points(
     rec_steps, fail,
 ):  # fmt: skip
     """:func:`emorbit.kernels.pointmass.adaptive.adaptive_chunk` with the tables it needs: for
-    tfe (``code`` METHOD_TFE) ``gammas`` (those of order 4, 6 or 8) says the order, and the
-    composed step is one step of 2, 3 or 4 Gauss stages (:func:`tfe_tables`)."""
+    tfe (``code`` METHOD_TFE) ``gammas`` (its Gauss weights) says the order, and the
+    composed step is one step of its Gauss stages (:func:`tfe_tables`)."""
     from ..kernels.pointmass import adaptive
 
     tab, gammas = (tfe_tables(gammas), _ONE_STEP) if code == codes.METHOD_TFE else (_NO_TABLES, gammas)

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..units import to_count
-from . import check_device, check_method_order, check_roundoff, coefficients, get_method
+from . import check_device, check_method_order, check_roundoff, get_method
 
 __all__ = ["Plan", "MAX_NEWTON_ITERATIONS", "NEWTON"]
 
@@ -41,7 +41,7 @@ class Plan:
     method : str
         A name of :data:`emorbit.METHODS`.
     order : int
-        2, 4, 6 or 8 (:data:`emorbit.ORDERS`).
+        2, 4, 6 or 8 (:data:`emorbit.ORDERS`); tfe 4 to 12 (:data:`emorbit.integrators.TFE_ORDERS`).
     roundoff : str
         ``"brouwer"`` or ``"fast"`` (:data:`emorbit.integrators.ROUNDOFF`).
     device : str
@@ -104,8 +104,9 @@ class Plan:
 
     @property
     def gammas(self) -> np.ndarray:
-        """The composition's sub-step coefficients (:func:`emorbit.integrators.coefficients`)."""
-        return coefficients(self.order)
+        """The step's coefficients (:meth:`emorbit.integrators.Method.coefficients`): the
+        composition's sub-step fractions, or tfe's Gauss weights."""
+        return get_method(self.method).coefficients(self.order)
 
     def check_roundoff(self, paths: dict) -> None:
         """Refuse ``"fast"`` where a path does not honour it.

@@ -1,4 +1,4 @@
-r"""Energy-momentum time finite elements for elastic structures: the stage forces of orders 4, 6 and 8.
+r"""Energy-momentum time finite elements for elastic structures: the stage forces of orders 4 to 12.
 
 A step of size h is the continuous Galerkin element cG(k) of Betsch & Steinmann on the
 structure's slots, written at the k Gauss nodes c_l (weights b_l, matrix a): the slots' path
@@ -75,7 +75,7 @@ def _gauss(m: int) -> tuple[list, list]:
 
 
 def assumed_strain_tables(order: int) -> tuple[np.ndarray, ...]:
-    """The element rule of a step of ``order`` (4, 6 or 8): with the k Gauss nodes c (k = order /
+    """The element rule of a step of ``order`` (4 to 12): with the k Gauss nodes c (k = order /
     2), the Lagrange basis ell_j on them and the 2k - 1 point Gauss rule (sigma_i, w_i) on [0, 1]:
 
     - ``ell`` (k, m): ``ell_j(sigma_i)``;

@@ -1,4 +1,4 @@
-r"""Energy-momentum time finite elements for rigid bodies: orders 4, 6 and 8 in one implicit solve.
+r"""Energy-momentum time finite elements for rigid bodies: orders 4 to 12 in one implicit solve.
 
 State of a body in a step: ``y = (phi, d1, d2, d3, u, M)`` (18): centre of mass, axes in space
 (``R = [d1 d2 d3]``), its velocity, body angular momentum; ``Omega = J^-1 M``, ``J = tr E - E``::

@@ -1,6 +1,6 @@
 """Adaptive, time-symmetric steps for point masses in the central field: the reversible
 controller of :mod:`emorbit.kernels.adaptive` around the symmetric em, midpoint, leapfrog or
-time finite element (tfe, :mod:`.tfe`: one step of 2, 3 or 4 Gauss stages is the composed step)
+time finite element (tfe, :mod:`.tfe`: one step of 2 to 6 Gauss stages is the composed step)
 step of one point.
 
 Control. On the exact motion ``rho = 1 / s(x)``, ``s(x) = eta 2 pi sqrt(r**3 / GM)`` (``r =

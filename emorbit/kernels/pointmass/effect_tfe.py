@@ -1,4 +1,4 @@
-r"""Energy-momentum time finite elements for point masses under a set of effects: orders 4, 6 and 8.
+r"""Energy-momentum time finite elements for point masses under a set of effects: orders 4 to 12.
 
 Method: :mod:`.tfe`'s Gauss collocation in space, unknowns ``phi_l = h^2 F_l`` (k, 3) per point,
 ``V_l = v0 + sum_j a_lj phi_j / h``, ``Q_l = x0 + h sum_j a_lj V_j``, ``x1 = x0 + h sum_j b_j V_j``,

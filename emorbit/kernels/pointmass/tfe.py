@@ -1,4 +1,4 @@
-r"""Energy-momentum time finite elements: orders 4, 6 and 8 for point masses in one implicit solve.
+r"""Energy-momentum time finite elements: orders 4 to 12 for point masses in one implicit solve.
 
 One step of size ``h`` is the continuous Galerkin element cG(k) of Betsch & Steinmann (2000) in
 the form of Hairer's energy-preserving collocation (2010): ``p = x - X_Z`` and ``v`` polynomials
@@ -45,7 +45,7 @@ from ..rigid_solve import lu, lu_solve
 __all__ = ["ORDERS", "low_parts", "tables", "tfe_chunk", "tfe_step"]
 
 #: the orders a step of k stages reaches: 2k
-ORDERS = (4, 6, 8)
+ORDERS = (4, 6, 8, 10, 12)
 #: Newton's update is round-off once below this fraction of the largest nodal force
 _TOL = 2.0**-53
 #: an update that stops shrinking is Newton's round-off floor below this fraction
@@ -86,14 +86,14 @@ def _gauss(k: int) -> tuple:
 
 
 def tables(order: int) -> np.ndarray:
-    """The Gauss tables of a step of ``order`` (4, 6 or 8) in one (k, 3 + 2k) array.
+    """The Gauss tables of a step of ``order`` (4, 6, 8, 10 or 12) in one (k, 3 + 2k) array.
 
     Row l holds ``c_l, b_l, b_l (1 - c_l)``, then ``a_l1 .. a_lk``, then ``(a^2)_l1 .. (a^2)_lk``.
 
     Parameters
     ----------
     order : int
-        4, 6 or 8 (k = 2, 3 or 4 stages).
+        4, 6, 8, 10 or 12 (k = 2 to 6 stages).
 
     Returns
     -------
