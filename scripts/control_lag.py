@@ -4,12 +4,13 @@ tfe with adaptive steps on an eccentric Kepler orbit.
     python scripts/control_lag.py [--e 0.99 0.9] [--eta 0.04 0.03 0.02 0.01] [--order 8]
 
 The controller (:mod:`emorbit.kernels.adaptive`) integrates its control variable rho in the
-fictive time tau with kicks ``rho C(eps/4 g(y))`` around each sub-step; a step is
-``h = eps / rho``, and on the exact motion ``rho s(y) = 1`` (s the step the accuracy knob asks
-for, :func:`emorbit.kernels.pointmass.adaptive.control`). That integration is of order 2 in
-tau; em's compositions raise it to their own order with their sub-steps' kicks, while a tfe
-step is one sub-step with one pair of kicks. Where rho must grow fast (periapsis of an
-eccentric orbit) it then falls behind, and the steps there are longer than asked.
+fictive time tau with kicks around each sub-step; a step is ``h = eps / rho``, and on the exact
+motion ``rho s(y) = 1`` (s the step the accuracy knob asks for,
+:func:`emorbit.kernels.pointmass.adaptive.control`). em's kicks ``rho C(eps/4 g(y))`` are of
+order 2 in tau, raised by its compositions' sub-steps; a tfe step is one sub-step, and its
+kicks are the Hermite rule's (:func:`emorbit.kernels.adaptive.kick4`, order 4). Where rho must
+grow fast (periapsis of an eccentric orbit), a control of too low an order falls behind, and
+the steps there are longer than asked.
 
 For each eccentricity, method and eta the script runs one orbit from apoapsis (a = 6, the
 work-precision bench's orbits, :func:`emorbit.bench.common.aphelion_state`) in one landing
