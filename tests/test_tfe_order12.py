@@ -11,7 +11,6 @@ import test_tfe_elastic as elastic
 import test_tfe_rigid as rigid
 from conftest import PAPER_GM, PAPER_T, PAPER_V0, PAPER_X0
 
-import emorbit
 from emorbit import orbits
 
 EPS = np.finfo(float).eps
@@ -50,15 +49,7 @@ def test_point_adaptive_steps(order):
     within 1e-15 of E (measured 1.1e-16), the error converging at the order in eta (measured
     9.96 for order 10: 7.9e-7 to 7.9e-10; 11.94 for order 12: 1.4e-8 to 3.6e-12; at eta 0.02
     order 12 meets round-off, 3.7e-14)."""
-    x0, v0 = orbits.state_from_elements((1.0, 0.9, 0.3, 0.2, 0.1, np.pi), 1.0)
-    ref, _ = orbits.propagate(x0, v0, 1.0, 40 * np.pi)
-    errors = []
-    for eta in (0.06, 0.03):
-        sim = emorbit.Simulation(emorbit.CentralField(gm=1.0), method="tfe", order=order, dt=2 * np.pi, adaptive=eta)
-        sim.add_point("p", mass=1.0, position=x0, velocity=v0)
-        res = sim.run(steps=20, every=20, progress=False)
-        assert np.abs(res.relative_energy_error()).max() <= 1e-15
-        errors.append(np.linalg.norm(res.si.positions["p"][-1] - ref))
+    errors = points.adaptive_errors(order, 0.9, 20, (0.06, 0.03))
     assert abs(np.log2(errors[0] / errors[1]) - order) <= 0.3, errors
 
 

@@ -37,7 +37,9 @@ log(error), between two neighbouring points of one series (consecutive settings 
 order) that bracket it; nothing is extrapolated past the measured points. The verdicts
 (:func:`verdicts`): em adaptive at the final position error of IAS15 at REBOUND's default
 epsilon (1e-9) within :data:`LIMIT_IAS15` times IAS15's CPU time, and within
-:data:`LIMIT_HEYOKA` times heyoka's at each of the three errors both reach.
+:data:`LIMIT_HEYOKA` times heyoka's at each of the three errors both reach; and emorbit's
+cheapest scheme (em or tfe, fixed or adaptive) at 1e-9 of a within :data:`LIMIT_BEST_HEYOKA`
+times heyoka's.
 """
 
 from __future__ import annotations
@@ -67,6 +69,12 @@ IAS15_EPSILON = 1e-9
 LIMIT_IAS15 = {"paper": 1.0, "e09": 1.0, "e099": 2.0}
 #: em adaptive's CPU time over heyoka's at the same final position error, at most
 LIMIT_HEYOKA = 5.0
+#: emorbit's best scheme's CPU time over heyoka's at the final position error BEST_ACCURACY, at most
+LIMIT_BEST_HEYOKA = 3.0
+#: the final position error (relative to a) at which emorbit's best scheme meets heyoka
+BEST_ACCURACY = 1e-9
+#: emorbit's engines that the best-scheme target takes the least of
+OURS = ("em adaptive", "em fixed", "tfe", "tfe adaptive")
 #: the engines of the targets table: (engine, method, adaptive, the setting that orders a series)
 ENGINES = {
     "em adaptive": ("emorbit", "em", True, "tolerance"),
@@ -418,10 +426,11 @@ def _label(orbit: dict) -> str:
 
 
 def verdicts(orbits: list) -> list:
-    """The section's targets, one pair per orbit: em adaptive (best order) at the final
+    """The section's targets, three per orbit: em adaptive (best order) at the final
     position error of IAS15 at epsilon :data:`IAS15_EPSILON` within :data:`LIMIT_IAS15` times
     IAS15's CPU time, and within :data:`LIMIT_HEYOKA` times heyoka's at each accuracy of the
-    targets table that both reach (``met`` None when heyoka did not run).
+    targets table that both reach; emorbit's best scheme within :data:`LIMIT_BEST_HEYOKA` times
+    heyoka's at :data:`BEST_ACCURACY` (``met`` None when heyoka did not run).
 
     Parameters
     ----------
@@ -477,7 +486,34 @@ def verdicts(orbits: list) -> list:
                 "" if t["met"] else f"; {worst / LIMIT_HEYOKA:.2f}x the limit"
             )
         out.append(t)
+        out.append(_best_verdict(orbit))
     return out
+
+
+def _best_verdict(orbit: dict) -> dict:
+    """emorbit's cheapest engine of :data:`OURS` at :data:`BEST_ACCURACY` within
+    :data:`LIMIT_BEST_HEYOKA` times heyoka's CPU time there."""
+    t = {
+        "target": f"emorbit's best scheme (em or tfe, fixed or adaptive steps) <= {LIMIT_BEST_HEYOKA:g}x heyoka's "
+        f"CPU time at a position error of {BEST_ACCURACY:g}, {_label(orbit)}",
+        "limit": LIMIT_BEST_HEYOKA,
+        "met": None,
+    }
+    row = next(r for r in orbit["targets"] if r["accuracy"] == BEST_ACCURACY)
+    ours = [(r["cpu_s"], name, r["order"]) for name in OURS if (r := row["engines"][name]) is not None]
+    heyoka = row["engines"]["heyoka"]
+    if orbit["heyoka"] != "ok":
+        t["note"] = orbit["heyoka"]
+    elif not ours or heyoka is None:
+        t["note"] = f"skipped: emorbit or heyoka does not reach {BEST_ACCURACY:g}"
+    else:
+        cpu, name, order = min(ours)
+        ratio = cpu / heyoka["cpu_s"]
+        t.update(measured=ratio, met=ratio <= LIMIT_BEST_HEYOKA)
+        t["note"] = f"{name} order {order} {1e3 * cpu:.2f} ms, heyoka {1e3 * heyoka['cpu_s']:.2f} ms" + (
+            "" if t["met"] else f"; {ratio / LIMIT_BEST_HEYOKA:.2f}x the limit"
+        )
+    return t
 
 
 def run(cfg) -> dict:
