@@ -79,9 +79,14 @@ def test_newton_iterations(em_long, midpoint_long):
     assert 2.8 <= mid <= 3.4, f"midpoint: {mid:.3f} iterations per step, measured 3.103"
 
 
-@pytest.mark.parametrize(("method", "order"), [(m, o) for m, spec in emorbit.METHODS.items() for o in spec.orders])
+@pytest.mark.parametrize(
+    ("method", "order"), [(m, o) for m, spec in emorbit.METHODS.items() for o in spec.orders if o <= 8]
+)
 def test_convergence_order(method, order):
-    """Position error after one orbit against the analytic Kepler solution. Orders 2-6:
+    """Position error after one orbit against the analytic Kepler solution. Orders 10 and 12
+    (tfe) are not asymptotic on this orbit before round-off meets them (fitted 7.9 and 4.6 over
+    T/100 ... T/400, 8.3 and 9.8 over T/50 ... T/100): tests/test_tfe_order12.py measures them
+    on e = 0.1 and with adaptive steps at e = 0.9. Orders 2-6:
     dt = T/100 ... T/800; order 8: T/100 ... T/400 (asymptotic there and above round-off;
     measured errors 8.6e-9 ... 1.2e-13 for em). Measured slopes: em 1.989, 4.041, 5.997,
     8.020; midpoint 2.043, 4.278, 6.003, 8.101; leapfrog 1.986, 3.916, 5.998, 7.967; tfe
