@@ -304,6 +304,8 @@ def _rigid_precision(s: dict) -> list[str]:
                 f"; Basilisk's first-order gravity gradient against the 8 mass points (both DOP853): "
                 f"{ref['gradient_model_floor']['attitude']:.1e} rad"
             )
+        if "fixed_cpu_s" in case:  # what a run of one em step costs: the records, the checks
+            note += f"; emorbit's fixed cost per run (one em step, its records) {1e3 * case['fixed_cpu_s']:.2f} ms"
         skipped = [f"{k} {v}" for k, v in case["peers"].items() if v != "ok"]
         out += [
             f"**{case['name']}** ({case['kind']}, {case['t_end']:g} s; {note}"

@@ -29,6 +29,7 @@ def test_json_has_the_documented_shape(bench):
     assert (d / "rigid-work-precision.png").is_file() and s["figures"] == [str(d / "rigid-work-precision.png")]
     for case in s["cases"]:
         ref = case["reference"]
+        assert isinstance(case["fixed_cpu_s"], float) and 0 < case["fixed_cpu_s"] < 1.0, case["fixed_cpu_s"]
         assert ref["attitude_check"] < 1e-10 and ref["omega_check"] < 1e-10, ref  # the reference is below 1e-10
         if case["kind"] == "field":
             assert ref["gradient_model_floor"]["attitude"] < 1e-10, ref

@@ -37,7 +37,8 @@ the omega error, |omega - omega_ref| / |omega_ref| (body frame); and the energy 
 largest |E / E(0) - 1| over :data:`RECORDS` records of the run (the kinetic energy; in the
 field the translational and rotational kinetic energy plus the 8-point potential, computed
 for every engine from its own states). CPU time (``time.process_time``) of the run alone
-(set-up excluded, the best of three below 50 ms), recorded in a second, untimed run.
+(set-up excluded, the best of three below 50 ms), recorded in a second, untimed run; a case's
+``fixed_cpu_s`` is that of a one-step em run: what any run pays beyond its steps.
 
 A run estimated from the one before in its series to take over the configuration's
 ``max_run_s`` is skipped. Targets (:func:`targets`): at each attitude error of
@@ -55,6 +56,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -415,6 +417,10 @@ def _case(name: str, cfg: Config, ex: _Exudyn, bsk: _Basilisk) -> dict:
         "omega_check": float(np.linalg.norm(check["w"] - body.ref["w"]) / np.linalg.norm(body.ref["w"])),
     }
     dts = CASES[name]["dts"][:: cfg.every]
+    one = (lambda: free_sim(0.01, body.w0)) if body.kind == "free" else (lambda: leo_sim(1, 60.0))
+    one().run(steps=1, every=1, keep=False)
+    # what any run pays beyond its steps: the start and end records, the drift check, the result
+    fixed = best_cpu(lambda sim: sim.run(steps=1, every=1, keep=False), one)[1]
     points = []
     for method in EM_METHODS:
         for order in (o for o in cfg.orders if o in METHOD_ORDERS[method]):
@@ -453,14 +459,8 @@ def _case(name: str, cfg: Config, ex: _Exudyn, bsk: _Basilisk) -> dict:
         _series_runs(points, label, dts, "dt", lambda dt: _basilisk(bsk, body, "RK4", dt), cfg.max_run_s)
         task = RKF78_TASK[body.kind]
         label = {"engine": "basilisk", "method": "RKF78", "series": "Basilisk RKF78", "task_dt": task}
-        _series_runs(
-            points,
-            label,
-            cfg.rkf78_tolerances,
-            "tolerance",
-            lambda tol: _basilisk(bsk, body, "RKF78", task, tol),
-            cfg.max_run_s,
-        )
+        go = partial(_basilisk, bsk, body, "RKF78", task)
+        _series_runs(points, label, cfg.rkf78_tolerances, "tolerance", go, cfg.max_run_s)
     good = [p for p in points if p.get("status") == "ok"]
     for p in points:
         p["pareto_attitude"] = p["pareto_omega"] = False
@@ -473,6 +473,7 @@ def _case(name: str, cfg: Config, ex: _Exudyn, bsk: _Basilisk) -> dict:
         "t_end": body.t_end,
         "omega0_body": body.w0.tolist(),
         "reference": reference,
+        "fixed_cpu_s": fixed,
         "peers": peers,
         "points": points,
     }
@@ -696,6 +697,7 @@ def table(section: dict) -> list[str]:
                 f"    first-order gravity gradient (Basilisk's model) against the 8 points, both DOP853: attitude "
                 f"{f['attitude']:.1e} rad, omega {f['omega']:.1e} (Basilisk's model floor)"
             )
+        lines.append(f"    emorbit's fixed cost per run (one em step, its records): {1e3 * case['fixed_cpu_s']:.2f} ms")
         for peer, status in case["peers"].items():
             if status != "ok":
                 lines.append(f"    {peer}: {status}")
