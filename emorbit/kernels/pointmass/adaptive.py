@@ -8,6 +8,8 @@ Control. On the exact motion ``rho = 1 / s(x)``, ``s(x) = eta 2 pi sqrt(r**3 / G
 tfe step is one sub-step, so its kicks are the Hermite rule's (:func:`~..adaptive.kick4`), with
 ``g' = -3/2 s(x)^2 / r^2 (|v|^2 - GM / r - ((x - c).v)^2 / (2 r^2))`` on the Kepler motion;
 with the plain kicks the control falls behind the motion near the periapsis of e = 0.99.
+A tfe step's Newton starts from the last step's force polynomial within an interval
+(:func:`_tfe_sub`), as the fixed steps of :func:`.tfe.tfe_chunk` do.
 
 Round-off: the sub-steps read rounded positions, which moves the energy of the compensated
 state (x - cx, v - cv) by about eps times the energy a sub-step exchanges (a walk of 1e-14 of
@@ -44,7 +46,7 @@ from ..gravity import accel
 from ..jit import kernel
 from .point_step import _implicit_point_em, _implicit_point_em_plain, _implicit_point_mid, _leapfrog_point
 from .roots import _tau
-from .tfe import tfe_step
+from .tfe import extrapolate, predict, tfe_step
 
 __all__ = ["adaptive_chunk", "reversible_steps", "control"]
 
@@ -64,10 +66,53 @@ def control(x0, x1, x2, c0, c1, c2, gm, eta):
 @kernel
 def tfe_scratch(tab):
     """The time finite element's context of :func:`_sub`: its Gauss tables ``tab`` (k, 3 + 2k)
-    (:func:`.tfe.tables`) and the step's scratch, ``phi`` (k, 2), ``work`` (2k, 2k + 8) and
-    ``piv`` (2k,), allocated once per call rather than once per step."""
+    (:func:`.tfe.tables`), the step's scratch, ``phi`` (k, 2), ``work`` (2k, 2k + 8) and
+    ``piv`` (2k,), and the predictor's memory: the last step's nodal forces in space ``prevf``
+    (k, 3), the extrapolation weights ``ext`` (k, k) and ``last`` (2,), whether there is a last
+    step (1.0) and its h; allocated once per call rather than once per step."""
     k = tab.shape[0]
-    return tab, np.empty((k, 2)), np.empty((2 * k, 2 * k + 8)), np.empty(2 * k, np.int64)
+    return (
+        tab, np.empty((k, 2)), np.empty((2 * k, 2 * k + 8)), np.empty(2 * k, np.int64),
+        np.empty((k, 3)), np.empty((k, k)), np.zeros(2),
+    )  # fmt: skip
+
+
+@kernel
+def _tfe_sub(tfe, p0, p1, p2, u0, u1, u2, h, gm, max_iter):
+    """One tfe step from the offset ``p`` and velocity ``u``, Newton started from the last
+    step's force polynomial (:func:`.tfe.predict`) where the last step was 0.8 to 1.25 times
+    as long (else, or where that start fails, from gravity at the nodes: near a periapsis,
+    where the steps change faster, the polynomial carried further starts Newton worse than
+    gravity does); the step's forces are kept for the next. The start changes Newton's path,
+    not its limit: the step is the same to round-off, and an interval that starts afresh
+    (:func:`_interval`) still depends on its state alone."""
+    tab, phi, work, piv, prevf, ext, last = tfe
+    k = tab.shape[0]
+    hv0 = h * u0
+    hv1 = h * u1
+    hv2 = h * u2
+    ratio = h / last[1] if last[0] > 0.0 else 0.0
+    predicted = ratio > 0.8 and ratio < 1.25
+    if predicted:
+        extrapolate(ext, tab, ratio)
+        g00 = p0 * p0 + p1 * p1 + p2 * p2
+        g01 = p0 * hv0 + p1 * hv1 + p2 * hv2
+        g11 = hv0 * hv0 + hv1 * hv1 + hv2 * hv2
+        predict(ext, phi, prevf, p0, p1, p2, hv0, hv1, hv2, g00, g01, g11, ratio * ratio)
+    out = tfe_step(tab, phi, work, piv, p0, p1, p2, u0, u1, u2, h, gm, max_iter, predicted)
+    if predicted and out[9] != STATUS_OK:
+        its = out[8]
+        out = tfe_step(tab, phi, work, piv, p0, p1, p2, u0, u1, u2, h, gm, max_iter, False)
+        out = out[:8] + (out[8] + its, out[9])
+    last[0] = 0.0
+    if out[9] == STATUS_OK:
+        for l in range(k):
+            prevf[l, 0] = phi[l, 0] * p0 + phi[l, 1] * hv0
+            prevf[l, 1] = phi[l, 0] * p1 + phi[l, 1] * hv1
+            prevf[l, 2] = phi[l, 0] * p2 + phi[l, 1] * hv2
+        last[0] = 1.0
+        last[1] = h
+    return out
 
 
 @kernel
@@ -102,9 +147,8 @@ def _sub(method, t0, t1, t2, u0, u1, u2, e0, e1, e2, f0, f1, f2, n0, n1, n2, h, 
     extra = 0
     status = STATUS_OK
     if method == METHOD_TFE:
-        tab, phi, work, piv = tfe
-        d0, d1, d2, w0, w1, w2, _, _, extra, status = tfe_step(
-            tab, phi, work, piv, t0 - c0, t1 - c1, t2 - c2, u0, u1, u2, h, gm, max_iter, False
+        d0, d1, d2, w0, w1, w2, _, _, extra, status = _tfe_sub(
+            tfe, t0 - c0, t1 - c1, t2 - c2, u0, u1, u2, h, gm, max_iter
         )
         t0, e0 = kahan_add(t0, e0, d0)
         t1, e1 = kahan_add(t1, e1, d1)
@@ -285,6 +329,7 @@ def _interval(method, s, r, length, gammas, gm, c0, c1, c2, eta, max_iter, tfe):
     iterations, composed steps, status). It starts afresh (its first step is a trial one), so
     what it does depends on the state alone, not on where a chunk started."""
     eh, el, _scale = _energy_dd(s, gm, c0, c1, c2)
+    tfe[6][0] = 0.0  # no predictor from before the interval
     ctx = (method, gm, c0, c1, c2, eta, gammas, max_iter, tfe)
     q, r, its, steps, status = interval(_step, _control, _accept, ctx, s + (eh, el), r, length, 0.0)
     return q[:15], r, its, steps, status
@@ -378,6 +423,7 @@ def reversible_steps(method, x, v, cx, cv, rho, gm, center, eta, gammas, nsteps,
     tfe = tfe_scratch(tab)
     for i in range(n):
         s, r = _start(method, x, v, cx, cv, rho, gm, c0, c1, c2, eta, i)
+        tfe[6][0] = 0.0  # no predictor from the point before
         t = 0.0
         tc = 0.0
         eh, el, _scale = _energy_dd(s, gm, c0, c1, c2)

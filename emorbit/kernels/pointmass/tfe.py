@@ -42,7 +42,7 @@ from ..eft import kahan_add
 from ..jit import kernel
 from ..rigid_solve import lu, lu_solve
 
-__all__ = ["ORDERS", "low_parts", "tables", "tfe_chunk", "tfe_step"]
+__all__ = ["ORDERS", "extrapolate", "low_parts", "predict", "tables", "tfe_chunk", "tfe_step"]
 
 #: the orders a step of k stages reaches: 2k
 ORDERS = (4, 6, 8, 10, 12)
@@ -151,21 +151,27 @@ def _lagrange(cs, j, t):
 
 
 @kernel
-def _extrapolation(tab, ratio):
-    """(k, k) weights ``E[l, j]`` that carry a polynomial of degree k - 1 through its values at
-    the nodes of one step to the nodes of the next, ``ratio`` times as long:
-    ``E[l, j] = ell_j(1 + ratio c_l)``."""
+def extrapolate(out, tab, ratio):
+    """Into ``out`` (k, k) the weights ``E[l, j]`` that carry a polynomial of degree k - 1
+    through its values at the nodes of one step to the nodes of the next, ``ratio`` times as
+    long: ``E[l, j] = ell_j(1 + ratio c_l)``."""
     k = tab.shape[0]
-    cs = tab[:, 0].copy()
-    out = np.empty((k, k))
+    cs = tab[:, 0]
     for l in range(k):
         for j in range(k):
             out[l, j] = _lagrange(cs, j, 1.0 + ratio * cs[l])
+
+
+@kernel
+def _extrapolation(tab, ratio):
+    """:func:`extrapolate` into a new (k, k) array."""
+    out = np.empty((tab.shape[0], tab.shape[0]))
+    extrapolate(out, tab, ratio)
     return out
 
 
 @kernel
-def _predict(ext, phi, prevf, p0, p1, p2, hv0, hv1, hv2, g00, g01, g11, scale):
+def predict(ext, phi, prevf, p0, p1, p2, hv0, hv1, hv2, g00, g01, g11, scale):
     """phi from the previous step's nodal forces ``prevf`` (k, 3) in space (h_prev^2 F): the
     force polynomial extrapolated to this step's nodes (weights ``ext``, :func:`_extrapolation`),
     times ``scale = (h / h_prev)^2`` and written in the basis (p0, h v0) through the metric
@@ -435,7 +441,7 @@ def tfe_chunk(tab, x, v, cx, cv, gm, center, dt, every, nrec, max_iter, rec_x, r
                     hv0 = dt * u0
                     hv1 = dt * u1
                     hv2 = dt * u2
-                    _predict(
+                    predict(
                         ext,
                         phi,
                         prevf,
