@@ -46,7 +46,7 @@ from ..gravity import accel
 from ..jit import kernel
 from .point_step import _implicit_point_em, _implicit_point_em_plain, _implicit_point_mid, _leapfrog_point
 from .roots import _tau
-from .tfe import extrapolate, predict, tfe_step
+from .tfe import extrapolate, keep_forces, predict, tfe_step
 
 __all__ = ["adaptive_chunk", "reversible_steps", "control"]
 
@@ -87,7 +87,6 @@ def _tfe_sub(tfe, p0, p1, p2, u0, u1, u2, h, gm, max_iter):
     not its limit: the step is the same to round-off, and an interval that starts afresh
     (:func:`_interval`) still depends on its state alone."""
     tab, phi, work, piv, prevf, ext, last = tfe
-    k = tab.shape[0]
     hv0 = h * u0
     hv1 = h * u1
     hv2 = h * u2
@@ -95,10 +94,7 @@ def _tfe_sub(tfe, p0, p1, p2, u0, u1, u2, h, gm, max_iter):
     predicted = ratio > 0.8 and ratio < 1.25
     if predicted:
         extrapolate(ext, tab, ratio)
-        g00 = p0 * p0 + p1 * p1 + p2 * p2
-        g01 = p0 * hv0 + p1 * hv1 + p2 * hv2
-        g11 = hv0 * hv0 + hv1 * hv1 + hv2 * hv2
-        predict(ext, phi, prevf, p0, p1, p2, hv0, hv1, hv2, g00, g01, g11, ratio * ratio)
+        predict(ext, phi, prevf, p0, p1, p2, hv0, hv1, hv2, ratio * ratio)
     out = tfe_step(tab, phi, work, piv, p0, p1, p2, u0, u1, u2, h, gm, max_iter, predicted)
     if predicted and out[9] != STATUS_OK:
         its = out[8]
@@ -106,10 +102,7 @@ def _tfe_sub(tfe, p0, p1, p2, u0, u1, u2, h, gm, max_iter):
         out = out[:8] + (out[8] + its, out[9])
     last[0] = 0.0
     if out[9] == STATUS_OK:
-        for l in range(k):
-            prevf[l, 0] = phi[l, 0] * p0 + phi[l, 1] * hv0
-            prevf[l, 1] = phi[l, 0] * p1 + phi[l, 1] * hv1
-            prevf[l, 2] = phi[l, 0] * p2 + phi[l, 1] * hv2
+        keep_forces(prevf, phi, p0, p1, p2, hv0, hv1, hv2)
         last[0] = 1.0
         last[1] = h
     return out

@@ -42,7 +42,7 @@ from ..eft import kahan_add
 from ..jit import kernel
 from ..rigid_solve import lu, lu_solve
 
-__all__ = ["ORDERS", "extrapolate", "low_parts", "predict", "tables", "tfe_chunk", "tfe_step"]
+__all__ = ["ORDERS", "extrapolate", "keep_forces", "low_parts", "predict", "tables", "tfe_chunk", "tfe_step"]
 
 #: the orders a step of k stages reaches: 2k
 ORDERS = (4, 6, 8, 10, 12)
@@ -171,12 +171,14 @@ def _extrapolation(tab, ratio):
 
 
 @kernel
-def predict(ext, phi, prevf, p0, p1, p2, hv0, hv1, hv2, g00, g01, g11, scale):
+def predict(ext, phi, prevf, p0, p1, p2, hv0, hv1, hv2, scale):
     """phi from the previous step's nodal forces ``prevf`` (k, 3) in space (h_prev^2 F): the
-    force polynomial extrapolated to this step's nodes (weights ``ext``, :func:`_extrapolation`),
-    times ``scale = (h / h_prev)^2`` and written in the basis (p0, h v0) through the metric
-    (g00, g01, g11)."""
+    force polynomial extrapolated to this step's nodes (weights ``ext``, :func:`extrapolate`),
+    times ``scale = (h / h_prev)^2`` and written in the basis (p0, h v0) through its metric."""
     k = ext.shape[0]
+    g00 = p0 * p0 + p1 * p1 + p2 * p2
+    g01 = p0 * hv0 + p1 * hv1 + p2 * hv2
+    g11 = hv0 * hv0 + hv1 * hv1 + hv2 * hv2
     det = g00 * g11 - g01 * g01
     for l in range(k):
         f0 = 0.0
@@ -191,6 +193,16 @@ def predict(ext, phi, prevf, p0, p1, p2, hv0, hv1, hv2, g00, g01, g11, scale):
         b = scale * (hv0 * f0 + hv1 * f1 + hv2 * f2)
         phi[l, 0] = (g11 * a - g01 * b) / det
         phi[l, 1] = (g00 * b - g01 * a) / det
+
+
+@kernel
+def keep_forces(prevf, phi, p0, p1, p2, hv0, hv1, hv2):
+    """A solved step's nodal forces in space (h^2 F, (k, 3)) into ``prevf``, for the next
+    step's :func:`predict`."""
+    for l in range(phi.shape[0]):
+        prevf[l, 0] = phi[l, 0] * p0 + phi[l, 1] * hv0
+        prevf[l, 1] = phi[l, 0] * p1 + phi[l, 1] * hv1
+        prevf[l, 2] = phi[l, 0] * p2 + phi[l, 1] * hv2
 
 
 @kernel
@@ -441,21 +453,7 @@ def tfe_chunk(tab, x, v, cx, cv, gm, center, dt, every, nrec, max_iter, rec_x, r
                     hv0 = dt * u0
                     hv1 = dt * u1
                     hv2 = dt * u2
-                    predict(
-                        ext,
-                        phi,
-                        prevf,
-                        p0,
-                        p1,
-                        p2,
-                        hv0,
-                        hv1,
-                        hv2,
-                        p0 * p0 + p1 * p1 + p2 * p2,
-                        p0 * hv0 + p1 * hv1 + p2 * hv2,
-                        hv0 * hv0 + hv1 * hv1 + hv2 * hv2,
-                        1.0,
-                    )
+                    predict(ext, phi, prevf, p0, p1, p2, hv0, hv1, hv2, 1.0)
                 d0, d1, d2, w0, w1, w2, ex, ey, it, status = tfe_step(
                     tab, phi, work, piv, p0, p1, p2, u0, u1, u2, dt, gm, max_iter, have
                 )
@@ -473,11 +471,7 @@ def tfe_chunk(tab, x, v, cx, cv, gm, center, dt, every, nrec, max_iter, rec_x, r
                     fail[i, 1] = status
                     failed = True
                     break
-                # this step's nodal forces in space (h^2 F), for the next step's predictor
-                for l in range(k):
-                    prevf[l, 0] = phi[l, 0] * p0 + phi[l, 1] * (dt * u0)
-                    prevf[l, 1] = phi[l, 0] * p1 + phi[l, 1] * (dt * u1)
-                    prevf[l, 2] = phi[l, 0] * p2 + phi[l, 1] * (dt * u2)
+                keep_forces(prevf, phi, p0, p1, p2, dt * u0, dt * u1, dt * u2)
                 have = True
                 t0, t1, t2, u0, u1, u2 = n0, n1, n2, a0, a1, a2
                 e0, e1, e2, f0, f1, f2 = m0, m1, m2, b0, b1, b2
