@@ -402,3 +402,32 @@ def test_pair_unit_and_pair_force_are_central_force_with_unit_gm():
         np.testing.assert_allclose(s_f[:3], ref, rtol=4e-16 * 8)
         np.testing.assert_allclose(J, ref_J, rtol=1e-13, atol=1e-13 * np.abs(ref_J).max())
         assert np.abs(J).max() <= s_u[3] and np.isclose(s_u[3], s_f[3], rtol=1e-14)
+
+
+def test_dense_newton_update_solves_the_system_and_reports_a_singular_one():
+    """The few-point Newton update (pair blocks included) agrees with NumPy's solve, and a
+    singular matrix gives False (the step then fails as singular) instead of raising."""
+    from emorbit.kernels.pointmass.effect_step import _dense_update
+
+    rng = np.random.default_rng(5)
+    n, hh = 3, 0.3
+    W = rng.normal(size=(9, n))
+    F, w = rng.normal(size=(3, n)), rng.normal(size=(3, n))
+    m = rng.uniform(1.0, 2.0, n)
+    acc = np.zeros((n, n, 4, 4, 3, 3))
+    for i in range(n):
+        for j in range(i + 1, n):
+            acc[i, j, 0, 0] = rng.normal(size=(3, 3))
+    A, rhs = np.empty((3 * n, 3 * n)), np.empty(3 * n)
+    assert _dense_update(A, rhs, acc, W, F, w, m, hh)
+    A_ref = np.eye(3 * n)
+    for i in range(n):
+        A_ref[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] -= hh * W[:, i].reshape(3, 3)
+        for j in range(i + 1, n):
+            A_ref[3 * i : 3 * i + 3, 3 * j : 3 * j + 3] = hh * acc[i, j, 0, 0] / m[i]
+            A_ref[3 * j : 3 * j + 3, 3 * i : 3 * i + 3] = hh * acc[i, j, 0, 0] / m[j]
+    expected = np.linalg.solve(A_ref, (w - hh * F).T.ravel())
+    np.testing.assert_allclose(rhs, expected, rtol=1e-12, atol=1e-12)
+    W_singular = np.zeros((9, n))
+    W_singular[[0, 4, 8], 0] = 1.0 / hh  # point 0's block I - hh W is 0
+    assert not _dense_update(A, rhs, np.zeros_like(acc), W_singular, F, w, m, hh)

@@ -55,6 +55,7 @@ from .codes import (
     STATUS_OK,
     STATUS_SINGULAR,
 )
+from .copies import copy1
 from .effects.signatures import MODE_MIDPOINT, MODE_STEP
 from .eft import kahan_add
 from .jit import kernel
@@ -585,11 +586,11 @@ def rigid_chunk(
                     cwork[b, j_] = tcw[j_]
             if failed:
                 break
-            rec_q[r, b, :] = q[b]
-            rec_v[r, b, :] = v[b]
+            copy1(rec_q[r, b], q[b])
+            copy1(rec_v[r, b], v[b])
             rec_iters[r, b] = its
             rec_stalled[r, b] = stl
-            rec_work[r, b, :] = work[b]
+            copy1(rec_work[r, b], work[b])
 
 
 @kernel

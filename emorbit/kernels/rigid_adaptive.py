@@ -41,6 +41,7 @@ import numpy as np
 
 from .adaptive import KICK_MAX, U_MAX, interval, kick
 from .codes import METHOD_MIDPOINT, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from .copies import copy1
 from .effects.signatures import MODE_MIDPOINT, MODE_STEP
 from .eft import kahan_add
 from .jit import kernel
@@ -294,12 +295,12 @@ def rigid_adaptive_chunk(
                 fail[b, 1] = status
                 break
             _store(s, q, v, cq, cv, lam, work, cwork, b)
-            rec_q[k, b, :] = q[b]
-            rec_v[k, b, :] = v[b]
+            copy1(rec_q[k, b], q[b])
+            copy1(rec_v[k, b], v[b])
             rec_iters[k, b] = its
             rec_stalled[k, b] = ctx[17][0]
             rec_steps[k, b] = steps
-            rec_work[k, b, :] = work[b]
+            copy1(rec_work[k, b], work[b])
         rho[b] = r
 
 

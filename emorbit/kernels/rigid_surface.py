@@ -22,6 +22,7 @@ import math
 import numpy as np
 
 from .codes import STATUS_OK
+from .copies import copy1
 from .jit import kernel
 
 __all__ = ["facet_scratch", "facet_forces", "facet_jacobian", "spread"]
@@ -104,7 +105,7 @@ def facet_jacobian(facets_fn, q0, q1, h, K, facets, f0, f1, P, I, T, S, scratch)
     facet_forces(facets_fn, q0, q1, h, base, facets, f0, f1, P, I, T, S, scratch, False)
     for j in range(12):
         e = 1e-6 * max(abs(q1[j] - q0[j]), 1.0) if j < 3 else 1e-7
-        qq[:] = q1
+        copy1(qq, q1)
         qq[j] = q1[j] + e
         e = qq[j] - q1[j]  # the step as represented
         moved[:] = 0.0

@@ -45,6 +45,7 @@ import math
 import numpy as np
 
 from .codes import GRAVITY_NONE, GRAVITY_POINT, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from .copies import copy1, copy2
 from .eft import kahan_add
 from .jit import kernel
 from .pointmass.tfe import _extrapolation
@@ -417,7 +418,7 @@ def rigid_tfe_step(
         if _stage(forces, fx, 0, y0, Jinv, Xg, mg, mass, gm, c, h, Kst[0], D[0], R, Ri, Dh[0], gP[0])[5]:
             return dy, dlo, 0, STATUS_SINGULAR, nu
         for l in range(1, k):
-            Kst[l, :] = Kst[0]
+            copy1(Kst[l], Kst[0])
         for l in range(k):
             for i in range(18):
                 Z[l, i] = h * tab[l, 0] * Kst[0, i]
@@ -458,7 +459,7 @@ def rigid_tfe_step(
         # a secant on nu, safeguarded: its slope from the last two solves where that one has
         # the sign of the direct response ``den`` and is not far below it, ``den`` otherwise;
         # a solve that does not shrink |e| is undone and the best one kept
-        Zb[:, :] = Z
+        copy2(Zb, Z)
         nu_b = nu
         e_b = e
         nu_last = nu
@@ -472,7 +473,7 @@ def rigid_tfe_step(
             its += it
             if status != STATUS_OK or not abs(e) < abs(e_b):
                 status = STATUS_OK
-                Z[:, :] = Zb
+                copy2(Z, Zb)
                 nu = nu_b
                 e = e_b
                 break
@@ -481,7 +482,7 @@ def rigid_tfe_step(
                 slope = s if s * den > 0.0 and abs(s) >= _SLOPE_MIN * den else den
             nu_last = nu
             e_last = e
-            Zb[:, :] = Z
+            copy2(Zb, Z)
             nu_b = nu
             e_b = e
             if abs(e) <= _E_TOL * scale:
@@ -728,7 +729,7 @@ def rigid_tfe_chunk(
                     y[i], cy[i] = kahan_add(y[i], cy[i], dy[i])
                     y[i], cy[i] = kahan_add(y[i], cy[i], dlo[i])
                 _orthonormalize(y, cy, Eo)
-                Kp[:, :] = Kst
+                copy2(Kp, Kst)
                 have = True
             if failed:
                 break
@@ -737,5 +738,5 @@ def rigid_tfe_chunk(
                 rec_q[r, b, i] = y[i]
                 rec_v[r, b, i] = vd[i]
             rec_iters[r, b] = its
-            rec_work[r, b, :] = wsum[b]
+            copy1(rec_work[r, b], wsum[b])
         store_state(y, cy, Ji, q, v, cq, cv, b, vd)

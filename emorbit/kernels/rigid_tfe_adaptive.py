@@ -34,6 +34,7 @@ import numpy as np
 
 from .adaptive import KICK_MAX, U_MAX, interval, kick
 from .codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from .copies import copy1
 from .eft import kahan_add
 from .jit import kernel
 from .rigid_adaptive import motion_rates
@@ -68,10 +69,10 @@ def _composed(ctx, s, rho, eps, fixed, t):
     tab, lo, Ji, Xg, mg, mass, gm, c, size, tidal, max_iter, eta, work, Z, Kst, Eo, buf = ctx[:17]
     forces, prepare, work_of, potential, fx, t_off, Rw = ctx[17:]
     ty, tcy, tw, tcw = buf
-    ty[:] = s[0]
-    tcy[:] = s[1]
-    tw[:] = s[2]
-    tcw[:] = s[3]
+    copy1(ty, s[0])
+    copy1(tcy, s[1])
+    copy1(tw, s[2])
+    copy1(tcw, s[3])
     g = 0.0
     if fixed > 0.0:
         h = fixed
@@ -197,8 +198,8 @@ def rigid_tfe_adaptive_chunk(
                 fail[b, 1] = status
                 break
             store_state(s[0], s[1], Jinv[b], q, v, cq, cv, b, vd)
-            rec_q[k, b, :] = q[b]
-            rec_v[k, b, :] = v[b]
+            copy1(rec_q[k, b], q[b])
+            copy1(rec_v[k, b], v[b])
             rec_iters[k, b] = its
             rec_steps[k, b] = steps
             eff[9][k, b, :] = s[2]

@@ -35,6 +35,7 @@ from __future__ import annotations
 import numpy as np
 
 from .codes import GRAVITY_NONE, GRAVITY_POINT
+from .copies import copy1
 from .effects.signatures import MODE_EXPLICIT, MODE_POINT, MODE_STEP
 from .eft import kahan_add
 from .jit import kernel
@@ -79,9 +80,9 @@ def prepare_step(prepare, fx, tab, t0, h):
     for l in range(k):
         tl = t0 + tab[l, 0] * h
         prepare(tl, tl, tl, P, I, T, S)
-        Sk[l, :] = S
+        copy1(Sk[l], S)
     prepare(t0, t0 + 0.5 * h, t0 + h, P, I, T, S)
-    Sk[k, :] = S
+    copy1(Sk[k], S)
 
 
 @kernel(forceinline=True)
@@ -103,7 +104,7 @@ def stage_forces(forces, fx, l, y, Xg, mg, h):
     xa, Fc, Fn, Wsc, Rsc = fx[12], fx[15], fx[16], fx[17], fx[18]
     if not (has_c or has_n):
         return 0
-    S[:] = Sk[l]
+    copy1(S, Sk[l])
     _points(y, Xg, xa)
     bad = 0
     if has_c:
@@ -120,7 +121,7 @@ def static_rise(forces, fx, y0, dy, Xg, mg, h):
     P, I, T, S, Sk, cc, body = fx[0], fx[1], fx[2], fx[3], fx[4], fx[5], fx[7]
     xa, xb, Fc, Wsc, Rsc = fx[12], fx[13], fx[15], fx[17], fx[18]
     k = Sk.shape[0] - 1
-    S[:] = Sk[k]
+    copy1(S, Sk[k])
     _points(y0, Xg, xa)
     for j in range(Xg.shape[1]):
         for i in range(3):
@@ -167,7 +168,7 @@ def step_work(work_of, prepare, potential, fx, tab, lo, y0, Z, dy, Jinv, Xg, mg,
             va[0, j] = w * (Y[12] + (a1 * q2 - a2 * q1))
             va[1, j] = w * (Y[13] + (a2 * q0 - a0 * q2))
             va[2, j] = w * (Y[14] + (a0 * q1 - a1 * q0))
-        S[:] = Sk[l]
+        copy1(S, Sk[l])
         work_of(xa, va, mg, body, cn, h, MODE_POINT, P, I, T, S, out)
         for r in range(out.shape[0]):
             for j in range(n):

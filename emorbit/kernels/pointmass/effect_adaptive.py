@@ -25,6 +25,7 @@ import numpy as np
 
 from ..adaptive import KICK_MAX, U_MAX, interval, kick
 from ..codes import METHOD_TFE, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from ..copies import copy2
 from ..eft import kahan_add
 from ..jit import kernel
 from .effect_step import effect_substep, method_mode, step_scratch, stop_records
@@ -196,9 +197,9 @@ def effect_adaptive_chunk(
         for i in range(n):
             rec_iters[k, i] = its
             rec_steps[k, i] = steps
-        rec_x[k, :, :] = x
-        rec_v[k, :, :] = v
-        rec_work[k, :, :] = work
+        copy2(rec_x[k], x)
+        copy2(rec_v[k], v)
+        copy2(rec_work[k], work)
     rho[0] = r
 
 

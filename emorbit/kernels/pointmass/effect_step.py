@@ -47,10 +47,12 @@ import math
 import numpy as np
 
 from ..codes import METHOD_LEAPFROG, METHOD_MIDPOINT, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from ..copies import copy1, copy2
 from ..effects.blocks import block33
 from ..effects.newton import newton_update
 from ..effects.signatures import MODE_EXPLICIT, MODE_MIDPOINT, MODE_STEP
 from ..jit import kernel
+from ..rigid_solve import dense_solve
 
 __all__ = ["effect_chunk", "effect_substep", "step_scratch", "method_mode", "stop_records", "substep_times"]
 
@@ -126,7 +128,8 @@ def _increments(dx, v, w, h):
 def _dense_update(A, rhs, acc, W, F, w, m, hh):
     """Newton's update of all points at once, into ``rhs``: the solution of A d = w - hh F,
     A = I - hh dF/dx1 with every point's own block (W) and the pair blocks between points
-    (``acc[a, b, 0, 0] = -d(m_a F_a)/dx1_b``, the same for b, a)."""
+    (``acc[a, b, 0, 0] = -d(m_a F_a)/dx1_b``, the same for b, a), by Gaussian elimination with
+    partial pivoting. Returns False where A is singular."""
     n = W.shape[1]
     A[:, :] = 0.0
     for i in range(n):
@@ -141,7 +144,7 @@ def _dense_update(A, rhs, acc, W, F, w, m, hh):
                     c = hh * acc[i, j, 0, 0, a, b]
                     A[3 * i + a, 3 * j + b] = c / m[i]
                     A[3 * j + a, 3 * i + b] = c / m[j]
-    rhs[:] = np.linalg.solve(A, rhs)
+    return dense_solve(A, rhs, 3 * n)
 
 
 @kernel
@@ -167,8 +170,8 @@ def effect_substep(
     n = x.shape[1]
     hh = 0.5 * h * h
     for c in range(3):  # the start with its compensation: pair effects form separations from both
-        x0[c, :] = x[c]
-        x0[3 + c, :] = cx[c]
+        copy1(x0[c], x[c])
+        copy1(x0[3 + c], cx[c])
     prepare(ta, 0.5 * (ta + tb), tb, P, I, T, S)
     status = STATUS_OK
     sweeps = 0
@@ -198,7 +201,8 @@ def effect_substep(
             st = forces(x0, x1, m, body, coef, h, mode, P, I, T, S, F, W, R, True, it == 0)
             if dense:
                 cross(x0, x1, m, body, coef, on, sc, acc, P, I, T, S)
-                _dense_update(A, rhs, acc, W, F, w, m, hh)
+                if not _dense_update(A, rhs, acc, W, F, w, m, hh):
+                    st = STATUS_SINGULAR
             worst = 0.0
             coupling = 0.0
             for i in range(n):
@@ -251,7 +255,7 @@ def effect_substep(
             xr[i], cxr[i] = _kahan(xr[i], cxr[i], dr[i])
         for i in range(n):
             vr[i], cvr[i] = _kahan(vr[i], cvr[i], 2.0 * wr[i] / h)
-        wp[c, :] = wr
+        copy1(wp[c], wr)
     hp[0] = h
     return sweeps, STATUS_OK
 
@@ -264,9 +268,9 @@ def stop_records(x, v, work, rec_x, rec_v, rec_work, fail, r, step, status):
         fail[i, 0] = step
         fail[i, 1] = status
     for rr in range(r, rec_x.shape[0]):
-        rec_x[rr, :, :] = x
-        rec_v[rr, :, :] = v
-        rec_work[rr, :, :] = work
+        copy2(rec_x[rr], x)
+        copy2(rec_v[rr], v)
+        copy2(rec_work[rr], work)
 
 
 @kernel
@@ -297,13 +301,13 @@ def effect_chunk(
         for i in range(n):
             rec_iters[r, i] = 0
         for s in range(every):
-            sx[0, :, :] = x
-            sx[1, :, :] = v
-            sx[2, :, :] = cx
-            sx[3, :, :] = cv
-            sx[4, :, :] = wp
-            sw[0, :, :] = work
-            sw[1, :, :] = cwork
+            copy2(sx[0], x)
+            copy2(sx[1], v)
+            copy2(sx[2], cx)
+            copy2(sx[3], cv)
+            copy2(sx[4], wp)
+            copy2(sw[0], work)
+            copy2(sw[1], cwork)
             hp0 = hp[0]
             for k in range(ns):
                 ta, tm, tb = substep_times(clock_base, clock_n0 + r * every + s, k, tcum, dt)
@@ -314,16 +318,16 @@ def effect_chunk(
                 for i in range(n):
                     rec_iters[r, i] += sweeps
                 if status != STATUS_OK:
-                    x[:, :] = sx[0]
-                    v[:, :] = sx[1]
-                    cx[:, :] = sx[2]
-                    cv[:, :] = sx[3]
-                    wp[:, :] = sx[4]
+                    copy2(x, sx[0])
+                    copy2(v, sx[1])
+                    copy2(cx, sx[2])
+                    copy2(cv, sx[3])
+                    copy2(wp, sx[4])
                     hp[0] = hp0
-                    work[:, :] = sw[0]
-                    cwork[:, :] = sw[1]
+                    copy2(work, sw[0])
+                    copy2(cwork, sw[1])
                     stop_records(x, v, work, rec_x, rec_v, rec_work, fail, r, r * every + s, status)
                     return
-        rec_x[r, :, :] = x
-        rec_v[r, :, :] = v
-        rec_work[r, :, :] = work
+        copy2(rec_x[r], x)
+        copy2(rec_v[r], v)
+        copy2(rec_work[r], work)

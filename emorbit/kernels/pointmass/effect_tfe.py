@@ -46,6 +46,7 @@ import math
 import numpy as np
 
 from ..codes import STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
+from ..copies import copy1, copy2, copy3
 from ..effects.signatures import MODE_EXPLICIT, MODE_POINT, MODE_STEP
 from ..eft import kahan_add
 from ..jit import kernel
@@ -280,7 +281,7 @@ def _work(forces, prepare, work_of, potential, tab, lo, x, v, cx, cv, m, body, c
     tot[:, :] = 0.0
     _stages(tab, lo, x, v, cx, cv, phi, Q, V, h)
     for l in range(k):
-        S[:] = Sk[l]  # the stage's time, as the sweeps prepared it
+        copy1(S, Sk[l])  # the stage's time, as the sweeps prepared it
         for c in range(3):
             for i in range(n):
                 D[c, i] = h * (tab[l, 1] + lo[l, 0]) * V[l, c, i]
@@ -336,8 +337,8 @@ def effect_tfe_step(
     n = x.shape[1]
     if not predicted:  # the forces at x0 at every stage
         for c in range(3):
-            Q[0, c, :] = x[c]
-            Q[0, 3 + c, :] = cx[c]
+            copy1(Q[0, c], x[c])
+            copy1(Q[0, 3 + c], cx[c])
         prepare(t0, t0, t0, P, I, T, S)
         bad = forces(Q[0], Q[0], m, body, coef_c, h, MODE_EXPLICIT, P, I, T, S, Fc[0], Wc[0], R, False, True)
         if has_n:
@@ -372,9 +373,9 @@ def effect_tfe_step(
             if sweeps == 1:  # what the effects read at the stage's time, kept for the next sweeps
                 tl = t0 + sgn * tab[l, 0] * h
                 prepare(tl, tl, tl, P, I, T, S)
-                Sk[l, :] = S
+                copy1(Sk[l], S)
             else:
-                S[:] = Sk[l]
+                copy1(S, Sk[l])
             if has_c:
                 bad += forces(Q[l], Q[l], m, body, coef_c, h, MODE_EXPLICIT, P, I, T, S, Fc[l], Wc[l], R, True, True)
             else:  # the central field alone is static: the kernel's own
@@ -389,9 +390,9 @@ def effect_tfe_step(
         if has_c:
             if sweeps == 1:
                 prepare(t0, t0 + sgn * 0.5 * h, t0 + sgn * h, P, I, T, S)
-                Sk[k, :] = S
+                copy1(Sk[k], S)
             else:
-                S[:] = Sk[k]
+                copy1(S, Sk[k])
             bad += forces(X0, X1, m, body, coef_c, h, MODE_STEP, P, I, T, S, G, Wd, R, True, True)
         else:
             G[:, :] = 0.0
@@ -498,8 +499,8 @@ def effect_tfe_chunk(
             if status != STATUS_OK:
                 stop_records(x, v, work, rec_x, rec_v, rec_work, fail, r, r * every + s, status)
                 return
-            last[:, :, :] = phi
+            copy3(last, phi)
             have = True
-        rec_x[r, :, :] = x
-        rec_v[r, :, :] = v
-        rec_work[r, :, :] = work
+        copy2(rec_x[r], x)
+        copy2(rec_v[r], v)
+        copy2(rec_work[r], work)
