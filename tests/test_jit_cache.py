@@ -285,3 +285,17 @@ def test_readme_commands_in_order_leave_a_working_cli(tmp_path):
         timeout=120,
     )
     assert where.stdout.strip() == str(src / "emorbit" / "__init__.py"), where.stderr[-2000:]
+
+
+def test_step_kernels_copy_arrays_with_loops_not_slice_assignment():
+    """Slice assignment between arrays compiles Numba's broadcasting setitem (about 5 s on the
+    first one in a process): the step kernels use :mod:`emorbit.kernels.copies` instead."""
+    import re
+
+    pattern = re.compile(r"^\s+\w+\[[^\]]*:[^\]]*\]\s*=\s*[A-Za-z_]\w*(\[[^\]]*\])?\s*(#.*)?$")
+    found = []
+    for path in sorted((PACKAGE / "kernels").rglob("*.py")):
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            if pattern.match(line) and not line.strip().startswith("locators["):
+                found.append(f"{path.relative_to(PACKAGE)}:{n}: {line.strip()}")
+    assert found == []
