@@ -52,7 +52,7 @@ def _effect_step(sim):
         effect_chunk(
             prog.forces, prog.cross, prog.prepare, prog.work, 0, x, v, cx, cv, wp, hp, m, np.arange(n, dtype=np.int64),
             np.ones((len(sim.effects), n)), P, I, T, S, work, work.copy(), np.zeros((nrec, 0, n)), 0.0, 0.0, dt,
-            gammas, every, nrec, max_iter, False, rx, rv, ri, fail,
+            gammas, every, nrec, max_iter, False, rx, rv, ri, fail, (cp[3], np.ascontiguousarray(cp[:3]), 0.0),
         )  # fmt: skip
 
     return chunk

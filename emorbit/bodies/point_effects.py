@@ -20,6 +20,7 @@ Every array is updated in place; the records go into the caller's
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,9 +72,19 @@ class EffectRun:
         effect_chunk(
             prog.forces, prog.cross, prog.prepare, prog.work, dispatch.method_code(method, "fast"), self.x, self.v,
             self.cx, self.cv, self.wp, self.hp, self.masses, self._bodies(), self.coef, P, I, T, S, self.work,
-            self.cwork, rec.work, float(clock[0]), float(clock[1]), *args, self.dense, *records,
+            self.cwork, rec.work, float(clock[0]), float(clock[1]), *args, self.dense, *records, self._central(),
         )  # fmt: skip
         return self._done(rec)
+
+    def _central(self) -> tuple:
+        """(GM, centre, loose) of :func:`~emorbit.kernels.pointmass.effect_step.effect_substep`:
+        the central field's (GM 0 where there is none) and the largest part of their Jacobian
+        that the set's pieces at points leave out, relative to the central field's
+        (:attr:`~emorbit.effects.base.Effect.JACOBIAN_LEFT_OUT`)."""
+        effects = self.binding.effects
+        if effects.field is None:
+            return 0.0, np.zeros(3), math.inf
+        return float(effects.field.gm), np.ascontiguousarray(effects.field.center, float), effects.jacobian_left_out()
 
     def _bodies(self) -> np.ndarray:
         return np.arange(self.x.shape[1], dtype=np.int64)
@@ -91,8 +102,7 @@ class EffectRun:
         from ..kernels.pointmass.tfe import low_parts
 
         prog = self.binding.program
-        field = self.binding.effects.field
-        gm, center = (0.0, np.zeros(3)) if field is None else (float(field.gm), np.asarray(field.center, float))
+        gm, center, _ = self._central()
         if method != "tfe":
             w = self.work.shape[0]
             return (prog.potential, np.zeros((1, 5)), np.zeros((1, 2)), gm, center, self.coef, self.coef, 0, False,
@@ -140,7 +150,7 @@ class EffectRun:
             self.v, self.cx, self.cv, self.wp, self.hp, rho, self.masses, self._bodies(), self.coef, P, I, T, S,
             self.work, self.cwork, rec.work, float(clock[0]), float(clock[1]), float(dt), int(every), float(eta),
             self._gammas(method, gammas), int(nrec), int(max_iter), self.dense, rec.x, rec.v, rec.iterations, steps,
-            rec.fail, self._tfe_arrays(method, gammas),
+            rec.fail, self._tfe_arrays(method, gammas), self._central(),
         )  # fmt: skip
         return self._done(rec), steps
 
@@ -156,5 +166,5 @@ class EffectRun:
             prog.forces, prog.cross, prog.prepare, prog.work, prog.rate, dispatch.method_code(method, "fast"), self.x,
             self.v, self.cx, self.cv, self.wp, self.hp, rho, self.masses, self._bodies(), self.coef, P, I, T, S,
             self.work, self.cwork, float(t0), float(direction), float(eta), self._gammas(method, gammas),
-            int(nsteps), int(max_iter), self.dense, self._tfe_arrays(method, gammas),
+            int(nsteps), int(max_iter), self.dense, self._tfe_arrays(method, gammas), self._central(),
         )  # fmt: skip

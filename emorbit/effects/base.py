@@ -27,6 +27,7 @@ and surfaces, with every method and with adaptive steps, from this one declarati
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -231,6 +232,11 @@ class Effect:
     #: whether its facet force acts on facets of its own that it adds to a body
     #: (:meth:`own_facets`: a burn's thruster) rather than on the body's surface
     OWN_FACETS: ClassVar[bool] = False
+    #: a bound of the part of its force's derivative that its ``force`` piece leaves out of J,
+    #: relative to the central field's (0: J is the exact derivative; inf: unknown, or no J).
+    #: Where every effect of a point mass's set gives a finite bound, em's Newton iteration on
+    #: point masses may stop after one update (:mod:`emorbit.kernels.pointmass.effect_step`)
+    JACOBIAN_LEFT_OUT: ClassVar[float] = math.inf
     #: its pieces
     PIECES: ClassVar[Pieces | None] = None
     #: the equations, for the docs (effects.md is generated from them)
@@ -248,6 +254,11 @@ class Effect:
         self.tab = np.ascontiguousarray(tab, dtype=float).ravel()
 
     # -- what the declaration implies --------------------------------------------------------
+    def jacobian_left_out(self) -> float:
+        """This effect's :attr:`JACOBIAN_LEFT_OUT` (an effect whose pieces depend on its keys
+        may give a bound of its own)."""
+        return type(self).JACOBIAN_LEFT_OUT
+
     @classmethod
     def does_work(cls) -> bool:
         """Whether its force does work that the step sums: it keeps no energy (drag,

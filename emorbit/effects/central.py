@@ -36,6 +36,7 @@ class Central(Effect):
     )
     POTENTIAL = "V = -GM m / r, r = |x - c|"
     DISCRETE_FORCE = "F = -GM m (d0 + d1) / (r0 r1 (r0 + r1)), d = x - c (g_em)"
+    JACOBIAN_LEFT_OUT = 0.0
     JACOBIAN = "dF/dx1 = -GM m [I / (r0 r1 (r0 + r1)) - (d0 + d1) d1^T (r0 + 2 r1) / (r0 r1^3 (r0 + r1)^2)]"
 
     @classmethod

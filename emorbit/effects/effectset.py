@@ -417,6 +417,11 @@ class EffectSet:
         bodies of a kind."""
         return [bk for e in self.all for bk in type(e).BODY_KEYS if body_kind in bk.kinds and bk.required]
 
+    def jacobian_left_out(self, body_kind: str = "point") -> float:
+        """The largest :meth:`~emorbit.effects.base.Effect.jacobian_left_out` of the set's
+        effects that act at the points of a body kind (inf where one does not know its own)."""
+        return max((e.jacobian_left_out() for e in self.all if e.acts_on(body_kind) == AT_POINTS), default=0.0)
+
     def acts_at_points(self, body_kind: str) -> bool:
         """Whether any effect of the set acts at the points of a body kind on its own (effects
         between pairs act at the mass points whatever the body's gravity model)."""

@@ -78,6 +78,7 @@ class Mutual(Effect):
     )
     POTENTIAL = "V = -sum_{i<j} G m_i m_j / |x_i - x_j|"
     DISCRETE_FORCE = "F_ij = -G m_i m_j (d0 + d1) / (r0 r1 (r0 + r1)), d = x_i - x_j (Greenspan; g_em of each pair)"
+    JACOBIAN_LEFT_OUT = 0.0
     JACOBIAN = (
         "each body's own block: dF_i/dx1_i = sum_j G m_i m_j (-k I + w (d0 + d1) d1^T); between bodies: the sweeps"
     )

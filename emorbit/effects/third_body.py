@@ -105,6 +105,7 @@ class ThirdBody(Effect):
     DISCRETE_FORCE = (
         "F = m [g_em towards s(t_m) - gm s(t_m) / |s(t_m)|^3]; W = m [U(x1,t1) - U(x1,tm) + U(x0,tm) - U(x0,t0)]"
     )
+    JACOBIAN_LEFT_OUT = 0.0
     JACOBIAN = "dF/dx1 = that of g_em about s(t_m) (the indirect term is constant)"
 
     time_dependent = True

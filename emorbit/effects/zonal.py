@@ -98,6 +98,7 @@ class Zonal(Effect):
     PIECES = Pieces("emorbit.kernels.effects.zonal", force="zonal_piece", potential="zonal_potential_piece")
     POTENTIAL = "V = (GM m / r) sum_n J_n (R / r)^n P_n(z / r), z = (x - c) . p"
     DISCRETE_FORCE = "F = -m (A (d0 + d1) / (r0 + r1) + B p): A, B the averaged discrete derivatives in r and z"
+    JACOBIAN_LEFT_OUT = 0.0
     JACOBIAN = "dF/dx1 = -m (u dA/dx1^T + A du/dx1 + p dB/dx1^T), u = (d0 + d1) / (r0 + r1)"
 
     @staticmethod

@@ -99,7 +99,7 @@ def _composed(ctx, s, rho, eps, fixed, t):
         else:
             sweeps, status = effect_substep(
                 forces, cross, prepare, work_of, mode, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork,
-                h, ta, ta + direction * h, max_iter, scratch,
+                h, ta, ta + direction * h, max_iter, scratch, ctx[23],
             )  # fmt: skip
         its += sweeps
         if status != STATUS_OK:
@@ -137,7 +137,7 @@ def _accept(ctx, s, q):
 @kernel
 def _context(
     forces, cross, prepare, work_of, rate, method, m, body, coef, P, I, T, S, gammas, max_iter, eta, x, work,
-    direction, dense, tfe,
+    direction, dense, tfe, central,
 ):  # fmt: skip
     """The controller's context of the set: the functions, the arrays, the buffers."""
     n = x.shape[1]
@@ -150,7 +150,7 @@ def _context(
     return (
         forces, prepare, work_of, rate, m, body, coef, P, I, T, S, gammas, max_iter, eta, method_mode(method), buf,
         step_scratch(n, nw, dense), direction, cross, method, tfe, tfe_scratch(k, n, coef.shape[0], nw, S.shape[0]),
-        np.empty((k, 3, n)),
+        np.empty((k, 3, n)), central,
     )  # fmt: skip
 
 
@@ -158,7 +158,7 @@ def _context(
 def effect_adaptive_chunk(
     forces, cross, prepare, work_of, rate, method, x, v, cx, cv, wp, hp, rho, m, body, coef, P, I, T, S, work, cwork,
     rec_work, clock_base, clock_n0, length, every, eta, gammas, nrec, max_iter, dense, rec_x, rec_v, rec_iters,
-    rec_steps, fail, tfe,
+    rec_steps, fail, tfe, central,
 ):  # fmt: skip
     """Advance the points by ``nrec`` records of ``every`` intervals of ``length`` seconds
     (steps land on every multiple of it) with adaptive, time-symmetric steps, recording at the
@@ -166,11 +166,11 @@ def effect_adaptive_chunk(
     length``. ``rho`` (1,) the set's control variable, updated in place; ``rec_steps`` (nrec,
     n) composed steps per record; on a failure the points stop at the start of the failing
     record and ``fail`` names the record and the status. ``tfe``: (potential, tab, lo, gm, ctr,
-    coef_c, coef_n, has_n, has_d, row_effect) of :func:`.effect_tfe.effect_tfe_step`. Other arguments:
-    :mod:`.effect_step`."""
+    coef_c, coef_n, has_n, has_d, row_effect) of :func:`.effect_tfe.effect_tfe_step`; ``central``
+    of :func:`.effect_step.effect_substep`. Other arguments: :mod:`.effect_step`."""
     n = x.shape[1]
     ctx = _context(forces, cross, prepare, work_of, rate, method, m, body, coef, P, I, T, S, gammas, max_iter, eta, x,
-                   work, 1.0, dense, tfe)  # fmt: skip
+                   work, 1.0, dense, tfe, central)  # fmt: skip
     s = (x, v, cx, cv, wp, hp, work, cwork)
     r = rho[0]
     if not r > 0.0:
@@ -206,14 +206,14 @@ def effect_adaptive_chunk(
 @kernel
 def effect_reversible_steps(
     forces, cross, prepare, work_of, rate, method, x, v, cx, cv, wp, hp, rho, m, body, coef, P, I, T, S, work, cwork,
-    t0, direction, eta, gammas, nsteps, max_iter, dense, tfe,
+    t0, direction, eta, gammas, nsteps, max_iter, dense, tfe, central,
 ):  # fmt: skip
     """Take exactly ``nsteps`` composed steps of size 1 in tau from time ``t0``, the clock
     running forwards (``direction`` 1) or backwards (-1), no landing: the scheme alone, for its
     time symmetry (reversing the velocities and their compensations and calling it again
     backwards from the end time runs the same steps back). Returns (elapsed time, status)."""
     ctx = _context(forces, cross, prepare, work_of, rate, method, m, body, coef, P, I, T, S, gammas, max_iter, eta, x,
-                   work, direction, dense, tfe)  # fmt: skip
+                   work, direction, dense, tfe, central)  # fmt: skip
     s = (x, v, cx, cv, wp, hp, work, cwork)
     r = rho[0]
     if not r > 0.0:

@@ -1,38 +1,36 @@
 """Point masses under a set of effects: fixed steps of em, midpoint or leapfrog, for any set.
 
 The effects come compiled (:mod:`emorbit.kernels.effects.signatures`: ``forces``,
-``prepare``, ``work``): these kernels take them as arguments, so they are compiled once,
-whatever effects a scene names.
+``prepare``, ``work``), as arguments: these kernels compile once, whatever the set.
 
-em and midpoint, for n points with mass m_i, state (x, v) and compensation terms (cx, cv),
-each sub-step ``h = gamma_k dt`` of the composition: the unknowns are the second-order parts
-``w_i`` of the increments ``x1_i - x0_i = h v0_i + w_i``, and the equations are
+em and midpoint, each sub-step ``h = gamma_k dt`` of the composition: the unknowns are the
+second-order parts ``w_i`` of the increments ``x1_i - x0_i = h v0_i + w_i``, and
 
     w_i = (h^2 / 2) F_i(x0, x1),    v1_i = v0_i + 2 w_i / h
 
 with F_i the sum of the effects' forces per unit mass on point i: their discrete forces over
 the step for em (MODE_STEP), the conservative ones at the midpoint for the midpoint rule
 (MODE_MIDPOINT), and the pair forces with every other point. The iteration starts from the
-last sub-step's w scaled by (h / h_last)^2 (``wp``, ``hp``: state, checkpointed). Each sweep
-evaluates every point's force, diagonal Jacobian block and pair coupling at the current
-iterates (``forces``), then updates every point by one Newton step on its own 3 x 3 block
-(:func:`emorbit.kernels.effects.newton.newton_update`): block Jacobi; or, where the caller
-asks (``dense``: a few points under pair effects), by one Newton step on the whole system,
-the pair blocks between points (``cross``) included, solved by LU. Sweeps stop when every
-update is below 4 eps of its increment, or has stalled at round-off (below 128 eps and no
-longer halving), or, after a second sweep, is below 1e-8 with the next update estimated at a
-thousandth of round-off: the update times the larger of the measured contraction (this update
-over the last) and the pair coupling (3 h^2 times the bound of sum_j |d F_i / d x_j|).
-Positions and velocities are updated with Kahan compensation.
+last sub-step's w scaled by (h / h_last)^2 (``wp``, ``hp``: state, checkpointed), or, for em
+with a central field, from the central step's series plus the rest of that w (:func:`_predict`).
+Each sweep evaluates every point's force, diagonal Jacobian block and pair coupling at the
+iterates (``forces``), then updates every point by Newton on its own 3 x 3 block
+(:func:`emorbit.kernels.effects.newton.newton_update`; ``dense``, a few points under pair
+effects: on the whole system with the pair blocks (``cross``), by LU). Sweeps stop when every
+update is below 4 eps of its increment, or stalled at round-off (below 128 eps, no longer
+halving), or, after a second sweep, is below 1e-8 with the next update estimated at 1e-3 eps:
+the update times the larger of the measured contraction and the pair coupling (3 h^2 times
+the bound of sum_j |dF_i / dx_j|); or, em after the first sweep, where every effect's J is
+exact or leaves out a bounded part (``loose``) and no pair couples the points, each update is
+below 2**-20 of its increment and the remainder it leaves (:func:`_curvature`) below 1e-3 eps
+of it. Positions and velocities are updated with Kahan compensation.
 
 leapfrog (explicit effects only): kick-drift-kick, ``v_1/2 = v0 + h/2 F(x0)``,
 ``x1 = x0 + h v_1/2``, ``v1 = v_1/2 + h/2 F(x1)``, with the forces at points (MODE_EXPLICIT).
 
-Effects that depend on time read the sub-step's start, middle and end times, prepared once per
-sub-step: step j of the chunk starts at ``clock_base + (clock_n0 + j) dt`` (the same bits
-wherever chunks start). An effect that does work adds, after each sub-step, its work on every
-point into ``work[k, i]`` (J; k its slot) with Kahan compensation in ``cwork``, so that
-``E - E0 - sum work`` stays at round-off. A failed step puts the sums back with the state.
+Time: step j of the chunk starts at ``clock_base + (clock_n0 + j) dt``; a sub-step's start,
+middle and end are prepared once. A working effect adds its work on every point into ``work[k,
+i]`` (J) with Kahan compensation in ``cwork``; a failed step puts the sums back with the state.
 
 Data layout: x, v, cx, cv, wp (3, n); hp (1,); m (n,); body (n,) int64; coef (k, n) and the
 set's ``P, I, T, S`` (:mod:`emorbit.kernels.effects.signatures`); work and cwork (w, n),
@@ -57,6 +55,69 @@ from ..rigid_solve import dense_solve
 __all__ = ["effect_chunk", "effect_substep", "step_scratch", "method_mode", "stop_records", "substep_times"]
 
 _EPS = 2.0**-52
+#: the largest first update, relative to the increment, that may end a sub-step (see
+#: :func:`_curvature`)
+_ONE_UPDATE = 2.0**-20
+
+
+@kernel(inline="always")
+def _central_w(d0, d1, d2, v0, v1, v2, gm, h):
+    """The central em step's w from ``d = x0 - c``, ``v0`` over a step h, as a series:
+    ``w = -W d - (h W / 2) v0``, ``W = s (1 + 3/2 p + 5/2 p^2 + s - 3/4 q)``, ``s = h^2/2 GM /
+    r^3``, ``p = -h d . v0 / r^2``, ``q = h^2 v0 . v0 / r^2`` (as
+    :func:`emorbit.kernels.effects.zonal_packed._predict`'s central part)."""
+    ir2 = 1.0 / (d0 * d0 + d1 * d1 + d2 * d2)
+    s = 0.5 * h * h * gm * (ir2 * math.sqrt(ir2))
+    p = -h * (d0 * v0 + d1 * v1 + d2 * v2) * ir2
+    q = h * h * (v0 * v0 + v1 * v1 + v2 * v2) * ir2
+    W = s * (1.0 + p * (1.5 + 2.5 * p) + s - 0.75 * q)
+    hw = 0.5 * h * W
+    return -(W * d0 + hw * v0), -(W * d1 + hw * v1), -(W * d2 + hw * v2)
+
+
+@kernel
+def _predict(w, x, v, wp, ctr, gm, h, hp, scale):
+    """em's first guess of w: the central field's step as a series (:func:`_central_w`) plus
+    the rest of the last sub-step's w, rescaled: ``w = Wc(h) + scale (wp - Wc(-hp))``. The
+    last sub-step ended at (x, v), so its w is the em step back from there over ``-hp``
+    (em's discrete forces are symmetric in their ends), and ``wp - Wc(-hp)`` is what the
+    other effects (and the series' own error) added to it."""
+    for i in range(x.shape[1]):
+        d0, d1, d2 = x[0, i] - ctr[0], x[1, i] - ctr[1], x[2, i] - ctr[2]
+        a0, a1, a2 = _central_w(d0, d1, d2, v[0, i], v[1, i], v[2, i], gm, h)
+        if hp != 0.0:
+            b0, b1, b2 = _central_w(d0, d1, d2, v[0, i], v[1, i], v[2, i], gm, -hp)
+            a0 += scale * (wp[0, i] - b0)
+            a1 += scale * (wp[1, i] - b1)
+            a2 += scale * (wp[2, i] - b2)
+        w[0, i], w[1, i], w[2, i] = a0, a1, a2
+
+
+@kernel(inline="always")
+def _curvature(x0, x1, W, ctr, gm, hh, size, i):
+    """Point i's Newton remainder after one update, relative to the increment ``size``, as
+    ``quad upd^2 + loose lin upd`` (upd the update over ``size``): (quad, lin). ``quad =
+    kappa size + 3 |h^2/2 (W - Wc)|``, with the central field's
+    ``kappa = 8 h^2/2 K / r1`` (as :mod:`emorbit.kernels.effects.zonal_packed`) and the
+    other effects' Jacobian (``W`` less the central field's ``Wc = -K I + K (r0 + 2 r1) /
+    (r1^2 (r0 + r1)) (d0 + d1) d1^T``, ``K = GM / (r0 r1 (r0 + r1))``) taken to change by its
+    own size over the increment at most: the update's part in their second derivative;
+    ``lin = 4 h^2/2 K`` bounds ``|h^2/2 Wc|``, of which a set's pieces may leave out a part
+    (``loose``), the remainder's linear term."""
+    a0, a1, a2 = x0[0, i] - ctr[0], x0[1, i] - ctr[1], x0[2, i] - ctr[2]
+    b0, b1, b2 = x1[0, i] - ctr[0], x1[1, i] - ctr[1], x1[2, i] - ctr[2]
+    r0 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    r1 = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+    K = gm / (r0 * r1 * (r0 + r1))
+    g = K * (r0 + 2.0 * r1) / (r1 * r1 * (r0 + r1))
+    u = (a0 + b0, a1 + b1, a2 + b2)
+    b = (b0, b1, b2)
+    rest = 0.0
+    for r in range(3):
+        for c in range(3):
+            e = W[3 * r + c, i] - g * u[r] * b[c] + (K if r == c else 0.0)
+            rest += e * e
+    return 8.0 * hh * K / r1 * size + 3.0 * hh * math.sqrt(rest), 4.0 * hh * K
 
 
 @kernel(inline="always")
@@ -160,12 +221,15 @@ def method_mode(method):
 @kernel
 def effect_substep(
     forces, cross, prepare, work_of, mode, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork, h, ta, tb,
-    max_iter, scratch,
+    max_iter, scratch, central,
 ):  # fmt: skip
     """One sub-step of size h from time ``ta`` to ``tb`` of every point (the state, the warm
-    start and the work sums updated in place where it succeeds; left as they were where not).
-    Returns (Newton sweeps, status)."""
+    start and the work sums updated in place where it succeeds; left as they were where not);
+    ``central`` = (GM, centre, loose): the central field's (row 0 of the set; GM 0 where the
+    set has none) and the bound of the Jacobian the set's pieces leave out, relative to the
+    central field's (inf: unknown). Returns (Newton sweeps, status)."""
     dx, x1, w, F, G, W, R, J, out, A, rhs, acc, sc, on, x0 = scratch
+    gm, ctr, loose = central
     dense = A.shape[0] > 0
     n = x.shape[1]
     hh = 0.5 * h * h
@@ -189,10 +253,14 @@ def effect_substep(
                 w[c, i] = 0.25 * h * h * (F[c, i] + G[c, i])  # v1 = v0 + 2 w / h
     else:
         scale = (h / hp[0]) ** 2 if hp[0] != 0.0 else 0.0  # the last sub-step's w, rescaled
-        for c in range(3):
-            wr, pr = w[c], wp[c]
-            for i in range(n):
-                wr[i] = pr[i] * scale
+        one = gm > 0.0 and loose < math.inf and mode == MODE_STEP and not dense  # predictor, one update
+        if one:
+            _predict(w, x, v, wp, ctr, gm, h, hp[0], scale)
+        else:
+            for c in range(3):
+                wr, pr = w[c], wp[c]
+                for i in range(n):
+                    wr[i] = pr[i] * scale
         _increments(dx, v, w, h)
         prev = math.inf
         status = STATUS_NO_CONVERGENCE
@@ -205,6 +273,7 @@ def effect_substep(
                     st = STATUS_SINGULAR
             worst = 0.0
             coupling = 0.0
+            after = 0.0  # the next update's estimate from the curvature bound (the first sweep)
             for i in range(n):
                 if dense:
                     d0, d1, d2 = rhs[3 * i], rhs[3 * i + 1], rhs[3 * i + 2]
@@ -227,6 +296,9 @@ def effect_substep(
                     upd = math.inf
                 worst = max(worst, upd)
                 coupling = max(coupling, 6.0 * hh * R[i])
+                if one and it == 0:
+                    quad, lin = _curvature(x0, x1, W, ctr, gm, hh, size, i)
+                    after = max(after, (quad * upd + loose * lin) * upd)
             sweeps += 1
             _increments(dx, v, w, h)  # Jacobi: the next sweep's forces see every update
             if st != STATUS_OK or not worst < math.inf:
@@ -237,7 +309,8 @@ def effect_substep(
             # coupling times worst, is a thousandth of round-off: an error that every step
             # leaves with the same sign adds up, so the bound is far below eps
             if (
-                worst <= 4.0 * _EPS
+                (one and it == 0 and coupling == 0.0 and worst <= _ONE_UPDATE and after <= 1e-3 * _EPS)
+                or worst <= 4.0 * _EPS
                 or (worst <= 128.0 * _EPS and worst > 0.5 * prev)
                 or (prev < math.inf and worst <= 1e-8 and worst * max(worst / prev, coupling) <= 1e-3 * _EPS)
             ):
@@ -276,12 +349,13 @@ def stop_records(x, v, work, rec_x, rec_v, rec_work, fail, r, step, status):
 @kernel
 def effect_chunk(
     forces, cross, prepare, work_of, method, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work, cwork, rec_work,
-    clock_base, clock_n0, dt, gammas, every, nrec, max_iter, dense, rec_x, rec_v, rec_iters, fail,
+    clock_base, clock_n0, dt, gammas, every, nrec, max_iter, dense, rec_x, rec_v, rec_iters, fail, central,
 ):  # fmt: skip
     """Advance all points ``nrec * every`` composed steps, recording every ``every``.
 
     ``forces``, ``prepare``, ``work_of``: the effect set's compiled functions; ``method``:
-    METHOD_EM, METHOD_MIDPOINT or METHOD_LEAPFROG. On a failure every point stops before the
+    METHOD_EM, METHOD_MIDPOINT or METHOD_LEAPFROG; ``central``: see :func:`effect_substep`. On
+    a failure every point stops before the
     failing step (the records from there on repeat that state) and ``fail`` names the step and
     the status. Other arguments: the module's docstring.
     """
@@ -313,7 +387,7 @@ def effect_chunk(
                 ta, tm, tb = substep_times(clock_base, clock_n0 + r * every + s, k, tcum, dt)
                 sweeps, status = effect_substep(
                     forces, cross, prepare, work_of, mode, x, v, cx, cv, wp, hp, m, body, coef, P, I, T, S, work,
-                    cwork, dt * gammas[k], ta, tb, max_iter, scratch,
+                    cwork, dt * gammas[k], ta, tb, max_iter, scratch, central,
                 )  # fmt: skip
                 for i in range(n):
                     rec_iters[r, i] += sweeps
