@@ -52,7 +52,8 @@ def test_series_is_the_central_em_step_both_ways(e, nu):
     size = np.linalg.norm(h * v0)
     for step in (h, -h):
         want = _em_central(x0, v0, step)
-        got = np.array(_central_w(*x0, *v0, GM, step))
+        ir2 = 1.0 / (x0 @ x0)
+        got = np.array(_central_w(*x0, *v0, ir2, ir2 * math.sqrt(ir2), x0 @ v0, v0 @ v0, GM, step))
         assert np.linalg.norm(got - want) <= 2e-11 * size
     w = _em_central(x0, v0, h)  # one step, then back from its end
     x1, v1 = x0 + h * v0 + w, v0 + 2 * w / h

@@ -138,7 +138,7 @@ def test_the_newton_update_is_the_effect_steps():
                 J = np.zeros((3, 3))
                 central_jacobian(*x0, *x1, *cp, J)
                 zonal_jacobian(*x0, *x1, *zpar, zj, J)
-                dw = np.array(newton_update(J, 0.5 * h * h, *(w - 0.5 * h * h * F)))
+                dw = np.array(newton_update(J.reshape(9, 1), 0, 0.5 * h * h, *(w - 0.5 * h * h * F)))
                 dm = m - np.array(new[:3])
                 np.testing.assert_allclose(dm, 2 * dw / h, rtol=1e-7, atol=1e-9 * np.linalg.norm(dm))
                 assert new[3] == pytest.approx(float(dm @ dm), rel=1e-12)

@@ -46,7 +46,6 @@ import numpy as np
 
 from ..codes import METHOD_LEAPFROG, METHOD_MIDPOINT, STATUS_NO_CONVERGENCE, STATUS_OK, STATUS_SINGULAR
 from ..copies import copy1, copy2
-from ..effects.blocks import block33
 from ..effects.newton import newton_update
 from ..effects.signatures import MODE_EXPLICIT, MODE_MIDPOINT, MODE_STEP
 from ..jit import kernel
@@ -61,15 +60,15 @@ _ONE_UPDATE = 2.0**-20
 
 
 @kernel(inline="always")
-def _central_w(d0, d1, d2, v0, v1, v2, gm, h):
+def _central_w(d0, d1, d2, v0, v1, v2, ir2, ir3, dv, vv, gm, h):
     """The central em step's w from ``d = x0 - c``, ``v0`` over a step h, as a series:
     ``w = -W d - (h W / 2) v0``, ``W = s (1 + 3/2 p + 5/2 p^2 + s - 3/4 q)``, ``s = h^2/2 GM /
     r^3``, ``p = -h d . v0 / r^2``, ``q = h^2 v0 . v0 / r^2`` (as
-    :func:`emorbit.kernels.effects.zonal_packed._predict`'s central part)."""
-    ir2 = 1.0 / (d0 * d0 + d1 * d1 + d2 * d2)
-    s = 0.5 * h * h * gm * (ir2 * math.sqrt(ir2))
-    p = -h * (d0 * v0 + d1 * v1 + d2 * v2) * ir2
-    q = h * h * (v0 * v0 + v1 * v1 + v2 * v2) * ir2
+    :func:`emorbit.kernels.effects.zonal_packed._predict`'s central part); ``ir2 = 1 / r^2``,
+    ``ir3 = 1 / r^3``, ``dv = d . v0``, ``vv = v0 . v0``."""
+    s = 0.5 * h * h * gm * ir3
+    p = -h * dv * ir2
+    q = h * h * vv * ir2
     W = s * (1.0 + p * (1.5 + 2.5 * p) + s - 0.75 * q)
     hw = 0.5 * h * W
     return -(W * d0 + hw * v0), -(W * d1 + hw * v1), -(W * d2 + hw * v2)
@@ -84,9 +83,14 @@ def _predict(w, x, v, wp, ctr, gm, h, hp, scale):
     other effects (and the series' own error) added to it."""
     for i in range(x.shape[1]):
         d0, d1, d2 = x[0, i] - ctr[0], x[1, i] - ctr[1], x[2, i] - ctr[2]
-        a0, a1, a2 = _central_w(d0, d1, d2, v[0, i], v[1, i], v[2, i], gm, h)
+        v0, v1, v2 = v[0, i], v[1, i], v[2, i]
+        ir2 = 1.0 / (d0 * d0 + d1 * d1 + d2 * d2)
+        ir3 = ir2 * math.sqrt(ir2)
+        dv = d0 * v0 + d1 * v1 + d2 * v2
+        vv = v0 * v0 + v1 * v1 + v2 * v2
+        a0, a1, a2 = _central_w(d0, d1, d2, v0, v1, v2, ir2, ir3, dv, vv, gm, h)
         if hp != 0.0:
-            b0, b1, b2 = _central_w(d0, d1, d2, v[0, i], v[1, i], v[2, i], gm, -hp)
+            b0, b1, b2 = _central_w(d0, d1, d2, v0, v1, v2, ir2, ir3, dv, vv, gm, -hp)
             a0 += scale * (wp[0, i] - b0)
             a1 += scale * (wp[1, i] - b1)
             a2 += scale * (wp[2, i] - b2)
@@ -97,27 +101,72 @@ def _predict(w, x, v, wp, ctr, gm, h, hp, scale):
 def _curvature(x0, x1, W, ctr, gm, hh, size, i):
     """Point i's Newton remainder after one update, relative to the increment ``size``, as
     ``quad upd^2 + loose lin upd`` (upd the update over ``size``): (quad, lin). ``quad =
-    kappa size + 3 |h^2/2 (W - Wc)|``, with the central field's
-    ``kappa = 8 h^2/2 K / r1`` (as :mod:`emorbit.kernels.effects.zonal_packed`) and the
-    other effects' Jacobian (``W`` less the central field's ``Wc = -K I + K (r0 + 2 r1) /
-    (r1^2 (r0 + r1)) (d0 + d1) d1^T``, ``K = GM / (r0 r1 (r0 + r1))``) taken to change by its
-    own size over the increment at most: the update's part in their second derivative;
-    ``lin = 4 h^2/2 K`` bounds ``|h^2/2 Wc|``, of which a set's pieces may leave out a part
-    (``loose``), the remainder's linear term."""
+    kappa size + 3 |h^2/2 (W - Wc)|_1`` (the sum of the entries' magnitudes, above the
+    Frobenius norm), with the central field's ``kappa = 8 h^2/2 K / r1`` (as
+    :mod:`emorbit.kernels.effects.zonal_packed`) and the other effects' Jacobian (``W`` less
+    the central field's ``Wc = -K I + K (r0 + 2 r1) / (r1^2 (r0 + r1)) (d0 + d1) d1^T``, ``K =
+    GM / Q``, ``Q = r0 r1 (r0 + r1)``) taken to change by its own size over the increment at
+    most: the update's part in their second derivative; ``lin = 4 h^2/2 K`` bounds ``|h^2/2
+    Wc|``, of which a set's pieces may leave out a part (``loose``), the remainder's linear
+    term. One division: ``1 / r1 = r0 (r0 + r1) / Q``."""
     a0, a1, a2 = x0[0, i] - ctr[0], x0[1, i] - ctr[1], x0[2, i] - ctr[2]
     b0, b1, b2 = x1[0, i] - ctr[0], x1[1, i] - ctr[1], x1[2, i] - ctr[2]
     r0 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
     r1 = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
-    K = gm / (r0 * r1 * (r0 + r1))
-    g = K * (r0 + 2.0 * r1) / (r1 * r1 * (r0 + r1))
-    u = (a0 + b0, a1 + b1, a2 + b2)
-    b = (b0, b1, b2)
-    rest = 0.0
-    for r in range(3):
-        for c in range(3):
-            e = W[3 * r + c, i] - g * u[r] * b[c] + (K if r == c else 0.0)
-            rest += e * e
-    return 8.0 * hh * K / r1 * size + 3.0 * hh * math.sqrt(rest), 4.0 * hh * K
+    iQ = 1.0 / (r0 * r1 * (r0 + r1))
+    K = gm * iQ
+    ir1 = r0 * (r0 + r1) * iQ
+    g = K * (r0 + 2.0 * r1) * ir1 * (r0 * iQ)
+    u0, u1, u2 = a0 + b0, a1 + b1, a2 + b2
+    rest = (
+        abs(W[0, i] - g * u0 * b0 + K) + abs(W[1, i] - g * u0 * b1) + abs(W[2, i] - g * u0 * b2)
+        + abs(W[3, i] - g * u1 * b0) + abs(W[4, i] - g * u1 * b1 + K) + abs(W[5, i] - g * u1 * b2)
+        + abs(W[6, i] - g * u2 * b0) + abs(W[7, i] - g * u2 * b1) + abs(W[8, i] - g * u2 * b2 + K)
+    )  # fmt: skip
+    return 8.0 * hh * K * ir1 * size + 3.0 * hh * rest, 4.0 * hh * K
+
+
+@kernel(forceinline=True)
+def _update_point(w, v, U, h, i, d0, d1, d2):
+    """Point i's w less the update d, and the update's square over the squared increment into
+    ``U[0, i]`` (inf where not finite). Inlined by LLVM (Numba's own inlining of a function
+    that takes arrays keeps the loops that call it from vectorising)."""
+    w0, w1, w2 = w[0, i] - d0, w[1, i] - d1, w[2, i] - d2
+    w[0, i], w[1, i], w[2, i] = w0, w1, w2
+    size2 = (h * v[0, i] + w0) ** 2 + (h * v[1, i] + w1) ** 2 + (h * v[2, i] + w2) ** 2
+    upd2 = (d0 * d0 + d1 * d1 + d2 * d2) / max(size2, 1e-300)
+    U[0, i] = upd2 if upd2 < math.inf else math.inf
+
+
+@kernel
+def _newton_pass(W, F, w, v, U, hh, h):
+    """One Newton update of every point's w on its own 3 x 3 block
+    (:func:`~emorbit.kernels.effects.newton.newton_update`; :func:`_update_point`): a loop
+    without branches or reductions, which LLVM vectorises."""
+    for i in range(w.shape[1]):
+        r0, r1, r2 = w[0, i] - hh * F[0, i], w[1, i] - hh * F[1, i], w[2, i] - hh * F[2, i]
+        d0, d1, d2 = newton_update(W, i, hh, r0, r1, r2)
+        _update_point(w, v, U, h, i, d0, d1, d2)
+
+
+@kernel
+def _dense_pass(rhs, w, v, U, h):
+    """The whole system's Newton update (``rhs``, :func:`_dense_update`) applied to every
+    point (:func:`_update_point`)."""
+    for i in range(w.shape[1]):
+        _update_point(w, v, U, h, i, rhs[3 * i], rhs[3 * i + 1], rhs[3 * i + 2])
+
+
+@kernel
+def _curvature_pass(x0, x1, W, v, w, U, ctr, gm, hh, h, loose):
+    """Each point's remainder bound after the update (:func:`_curvature`) into ``U[1]``, from
+    its update in ``U[0]`` (a loop LLVM vectorises)."""
+    for i in range(w.shape[1]):
+        size2 = (h * v[0, i] + w[0, i]) ** 2 + (h * v[1, i] + w[1, i]) ** 2 + (h * v[2, i] + w[2, i]) ** 2
+        quad, lin = _curvature(x0, x1, W, ctr, gm, hh, math.sqrt(size2), i)
+        upd2 = U[0, i]
+        t = loose * lin * math.sqrt(upd2)
+        U[1, i] = quad * upd2 + (t if loose > 0.0 else 0.0)
 
 
 @kernel(inline="always")
@@ -148,7 +197,8 @@ def _add_work(work, cwork, out):
 def step_scratch(n, nw, dense):
     """Scratch for :func:`effect_substep` of n points and nw working effects: dx (3, n), x1
     (6, n: the end positions and their low parts), w, F, G (3, n), W (9, n), R (n,) (the pair
-    coupling bounds, kept between sweeps), J (3, 3), the work per point (nw, n), and where
+    coupling bounds, kept between sweeps), U (2, n) (each point's last update and remainder
+    bound, :func:`_newton_pass`, :func:`_curvature_pass`), the work per point (nw, n), and where
     ``dense`` the whole Newton matrix A (3n, 3n) with its right-hand side (3n,) and the pair
     blocks ``acc`` (n, n, 4, 4, 3, 3) with their slot coefficients (4, n) and flags (n,)
     (empty where not), and the start positions with their low parts (6, n)."""
@@ -157,7 +207,7 @@ def step_scratch(n, nw, dense):
     sc[0, :] = 1.0
     return (
         np.empty((3, n)), np.empty((6, n)), np.empty((3, n)), np.empty((3, n)), np.empty((3, n)),
-        np.empty((9, n)), np.zeros(n), np.empty((3, 3)), np.empty((nw, n)),
+        np.empty((9, n)), np.zeros(n), np.empty((2, n)), np.empty((nw, n)),
         np.empty((3 * k, 3 * k)), np.empty(3 * k), np.zeros((k, k, 4, 4, 3, 3)), sc, np.ones(k),
         np.empty((6, n)),
     )  # fmt: skip
@@ -228,7 +278,7 @@ def effect_substep(
     ``central`` = (GM, centre, loose): the central field's (row 0 of the set; GM 0 where the
     set has none) and the bound of the Jacobian the set's pieces leave out, relative to the
     central field's (inf: unknown). Returns (Newton sweeps, status)."""
-    dx, x1, w, F, G, W, R, J, out, A, rhs, acc, sc, on, x0 = scratch
+    dx, x1, w, F, G, W, R, U, out, A, rhs, acc, sc, on, x0 = scratch
     gm, ctr, loose = central
     dense = A.shape[0] > 0
     n = x.shape[1]
@@ -271,34 +321,23 @@ def effect_substep(
                 cross(x0, x1, m, body, coef, on, sc, acc, P, I, T, S)
                 if not _dense_update(A, rhs, acc, W, F, w, m, hh):
                     st = STATUS_SINGULAR
-            worst = 0.0
+            if dense:
+                _dense_pass(rhs, w, v, U, h)
+            else:
+                _newton_pass(W, F, w, v, U, hh, h)
+            first = one and it == 0
+            if first:
+                _curvature_pass(x0, x1, W, v, w, U, ctr, gm, hh, h, loose)
+            worst = 0.0  # the largest update over its increment, and the remainder bound
+            after = 0.0
             coupling = 0.0
-            after = 0.0  # the next update's estimate from the curvature bound (the first sweep)
             for i in range(n):
-                if dense:
-                    d0, d1, d2 = rhs[3 * i], rhs[3 * i + 1], rhs[3 * i + 2]
-                else:
-                    J = block33()
-                    for a in range(3):
-                        for b in range(3):
-                            J[a, b] = W[3 * a + b, i]
-                    d0, d1, d2 = newton_update(
-                        J, hh, w[0, i] - hh * F[0, i], w[1, i] - hh * F[1, i], w[2, i] - hh * F[2, i]
-                    )
-                w[0, i] -= d0
-                w[1, i] -= d1
-                w[2, i] -= d2
-                size = math.sqrt(
-                    (h * v[0, i] + w[0, i]) ** 2 + (h * v[1, i] + w[1, i]) ** 2 + (h * v[2, i] + w[2, i]) ** 2
-                )
-                upd = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) / max(size, 1e-300)
-                if not upd < math.inf:
-                    upd = math.inf
-                worst = max(worst, upd)
+                worst = max(worst, U[0, i])
                 coupling = max(coupling, 6.0 * hh * R[i])
-                if one and it == 0:
-                    quad, lin = _curvature(x0, x1, W, ctr, gm, hh, size, i)
-                    after = max(after, (quad * upd + loose * lin) * upd)
+            if first:
+                for i in range(n):
+                    after = max(after, U[1, i])
+            worst = math.sqrt(worst)
             sweeps += 1
             _increments(dx, v, w, h)  # Jacobi: the next sweep's forces see every update
             if st != STATUS_OK or not worst < math.inf:
