@@ -57,6 +57,8 @@ class HillTide(Effect):
     POTENTIAL = "V = (n^2 / 2) m (z^2 - 3 x^2)"
     DISCRETE_FORCE = "F = n^2 m (3 x_m, 0, -z_m), x_m = (x0 + x1) / 2"
     JACOBIAN = "dF/dx1 = (n^2 / 2) m diag(3, 0, -1)"
+    #: J is the exact derivative: em on point masses may stop after one Newton sweep
+    JACOBIAN_LEFT_OUT = 0.0
 
     @classmethod
     def from_table(cls, table, context):
