@@ -14,6 +14,7 @@ one does.
 
 from __future__ import annotations
 
+import math
 import shutil
 from pathlib import Path
 
@@ -202,7 +203,18 @@ def test_registering_checks_the_declaration():
 
     with pytest.raises(InputError, match="taken"):
         emorbit.effects.register(Taken)
-    assert "no_potential" not in EFFECTS and EFFECTS["zonal"].__name__ == "Zonal"
+    for bad in (-1e-9, math.nan, "0", None, True):
+
+        class BadBound(Effect):
+            NAME = "bad_bound"
+            PIECES = Pieces("somewhere", force="f")
+            CONSERVES = ()
+            JACOBIAN_LEFT_OUT = bad
+
+        with pytest.raises(InputError, match="a number >= 0 expected") as exc:
+            emorbit.effects.register(BadBound)
+        assert exc.value.key == "effect['bad_bound'].JACOBIAN_LEFT_OUT" and repr(bad) in str(exc.value)
+    assert "no_potential" not in EFFECTS and "bad_bound" not in EFFECTS and EFFECTS["zonal"].__name__ == "Zonal"
 
 
 # -- every shipped effect x body kind x method ---------------------------------------------

@@ -18,6 +18,7 @@ import pytest
 
 import emorbit
 from emorbit.effects.third_body import ThirdBody
+from emorbit.errors import InputError
 from emorbit.kernels.pointmass.effect_step import _central_w
 
 GM = 3.986004418e14
@@ -99,6 +100,15 @@ def test_one_sweep_per_substep_and_the_two_sweep_result(monkeypatch):
     assert np.abs(pos - pos2).max() <= 1e-14 * R_LEO
     for r in (res, res2):
         assert np.abs(r.relative_energy_balance()).max() <= 2e-15
+
+
+def test_an_effects_own_bound_is_checked(monkeypatch):
+    """A bound an effect gives at run time (:meth:`Effect.jacobian_left_out`) that is negative
+    would let the stop ignore the left-out part: the run refuses it, naming the effect."""
+    monkeypatch.setattr(ThirdBody, "jacobian_left_out", lambda self: -1.0)
+    with pytest.raises(InputError, match="a number >= 0 expected") as exc:
+        _run(8)
+    assert exc.value.key == "effect[1].jacobian_left_out()"  # the Moon, the set's second effect
 
 
 def test_midpoint_keeps_its_own_stopping_rule():

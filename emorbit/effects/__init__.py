@@ -21,7 +21,7 @@ from __future__ import annotations
 import os
 
 from ..errors import InputError
-from .base import BuildContext, Effect
+from .base import BuildContext, Effect, check_left_out
 from .central import Central
 from .drag import Drag
 from .gravity_field import GravityField
@@ -65,7 +65,8 @@ def register(cls: type[Effect]) -> type[Effect]:
     ------
     InputError
         Not an Effect subclass, no name or pieces, a conservative effect without a potential,
-        or a name that a different class already has.
+        a ``JACOBIAN_LEFT_OUT`` that is not a number >= 0, or a name that a different class
+        already has.
     """
     if not (isinstance(cls, type) and issubclass(cls, Effect)):
         raise InputError("effect", f"an Effect subclass expected, got {cls!r}")
@@ -77,6 +78,7 @@ def register(cls: type[Effect]) -> type[Effect]:
         raise InputError(f"effect[{name!r}].PIECES", "give at least its force (or its facet or pair forces)")
     if "energy" in cls.CONSERVES and not cls.has_potential():
         raise InputError(f"effect[{name!r}].PIECES", "an effect that keeps the energy gives its potential")
+    check_left_out(cls.JACOBIAN_LEFT_OUT, f"effect[{name!r}].JACOBIAN_LEFT_OUT")
     known = EFFECTS.get(name)
     if known is not None and known is not cls and _origin(known) != _origin(cls):
         where = known.PIECES.module if known.PIECES is not None else known.__module__

@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import InputError
 from ..keys import Key
 
-__all__ = ["Effect", "Pieces", "BodyKey", "AT_POINTS", "ON_SURFACES", "BODY_KINDS", "epoch_needed"]
+__all__ = ["Effect", "Pieces", "BodyKey", "AT_POINTS", "ON_SURFACES", "BODY_KINDS", "epoch_needed", "check_left_out"]
 
 #: the body kinds an effect may act on
 BODY_KINDS = ("point", "rigid", "elastic")
@@ -174,6 +174,20 @@ def epoch_needed(why: str) -> InputError:
     """The error of an effect that needs the run's epoch and has none: ``why`` (the effect's key
     and what it needs the date for), then how to give one."""
     return InputError("integrator.epoch", f'{why}: the run needs an epoch (e.g. epoch = "2000-01-01T12:00:00 TDB")')
+
+
+def check_left_out(value, key: str) -> float:
+    """A Jacobian bound (:attr:`Effect.JACOBIAN_LEFT_OUT`) as a float: a number >= 0, inf
+    where the effect does not know it.
+
+    Raises
+    ------
+    InputError
+        Not a real number, NaN or negative, naming ``key`` and the value.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) or not value >= 0.0:
+        raise InputError(key, f"a number >= 0 expected (inf where the effect does not know it), got {value!r}")
+    return float(value)
 
 
 class Effect:

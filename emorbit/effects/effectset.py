@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..kernels.effects.signatures import SLICES
-from .base import AT_POINTS, ON_SURFACES, Effect
+from .base import AT_POINTS, ON_SURFACES, Effect, check_left_out
 
 #: the package, whose registry (``EFFECTS``) is complete by the time a set is asked for it
 _PACKAGE = sys.modules[__name__.rpartition(".")[0]]
@@ -419,8 +419,21 @@ class EffectSet:
 
     def jacobian_left_out(self, body_kind: str = "point") -> float:
         """The largest :meth:`~emorbit.effects.base.Effect.jacobian_left_out` of the set's
-        effects that act at the points of a body kind (inf where one does not know its own)."""
-        return max((e.jacobian_left_out() for e in self.all if e.acts_on(body_kind) == AT_POINTS), default=0.0)
+        effects that act at the points of a body kind (inf where one does not know its own).
+
+        Raises
+        ------
+        InputError
+            An effect's bound that is not a number >= 0, naming the effect.
+        """
+        return max(
+            (
+                check_left_out(e.jacobian_left_out(), f"{e.key or e.kind}.jacobian_left_out()")
+                for e in self.all
+                if e.acts_on(body_kind) == AT_POINTS
+            ),
+            default=0.0,
+        )
 
     def acts_at_points(self, body_kind: str) -> bool:
         """Whether any effect of the set acts at the points of a body kind on its own (effects

@@ -116,8 +116,7 @@ class RadiationPressure(Effect):
     PIECES = Pieces("emorbit.kernels.effects.srp", force="srp_piece", prepare="srp_prepare", facet="srp_facet")
     POTENTIAL = "none: radiation pressure does work W = sum F . (x1 - x0), recorded as invariants/work_srp"
     DISCRETE_FORCE = "F = nu P(x_m) Cr (A / m) m u(x_m), Sun at s(t_m), nu at x_m = (x0 + x1) / 2; facets: plates"
-    JACOBIAN_LEFT_OUT = 1e-12
-    JACOBIAN = "left out (below 1e-12 of the central field's)"
+    JACOBIAN = "left out (the shadow's edge changes F by its own size over the penumbra's width)"
 
     time_dependent = True
     needs_epoch = True

@@ -116,7 +116,7 @@ class Thrust(Effect):
     )
     POTENTIAL = "none: a burn does work W = sum m0 dv e . (x1 - x0) / h, recorded as invariants/work_thrust"
     DISCRETE_FORCE = "F = (dv / h) e, dv = isp g0 ln(m(ta) / m(tb)) (or T (tb - ta) / m), e in its frame at x_m"
-    JACOBIAN = "left out (the frame's turn with x1, below 1e-9 of the central field's)"
+    JACOBIAN = "left out (a local frame's turn with x1, of order |F| / (|v| h))"
 
     mass_start = mass_end = float("nan")
     duration = None

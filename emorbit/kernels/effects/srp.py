@@ -9,7 +9,8 @@ coefficient ``c = Cr A / m`` gets ``a = nu P c u`` (u from the Sun to the point,
 :func:`.radiation.srp_cannonball`); a facet the flat-plate force :func:`.radiation.srp_plate`
 with its specular (k1) and diffuse (k2) coefficients. Both do work ``F . (x1 - x0)``. The
 cannonball force is a function of position alone, so leapfrog's kicks may use it; its
-derivative (below 1e-12 of the central field's) stays out of Newton's matrix.
+derivative stays out of Newton's matrix: without shadow about 3 |a| / |s - d|, but a shadow's
+edge changes the force by its own size over the penumbra's width (tens of km in LEO).
 
 Data layout: ``p = [P_au, au, R_occ, R_sun, shadow (0 none, 1 cylindrical, 2 conical), c0,
 c1, c2, table_step, k0, nsun]``, ``tab`` the Sun's table relative to the central body (nsun,

@@ -19,8 +19,8 @@ velocity ``v = (x1 - x0) / h``: RSW (``r / |r|``, ``w x r``, ``w = r x v / |r x 
 (``v / |v|``, w, ``v x w / |v|``). In an em step ``(x1 - x0) / h`` is the mean velocity, so
 the kinetic energy per unit mass changes by exactly the conservative potentials' drop plus
 ``dv e . (x1 - x0) / h``, the burn's work that the step sums. The derivative of the local
-frame with respect to x1 (of order ``|F| / (|v| h)``, below 1e-9 of the central field's for
-the thrusts of spacecraft) stays out of Newton's matrix.
+frame with respect to x1 (of order ``|F| / (|v| h)``: about 1e-4 of the central field's for
+a low thrust in LEO at T/1000) stays out of Newton's matrix.
 
 On a rigid body the burn acts through a thruster of its own, a facet of area 0 at the point
 the thrust acts on, its normal the thrust's direction in the body (``thrust_facet``). The body
