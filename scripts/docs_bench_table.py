@@ -665,6 +665,12 @@ def _effects(s: dict) -> list[str]:
             for r in scenes["scenes"]
         ]
         out += _table(["scene", "cold CPU s", "new set CPU s", "cold s", "warm s"], rows)
+        if "floor_s" in scenes:
+            out += [
+                f"Every warm start first pays the libraries' own start-up: importing astropy's units and Numba and "
+                f"readying Numba's CPU target takes {scenes['floor_s']:.2f} s in a fresh process.",
+                "",
+            ]
     return out
 
 

@@ -85,6 +85,7 @@ def test_scene_compile_rows(data):
     assert [r["scene"] for r in rows] == list(effects.SIZES["tiny"].scenes)
     for r in rows:  # a cold run compiles: it takes more CPU than the warm run's wall time
         assert r["cold_cpu_s"] > r["set_cpu_s"] > r["warm_s"] > 0 and len(r["warm_samples_s"]) == 1
+    assert data["scenes"]["floor_s"] > 0
 
 
 def test_table_targets_and_json(data):
@@ -93,6 +94,7 @@ def test_table_targets_and_json(data):
     assert any("em / REBOUND leapfrog" in line for line in lines)
     assert any("each single effect" in line for line in lines)
     assert any("new set CPU s" in line for line in lines)
+    assert any("the libraries' floor of every warm start" in line for line in lines)
     found = [
         t
         for t in targets({"effects": data})

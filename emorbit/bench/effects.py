@@ -527,6 +527,8 @@ def table(section: dict) -> list[str]:
         f"  targets: an effect set's compile (new set CPU s: the install's step kernels cached) <= {TARGET_COMPILE:g} s"
         f" of CPU, warm start <= {TARGET_WARM:g} s per scene",
         "  (cold CPU s: an empty cache, every kernel compiles, as on the first run after an install)",
+        f"  the libraries' floor of every warm start (import astropy.units and numba, ready numba's CPU target): "
+        f"{sc['floor_s']:.2f} s",
     ]
     return lines
 

@@ -8,6 +8,11 @@ nor touched), then warm. :func:`compile_rows` runs a short scene of two points i
 effect set (compile time = cold - warm); :func:`scene_compile_rows` runs shipped scenes,
 shortened to 20 steps, and measures the cold run's CPU time, the CPU time of a run whose
 effect set's compiled module alone was removed (the set's own compile) and the warm start.
+Python's bytecode cache is written as a warm install has it (``PYTHONDONTWRITEBYTECODE`` is
+unset for the runs: an install compiles the bytecode, and without it every warm start compiles
+about a hundred modules again). Beside the scenes, :func:`library_floor` times what the
+libraries cost before emorbit does anything: a process that imports astropy's units and Numba
+and readies Numba's CPU target (which loads SciPy's linear algebra), as a warm start must.
 Part of the ``effects`` section (:mod:`.effects`).
 """
 
@@ -22,7 +27,7 @@ import time
 
 import numpy as np
 
-__all__ = ["SETS", "SCENES", "compile_rows", "scene_compile_rows"]
+__all__ = ["SETS", "SCENES", "compile_rows", "scene_compile_rows", "library_floor"]
 
 #: the effect sets of the start-up rows, each with the central field
 SETS = (("central",), ("central", "zonal"), ("central", "mutual"), ("central", "zonal", "mutual"))
@@ -58,7 +63,8 @@ def scene_compile_rows(scenes=SCENES, warm_runs: int = 2) -> dict:
         included, as the first run after an install does), ``set_cpu_s`` (the CPU time of a
         run whose effect set's compiled module alone was removed from the cache: what a new
         effect set costs once the install's step kernels are cached), ``cold_s`` (wall),
-        ``warm_s`` (wall, the median of the warm runs), ``warm_samples_s``) and the case.
+        ``warm_s`` (wall, the median of the warm runs), ``warm_samples_s``), the case and
+        ``floor_s`` (:func:`library_floor`, with as many runs).
     """
     import emorbit
 
@@ -95,7 +101,26 @@ def scene_compile_rows(scenes=SCENES, warm_runs: int = 2) -> dict:
         "case": "emorbit run SCENE --t-end (20 steps) -o OUT.h5 --overwrite -q, fresh processes; cold: an empty "
         "kernel cache (a new temporary folder: every kernel the scene needs compiles), warm: the same cache filled",
         "scenes": out,
+        "floor_s": library_floor(max(warm_runs, 1)),
     }
+
+
+#: what every warm start runs before emorbit's own code: the libraries' imports, Numba's CPU
+#: target readied as its first call (cached or not) does
+_FLOOR = "import astropy.units, numba; from numba.core.registry import cpu_target; cpu_target.target_context.refresh()"
+
+
+def library_floor(runs: int = 3) -> float:
+    """The wall time of a fresh process that imports astropy's units and Numba and readies
+    Numba's CPU target (the median of ``runs``), s: the part of a warm start that is not
+    emorbit's."""
+    env = _environment(tempfile.gettempdir())
+    times = []
+    for _ in range(runs):
+        start = time.perf_counter()
+        subprocess.run([sys.executable, "-c", _FLOOR], env=env, check=True, capture_output=True)
+        times.append(time.perf_counter() - start)
+    return float(np.median(times))
 
 
 _SCENE = """[field]
@@ -126,8 +151,10 @@ _TABLES = {
 
 
 def _environment(home: str) -> dict:
-    """The environment of a run whose every cache lies under ``home``."""
-    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "EMORBIT_JIT_CACHE")}
+    """The environment of a run whose every kernel cache lies under ``home``, its Python
+    bytecode cached as in an install."""
+    drop = ("NUMBA_CACHE_DIR", "EMORBIT_JIT_CACHE", "PYTHONDONTWRITEBYTECODE")
+    env = {k: v for k, v in os.environ.items() if k not in drop}
     env["XDG_CACHE_HOME"] = os.path.join(home, "cache")
     env["LOCALAPPDATA"] = os.path.join(home, "local")
     if sys.platform == "darwin":
