@@ -208,9 +208,9 @@ _EFFECT_LOOP = """for j in range(nb):
                 J[a, b] = B[(9 + 3 * a + b) * LD + j]
     gx, gy, gz = force_({at}, h, k, p, t, s, J, jac)
     on = k != 0.0
-    B[6 * LD + j] = B[6 * LD + j] + gx if on else B[6 * LD + j]
-    B[7 * LD + j] = B[7 * LD + j] + gy if on else B[7 * LD + j]
-    B[8 * LD + j] = B[8 * LD + j] + gz if on else B[8 * LD + j]
+    B[6 * LD + j] += gx if on else 0.0
+    B[7 * LD + j] += gy if on else 0.0
+    B[8 * LD + j] += gz if on else 0.0
     if jac:
         for a in range(3):
             for b in range(3):
