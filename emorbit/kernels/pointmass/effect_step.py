@@ -128,14 +128,16 @@ def _curvature(x0, x1, W, ctr, gm, hh, size, i):
 
 @kernel(forceinline=True)
 def _update_point(w, v, U, h, i, d0, d1, d2):
-    """Point i's w less the update d, and the update's square over the squared increment into
-    ``U[0, i]`` (inf where not finite). Inlined by LLVM (Numba's own inlining of a function
-    that takes arrays keeps the loops that call it from vectorising)."""
+    """Point i's w less the update d, the update's square over the squared increment into
+    ``U[0, i]`` (inf where not finite) and that squared increment into ``U[2, i]``. Inlined
+    by LLVM (Numba's own inlining of a function that takes arrays keeps the loops that call it
+    from vectorising)."""
     w0, w1, w2 = w[0, i] - d0, w[1, i] - d1, w[2, i] - d2
     w[0, i], w[1, i], w[2, i] = w0, w1, w2
     size2 = (h * v[0, i] + w0) ** 2 + (h * v[1, i] + w1) ** 2 + (h * v[2, i] + w2) ** 2
     upd2 = (d0 * d0 + d1 * d1 + d2 * d2) / max(size2, 1e-300)
     U[0, i] = upd2 if upd2 < math.inf else math.inf
+    U[2, i] = size2
 
 
 @kernel
@@ -160,10 +162,9 @@ def _dense_pass(rhs, w, v, U, h):
 @kernel
 def _curvature_pass(x0, x1, W, v, w, U, ctr, gm, hh, h, loose):
     """Each point's remainder bound after the update (:func:`_curvature`) into ``U[1]``, from
-    its update in ``U[0]`` (a loop LLVM vectorises)."""
+    its update and squared increment in ``U[0]`` and ``U[2]`` (a loop LLVM vectorises)."""
     for i in range(w.shape[1]):
-        size2 = (h * v[0, i] + w[0, i]) ** 2 + (h * v[1, i] + w[1, i]) ** 2 + (h * v[2, i] + w[2, i]) ** 2
-        quad, lin = _curvature(x0, x1, W, ctr, gm, hh, math.sqrt(size2), i)
+        quad, lin = _curvature(x0, x1, W, ctr, gm, hh, math.sqrt(U[2, i]), i)
         upd2 = U[0, i]
         t = loose * lin * math.sqrt(upd2)
         U[1, i] = quad * upd2 + (t if loose > 0.0 else 0.0)
@@ -197,17 +198,18 @@ def _add_work(work, cwork, out):
 def step_scratch(n, nw, dense):
     """Scratch for :func:`effect_substep` of n points and nw working effects: dx (3, n), x1
     (6, n: the end positions and their low parts), w, F, G (3, n), W (9, n), R (n,) (the pair
-    coupling bounds, kept between sweeps), U (2, n) (each point's last update and remainder
-    bound, :func:`_newton_pass`, :func:`_curvature_pass`), the work per point (nw, n), and where
-    ``dense`` the whole Newton matrix A (3n, 3n) with its right-hand side (3n,) and the pair
-    blocks ``acc`` (n, n, 4, 4, 3, 3) with their slot coefficients (4, n) and flags (n,)
-    (empty where not), and the start positions with their low parts (6, n)."""
+    coupling bounds, kept between sweeps), U (3, n) (each point's last update, remainder
+    bound and squared increment, :func:`_newton_pass`, :func:`_curvature_pass`), the work
+    per point (nw, n), and where ``dense`` the whole Newton matrix A (3n, 3n) with its
+    right-hand side (3n,) and the pair blocks ``acc`` (n, n, 4, 4, 3, 3) with their slot
+    coefficients (4, n) and flags (n,) (empty where not), and the start positions with their
+    low parts (6, n)."""
     k = n if dense else 0
     sc = np.zeros((4, k))
     sc[0, :] = 1.0
     return (
         np.empty((3, n)), np.empty((6, n)), np.empty((3, n)), np.empty((3, n)), np.empty((3, n)),
-        np.empty((9, n)), np.zeros(n), np.empty((2, n)), np.empty((nw, n)),
+        np.empty((9, n)), np.zeros(n), np.empty((3, n)), np.empty((nw, n)),
         np.empty((3 * k, 3 * k)), np.empty(3 * k), np.zeros((k, k, 4, 4, 3, 3)), sc, np.ones(k),
         np.empty((6, n)),
     )  # fmt: skip
