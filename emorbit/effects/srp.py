@@ -116,13 +116,21 @@ class RadiationPressure(Effect):
     PIECES = Pieces("emorbit.kernels.effects.srp", force="srp_piece", prepare="srp_prepare", facet="srp_facet")
     POTENTIAL = "none: radiation pressure does work W = sum F . (x1 - x0), recorded as invariants/work_srp"
     DISCRETE_FORCE = "F = nu P(x_m) Cr (A / m) m u(x_m), Sun at s(t_m), nu at x_m = (x0 + x1) / 2; facets: plates"
-    JACOBIAN = "left out (the shadow's edge changes F by its own size over the penumbra's width)"
+    JACOBIAN = (
+        "dF/dx1 = 1/2 k / |e|^3 [e grad nu^T + nu (I - 3 e e^T / |e|^2)], e = x_m - s, k = P_au au^2 Cr A / m; "
+        "the cylindrical shadow's jump left out"
+    )
 
     time_dependent = True
     needs_epoch = True
     land = False
     _landing: list = []
     _epoch = None
+
+    def jacobian_left_out(self) -> float:
+        """0 without shadow and with the conical one (J holds the derivative of the force and
+        of the shadow function); inf with the cylindrical shadow, whose edge is a jump."""
+        return math.inf if self.shadow == "cylindrical" else 0.0
 
     def scratch_size(self, n_points: int) -> int:
         return 3  # the Sun at the sub-step's middle time

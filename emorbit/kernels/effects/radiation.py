@@ -49,6 +49,7 @@ from ..jit import kernel
 __all__ = [
     "shadow_cylindrical",
     "shadow_conical",
+    "shadow_conical_gradient",
     "srp_cannonball",
     "srp_plate",
     "drag_plate",
@@ -149,6 +150,81 @@ def shadow_conical(dx, dy, dz, sx, sy, sz, radius, sun_radius):
     area = a * a * math.atan2(y, x) + b * b * math.atan2(y, c - x) - c * y
     nu = 1.0 - area / (math.pi * a * a)
     return min(max(nu, 0.0), 1.0)
+
+
+@_inline
+def shadow_conical_gradient(dx, dy, dz, sx, sy, sz, radius, sun_radius):
+    """The gradient of :func:`shadow_conical` with respect to the satellite's position d.
+
+    With the discs' radii ``a = asin(R_sun / |q|)``, ``b = asin(R / |d|)`` (``q = s - d``) and
+    the angle c between ``-d`` and q::
+
+        grad a = R_sun q / (|q|^3 cos a),   grad b = -R d / (|d|^3 cos b),
+        grad c = -(dc/dp + dc/dq),  dc/dp = (cos c p^ - q^) / (|p| sin c)  (p = -d, likewise q)
+
+    and ``grad nu = nu_a grad a + nu_b grad b + nu_c grad c``: in the annular region
+    ``nu_a = 2 b^2 / a^3``, ``nu_b = -2 b / a^2``, ``nu_c = 0``; in the penumbra, from the
+    overlap's ``dA/da = 2 a alpha``, ``dA/db = 2 b beta``, ``dA/dc = -2 y`` (alpha, beta the
+    half-angles of the chord of half-length y seen from the discs' centres),
+    ``nu_a = 2 (A / a^2 - alpha) / (pi a)``, ``nu_b = -2 b beta / (pi a^2)``,
+    ``nu_c = 2 y / (pi a^2)``. Zero in full sunlight, in the umbra and inside the body.
+
+    Parameters
+    ----------
+    dx, dy, dz, sx, sy, sz, radius, sun_radius : float
+        As :func:`shadow_conical`.
+
+    Returns
+    -------
+    tuple of float
+        ``(gx, gy, gz)``, 1/m.
+    """
+    rd = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if rd <= radius:
+        return 0.0, 0.0, 0.0
+    qx, qy, qz = sx - dx, sy - dy, sz - dz
+    rq = math.sqrt(qx * qx + qy * qy + qz * qz)
+    u = sun_radius / rq
+    w = radius / rd
+    pq = -(dx * qx + dy * qy + dz * qz)
+    if (pq <= 0.0 and u * u + w * w <= 0.9) or u >= 1.0:
+        return 0.0, 0.0, 0.0
+    a = math.asin(u)
+    b = math.asin(w)
+    cx = -dy * qz + dz * qy
+    cy = -dz * qx + dx * qz
+    cz = -dx * qy + dy * qx
+    sn = math.sqrt(cx * cx + cy * cy + cz * cz)
+    c = math.atan2(sn, pq)
+    if c >= a + b or c <= b - a:
+        return 0.0, 0.0, 0.0
+    ka = sun_radius / (rq * rq * rq * math.sqrt((1.0 - u) * (1.0 + u)))
+    kb = -radius / (rd * rd * rd * math.sqrt((1.0 - w) * (1.0 + w)))
+    if c <= a - b:
+        na, nb, nc = 2.0 * b * b / (a * a * a), -2.0 * b / (a * a), 0.0
+    else:
+        x = (a * a + (c - b) * (c + b)) / (2.0 * c)
+        y = math.sqrt(max((a - x) * (a + x), 0.0))
+        alpha = math.atan2(y, x)
+        beta = math.atan2(y, c - x)
+        area = a * a * alpha + b * b * beta - c * y
+        na = 2.0 * (area / (a * a) - alpha) / (math.pi * a)
+        nb = -2.0 * b * beta / (math.pi * a * a)
+        nc = 2.0 * y / (math.pi * a * a)
+    gx = na * ka * qx + nb * kb * dx
+    gy = na * ka * qy + nb * kb * dy
+    gz = na * ka * qz + nb * kb * dz
+    if nc != 0.0 and sn > 0.0:
+        # p = -d, q = s - d; dp/dd = dq/dd = -I: grad c = -(dc/dp + dc/dq)
+        cs = pq / (rd * rq)
+        fp = rq / sn  # 1 / (|p| sin c), with |p x q| = |p| |q| sin c
+        fq = rd / sn
+        px, py, pz = -dx / rd, -dy / rd, -dz / rd
+        ux, uy, uz = qx / rq, qy / rq, qz / rq
+        gx -= nc * (fp * (cs * px - ux) + fq * (cs * ux - px))
+        gy -= nc * (fp * (cs * py - uy) + fq * (cs * uy - py))
+        gz -= nc * (fp * (cs * pz - uz) + fq * (cs * uz - pz))
+    return gx, gy, gz
 
 
 @_inline
