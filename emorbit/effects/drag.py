@@ -110,7 +110,10 @@ class Drag(Effect):
     POTENTIAL = "none: drag does work W = sum m F . (x1 - x0), recorded as invariants/work_drag"
     DISCRETE_FORCE = "F = -1/2 rho(a(x_m)) B |v| v, x_m = (x0 + x1) / 2, v = (x1 - x0) / h - w x (x_m - c)"
     JACOBIAN_LEFT_OUT = 0.0
-    JACOBIAN = "dF/dx1 = -1/2 B [rho (|v| (I / h - W / 2) + v u^T / |v|) + rho' |v| v d^T / (2 |d|)], d = x_m - c"
+    JACOBIAN = (
+        "dF/dx1 = -1/2 B [rho (|v| (I / h - W / 2) + v u^T / |v|) + |v| v (grad rho)^T / 2] at x_m: "
+        "grad rho = rho' d / |d|, d = x_m - c, for a band table; for NRLMSIS also the grid's horizontal slopes"
+    )
 
     msis = None
 
@@ -118,13 +121,6 @@ class Drag(Effect):
     def time_dependent(self) -> bool:
         """NRLMSIS's grid follows the Sun, and is sampled at the run's epoch."""
         return self.msis is not None
-
-    def jacobian_left_out(self) -> float:
-        """0 for a band table (its density is a function of the radius, whose derivative J
-        holds); for NRLMSIS, whose J holds the radial derivative of the density alone, a bound
-        of the horizontal part left out: 1e-3 of the central field's (its force up to 1e-4 of
-        gravity, at 200 km and 0.1 m^2/kg, over horizontal scales of 1000 km)."""
-        return 0.0 if self.msis is None else 1e-3
 
     @property
     def needs_epoch(self) -> bool:

@@ -12,8 +12,8 @@ so that the density's diurnal bulge follows the Sun. Between grid altitudes ``lo
 linear (an exponential layer); below and above the grid the end layers extend, latitudes
 clamp at the poles' rows and the local time wraps around (the grid's last column is its
 first). The altitude derivative ``d rho / d a = rho d(log rho)/da`` is the interpolated
-layer slope, which drag's Jacobian takes (:func:`.atmosphere.drag_jacobian_rho`); the
-horizontal derivatives, over thousands of km, are left out of it.
+layer slope, which drag's Jacobian takes (:func:`.atmosphere.drag_jacobian_rho`), beside the
+interpolant's horizontal slopes (:func:`grid_horizontal_gradient_at`).
 
 Data layout: ``g_p`` (5,) float64 ``[a0, da, phi0, dphi, dlam]`` (m, m, rad, rad, rad): the
 grid's first altitude and spacing, first latitude and spacing, local-time spacing; ``grid``
@@ -27,7 +27,7 @@ import math
 
 from ..jit import kernel
 
-__all__ = ["grid_density", "grid_density_at"]
+__all__ = ["grid_density", "grid_density_at", "grid_horizontal_gradient_at"]
 
 _inline = kernel(inline="always")
 
@@ -64,10 +64,11 @@ def grid_density(d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, g_p, grid):
 
 
 @_inline
-def grid_density_at(d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, a0, da, phi0, dphi, dlam, tab, o, na, nphi, nl):
-    """:func:`grid_density` with the axes as scalars and the grid read from a flat array,
-    ``grid[i, j, k] = tab[o + (i nphi + j) nl + k]`` (nl = nlam + 1): no array views, so a loop
-    over points that calls it keeps no reference counts."""
+def _cell(d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, a0, da, phi0, dphi, dlam, na, nphi, nl):
+    """A point's cell of the grid and its place in it: ``(i, fa, j, fp, k, fl, unclamped)``
+    (altitude layer, latitude row and local-time column with their fractions; whether the
+    latitude lies between two rows), and ``(r, z, e0, e1, e2)``: |d|, d . p and d's part
+    normal to the pole."""
     r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
     z = d0 * p0 + d1 * p1 + d2 * p2
     zs = s0 * p0 + s1 * p1 + s2 * p2
@@ -89,6 +90,17 @@ def grid_density_at(d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, a0, da, phi0, dp
     w = lam / dlam
     k = int(math.floor(w)) % nlam
     fl = w - math.floor(w)
+    return i, fa, j, fp, k, fl, 0.0 < y - j < 1.0, r, z, e0, e1, e2
+
+
+@_inline
+def grid_density_at(d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, a0, da, phi0, dphi, dlam, tab, o, na, nphi, nl):
+    """:func:`grid_density` with the axes as scalars and the grid read from a flat array,
+    ``grid[i, j, k] = tab[o + (i nphi + j) nl + k]`` (nl = nlam + 1): no array views, so a loop
+    over points that calls it keeps no reference counts."""
+    i, fa, j, fp, k, fl, _, _, _, _, _, _ = _cell(
+        d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, a0, da, phi0, dphi, dlam, na, nphi, nl
+    )
     lo = 0.0
     hi = 0.0
     for jj, wj in ((j, 1.0 - fp), (j + 1, fp)):
@@ -98,3 +110,36 @@ def grid_density_at(d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, a0, da, phi0, dp
     slope = (hi - lo) / da
     rho = math.exp(lo + fa * (hi - lo))
     return rho, rho * slope
+
+
+@_inline
+def grid_horizontal_gradient_at(
+    d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, a0, da, phi0, dphi, dlam, tab, o, na, nphi, nl
+):  # fmt: skip
+    """The horizontal part of the gradient of ``log rho`` (:func:`grid_density_at`'s
+    arguments), 1/m: ``dL/dphi grad phi + dL/dlam grad lam``, the interpolant's slopes along
+    latitude (0 beyond the poles' rows) and local time, with ``grad phi = (p - z d / r^2) /
+    |e|`` and ``grad lam = (p x e) / |e|^2`` (e: d's part normal to the pole; 0 on the pole's
+    axis). With the altitude part, ``grad rho = rho (dL/da d / r + this)``."""
+    i, fa, j, fp, k, fl, inside, r, z, e0, e1, e2 = _cell(
+        d0, d1, d2, s0, s1, s2, p0, p1, p2, radius, a0, da, phi0, dphi, dlam, na, nphi, nl
+    )
+    ee = e0 * e0 + e1 * e1 + e2 * e2
+    if not ee > 1e-12 * r * r:
+        return 0.0, 0.0, 0.0
+    lp = 0.0  # d L / d fp
+    ll = 0.0  # d L / d fl
+    for layer, wa in ((i, 1.0 - fa), (i + 1, fa)):
+        base = o + layer * nphi * nl
+        for kk, wk in ((k, 1.0 - fl), (k + 1, fl)):
+            lp += wa * wk * (tab[base + (j + 1) * nl + kk] - tab[base + j * nl + kk])
+        for jj, wj in ((j, 1.0 - fp), (j + 1, fp)):
+            ll += wa * wj * (tab[base + jj * nl + k + 1] - tab[base + jj * nl + k])
+    cp = (lp / dphi if inside else 0.0) / math.sqrt(ee)
+    cl = ll / (dlam * ee)
+    q = z / (r * r)
+    return (
+        cp * (p0 - q * d0) + cl * (p1 * e2 - p2 * e1),
+        cp * (p1 - q * d1) + cl * (p2 * e0 - p0 * e2),
+        cp * (p2 - q * d2) + cl * (p0 * e1 - p1 * e0),
+    )

@@ -7,7 +7,8 @@ local time). On a point of ballistic coefficient ``c = Cd A / m`` (m^2/kg)::
 
     v = (x1 - x0) / h - w x (x_m - c),   F = -1/2 rho c |v| v
 
-(:func:`.atmosphere.drag_force`; its Jacobian :func:`.atmosphere.drag_jacobian`). On a facet
+(:func:`.atmosphere.drag_force`; its Jacobian :func:`.atmosphere.drag_jacobian`, with an
+NRLMSIS grid also the density's horizontal gradient g: ``-1/4 c |v| v g^T``). On a facet
 of area A, drag coefficient Cd and unit normal n (at the step's middle) whose centre moves
 a -> b, the free-molecular plate force :func:`.radiation.drag_plate` with
 ``v = (b - a) / h - w x (m - c)``. Both do work ``F . (x1 - x0)``, which the step sums.
@@ -25,7 +26,7 @@ import math
 
 from ..jit import kernel
 from .atmosphere import band_at, drag_force_rho, drag_jacobian_rho
-from .atmosphere_grid import grid_density_at
+from .atmosphere_grid import grid_density_at, grid_horizontal_gradient_at
 from .radiation import drag_plate
 from .third_body import table_position
 
@@ -66,6 +67,29 @@ def _grid_at(d0, d1, d2, p, tab, s):
 
 
 @_inline
+def _grid_horizontal(x0, y0, z0, x1, y1, z1, h, c, rho, p, tab, s, J):
+    """Add the derivative of drag through the grid density's horizontal gradient g into J:
+    ``dF/dx1 = -1/2 c |v| v (rho g)^T / 2`` (g of log rho at the midpoint)."""
+    d0 = 0.5 * (x0 + x1) - p[0]
+    d1 = 0.5 * (y0 + y1) - p[1]
+    d2 = 0.5 * (z0 + z1) - p[2]
+    o = 3 * int(p[13])
+    g0, g1, g2 = grid_horizontal_gradient_at(
+        d0, d1, d2, s[0], s[1], s[2], p[10], p[11], p[12], p[6], tab[o], tab[o + 1], tab[o + 2], tab[o + 3],
+        tab[o + 4], tab, o + 5, int(p[14]), int(p[15]), int(p[16]),
+    )  # fmt: skip
+    v0 = (x1 - x0) / h - (p[4] * d2 - p[5] * d1)
+    v1 = (y1 - y0) / h - (p[5] * d0 - p[3] * d2)
+    v2 = (z1 - z0) / h - (p[3] * d1 - p[4] * d0)
+    k = -0.25 * c * rho * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    v = (v0, v1, v2)
+    g = (g0, g1, g2)
+    for a in range(3):
+        for b in range(3):
+            J[a, b] += k * v[a] * g[b]
+
+
+@_inline
 def _density(mx, my, mz, p, tab, s):
     """The density at the point m (absolute coordinates), kg/m^3."""
     d0 = mx - p[0]
@@ -93,6 +117,8 @@ def drag_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     fx, fy, fz = drag_force_rho(x0, y0, z0, x1, y1, z1, h, p[0], p[1], p[2], p[3], p[4], p[5], c, rho)
     if jac:
         drag_jacobian_rho(x0, y0, z0, x1, y1, z1, h, p[0], p[1], p[2], p[3], p[4], p[5], c, rho, drho, J)
+        if p[7] != 0.0:
+            _grid_horizontal(x0, y0, z0, x1, y1, z1, h, c, rho, p, tab, s, J)
     return fx, fy, fz
 
 
