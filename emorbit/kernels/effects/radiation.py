@@ -113,48 +113,12 @@ def shadow_conical(dx, dy, dz, sx, sy, sz, radius, sun_radius):
         ``1 - b^2 / a^2`` in the annular region, ``1 - A / (pi a^2)`` in the penumbra, A the
         overlap of discs of radii a and b at distance c (module docstring).
     """
-    rd = math.sqrt(dx * dx + dy * dy + dz * dz)
-    if rd <= radius:
-        return 0.0
-    # from the satellite: to the body's centre (-d) and to the Sun (s - d)
-    px = -dx
-    py = -dy
-    pz = -dz
-    qx = sx - dx
-    qy = sy - dy
-    qz = sz - dz
-    rq = math.sqrt(qx * qx + qy * qy + qz * qz)
-    # in full sunlight without a transcendental where the body lies behind (p . q <= 0, so
-    # c >= pi/2) and both discs are small (u^2 + w^2 <= 0.9 bounds a + b by 2 asin(sqrt(0.45))
-    # < 1.48): the branch c >= a + b below would return the same 1.0
-    u = sun_radius / rq
-    w = radius / rd
-    if px * qx + py * qy + pz * qz <= 0.0 and u * u + w * w <= 0.9:
-        return 1.0
-    a = math.asin(min(u, 1.0))
-    b = math.asin(w)
-    cx = py * qz - pz * qy
-    cy = pz * qx - px * qz
-    cz = px * qy - py * qx
-    c = math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), px * qx + py * qy + pz * qz)
-    if c >= a + b:
-        return 1.0
-    if c <= b - a:
-        return 0.0
-    if c <= a - b:
-        return 1.0 - (b * b) / (a * a)
-    # the chord: x from the Sun's centre along c, half-length y; acos(x / a) = atan2(y, x) and
-    # acos((c - x) / b) = atan2(y, c - x), well conditioned where acos's argument nears 1
-    x = (a * a + (c - b) * (c + b)) / (2.0 * c)
-    y = math.sqrt(max((a - x) * (a + x), 0.0))
-    area = a * a * math.atan2(y, x) + b * b * math.atan2(y, c - x) - c * y
-    nu = 1.0 - area / (math.pi * a * a)
-    return min(max(nu, 0.0), 1.0)
+    return _conical(dx, dy, dz, sx, sy, sz, radius, sun_radius, False)[0]
 
 
 @_inline
 def shadow_conical_gradient(dx, dy, dz, sx, sy, sz, radius, sun_radius):
-    """The gradient of :func:`shadow_conical` with respect to the satellite's position d.
+    """:func:`shadow_conical` and its gradient with respect to the satellite's position d.
 
     With the discs' radii ``a = asin(R_sun / |q|)``, ``b = asin(R / |d|)`` (``q = s - d``) and
     the angle c between ``-d`` and q::
@@ -177,54 +141,79 @@ def shadow_conical_gradient(dx, dy, dz, sx, sy, sz, radius, sun_radius):
     Returns
     -------
     tuple of float
-        ``(gx, gy, gz)``, 1/m.
+        ``(nu, gx, gy, gz)``: nu as :func:`shadow_conical` gives it, bit for bit, and its
+        gradient, 1/m.
     """
+    return _conical(dx, dy, dz, sx, sy, sz, radius, sun_radius, True)
+
+
+@_inline
+def _conical(dx, dy, dz, sx, sy, sz, radius, sun_radius, grad):
+    """nu and, where ``grad`` (a constant in each caller), its gradient: ``(nu, gx, gy, gz)``."""
     rd = math.sqrt(dx * dx + dy * dy + dz * dz)
     if rd <= radius:
-        return 0.0, 0.0, 0.0
-    qx, qy, qz = sx - dx, sy - dy, sz - dz
+        return 0.0, 0.0, 0.0, 0.0
+    # from the satellite: to the body's centre (-d) and to the Sun (s - d)
+    px = -dx
+    py = -dy
+    pz = -dz
+    qx = sx - dx
+    qy = sy - dy
+    qz = sz - dz
     rq = math.sqrt(qx * qx + qy * qy + qz * qz)
+    # in full sunlight without a transcendental where the body lies behind (p . q <= 0, so
+    # c >= pi/2) and both discs are small (u^2 + w^2 <= 0.9 bounds a + b by 2 asin(sqrt(0.45))
+    # < 1.48): the branch c >= a + b below would return the same 1.0
     u = sun_radius / rq
     w = radius / rd
-    pq = -(dx * qx + dy * qy + dz * qz)
-    if (pq <= 0.0 and u * u + w * w <= 0.9) or u >= 1.0:
-        return 0.0, 0.0, 0.0
-    a = math.asin(u)
+    pq = px * qx + py * qy + pz * qz
+    if pq <= 0.0 and u * u + w * w <= 0.9:
+        return 1.0, 0.0, 0.0, 0.0
+    a = math.asin(min(u, 1.0))
     b = math.asin(w)
-    cx = -dy * qz + dz * qy
-    cy = -dz * qx + dx * qz
-    cz = -dx * qy + dy * qx
+    cx = py * qz - pz * qy
+    cy = pz * qx - px * qz
+    cz = px * qy - py * qx
     sn = math.sqrt(cx * cx + cy * cy + cz * cz)
     c = math.atan2(sn, pq)
-    if c >= a + b or c <= b - a:
-        return 0.0, 0.0, 0.0
-    ka = sun_radius / (rq * rq * rq * math.sqrt((1.0 - u) * (1.0 + u)))
-    kb = -radius / (rd * rd * rd * math.sqrt((1.0 - w) * (1.0 + w)))
-    if c <= a - b:
+    if c >= a + b:
+        return 1.0, 0.0, 0.0, 0.0
+    if c <= b - a:
+        return 0.0, 0.0, 0.0, 0.0
+    annular = c <= a - b
+    if annular:
+        nu = 1.0 - (b * b) / (a * a)
         na, nb, nc = 2.0 * b * b / (a * a * a), -2.0 * b / (a * a), 0.0
     else:
+        # the chord: x from the Sun's centre along c, half-length y; acos(x / a) = atan2(y, x)
+        # and acos((c - x) / b) = atan2(y, c - x), well conditioned where acos's argument nears 1
         x = (a * a + (c - b) * (c + b)) / (2.0 * c)
         y = math.sqrt(max((a - x) * (a + x), 0.0))
         alpha = math.atan2(y, x)
         beta = math.atan2(y, c - x)
         area = a * a * alpha + b * b * beta - c * y
+        nu = min(max(1.0 - area / (math.pi * a * a), 0.0), 1.0)
         na = 2.0 * (area / (a * a) - alpha) / (math.pi * a)
         nb = -2.0 * b * beta / (math.pi * a * a)
         nc = 2.0 * y / (math.pi * a * a)
+    if not grad or u >= 1.0:
+        return nu, 0.0, 0.0, 0.0
+    ka = sun_radius / (rq * rq * rq * math.sqrt((1.0 - u) * (1.0 + u)))
+    kb = -radius / (rd * rd * rd * math.sqrt((1.0 - w) * (1.0 + w)))
     gx = na * ka * qx + nb * kb * dx
     gy = na * ka * qy + nb * kb * dy
     gz = na * ka * qz + nb * kb * dz
     if nc != 0.0 and sn > 0.0:
-        # p = -d, q = s - d; dp/dd = dq/dd = -I: grad c = -(dc/dp + dc/dq)
+        # grad c = -(dc/dp + dc/dq), as dp/dd = dq/dd = -I
         cs = pq / (rd * rq)
         fp = rq / sn  # 1 / (|p| sin c), with |p x q| = |p| |q| sin c
         fq = rd / sn
-        px, py, pz = -dx / rd, -dy / rd, -dz / rd
         ux, uy, uz = qx / rq, qy / rq, qz / rq
-        gx -= nc * (fp * (cs * px - ux) + fq * (cs * ux - px))
-        gy -= nc * (fp * (cs * py - uy) + fq * (cs * uy - py))
-        gz -= nc * (fp * (cs * pz - uz) + fq * (cs * uz - pz))
-    return gx, gy, gz
+        vx, vy, vz = px / rd, py / rd, pz / rd
+        gx -= nc * (fp * (cs * vx - ux) + fq * (cs * ux - vx))
+        gy -= nc * (fp * (cs * vy - uy) + fq * (cs * uy - vy))
+        gz -= nc * (fp * (cs * vz - uz) + fq * (cs * uz - vz))
+    return nu, gx, gy, gz
 
 
 @_inline

@@ -48,17 +48,13 @@ def _shade(dx, dy, dz, p, s):
 
 
 @_inline
-def _jacobian(mx, my, mz, p, s, c, nu, J):
-    """Add dF/dx1 = 1/2 dF/dm into J: ``dF/dm = k [(e / r^3) grad nu^T + nu (I / r^3 - 3 e
-    e^T / r^5)]``, ``e = m - s``, ``k = P_au au^2 c``; grad nu of the conical shadow (the
-    cylinder's jump is left out)."""
+def _jacobian(mx, my, mz, p, s, c, nu, gx, gy, gz, J):
+    """Add dF/dx1 = 1/2 dF/dm into J: ``dF/dm = k [(e / r^3) g^T + nu (I / r^3 - 3 e e^T /
+    r^5)]``, ``e = m - s``, ``k = P_au au^2 c``, g the shadow function's gradient."""
     ex, ey, ez = mx - s[0], my - s[1], mz - s[2]
     r2 = ex * ex + ey * ey + ez * ez
     ir3 = 1.0 / (r2 * math.sqrt(r2))
     k = 0.5 * p[0] * p[1] * p[1] * c * ir3
-    gx, gy, gz = 0.0, 0.0, 0.0
-    if p[4] == 2.0:
-        gx, gy, gz = shadow_conical_gradient(mx, my, mz, s[0], s[1], s[2], p[2], p[3])
     t = 3.0 * nu / r2
     e = (ex, ey, ez)
     g = (gx, gy, gz)
@@ -70,13 +66,18 @@ def _jacobian(mx, my, mz, p, s, c, nu, J):
 @_piece
 def srp_piece(x0, y0, z0, x1, y1, z1, h, c, p, tab, s, J, jac):
     """Radiation pressure on a cannonball of coefficient ``c`` at the step's midpoint (per unit
-    mass), its derivative with respect to x1 added into J where ``jac``."""
+    mass), its derivative with respect to x1 added into J where ``jac`` (the conical shadow's
+    gradient from the same evaluation as nu; the cylinder's jump left out)."""
     mx = 0.5 * (x0 + x1) - p[5]
     my = 0.5 * (y0 + y1) - p[6]
     mz = 0.5 * (z0 + z1) - p[7]
-    nu = _shade(mx, my, mz, p, s)
+    gx, gy, gz = 0.0, 0.0, 0.0
+    if jac and p[4] == 2.0:
+        nu, gx, gy, gz = shadow_conical_gradient(mx, my, mz, s[0], s[1], s[2], p[2], p[3])
+    else:
+        nu = _shade(mx, my, mz, p, s)
     if jac and c != 0.0:
-        _jacobian(mx, my, mz, p, s, c, nu, J)
+        _jacobian(mx, my, mz, p, s, c, nu, gx, gy, gz, J)
     return srp_cannonball(mx, my, mz, s[0], s[1], s[2], p[0], p[1], c, nu)
 
 
